@@ -1,0 +1,125 @@
+"""The recording layout shared by the simulated bench, bag conversion and the estimators.
+
+One recording (a "trial") is one CSV file sampled on one clock (100 Hz by default), one row per
+sample, with a header. Columns, units and frames:
+
+``time``
+    seconds since the start of the trial.
+``{joint}_position``, ``{joint}_velocity``, ``{joint}_effort`` for ``joint`` in :data:`JOINTS`
+    dVRK joint space as the dVRK reports it (already through the instrument coupling):
+    rad, rad/s, Nm for revolute joints; m, m/s, N for the insertion. Efforts come from motor
+    currents. ``jaw`` is the opening angle between the two blades.
+``fx, fy, fz, tx, ty, tz``
+    HEX10 reading, N and Nm, in the HEX10 frame (z along the shaft towards the tip). Sign: the
+    force and moment that everything distal of the sensor section (wrist, jaws, cables' pull on the
+    wrist, external load, distal gravity) applies across the section, so that with no internal
+    forces and no gravity it equals the external force on the tool. Shaft compression reads
+    negative ``fz``.
+``hex10_overload``
+    1 where any HEX10 channel was beyond its overload range (reading clipped), else 0. Optional.
+``ati_fx, ati_fy, ati_fz``
+    ground truth: external force applied by the environment on the tool, N, expressed in the
+    HEX10 frame (paper eq. 4). These are the estimators' targets.
+``ati_raw_fx .. ati_raw_tz``
+    the ATI Nano17's own reading in its own frame (N, Nm). Optional.
+``sim_*``
+    simulator-only truth signals (never estimator inputs). Optional.
+
+The paper's 21 model inputs are :data:`PAPER_FEATURES` in the paper's order.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+JOINTS = ("yaw", "pitch", "insertion", "roll", "wrist_pitch", "wrist_yaw", "jaw")
+"""dVRK joint order (dVRK >= 2024 names). The paper's q5 / q6 are wrist_yaw / wrist_pitch."""
+
+JOINT_POSITIONS = tuple(f"{j}_position" for j in JOINTS)
+JOINT_VELOCITIES = tuple(f"{j}_velocity" for j in JOINTS)
+JOINT_EFFORTS = tuple(f"{j}_effort" for j in JOINTS)
+HEX10_FORCE = ("fx", "fy", "fz")
+HEX10_TORQUE = ("tx", "ty", "tz")
+HEX10 = HEX10_FORCE + HEX10_TORQUE
+TARGETS = ("ati_fx", "ati_fy", "ati_fz")
+ATI_RAW = ("ati_raw_fx", "ati_raw_fy", "ati_raw_fz", "ati_raw_tx", "ati_raw_ty", "ati_raw_tz")
+OVERLOAD = "hex10_overload"
+
+REQUIRED = ("time",) + JOINT_POSITIONS + JOINT_VELOCITIES + JOINT_EFFORTS + HEX10
+"""Columns every recording must have (targets only where ground truth exists)."""
+
+COLUMNS = REQUIRED + (OVERLOAD,) + TARGETS + ATI_RAW
+"""The full layout, in the order the simulator and the bag converter write it."""
+
+PAPER_FEATURES = (
+    "jaw_position", "wrist_pitch_position", "wrist_yaw_position", "roll_position",
+    "wrist_pitch_velocity", "wrist_yaw_velocity", "jaw_velocity", "roll_velocity",
+    "wrist_pitch_effort", "wrist_yaw_effort", "roll_effort", "jaw_effort",
+    "insertion_effort", "yaw_effort", "pitch_effort",
+    "tx", "ty", "tz", "fx", "fy", "fz",
+)
+"""The seed paper's 21 inputs per time step, in its order."""
+
+
+class RecordingError(ValueError):
+    """A recording that cannot be used as it is; the message names the file and the problem."""
+
+
+def read_recording(path: str | Path, *, require_targets: bool = False,
+                   column_map: dict[str, str] | None = None) -> pd.DataFrame:
+    """Read one recording CSV and check it.
+
+    ``column_map`` renames the file's columns to ours (``{"their_name": "our_name"}``).
+    Raises :class:`RecordingError` naming the file and the first problem found: unreadable file,
+    missing columns, non-numeric or non-finite values, time not strictly increasing.
+    """
+    path = Path(path)
+    try:
+        frame = pd.read_csv(path, engine="c", float_precision="high")
+    except (OSError, pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as err:
+        raise RecordingError(f"{path}: cannot read as CSV ({err})") from None
+    if column_map:
+        unknown = sorted(set(column_map) - set(frame.columns))
+        if unknown:
+            raise RecordingError(f"{path}: column map names columns the file lacks: {unknown}")
+        frame = frame.rename(columns=column_map)
+    needed = REQUIRED + (TARGETS if require_targets else ())
+    missing = [c for c in needed if c not in frame.columns]
+    if missing:
+        raise RecordingError(f"{path}: missing columns {missing}")
+    if len(frame) == 0:
+        raise RecordingError(f"{path}: no rows")
+    numeric = [c for c in frame.columns if c in COLUMNS or c.startswith("sim_")]
+    values = frame[numeric]
+    if not all(np.issubdtype(t, np.number) for t in values.dtypes):
+        bad = [c for c, t in values.dtypes.items() if not np.issubdtype(t, np.number)]
+        raise RecordingError(f"{path}: non-numeric values in columns {bad}")
+    finite = np.isfinite(values.to_numpy(dtype=float))
+    if not finite.all():
+        row, col = np.argwhere(~finite)[0]
+        raise RecordingError(f"{path}: non-finite value (NaN or inf) in column "
+                             f"'{numeric[col]}' at row {row}")
+    t = frame["time"].to_numpy(dtype=float)
+    if len(t) > 1 and not (np.diff(t) > 0).all():
+        row = int(np.argmin(np.diff(t) > 0)) + 1
+        raise RecordingError(f"{path}: time is not strictly increasing at row {row}")
+    return frame
+
+
+def write_recording(frame: pd.DataFrame, path: str | Path) -> None:
+    """Write a recording atomically (temporary file, then rename): no partial files on failure."""
+    path = Path(path)
+    missing = [c for c in REQUIRED if c not in frame.columns]
+    if missing:
+        raise RecordingError(f"{path}: refusing to write a recording without columns {missing}")
+    ordered = [c for c in COLUMNS if c in frame.columns]
+    extra = [c for c in frame.columns if c not in COLUMNS]
+    tmp = path.with_name(path.name + ".part")
+    try:
+        frame[ordered + extra].to_csv(tmp, index=False, float_format="%.7g")
+        tmp.replace(path)
+    finally:
+        tmp.unlink(missing_ok=True)
