@@ -78,7 +78,7 @@ def read_recording(path: str | Path, *, require_targets: bool = False,
     """
     path = Path(path)
     try:
-        frame = pd.read_csv(path, engine="c", float_precision="high")
+        frame = pd.read_csv(path, engine="c")
     except (OSError, pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as err:
         raise RecordingError(f"{path}: cannot read as CSV ({err})") from None
     if column_map:
@@ -110,16 +110,30 @@ def read_recording(path: str | Path, *, require_targets: bool = False,
 
 
 def write_recording(frame: pd.DataFrame, path: str | Path) -> None:
-    """Write a recording atomically (temporary file, then rename): no partial files on failure."""
+    """Write a recording atomically (temporary file, then rename): no partial files on failure.
+
+    Columns in :data:`COLUMNS` order, extra columns after. Numbers with 7 significant digits
+    (beyond every sensor's resolution), ``time`` in microseconds (7 digits would stop it
+    increasing after ~1e4 s), integer columns (flags) as integers. One C-level format string per
+    block of rows: several times faster than pandas' per-cell formatter on million-row data.
+    """
     path = Path(path)
     missing = [c for c in REQUIRED if c not in frame.columns]
     if missing:
         raise RecordingError(f"{path}: refusing to write a recording without columns {missing}")
-    ordered = [c for c in COLUMNS if c in frame.columns]
-    extra = [c for c in frame.columns if c not in COLUMNS]
+    names = [c for c in COLUMNS if c in frame.columns]
+    names += [c for c in frame.columns if c not in COLUMNS]
+    formats = ["%.6f" if c == "time" else
+               "%d" if np.issubdtype(frame[c].dtype, np.integer) else "%.7g" for c in names]
+    values = np.column_stack([frame[c].to_numpy(dtype=float) for c in names])
+    row = ",".join(formats) + "\n"
     tmp = path.with_name(path.name + ".part")
     try:
-        frame[ordered + extra].to_csv(tmp, index=False, float_format="%.7g")
+        with open(tmp, "w") as fh:
+            fh.write(",".join(names) + "\n")
+            for start in range(0, len(values), 20000):
+                block = values[start:start + 20000]
+                fh.write((row * len(block)) % tuple(block.ravel().tolist()))
         tmp.replace(path)
     finally:
         tmp.unlink(missing_ok=True)

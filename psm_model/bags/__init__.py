@@ -1,0 +1,16 @@
+"""ROS bags (ROS 2 sqlite3 / MCAP, ROS 1) and CSV exports into the recording layout.
+
+``convert_bag`` reads the dVRK CRTK topics with the pure-Python ``rosbags`` reader (no ROS
+installation), puts every stream on one clock and writes one recording CSV
+(:mod:`psm_model.recording`). ``summary_line`` condenses its report into one line for the
+command line. ``load_column_map`` / ``convert_csv`` bring CSV exports with other column names
+into the same layout. The rules (topics, timestamps, resampling, gaps) are in
+``docs/data_format.md`` and in the docstrings of :mod:`.conversion` and :mod:`.resampling`.
+"""
+
+from psm_model.bags.column_map import check_column_map, convert_csv, load_column_map
+from psm_model.bags.conversion import convert_bag, summary_line
+from psm_model.bags.reading import STREAMS, BagError, default_topics
+
+__all__ = ["BagError", "STREAMS", "check_column_map", "convert_bag", "convert_csv",
+           "default_topics", "load_column_map", "summary_line"]

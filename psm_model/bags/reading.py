@@ -1,0 +1,282 @@
+"""Reading the dVRK streams out of a bag: one table of (time stamp, values) per stream.
+
+Streams (name: default topic, message type -> recording columns):
+
+* ``js``: ``/{arm}/measured_js``, sensor_msgs/JointState -> ``{joint}_position``, ``_velocity``,
+  ``_effort`` for the six chain joints;
+* ``jaw``: ``/{arm}/jaw/measured_js``, sensor_msgs/JointState -> ``jaw_position``, ``_velocity``,
+  ``_effort``;
+* ``hex10``: ``/hex10/measured_cf``, geometry_msgs/WrenchStamped (or Wrench) -> ``fx .. tz``;
+* ``ati``: ``/ati/measured_cf``, geometry_msgs/WrenchStamped (or Wrench) -> ``ati_raw_fx .. _tz``;
+* ``jacobian``: ``/{arm}/spatial/jacobian``, std_msgs/Float64MultiArray (6x6) ->
+  ``spatial_jacobian_{r}{c}`` (row r, column c, as published).
+
+``js``, ``jaw`` and ``hex10`` are required. ``ati`` and ``jacobian`` are optional: under their
+default topic they are skipped (and the report says so) when the bag lacks them; a topic the caller
+names explicitly must exist.
+
+Joints are matched by NAME, never by position in the message: the dVRK >= 2024 names
+(:data:`psm_model.recording.JOINTS`) and the older ``outer_*`` names (``outer_yaw``,
+``outer_pitch``, ``outer_insertion``, ``outer_roll``, ``outer_wrist_pitch``, ``outer_wrist_yaw``).
+A ``jaw`` entry in the arm topic (dVRK 1.x published seven joints there) is ignored: the jaw comes
+from the jaw topic. Any other name is an error. Values are taken as the dVRK publishes them (rad,
+rad/s, Nm; m, m/s, N for the insertion; N and Nm for wrenches).
+
+Time of a message: its header stamp. A stream whose messages carry no header (Float64MultiArray,
+Wrench) or where any header stamp is zero uses the bag's receive time for ALL its messages, so
+one stream never mixes two clocks; the report names the source per stream.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from rosbags.highlevel import AnyReader
+from rosbags.typesys import Stores, get_typestore
+
+from psm_model.recording import ATI_RAW, HEX10, JOINTS, RecordingError
+
+STREAMS = ("js", "jaw", "hex10", "ati", "jacobian")
+"""Stream names, the keys of the ``topics`` override of :func:`psm_model.bags.convert_bag`."""
+
+REQUIRED_STREAMS = ("js", "jaw", "hex10")
+
+ARM_JOINTS = JOINTS[:6]
+_ARM_NAMES = {**{j: j for j in ARM_JOINTS}, **{f"outer_{j}": j for j in ARM_JOINTS}}
+_IGNORED_ARM_NAMES = {"jaw"}
+_JAW_NAMES = {"jaw": "jaw"}
+
+_JOINT_STATE = "sensor_msgs/msg/JointState"
+_WRENCH_STAMPED = "geometry_msgs/msg/WrenchStamped"
+_WRENCH = "geometry_msgs/msg/Wrench"
+_MULTI_ARRAY = "std_msgs/msg/Float64MultiArray"
+_ACCEPTED_TYPES = {
+    "js": (_JOINT_STATE,), "jaw": (_JOINT_STATE,),
+    "hex10": (_WRENCH_STAMPED, _WRENCH), "ati": (_WRENCH_STAMPED, _WRENCH),
+    "jacobian": (_MULTI_ARRAY,),
+}
+JACOBIAN_COLUMNS = tuple(f"spatial_jacobian_{r}{c}" for r in range(6) for c in range(6))
+"""Row-major 6x6 spatial Jacobian as the dVRK publishes it (row r, column c)."""
+
+# Old rosbag2 files carry no message definitions; these three types have not changed since.
+_FALLBACK_TYPESTORE = get_typestore(Stores.ROS2_HUMBLE)
+
+
+class BagError(RecordingError):
+    """A bag that cannot be converted; the message names the bag and the problem."""
+
+
+@dataclass(frozen=True)
+class RawStream:
+    """One stream as read, in bag order (unsorted, duplicates kept)."""
+
+    name: str
+    topic: str
+    msgtype: str
+    stamps_ns: np.ndarray
+    """(N,) int64 time of each message, ns (header stamp or bag time, see ``time_source``)."""
+    values: np.ndarray
+    """(N, len(columns)) float64."""
+    columns: tuple[str, ...]
+    time_source: str
+    """``"header"`` or ``"bag"``."""
+    zero_header_stamps: int
+
+
+def default_topics(arm: str = "PSM1") -> dict[str, str]:
+    """The dVRK 2.x (CRTK) topic of each stream for arm namespace ``arm``."""
+    return {"js": f"/{arm}/measured_js", "jaw": f"/{arm}/jaw/measured_js",
+            "hex10": "/hex10/measured_cf", "ati": "/ati/measured_cf",
+            "jacobian": f"/{arm}/spatial/jacobian"}
+
+
+def resolve_topics(arm: str, topics: dict[str, str | None] | None
+                   ) -> tuple[dict[str, str], set[str]]:
+    """Topic per stream after the caller's overrides, and the streams that must be present.
+
+    ``topics`` maps stream names (:data:`STREAMS`) to topic names; ``None`` switches an optional
+    stream off.
+    """
+    if not isinstance(arm, str) or not arm.strip("/"):
+        raise BagError(f"arm must be a namespace such as 'PSM1', got {arm!r}")
+    resolved = default_topics(arm.strip("/"))
+    required = set(REQUIRED_STREAMS)
+    overrides = dict(topics or {})
+    unknown = sorted(set(overrides) - set(STREAMS))
+    if unknown:
+        raise BagError(f"unknown stream names in topics: {unknown}; known: {list(STREAMS)}")
+    for name, topic in overrides.items():
+        if topic is None:
+            if name in REQUIRED_STREAMS:
+                raise BagError(f"stream '{name}' is required and cannot be switched off")
+            del resolved[name]
+            continue
+        if not isinstance(topic, str) or not topic.strip():
+            raise BagError(f"topic for stream '{name}' must be a non-empty string, got {topic!r}")
+        resolved[name] = topic if topic.startswith("/") else "/" + topic
+        required.add(name)
+    by_topic: dict[str, list[str]] = {}
+    for name, topic in resolved.items():
+        by_topic.setdefault(topic, []).append(name)
+    shared = {t: n for t, n in by_topic.items() if len(n) > 1}
+    if shared:
+        raise BagError(f"one topic serves several streams: {shared}")
+    return resolved, required
+
+
+def read_streams(bag_path: Path, topics: dict[str, str], required: set[str]
+                 ) -> tuple[dict[str, RawStream], dict[str, str], str]:
+    """Read the streams named in ``topics`` from the bag.
+
+    Returns the streams read, the optional streams skipped (name -> reason) and the bag kind
+    (``"ROS 2"`` or ``"ROS 1"``). Raises :class:`BagError` for an unreadable or empty bag, a missing
+    required topic, a wrong message type or bad message content.
+    """
+    if bag_path.is_dir() and not (bag_path / "metadata.yaml").exists():
+        raise BagError(f"{bag_path}: cannot read as a ROS 1 or ROS 2 bag (a folder without "
+                       f"metadata.yaml; pass a ROS 2 bag folder or its .mcap / .db3 file)")
+    try:
+        reader = AnyReader([bag_path], default_typestore=_FALLBACK_TYPESTORE)
+        reader.open()
+    except Exception as err:  # rosbags raises many types for corrupt input; all mean "unreadable"
+        raise _unreadable(bag_path, err) from None
+    try:
+        kind = "ROS 2" if reader.is2 else "ROS 1"
+        present = {name: info.msgtype for name, info in reader.topics.items()}
+        counts = {name: info.msgcount for name, info in reader.topics.items()}
+        if not present or sum(counts.values()) == 0:
+            raise BagError(f"{bag_path}: the bag is empty (no messages on any topic)")
+        collectors: dict[str, _Collector] = {}
+        skipped: dict[str, str] = {}
+        for name, topic in topics.items():
+            if topic not in present or counts[topic] == 0:
+                problem = "not in the bag" if topic not in present else "has no messages"
+                if name not in required:
+                    skipped[name] = f"{topic} {problem}"
+                    continue
+                raise BagError(f"{bag_path}: topic '{topic}' ({name} stream) {problem}; "
+                               f"topics present: {sorted(present)}")
+            msgtype = present[topic]
+            if msgtype not in _ACCEPTED_TYPES[name]:
+                raise BagError(f"{bag_path}: topic '{topic}' ({name} stream) has type {msgtype}; "
+                               f"expected {' or '.join(_ACCEPTED_TYPES[name])}")
+            collectors[topic] = _Collector(name, topic, msgtype, bag_path)
+        connections = [c for c in reader.connections if c.topic in collectors]
+        messages = reader.messages(connections=connections)
+        while True:
+            try:
+                item = next(messages, None)
+                if item is None:
+                    break
+                connection, log_ns, raw = item
+                message = reader.deserialize(raw, connection.msgtype)
+            except Exception as err:  # corrupt chunk or payload deep in rosbags
+                raise _unreadable(bag_path, err) from None
+            collectors[connection.topic].add(message, log_ns)
+    finally:
+        try:
+            reader.close()
+        except Exception:  # closing a half-broken file must not hide the first error
+            pass
+    streams = {c.name: c.finish() for c in collectors.values()}
+    return streams, skipped, kind
+
+
+def _unreadable(bag_path: Path, err: Exception) -> BagError:
+    detail = str(err).strip().splitlines()[0] if str(err).strip() else ""
+    return BagError(f"{bag_path}: cannot read as a ROS 1 or ROS 2 bag "
+                    f"({type(err).__name__}{': ' + detail if detail else ''})")
+
+
+class _Collector:
+    """Accumulates one topic's messages as plain numbers while the bag is read."""
+
+    def __init__(self, name: str, topic: str, msgtype: str, bag_path: Path):
+        self.name, self.topic, self.msgtype, self.bag_path = name, topic, msgtype, bag_path
+        self.header_ns: list[int] = []
+        self.log_ns: list[int] = []
+        self.rows: list[np.ndarray] = []
+        self._index_by_names: dict[tuple[str, ...], np.ndarray] = {}
+        if msgtype == _JOINT_STATE:
+            joints = ARM_JOINTS if name == "js" else ("jaw",)
+            self.columns = tuple(f"{j}_{field}" for field in ("position", "velocity", "effort")
+                                 for j in joints)
+            self._joints = joints
+            self._decode = self._joint_state
+        elif msgtype in (_WRENCH_STAMPED, _WRENCH):
+            self.columns = HEX10 if name == "hex10" else ATI_RAW
+            self._decode = self._wrench
+        else:
+            self.columns = JACOBIAN_COLUMNS
+            self._decode = self._jacobian
+
+    def _fail(self, problem: str) -> BagError:
+        return BagError(f"{self.bag_path}: topic '{self.topic}' message {len(self.log_ns)}: "
+                        f"{problem}")
+
+    def add(self, message, log_ns: int) -> None:
+        header = getattr(message, "header", None)
+        if header is not None:
+            self.header_ns.append(int(header.stamp.sec) * 1_000_000_000 + int(header.stamp.nanosec))
+        self.rows.append(self._decode(message))
+        self.log_ns.append(int(log_ns))
+
+    def _joint_state(self, message) -> np.ndarray:
+        names = tuple(message.name)
+        index = self._index_by_names.get(names)
+        if index is None:
+            index = self._joint_index(names)
+            self._index_by_names[names] = index
+        parts = []
+        for field in ("position", "velocity", "effort"):
+            values = np.asarray(getattr(message, field), dtype=float)
+            if len(values) != len(names):
+                raise self._fail(f"{field} has {len(values)} values for {len(names)} joint names "
+                                 f"{list(names)}")
+            parts.append(values[index])
+        return np.concatenate(parts)
+
+    def _joint_index(self, names: tuple[str, ...]) -> np.ndarray:
+        aliases = _ARM_NAMES if self.name == "js" else _JAW_NAMES
+        ignored = _IGNORED_ARM_NAMES if self.name == "js" else set()
+        unknown = [n for n in names if n not in aliases and n not in ignored]
+        if unknown:
+            raise self._fail(f"unknown joint names {unknown}; expected {sorted(aliases)}")
+        ours = [aliases.get(n) for n in names]
+        missing = [j for j in self._joints if j not in ours]
+        if missing:
+            raise self._fail(f"joints {missing} missing (names in message: {list(names)})")
+        repeated = sorted({j for j in ours if j is not None and ours.count(j) > 1})
+        if repeated:
+            raise self._fail(f"joints {repeated} appear more than once in {list(names)}")
+        return np.array([ours.index(j) for j in self._joints])
+
+    def _wrench(self, message) -> np.ndarray:
+        wrench = message.wrench if self.msgtype == _WRENCH_STAMPED else message
+        f, t = wrench.force, wrench.torque
+        return np.array([f.x, f.y, f.z, t.x, t.y, t.z], dtype=float)
+
+    def _jacobian(self, message) -> np.ndarray:
+        sizes = [int(d.size) for d in message.layout.dim]
+        if sizes and sizes != [6, 6]:
+            raise self._fail(f"Jacobian layout is {sizes}; expected 6x6")
+        data = np.asarray(message.data, dtype=float)[int(message.layout.data_offset):]
+        if len(data) != 36:
+            raise self._fail(f"Jacobian has {len(data)} values; expected 36 (6x6)")
+        return data
+
+    def finish(self) -> RawStream:
+        values = np.vstack(self.rows)
+        bad = np.argwhere(~np.isfinite(values))
+        if len(bad):
+            row, col = bad[0]
+            raise BagError(f"{self.bag_path}: topic '{self.topic}' message {row}: non-finite value "
+                           f"in {self.columns[col]}")
+        header = np.array(self.header_ns, dtype=np.int64)
+        zero = int(np.count_nonzero(header == 0)) if len(header) else 0
+        use_header = len(header) == len(self.log_ns) and zero == 0
+        stamps = header if use_header else np.array(self.log_ns, dtype=np.int64)
+        return RawStream(self.name, self.topic, self.msgtype, stamps, values, self.columns,
+                         "header" if use_header else "bag", zero)

@@ -1,0 +1,232 @@
+"""`psmforce`: the command line over psm_model and hybrid.
+
+Every subcommand explains its inputs and outputs in ``--help``, exits 0 on success, and on
+failure prints one line ``psmforce <command>: error: <reason>`` to stderr and exits 2, leaving
+no partial output files (each library call writes atomically or into a fresh folder).
+Where a command produces figures, ``--json PATH`` writes them machine-readably.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+
+def _write_json(path: str | None, payload: dict) -> None:
+    if path is None:
+        return
+    target = Path(path)
+    tmp = target.with_name(target.name + ".part")
+    tmp.write_text(json.dumps(payload, indent=2, default=_jsonable) + "\n")
+    tmp.replace(target)
+
+
+def _jsonable(value):
+    if hasattr(value, "tolist"):
+        return value.tolist()
+    if isinstance(value, Path):
+        return str(value)
+    raise TypeError(f"not JSON serialisable: {type(value).__name__}")
+
+
+def _simulate(args) -> dict:
+    from psm_model.sim import simulate
+    return simulate(protocol=args.protocol, scale=args.scale, seed=args.seed, out=args.out)
+
+
+def _convert(args) -> dict:
+    from psm_model.bags import convert_bag, convert_csv, summary_line
+    if Path(args.bag).suffix.lower() == ".csv":
+        report = convert_csv(args.bag, args.out, column_map=args.column_map)
+        print(f"wrote {args.out}")
+        return report
+    topics = {k: v for k, v in (("js", args.topic_js), ("jaw", args.topic_jaw),
+                                 ("hex10", args.topic_hex10), ("ati", args.topic_ati),
+                                 ("jacobian", args.topic_jacobian)) if v is not None}
+    r_ati_psm = None
+    if args.r_ati_psm is not None:
+        import numpy as np
+        r_ati_psm = np.asarray(json.loads(Path(args.r_ati_psm).read_text()), dtype=float)
+    report = convert_bag(args.bag, args.out, rate_hz=args.rate, arm=args.arm,
+                         topics=topics or None, r_ati_psm=r_ati_psm, on_gap=args.on_gap)
+    print(summary_line(report))
+    return report
+
+
+def _fit_dynamics(args) -> dict:
+    from psm_model.identification import fit_dynamics_cli
+    return fit_dynamics_cli(train=args.train, test=args.test, fmt=args.format,
+                            json_out=None, model_out=args.model_out)
+
+
+def _fit_prior(args) -> dict:
+    from psm_model.identification import fit_prior_cli
+    return fit_prior_cli(args.data, args.out)
+
+
+def _train(args) -> dict:
+    from hybrid.train import train
+    return train(args.data, args.model, args.out, features=args.features, epochs=args.epochs,
+                 seed=args.seed, device=args.device, prior=args.prior)
+
+
+def _finetune(args) -> dict:
+    from hybrid.train import finetune
+    return finetune(args.checkpoint, args.data, args.out, epochs=args.epochs, seed=args.seed,
+                    device=args.device)
+
+
+def _evaluate(args) -> dict:
+    from hybrid.evaluate import evaluate
+    return evaluate(args.checkpoint, args.data, args.out)
+
+
+def _reproduce(args) -> dict:
+    from hybrid.reproduce import reproduce
+    return reproduce(args.out, scale=args.scale, device=args.device, seed=args.seed)
+
+
+def _export(args) -> dict:
+    from hybrid.export import export
+    return export(args.checkpoint, args.out)
+
+
+def _demo(args) -> dict:
+    from psmforce.demo import run_demo
+    return run_demo(args.out, seed=args.seed)
+
+
+def _parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="psmforce",
+        description="Tool-tip force estimation for the dVRK PSM with a shaft-integrated HEX10 sensor.")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+
+    def add(name, func, help_, description):
+        p = sub.add_parser(name, help=help_, description=description)
+        p.set_defaults(func=func)
+        return p
+
+    p = add("simulate", _simulate, "generate a simulated bench dataset",
+            "Simulate the benchtop (PSM + modified Cadiere forceps + HEX10 + ATI Nano17) running "
+            "the paper's protocols. Writes OUT/metadata.json and one CSV per trial "
+            "(OUT/{train,test}/{Free,Traction,Palpation}/ or OUT/config_k/{Rigid,Soft,Free}/).")
+    p.add_argument("--protocol", choices=["automated", "teleop"], default="automated")
+    p.add_argument("--scale", type=float, default=1.0,
+                   help="fraction of the paper's protocol to run (1.0 = about 200 min of data)")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--out", required=True, help="output folder (must not hold a dataset yet)")
+    p.add_argument("--json", help="write the run summary here")
+
+    p = add("convert", _convert, "convert a ROS bag to the recording CSV layout",
+            "Read a ROS 2 (sqlite3 or MCAP) or ROS 1 bag with the dVRK CRTK topics, resample all "
+            "streams onto one clock and write one recording CSV; reports gaps, duplicates and "
+            "out-of-order messages. A .csv input with --column-map is renamed to our layout.")
+    p.add_argument("bag", help="bag file, ROS 2 bag folder, or a CSV export")
+    p.add_argument("--out", required=True, help="CSV file to write")
+    p.add_argument("--rate", type=float, default=100.0, help="output rate in Hz (default 100)")
+    p.add_argument("--arm", default="PSM1", help="arm namespace (default PSM1)")
+    p.add_argument("--topic-js", help="arm JointState topic (default /ARM/measured_js)")
+    p.add_argument("--topic-jaw", help="jaw JointState topic (default /ARM/jaw/measured_js)")
+    p.add_argument("--topic-hex10", help="HEX10 WrenchStamped topic (default /hex10/measured_cf)")
+    p.add_argument("--topic-ati", help="ATI WrenchStamped topic (default /ati/measured_cf)")
+    p.add_argument("--topic-jacobian", help="spatial Jacobian topic (optional)")
+    p.add_argument("--r-ati-psm", help="JSON file with the 3x3 rotation R_ati_PSM (fixture "
+                   "calibration); with it the ATI targets ati_fx..fz are written (paper eq. 4)")
+    p.add_argument("--on-gap", choices=["drop", "flag"], default="drop",
+                   help="rows inside a stream gap: drop them (default) or keep with in_gap=1")
+    p.add_argument("--column-map", help="for a CSV export: JSON mapping its column names to ours")
+    p.add_argument("--json", help="write the conversion report here")
+
+    p = add("fit-dynamics", _fit_dynamics, "identify the arm's dynamics (CasADi)",
+            "Fit physically consistent arm dynamics plus friction on a training recording and "
+            "report per-joint relative torque errors on a test recording.")
+    p.add_argument("--format", choices=["wpi", "csv"], default="csv",
+                   help="'wpi': the WPI dvrk_dynamics_identification CSV; 'csv': our layout")
+    p.add_argument("--train", required=True)
+    p.add_argument("--test", required=True)
+    p.add_argument("--model-out", help="save the fitted model (JSON) here")
+    p.add_argument("--json", help="write the error table here")
+
+    p = add("fit-prior", _fit_prior, "fit the internal-force prior (CasADi)",
+            "Fit the instrument's internal-force prior (what the HEX10 reads with no external "
+            "force) on the free-space recordings of a dataset folder; writes the model as JSON.")
+    p.add_argument("--data", required=True, help="dataset folder (as written by simulate)")
+    p.add_argument("--out", required=True, help="prior JSON to write")
+    p.add_argument("--json", help="write the fit statistics here")
+
+    p = add("train", _train, "train an estimator",
+            "Train one estimator (hybrid, transformer, fcn, lstm) on a dataset folder; writes a "
+            "checkpoint holding weights, features, scalers, prior and provenance.")
+    p.add_argument("--data", required=True)
+    p.add_argument("--model", choices=["hybrid", "transformer", "fcn", "lstm"], default="hybrid")
+    p.add_argument("--out", required=True, help="checkpoint file to write")
+    p.add_argument("--features", default="paper", help="feature set name (default: paper)")
+    p.add_argument("--prior", help="prior JSON (hybrid; default: fit one on the data's free space)")
+    p.add_argument("--epochs", type=int, default=100)
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--device", default="cpu", choices=["cpu", "cuda"])
+    p.add_argument("--json", help="write training statistics here")
+
+    p = add("finetune", _finetune, "finetune an estimator on new recordings",
+            "Freeze all but the last decoder block of a trained estimator and train it on a new "
+            "dataset folder (e.g. a new PSM configuration).")
+    p.add_argument("checkpoint")
+    p.add_argument("--data", required=True)
+    p.add_argument("--out", required=True, help="checkpoint file to write")
+    p.add_argument("--epochs", type=int, default=100)
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--device", default="cpu", choices=["cpu", "cuda"])
+    p.add_argument("--json", help="write finetuning statistics here")
+
+    p = add("evaluate", _evaluate, "evaluate an estimator as in the paper",
+            "Bias-correct (first 0.5 s), median-filter (k=71) and score RMSE / NRMSE / R^2 per "
+            "axis on the test recordings of a dataset folder; writes tables and plots.")
+    p.add_argument("checkpoint")
+    p.add_argument("--data", required=True)
+    p.add_argument("--out", required=True, help="folder for tables and plots")
+    p.add_argument("--json", help="write the metrics here")
+
+    p = add("reproduce", _reproduce, "reproduce the paper's tables on the simulated bench",
+            "Simulate, fit the prior, train all four models, run the ablations, the teleoperation "
+            "finetuning and the timing; writes markdown + JSON tables and PNG plots to OUT.")
+    p.add_argument("--out", required=True)
+    p.add_argument("--scale", type=float, default=0.05,
+                   help="protocol and training scale (1.0 = the paper's; default 0.05)")
+    p.add_argument("--device", default="cpu", choices=["cpu", "cuda"])
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--json", help="write all tables here")
+
+    p = add("export", _export, "export an estimator for C++ / ROS 2",
+            "Write the network as ONNX plus a JSON of the prior, scalers and feature order.")
+    p.add_argument("checkpoint")
+    p.add_argument("--out", required=True, help="folder to write")
+
+    p = add("demo", _demo, "the main job: a small bench end to end in a few minutes",
+            "Simulate a small bench, fit the prior, train the hybrid and a baseline, evaluate "
+            "them, print the table and write the plots.")
+    p.add_argument("--out", default="out/demo")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--json", help="write the table here")
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = _parser().parse_args(argv)
+    try:
+        result = args.func(args)
+        _write_json(getattr(args, "json", None), result if isinstance(result, dict) else {})
+    except KeyboardInterrupt:
+        print(f"psmforce {args.command}: interrupted", file=sys.stderr)
+        return 130
+    except (ValueError, OSError, RuntimeError, KeyError) as err:
+        reason = str(err).strip().splitlines()[0] if str(err).strip() else type(err).__name__
+        print(f"psmforce {args.command}: error: {reason}", file=sys.stderr)
+        return 2
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
