@@ -1,0 +1,195 @@
+"""One simulated recording from a commanded joint trajectory: kinematics -> contact -> cables ->
+sensors. Everything is computed for the whole recording at once (arrays over time).
+
+Frames: PSM base = RCM (modified-DH frame 0); gravity is given in that frame. HEX10 quantities in
+the HEX10 frame. Signs: forces are the external force ON THE TOOL; HEX10 reads what everything
+distal of its section applies across it (compression negative); joint efforts are what the
+motors apply (so a static external load shows up as -J^T F).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import pandas as pd
+
+from ..frames import ati_force_in_hex10
+from ..recording import JOINTS
+from . import cables, contacts, sensors
+from .params import Effects, InstrumentParams
+
+GRAVITY_UPRIGHT = np.array([0.0, 0.0, -9.81])
+"""Gravity in the base frame of the upright benchtop PSM (shaft pointing down at q = 0)."""
+
+
+@dataclass
+class Contact:
+    """What the jaw tip touches. ``kind``: "free", "traction" or "surface"."""
+
+    kind: str = "free"
+    anchor: np.ndarray | None = None
+    """traction: D-ring position (base frame, m)."""
+    rest_length: float = 0.0
+    """traction: string + unstretched spring length (m)."""
+    point: np.ndarray | None = None
+    """surface: a point of the contact plane (base frame, m)."""
+    normal: np.ndarray | None = None
+    """surface: outward normal of the plane (base frame)."""
+    material: str = "rigid"
+    ati_origin: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    """Where the ATI sensing origin is (base frame, m): moments of the raw ATI wrench."""
+
+
+def _psm():
+    if "psm" not in _PSM_CACHE:
+        from .. import PSM  # imported late: the cable/sensor physics does not need it
+        _PSM_CACHE["psm"] = PSM()
+    return _PSM_CACHE["psm"]
+
+
+_PSM_CACHE: dict = {}
+
+
+def kinematics(q: np.ndarray) -> dict[str, np.ndarray]:
+    """Positions (N, 3) and rotations (N, 3, 3) of the frames the bench needs, base frame."""
+    psm = _psm()
+    q6 = q[:, :6]
+    out = {}
+    for frame in ("roll", "cp", "jaw_tip", "hex10"):
+        t = psm.forward_kinematics(q6, frame=frame)
+        out["p_" + frame], out["R_" + frame] = t[:, :3, 3], t[:, :3, :3]
+    # Joint axes in the base frame: angular rows of the spatial Jacobian (convention-free).
+    axes = np.asarray(psm.spatial_jacobian(q6))[:, 3:, :]
+    out["axes"] = np.moveaxis(axes, 2, 1)  # (N, 6 joints, 3)
+    return out
+
+
+def _moment_about(axis, origin, point, force):
+    """axis . ((point - origin) x force), row-wise."""
+    return np.einsum("ij,ij->i", axis, np.cross(point - origin, force))
+
+
+def _contact_force(contact: Contact, p_tip, v_tip, effects: Effects) -> np.ndarray:
+    if contact.kind == "free":
+        return np.zeros_like(p_tip)
+    if contact.kind == "traction":
+        return contacts.traction(p_tip, contact.anchor, contact.rest_length)
+    if contact.kind == "surface":
+        return contacts.surface(p_tip, v_tip, contact.point, contact.normal,
+                                contacts.MATERIALS[contact.material], friction=effects.contact_friction)
+    raise ValueError(f"unknown contact kind {contact.kind!r}")
+
+
+def run_trajectory(q_cmd: np.ndarray, dt: float, contact: Contact, params: InstrumentParams,
+                   effects: Effects, rng: np.random.Generator,
+                   gravity: np.ndarray = GRAVITY_UPRIGHT, r_base_ati: np.ndarray | None = None,
+                   truth: bool = True) -> pd.DataFrame:
+    """Simulate one recording. ``q_cmd`` (N, 7): motor-side joint positions in dVRK order
+    (what the position controller tracks and the encoders see). Returns a frame in the
+    recording layout (psm_model.recording), plus ``sim_*`` truth columns if ``truth``."""
+    q_cmd = np.asarray(q_cmd, dtype=float)
+    if q_cmd.ndim != 2 or q_cmd.shape[1] != 7 or len(q_cmd) < 2:
+        raise ValueError(f"q_cmd must have shape (N, 7) with N >= 2, got {q_cmd.shape}")
+    if not np.isfinite(q_cmd).all():
+        raise ValueError("q_cmd has non-finite values")
+    if not dt > 0:
+        raise ValueError(f"dt must be > 0, got {dt}")
+    n = len(q_cmd)
+    r_base_ati = np.eye(3) if r_base_ati is None else r_base_ati
+    kin = kinematics(q_cmd)
+    axes = kin["axes"]
+    a_yaw, a_pitch, a_roll, a_wp, a_wy = axes[:, 0], axes[:, 1], axes[:, 3], axes[:, 4], axes[:, 5]
+    d_shaft = kin["R_roll"][:, :, 2]
+    p_roll, p_cp, p_tip0, p_hex = kin["p_roll"], kin["p_cp"], kin["p_jaw_tip"], kin["p_hex10"]
+    z_cp = kin["R_cp"][:, :, 2]
+
+    g = np.asarray(gravity, dtype=float)
+    m_jaw = params.jaw_mass_kg if effects.distal_gravity else 0.0
+    m_body = params.distal_body_mass_kg if effects.distal_gravity else 0.0
+    p_jaw_com = p_cp + params.jaw_com_m * z_cp
+    p_body_com = p_roll - params.distal_body_com_m * d_shaft
+    f_jaw, f_body = m_jaw * g[None, :], m_body * g[None, :]
+
+    def distal_load(p_tip, f_ext):
+        """Generalized torques (pitch, blade_1, blade_2) from the tip force and jaw gravity."""
+        t_pitch = (_moment_about(a_wp, p_roll, p_tip, f_ext)
+                   + _moment_about(a_wp, p_roll, p_jaw_com, f_jaw))
+        t_yaw = _moment_about(a_wy, p_cp, p_tip, f_ext) + _moment_about(a_wy, p_cp, p_jaw_com, f_jaw)
+        # A load on the closed jaw tip is shared by the two blades.
+        return np.stack([t_pitch, 0.5 * t_yaw, 0.5 * t_yaw], axis=1)
+
+    p_tip = p_tip0
+    f_ext = _contact_force(contact, p_tip, np.gradient(p_tip, dt, axis=0), effects)
+    trans = cables.transmission(q_cmd, distal_load(p_tip, f_ext), params, effects)
+    if effects.elasticity:
+        # One fixed-point pass: the loaded wrist deflects (true = encoder - deflection), which
+        # moves the tip and changes the contact force.
+        dp, dy = trans["deflection"][:, 0], trans["deflection"][:, 1]
+        p_tip = (p_tip0 - np.cross(a_wp, p_tip0 - p_roll) * dp[:, None]
+                 - np.cross(a_wy, p_tip0 - p_cp) * dy[:, None])
+        f_ext = _contact_force(contact, p_tip, np.gradient(p_tip, dt, axis=0), effects)
+        trans = cables.transmission(q_cmd, distal_load(p_tip, f_ext), params, effects)
+
+    # --- HEX10: wrench across the section, HEX10 frame ---
+    r_hex = kin["R_hex10"]
+    f_base = f_ext + f_jaw + f_body
+    m_base = (np.cross(p_tip - p_hex, f_ext) + np.cross(p_jaw_com - p_hex, f_jaw)
+              + np.cross(p_body_com - p_hex, f_body))
+    to_hex = lambda v: np.einsum("nji,nj->ni", r_hex, v)  # R^T v
+    w_section = np.concatenate([to_hex(f_base), to_hex(m_base)], axis=1)
+    w_cables = cables.section_wrench(trans["tensions"], params)
+    w_section += w_cables
+    hex10, overload = sensors.hex10_reading(w_section, dt, params, effects, rng)
+
+    # --- dVRK joint states ---
+    q_meas = sensors.quantise_joints(q_cmd, effects)
+    qd_meas = sensors.filtered_velocity(q_meas, dt, params.velocity_filter_s)
+    effort = np.zeros((n, 7))
+    tau_ext = np.stack([_moment_about(a_yaw, 0.0, p_tip, f_ext),
+                        _moment_about(a_pitch, 0.0, p_tip, f_ext),
+                        np.einsum("ij,ij->i", d_shaft, f_ext),
+                        _moment_about(a_roll, p_roll, p_tip, f_ext)], axis=1)
+    effort[:, :4] = -tau_ext
+    if effects.arm_dynamics:
+        qd = np.gradient(q_cmd[:, :3], dt, axis=0)
+        qdd = np.gradient(qd, dt, axis=0)
+        com = (q_cmd[:, 2] - params.arm_gravity_com_offset_m)[:, None] * d_shaft
+        f_arm = params.arm_gravity_mass_kg * g[None, :]
+        effort[:, 0] -= _moment_about(a_yaw, 0.0, com, f_arm)
+        effort[:, 1] -= _moment_about(a_pitch, 0.0, com, f_arm)
+        effort[:, 2] -= d_shaft @ f_arm[0]
+        effort[:, :3] += (np.asarray(params.arm_inertia) * qdd
+                          + np.asarray(params.arm_coulomb) * np.tanh(qd / 0.005)
+                          + np.asarray(params.arm_viscous) * qd)
+        z_roll = cables.dahl_direction(q_cmd[:, 3:4], params.roll_presliding_rad, effects.hysteresis)[:, 0]
+        effort[:, 3] += params.roll_torsion_nm_per_rad * q_cmd[:, 3] + params.roll_friction_nm * z_roll
+    effort[:, 4:] = trans["effort"]
+    if effects.sensor_noise:
+        effort += np.asarray(params.effort_noise) * rng.standard_normal((n, 7))
+
+    # --- ATI and the paper's eq. 4 target (measured joints, calibrated fixture rotation) ---
+    arm = (contact.anchor if contact.kind == "traction" else p_tip) - contact.ati_origin
+    raw = sensors.ati_raw(f_ext, np.broadcast_to(arm, p_tip.shape), r_base_ati, params, effects, rng)
+    target = ati_force_in_hex10(raw[:, :3], q_meas[:, :6], r_base_ati.T, _psm(), sign=-1.0)
+
+    cols = {"time": np.arange(n) * dt}
+    for j, name in enumerate(JOINTS):
+        cols[f"{name}_position"] = q_meas[:, j]
+        cols[f"{name}_velocity"] = qd_meas[:, j]
+        cols[f"{name}_effort"] = effort[:, j]
+    for k, name in enumerate(("fx", "fy", "fz", "tx", "ty", "tz")):
+        cols[name] = hex10[:, k]
+    cols["hex10_overload"] = overload.astype(np.int8)
+    for k, name in enumerate(("ati_fx", "ati_fy", "ati_fz")):
+        cols[name] = target[:, k]
+    for k, name in enumerate(("fx", "fy", "fz", "tx", "ty", "tz")):
+        cols[f"ati_raw_{name}"] = raw[:, k]
+    if truth:
+        cols["sim_section_fz"] = w_section[:, 2]
+        cols["sim_internal_fz"] = w_section[:, 2] - to_hex(f_ext)[:, 2]
+        true_wrist = q_cmd[:, 4:7] - trans["deflection"]
+        cols["sim_wrist_pitch_true"] = true_wrist[:, 0]
+        cols["sim_wrist_yaw_true"] = true_wrist[:, 1]
+        cols["sim_slack_pairs"] = trans["slack"].sum(axis=1).astype(np.int8)
+    return pd.DataFrame(cols)

@@ -1,0 +1,122 @@
+"""``simulate``: run a protocol on the simulated bench and write the dataset folder.
+
+Layout (team contract): DIR/metadata.json; automated: DIR/{train,test}/{Free,Traction,Palpation}/*.csv
+(validation is split from train at load time); teleop: DIR/config_{0,1,2}/{Rigid,Soft,Free}/demo_{k}.csv.
+Every CSV follows psm_model.recording and is written atomically by its ``write_recording``;
+metadata.json is written last (a folder without it is an interrupted run).
+"""
+
+from __future__ import annotations
+
+import importlib.metadata
+import json
+import math
+import numbers
+import os
+import time
+from pathlib import Path
+
+import numpy as np
+
+from ..recording import write_recording
+from . import protocols
+from .bench import run_trajectory
+from .params import Effects, InstrumentParams
+
+SIM_VERSION = "1.0"
+PROTOCOLS = ("automated", "teleop")
+
+
+class SimulationConfigError(ValueError):
+    """Invalid simulate() arguments; raised before anything is written."""
+
+
+def _package_version() -> str:
+    try:
+        return importlib.metadata.version("psmforce")
+    except importlib.metadata.PackageNotFoundError:
+        return "unknown (not installed)"
+
+
+def _check_out(out) -> Path:
+    if out is None:
+        raise SimulationConfigError("out: an output folder is required")
+    path = Path(out)
+    if path.exists():
+        if not path.is_dir():
+            raise SimulationConfigError(f"out: {path} exists and is not a folder")
+        if any(path.iterdir()):
+            raise SimulationConfigError(f"out: {path} is not empty (refusing to mix datasets)")
+        if not os.access(path, os.W_OK | os.X_OK):
+            raise SimulationConfigError(f"out: {path} is not writable")
+        return path
+    parent = path.parent
+    while not parent.exists():
+        parent = parent.parent
+    if not parent.is_dir() or not os.access(parent, os.W_OK | os.X_OK):
+        raise SimulationConfigError(f"out: cannot create {path}: {parent} is not a writable folder")
+    return path
+
+
+def _validate(protocol, scale, seed, out, instrument, effects):
+    if protocol not in PROTOCOLS:
+        raise SimulationConfigError(f"protocol: unknown {protocol!r}, expected one of {PROTOCOLS}")
+    if isinstance(scale, bool) or not isinstance(scale, numbers.Real) or not math.isfinite(scale) or scale <= 0:
+        raise SimulationConfigError(f"scale: must be a finite number > 0, got {scale!r}")
+    if isinstance(seed, bool) or not isinstance(seed, numbers.Integral) or seed < 0:
+        raise SimulationConfigError(f"seed: must be an integer >= 0, got {seed!r}")
+    if instrument is not None and not isinstance(instrument, InstrumentParams):
+        raise SimulationConfigError(f"instrument: expected InstrumentParams or None, got {type(instrument).__name__}")
+    if effects is not None and not isinstance(effects, Effects):
+        raise SimulationConfigError(f"effects: expected Effects or None, got {type(effects).__name__}")
+    return _check_out(out)
+
+
+def simulate(protocol: str = "automated", scale: float = 1.0, seed: int = 0, out=None,
+             instrument: InstrumentParams | None = None, effects: Effects | None = None,
+             truth: bool = True) -> dict:
+    """Simulate a protocol and write the dataset to ``out`` (must not exist or be empty).
+
+    ``scale`` shrinks the protocol proportionally (1.0 = the paper's size); ``seed`` makes the run
+    bit-exact; ``instrument`` defaults to the nominal tool, ``effects`` to everything on;
+    ``truth`` adds the ``sim_*`` truth columns. Returns a summary (trials, rows, minutes per split
+    and condition, seconds taken). Raises :class:`SimulationConfigError` before writing anything.
+    """
+    path = _validate(protocol, scale, seed, out, instrument, effects)
+    instrument = instrument or InstrumentParams()
+    effects = effects or Effects()
+    start = time.perf_counter()
+    plans = protocols.automated(scale, seed) if protocol == "automated" else protocols.teleop(scale, seed)
+    path.mkdir(parents=True, exist_ok=True)
+    trials, minutes, rows = [], {}, 0
+    for index, plan in enumerate(plans):
+        rng = np.random.default_rng([seed, 100, index])
+        frame = run_trajectory(plan.q, protocols.DT, plan.contact, instrument, effects, rng,
+                               r_base_ati=protocols.R_BASE_ATI, truth=truth)
+        target = path / plan.path
+        target.parent.mkdir(parents=True, exist_ok=True)
+        write_recording(frame, target)
+        rows += len(frame)
+        key = f"{plan.split}/{plan.condition}"
+        minutes[key] = minutes.get(key, 0.0) + len(frame) * protocols.DT / 60.0
+        trials.append({"path": plan.path, "split": plan.split, "condition": plan.condition,
+                       "rows": len(frame), "contact": plan.contact.kind,
+                       "hex10_overload_rows": int(frame["hex10_overload"].sum()), **plan.info})
+    metadata = {
+        "simulator_version": SIM_VERSION, "software_version": _package_version(),
+        "protocol": protocol, "scale": float(scale), "seed": int(seed), "sample_rate_hz": 1.0 / protocols.DT,
+        "instrument": instrument.to_dict(), "effects": effects.to_dict(),
+        "gravity_base": [0.0, 0.0, -9.81],
+        "R_base_ati": protocols.R_BASE_ATI.tolist(),
+        "ati_convention": "ati_raw_* = load the fixture puts on the Nano17 (= minus the force on the "
+                          "tool) in the ATI frame; ati_f* = -R_PSM_HEX10(q)^T R_base_ati ati_raw_f",
+        "effort_convention": "efforts are what the motors apply: a static external force F on the "
+                             "tool adds -J^T F",
+        "trials": trials,
+    }
+    tmp = path / "metadata.json.part"
+    tmp.write_text(json.dumps(metadata, indent=1))
+    tmp.replace(path / "metadata.json")
+    return {"out": str(path), "protocol": protocol, "trials": len(trials), "rows": rows,
+            "minutes": {k: round(v, 3) for k, v in sorted(minutes.items())},
+            "seconds": round(time.perf_counter() - start, 2)}

@@ -1,0 +1,400 @@
+"""The paper's data-collection protocols as commanded joint trajectories (one plan per trial).
+
+Automated benchtop (paper Tables "Factorial design" and "Automated dataset composition"):
+traction (phi 6 x theta 3 x force 3 x wrist configurations, 2 trials), palpation (phi 6 x theta 3 x
+3 silicones, a new wrist configuration before each approach from 5 cm to 8 mm past the surface),
+free space replaying both, and a test set (15 / 9 configurations, continuous random free-space
+states at phi = theta = 0). Teleoperation: three PSM configurations with large yaw/pitch,
+rigid / soft / free, three human-like demonstrations each.
+
+Geometry (base = RCM frame, upright bench, z up, shaft pointing down at q = 0): the ATI and its
+fixtures sit 0.19 m below the RCM. ``scale`` shrinks every protocol proportionally: the number of
+(phi, theta) cells and of wrist configurations per trial (automated), the free-space test and the
+demonstration durations (teleop).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .bench import Contact
+
+DT = 0.01
+"""100 Hz, the paper's recording rate."""
+PHI_DEG = (0.0, 60.0, 120.0, 180.0, 240.0, 300.0)
+THETA_DEG = (0.0, 45.0, 90.0)
+TRACTION_EXTENSION_M = (0.0, 0.01, 0.02)
+"""Spring extension of the three force levels (paper: 0 / 1 / 2 cm; 0, 1.5, 3.1 N at a straight
+wrist; wrist motion moves the hook and changes the load)."""
+PALPATION_MATERIALS = ("shore_22a", "shore_8a", "shore_00_10")
+FIXTURE_DEPTH_M = 0.19
+"""Anchor / reference point height below the RCM."""
+STRING_REST_M = 0.06
+"""String + unstretched spring length between jaw-tip hook and D-ring."""
+WRIST_TO_TIP_M = 0.0246
+"""Wrist-pitch axis to jaw tip at a straight wrist (9.1 mm + 15.5 mm): places the wrist so the
+string is stretched by the level's extension at a straight wrist."""
+APPROACH_M = 0.05
+PALPATION_DEPTH_M = 0.008
+WRIST_LIMITS = np.array([[-2.5, 2.5], [-1.0, 1.0], [-1.0, 1.0], [0.0, 0.8]])
+"""Sampling box of (roll, wrist_pitch, wrist_yaw, jaw), rad: inside the dVRK limits."""
+TRACTION_WRIST_LIMITS = np.array([[-2.5, 2.5], [-0.6, 0.6], [-0.6, 0.6], [0.0, 0.8]])
+"""Narrower wrist pitch/yaw under traction: the hook on the jaw tip moves less, so the load stays
+near the level's value and the shaft compression below the HEX10 overload (as the paper's
+operators had to ensure)."""
+R_BASE_ATI = np.array([[np.cos(0.5), -np.sin(0.5), 0.0], [np.sin(0.5), np.cos(0.5), 0.0], [0.0, 0.0, 1.0]])
+"""ATI frame in the base frame (z up, clocked 0.5 rad): the fixture calibration."""
+
+# Timing (s) chosen so that the full-scale split durations follow the paper's Table (see docs).
+TRACTION_MOVE, TRACTION_HOLD = 0.5, 0.9
+TEST_TRACTION_MOVE, TEST_TRACTION_HOLD = 0.55, 1.1
+PALP_WRIST, PALP_APPROACH, PALP_DWELL = 0.4, 1.1, 0.4
+TEST_PALP_WRIST, TEST_PALP_APPROACH, TEST_PALP_DWELL = 0.33, 0.9, 0.4
+SETTLE = 1.0
+ARM_MOVE = 2.0
+TEST_FREE_S = 600.0
+TELEOP_DEMO_S = 120.0
+TELEOP_CONFIGS = ((0.75, 0.45, 0.17), (-0.70, 0.50, 0.16), (0.35, -0.65, 0.18))
+"""(yaw, pitch, insertion) of the three teleoperation PSM configurations."""
+
+
+@dataclass
+class Plan:
+    """One trial to simulate: commanded joints (N, 7) and what the tip touches."""
+
+    path: str
+    split: str
+    condition: str
+    q: np.ndarray
+    contact: Contact
+    info: dict = field(default_factory=dict)
+
+
+def min_jerk(s: np.ndarray) -> np.ndarray:
+    s = np.clip(s, 0.0, 1.0)
+    return s ** 3 * (10.0 - 15.0 * s + 6.0 * s ** 2)
+
+
+def piecewise(waypoints: np.ndarray, move: np.ndarray, hold: np.ndarray, dt: float = DT) -> np.ndarray:
+    """Minimum-jerk moves between consecutive waypoints (K+1, D), each followed by a hold."""
+    pieces = []
+    for k in range(len(waypoints) - 1):
+        steps = max(1, int(round((move[k] + hold[k]) / dt)))
+        t = np.arange(steps) * dt
+        s = min_jerk(t / move[k]) if move[k] > 0 else np.ones(steps)
+        pieces.append(waypoints[k] + (waypoints[k + 1] - waypoints[k]) * s[:, None])
+    return np.concatenate(pieces, axis=0)
+
+
+def shaft_direction(yaw, pitch):
+    """Unit shaft direction (towards the tip) in the base frame from the first two joints
+    (modified DH of the PSM: (cos p sin y, -sin p, -cos p cos y))."""
+    return np.stack([np.cos(pitch) * np.sin(yaw), -np.sin(pitch), -np.cos(pitch) * np.cos(yaw)], axis=-1)
+
+
+def arm_ik_for_wrist(p_wrist: np.ndarray) -> np.ndarray:
+    """(N, 3) yaw, pitch, insertion placing the wrist-pitch axis point at ``p_wrist`` (N, 3).
+    The wrist-pitch point lies on the shaft at (insertion - 0.0156) m from the RCM."""
+    dist = np.linalg.norm(p_wrist, axis=-1)
+    d = p_wrist / dist[..., None]
+    return np.stack([np.arctan2(d[..., 0], -d[..., 2]), np.arcsin(-d[..., 1]), dist + 0.0156], axis=-1)
+
+
+def arm_ik_for_tip(p_tip: np.ndarray, wrist: np.ndarray, iterations: int = 8) -> np.ndarray:
+    """(N, 7) joints putting the jaw tip at ``p_tip`` (N, 3) with instrument joints ``wrist``
+    (N, 4). The tip offset in the roll frame depends on the wrist angles only, so a fixed point
+    over the shaft rotation converges fast (offset ~25 mm vs ~200 mm lever)."""
+    from .bench import _psm
+
+    psm = _psm()
+    q = np.zeros((len(p_tip), 7))
+    q[:, 2] = 0.15
+    q[:, 3:] = wrist
+    t_roll = psm.forward_kinematics(q[:, :6], frame="roll")
+    t_tip = psm.forward_kinematics(q[:, :6], frame="jaw_tip")
+    offset = np.einsum("nji,nj->ni", t_roll[:, :3, :3], t_tip[:, :3, 3] - t_roll[:, :3, 3])
+    q[:, :3] = arm_ik_for_wrist(p_tip + np.array([0.0, 0.0, WRIST_TO_TIP_M]))  # guess: shaft straight down
+    for _ in range(iterations):
+        r_roll = psm.rotation(q[:, :6], "roll")
+        q[:, :3] = arm_ik_for_wrist(p_tip - np.einsum("nij,nj->ni", r_roll, offset))
+    return q
+
+
+def _unit(phi_deg: float, theta_deg: float) -> np.ndarray:
+    ph, th = np.deg2rad(phi_deg), np.deg2rad(theta_deg)
+    return np.array([np.cos(th) * np.cos(ph), np.cos(th) * np.sin(ph), np.sin(th)])
+
+
+def _configs(rng: np.random.Generator, n: int, limits: np.ndarray = WRIST_LIMITS) -> np.ndarray:
+    lo, hi = limits[:, 0], limits[:, 1]
+    return lo + (hi - lo) * rng.random((n, 4))
+
+
+ANCHOR = np.array([0.0, 0.0, -FIXTURE_DEPTH_M])
+SAFE_COMPRESSION_N = -80.0
+"""Wrist configurations whose static HEX10 reading under the trial's load would be below this are
+redrawn, as the paper's operators shaped their protocol to keep the sensor out of overload (the
+compression came within 15 N of it). Screened with the full noise-free model, each candidate
+reached from two opposite sides (friction direction); moves between configurations can still
+pass a few samples beyond."""
+
+
+def _safe_configs(rng: np.random.Generator, n: int, limits: np.ndarray, static_q, contact) -> np.ndarray:
+    """``n`` wrist configurations whose static loaded HEX10 fz stays above SAFE_COMPRESSION_N.
+    ``static_q(configs)`` gives the (K, 7) joints holding each configuration under the load."""
+    from .bench import run_trajectory
+    from .params import Effects, InstrumentParams
+
+    quiet = dataclasses.replace(Effects(), sensor_noise=False, hex10_drift=False, encoder_quantisation=False)
+    kept = []
+    for _ in range(20):
+        candidates = _configs(rng, 2 * n, limits)
+        q = static_q(candidates)
+        worst = np.full(len(q), np.inf)
+        for order in (np.arange(len(q)), np.arange(len(q))[::-1]):
+            fz = run_trajectory(q[order], DT, contact, InstrumentParams(), quiet, rng, truth=False).fz.to_numpy()
+            worst[order] = np.minimum(worst[order], fz)
+        kept.extend(candidates[worst > SAFE_COMPRESSION_N])
+        if len(kept) >= n:
+            break
+    if len(kept) < n:
+        raise RuntimeError(f"could not find {n} wrist configurations within the HEX10 safety limit")
+    return np.array(kept[:n])
+
+
+def _traction_arm(phi, theta, level):
+    """Arm joints that put the straight-wrist jaw tip at the anchor + (rest + extension) u."""
+    tip = ANCHOR + (STRING_REST_M + TRACTION_EXTENSION_M[level]) * _unit(phi, theta)
+    wrist = tip.copy()
+    for _ in range(8):  # the shaft direction depends on where the wrist is
+        q = arm_ik_for_wrist(wrist[None, :])[0]
+        wrist = tip - WRIST_TO_TIP_M * shaft_direction(q[0], q[1])
+    return arm_ik_for_wrist(wrist[None, :])[0]
+
+
+def _wrist_sequence(configs, move, hold):
+    k = len(configs)
+    way = np.vstack([configs[:1], configs])
+    return piecewise(way, np.r_[0.0, np.full(k - 1, move)], np.r_[SETTLE, np.full(k - 1, hold)])
+
+
+def traction_q(phi, theta, level, configs, move, hold) -> np.ndarray:
+    wrist = _wrist_sequence(configs, move, hold)
+    q = np.zeros((len(wrist), 7))
+    q[:, :3] = _traction_arm(phi, theta, level)
+    q[:, 3:] = wrist
+    return q
+
+
+def _traction_static(phi, theta, level):
+    arm = _traction_arm(phi, theta, level)
+    return lambda configs: np.column_stack([np.tile(arm, (len(configs), 1)), configs])
+
+
+def _palpation_static(phi, theta):
+    bottom = ANCHOR - PALPATION_DEPTH_M * _unit(phi, theta)
+    return lambda configs: arm_ik_for_tip(np.tile(bottom, (len(configs), 1)), configs)
+
+
+def traction_contact() -> Contact:
+    return Contact(kind="traction", anchor=ANCHOR.copy(), rest_length=STRING_REST_M,
+                   ati_origin=ANCHOR - np.array([0.0, 0.0, 0.03]))
+
+
+def palpation_q(phi, theta, configs, t_wrist, t_app, t_dwell) -> np.ndarray:
+    u = _unit(phi, theta)
+    retract = ANCHOR + (APPROACH_M) * u
+    bottom = ANCHOR - PALPATION_DEPTH_M * u
+    tips, wrists = [], []
+    prev = configs[0]
+    settle = int(round(SETTLE / DT))
+    tips.append(np.repeat(retract[None], settle, 0))
+    wrists.append(np.repeat(prev[None], settle, 0))
+    move = np.array([t_wrist, t_app, 0.0, t_app])
+    hold = np.array([0.0, 0.0, t_dwell, 0.0])
+    for c in configs:
+        wrists.append(piecewise(np.vstack([prev, c, c, c, c]), move, hold))
+        tips.append(piecewise(np.vstack([retract, retract, bottom, bottom, retract]), move, hold))
+        prev = c
+    return arm_ik_for_tip(np.concatenate(tips), np.concatenate(wrists))
+
+
+def palpation_contact(material: str) -> Contact:
+    return Contact(kind="surface", point=ANCHOR.copy(), normal=np.array([0.0, 0.0, 1.0]),
+                   material=material, ati_origin=ANCHOR - np.array([0.0, 0.0, 0.02]))
+
+
+def _grid(scale: float, rng: np.random.Generator) -> tuple[list[tuple[int, int]], float]:
+    """(phi, theta) cells kept at this scale and the wrist-configuration multiplier."""
+    cells = [(i, j) for i in range(len(PHI_DEG)) for j in range(len(THETA_DEG))]
+    keep = int(min(len(cells), max(1, round(len(cells) * np.sqrt(scale)))))
+    chosen = sorted(rng.choice(len(cells), size=keep, replace=False).tolist())
+    return [cells[c] for c in chosen], scale * len(cells) / keep
+
+
+def automated(scale: float, seed: int) -> list[Plan]:
+    """All trials of the automated protocol (train = train + validation pool, and test)."""
+    grid_rng = np.random.default_rng([seed, 1])
+    cells, mult = _grid(scale, grid_rng)
+    n_train = max(2, int(round(25 * mult)))
+    n_test_trac = max(2, int(round(15 * mult)))
+    n_test_palp = max(2, int(round(9 * mult)))
+    plans: list[Plan] = []
+    for (i, j) in cells:
+        phi, theta = PHI_DEG[i], THETA_DEG[j]
+        base_info = {"phi_deg": phi, "theta_deg": theta}
+        tag = f"phi{int(phi):03d}_theta{int(theta):02d}"
+        # --- training pool ---
+        free_trac_q = []
+        for level in range(3):
+            for rep in range(2):
+                rng = np.random.default_rng([seed, 2, i, j, level, rep])
+                configs = _safe_configs(rng, n_train, TRACTION_WRIST_LIMITS,
+                                        _traction_static(phi, theta, level), traction_contact())
+                q = traction_q(phi, theta, level, configs, TRACTION_MOVE, TRACTION_HOLD)
+                plans.append(Plan(f"train/Traction/{tag}_f{level}_r{rep}.csv", "train", "Traction", q,
+                                  traction_contact(),
+                                  {**base_info, "force_level": level, "trial": rep,
+                                   "extension_m": TRACTION_EXTENSION_M[level],
+                                   "wrist_configs": configs.tolist()}))
+                if rep == 0:
+                    free_trac_q.append(q)
+        palp_q0 = None
+        for m, material in enumerate(PALPATION_MATERIALS):
+            rng = np.random.default_rng([seed, 3, i, j, m])
+            configs = _safe_configs(rng, n_train, WRIST_LIMITS, _palpation_static(phi, theta),
+                                    palpation_contact(material))
+            q = palpation_q(phi, theta, configs, PALP_WRIST, PALP_APPROACH, PALP_DWELL)
+            palp_q0 = q if palp_q0 is None else palp_q0
+            plans.append(Plan(f"train/Palpation/{tag}_{material}.csv", "train", "Palpation", q,
+                              palpation_contact(material),
+                              {**base_info, "material": material, "trial": m,
+                               "wrist_configs": configs.tolist()}))
+        # Free space replays the same joint trajectories with the fixture removed.
+        arm_moves = []
+        for level, q in enumerate(free_trac_q):
+            if level:
+                prev = free_trac_q[level - 1][-1]
+                arm_moves.append(piecewise(np.vstack([prev, q[0]]), np.array([ARM_MOVE]), np.array([0.0])))
+            arm_moves.append(q)
+        plans.append(Plan(f"train/Free/{tag}_traction.csv", "train", "Free", np.concatenate(arm_moves),
+                          Contact(), {**base_info, "replays": "Traction"}))
+        plans.append(Plan(f"train/Free/{tag}_palpation.csv", "train", "Free", palp_q0, Contact(),
+                          {**base_info, "replays": "Palpation"}))
+        # --- test set ---
+        for level in range(3):
+            rng = np.random.default_rng([seed, 4, i, j, level])
+            configs = _safe_configs(rng, n_test_trac, TRACTION_WRIST_LIMITS,
+                                    _traction_static(phi, theta, level), traction_contact())
+            q = traction_q(phi, theta, level, configs, TEST_TRACTION_MOVE, TEST_TRACTION_HOLD)
+            plans.append(Plan(f"test/Traction/{tag}_f{level}.csv", "test", "Traction", q, traction_contact(),
+                              {**base_info, "force_level": level, "extension_m": TRACTION_EXTENSION_M[level],
+                               "wrist_configs": configs.tolist()}))
+        for m, material in enumerate(PALPATION_MATERIALS):
+            rng = np.random.default_rng([seed, 5, i, j, m])
+            configs = _safe_configs(rng, n_test_palp, WRIST_LIMITS, _palpation_static(phi, theta),
+                                    palpation_contact(material))
+            q = palpation_q(phi, theta, configs, TEST_PALP_WRIST, TEST_PALP_APPROACH, TEST_PALP_DWELL)
+            plans.append(Plan(f"test/Palpation/{tag}_{material}.csv", "test", "Palpation", q,
+                              palpation_contact(material),
+                              {**base_info, "material": material, "wrist_configs": configs.tolist()}))
+    plans.append(_random_free(seed, max(5.0, TEST_FREE_S * scale)))
+    return plans
+
+
+def _random_free(seed: int, duration: float) -> Plan:
+    rng = np.random.default_rng([seed, 6])
+    moves = []
+    total = 0.0
+    while total < duration:
+        moves.append(rng.uniform(0.4, 2.5))
+        total += moves[-1]
+    k = len(moves)
+    configs = _configs(rng, k + 1)
+    wrist = piecewise(configs, np.array(moves), rng.uniform(0.0, 0.3, k))
+    wrist = np.vstack([np.repeat(wrist[:1], int(SETTLE / DT), 0), wrist])
+    q = np.zeros((len(wrist), 7))
+    q[:, :3] = _traction_arm(0.0, 0.0, 1)
+    q[:, 3:] = wrist
+    return Plan("test/Free/random_states.csv", "test", "Free", q, Contact(),
+                {"phi_deg": 0.0, "theta_deg": 0.0, "replays": "continuous random states"})
+
+
+# --- teleoperation ---
+
+TELEOP_CONDITIONS = {"Rigid": ("rigid", 0.0022), "Soft": ("shore_8a", 0.012), "Free": (None, 0.005)}
+"""condition: (material, deepest press in m)."""
+
+
+def _teleop_actions(rng: np.random.Generator, duration: float, depth_max: float):
+    """Tip offsets (lateral x, y, height z above the surface) and wrist waypoints with durations:
+    press, drag, wrist rotation under load, quick pokes, reposition; random order and speeds."""
+    way = [np.array([0.0, 0.0, 0.015])]
+    wrist = [np.array([0.0, 0.0, 0.0, 0.3])]
+    move, hold = [], []
+    total = 0.0
+
+    def add(p, w, t_move, t_hold):
+        nonlocal total
+        way.append(p)
+        wrist.append(w)
+        move.append(t_move)
+        hold.append(t_hold)
+        total += t_move + t_hold
+
+    while total < duration:
+        action = rng.choice(["press", "drag", "rotate", "poke", "reposition"])
+        here = way[-1].copy()
+        w = wrist[-1].copy()
+        depth = -depth_max * rng.uniform(0.3, 1.0)
+        speed = rng.uniform(0.6, 1.6)
+        if action == "press":
+            add(np.r_[here[:2], depth], w, 1.0 / speed, rng.uniform(0.3, 1.5))
+            add(np.r_[here[:2], 0.01], w, 0.8 / speed, 0.2)
+        elif action == "drag":
+            add(np.r_[here[:2], depth], w, 0.8 / speed, 0.2)
+            target = np.clip(here[:2] + rng.uniform(-0.015, 0.015, 2), -0.015, 0.015)
+            add(np.r_[target, depth], w, 2.0 / speed, 0.2)
+            add(np.r_[target, 0.01], w, 0.8 / speed, 0.1)
+        elif action == "rotate":
+            add(np.r_[here[:2], depth], w, 0.8 / speed, 0.1)
+            for _ in range(2):
+                w2 = np.clip(w + rng.uniform(-0.6, 0.6, 4) * [1.0, 1.0, 1.0, 0.5], WRIST_LIMITS[:, 0], WRIST_LIMITS[:, 1])
+                add(np.r_[here[:2], depth], w2, 1.2 / speed, 0.2)
+            add(np.r_[here[:2], 0.01], wrist[-1], 0.8 / speed, 0.1)
+        elif action == "poke":
+            for _ in range(3):
+                add(np.r_[here[:2], depth], w, 0.35 / speed, 0.05)
+                add(np.r_[here[:2], 0.004], w, 0.35 / speed, 0.05)
+        else:
+            target = rng.uniform(-0.015, 0.015, 2)
+            w2 = _configs(rng, 1)[0] * [0.6, 0.6, 0.6, 1.0]
+            add(np.r_[target, rng.uniform(0.005, 0.025)], w2, rng.uniform(1.0, 2.5), rng.uniform(0.0, 0.5))
+    return np.array(way), np.array(wrist), np.array(move), np.array(hold)
+
+
+def teleop(scale: float, seed: int) -> list[Plan]:
+    plans = []
+    duration = max(4.0, TELEOP_DEMO_S * scale)
+    for c, (yaw, pitch, ins) in enumerate(TELEOP_CONFIGS):
+        work = (ins - 0.0156 + WRIST_TO_TIP_M) * shaft_direction(np.array(yaw), np.array(pitch))
+        for cond, (material, depth_max) in TELEOP_CONDITIONS.items():
+            for k in range(3):
+                rng = np.random.default_rng([seed, 7, c, list(TELEOP_CONDITIONS).index(cond), k])
+                way, wrist_way, move, hold = _teleop_actions(rng, duration, depth_max)
+                off = piecewise(way, move, hold)
+                wrist = piecewise(wrist_way, move, hold)
+                settle = int(round(SETTLE / DT))
+                off = np.vstack([np.repeat(off[:1], settle, 0), off])
+                wrist = np.vstack([np.repeat(wrist[:1], settle, 0), wrist])
+                q = arm_ik_for_tip(work + off, wrist)
+                contact = (Contact() if material is None else
+                           Contact(kind="surface", point=work.copy(), normal=np.array([0.0, 0.0, 1.0]),
+                                   material=material, ati_origin=work - np.array([0.0, 0.0, 0.02])))
+                plans.append(Plan(f"config_{c}/{cond}/demo_{k}.csv", f"config_{c}", cond, q, contact,
+                                  {"config": c, "arm_yaw": yaw, "arm_pitch": pitch, "demo": k,
+                                   "material": material}))
+    return plans
