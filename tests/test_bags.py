@@ -352,7 +352,7 @@ def test_bad_options(tmp_path):
                           ({"r_ati_psm": np.diag([1.0, 1.0, -1.0])},
                            "ATI calibration: R_ati_psm is not a proper rotation"),
                           ({"r_ati_psm": np.eye(2)}, r"ATI calibration: R_ati_psm must have shape"),
-                          ({"r_ati_psm": np.eye(3), "ati_sign": 0.5}, "sign must be \+1 or -1")]:
+                          ({"r_ati_psm": np.eye(3), "ati_sign": 0.5}, r"sign must be \+1 or -1")]:
         _no_output(tmp_path, lambda out: convert_bag(bag, out, **kwargs), match)
     _no_output(tmp_path, lambda out: convert_bag(bag, tmp_path / "no" / "rec.csv"),
                "output folder .* does not exist")

@@ -1,0 +1,147 @@
+"""Checkpoints: everything needed to rebuild and use a trained estimator, and nothing executable.
+
+One file (``torch.save`` of plain tensors, strings and numbers; read back with
+``weights_only=True``) holds: the weights; the model name and its constructor config; the input
+columns in order; the input and target scalers; the base columns added to the output (residual
+models); the inputs derivation (``"none"``, ``"lstm"``
+for the Jacobian-map columns, ``"prior"`` for the prior-compensated columns) with the prior as the
+JSON its ``save`` writes; software versions; training provenance (data folder, split, seed, epochs,
+losses, wall time). Writes are atomic (temporary file, then rename).
+
+Loading refuses, with :class:`CheckpointError` naming the problem: an unreadable or corrupt file,
+a file of another format or format version, a model name or config the code cannot build, and
+weights that do not fit the config. :func:`check_compatible` refuses a checkpoint for a setup it
+was not trained for (another model, other features, a dataset lacking its input columns).
+"""
+
+from __future__ import annotations
+
+import json
+import pickle
+import platform
+import zipfile
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Sequence
+
+import numpy as np
+import torch
+from torch import nn
+
+from hybrid.data import Scaler
+from hybrid.models import build_model
+
+FORMAT = "psmforce-checkpoint"
+FORMAT_VERSION = 1
+
+
+class CheckpointError(ValueError):
+    """A checkpoint that cannot be read, or does not fit the setup it is asked to serve."""
+
+
+@dataclass
+class Checkpoint:
+    model_name: str
+    config: dict
+    features: tuple[str, ...]
+    input_scaler: Scaler
+    target_scaler: Scaler
+    base_columns: tuple[str, ...]
+    derivation: str
+    prior_json: str | None
+    versions: dict
+    provenance: dict
+    model: nn.Module
+
+
+def _versions() -> dict:
+    from importlib.metadata import PackageNotFoundError, version
+    try:
+        ours = version("psmforce")
+    except PackageNotFoundError:
+        ours = "unknown"
+    return {"psmforce": ours, "torch": torch.__version__, "numpy": np.__version__,
+            "python": platform.python_version()}
+
+
+def save_checkpoint(path: str | Path, model: nn.Module, *, model_name: str, config: dict,
+                    features: Sequence[str], input_scaler: Scaler, target_scaler: Scaler,
+                    base_columns: Sequence[str] = (), derivation: str = "none", prior_json: str | None = None,
+                    provenance: dict | None = None) -> Path:
+    path = Path(path)
+    meta = {"format": FORMAT, "format_version": FORMAT_VERSION, "model": model_name,
+            "config": config, "features": list(features),
+            "input_scaler": input_scaler.to_dict(), "target_scaler": target_scaler.to_dict(),
+            "base_columns": list(base_columns), "derivation": derivation, "versions": _versions(), "provenance": provenance or {}}
+    payload = {"meta": json.dumps(meta), "prior_json": prior_json or "",
+               "state_dict": {k: v.detach().cpu() for k, v in model.state_dict().items()}}
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(path.name + ".part")
+    try:
+        torch.save(payload, tmp)
+        tmp.replace(path)
+    finally:
+        tmp.unlink(missing_ok=True)
+    return path
+
+
+def load_checkpoint(path: str | Path, device: str = "cpu") -> Checkpoint:
+    path = Path(path)
+    if not path.is_file():
+        raise CheckpointError(f"checkpoint {path} does not exist")
+    try:
+        payload = torch.load(path, map_location=device, weights_only=True)
+    except (RuntimeError, EOFError, OSError, ValueError, pickle.UnpicklingError,
+            zipfile.BadZipFile) as err:
+        raise CheckpointError(f"{path}: corrupt or not a psmforce checkpoint "
+                              f"({type(err).__name__}: {str(err).splitlines()[0][:200]})") from None
+    try:
+        meta = json.loads(payload["meta"])
+        state = payload["state_dict"]
+    except (TypeError, KeyError, json.JSONDecodeError):
+        raise CheckpointError(f"{path}: not a psmforce checkpoint (no metadata)") from None
+    if meta.get("format") != FORMAT:
+        raise CheckpointError(f"{path}: not a psmforce checkpoint (format {meta.get('format')!r})")
+    if meta.get("format_version") != FORMAT_VERSION:
+        raise CheckpointError(f"{path}: checkpoint format version {meta.get('format_version')}, "
+                              f"this code reads version {FORMAT_VERSION}")
+    features = tuple(meta["features"])
+    try:
+        model = build_model(meta["model"], len(features), meta["config"])
+    except (TypeError, ValueError) as err:
+        raise CheckpointError(f"{path}: cannot build model '{meta['model']}' with config "
+                              f"{meta['config']}: {err}") from None
+    try:
+        model.load_state_dict(state, strict=True)
+    except RuntimeError as err:
+        raise CheckpointError(f"{path}: weights do not fit model '{meta['model']}' with "
+                              f"{len(features)} inputs and config {meta['config']}: "
+                              f"{str(err).splitlines()[0][:300]}") from None
+    model.to(device).eval()
+    return Checkpoint(meta["model"], meta["config"], features,
+                      Scaler.from_dict(meta["input_scaler"]),
+                      Scaler.from_dict(meta["target_scaler"]), tuple(meta["base_columns"]),
+                      meta["derivation"],
+                      payload.get("prior_json") or None, meta["versions"], meta["provenance"],
+                      model)
+
+
+def check_compatible(ckpt: Checkpoint, *, model_name: str | None = None,
+                     features: Sequence[str] | None = None,
+                     available_columns: Sequence[str] | None = None) -> None:
+    """Raise :class:`CheckpointError` when the checkpoint does not fit the requested setup."""
+    if model_name is not None and model_name != ckpt.model_name:
+        raise CheckpointError(f"checkpoint holds a '{ckpt.model_name}' model, "
+                              f"the setup asks for '{model_name}'")
+    if features is not None and tuple(features) != ckpt.features:
+        extra = sorted(set(features) - set(ckpt.features))
+        lacking = sorted(set(ckpt.features) - set(features))
+        raise CheckpointError(
+            f"checkpoint was trained on {len(ckpt.features)} input columns, the setup gives "
+            f"{len(features)}" + (f"; not in checkpoint: {extra}" if extra else "")
+            + (f"; missing from setup: {lacking}" if lacking else "")
+            + ("" if extra or lacking else "; same columns in another order"))
+    if available_columns is not None:
+        missing = [c for c in ckpt.features if c not in set(available_columns)]
+        if missing:
+            raise CheckpointError(f"the data lacks the checkpoint's input columns {missing}")

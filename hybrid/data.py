@@ -1,0 +1,342 @@
+"""Recordings -> model-ready arrays: loading, feature sets, the paper's split, scaling, windows.
+
+A dataset is a folder of recording CSVs (layout and units: :mod:`psm_model.recording`). With a
+``metadata.json`` (the simulator writes one) its ``trials`` list gives each file's condition and
+split; without one, the condition is the parent folder's name (Free, Traction, Palpation, Rigid,
+Soft) and the split the grandparent's (train, test, config_k, ...).
+
+Splits (seed paper, "Training and Testing Data Split"): the test trials are fixed by the dataset;
+validation is ~10 % of the training trials, drawn per condition with a seed; free-space training
+and validation data are down-sampled to 25 % by taking their windows 4x sparser
+(:data:`FREE_STRIDE_FACTOR`; the paper's stride 20 instead of 5 for free-space files).
+
+Windows are views, never per-window copies: :func:`sliding_windows` over one array, and
+:class:`WindowSet` over all trials of a split concatenated once; a batch gathers its windows from
+the view in one indexing call. Scalers are fitted on training data only.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Callable, Sequence
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import torch
+
+from psm_model.recording import (HEX10, JOINT_EFFORTS, JOINT_POSITIONS, JOINT_VELOCITIES,
+                                 PAPER_FEATURES, TARGETS, read_recording)
+
+FREE_STRIDE_FACTOR = 4
+"""Free-space trials are windowed this many times sparser in train/val (25 % down-sampling)."""
+
+_POSITIONS = set(JOINT_POSITIONS)
+_VELOCITIES = set(JOINT_VELOCITIES)
+_EFFORTS = set(JOINT_EFFORTS)
+_HEX10 = set(HEX10)
+
+
+def _without(drop: set[str]) -> tuple[str, ...]:
+    return tuple(c for c in PAPER_FEATURES if c not in drop)
+
+
+FEATURE_SETS: dict[str, tuple[str, ...]] = {
+    "paper": PAPER_FEATURES,
+    "no_hex10": _without(_HEX10),
+    "no_efforts": _without(_EFFORTS),
+    "no_positions": _without(_POSITIONS),
+    "no_velocities": _without(_VELOCITIES),
+    "no_positions_velocities": _without(_POSITIONS | _VELOCITIES),
+}
+"""The paper's 21 inputs and its input ablations (seed paper, "Model Input Ablations")."""
+
+CHAIN_JOINTS = ("yaw", "pitch", "insertion", "roll", "wrist_pitch", "wrist_yaw")
+LSTM_JACOBIAN_COLUMNS = tuple(f"lstm_map_{r}{c}" for r in range(3) for c in range(6))
+LSTM_FEATURES = (tuple(f"{j}_position" for j in CHAIN_JOINTS)
+                 + tuple(f"{j}_velocity" for j in CHAIN_JOINTS)
+                 + tuple(f"{j}_effort" for j in CHAIN_JOINTS)
+                 + LSTM_JACOBIAN_COLUMNS)
+"""Inputs of :class:`hybrid.models.JointLSTMForce`: (q, dq) of joints 1-6 (standardised), their
+measured efforts and the 3x6 map A(q) = R_base_hex10^T J_s^-T[:3] (both left raw)."""
+LSTM_RAW_COLUMNS = LSTM_FEATURES[12:]
+
+
+class DatasetError(ValueError):
+    """A dataset folder or a request on it that cannot be served; the message says why."""
+
+
+def resolve_features(features: str | Sequence[str]) -> tuple[str, ...]:
+    """A feature-set name from :data:`FEATURE_SETS` (or ``"lstm"``), or an explicit column list."""
+    if isinstance(features, str):
+        if features == "lstm":
+            return LSTM_FEATURES
+        if features not in FEATURE_SETS:
+            raise DatasetError(f"unknown feature set '{features}'; known: "
+                               f"{sorted(FEATURE_SETS) + ['lstm']} or an explicit column list")
+        return FEATURE_SETS[features]
+    cols = tuple(features)
+    if not cols or len(set(cols)) != len(cols):
+        raise DatasetError(f"feature list must be non-empty without repeats, got {list(cols)}")
+    return cols
+
+
+@dataclass
+class Trial:
+    """One recording: its table (columns of :mod:`psm_model.recording` plus any derived ones)."""
+
+    path: str
+    condition: str
+    split: str
+    frame: pd.DataFrame
+    params: dict = field(default_factory=dict)
+
+    def __len__(self) -> int:
+        return len(self.frame)
+
+    def matrix(self, columns: Sequence[str], dtype=np.float32) -> np.ndarray:
+        missing = [c for c in columns if c not in self.frame.columns]
+        if missing:
+            raise DatasetError(f"{self.path}: lacks columns {missing}")
+        return self.frame[list(columns)].to_numpy(dtype=dtype)
+
+
+@dataclass
+class Dataset:
+    root: Path
+    trials: list[Trial]
+    metadata: dict
+
+    def select(self, *, split: str | Sequence[str] | None = None,
+               condition: str | Sequence[str] | None = None) -> list[Trial]:
+        splits = {split} if isinstance(split, str) else (set(split) if split else None)
+        conds = ({condition} if isinstance(condition, str)
+                 else (set(condition) if condition else None))
+        return [t for t in self.trials if (splits is None or t.split in splits)
+                and (conds is None or t.condition in conds)]
+
+    def add_columns(self, derive: Callable[[Trial], dict[str, np.ndarray]]) -> None:
+        """Append derived per-sample columns (prior predictions, Jacobian maps) to every trial."""
+        for trial in self.trials:
+            new = derive(trial)
+            for name, values in new.items():
+                if len(values) != len(trial):
+                    raise DatasetError(f"{trial.path}: derived column '{name}' has {len(values)} "
+                                       f"rows, the recording {len(trial)}")
+            trial.frame = pd.concat([trial.frame.drop(columns=list(new), errors="ignore"),
+                                     pd.DataFrame(new, index=trial.frame.index)], axis=1)
+
+
+def load_dataset(root: str | Path, *, require_targets: bool = True, threads: int = 2) -> Dataset:
+    """Read every recording under ``root`` (see module docstring for how conditions and splits
+    are found). Raises :class:`DatasetError` for a missing or empty folder and passes on
+    :class:`psm_model.recording.RecordingError` naming a bad file."""
+    root = Path(root)
+    if not root.is_dir():
+        raise DatasetError(f"dataset folder {root} does not exist")
+    meta_path = root / "metadata.json"
+    metadata: dict = {}
+    if meta_path.exists():
+        try:
+            metadata = json.loads(meta_path.read_text())
+        except json.JSONDecodeError as err:
+            raise DatasetError(f"{meta_path}: not valid JSON ({err})") from None
+    entries = metadata.get("trials")
+    if entries:
+        try:
+            listed = [(e["path"], e["condition"], e["split"], e) for e in entries]
+        except KeyError as err:
+            raise DatasetError(f"{meta_path}: a trial entry lacks {err}") from None
+    else:
+        files = sorted(root.rglob("*.csv"))
+        listed = [(str(p.relative_to(root)), p.parent.name,
+                   p.parent.parent.name if p.parent.parent != root else "", {}) for p in files]
+    if not listed:
+        raise DatasetError(f"no recordings (*.csv) under {root}")
+
+    def read(item):
+        rel, condition, split, extra = item
+        frame = read_recording(root / rel, require_targets=require_targets)
+        params = {k: v for k, v in extra.items() if k not in ("path", "condition", "split")}
+        return Trial(str(rel), str(condition), str(split), frame, params)
+
+    with ThreadPoolExecutor(max_workers=max(1, threads)) as pool:
+        trials = list(pool.map(read, listed))
+    return Dataset(root, trials, metadata)
+
+
+def split_validation(trials: Sequence[Trial], fraction: float = 0.1,
+                     seed: int = 0) -> tuple[list[Trial], list[Trial]]:
+    """(train, validation): ``fraction`` of the trials of each condition (rounded, at least one
+    where a condition has two or more trials) go to validation, drawn with ``seed``."""
+    if not 0 <= fraction < 1:
+        raise DatasetError(f"validation fraction must be in [0, 1), got {fraction}")
+    rng = np.random.default_rng(seed)
+    train, val = [], []
+    for cond in sorted({t.condition for t in trials}):
+        group = [t for t in trials if t.condition == cond]
+        n_val = int(round(fraction * len(group)))
+        if fraction > 0 and len(group) >= 2:
+            n_val = max(n_val, 1)
+        chosen = set(rng.permutation(len(group))[:n_val].tolist())
+        for i, t in enumerate(group):
+            (val if i in chosen else train).append(t)
+    return train, val
+
+
+def subsample_trials(trials: Sequence[Trial], fraction: float, seed: int = 0) -> list[Trial]:
+    """A seeded ``fraction`` of the trials of each condition (at least one each): the
+    data-efficiency runs train on fewer recordings, not on thinned windows."""
+    if not 0 < fraction <= 1:
+        raise DatasetError(f"training fraction must be in (0, 1], got {fraction}")
+    rng = np.random.default_rng(seed)
+    kept = []
+    for cond in sorted({t.condition for t in trials}):
+        group = [t for t in trials if t.condition == cond]
+        n = max(1, int(round(fraction * len(group))))
+        idx = sorted(rng.permutation(len(group))[:n].tolist())
+        kept += [group[i] for i in idx]
+    return kept
+
+
+@dataclass
+class Scaler:
+    """Per-column standard scaling ``(x - mean) / std`` fitted on training data only."""
+
+    mean: np.ndarray
+    std: np.ndarray
+
+    @classmethod
+    def fit(cls, values: np.ndarray, raw: Sequence[bool] | None = None) -> "Scaler":
+        """Columns flagged in ``raw`` are passed through (mean 0, std 1); constant columns keep
+        std 1 so they are centred, not divided by zero."""
+        values = np.asarray(values, dtype=np.float64)
+        mean, std = values.mean(axis=0), values.std(axis=0)
+        std = np.where(std > 1e-9, std, 1.0)
+        if raw is not None:
+            raw = np.asarray(raw, dtype=bool)
+            mean, std = np.where(raw, 0.0, mean), np.where(raw, 1.0, std)
+        return cls(mean.astype(np.float32), std.astype(np.float32))
+
+    def transform(self, values: np.ndarray) -> np.ndarray:
+        return ((values - self.mean) / self.std).astype(np.float32)
+
+    def inverse(self, values):
+        if isinstance(values, torch.Tensor):
+            return values * torch.as_tensor(self.std, device=values.device) + torch.as_tensor(
+                self.mean, device=values.device)
+        return values * self.std + self.mean
+
+    def to_dict(self) -> dict:
+        return {"mean": self.mean.tolist(), "std": self.std.tolist()}
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "Scaler":
+        return cls(np.asarray(d["mean"], np.float32), np.asarray(d["std"], np.float32))
+
+
+def target_matrix(trial: Trial, base_columns: Sequence[str] = (), dtype=np.float32) -> np.ndarray:
+    """The (N, 3) training target: the ATI force in the HEX10 frame, minus the three
+    ``base_columns`` when given (a residual target; the model's output is added to the base)."""
+    y = trial.matrix(TARGETS, np.float64)
+    if base_columns:
+        if len(base_columns) != 3:
+            raise DatasetError(f"base needs 3 columns (x, y, z), got {list(base_columns)}")
+        y = y - trial.matrix(base_columns, np.float64)
+    return y.astype(dtype)
+
+
+def fit_scalers(trials: Sequence[Trial], features: Sequence[str], raw_columns: Sequence[str] = (),
+                base_columns: Sequence[str] = ()) -> tuple[Scaler, Scaler]:
+    """(input scaler, target scaler) from the given (training) trials."""
+    if not trials:
+        raise DatasetError("cannot fit scalers on an empty training set")
+    x = np.concatenate([t.matrix(features, np.float64) for t in trials])
+    y = np.concatenate([target_matrix(t, base_columns, np.float64) for t in trials])
+    return Scaler.fit(x, raw=[c in set(raw_columns) for c in features]), Scaler.fit(y)
+
+
+def sliding_windows(values: np.ndarray, window: int, stride: int = 1) -> np.ndarray:
+    """Zero-copy (n_windows, window, F) view of the windows of ``values`` (N, F) that start every
+    ``stride`` samples: window k covers rows [k*stride, k*stride + window)."""
+    if window < 1 or stride < 1:
+        raise DatasetError(f"window and stride must be >= 1, got {window}, {stride}")
+    if len(values) < window:
+        return np.empty((0, window) + values.shape[1:], dtype=values.dtype)
+    view = np.lib.stride_tricks.sliding_window_view(values, window, axis=0)[::stride]
+    return np.moveaxis(view, -1, 1)
+
+
+class WindowSet:
+    """Every window of a list of trials, without copying a window.
+
+    The trials' scaled inputs and targets are concatenated once into (N, F) / (N, 3) tensors and
+    ``inputs.unfold`` gives a (N - L + 1, L, F) view of all windows; :attr:`starts` lists the
+    windows that lie inside one trial, ``stride`` apart (``stride * FREE_STRIDE_FACTOR`` for
+    Free trials when ``downsample_free``). ``targets="last"`` pairs each window with the target of
+    its last sample (window models); ``"all"`` with all of its targets (chunk models). Targets
+    are residuals when ``base_columns`` are given (:func:`target_matrix`).
+    """
+
+    def __init__(self, trials: Sequence[Trial], features: Sequence[str], input_scaler: Scaler,
+                 target_scaler: Scaler, window: int, stride: int, *, targets: str = "last",
+                 downsample_free: bool = False, base_columns: Sequence[str] = ()):
+        if targets not in ("last", "all"):
+            raise DatasetError(f"targets must be 'last' or 'all', got '{targets}'")
+        if not trials:
+            raise DatasetError("no trials to window")
+        self.window, self.stride, self.mode = window, stride, targets
+        xs, ys, starts, offset = [], [], [], 0
+        for t in trials:
+            xs.append(input_scaler.transform(t.matrix(features)))
+            ys.append(target_scaler.transform(target_matrix(t, base_columns)))
+            step = stride * (FREE_STRIDE_FACTOR if downsample_free and t.condition == "Free" else 1)
+            starts.append(offset + np.arange(0, len(t) - window + 1, step))
+            offset += len(t)
+        self.inputs = torch.from_numpy(np.concatenate(xs))
+        self.targets = torch.from_numpy(np.concatenate(ys))
+        self.starts = torch.from_numpy(np.concatenate(starts).astype(np.int64))
+        if len(self.starts) == 0:
+            raise DatasetError(f"no trial is as long as the window ({window} samples)")
+        self._x_view = self.inputs.unfold(0, window, 1).transpose(1, 2)
+        self._y_view = self.targets.unfold(0, window, 1).transpose(1, 2)
+
+    def __len__(self) -> int:
+        return len(self.starts)
+
+    def batch(self, index: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """(x (B, L, F), y (B, 3) or (B, L, 3)) for the windows ``index`` into :attr:`starts`."""
+        s = self.starts[index]
+        x = self._x_view[s]
+        y = self.targets[s + self.window - 1] if self.mode == "last" else self._y_view[s]
+        return x, y
+
+
+def lstm_columns(psm) -> Callable[[Trial], dict[str, np.ndarray]]:
+    """Deriver for :meth:`Dataset.add_columns`: the per-sample 3x6 map A(q) of the LSTM baseline,
+    F_tool_hex10 = A(q) (tau - tau_hat).
+
+    Sign and frames: dVRK efforts are the torques the motors apply, so a static external force F
+    on the tool shows up as tau = -J^T [F; m] (the simulator's ``effort_convention``), while
+    ``psm.wrench_from_torques`` returns the wrench w with J^T w = tau. Hence A(q) is minus the
+    force rows of that map: the seed paper's F = J_s^-T (tau - tau_hat) with the sign that makes F
+    the force ON the tool, expressed in the HEX10 frame (eq. 2; the force of a wrench does not
+    depend on the reduction point, so reducing at the HEX10 origin is the same force as at cp).
+    The map is linear in tau (damping near singularities depends on J only), so six unit-torque
+    calls give it for a whole recording at once.
+    """
+    def derive(trial: Trial) -> dict[str, np.ndarray]:
+        q = trial.matrix([f"{j}_position" for j in CHAIN_JOINTS], np.float64)
+        n = len(q)
+        cols = []
+        for j in range(6):
+            unit = np.zeros((n, 6))
+            unit[:, j] = 1.0
+            wrench = np.asarray(psm.wrench_from_torques(q, unit, frame="hex10",
+                                                        expressed_in="frame"))
+            cols.append(-wrench[:, :3])
+        amap = np.stack(cols, axis=-1)  # (N, 3, 6): rows force axes, columns joints
+        return {name: amap.reshape(n, 18)[:, k] for k, name in enumerate(LSTM_JACOBIAN_COLUMNS)}
+    return derive

@@ -1,0 +1,208 @@
+"""Offline evaluation as in the seed paper: predict whole trials, post-process, score, tabulate.
+
+Every model is scored on the same samples: from :data:`EVAL_START` (sample 99, the first with a
+full 100-sample window for the paper's transformer) to the end of each trial. Predictions of one
+trial are post-processed on their own (:func:`hybrid.metrics.postprocess`), then the trials of a
+set are concatenated and scored per axis (RMSE, NRMSE over the set's range, R^2), which is how
+the paper's tables are computed.
+
+The bias step (subtract the mean prediction of the first 0.5 s) assumes the tool is held still in
+free space then. It is skipped for the LSTM (as in the paper) and for trials that do not start in
+free space: traction trials (:data:`NO_FREE_START`), where the hook is attached and the spring
+loaded from the first sample, so the "bias" would remove real force.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Mapping, Sequence
+
+import numpy as np
+import torch
+
+from hybrid.data import Dataset, Trial, load_dataset, lstm_columns, sliding_windows
+from hybrid.metrics import AXES, axis_metrics, postprocess
+from psm_model.recording import TARGETS
+
+EVAL_START = 99
+"""First scored sample of every trial (0.99 s of context for every model)."""
+NO_FREE_START = frozenset({"Traction"})
+"""Conditions whose trials are loaded from the start (no free-space period to take a bias from)."""
+PREDICT_CHUNK = 1024
+"""Chunk length for offline prediction with chunk models (overlapping by the model's window)."""
+
+
+def setup_from_checkpoint(ckpt):
+    from hybrid.train import Setup
+    return Setup(ckpt.model_name, dict(ckpt.config), ckpt.features, ckpt.input_scaler,
+                 ckpt.target_scaler, ckpt.base_columns, ckpt.derivation, ckpt.prior_json)
+
+
+def derive_for_checkpoint(dataset: Dataset, ckpt) -> None:
+    """Add the derived columns the checkpoint's model reads (Jacobian maps, prior columns) and
+    refuse data that lacks its inputs."""
+    from hybrid.checkpoint import check_compatible
+    if ckpt.derivation == "lstm":
+        from psm_model import PSM
+        dataset.add_columns(lstm_columns(PSM()))
+    elif ckpt.derivation == "prior":
+        from hybrid.hybrid import add_prior_columns, prior_from_json
+        add_prior_columns(dataset, prior_from_json(ckpt.prior_json))
+    for trial in dataset.trials:
+        check_compatible(ckpt, available_columns=list(trial.frame.columns))
+
+
+def predict_trial(model: torch.nn.Module, setup, trial: Trial, *, batch: int = 8192,
+                  device: str = "cpu") -> np.ndarray:
+    """(N, 3) force estimates in N (HEX10 frame) for one trial; NaN where the model has no
+    estimate (the first ``window - 1`` samples for window models). Chunk models run over chunks
+    of up to :data:`PREDICT_CHUNK` samples overlapping by ``model.window``: exact for a causal
+    model whose receptive field is ``window``; for the LSTM a state reset every chunk, after a
+    ``window``-sample warm-up, as in its training."""
+    x = setup.input_scaler.transform(trial.matrix(setup.features))
+    n = len(x)
+    out = np.full((n, 3), np.nan, dtype=np.float64)
+    model.eval()
+    with torch.no_grad():
+        if model.kind == "window":
+            views = sliding_windows(x, model.window, 1)
+            preds = [model(torch.from_numpy(np.array(views[i:i + batch])).to(device))
+                     for i in range(0, len(views), batch)]
+            if preds:
+                out[model.window - 1:] = torch.cat(preds).cpu().numpy()
+        else:
+            warm = model.window
+            chunk = min(PREDICT_CHUNK, n)
+            step = max(1, chunk - warm)
+            n_chunks = 1 if n <= chunk else int(np.ceil((n - chunk) / step)) + 1
+            padded = np.concatenate([x, np.repeat(x[-1:], (n_chunks - 1) * step + chunk - n, 0)])
+            chunks = torch.from_numpy(np.array(sliding_windows(padded, chunk, step)[:n_chunks]))
+            per_call = max(1, batch // chunk)
+            pred = torch.cat([model(chunks[i:i + per_call].to(device))
+                              for i in range(0, n_chunks, per_call)]).cpu().numpy()
+            out[:chunk] = pred[0]
+            for k in range(1, n_chunks):
+                lo, hi = k * step + warm, min(n, k * step + chunk)
+                out[lo:hi] = pred[k][warm:warm + hi - lo]
+    if model.output_space == "scaled":
+        out = setup.target_scaler.inverse(out)
+    if setup.base_columns:
+        out = out + trial.matrix(setup.base_columns, np.float64)
+    return out
+
+
+def scored_segment(pred: np.ndarray, trial: Trial, *, bias: bool,
+                   rate_hz: float = 100.0) -> tuple[np.ndarray, np.ndarray]:
+    """(post-processed prediction, truth) of one trial from :data:`EVAL_START` on; ``bias`` is
+    the model's setting, honoured only for trials that start in free space."""
+    p = pred[EVAL_START:]
+    if np.isnan(p).any():
+        raise ValueError(f"{trial.path}: model gives no estimate for some samples after "
+                         f"sample {EVAL_START} (window longer than {EVAL_START + 1}?)")
+    bias = bias and trial.condition not in NO_FREE_START
+    return postprocess(p, rate_hz, bias=bias), trial.matrix(TARGETS, np.float64)[EVAL_START:]
+
+
+def score(predictions: Mapping[str, np.ndarray], trials: Sequence[Trial], *,
+          bias: bool = True) -> dict:
+    """Per-axis metrics over the concatenation of the trials' post-processed predictions."""
+    parts = [scored_segment(predictions[t.path], t, bias=bias) for t in trials
+             if len(t) > EVAL_START]
+    if not parts:
+        raise ValueError("no trial is longer than the evaluation start")
+    pred = np.concatenate([p for p, _ in parts])
+    truth = np.concatenate([y for _, y in parts])
+    return axis_metrics(pred, truth)
+
+
+def uses_bias_correction(model_name: str) -> bool:
+    """The paper applies the first-0.5 s bias correction to all but the LSTM baseline."""
+    return model_name != "lstm"
+
+
+def automated_table(results: Mapping[str, Mapping[str, Mapping[str, float]]],
+                    title: str = "Automated test set") -> str:
+    """The paper's Table (automated test set): one row per axis, range, then RMSE / NRMSE / R^2
+    per model; the best NRMSE per axis in bold. ``results``: {model label: axis_metrics}."""
+    labels = list(results)
+    head = ("| Axis | Range (N) | " + " | ".join(f"{m} RMSE (N) | {m} NRMSE (%) | {m} R² (%)"
+                                                for m in labels) + " |")
+    sep = "|" + "---|" * (2 + 3 * len(labels))
+    rows = [f"**{title}**", "", head, sep]
+    first = results[labels[0]]
+    for axis in AXES:
+        best = min(results[m][axis]["nrmse_pct"] for m in labels)
+        cells = []
+        for m in labels:
+            r = results[m][axis]
+            n = f"{r['nrmse_pct']:.2f}"
+            cells += [f"{r['rmse_n']:.3f}", f"**{n}**" if r["nrmse_pct"] == best else n,
+                      f"{r['r2_pct']:.2f}"]
+        rows.append(f"| {axis} | {first[axis]['range_n']:.2f} | " + " | ".join(cells) + " |")
+    return "\n".join(rows) + "\n"
+
+
+def teleop_table(results: Mapping[str, Mapping[str, Sequence[Mapping]]]) -> str:
+    """The paper's finetuning table: rows (condition, seen/unseen, axis), mean ± std over the
+    cross-validation folds. ``results``: {model label: {"Rigid/Seen": [axis_metrics per fold]}}."""
+    labels = list(results)
+    groups = list(results[labels[0]])
+    head = ("| Condition | Config | Axis | Range (N) | " + " | ".join(
+        f"{m} RMSE (N) | {m} NRMSE (%) | {m} R² (%)" for m in labels) + " |")
+    rows = [head, "|" + "---|" * (4 + 3 * len(labels))]
+
+    def ms(values):
+        return f"{np.mean(values):.2f} ± {np.std(values):.2f}"
+    for g in groups:
+        cond, seen = g.split("/")
+        for axis in AXES:
+            folds0 = results[labels[0]][g]
+            cells = [ms([f[axis]["range_n"] for f in folds0])]
+            for m in labels:
+                folds = results[m][g]
+                cells += [ms([f[axis][k] for f in folds])
+                          for k in ("rmse_n", "nrmse_pct", "r2_pct")]
+            rows.append(f"| {cond} | {seen} | {axis} | " + " | ".join(cells) + " |")
+    return "\n".join(rows) + "\n"
+
+
+def write_text_atomic(path: Path, text: str) -> None:
+    tmp = path.with_name(path.name + ".part")
+    tmp.write_text(text)
+    tmp.replace(path)
+
+
+def evaluate(checkpoint: str | Path, data_dir: str | Path, out_dir: str | Path, *,
+             split: str | None = "test", device: str = "cpu", plots: bool = True) -> dict:
+    """Score a checkpoint on the ``split`` trials of ``data_dir`` (all trials when None), overall
+    and per condition; writes metrics.json, metrics.md and (``plots``) PNG figures into
+    ``out_dir``. Returns the metrics dict."""
+    from hybrid.checkpoint import load_checkpoint
+    ckpt = load_checkpoint(checkpoint, device)
+    dataset = load_dataset(data_dir)
+    derive_for_checkpoint(dataset, ckpt)
+    trials = dataset.select(split=split) if split else dataset.trials
+    if not trials:
+        raise ValueError(f"{data_dir}: no trials in split '{split}'")
+    setup = setup_from_checkpoint(ckpt)
+    preds = {t.path: predict_trial(ckpt.model, setup, t, device=device) for t in trials}
+    bias = uses_bias_correction(ckpt.model_name)
+    result = {"checkpoint": str(checkpoint), "model": ckpt.model_name, "data_dir": str(data_dir),
+              "split": split, "eval_start_sample": EVAL_START, "bias_correction": bias,
+              "overall": score(preds, trials, bias=bias),
+              "by_condition": {c: score(preds, [t for t in trials if t.condition == c], bias=bias)
+                               for c in sorted({t.condition for t in trials})}}
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    write_text_atomic(out / "metrics.json", json.dumps(result, indent=2) + "\n")
+    md = automated_table({ckpt.model_name: result["overall"]}, f"{split or 'all'} trials")
+    for c, r in result["by_condition"].items():
+        md += "\n" + automated_table({ckpt.model_name: r}, c)
+    write_text_atomic(out / "metrics.md", md)
+    if plots:
+        from hybrid.plots import plot_scatter, plot_time_series
+        segments = {t.path: scored_segment(preds[t.path], t, bias=bias) for t in trials}
+        plot_time_series({ckpt.model_name: segments}, trials, out / "time_series.png")
+        plot_scatter({ckpt.model_name: segments}, out / "scatter.png")
+    return result

@@ -1,0 +1,227 @@
+"""The hybrid estimator's inputs: HEX10 reading compensated by the internal-force prior.
+
+The prior (``psm_model.identification.InternalForcePrior`` or any object with the same
+interface) predicts the wrench the HEX10 reads when no external force acts (cable tensions,
+friction, distal gravity, bias), in the HEX10 frame, [force N; moment Nm]. The hybrid feeds the
+network the *compensated* reading ``comp = HEX10 - prior`` (columns :data:`COMPENSATED_HEX10`,
+same frame, units and signs as ``fx .. tz``) in place of the raw HEX10 columns of the paper's 21
+inputs (:data:`HYBRID_FEATURES`), and the network learns the residual:
+
+    estimate (N, HEX10 frame) = (hex10_f - prior_f) + target_scaler.inverse(net(scaled inputs))
+
+so ``BASE_COLUMNS`` (= ``comp_fx, comp_fy, comp_fz``) are added to the un-scaled network output,
+as :func:`hybrid.train.predict_trial` does for any model with base columns.
+
+``use_prior=False`` (the "hybrid without the prior" ablation, :func:`hybrid_columns`): the same
+network on the paper's raw 21 inputs with the raw HEX10 force as the base, i.e. the prior
+replaced by zero.
+
+Prior interface used here: ``predict(frame: DataFrame) -> (N, 6)`` for whole recordings,
+``input_columns`` (the recording columns it reads), ``predict_sample(values) -> (6,)`` for one
+sample given as a 1-D array in ``input_columns`` order (the streaming path), ``save(path)`` /
+``load(path)`` (JSON). :class:`SamplePrior` gives an ``InternalForcePrior`` (whose per-sample
+path is ``predict_one(positions, efforts, velocities, g_hex)``) that interface; the gravity
+direction in the HEX10 frame comes from the PSM's forward kinematics, once per sample.
+
+:class:`HybridInputs` turns raw recorded signals into the network's scaled-input order and the
+base, for a whole recording (vectorised) or one sample (preallocated buffers).
+"""
+
+from __future__ import annotations
+
+import tempfile
+from pathlib import Path
+from typing import Sequence
+
+import numpy as np
+import pandas as pd
+
+from psm_model.recording import HEX10, HEX10_FORCE, JOINT_POSITIONS, PAPER_FEATURES
+
+COMPENSATED_HEX10 = tuple(f"comp_{c}" for c in HEX10)
+"""HEX10 reading minus the prior's internal wrench: comp_fx .. comp_tz (N, Nm, HEX10 frame)."""
+BASE_COLUMNS = COMPENSATED_HEX10[:3]
+"""Added to the network's un-scaled output: the prior-compensated HEX10 force."""
+HYBRID_FEATURES = tuple(f"comp_{c}" if c in HEX10 else c for c in PAPER_FEATURES)
+"""The paper's 21 inputs in its order, HEX10 columns replaced by their compensated values."""
+
+
+class HybridInputError(ValueError):
+    """Signals or a prior the hybrid's inputs cannot be built from; the message says which."""
+
+
+def hybrid_columns(use_prior: bool = True) -> tuple[tuple[str, ...], tuple[str, ...]]:
+    """(input features, base columns) of the hybrid, or of its no-prior ablation."""
+    if use_prior:
+        return HYBRID_FEATURES, BASE_COLUMNS
+    return PAPER_FEATURES, HEX10_FORCE
+
+
+def compensated_hex10(frame: pd.DataFrame, prior) -> dict[str, np.ndarray]:
+    """{comp_fx .. comp_tz: (N,)} for a whole recording: HEX10 reading minus ``prior.predict``."""
+    internal = np.asarray(prior.predict(frame), dtype=np.float64)
+    if internal.shape != (len(frame), 6):
+        raise HybridInputError(f"prior.predict returned shape {internal.shape}, expected "
+                               f"({len(frame)}, 6)")
+    hex10 = frame[list(HEX10)].to_numpy(dtype=np.float64)
+    return {name: hex10[:, k] - internal[:, k] for k, name in enumerate(COMPENSATED_HEX10)}
+
+
+def add_prior_columns(dataset, prior) -> None:
+    """Append the compensated HEX10 columns to every trial of a :class:`hybrid.data.Dataset`."""
+    dataset.add_columns(lambda trial: compensated_hex10(trial.frame, prior))
+
+
+def prior_to_json(prior) -> str:
+    """The prior as the JSON text its ``save`` writes (stored in checkpoints and exports)."""
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "prior.json"
+        prior.save(path)
+        return path.read_text()
+
+
+def prior_from_json(text: str):
+    """An ``InternalForcePrior`` from the JSON text of :func:`prior_to_json`."""
+    from psm_model.identification.prior import InternalForcePrior
+    if not text:
+        raise HybridInputError("no prior JSON (the checkpoint was not trained with a prior)")
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "prior.json"
+        path.write_text(text)
+        return InternalForcePrior.load(path)
+
+
+class HexRotation:
+    """R_base_hex10(q) (3, 3) for one configuration q (7,) (dVRK joint positions, jaw last):
+    Pinocchio's forward kinematics on the PSM's own model (``psm.model``, frame ``hex10``).
+
+    Equals ``psm.rotation(q, "hex10")`` (tests/test_streaming.py) at ~3 us instead of ~250 us:
+    ``PSM.rotation`` is vectorised over many configurations and its per-call overhead dominates
+    for one sample.
+    """
+
+    def __init__(self, psm):
+        self._model = psm.model
+        self._data = psm.model.createData()
+        self._frame = psm.model.getFrameId("hex10")
+
+    def __call__(self, q: np.ndarray) -> np.ndarray:
+        import pinocchio as pin
+        pin.forwardKinematics(self._model, self._data, q)
+        return pin.updateFramePlacement(self._model, self._data, self._frame).rotation
+
+
+class SamplePrior:
+    """``InternalForcePrior`` -> the per-sample interface above (see the module docstring).
+
+    Reads the columns of ``psm_model.identification.prior.arrays_from_frame``: the seven joint
+    positions (gravity in the HEX10 frame as its ``gravity_in_hex10``, through
+    :class:`HexRotation`; roll and wrist pitch), the wrist efforts and the wrist velocities.
+    """
+
+    input_columns = (JOINT_POSITIONS
+                     + ("wrist_pitch_effort", "wrist_yaw_effort", "jaw_effort")
+                     + ("wrist_pitch_velocity", "wrist_yaw_velocity", "jaw_velocity"))
+    _ROLL, _WRIST_PITCH = JOINT_POSITIONS.index("roll_position"), JOINT_POSITIONS.index(
+        "wrist_pitch_position")
+
+    def __init__(self, prior, psm=None):
+        from psm_model import PSM
+        from psm_model.identification.prior import GRAVITY_MPS2
+        self.prior, self.psm = prior, psm or PSM()
+        self._rotation = HexRotation(self.psm)
+        self._gravity = -GRAVITY_MPS2
+        self._q = np.zeros(len(JOINT_POSITIONS))
+        self._out = np.zeros(6)
+
+    def predict(self, frame: pd.DataFrame) -> np.ndarray:
+        return self.prior.predict(frame, self.psm)
+
+    def predict_sample(self, values: np.ndarray) -> np.ndarray:
+        n = len(JOINT_POSITIONS)
+        self._q[:] = values[:n]
+        # gravity (0, 0, -g) of the upright base, in the HEX10 frame: R^T e_z is R's third row
+        g_hex = (self._rotation(self._q)[2] * self._gravity).tolist()
+        v = values.tolist()
+        self._out[:] = self.prior.predict_one((v[self._ROLL], v[self._WRIST_PITCH]),
+                                              v[n:n + 3], v[n + 3:n + 6], g_hex)
+        return self._out
+
+
+def sample_prior(prior, psm=None):
+    """``prior`` as it is when it has the per-sample interface, else wrapped in
+    :class:`SamplePrior`."""
+    if prior is None or (hasattr(prior, "predict_sample") and hasattr(prior, "input_columns")):
+        return prior
+    return SamplePrior(prior, psm)
+
+
+class HybridInputs:
+    """Raw recorded signals -> (scaled network inputs, base) in a model's column order.
+
+    ``features`` / ``base_columns``: the checkpoint's columns; any of :data:`COMPENSATED_HEX10`
+    among them is computed with ``prior``. :attr:`raw_columns` lists the recorded columns needed,
+    in the order :meth:`sample` expects them.
+    """
+
+    def __init__(self, features: Sequence[str], base_columns: Sequence[str], input_scaler,
+                 prior=None, extra_columns: Sequence[str] = (), psm=None):
+        self.features, self.base_columns = tuple(features), tuple(base_columns)
+        derived = set(COMPENSATED_HEX10)
+        uses_prior = any(c in derived for c in self.features + self.base_columns)
+        if uses_prior and prior is None:
+            raise HybridInputError(f"columns {sorted(derived & set(self.features))} need a prior")
+        self.prior = sample_prior(prior, psm) if uses_prior else None
+        raw = [c for c in self.features + self.base_columns + tuple(extra_columns)
+               if c not in derived]
+        if self.prior is not None:
+            raw += list(HEX10) + list(self.prior.input_columns)
+        self.raw_columns = tuple(dict.fromkeys(raw))
+        source = self.raw_columns + COMPENSATED_HEX10
+        self._feature_index = np.array([source.index(c) for c in self.features])
+        self._base_index = np.array([source.index(c) for c in self.base_columns], dtype=np.intp)
+        self._mean = np.asarray(input_scaler.mean, np.float32)
+        self._std = np.asarray(input_scaler.std, np.float32)
+        if self._mean.shape != (len(self.features),):
+            raise HybridInputError(f"input scaler has {self._mean.shape} entries for "
+                                   f"{len(self.features)} features")
+        n_raw = len(self.raw_columns)
+        if self.prior is not None:
+            self._hex10_index = np.array([self.raw_columns.index(c) for c in HEX10])
+            self._prior_index = np.array([self.raw_columns.index(c)
+                                          for c in self.prior.input_columns])
+            self._prior_in = np.zeros(len(self._prior_index))
+        self._source = np.zeros(n_raw + 6)
+        self._raw_view = self._source[:n_raw]
+        self._comp_view = self._source[n_raw:]
+        self._x64 = np.zeros(len(self.features))
+        self.x = np.zeros(len(self.features), np.float32)
+        self.base = np.zeros(len(self.base_columns))
+
+    def frame(self, frame: pd.DataFrame) -> tuple[np.ndarray, np.ndarray]:
+        """Whole recording -> (scaled inputs (N, F) float32, base (N, len(base)) float64)."""
+        missing = [c for c in self.raw_columns if c not in frame.columns]
+        if missing:
+            raise HybridInputError(f"recording lacks columns {missing}")
+        cols = {c: frame[c].to_numpy(dtype=np.float64) for c in self.raw_columns}
+        if self.prior is not None:
+            cols.update(compensated_hex10(frame, self.prior))
+        x = np.column_stack([cols[c] for c in self.features])
+        x = ((x - self._mean) / self._std).astype(np.float32)
+        base = (np.column_stack([cols[c] for c in self.base_columns]) if self.base_columns
+                else np.zeros((len(frame), 0)))
+        return x, base
+
+    def sample(self, raw: np.ndarray) -> None:
+        """One sample (``raw_columns`` order, finite) -> :attr:`x` (scaled) and :attr:`base`."""
+        self._raw_view[:] = raw
+        if self.prior is not None:
+            np.take(self._raw_view, self._prior_index, out=self._prior_in)
+            internal = self.prior.predict_sample(self._prior_in)
+            np.take(self._raw_view, self._hex10_index, out=self._comp_view)
+            np.subtract(self._comp_view, internal, out=self._comp_view)
+        np.take(self._source, self._feature_index, out=self._x64)
+        np.subtract(self._x64, self._mean, out=self._x64)
+        np.divide(self._x64, self._std, out=self._x64)
+        self.x[:] = self._x64
+        np.take(self._source, self._base_index, out=self.base)

@@ -1,0 +1,192 @@
+"""The paper's estimators and their baselines as PyTorch modules.
+
+Two model families share the training loop (:mod:`hybrid.train`):
+
+* window models, ``kind = "window"``: ``forward(x: (B, L, F)) -> (B, 3)``, one estimate for the
+  last sample of each window (the paper's transformer, ``L = 100``; the FCN, ``L = 1``);
+* chunk models, ``kind = "chunk"``: ``forward(x: (B, T, F)) -> (B, T, 3)``, an estimate for every
+  sample of a chunk, causal, supervised after a warm-up of ``window`` samples (the per-joint LSTM
+  here and the hybrid's causal transformer in :mod:`hybrid.causal`).
+
+``output_space`` says what the output means: ``"scaled"`` = standard-scaled targets (the loop
+un-scales with the training target statistics), ``"newton"`` = force in N in the HEX10 frame
+(the LSTM, whose output comes out of the Jacobian transpose).
+
+Every model has ``finetune_modules()``: the modules left trainable when finetuning ("the last
+decoder block" of the paper: the transformer's two-layer decoder, 4.4K parameters; the FCN's last
+layer, 0.2K; each joint LSTM's two-layer head, 49.9K in all).
+"""
+
+from __future__ import annotations
+
+import math
+
+import torch
+from torch import nn
+
+LSTM_MAX_TORQUE = (10.0, 10.0, 10.0, 0.2, 0.2, 0.2)
+"""Yang et al.'s output bound per chain joint (tanh x bound): Nm (revolute), N (insertion)."""
+
+
+class _SinusoidalPositions(nn.Module):
+    """Fixed sinusoidal positional encoding (Vaswani et al.), added to (B, L, d) inputs."""
+
+    def __init__(self, d_model: int, max_len: int = 4096):
+        super().__init__()
+        position = torch.arange(max_len, dtype=torch.float32)[:, None]
+        freq = torch.exp(torch.arange(0, d_model, 2, dtype=torch.float32)
+                         * (-math.log(10000.0) / d_model))
+        table = torch.zeros(max_len, d_model)
+        table[:, 0::2] = torch.sin(position * freq)
+        table[:, 1::2] = torch.cos(position * freq[: d_model // 2])
+        self.register_buffer("table", table, persistent=False)
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        if x.shape[1] > self.table.shape[0]:
+            raise ValueError(f"window of {x.shape[1]} samples exceeds the positional table "
+                             f"({self.table.shape[0]})")
+        return x + self.table[: x.shape[1]]
+
+
+class PaperTransformer(nn.Module):
+    """The seed paper's estimator: Linear(F -> 64) + sinusoidal positions + 3 encoder layers
+    (8 heads, feed-forward 256, dropout 0.1, post-norm) -> last time step -> Linear 64 - ReLU -
+    Linear 3. 155,715 parameters with the paper's 21 inputs."""
+
+    kind = "window"
+    output_space = "scaled"
+
+    def __init__(self, n_features: int, window: int = 100, d_model: int = 64, n_heads: int = 8,
+                 n_layers: int = 3, d_ff: int = 256, dropout: float = 0.1):
+        super().__init__()
+        self.window = window
+        self.embed = nn.Linear(n_features, d_model)
+        self.positions = _SinusoidalPositions(d_model, max_len=max(window, 1))
+        layer = nn.TransformerEncoderLayer(d_model, n_heads, d_ff, dropout, batch_first=True)
+        self.encoder = nn.TransformerEncoder(layer, n_layers, enable_nested_tensor=False)
+        self.decoder = nn.Sequential(nn.Linear(d_model, d_model), nn.ReLU(), nn.Linear(d_model, 3))
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        h = self.encoder(self.positions(self.embed(x)))
+        return self.decoder(h[:, -1])
+
+    def finetune_modules(self) -> list[nn.Module]:
+        return [self.decoder]
+
+
+class FCN(nn.Module):
+    """The paper's non-temporal baseline: three linear layers (F -> 64 -> 64 -> 3, ReLU) on one
+    sample. 5,763 parameters with 21 inputs. Takes (B, 1, F) windows like the other window
+    models."""
+
+    kind = "window"
+    output_space = "scaled"
+
+    def __init__(self, n_features: int, hidden: int = 64):
+        super().__init__()
+        self.window = 1
+        self.body = nn.Sequential(nn.Linear(n_features, hidden), nn.ReLU(),
+                                  nn.Linear(hidden, hidden), nn.ReLU())
+        self.head = nn.Linear(hidden, 3)
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        return self.head(self.body(x[:, -1]))
+
+    def finetune_modules(self) -> list[nn.Module]:
+        return [self.head]
+
+
+class JointLSTMForce(nn.Module):
+    """Yang et al.'s inverse-dynamics baseline as the seed paper trains it (eq. 1-3).
+
+    Six networks, one per chain joint: LSTM(12 -> 128) over (q, dq) of joints 1-6 -> Linear 64 ->
+    ReLU -> Linear 1 -> tanh x max torque, giving the internal torque estimate tau_hat. The force
+    follows through the Jacobian:
+
+        F_hex10 = A(q) (tau - tau_hat),   A(q) = -[R_PSM_HEX10(q)^T  0] J_s(q)^-T   (3 x 6),
+
+    i.e. F = J_s^-T (tau - tau_hat) in the base frame, its force rows rotated into the HEX10 frame
+    (paper eq. 2; the minus because dVRK efforts are what the motors apply, see
+    :func:`hybrid.data.lstm_columns`, which precomputes A per sample with the PSM model). A enters
+    as input columns, so the whole map is differentiable and the loss is the MSE on the
+    HEX10-frame force (eq. 3).
+
+    Input columns, in order (see :data:`hybrid.data.LSTM_FEATURES`): 12 standardised (q, dq) of
+    joints 1-6, 6 raw measured efforts tau (Nm, N), 18 raw entries of A (row-major). A chunk
+    model: (B, T, 36) -> (B, T, 3) in N, sequence-to-sequence as Yang et al. train it.
+    486,150 parameters.
+    """
+
+    kind = "chunk"
+    output_space = "newton"
+
+    def __init__(self, window: int = 100, hidden: int = 128, head: int = 64,
+                 max_torque: tuple[float, ...] = LSTM_MAX_TORQUE):
+        super().__init__()
+        self.window = window
+        self.lstms = nn.ModuleList(nn.LSTM(12, hidden, batch_first=True) for _ in range(6))
+        self.heads = nn.ModuleList(nn.Sequential(nn.Linear(hidden, head), nn.ReLU(),
+                                                 nn.Linear(head, 1)) for _ in range(6))
+        self.register_buffer("max_torque", torch.tensor(max_torque, dtype=torch.float32))
+
+    def internal_torques(self, x: torch.Tensor) -> torch.Tensor:
+        """tau_hat (B, T, 6) from the (q, dq) columns."""
+        state = x[..., :12]
+        out = [head(lstm(state)[0]) for lstm, head in zip(self.lstms, self.heads)]
+        return torch.tanh(torch.cat(out, dim=-1)) * self.max_torque
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        tau = x[..., 12:18]
+        jacobian_map = x[..., 18:36].unflatten(-1, (3, 6))
+        return (jacobian_map @ (tau - self.internal_torques(x)).unsqueeze(-1)).squeeze(-1)
+
+    def step(self, x: torch.Tensor, state: list | None = None) -> tuple[torch.Tensor, list]:
+        """Streaming: one sample (B, 36) and the six LSTMs' (h, c) -> (force (B, 3) in N, state)."""
+        state = state or [None] * 6
+        outs, new_state = [], []
+        for lstm, head, s in zip(self.lstms, self.heads, state):
+            h, s = lstm(x[:, None, :12], s)
+            outs.append(head(h[:, 0]))
+            new_state.append(s)
+        tau_hat = torch.tanh(torch.cat(outs, dim=-1)) * self.max_torque
+        force = (x[:, 18:36].unflatten(-1, (3, 6)) @ (x[:, 12:18] - tau_hat).unsqueeze(-1))
+        return force.squeeze(-1), new_state
+
+    def finetune_modules(self) -> list[nn.Module]:
+        return list(self.heads)
+
+
+def count_parameters(model: nn.Module, trainable_only: bool = False) -> int:
+    return sum(p.numel() for p in model.parameters() if p.requires_grad or not trainable_only)
+
+
+def freeze_for_finetuning(model: nn.Module) -> tuple[int, int]:
+    """Freeze everything but ``model.finetune_modules()``; return (trainable, total) parameters."""
+    for p in model.parameters():
+        p.requires_grad_(False)
+    for module in model.finetune_modules():
+        for p in module.parameters():
+            p.requires_grad_(True)
+    return count_parameters(model, trainable_only=True), count_parameters(model)
+
+
+MODEL_NAMES = ("transformer", "fcn", "lstm", "hybrid")
+
+
+def build_model(name: str, n_features: int, config: dict | None = None) -> nn.Module:
+    """A fresh model by name; ``config`` holds its constructor's keyword arguments (saved in
+    checkpoints). ``hybrid`` is :class:`hybrid.causal.CausalTransformer`."""
+    config = dict(config or {})
+    if name == "transformer":
+        return PaperTransformer(n_features, **config)
+    if name == "fcn":
+        return FCN(n_features, **config)
+    if name == "lstm":
+        if n_features != 36:
+            raise ValueError(f"the LSTM baseline takes the 36 columns of "
+                             f"hybrid.data.LSTM_FEATURES, got {n_features}")
+        return JointLSTMForce(**config)
+    if name == "hybrid":
+        from hybrid.causal import CausalTransformer
+        return CausalTransformer(n_features, **config)
+    raise ValueError(f"unknown model '{name}'; known: {list(MODEL_NAMES)}")

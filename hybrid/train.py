@@ -1,0 +1,336 @@
+"""Training and finetuning for every estimator, on one loop (seed paper, training section).
+
+Adam with L2 weight decay, MSE on standard-scaled targets, validation every epoch, learning rate
+x0.1 after ``lr_patience`` (3) epochs without improvement, early stop after ``patience`` (10),
+the best-validation weights kept. Window models see (B, L, F) windows and predict their last
+sample; chunk models see (B, T, F) chunks and are scored on every sample after a warm-up of
+``model.window`` samples (chunks overlap by that warm-up, so every sample past a trial's first
+``window`` is supervised once per epoch). Models whose output is a force in N
+(``output_space = "newton"``) are scored after the same target scaling, so every axis weighs the
+same in every loss.
+
+A "base" (three columns added to the network output, e.g. the HEX10 force minus the prior's
+internal force for the hybrid) turns the target into the residual ``ATI - base``; the network
+learns that residual and :func:`predict_trial` adds the base back.
+
+Deterministic given ``seed`` on one device and thread count.
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+import time
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Sequence
+
+import numpy as np
+import torch
+from torch import nn
+from tqdm import tqdm
+
+from hybrid.data import (LSTM_FEATURES, LSTM_RAW_COLUMNS, DatasetError, Scaler, Trial, WindowSet,
+                         fit_scalers, load_dataset, lstm_columns, resolve_features,
+                         split_validation)
+from hybrid.models import build_model, count_parameters, freeze_for_finetuning
+
+MODEL_DEFAULTS: dict[str, dict] = {"lstm": {"lr": 5e-3, "weight_decay": 1e-6}}
+"""Per-model optimiser settings from the seed paper's Table S1 (automated data); others use
+:class:`TrainConfig`'s defaults (lr 1e-3, weight decay 1e-4)."""
+
+DEFAULT_CHUNK = 400
+"""Chunk length (samples) for chunk models: 4 s at 100 Hz, 3 s of it supervised with window 100."""
+
+
+@dataclass
+class TrainConfig:
+    """Optimiser, schedule and data-budget settings (paper defaults; budgets off)."""
+
+    lr: float = 1e-3
+    weight_decay: float = 1e-4
+    batch_size: int = 256
+    """Windows per batch (window models)."""
+    chunk_batch_size: int = 16
+    """Chunks per batch (chunk models): 16 x 300 supervised samples."""
+    max_epochs: int = 100
+    patience: int = 10
+    lr_patience: int = 3
+    lr_factor: float = 0.1
+    stride: int = 5
+    """Samples between consecutive training windows (x4 for free-space trials)."""
+    chunk: int = DEFAULT_CHUNK
+    max_batches_per_epoch: int | None = None
+    """CPU budget: a seeded random subset of this many batches per epoch (None: all)."""
+    max_val_batches: int | None = None
+    """CPU budget: evenly spaced validation batches (None: all)."""
+    seed: int = 0
+    device: str = "cpu"
+    progress: bool = True
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+
+@dataclass
+class Setup:
+    """What the model sees: its name and config, input columns, base columns, scalers."""
+
+    model_name: str
+    config: dict
+    features: tuple[str, ...]
+    input_scaler: Scaler
+    target_scaler: Scaler
+    base_columns: tuple[str, ...] = ()
+    derivation: str = "none"
+    prior_json: str | None = None
+    history: list = field(default_factory=list)
+
+
+class TrainingError(ValueError):
+    """A training request that cannot run as asked; the message says why."""
+
+
+def _loss(model: nn.Module, x: torch.Tensor, y: torch.Tensor,
+          target_scaler: Scaler) -> torch.Tensor:
+    pred = model(x)
+    if model.output_space == "newton":
+        pred = (pred - torch.as_tensor(target_scaler.mean, device=pred.device)) / torch.as_tensor(
+            target_scaler.std, device=pred.device)
+    if model.kind == "chunk":
+        pred, y = pred[:, model.window:], y[:, model.window:]
+    return torch.mean((pred - y) ** 2)
+
+
+def _window_set(model: nn.Module, trials: Sequence[Trial], setup: Setup, cfg: TrainConfig,
+                stride: int | None = None) -> WindowSet:
+    if model.kind == "chunk":
+        if cfg.chunk <= model.window:
+            raise TrainingError(f"chunk ({cfg.chunk}) must exceed the warm-up window "
+                                f"({model.window})")
+        return WindowSet(trials, setup.features, setup.input_scaler, setup.target_scaler,
+                         cfg.chunk, stride or cfg.chunk - model.window, targets="all",
+                         downsample_free=True, base_columns=setup.base_columns)
+    return WindowSet(trials, setup.features, setup.input_scaler, setup.target_scaler,
+                     model.window, stride or cfg.stride, targets="last", downsample_free=True,
+                     base_columns=setup.base_columns)
+
+
+def _evaluate_loss(model, data: WindowSet, setup: Setup, cfg: TrainConfig, batch: int) -> float:
+    model.eval()
+    n_batches = math.ceil(len(data) / batch)
+    chosen = range(n_batches)
+    if cfg.max_val_batches is not None and n_batches > cfg.max_val_batches:
+        chosen = np.linspace(0, n_batches - 1, cfg.max_val_batches).round().astype(int)
+    total, count = 0.0, 0
+    with torch.no_grad():
+        for b in chosen:
+            idx = torch.arange(b * batch, min((b + 1) * batch, len(data)))
+            x, y = data.batch(idx)
+            total += float(_loss(model, x.to(cfg.device), y.to(cfg.device),
+                                 setup.target_scaler)) * len(idx)
+            count += len(idx)
+    return total / count
+
+
+def fit(model: nn.Module, train_trials: Sequence[Trial], val_trials: Sequence[Trial],
+        setup: Setup, cfg: TrainConfig, *, desc: str = "train",
+        frozen_in_eval: bool = False) -> dict:
+    """Train ``model`` in place and leave it holding its best-validation weights.
+
+    ``frozen_in_eval``: modules without trainable parameters stay in eval mode (finetuning).
+
+    Returns the history: per epoch train loss, validation loss, learning rate, seconds.
+    """
+    if not val_trials:
+        raise TrainingError("no validation trials: early stopping needs a validation set")
+    torch.manual_seed(cfg.seed)
+    model.to(cfg.device)
+    train_set = _window_set(model, train_trials, setup, cfg)
+    val_set = _window_set(model, val_trials, setup, cfg)
+    batch = cfg.chunk_batch_size if model.kind == "chunk" else cfg.batch_size
+    params = [p for p in model.parameters() if p.requires_grad]
+    if not params:
+        raise TrainingError("the model has no trainable parameters")
+    opt = torch.optim.Adam(params, lr=cfg.lr, weight_decay=cfg.weight_decay)
+    sched = torch.optim.lr_scheduler.ReduceLROnPlateau(opt, mode="min", factor=cfg.lr_factor,
+                                                       patience=cfg.lr_patience)
+    gen = torch.Generator().manual_seed(cfg.seed)
+    best, best_state, stale, history = math.inf, None, 0, []
+    n_batches = math.ceil(len(train_set) / batch)
+    if cfg.max_batches_per_epoch is not None:
+        n_batches = min(n_batches, cfg.max_batches_per_epoch)
+    frozen = [m for m in model.modules()
+              if frozen_in_eval and not any(p.requires_grad for p in m.parameters())]
+    bar = tqdm(range(cfg.max_epochs), desc=desc, disable=not cfg.progress, mininterval=5.0,
+               leave=False)
+    for epoch in bar:
+        t0 = time.perf_counter()
+        model.train()
+        for m in frozen:
+            m.eval()
+        order = torch.randperm(len(train_set), generator=gen)
+        running = 0.0
+        for b in range(n_batches):
+            x, y = train_set.batch(order[b * batch:(b + 1) * batch])
+            opt.zero_grad(set_to_none=True)
+            loss = _loss(model, x.to(cfg.device), y.to(cfg.device), setup.target_scaler)
+            loss.backward()
+            opt.step()
+            running += loss.item()
+        val = _evaluate_loss(model, val_set, setup, cfg, batch)
+        lr = opt.param_groups[0]["lr"]
+        sched.step(val)
+        history.append({"epoch": epoch + 1, "train_loss": running / n_batches, "val_loss": val,
+                        "lr": lr, "seconds": time.perf_counter() - t0})
+        bar.set_postfix(train=f"{running / n_batches:.4f}", val=f"{val:.4f}", lr=f"{lr:.0e}")
+        if val < best:
+            best, best_state, stale = val, copy.deepcopy(model.state_dict()), 0
+        else:
+            stale += 1
+            if stale >= cfg.patience:
+                break
+    bar.close()
+    model.load_state_dict(best_state)
+    model.eval()
+    return {"history": history, "best_val_loss": best, "epochs_run": len(history),
+            "train_windows": len(train_set), "val_windows": len(val_set),
+            "batches_per_epoch": n_batches}
+
+
+def make_setup(model_name: str, train_trials: Sequence[Trial], *,
+               features: str | Sequence[str] | None = None, config: dict | None = None,
+               base_columns: Sequence[str] = (), derivation: str = "none",
+               prior_json: str | None = None) -> Setup:
+    """Resolve the input columns and fit the scalers on the training trials only."""
+    if model_name == "lstm":
+        cols, raw = LSTM_FEATURES, LSTM_RAW_COLUMNS
+        if features not in (None, "lstm") and tuple(resolve_features(features)) != LSTM_FEATURES:
+            raise TrainingError("the LSTM baseline takes its fixed inputs (hybrid.data."
+                                "LSTM_FEATURES); feature sets do not apply to it")
+        derivation = "lstm"
+    else:
+        cols, raw = resolve_features(features or "paper"), ()
+    x_scaler, y_scaler = fit_scalers(train_trials, cols, raw_columns=raw,
+                                     base_columns=base_columns)
+    return Setup(model_name, dict(config or {}), tuple(cols), x_scaler, y_scaler,
+                 tuple(base_columns), derivation, prior_json)
+
+
+def train_model(setup: Setup, train_trials: Sequence[Trial], val_trials: Sequence[Trial],
+                cfg: TrainConfig, *, desc: str | None = None) -> tuple[nn.Module, dict]:
+    """Build the model of ``setup``, train it, return (model with best weights, fit report)."""
+    torch.manual_seed(cfg.seed)
+    model = build_model(setup.model_name, len(setup.features), setup.config)
+    t0 = time.perf_counter()
+    report = fit(model, train_trials, val_trials, setup, cfg, desc=desc or setup.model_name)
+    report["seconds"] = time.perf_counter() - t0
+    report["parameters"] = count_parameters(model)
+    setup.history = report["history"]
+    return model, report
+
+
+def finetune_model(model: nn.Module, setup: Setup, train_trials: Sequence[Trial],
+                   val_trials: Sequence[Trial], cfg: TrainConfig, *,
+                   desc: str = "finetune") -> dict:
+    """Freeze all but the last decoder block, train that on new data with the pretrained scalers
+    (the paper's transfer protocol). Frozen parts run in eval mode (no dropout): they act as a
+    fixed feature extractor. Returns the fit report with trainable/total parameter counts."""
+    trainable, total = freeze_for_finetuning(model)
+    t0 = time.perf_counter()
+    report = fit(model, train_trials, val_trials, setup, cfg, desc=desc, frozen_in_eval=True)
+    report.update(seconds=time.perf_counter() - t0, trainable_parameters=trainable,
+                  parameters=total)
+    return report
+
+
+# --------------------------------------------------------------------------- file-level API
+
+def _prepare(dataset, model_name: str, prior) -> tuple[str, str | None, tuple[str, ...]]:
+    """Add the derived columns a model needs; return (derivation, prior JSON, base columns)."""
+    if model_name == "lstm":
+        from psm_model import PSM
+        dataset.add_columns(lstm_columns(PSM()))
+        return "lstm", None, ()
+    if prior is not None:
+        from hybrid.hybrid import add_prior_columns, BASE_COLUMNS, prior_to_json
+        add_prior_columns(dataset, prior)
+        return "prior", prior_to_json(prior), BASE_COLUMNS
+    return "none", None, ()
+
+
+def _load_prior(prior):
+    if prior is None or not isinstance(prior, (str, Path)):
+        return prior
+    from psm_model.identification.prior import InternalForcePrior
+    return InternalForcePrior.load(prior)
+
+
+def train(data_dir: str | Path, model: str, out_checkpoint: str | Path, *,
+          features: str | Sequence[str] | None = None, epochs: int = 100, seed: int = 0,
+          device: str = "cpu", prior=None, config: dict | None = None,
+          train_config: TrainConfig | None = None) -> dict:
+    """Train ``model`` (transformer | fcn | lstm | hybrid) on the ``train`` split of the dataset in
+    ``data_dir`` (10 % of its trials per condition held out for validation, seeded) and write a
+    checkpoint. ``prior``: an InternalForcePrior or the path of its JSON (hybrid: its residual
+    inputs and target; required for ``hybrid``, which without a prior is the "no prior" ablation
+    only when ``features`` is given). Returns a summary (losses, epochs, windows, seconds)."""
+    cfg = train_config or TrainConfig(**MODEL_DEFAULTS.get(model, {}))
+    cfg = TrainConfig(**{**cfg.to_dict(), "max_epochs": epochs, "seed": seed, "device": device})
+    prior = _load_prior(prior)
+    if model == "hybrid" and prior is None and features is None:
+        raise TrainingError("the hybrid model needs a prior (--prior PRIOR.json); give explicit "
+                            "features to train the no-prior ablation")
+    dataset = load_dataset(data_dir)
+    trials = dataset.select(split="train")
+    if not trials:
+        raise DatasetError(f"{data_dir}: no trials in a 'train' split")
+    derivation, prior_json, base = _prepare(dataset, model, prior)
+    if model == "hybrid" and features is None:
+        from hybrid.hybrid import HYBRID_FEATURES
+        features = HYBRID_FEATURES
+    train_trials, val_trials = split_validation(trials, 0.1, seed)
+    setup = make_setup(model, train_trials, features=features, config=config, base_columns=base,
+                       derivation=derivation, prior_json=prior_json)
+    net, report = train_model(setup, train_trials, val_trials, cfg)
+    save_setup(out_checkpoint, net, setup, provenance={
+        "data_dir": str(data_dir), "train_trials": [t.path for t in train_trials],
+        "val_trials": [t.path for t in val_trials], "train_config": cfg.to_dict(),
+        "best_val_loss": report["best_val_loss"], "epochs_run": report["epochs_run"],
+        "seconds": report["seconds"], "history": report["history"]})
+    return {k: v for k, v in report.items() if k != "history"} | {"checkpoint": str(out_checkpoint)}
+
+
+def finetune(checkpoint: str | Path, data_dir: str | Path, out: str | Path, *, epochs: int = 100,
+             seed: int = 0, device: str = "cpu", splits: Sequence[str] | None = None,
+             train_config: TrainConfig | None = None) -> dict:
+    """Finetune a checkpoint's last decoder block on the trials of ``data_dir`` (``splits``: which
+    split folders, default all but ``test``), 10 % held out for validation; writes ``out``."""
+    from hybrid.checkpoint import load_checkpoint
+    from hybrid.evaluate import derive_for_checkpoint, setup_from_checkpoint
+    ckpt = load_checkpoint(checkpoint, device)
+    dataset = load_dataset(data_dir)
+    derive_for_checkpoint(dataset, ckpt)
+    trials = (dataset.select(split=splits) if splits else
+              [t for t in dataset.trials if t.split != "test"])
+    if not trials:
+        raise DatasetError(f"{data_dir}: no trials to finetune on (splits {splits})")
+    cfg = train_config or TrainConfig()
+    cfg = TrainConfig(**{**cfg.to_dict(), "max_epochs": epochs, "seed": seed, "device": device})
+    train_trials, val_trials = split_validation(trials, 0.1, seed)
+    setup = setup_from_checkpoint(ckpt)
+    report = finetune_model(ckpt.model, setup, train_trials, val_trials, cfg)
+    save_setup(out, ckpt.model, setup, provenance={
+        **ckpt.provenance, "finetuned_from": str(checkpoint), "finetune_data_dir": str(data_dir),
+        "finetune_trials": [t.path for t in train_trials],
+        "finetune_config": cfg.to_dict(), "trainable_parameters": report["trainable_parameters"]})
+    return {k: v for k, v in report.items() if k != "history"} | {"checkpoint": str(out)}
+
+
+def save_setup(path, model: nn.Module, setup: Setup, provenance: dict) -> Path:
+    from hybrid.checkpoint import save_checkpoint
+    return save_checkpoint(path, model, model_name=setup.model_name, config=setup.config,
+                           features=setup.features, input_scaler=setup.input_scaler,
+                           target_scaler=setup.target_scaler, base_columns=setup.base_columns,
+                           derivation=setup.derivation, prior_json=setup.prior_json,
+                           provenance=provenance)

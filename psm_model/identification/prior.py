@@ -1,0 +1,388 @@
+"""Internal-force prior: the wrench the HEX10 reads with no external force, from wrist states.
+
+A simplified, identifiable physical model of the cable-driven wrist (the physics of
+docs/simulator.md sections 5-7 read as a datasheet; no simulator code or truth is used). Frames:
+HEX10 frame (z along the shaft towards the tip); output [fx, fy, fz, tx, ty, tz] in N and Nm, the
+HEX10 sign convention (compression negative fz). Inputs per sample:
+
+* ``positions = (roll, wrist_pitch)`` (rad); wrist efforts ``e = (wrist_pitch, wrist_yaw, jaw)`` (Nm, dVRK joint space, what
+  the motors apply); wrist velocities ``v`` (rad/s, same joints);
+* ``g_hex`` (m/s^2): gravity in the HEX10 frame, ``R_PSM_HEX10(q)^T (0, 0, -9.81)`` with the
+  rotation from ``PSM.rotation(q, "hex10")`` (base frame upright).
+
+Model::
+
+    tau_d  = (e_wp, e_wy/2 - e_jaw, e_wy/2 + e_jaw)      generalized torques on (pitch, blade1, blade2)
+    u      = K^-T tau_d,  K = [[1,0,0],[k,1,0],[k,0,1]], k = 0.8306/1.0186   (dVRK coupling)
+    D_i    = u_i / r_i,   r = (r_pitch, r_blade, r_blade)     pair differential tension (N)
+    T0     = T_tot/6 * (1 + g_twist roll^2)                  per-cable pretension with roll twist
+    S_i    = smoothmax(2 T0 + a_i D_i, |D_i|) + c_dir tanh(dx_i / v_eps)   pair tension sum:
+             taut with pair asymmetry a_i, or slack (|D_i|); direction-dependent tension
+             (capstan friction along the cable path) with dx = K v the cable-coordinate velocity
+    S_path = 4 c_pm (1 - cos wrist_pitch)        blade cables' path change over the pitch pulleys
+    f      = m_d g_hex - (0, 0, S_path + sum_i S_i) + b_f
+    t      = sum_i rho (-sin phi_i, cos phi_i, 0) D_i + l_d e_z x (m_d g_hex) + b_t
+
+with the cable angles phi = (0, 60, 120) deg of the pairs' "+" cables (datasheet). Parameters
+(:data:`PARAMETERS`) have physical bounds; T_tot, g_twist, c_dir, a_i, c_pm, m_d, l_d and the biases are
+identifiable from free-space data, the pulley radii need loaded data (with the known external
+force subtracted) that drive |D_i| past 2 T0 (slack); otherwise they are reported as not excited.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from psm_model.identification.errors import IdentificationInputError, NotConvergedError
+from psm_model.identification.signals import check_finite_2d
+
+KAPPA = 0.8306 / 1.0186
+CABLE_ANGLES_RAD = np.deg2rad([0.0, 60.0, 120.0])
+SMOOTH_MAX_N = 0.05
+"""Width (N) of the smooth max between 2 T0 and |D| (slack transition)."""
+DIRECTION_VELOCITY = 0.02
+"""v_eps (rad/s of cable coordinate per metre of radius) of the friction-direction smooth sign."""
+GRAVITY_MPS2 = 9.81
+FORMAT = "psm_model.identification.InternalForcePrior/1"
+
+# name, unit, lower, upper, initial
+PARAMETERS = (
+    ("pretension_total", "N", 0.0, 60.0, 5.0),
+    ("pulley_radius_pitch", "m", 0.5e-3, 5e-3, 1.8e-3),
+    ("pulley_radius_blade", "m", 0.5e-3, 5e-3, 1.8e-3),
+    ("twist_gain", "1/rad^2", 0.0, 0.5, 0.01),
+    ("direction_tension", "N", -2.0, 2.0, 0.0),
+    ("asymmetry_pitch", "1", -0.8, 0.8, 0.0),
+    ("asymmetry_blade", "1", -0.8, 0.8, 0.0),
+    ("pitch_path_tension", "N", 0.0, 10.0, 0.1),
+    ("distal_mass", "kg", 0.0, 0.05, 0.005),
+    ("distal_com_distance", "m", -0.05, 0.05, 0.02),
+    ("cable_radius", "m", 0.0, 4e-3, 1e-3),
+    ("bias_fx", "N", -5.0, 5.0, 0.0),
+    ("bias_fy", "N", -5.0, 5.0, 0.0),
+    ("bias_fz", "N", -5.0, 5.0, 0.0),
+    ("bias_tx", "Nm", -0.5, 0.5, 0.0),
+    ("bias_ty", "Nm", -0.5, 0.5, 0.0),
+    ("bias_tz", "Nm", -0.5, 0.5, 0.0),
+)
+NAMES = tuple(p[0] for p in PARAMETERS)
+CHANNELS = ("fx", "fy", "fz", "tx", "ty", "tz")
+_MIN_SAMPLES = 200
+
+
+def _model(p, pos, e, v, g_hex, xp):
+    """Vectorised model; ``xp`` is numpy or a CasADi-like namespace (see ``_CasadiOps``)."""
+    (T_tot, r_p, r_b, g_tw, c_dir, a_p, a_b, c_pm, m_d, l_d, rho,
+     bfx, bfy, bfz, btx, bty, btz) = [p[i] for i in range(17)]
+    roll, wrist_pitch = pos[0], pos[1]
+    tau_p, tau_b1, tau_b2 = e[0], 0.5 * e[1] - e[2], 0.5 * e[1] + e[2]
+    # u = K^-T tau_d: K^T = [[1,k,k],[0,1,0],[0,0,1]] -> u1 = tau_b1, u2 = tau_b2, u0 = tau_p - k(u1+u2)
+    u1, u2 = tau_b1, tau_b2
+    u0 = tau_p - KAPPA * (u1 + u2)
+    D = (u0 / r_p, u1 / r_b, u2 / r_b)
+    vp, vb1, vb2 = v[0], v[1] - 0.5 * v[2], v[1] + 0.5 * v[2]
+    dx = (vp, KAPPA * vp + vb1, KAPPA * vp + vb2)
+    two_t0 = T_tot / 3.0 * (1.0 + g_tw * roll * roll)
+    # blade cables' path over the pitch pulleys: 4 cables each gain c_pm (1 - cos pitch)
+    S_sum = 4.0 * c_pm * (1.0 - xp.cos(wrist_pitch))
+    asym = (a_p, a_b, a_b)
+    tx = 0.0
+    ty = 0.0
+    for i in range(3):
+        a, b = two_t0 + asym[i] * D[i], xp.sqrt(D[i] * D[i] + 1e-12)
+        S_sum = S_sum + 0.5 * (a + b + xp.sqrt((a - b) * (a - b) + SMOOTH_MAX_N ** 2))
+        S_sum = S_sum + c_dir * xp.tanh(dx[i] / DIRECTION_VELOCITY)
+        tx = tx - rho * math.sin(CABLE_ANGLES_RAD[i]) * D[i]
+        ty = ty + rho * math.cos(CABLE_ANGLES_RAD[i]) * D[i]
+    gx, gy, gz = g_hex[0], g_hex[1], g_hex[2]
+    fx = m_d * gx + bfx
+    fy = m_d * gy + bfy
+    fz = m_d * gz - S_sum + bfz
+    # moment of the distal weight at l_d e_z: (0,0,l) x (m g) = l m (-gy, gx, 0)
+    return fx, fy, fz, tx - l_d * m_d * gy + btx, ty + l_d * m_d * gx + bty, 0.0 * gz + btz
+
+
+class _CasadiOps:
+    def __init__(self):
+        import casadi as ca
+
+        self.sqrt, self.tanh, self.cos = ca.sqrt, ca.tanh, ca.cos
+
+
+def gravity_in_hex10(q, psm=None) -> np.ndarray:
+    """(N,3) gravity (m/s^2) in the HEX10 frame for joint vectors q (N,6|7), base upright."""
+    from psm_model import PSM
+
+    psm = psm or PSM()
+    R = psm.rotation(q, "hex10")
+    return np.einsum("nji,j->ni", R, np.array([0.0, 0.0, -GRAVITY_MPS2]))
+
+
+def arrays_from_frame(frame, psm=None) -> dict:
+    """Model inputs (positions (N,2) roll and wrist_pitch, efforts (N,3), velocities (N,3),
+    g_hex (N,3)) from a recording frame."""
+    from psm_model.recording import JOINT_POSITIONS
+
+    q = frame[list(JOINT_POSITIONS)].to_numpy(dtype=float)
+    e = frame[["wrist_pitch_effort", "wrist_yaw_effort", "jaw_effort"]].to_numpy(dtype=float)
+    v = frame[["wrist_pitch_velocity", "wrist_yaw_velocity", "jaw_velocity"]].to_numpy(dtype=float)
+    return {"positions": q[:, [3, 4]], "efforts": e, "velocities": v, "g_hex": gravity_in_hex10(q, psm)}
+
+
+def _check_arrays(positions, efforts, velocities, g_hex):
+    pos = check_finite_2d(positions, "positions (roll, wrist_pitch)", width=2)
+    n = len(pos)
+    arrs = []
+    for x, name in ((efforts, "efforts"), (velocities, "velocities"), (g_hex, "g_hex")):
+        a = check_finite_2d(x, name, width=3)
+        if len(a) != n:
+            raise IdentificationInputError(f"{name} has {len(a)} samples but positions has {n}")
+        arrs.append(a)
+    return pos, *arrs
+
+
+@dataclass
+class InternalForcePrior:
+    """Fitted internal-force prior. ``params`` in :data:`NAMES` order."""
+
+    params: np.ndarray = field(default_factory=lambda: np.array([p[4] for p in PARAMETERS]))
+    converged: bool = False
+    info: dict = field(default_factory=dict)
+
+    # ------------------------------------------------------------ prediction
+    def predict_arrays(self, positions, efforts, velocities, g_hex) -> np.ndarray:
+        """(N,6) HEX10 wrench [fx, fy, fz, tx, ty, tz] (N, Nm) from (N,2) and (N,3) arrays."""
+        pos, e, v, g = _check_arrays(positions, efforts, velocities, g_hex)
+        out = _model(self.params, pos.T, e.T, v.T, g.T, np)
+        return np.stack([np.broadcast_to(c, (len(pos),)) for c in out], axis=1)
+
+    def predict(self, frame_or_arrays, psm=None) -> np.ndarray:
+        """(N,6) prediction for a recording DataFrame or a dict of :func:`arrays_from_frame`."""
+        arrays = frame_or_arrays if isinstance(frame_or_arrays, dict) else arrays_from_frame(
+            frame_or_arrays, psm)
+        return self.predict_arrays(arrays["positions"], arrays["efforts"], arrays["velocities"],
+                                   arrays["g_hex"])
+
+    def predict_one(self, positions, efforts, velocities, g_hex) -> tuple:
+        """Per-sample fast path (pure Python floats): 6-tuple wrench from 2-, 3-, 3-, 3-sequences."""
+        return _model(self._plist, positions, efforts, velocities, g_hex, math)
+
+    @property
+    def _plist(self):
+        cached = getattr(self, "_plist_cache", None)
+        if cached is None or cached[0] is not self.params:
+            cached = (self.params, [float(x) for x in self.params])
+            self._plist_cache = cached
+        return cached[1]
+
+    # ------------------------------------------------------------ fit
+    @classmethod
+    def fit(cls, recordings, *, psm=None, provenance=None, max_iter: int = 500
+            ) -> InternalForcePrior:
+        """Fit on recordings (DataFrames of ``psm_model.recording`` or paths).
+
+        Where target columns ``ati_fx..ati_fz`` exist, the known external force (HEX10 frame) is
+        subtracted from the force channels, and samples with an external force above 0.05 N are
+        fitted on forces only (their moments would need the contact point).
+        """
+        import casadi as ca
+
+        from psm_model.recording import TARGETS, read_recording
+
+        t0 = time.perf_counter()
+        if len(recordings) == 0:
+            raise IdentificationInputError("no recordings to fit the prior on")
+        parts = []
+        sources = []
+        for rec in recordings:
+            if isinstance(rec, (str, Path)):
+                sources.append(str(rec))
+                rec = read_recording(rec)
+            else:
+                sources.append("<DataFrame>")
+            a = arrays_from_frame(rec, psm)
+            y = rec[list(CHANNELS)].to_numpy(dtype=float)
+            mask = np.ones_like(y)
+            if all(t in rec.columns for t in TARGETS):
+                ext = rec[list(TARGETS)].to_numpy(dtype=float)
+                y[:, :3] -= ext
+                mask[np.linalg.norm(ext, axis=1) > 0.05, 3:] = 0.0
+            if OVERLOAD_COLUMN in rec.columns:
+                mask[rec[OVERLOAD_COLUMN].to_numpy() > 0] = 0.0
+            parts.append((a, y, mask))
+        pos = np.concatenate([p[0]["positions"] for p in parts])
+        e = np.concatenate([p[0]["efforts"] for p in parts])
+        v = np.concatenate([p[0]["velocities"] for p in parts])
+        g = np.concatenate([p[0]["g_hex"] for p in parts])
+        y = np.concatenate([p[1] for p in parts])
+        mask = np.concatenate([p[2] for p in parts])
+        pos, e, v, g = _check_arrays(pos, e, v, g)
+        roll = pos[:, 0]
+        check_finite_2d(y, "HEX10 readings", width=6)
+        if len(roll) < _MIN_SAMPLES:
+            raise IdentificationInputError(
+                f"{len(roll)} samples is too short to fit the prior (need {_MIN_SAMPLES})")
+        if np.ptp(roll) < 1e-3 and np.ptp(g, axis=0).max() < 1e-3:
+            raise IdentificationInputError(
+                "the recordings do not move the instrument (roll and orientation constant): "
+                "twist gain, distal mass and biases are not identifiable")
+
+        lo = np.array([p[2] for p in PARAMETERS])
+        hi = np.array([p[3] for p in PARAMETERS])
+        scale = np.maximum(np.abs(hi - lo), 1e-12)
+        z = ca.MX.sym("z", len(PARAMETERS))
+        p = lo + z * scale  # optimise on [0, 1] per parameter: IPOPT sees O(1) numbers
+        cols = [ca.DM(x) for x in (e.T.tolist())]
+        vcols = [ca.DM(x) for x in (v.T.tolist())]
+        gcols = [ca.DM(x) for x in (g.T.tolist())]
+        pred = _model([p[i] for i in range(len(PARAMETERS))], [ca.DM(pos[:, 0]), ca.DM(pos[:, 1])], cols, vcols, gcols,
+                      _CasadiOps())
+        ch_scale = np.sqrt(np.sum(mask * (y - (y * mask).sum(0) / np.maximum(mask.sum(0), 1)) ** 2,
+                                  axis=0) / np.maximum(mask.sum(0), 1))
+        ch_scale = np.maximum(ch_scale, [0.02] * 3 + [2e-4] * 3)  # noise floors, N and Nm
+        cost = 0
+        for k in range(6):
+            r = (pred[k] - ca.DM(y[:, k])) * ca.DM(mask[:, k] / ch_scale[k])
+            cost = cost + ca.sumsqr(r)
+        cost = cost / len(roll)
+        solver = ca.nlpsol("prior", "ipopt", {"x": z, "f": cost}, {
+            "ipopt.print_level": 0, "print_time": False, "ipopt.max_iter": max_iter,
+            "ipopt.tol": 1e-9, "ipopt.sb": "yes"})
+        z0 = (np.array([p_[4] for p_ in PARAMETERS]) - lo) / scale
+        sol = solver(x0=z0, lbx=0.0, ubx=1.0)
+        stats = solver.stats()
+        params = lo + np.array(sol["x"]).ravel() * scale
+        prior = cls(params=params, converged=bool(stats["success"]))
+        fitted = prior.predict_arrays(pos, e, v, g)
+        prior.info = {
+            "solver": "CasADi IPOPT", "solver_status": stats["return_status"],
+            "iterations": int(stats["iter_count"]), "fit_time_s": time.perf_counter() - t0,
+            "n_samples": int(len(roll)),
+            "bounds_hit": [n for n, x, a, b in zip(NAMES, params, lo, hi)
+                           if min(x - a, b - x) <= 1e-6 * (b - a)],
+            "slack_samples_fraction": float(np.mean(_slack_any(prior.params, roll, e))),
+            "train_metrics": channel_metrics(y, fitted, mask),
+            "provenance": provenance or {"recordings": sources},
+        }
+        return prior
+
+    # ------------------------------------------------------------ persistence
+    def to_dict(self) -> dict:
+        return {"format": FORMAT, "converged": bool(self.converged),
+                "frames_and_units": "output: HEX10 wrench [fx,fy,fz,tx,ty,tz] in N, Nm, HEX10 frame, "
+                                    "compression negative fz; inputs: roll and wrist_pitch rad, wrist efforts Nm "
+                                    "(dVRK joints), wrist velocities rad/s, gravity in HEX10 m/s^2",
+                "model": "see psm_model/identification/prior.py module docstring",
+                "parameters": {n: {"value": float(x), "unit": u, "lower": lo, "upper": hi}
+                               for (n, u, lo, hi, _), x in zip(PARAMETERS, self.params)},
+                "info": self.info}
+
+    def save(self, path) -> None:
+        """Write human-readable JSON atomically; refuses a non-converged fit."""
+        if not self.converged:
+            raise NotConvergedError("refusing to save a prior whose fit did not converge "
+                                    f"({self.info.get('solver_status')})")
+        path = Path(path)
+        tmp = path.with_name(path.name + ".part")
+        try:
+            tmp.write_text(json.dumps(self.to_dict(), indent=2, allow_nan=False) + "\n")
+            tmp.replace(path)
+        finally:
+            tmp.unlink(missing_ok=True)
+
+    @classmethod
+    def load(cls, path) -> InternalForcePrior:
+        d = json.loads(Path(path).read_text())
+        if d.get("format") != FORMAT:
+            raise IdentificationInputError(f"{path}: not an InternalForcePrior file")
+        missing = [n for n in NAMES if n not in d["parameters"]]
+        if missing:
+            raise IdentificationInputError(f"{path}: missing parameters {missing}")
+        return cls(params=np.array([d["parameters"][n]["value"] for n in NAMES]),
+                   converged=bool(d["converged"]), info=d["info"])
+
+
+OVERLOAD_COLUMN = "hex10_overload"
+
+
+def _slack_any(params, roll, e):
+    T_tot, r_p, r_b, g_tw = params[:4]
+    tau_b1, tau_b2 = 0.5 * e[:, 1] - e[:, 2], 0.5 * e[:, 1] + e[:, 2]
+    u0 = e[:, 0] - KAPPA * (tau_b1 + tau_b2)
+    D = np.abs(np.stack([u0 / r_p, tau_b1 / r_b, tau_b2 / r_b], axis=1))
+    return (D > (T_tot / 3.0 * (1 + g_tw * roll ** 2))[:, None]).any(axis=1)
+
+
+def channel_metrics(y, y_hat, mask=None) -> dict:
+    """Per channel: RMS residual and R^2 (over samples where ``mask`` is 1)."""
+    mask = np.ones_like(y) if mask is None else mask
+    out = {}
+    for k, name in enumerate(CHANNELS):
+        m = mask[:, k] > 0
+        if not m.any():
+            continue
+        r = y[m, k] - y_hat[m, k]
+        var = np.var(y[m, k])
+        out[name] = {"rms": float(np.sqrt(np.mean(r ** 2))),
+                     "r2": float(1.0 - np.mean(r ** 2) / var) if var > 0 else None}
+    return out
+
+
+def _dataset_trials(data_dir: Path, split: str, conditions) -> list[Path]:
+    meta_path = data_dir / "metadata.json"
+    if not meta_path.is_file():
+        raise IdentificationInputError(f"{data_dir}: no metadata.json (not a simulated dataset)")
+    meta = json.loads(meta_path.read_text())
+    return [data_dir / t["path"] for t in meta["trials"]
+            if t["split"] == split and t["condition"] in conditions]
+
+
+def fit_prior_cli(data_dir, out_json, *, use_loaded: bool = False) -> dict:
+    """What ``psmforce fit-prior`` runs: fit on the dataset's train split (Free trials; with
+    ``use_loaded`` also Traction and Palpation with the known force subtracted, which excites the
+    slack regime and so the pulley radii), evaluate on test/Free, save the JSON if converged.
+
+    Free-only is the default: on the full simulator the loaded regime carries capstan and
+    elasticity effects outside the model class, which pull the free-space fit off."""
+    from psm_model import PSM
+    from psm_model.recording import read_recording
+
+    data_dir = Path(data_dir)
+    conds = ("Free", "Traction", "Palpation") if use_loaded else ("Free",)
+    train = _dataset_trials(data_dir, "train", conds)
+    test = _dataset_trials(data_dir, "test", ("Free",))
+    if not train:
+        raise IdentificationInputError(f"{data_dir}: no training trials for {conds}")
+    psm = PSM()
+    prior = InternalForcePrior.fit([read_recording(p) for p in train], psm=psm,
+                                   provenance={"data_dir": str(data_dir),
+                                               "train_trials": [str(p.relative_to(data_dir))
+                                                                for p in train]})
+    report = {"data_dir": str(data_dir), "conditions": list(conds), "converged": prior.converged,
+              "solver_status": prior.info["solver_status"], "fit_time_s": prior.info["fit_time_s"],
+              "parameters": dict(zip(NAMES, prior.params.tolist())),
+              "bounds_hit": prior.info["bounds_hit"]}
+    if test:
+        frames = [read_recording(p) for p in test]
+        y = np.concatenate([f[list(CHANNELS)].to_numpy(dtype=float) for f in frames])
+        y_hat = np.concatenate([prior.predict(f, psm) for f in frames])
+        report["test_free_metrics"] = m = channel_metrics(y, y_hat)
+        prior.info["test_free_metrics"] = m
+        report["targets_not_met"] = (
+            ([] if m["fz"]["r2"] is not None and m["fz"]["r2"] >= 0.9
+             else [f"test Free fz R2 {m['fz']['r2']} < 0.90"])
+            + [f"test Free {c} RMS {m[c]['rms']:.3f} N >= 0.3 N" for c in ("fx", "fy")
+               if m[c]["rms"] >= 0.3])
+    if prior.converged:
+        prior.save(out_json)
+        report["model"] = str(out_json)
+    else:
+        report["model"] = None
+        report["model_not_saved_reason"] = f"fit did not converge ({prior.info['solver_status']})"
+    return report

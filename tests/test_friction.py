@@ -1,0 +1,36 @@
+import numpy as np
+import pytest
+
+from psm_model.identification import friction as fr
+from psm_model.identification.errors import IdentificationInputError
+
+
+def test_numpy_casadi_torch_agree_and_signs():
+    import casadi as ca
+    import torch
+
+    v = np.linspace(-0.5, 0.5, 41)
+    p = np.array([0.1, 0.02, 0.03, -0.01])
+    tau = fr.friction_torque(v, p)
+    x = ca.SX.sym("v")
+    f = ca.Function("f", [x], [fr.friction_torque_casadi(x, p)])
+    assert np.allclose([float(f(vi)) for vi in v], tau, atol=1e-12)
+    tt = fr.friction_torque_torch(torch.tensor(v), torch.tensor(p)).numpy()
+    assert np.allclose(tt, tau, atol=1e-12)
+    # dissipative part has the sign of the velocity away from zero
+    assert (np.sign(tau[v > 0.1] - p[3]) > 0).all() and (np.sign(tau[v < -0.1] - p[3]) < 0).all()
+    # at high speed the Coulomb level + viscous slope remain, Stribeck decays
+    assert fr.friction_torque(np.array([5.0]), p)[0] == pytest.approx(0.1 + 0.02 * 5 - 0.01, 1e-6)
+
+
+def test_regressor_columns_linear_in_parameters():
+    v = np.random.default_rng(0).normal(size=(50, 3))
+    P = np.random.default_rng(1).normal(size=(3, 4))
+    R = fr.friction_regressor(v)
+    assert R.shape == (50, 3, 4)
+    assert np.allclose(np.einsum("nkt,kt->nk", R, P), fr.friction_torque(v, P))
+
+
+def test_bad_shape_constants():
+    with pytest.raises(IdentificationInputError):
+        fr.FrictionShape(smooth_sign_velocity=0.0)

@@ -1,0 +1,70 @@
+"""Pieces of the reproduction: tables, ablation inputs, teleoperation folds, budgets."""
+
+from __future__ import annotations
+
+import pandas as pd
+import pytest
+
+from hybrid.data import FEATURE_SETS, Trial
+from hybrid.evaluate import automated_table, teleop_table
+from hybrid.reproduce import BUDGETS, _ablate, _config, _teleop_folds
+
+hybrid_mod = pytest.importorskip("hybrid.hybrid")
+
+
+def _m(v: float) -> dict:
+    return {a: {"range_n": 5.0, "rmse_n": v, "nrmse_pct": 20 * v, "r2_pct": 90.0}
+            for a in ("Fx", "Fy", "Fz")}
+
+
+def test_automated_table_layout_and_bold_best():
+    md = automated_table({"A": _m(0.2), "B": _m(0.1)}, "t")
+    lines = md.strip().splitlines()
+    assert lines[0] == "**t**"
+    assert lines[2].startswith("| Axis | Range (N) | A RMSE (N) | A NRMSE (%) | A R² (%) | B RMSE")
+    assert lines[4] == "| Fx | 5.00 | 0.200 | 4.00 | 90.00 | 0.100 | **2.00** | 90.00 |"
+
+
+def test_teleop_table_mean_and_std_over_folds():
+    md = teleop_table({"A": {"Rigid/Unseen": [_m(0.1), _m(0.3)]}})
+    row = md.strip().splitlines()[2]
+    assert row == ("| Rigid | Unseen | Fx | 5.00 ± 0.00 | 0.20 ± 0.10 | 4.00 ± 2.00 | "
+                   "90.00 ± 0.00 |")
+
+
+def test_ablations_drop_the_compensated_columns_of_the_removed_sources():
+    feats = hybrid_mod.HYBRID_FEATURES
+    assert len(_ablate(feats, "no_hex10")) == 15
+    assert not set(_ablate(feats, "no_hex10")) & set(hybrid_mod.COMPENSATED_HEX10)
+    assert len(_ablate(feats, "no_efforts")) == 14
+    assert set(_ablate(feats, "no_positions_velocities")) == (
+        set(feats) - (set(FEATURE_SETS["paper"]) - set(FEATURE_SETS["no_positions_velocities"])))
+
+
+def test_teleop_folds_leave_one_configuration_out():
+    trials = [Trial(f"config_{c}/{cond}/demo_{k}.csv", cond, f"config_{c}", pd.DataFrame())
+              for c in range(3) for cond in ("Rigid", "Soft", "Free") for k in range(3)]
+
+    class _DS:
+        def __init__(self, trials):
+            self.trials = trials
+
+        def select(self, split=None, condition=None):
+            return [t for t in self.trials if (split is None or t.split == split)
+                    and (condition is None or t.condition == condition)]
+    folds = _teleop_folds(_DS(trials))
+    assert [f["unseen"] for f in folds] == ["config_0", "config_1", "config_2"]
+    for f in folds:
+        assert len(f["train"]) == 12 and len(f["seen_test"]) == 6 and len(f["unseen_test"]) == 9
+        assert all(t.split != f["unseen"] for t in f["train"] + f["seen_test"])
+        assert all(t.path.endswith("demo_2.csv") for t in f["seen_test"])
+        assert not {t.path for t in f["train"]} & {t.path for t in f["seen_test"]}
+
+
+def test_budgets_keep_the_papers_optimiser_settings():
+    full = _config("full", "pretrain", 0, "cpu", "transformer")
+    assert (full.max_epochs, full.lr, full.weight_decay, full.batch_size, full.patience,
+            full.lr_patience, full.stride) == (100, 1e-3, 1e-4, 256, 10, 3, 5)
+    lstm = _config("cpu", "pretrain", 0, "cpu", "lstm")
+    assert (lstm.lr, lstm.weight_decay) == (5e-3, 1e-6)
+    assert set(BUDGETS) == {"full", "cpu", "quick"}

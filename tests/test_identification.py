@@ -1,0 +1,161 @@
+"""Arm dynamics identification: inertia parametrisation, bad input, and the WPI real-data fit."""
+import json
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from psm_model.identification import inertia as inr
+from psm_model.identification import signals, wpi
+from psm_model.identification.dynamics import (ArmDynamicsModel, PUBLISHED_WANG_2019_PERCENT,
+                                               fit_arm_dynamics, fit_dynamics_cli)
+from psm_model.identification.errors import IdentificationInputError, NotConvergedError
+
+WPI_DIR = Path(os.environ.get("PSM_WPI_DATA",
+                              Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "wpi_psm"))
+needs_wpi = pytest.mark.skipif(not (WPI_DIR / "one_results.csv").is_file(),
+                               reason="WPI recordings not available")
+
+
+def test_log_cholesky_round_trip_and_consistency():
+    rng = np.random.default_rng(0)
+    for _ in range(20):
+        theta = rng.normal(size=10)
+        pi = inr.theta_to_parameters(theta)
+        rep = inr.consistency_report(pi)
+        assert rep["physically_consistent"] and pi[0] > 0
+        assert np.allclose(inr.parameters_to_theta(pi), theta, atol=1e-8)
+    # a point mass of 2 kg at (0.1, 0, 0): I_yy = I_zz = 0.02 about the origin
+    pi = inr.parameters_from_pseudo_inertia(inr.pseudo_inertia([2, 0.2, 0, 0, 0, 0, 0.02, 0, 0, 0.02]))
+    assert np.allclose(pi, [2, 0.2, 0, 0, 0, 0, 0.02, 0, 0, 0.02])
+
+
+def test_signal_conditioning_zero_phase_and_derivative():
+    t = np.arange(0, 10, 1 / 200)
+    x = np.sin(2 * np.pi * 0.5 * t)
+    y = signals.zero_phase_lowpass(x, 200, 5.4)
+    assert np.max(np.abs(y - x)[200:-200]) < 1e-3  # no lag, no attenuation in the pass band
+    dx = signals.derivative(y, 200)
+    assert np.max(np.abs(dx - np.pi * np.cos(np.pi * t))[200:-200]) < 5e-3
+    with pytest.raises(IdentificationInputError, match="Nyquist"):
+        signals.zero_phase_lowpass(x, 200, 150)
+
+
+def _synthetic(n=2000):
+    t = np.arange(n) / 200
+    c = np.stack([0.3 * np.sin(0.7 * t * (k + 1)) for k in range(7)], axis=1)
+    c[:, 2] = 0.1 + 0.05 * np.sin(t)
+    dc = np.gradient(c, 1 / 200, axis=0)
+    return c, dc, 0.1 * dc
+
+
+def test_bad_input_errors():
+    c, dc, tau = _synthetic()
+    bad = c.copy()
+    bad[10, 3] = np.nan
+    with pytest.raises(IdentificationInputError, match="non-finite.*row 10"):
+        fit_arm_dynamics(bad, dc, tau, sample_rate_hz=200)
+    with pytest.raises(IdentificationInputError, match="too short"):
+        fit_arm_dynamics(c[:500], dc[:500], tau[:500], sample_rate_hz=200)
+    with pytest.raises(IdentificationInputError, match="same shape|7 columns"):
+        fit_arm_dynamics(c, dc[:, :6], tau, sample_rate_hz=200)
+    with pytest.raises(IdentificationInputError, match="same shape"):
+        fit_arm_dynamics(c, dc[:-1], tau, sample_rate_hz=200)
+    still = dc.copy()
+    still[:, 4] = 0.0
+    with pytest.raises(IdentificationInputError, match="does not excite wrist_pitch"):
+        fit_arm_dynamics(c, still, tau, sample_rate_hz=200)
+
+
+def test_wpi_loader_conversion(tmp_path):
+    rows = np.arange(21 * 3, dtype=float).reshape(3, 21) / 100
+    f = tmp_path / "x.csv"
+    np.savetxt(f, rows, delimiter=",")
+    rec = wpi.load_wpi(f)
+    q, dq, tau = rec.to_dvrk()
+    assert np.allclose(q[:, 4:], rows[:, 4:7] @ wpi.WRIST_MOTOR_TO_DVRK.T)
+    # virtual work is preserved: tau_dvrk . dq_dvrk == tau_motor . dq_motor
+    assert np.allclose((tau * dq).sum(1), (rec.tau * rec.dq).sum(1))
+    np.savetxt(f, rows[:, :20], delimiter=",")
+    with pytest.raises(IdentificationInputError, match="21 columns"):
+        wpi.load_wpi(f)
+
+
+@pytest.fixture(scope="module")
+def wpi_fit(tmp_path_factory):
+    """One fit on the WPI training file, shared by the tests (about 10 s)."""
+    d = tmp_path_factory.mktemp("wpi")
+    out, model_path = d / "report.json", d / "model.json"
+    rep = fit_dynamics_cli(WPI_DIR / "one_results.csv", WPI_DIR / "two_results.csv", "wpi",
+                           out, model_path)
+    return rep, out, model_path
+
+
+@needs_wpi
+def test_wpi_fit_published_protocol(wpi_fit, tmp_path):
+    rep, out, model_path = wpi_fit
+    assert json.loads(out.read_text())["test_relative_error_percent"] == rep["test_relative_error_percent"]
+    assert rep["converged"] and rep["physically_consistent"]
+    assert rep["published_wang_2019_percent"] == list(PUBLISHED_WANG_2019_PERCENT)
+    assert 0 < rep["n_base_parameters"] <= rep["n_parameters"]
+    assert abs(np.linalg.norm(rep["gravity_mps2"]) - 9.81) < 1e-6
+    errs = np.array(rep["test_relative_error_percent"])
+    assert (errs < 40).all()  # a sane model on an independent trajectory (not the published target)
+    model = ArmDynamicsModel.load(model_path)
+    rec = wpi.load_wpi(WPI_DIR / "two_results.csv")
+    q, dq, tau = rec.to_dvrk()
+    ddq = signals.derivative(dq, 200)
+    a = model.predict(q[:300], dq[:300], ddq[:300])
+    c = model.predict_coordinates(rec.q[:300], rec.dq[:300], signals.derivative(rec.dq, 200)[:300])
+    assert np.allclose(a @ wpi.coordinates_to_dvrk_matrix(), c)  # tau_c = T^T tau_q
+    model.converged = False
+    with pytest.raises(NotConvergedError):
+        model.save(tmp_path / "never.json")
+    assert not (tmp_path / "never.json").exists()
+
+
+@needs_wpi
+def test_external_wrench_recovers_applied_wrench(wpi_fit):
+    from psm_model import PSM
+    from psm_model.identification.dynamics import external_wrench_on_tool
+
+    model = ArmDynamicsModel.load(wpi_fit[2])
+    rng = np.random.default_rng(3)
+    n = 5
+    q = np.column_stack([rng.uniform(-0.5, 0.5, (n, 2)), rng.uniform(0.08, 0.2, n),
+                         rng.uniform(-1, 1, (n, 3)), rng.uniform(0, 0.5, n)])
+    dq, ddq = rng.normal(size=(n, 7)) * 0.1, rng.normal(size=(n, 7)) * 0.1
+    w_true = np.column_stack([rng.normal(size=(n, 3)), 0.01 * rng.normal(size=(n, 3))])
+    J = PSM().spatial_jacobian(q)  # (n,6,6), rows [v; w], WORLD: dual of expressed_in="base"
+    tau = model.predict(q, dq, ddq)
+    tau[:, :6] -= np.einsum("nij,ni->nj", J, w_true)  # motors balance the load: -J^T w
+    w = external_wrench_on_tool(model, q, dq, ddq, tau)
+    assert np.allclose(w, w_true, atol=1e-6)
+
+
+def test_regressor_matches_rnea_of_constrained_model():
+    """Y(q, dq, ddq; g) pi equals G^T rnea of the 8-joint model (coupler at -q2) for the prior pi."""
+    import pinocchio as pin
+
+    from psm_model.identification import dynamics as dyn
+
+    model, _ = dyn._prior_model()
+    data = model.createData()
+    rng = np.random.default_rng(0)
+    q6, v6, a6 = rng.normal(size=(3, 4, 6))
+    Y0, Yg, mass_cols = dyn._rigid_regressors(model, q6, v6, a6)
+    pi = np.concatenate([model.inertias[model.getJointId(b)].toDynamicParameters()
+                         for b in dyn.BODIES])
+    g = np.array([0.0, 0.0, -9.81])
+    tau = Y0 @ pi + np.einsum("k,knjp,p->nj", g, Yg, pi[mass_cols])
+    model.gravity = pin.Motion(g, np.zeros(3))
+    for i in range(4):
+        ext = [dyn._extend(x[i:i + 1])[0] for x in (q6, v6, a6)]
+        assert np.allclose(dyn._G.T @ pin.rnea(model, data, *ext), tau[i], atol=1e-10)
+    # the coupler does not rotate: its absolute orientation is the yaw body's for any pitch
+    pin.forwardKinematics(model, data, dyn._extend(q6[:1])[0])
+    R_yaw = data.oMi[model.getJointId("yaw")].rotation
+    R_coupler = data.oMi[model.getJointId("parallelogram_coupler")].rotation
+    R_pitch_rest = model.jointPlacements[model.getJointId("parallelogram_crank")].rotation
+    assert np.allclose(R_coupler, R_yaw @ R_pitch_rest, atol=1e-12)
