@@ -34,20 +34,21 @@ from typing import Callable, Sequence
 import numpy as np
 import torch
 
-from hybrid.data import (FEATURE_SETS, Dataset, Trial, load_dataset, lstm_columns, split_validation,
+from hybrid.data import (Dataset, Trial, load_dataset, lstm_columns, split_validation,
                          subsample_trials)
 from hybrid.evaluate import (automated_table, predict_trial, score, scored_segment, teleop_table,
                              uses_bias_correction, write_text_atomic)
 from hybrid.metrics import AXES, axis_metrics
 from hybrid.models import count_parameters
-from psm_model.recording import HEX10
-from hybrid.train import (MODEL_DEFAULTS, Setup, TrainConfig, finetune_model, make_setup,
-                          save_setup, train_model)
+from hybrid.train import (MODEL_DEFAULTS, Setup, TrainConfig, finetune_model, fit_prior,
+                          hybrid_feature_set, make_setup, save_setup, train_model)
 
 BUDGETS: dict[str, dict] = {
     "full": {"pretrain": {"default": {}}, "finetune": {"default": {}}},
     "cpu": {"pretrain": {"transformer": {"max_epochs": 6, "max_batches_per_epoch": 8,
                                          "max_val_batches": 4},
+                         "hybrid": {"max_epochs": 30, "max_batches_per_epoch": 16,
+                                    "max_val_batches": 6},
                          "default": {"max_epochs": 10, "max_batches_per_epoch": 16,
                                      "max_val_batches": 6}},
             "finetune": {"transformer": {"max_epochs": 4, "max_batches_per_epoch": 6,
@@ -114,14 +115,6 @@ def _score_models(models: dict, trials: Sequence[Trial], device: str,
 def _per_trial_metrics(segments: dict, trials: Sequence[Trial]) -> list[dict]:
     """Axis metrics of each contact (non-free) test trial, for the ablation box plots."""
     return [axis_metrics(*segments[t.path]) for t in trials if t.condition != "Free"]
-
-
-def _fit_prior(train_trials: Sequence[Trial], psm):
-    """The internal-force prior fitted on the training trials (all conditions: the fit removes
-    the known ATI force from the HEX10 reading)."""
-    from psm_model.identification.prior import InternalForcePrior
-    return InternalForcePrior.fit([t.frame for t in train_trials], psm=psm,
-                                  provenance={"trials": [t.path for t in train_trials]})
 
 
 def _timing(models: dict, reps: int = 300) -> dict:
@@ -200,7 +193,7 @@ def reproduce(out: str | Path, scale: float = 0.05, device: str = "cpu", seed: i
     CUDA device and ``"cpu"`` otherwise."""
     from psm_model import PSM
     from psm_model.sim import simulate
-    from hybrid.hybrid import add_prior_columns, hybrid_columns, prior_to_json
+    from hybrid.hybrid import add_prior_columns, prior_to_json
     from hybrid.plots import (plot_ablation_boxes, plot_hex10_vs_ati, plot_scatter,
                               plot_time_series)
 
@@ -229,7 +222,7 @@ def reproduce(out: str | Path, scale: float = 0.05, device: str = "cpu", seed: i
     train_trials, val_trials = split_validation(pool, 0.1, seed)
     test_trials = auto.select(split="test")
     psm = PSM()
-    prior = _fit_prior(train_trials, psm)
+    prior = fit_prior(train_trials, psm)
     for ds in (auto, tele):
         ds.add_columns(lstm_columns(psm))
         add_prior_columns(ds, prior)
@@ -238,8 +231,8 @@ def reproduce(out: str | Path, scale: float = 0.05, device: str = "cpu", seed: i
 
     def setup_for(name: str, trials, features=None, use_prior: bool = True) -> Setup:
         if name == "hybrid":
-            feats, base = hybrid_columns(use_prior)
-            return make_setup("hybrid", trials, features=features or feats, base_columns=base,
+            feats, base = hybrid_feature_set(features, use_prior)
+            return make_setup("hybrid", trials, features=feats, base_columns=base,
                               derivation="prior" if use_prior else "none",
                               prior_json=prior_json if use_prior else None)
         return make_setup(name, trials, features=features)
@@ -279,8 +272,7 @@ def reproduce(out: str | Path, scale: float = 0.05, device: str = "cpu", seed: i
                                 desc="hybrid without prior")
     ablation_models["hybrid without prior (raw HEX10 inputs and base)"] = (model, setup)
     for group in ABLATION_GROUPS:
-        feats = _ablate(hybrid_columns(True)[0], group)
-        model, setup, _ = train_one("hybrid", train_trials, features=feats, desc=f"hybrid {group}")
+        model, setup, _ = train_one("hybrid", train_trials, features=group, desc=f"hybrid {group}")
         ablation_models[f"hybrid {group}"] = (model, setup)
     ablation, ablation_segments, _ = _score_models(ablation_models, test_trials, device)
     ablation_boxes = {k: _per_trial_metrics(v, test_trials) for k, v in ablation_segments.items()}
@@ -368,17 +360,6 @@ def reproduce(out: str | Path, scale: float = 0.05, device: str = "cpu", seed: i
     write_text_atomic(out / "results.md", _markdown(results))
     say.write(f"done in {results['duration_s']:.0f} s -> {out / 'results.md'}")
     return results
-
-
-def _ablate(features: Sequence[str], group: str) -> tuple[str, ...]:
-    """The hybrid's inputs without one of the paper's ablation groups: a column goes when its
-    recorded source (a compensated HEX10 column's source is that HEX10 column) is one the
-    paper's ablation removes. The base (compensated HEX10 force) stays: it is the prior's output,
-    not a network input."""
-    from hybrid.hybrid import COMPENSATED_HEX10
-    source = dict(zip(COMPENSATED_HEX10, HEX10))
-    removed = set(FEATURE_SETS["paper"]) - set(FEATURE_SETS[group])
-    return tuple(c for c in features if source.get(c, c) not in removed)
 
 
 def _clone(model):

@@ -321,6 +321,9 @@ class StreamingEstimator:
         Bad samples are flagged, never raised; a wrongly shaped array is a programming error
         and raises :class:`StreamingError`.
         """
+        if base_frame and not hasattr(self, "_hex_rotation"):
+            raise StreamingError("base-frame output needs the PSM model: construct the estimator "
+                                 "with psm=psm_model.PSM()")
         flags = 0
         if isinstance(sample, np.ndarray):
             if sample.shape != self._raw.shape:

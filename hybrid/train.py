@@ -30,10 +30,11 @@ import torch
 from torch import nn
 from tqdm import tqdm
 
-from hybrid.data import (LSTM_FEATURES, LSTM_RAW_COLUMNS, DatasetError, Scaler, Trial, WindowSet,
-                         fit_scalers, load_dataset, lstm_columns, resolve_features,
-                         split_validation)
+from hybrid.data import (FEATURE_SETS, LSTM_FEATURES, LSTM_RAW_COLUMNS, DatasetError, Scaler,
+                         Trial, WindowSet, fit_scalers, load_dataset, lstm_columns,
+                         resolve_features, split_validation)
 from hybrid.models import build_model, count_parameters, freeze_for_finetuning
+from psm_model.recording import HEX10
 
 MODEL_DEFAULTS: dict[str, dict] = {"lstm": {"lr": 5e-3, "weight_decay": 1e-6}}
 """Per-model optimiser settings from the seed paper's Table S1 (automated data); others use
@@ -246,50 +247,76 @@ def finetune_model(model: nn.Module, setup: Setup, train_trials: Sequence[Trial]
 
 # --------------------------------------------------------------------------- file-level API
 
-def _prepare(dataset, model_name: str, prior) -> tuple[str, str | None, tuple[str, ...]]:
-    """Add the derived columns a model needs; return (derivation, prior JSON, base columns)."""
-    if model_name == "lstm":
-        from psm_model import PSM
-        dataset.add_columns(lstm_columns(PSM()))
-        return "lstm", None, ()
-    if prior is not None:
-        from hybrid.hybrid import add_prior_columns, BASE_COLUMNS, prior_to_json
-        add_prior_columns(dataset, prior)
-        return "prior", prior_to_json(prior), BASE_COLUMNS
-    return "none", None, ()
+def fit_prior(train_trials: Sequence[Trial], psm=None):
+    """The internal-force prior fitted on training trials (all conditions: the fit removes the
+    known ATI force from the HEX10 reading), :mod:`psm_model.identification.prior`."""
+    from psm_model.identification import InternalForcePrior
+    return InternalForcePrior.fit([t.frame for t in train_trials], psm=psm,
+                                  provenance={"trials": [t.path for t in train_trials]})
+
+
+def hybrid_feature_set(features: str | Sequence[str] | None = None,
+                       use_prior: bool = True) -> tuple[tuple[str, ...], tuple[str, ...]]:
+    """(input columns, base columns) of the hybrid for a feature-set name of
+    :data:`hybrid.data.FEATURE_SETS` (None = "paper") or an explicit list.
+
+    With the prior, a named set is the hybrid's inputs (:data:`hybrid.hybrid.HYBRID_FEATURES`)
+    minus the columns whose recorded source that ablation removes (a compensated HEX10 column's
+    source is its HEX10 column); the base (compensated HEX10 force) stays, since it is the
+    prior's output and not a network input. Without the prior (the ablation of
+    :func:`hybrid.hybrid.hybrid_columns`), the named set itself with the raw HEX10 force as base.
+    """
+    from hybrid.hybrid import COMPENSATED_HEX10, hybrid_columns
+    all_inputs, base = hybrid_columns(use_prior)
+    if features is None or (isinstance(features, str) and features == "paper"):
+        return tuple(all_inputs), tuple(base)
+    if not isinstance(features, str):
+        return resolve_features(features), tuple(base)
+    removed = set(FEATURE_SETS["paper"]) - set(resolve_features(features))
+    source = dict(zip(COMPENSATED_HEX10, HEX10))
+    return tuple(c for c in all_inputs if source.get(c, c) not in removed), tuple(base)
 
 
 def _load_prior(prior):
     if prior is None or not isinstance(prior, (str, Path)):
         return prior
-    from psm_model.identification.prior import InternalForcePrior
+    from psm_model.identification import InternalForcePrior
     return InternalForcePrior.load(prior)
 
 
 def train(data_dir: str | Path, model: str, out_checkpoint: str | Path, *,
           features: str | Sequence[str] | None = None, epochs: int = 100, seed: int = 0,
-          device: str = "cpu", prior=None, config: dict | None = None,
+          device: str = "cpu", prior=None, use_prior: bool = True, config: dict | None = None,
           train_config: TrainConfig | None = None) -> dict:
     """Train ``model`` (transformer | fcn | lstm | hybrid) on the ``train`` split of the dataset in
     ``data_dir`` (10 % of its trials per condition held out for validation, seeded) and write a
-    checkpoint. ``prior``: an InternalForcePrior or the path of its JSON (hybrid: its residual
-    inputs and target; required for ``hybrid``, which without a prior is the "no prior" ablation
-    only when ``features`` is given). Returns a summary (losses, epochs, windows, seconds)."""
+    checkpoint. ``features``: a name of :data:`hybrid.data.FEATURE_SETS` or a column list
+    (ignored by the LSTM, whose inputs are fixed). Hybrid only: ``prior`` is an
+    InternalForcePrior or the path of its JSON, fitted on the training trials when None;
+    ``use_prior=False`` trains the "hybrid without the prior" ablation. Returns a summary
+    (losses, epochs, windows, seconds, checkpoint path)."""
+    from hybrid.models import MODEL_NAMES
+    if model not in MODEL_NAMES:
+        raise TrainingError(f"unknown model '{model}'; known: {list(MODEL_NAMES)}")
     cfg = train_config or TrainConfig(**MODEL_DEFAULTS.get(model, {}))
     cfg = TrainConfig(**{**cfg.to_dict(), "max_epochs": epochs, "seed": seed, "device": device})
-    prior = _load_prior(prior)
-    if model == "hybrid" and prior is None and features is None:
-        raise TrainingError("the hybrid model needs a prior (--prior PRIOR.json); give explicit "
-                            "features to train the no-prior ablation")
     dataset = load_dataset(data_dir)
     trials = dataset.select(split="train")
     if not trials:
         raise DatasetError(f"{data_dir}: no trials in a 'train' split")
-    derivation, prior_json, base = _prepare(dataset, model, prior)
-    if model == "hybrid" and features is None:
-        from hybrid.hybrid import HYBRID_FEATURES
-        features = HYBRID_FEATURES
     train_trials, val_trials = split_validation(trials, 0.1, seed)
+    derivation, prior_json, base = "none", None, ()
+    if model == "lstm":
+        from psm_model import PSM
+        dataset.add_columns(lstm_columns(PSM()))
+        derivation, features = "lstm", None
+    elif model == "hybrid":
+        from hybrid.hybrid import add_prior_columns, prior_to_json
+        if use_prior:
+            prior = _load_prior(prior) or fit_prior(train_trials)
+            add_prior_columns(dataset, prior)
+            derivation, prior_json = "prior", prior_to_json(prior)
+        features, base = hybrid_feature_set(features, use_prior)
     setup = make_setup(model, train_trials, features=features, config=config, base_columns=base,
                        derivation=derivation, prior_json=prior_json)
     net, report = train_model(setup, train_trials, val_trials, cfg)

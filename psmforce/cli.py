@@ -63,7 +63,7 @@ def _fit_dynamics(args) -> dict:
 
 def _fit_prior(args) -> dict:
     from psm_model.identification import fit_prior_cli
-    return fit_prior_cli(args.data, args.out)
+    return fit_prior_cli(args.data, args.out, use_loaded=args.use_loaded)
 
 
 def _train(args) -> dict:
@@ -155,6 +155,9 @@ def _parser() -> argparse.ArgumentParser:
             "force) on the free-space recordings of a dataset folder; writes the model as JSON.")
     p.add_argument("--data", required=True, help="dataset folder (as written by simulate)")
     p.add_argument("--out", required=True, help="prior JSON to write")
+    p.add_argument("--use-loaded", action="store_true",
+                   help="also fit on Traction/Palpation trials with the known ATI force "
+                        "subtracted (excites the pulley radii: tip-load amplification)")
     p.add_argument("--json", help="write the fit statistics here")
 
     p = add("train", _train, "train an estimator",

@@ -7,7 +7,8 @@ import pytest
 
 from hybrid.data import FEATURE_SETS, Trial
 from hybrid.evaluate import automated_table, teleop_table
-from hybrid.reproduce import BUDGETS, _ablate, _config, _teleop_folds
+from hybrid.reproduce import BUDGETS, _config, _teleop_folds
+from hybrid.train import hybrid_feature_set
 
 hybrid_mod = pytest.importorskip("hybrid.hybrid")
 
@@ -33,12 +34,16 @@ def test_teleop_table_mean_and_std_over_folds():
 
 
 def test_ablations_drop_the_compensated_columns_of_the_removed_sources():
-    feats = hybrid_mod.HYBRID_FEATURES
-    assert len(_ablate(feats, "no_hex10")) == 15
-    assert not set(_ablate(feats, "no_hex10")) & set(hybrid_mod.COMPENSATED_HEX10)
-    assert len(_ablate(feats, "no_efforts")) == 14
-    assert set(_ablate(feats, "no_positions_velocities")) == (
+    feats, base = hybrid_feature_set(None)
+    assert feats == hybrid_mod.HYBRID_FEATURES and base == hybrid_mod.BASE_COLUMNS
+    no_hex10, base = hybrid_feature_set("no_hex10")
+    assert len(no_hex10) == 15 and base == hybrid_mod.BASE_COLUMNS
+    assert not set(no_hex10) & set(hybrid_mod.COMPENSATED_HEX10)
+    assert len(hybrid_feature_set("no_efforts")[0]) == 14
+    assert set(hybrid_feature_set("no_positions_velocities")[0]) == (
         set(feats) - (set(FEATURE_SETS["paper"]) - set(FEATURE_SETS["no_positions_velocities"])))
+    raw, raw_base = hybrid_feature_set(None, use_prior=False)
+    assert raw == FEATURE_SETS["paper"] and raw_base == ("fx", "fy", "fz")
 
 
 def test_teleop_folds_leave_one_configuration_out():

@@ -107,6 +107,16 @@ class DynamicsFitOptions:
     roll_wrist_cross_springs: bool = True
     """Roll torque linear in the wrist coordinates (the wrist cables run along the roll axis and
     twist with it). Held-out mean error 12.2 % with, 12.3 % without (benchmark ``--selection``)."""
+    spring_polynomial: tuple[tuple[int, int], ...] = ()
+    """(coordinate, degree) pairs: position terms c_k^2 .. c_k^degree on coordinate k besides the
+    linear spring (a nonlinear spring or counterbalance, e.g. the insertion stage's cable/spring
+    force varying along the stroke)."""
+    asymmetric_coulomb: tuple[int, ...] = ()
+    """Coordinates whose Coulomb level may differ between the + and - directions: an extra column
+    |s(v)| with coefficient a, so that the levels are Fc + a (v > 0) and Fc - a (v < 0), both
+    constrained >= 0."""
+    cross_springs: tuple[tuple[int, int], ...] = ()
+    """(row, column) pairs: torque on coordinate ``row`` linear in the position of ``column``."""
     wrist_joint_friction: bool = True
     """Extra Coulomb + viscous friction on the dVRK wrist joints (pulleys), mapped to c by T^T."""
     prior_weight: float = 1e-4
@@ -198,6 +208,13 @@ def _linear_layout(opts: DynamicsFitOptions, coord_names) -> _Layout:
         for j in ("wrist_pitch", "wrist_yaw", "jaw"):
             lay.add(f"joint_{j}.friction.coulomb", "Nm", 0.0)
             lay.add(f"joint_{j}.friction.viscous", "Nm s/rad", 0.0)
+    for k, degree in opts.spring_polynomial:
+        for p in range(2, degree + 1):
+            lay.add(f"{coord_names[k]}.spring_power_{p}", "(N or Nm)/(m or rad)^" + str(p), -np.inf)
+    for k in opts.asymmetric_coulomb:
+        lay.add(f"{coord_names[k]}.friction.coulomb_asymmetry", "N" if k == 2 else "Nm", -np.inf)
+    for r, k in opts.cross_springs:
+        lay.add(f"{coord_names[r]}.spring_from_{coord_names[k]}", "(N or Nm)/(m or rad)", -np.inf)
     return lay
 
 
@@ -231,6 +248,19 @@ def _linear_columns(opts, T, c, dc, ddc) -> np.ndarray:
                 block = np.zeros((n, N_COORD, 1))
                 block[:, :, 0] = np.outer(col, T[j])  # tau_c = T^T e_j f
                 cols.append(block)
+    for k, degree in opts.spring_polynomial:
+        for p in range(2, degree + 1):
+            block = np.zeros((n, N_COORD, 1))
+            block[:, k, 0] = c[:, k] ** p
+            cols.append(block)
+    for k in opts.asymmetric_coulomb:
+        block = np.zeros((n, N_COORD, 1))
+        block[:, k, 0] = np.abs(fr[:, k, 0])
+        cols.append(block)
+    for r, k in opts.cross_springs:
+        block = np.zeros((n, N_COORD, 1))
+        block[:, r, 0] = c[:, k]
+        cols.append(block)
     return np.concatenate(cols, axis=2)
 
 
@@ -344,7 +374,10 @@ class ArmDynamicsModel:
         o = dict(d["options"])
         o["friction_shape"] = _fr.FrictionShape(**o["friction_shape"])
         o["friction_shape_prismatic"] = _fr.FrictionShape(**o["friction_shape_prismatic"])
-        o["spring_coordinates"] = tuple(o["spring_coordinates"])
+        for key in ("spring_coordinates", "asymmetric_coulomb"):
+            o[key] = tuple(o.get(key, ()))
+        for key in ("spring_polynomial", "cross_springs"):
+            o[key] = tuple(tuple(pair) for pair in o.get(key, ()))
         o["gravity"] = None if o.get("gravity") is None else tuple(o["gravity"])
         bodies = np.array([[d["bodies"][b]["parameters"][p] for p in _inertia.PARAMETER_NAMES]
                            for b in BODIES])
@@ -495,6 +528,11 @@ def fit_arm_dynamics(c, dc, tau_c, *, sample_rate_hz: float, coupling=None,
             ellipsoid_g.append(pk[0] * (1.0 - float(cen @ (L2 * cen)))
                             + 2 * sum(L2[i] * cen[i] * pk[1 + i] for i in range(3))
                             - sum(L2[i] * sigma_diag[i] for i in range(3)))
+    # direction-dependent Coulomb levels Fc + a and Fc - a stay >= 0
+    for k in options.asymmetric_coulomb:
+        i_c = layout.names.index(f"{names[k]}.friction.coulomb")
+        i_a = layout.names.index(f"{names[k]}.friction.coulomb_asymmetry")
+        ellipsoid_g += [phi[i_c] + phi[i_a], phi[i_c] - phi[i_a]]
     nlp = {"x": x, "f": cost + reg, "g": ca.vertcat(ca.sumsqr(gsym), *ellipsoid_g)}
     solver = ca.nlpsol("arm", "ipopt", nlp, {
         "ipopt.print_level": 0, "print_time": False, "ipopt.max_iter": options.max_iter,
