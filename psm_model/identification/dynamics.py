@@ -79,6 +79,11 @@ BOUNDING_ELLIPSOIDS = {
     "wrist_yaw": ((0.0, 0.0, 0.0), (0.02, 0.02, 0.02)),
 }
 
+INSERTION_ELLIPSOID = ((0.0, 0.0, 0.1), (0.1, 0.1, 0.35))
+"""Optional bound on the insertion body (the carriage and the instrument that ride the insertion
+stage; joint frame at the carriage, shaft along +z to the roll frame 0.416 m ahead): centre (m),
+semi-axes (m). Used when ``DynamicsFitOptions.insertion_ellipsoid`` is set."""
+
 MODEL_FORMAT = "psm_model.identification.ArmDynamicsModel/1"
 
 
@@ -125,6 +130,8 @@ class DynamicsFitOptions:
     """Constrain the instrument bodies' mass inside :data:`BOUNDING_ELLIPSOIDS` (geometric
     plausibility). On the 60/40 split of the WPI training file: held-out mean error 12.9 % with,
     12.8 % without; the benchmark prints both variants."""
+    insertion_ellipsoid: bool = False
+    """Also bound the insertion body by :data:`INSERTION_ELLIPSOID` (needs bounding_ellipsoids)."""
     gravity: tuple[float, float, float] | None = None
     """Gravity (m/s^2) in the base frame if known; None: identify its direction (|g| = 9.81)."""
     max_iter: int = 3000
@@ -456,6 +463,14 @@ def fit_arm_dynamics(c, dc, tau_c, *, sample_rate_hz: float, coupling=None,
     c, dc, tau_c = _check_inputs(c, dc, tau_c, options, "training data")
     _check_excitation(dc, names, "training data")
     cf, dcf, ddcf, tauf = condition_signals(c, dc, tau_c, sample_rate_hz, options)
+    return _fit_conditioned(cf, dcf, ddcf, tauf, T, names, options, sample_rate_hz, provenance,
+                            t_start)
+
+
+def _fit_conditioned(cf, dcf, ddcf, tauf, T, names, options, sample_rate_hz, provenance,
+                     t_start) -> ArmDynamicsModel:
+    """The fit proper on already conditioned samples (rows need not be contiguous in time)."""
+    import casadi as ca
 
     model, urdf = _prior_model()
     nb = len(BODIES)
@@ -516,10 +531,13 @@ def fit_arm_dynamics(c, dc, tau_c, *, sample_rate_hz: float, coupling=None,
     # Wensing et al. 2017) m (1 - c'L^2 c) + 2 (L^2 c).h - tr(L^2 Sigma) >= 0, Sigma = int x x' dm
     ellipsoid_g = []  # inequality constraints >= 0
     if options.bounding_ellipsoids:
+        ellipsoids = dict(BOUNDING_ELLIPSOIDS)
+        if options.insertion_ellipsoid:
+            ellipsoids["insertion"] = INSERTION_ELLIPSOID
         for k, name in enumerate(BODIES):
-            if name not in BOUNDING_ELLIPSOIDS:
+            if name not in ellipsoids:
                 continue
-            centre, axes = BOUNDING_ELLIPSOIDS[name]
+            centre, axes = ellipsoids[name]
             pk = pis[10 * k:10 * k + 10]
             L2 = 1.0 / np.asarray(axes, dtype=float) ** 2
             cen = np.asarray(centre, dtype=float)
