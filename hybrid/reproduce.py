@@ -185,6 +185,61 @@ def _teleop_folds(tele: Dataset) -> list[dict]:
     return folds
 
 
+def teleop_loco(models: dict, tele: Dataset, *, budget: str, seed: int, device: str,
+                log: Callable[[str], None] = print) -> tuple[dict, dict, dict]:
+    """Leave-one-configuration-out finetuning (:func:`_teleop_folds`) of each pretrained
+    ``{label: (model, setup)}`` (copied, last decoder block only, pretrained scalers) and its
+    scores per (condition, seen/unseen) and fold. Returns (scores, unseen config_0 segments for
+    plotting, trainable/total parameters per label)."""
+    teleop: dict = {}
+    segments: dict = {}
+    params: dict = {}
+    for fold in _teleop_folds(tele):
+        ft_train, ft_val = split_validation(fold["train"], 0.25, seed)
+        for label, (pre_model, pre_setup) in models.items():
+            model = _clone(pre_model)
+            rep = finetune_model(model, pre_setup, ft_train, ft_val,
+                                 _config(budget, "finetune", seed, device, pre_setup.model_name),
+                                 desc=f"finetune {label} ({fold['unseen']} unseen)")
+            params[label] = {"trainable": rep["trainable_parameters"], "total": rep["parameters"]}
+            for which in ("seen", "unseen"):
+                trials = fold[f"{which}_test"]
+                for cond in TELEOP_CONDITIONS:
+                    group = [x for x in trials if x.condition == cond]
+                    m, segs, _ = _score_models({label: (model, pre_setup)}, group, device)
+                    teleop.setdefault(label, {}).setdefault(f"{cond}/{which.capitalize()}",
+                                                            []).append(m[label])
+                    if which == "unseen" and fold["unseen"] == "config_0":
+                        segments.setdefault(label, {}).update(segs[label])
+        log(f"    fold {fold['unseen']} unseen done")
+    return teleop, segments, params
+
+
+def teleop_from_checkpoints(checkpoints: dict, teleop_dir: str | Path, out: str | Path, *,
+                            budget: str = "cpu", seed: int = 0, device: str = "cpu") -> dict:
+    """The teleoperation table for trained checkpoints ``{label: path}`` on a simulated teleop
+    dataset: writes ``teleop.md`` and ``teleop.json`` into ``out`` and returns the scores."""
+    from hybrid.checkpoint import load_checkpoint
+    from hybrid.evaluate import derive_for_checkpoint, setup_from_checkpoint
+    models = {}
+    tele = None
+    for label, path in checkpoints.items():
+        ckpt = load_checkpoint(path, device)
+        tele = load_dataset(teleop_dir)
+        derive_for_checkpoint(tele, ckpt)
+        models[label] = (ckpt.model, setup_from_checkpoint(ckpt))
+        per_model = {label: models[label]}
+        scores, _, params = teleop_loco(per_model, tele, budget=budget, seed=seed, device=device)
+        models[label] = {"scores": scores[label], "finetune_parameters": params[label],
+                         "checkpoint": str(path)}
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    result = {"teleop_dir": str(teleop_dir), "budget": budget, "seed": seed, "models": models}
+    write_text_atomic(out / "teleop.json", json.dumps(result, indent=2) + "\n")
+    write_text_atomic(out / "teleop.md", teleop_table({k: v["scores"] for k, v in models.items()}))
+    return result
+
+
 def reproduce(out: str | Path, scale: float = 0.05, device: str = "cpu", seed: int = 0, *,
               budget: str | None = None, threads: int = 2,
               log: Callable[[str], None] | None = None) -> dict:
@@ -291,30 +346,9 @@ def reproduce(out: str | Path, scale: float = 0.05, device: str = "cpu", seed: i
 
     # 6. teleoperation, leave one configuration out ---------------------------------------
     t = time.perf_counter()
-    teleop: dict = {}
-    teleop_segments: dict = {}
-    finetune_params: dict = {}
-    for fold in _teleop_folds(tele):
-        ft_train, ft_val = split_validation(fold["train"], 0.25, seed)
-        for name in ("transformer", "lstm", "hybrid"):
-            label = LABELS[name]
-            pre_model, pre_setup = models[label]
-            model = _clone(pre_model)
-            rep = finetune_model(model, pre_setup, ft_train, ft_val,
-                                 _config(budget, "finetune", seed, device, name),
-                                 desc=f"finetune {name} ({fold['unseen']} unseen)")
-            finetune_params[label] = {"trainable": rep["trainable_parameters"],
-                                      "total": rep["parameters"]}
-            for which in ("seen", "unseen"):
-                trials = fold[f"{which}_test"]
-                for cond in TELEOP_CONDITIONS:
-                    group = [x for x in trials if x.condition == cond]
-                    m, segs, _ = _score_models({label: (model, pre_setup)}, group, device)
-                    teleop.setdefault(label, {}).setdefault(f"{cond}/{which.capitalize()}",
-                                                            []).append(m[label])
-                    if which == "unseen" and fold["unseen"] == "config_0":
-                        teleop_segments.setdefault(label, {}).update(segs[label])
-        say.write(f"    fold {fold['unseen']} unseen done")
+    teleop, teleop_segments, finetune_params = teleop_loco(
+        {LABELS[n]: models[LABELS[n]] for n in ("transformer", "lstm", "hybrid")}, tele,
+        budget=budget, seed=seed, device=device, log=say.write)
     say.stage("teleoperation finetuning (3 folds)", t)
 
     # 7. timing ------------------------------------------------------------------------------
@@ -419,3 +453,20 @@ def _markdown(r: dict) -> str:
                      f"{v['seconds']:.0f} | {v['train_windows']} |")
     lines += ["", "## Figures", ""] + [f"![{Path(f).stem}]({f})" for f in r["figures"]]
     return "\n".join(lines) + "\n"
+
+
+if __name__ == "__main__":
+    import argparse
+    parser = argparse.ArgumentParser(description="teleoperation leave-one-configuration-out "
+                                     "table for trained checkpoints (LABEL=PATH ...)")
+    parser.add_argument("checkpoints", nargs="+", help="LABEL=checkpoint.pt")
+    parser.add_argument("--teleop", required=True, help="simulated teleoperation dataset folder")
+    parser.add_argument("--out", required=True)
+    parser.add_argument("--budget", default="cpu", choices=sorted(BUDGETS))
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--threads", type=int, default=2)
+    args = parser.parse_args()
+    torch.set_num_threads(args.threads)
+    pairs = dict(c.split("=", 1) for c in args.checkpoints)
+    print(teleop_table({k: v["scores"] for k, v in teleop_from_checkpoints(
+        pairs, args.teleop, args.out, budget=args.budget, seed=args.seed)["models"].items()}))
