@@ -20,46 +20,35 @@ import numpy as np
 
 
 def _selection_study(wpi_dir: Path) -> dict:
-    """Held-out (last 40 % of the training file) mean relative error of model variants."""
-    from types import SimpleNamespace
-
+    """Model selection on the training file only: phase cross-validation (5 folds by phase of the
+    excitation period; ``dynamics.phase_cross_validation``), mean relative error over the 7
+    coordinates. The test file is never used here."""
     from psm_model.identification import wpi
-    from psm_model.identification.dynamics import (DynamicsFitOptions, evaluate_wpi_protocol,
-                                                   fit_arm_dynamics)
-    from psm_model.identification.friction import FrictionShape
+    from psm_model.identification.dynamics import DynamicsFitOptions, phase_cross_validation
 
     rec = wpi.load_wpi(wpi_dir / "one_results.csv")
-    n = int(0.6 * len(rec.q))
-    held = SimpleNamespace(q=rec.q[n:], dq=rec.dq[n:], tau=rec.tau[n:], sample_rate_hz=200.0,
-                           source="one_results.csv[last 40 %]")
     variants = {
-        "default": DynamicsFitOptions(),
-        "no bounding ellipsoids": DynamicsFitOptions(bounding_ellipsoids=False),
+        "default (roll^2, asym. Coulomb ins., roll)": DynamicsFitOptions(),
+        "symmetric Coulomb": DynamicsFitOptions(asymmetric_coulomb=()),
+        "symmetric Coulomb, no roll^2 (previous)": DynamicsFitOptions(asymmetric_coulomb=(),
+                                                                      spring_polynomial=()),
+        "+ insertion^2 spring": DynamicsFitOptions(spring_polynomial=((2, 2), (3, 2))),
         "springs on roll + wrist only": DynamicsFitOptions(spring_coordinates=(3, 4, 5, 6)),
-        "spring on roll only": DynamicsFitOptions(spring_coordinates=(3,)),
-        "gravity fixed (0, 0, -9.81)": DynamicsFitOptions(gravity=(0.0, 0.0, -9.81)),
-        "prior weight 1e-3": DynamicsFitOptions(prior_weight=1e-3),
-        "with Stribeck": DynamicsFitOptions(stribeck=True),
-        "no roll-wrist cross springs": DynamicsFitOptions(roll_wrist_cross_springs=False),
-        "sharp Coulomb (0.02 rad/s, 0.02 m/s)": DynamicsFitOptions(
-            friction_shape=FrictionShape(0.02, 0.1), friction_shape_prismatic=FrictionShape(0.02, 0.1)),
-        "Coulomb 0.1 rad/s, 0.02 m/s": DynamicsFitOptions(
-            friction_shape_prismatic=FrictionShape(0.02, 0.04)),
-        "Coulomb 0.05 rad/s, 0.005 m/s": DynamicsFitOptions(
-            friction_shape=FrictionShape(0.05, 0.1), friction_shape_prismatic=FrictionShape(0.005, 0.01)),
     }
     out = {}
-    print("model selection on the training file (fit first 60 %, score last 40 %):")
+    print("model selection on the training file (5-fold cross-validation by phase of the "
+          "excitation period; held-out relative error %):")
     for name, opts in variants.items():
-        m = fit_arm_dynamics(rec.q[:n], rec.dq[:n], rec.tau[:n], sample_rate_hz=200.0,
-                             coupling=wpi.coordinates_to_dvrk_matrix(),
-                             coordinate_names=wpi.MOTOR_COORDINATES, options=opts)
-        err = 100 * np.array(evaluate_wpi_protocol(m, held, test_samples=len(held.q) - 400)[
-            "relative_error"])
+        cv = phase_cross_validation(rec.q, rec.dq, rec.tau, sample_rate_hz=rec.sample_rate_hz,
+                                    coupling=wpi.coordinates_to_dvrk_matrix(),
+                                    coordinate_names=wpi.MOTOR_COORDINATES, options=opts)
+        err = 100 * np.array(cv["relative_error"])
         out[name] = {"held_out_percent": err.tolist(), "mean": float(err.mean()),
-                     "status": m.info["solver_status"]}
-        print(f"  {name:32s} mean {err.mean():5.1f} %  per joint "
-              + " ".join(f"{e:5.1f}" for e in err) + f"  ({m.info['solver_status']})")
+                     "period_samples": cv["period_samples"], "status": cv["solver_status"]}
+        print(f"  {name:42s} mean {err.mean():5.1f} %  per joint "
+              + " ".join(f"{e:5.1f}" for e in err)
+              + f"  ({sum(s == 'Solve_Succeeded' for s in cv['solver_status'])}/{cv['folds']} "
+                "Solve_Succeeded)")
     return out
 
 
@@ -70,8 +59,8 @@ def main() -> dict:
         "PSM_WPI_DATA", Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "wpi_psm")))
     ap.add_argument("--scale", type=float, default=0.05)
     ap.add_argument("--selection", action="store_true",
-                    help="also print the model-selection study: variants fitted on the first 60 %% "
-                         "of the WPI training file, scored on its last 40 %% (never on the test file)")
+                    help="also print the model-selection study: 5-fold cross-validation by phase "
+                         "of the WPI training file's excitation period (never the test file)")
     args = ap.parse_args()
     try:
         import torch

@@ -12,6 +12,14 @@ inputs (:data:`HYBRID_FEATURES`), and the network learns the residual:
 so ``BASE_COLUMNS`` (= ``comp_fx, comp_fy, comp_fz``) are added to the un-scaled network output,
 as :func:`hybrid.train.predict_trial` does for any model with base columns.
 
+:data:`PRIOR_FZ` (``prior_fz``): the prior's internal axial force itself (N, HEX10 frame,
+compression negative), an optional extra input (:data:`HYBRID_FEATURES_PRIOR_FZ`). Why: what
+the prior misses along the shaft (capstan friction, hysteresis, wrist elasticity) depends on the
+cable load it predicts and on its regime (taut or slack, direction of sliding), with a sign that
+changes between regimes, so the Fz residual ``ati_fz - comp_fz`` is not a function of ``comp_*``
+alone; without ``prior_fz`` the network must re-derive the prior's nonlinear internal force from
+the joint states to learn it.
+
 ``use_prior=False`` (the "hybrid without the prior" ablation, :func:`hybrid_columns`): the same
 network on the paper's raw 21 inputs with the raw HEX10 force as the base, i.e. the prior
 replaced by zero.
@@ -40,10 +48,16 @@ from psm_model.recording import HEX10, HEX10_FORCE, JOINT_POSITIONS, PAPER_FEATU
 
 COMPENSATED_HEX10 = tuple(f"comp_{c}" for c in HEX10)
 """HEX10 reading minus the prior's internal wrench: comp_fx .. comp_tz (N, Nm, HEX10 frame)."""
+PRIOR_FZ = "prior_fz"
+"""The prior's internal axial force (N, HEX10 frame, shaft compression negative)."""
+PRIOR_COLUMNS = COMPENSATED_HEX10 + (PRIOR_FZ,)
+"""Every column derived from the prior (:func:`compensated_hex10`)."""
 BASE_COLUMNS = COMPENSATED_HEX10[:3]
 """Added to the network's un-scaled output: the prior-compensated HEX10 force."""
 HYBRID_FEATURES = tuple(f"comp_{c}" if c in HEX10 else c for c in PAPER_FEATURES)
 """The paper's 21 inputs in its order, HEX10 columns replaced by their compensated values."""
+HYBRID_FEATURES_PRIOR_FZ = HYBRID_FEATURES + (PRIOR_FZ,)
+""":data:`HYBRID_FEATURES` plus the prior's internal fz (see the module docstring)."""
 
 
 class HybridInputError(ValueError):
@@ -58,17 +72,20 @@ def hybrid_columns(use_prior: bool = True) -> tuple[tuple[str, ...], tuple[str, 
 
 
 def compensated_hex10(frame: pd.DataFrame, prior) -> dict[str, np.ndarray]:
-    """{comp_fx .. comp_tz: (N,)} for a whole recording: HEX10 reading minus ``prior.predict``."""
+    """{comp_fx .. comp_tz, prior_fz: (N,)} for a whole recording: HEX10 reading minus
+    ``prior.predict``, and the prior's internal fz (:data:`PRIOR_COLUMNS`)."""
     internal = np.asarray(prior.predict(frame), dtype=np.float64)
     if internal.shape != (len(frame), 6):
         raise HybridInputError(f"prior.predict returned shape {internal.shape}, expected "
                                f"({len(frame)}, 6)")
     hex10 = frame[list(HEX10)].to_numpy(dtype=np.float64)
-    return {name: hex10[:, k] - internal[:, k] for k, name in enumerate(COMPENSATED_HEX10)}
+    comp = {name: hex10[:, k] - internal[:, k] for k, name in enumerate(COMPENSATED_HEX10)}
+    return comp | {PRIOR_FZ: internal[:, 2]}
 
 
 def add_prior_columns(dataset, prior) -> None:
-    """Append the compensated HEX10 columns to every trial of a :class:`hybrid.data.Dataset`."""
+    """Append the prior's columns (:data:`PRIOR_COLUMNS`) to every trial of a
+    :class:`hybrid.data.Dataset`."""
     dataset.add_columns(lambda trial: compensated_hex10(trial.frame, prior))
 
 
@@ -159,7 +176,7 @@ def sample_prior(prior, psm=None):
 class HybridInputs:
     """Raw recorded signals -> (scaled network inputs, base) in a model's column order.
 
-    ``features`` / ``base_columns``: the checkpoint's columns; any of :data:`COMPENSATED_HEX10`
+    ``features`` / ``base_columns``: the checkpoint's columns; any of :data:`PRIOR_COLUMNS`
     among them is computed with ``prior``. :attr:`raw_columns` lists the recorded columns needed,
     in the order :meth:`sample` expects them.
     """
@@ -167,7 +184,7 @@ class HybridInputs:
     def __init__(self, features: Sequence[str], base_columns: Sequence[str], input_scaler,
                  prior=None, extra_columns: Sequence[str] = (), psm=None):
         self.features, self.base_columns = tuple(features), tuple(base_columns)
-        derived = set(COMPENSATED_HEX10)
+        derived = set(PRIOR_COLUMNS)
         uses_prior = any(c in derived for c in self.features + self.base_columns)
         if uses_prior and prior is None:
             raise HybridInputError(f"columns {sorted(derived & set(self.features))} need a prior")
@@ -177,7 +194,7 @@ class HybridInputs:
         if self.prior is not None:
             raw += list(HEX10) + list(self.prior.input_columns)
         self.raw_columns = tuple(dict.fromkeys(raw))
-        source = self.raw_columns + COMPENSATED_HEX10
+        source = self.raw_columns + PRIOR_COLUMNS
         self._feature_index = np.array([source.index(c) for c in self.features])
         self._base_index = np.array([source.index(c) for c in self.base_columns], dtype=np.intp)
         self._mean = np.asarray(input_scaler.mean, np.float32)
@@ -191,9 +208,10 @@ class HybridInputs:
             self._prior_index = np.array([self.raw_columns.index(c)
                                           for c in self.prior.input_columns])
             self._prior_in = np.zeros(len(self._prior_index))
-        self._source = np.zeros(n_raw + 6)
+        self._source = np.zeros(n_raw + len(PRIOR_COLUMNS))
         self._raw_view = self._source[:n_raw]
-        self._comp_view = self._source[n_raw:]
+        self._comp_view = self._source[n_raw:n_raw + 6]
+        self._prior_fz_index = n_raw + 6
         self._x64 = np.zeros(len(self.features))
         self.x = np.zeros(len(self.features), np.float32)
         self.base = np.zeros(len(self.base_columns))
@@ -220,6 +238,7 @@ class HybridInputs:
             internal = self.prior.predict_sample(self._prior_in)
             np.take(self._raw_view, self._hex10_index, out=self._comp_view)
             np.subtract(self._comp_view, internal, out=self._comp_view)
+            self._source[self._prior_fz_index] = internal[2]
         np.take(self._source, self._feature_index, out=self._x64)
         np.subtract(self._x64, self._mean, out=self._x64)
         np.divide(self._x64, self._std, out=self._x64)

@@ -159,3 +159,16 @@ def test_regressor_matches_rnea_of_constrained_model():
     R_coupler = data.oMi[model.getJointId("parallelogram_coupler")].rotation
     R_pitch_rest = model.jointPlacements[model.getJointId("parallelogram_crank")].rotation
     assert np.allclose(R_coupler, R_yaw @ R_pitch_rest, atol=1e-12)
+
+
+def test_excitation_period_and_phase_cross_validation_input():
+    from psm_model.identification.dynamics import DynamicsFitOptions, phase_cross_validation
+
+    t = np.arange(2400) / 200
+    c = np.stack([0.3 * np.sin(2 * np.pi * 0.5 * t * (k + 1) + k) for k in range(7)], axis=1)
+    assert signals.excitation_period(c, min_lag=200) == 400  # 2 s at 200 Hz
+    assert signals.excitation_period(np.cumsum(np.ones((600, 2)), axis=0), min_lag=100) is None
+    drifting = c + t[:, None]  # never repeats: phase folds are undefined, say so before fitting
+    with pytest.raises(IdentificationInputError, match="no excitation period"):
+        phase_cross_validation(drifting, np.ones_like(c), np.ones_like(c), sample_rate_hz=200,
+                               options=DynamicsFitOptions(min_samples=500))

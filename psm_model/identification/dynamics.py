@@ -22,6 +22,9 @@ Model (joint space of the PSM's six chain joints + jaw; frames and units as in `
   :data:`COUPLER_CRANK_M`) and a joint at -q2, spans them: with its first moment free, any crank
   radius gives the same function span. The identification model has 8 joints mapped to the chain
   by q_ext = G q, tau = G^T tau_ext (docs/identification.md).
+* Optional terms (``DynamicsFitOptions``): polynomial springs, direction-dependent Coulomb levels
+  (Fc + a, Fc - a, both >= 0), cross springs. ``phase_cross_validation`` scores options on one
+  periodic recording by holding out phases of its excitation period.
 * Physical consistency by construction: each body's 10 parameters come from a log-Cholesky
   parametrisation (``inertia.py``); Coulomb, viscous, Stribeck and armature >= 0.
 * Solver: CasADi IPOPT on the weighted least-squares cost (weights 1/RMS of each coordinate's
@@ -47,7 +50,8 @@ import pinocchio as pin
 from psm_model.identification import friction as _fr
 from psm_model.identification import inertia as _inertia
 from psm_model.identification.errors import IdentificationInputError, NotConvergedError
-from psm_model.identification.signals import check_finite_2d, derivative, zero_phase_lowpass
+from psm_model.identification.signals import (check_finite_2d, derivative, excitation_period,
+                                              zero_phase_lowpass)
 
 GRAVITY_MPS2 = 9.81
 CHAIN_BODIES = ("yaw", "pitch", "insertion", "roll", "wrist_pitch", "wrist_yaw")
@@ -79,11 +83,6 @@ BOUNDING_ELLIPSOIDS = {
     "wrist_yaw": ((0.0, 0.0, 0.0), (0.02, 0.02, 0.02)),
 }
 
-INSERTION_ELLIPSOID = ((0.0, 0.0, 0.1), (0.1, 0.1, 0.35))
-"""Optional bound on the insertion body (the carriage and the instrument that ride the insertion
-stage; joint frame at the carriage, shaft along +z to the roll frame 0.416 m ahead): centre (m),
-semi-axes (m). Used when ``DynamicsFitOptions.insertion_ellipsoid`` is set."""
-
 MODEL_FORMAT = "psm_model.identification.ArmDynamicsModel/1"
 
 
@@ -99,27 +98,30 @@ class DynamicsFitOptions:
     """Smooth-sign and Stribeck velocities of the revolute coordinates (rad/s)."""
     friction_shape_prismatic: _fr.FrictionShape = _fr.FrictionShape(smooth_sign_velocity=0.05,
                                                                     stribeck_velocity=0.1)
-    """The same for the insertion (m/s). Both chosen on the 60/40 split of the WPI training file
-    (benchmark ``--selection``): a gradual Coulomb transition (pre-sliding, cable compliance) fits
-    the held-out part better than a sharp sign."""
+    """The same for the insertion (m/s). A gradual Coulomb transition (pre-sliding, cable
+    compliance); chosen on an earlier first-60 %/last-40 % split of the WPI training file, which
+    the trajectory's periodicity makes an in-sample check (docs/identification.md)."""
     stribeck: bool = False
     """Stribeck columns off by default: on the WPI training file every Stribeck term hit its 0 bound."""
     spring_coordinates: tuple[int, ...] = (0, 1, 2, 3, 4, 5, 6)
     """Coordinates with a linear position term K*c: roll torsion (Wang et al.), the wrist cables'
     elasticity, and on yaw/pitch/insertion unmodelled position-dependent loads (harness, balance).
-    Chosen on a 60/40 split of the WPI training file: held-out mean error 12.8 % with springs on all
-    coordinates, 13.1 % on roll + wrist only, 15.9 % on roll only."""
+    Springs on roll + wrist only: worse in the phase cross-validation (benchmark
+    ``--selection``)."""
     roll_wrist_cross_springs: bool = True
     """Roll torque linear in the wrist coordinates (the wrist cables run along the roll axis and
-    twist with it). Held-out mean error 12.2 % with, 12.3 % without (benchmark ``--selection``)."""
-    spring_polynomial: tuple[tuple[int, int], ...] = ()
+    twist with it); kept from the earlier (in-sample) 60/40 selection."""
+    spring_polynomial: tuple[tuple[int, int], ...] = ((3, 2),)
     """(coordinate, degree) pairs: position terms c_k^2 .. c_k^degree on coordinate k besides the
-    linear spring (a nonlinear spring or counterbalance, e.g. the insertion stage's cable/spring
-    force varying along the stroke)."""
-    asymmetric_coulomb: tuple[int, ...] = ()
+    linear spring. Default: roll torque quadratic in roll (torsion stiffness that differs between
+    the two twist directions). Chosen by phase cross-validation on the WPI training file
+    (benchmark ``--selection``, figures in docs/identification.md)."""
+    asymmetric_coulomb: tuple[int, ...] = (2, 3)
     """Coordinates whose Coulomb level may differ between the + and - directions: an extra column
     |s(v)| with coefficient a, so that the levels are Fc + a (v > 0) and Fc - a (v < 0), both
-    constrained >= 0."""
+    constrained >= 0. Default insertion and roll (cable/carriage friction that depends on the
+    direction of travel): lowest mean error of the phase cross-validation (benchmark
+    ``--selection``)."""
     cross_springs: tuple[tuple[int, int], ...] = ()
     """(row, column) pairs: torque on coordinate ``row`` linear in the position of ``column``."""
     wrist_joint_friction: bool = True
@@ -128,10 +130,7 @@ class DynamicsFitOptions:
     """Weight of the pull towards the URDF inertial prior, relative to the mean data curvature."""
     bounding_ellipsoids: bool = True
     """Constrain the instrument bodies' mass inside :data:`BOUNDING_ELLIPSOIDS` (geometric
-    plausibility). On the 60/40 split of the WPI training file: held-out mean error 12.9 % with,
-    12.8 % without; the benchmark prints both variants."""
-    insertion_ellipsoid: bool = False
-    """Also bound the insertion body by :data:`INSERTION_ELLIPSOID` (needs bounding_ellipsoids)."""
+    plausibility); the benchmark prints the fit without them too."""
     gravity: tuple[float, float, float] | None = None
     """Gravity (m/s^2) in the base frame if known; None: identify its direction (|g| = 9.81)."""
     max_iter: int = 3000
@@ -529,29 +528,26 @@ def _fit_conditioned(cf, dcf, ddcf, tauf, T, names, options, sample_rate_hz, pro
     # bounding ellipsoids: each body's mass lies inside an ellipsoid E = {x: |L (x - c)| <= 1},
     # L = diag(1/semi-axes): int (1 - |L(x - c)|^2) dm >= 0, i.e. (scalar form of the LMI of
     # Wensing et al. 2017) m (1 - c'L^2 c) + 2 (L^2 c).h - tr(L^2 Sigma) >= 0, Sigma = int x x' dm
-    ellipsoid_g = []  # inequality constraints >= 0
+    inequality_g = []  # inequality constraints >= 0 (ellipsoids, Coulomb levels)
     if options.bounding_ellipsoids:
-        ellipsoids = dict(BOUNDING_ELLIPSOIDS)
-        if options.insertion_ellipsoid:
-            ellipsoids["insertion"] = INSERTION_ELLIPSOID
         for k, name in enumerate(BODIES):
-            if name not in ellipsoids:
+            if name not in BOUNDING_ELLIPSOIDS:
                 continue
-            centre, axes = ellipsoids[name]
+            centre, axes = BOUNDING_ELLIPSOIDS[name]
             pk = pis[10 * k:10 * k + 10]
             L2 = 1.0 / np.asarray(axes, dtype=float) ** 2
             cen = np.asarray(centre, dtype=float)
             tr_i = pk[4] + pk[6] + pk[9]
             sigma_diag = (0.5 * tr_i - pk[4], 0.5 * tr_i - pk[6], 0.5 * tr_i - pk[9])
-            ellipsoid_g.append(pk[0] * (1.0 - float(cen @ (L2 * cen)))
+            inequality_g.append(pk[0] * (1.0 - float(cen @ (L2 * cen)))
                             + 2 * sum(L2[i] * cen[i] * pk[1 + i] for i in range(3))
                             - sum(L2[i] * sigma_diag[i] for i in range(3)))
     # direction-dependent Coulomb levels Fc + a and Fc - a stay >= 0
     for k in options.asymmetric_coulomb:
         i_c = layout.names.index(f"{names[k]}.friction.coulomb")
         i_a = layout.names.index(f"{names[k]}.friction.coulomb_asymmetry")
-        ellipsoid_g += [phi[i_c] + phi[i_a], phi[i_c] - phi[i_a]]
-    nlp = {"x": x, "f": cost + reg, "g": ca.vertcat(ca.sumsqr(gsym), *ellipsoid_g)}
+        inequality_g += [phi[i_c] + phi[i_a], phi[i_c] - phi[i_a]]
+    nlp = {"x": x, "f": cost + reg, "g": ca.vertcat(ca.sumsqr(gsym), *inequality_g)}
     solver = ca.nlpsol("arm", "ipopt", nlp, {
         "ipopt.print_level": 0, "print_time": False, "ipopt.max_iter": options.max_iter,
         "ipopt.tol": 1e-10, "ipopt.sb": "yes"})
@@ -569,7 +565,7 @@ def _fit_conditioned(cf, dcf, ddcf, tauf, T, names, options, sample_rate_hz, pro
     if options.gravity is not None:  # known gravity: pin the three components
         lbx[10 * nb:10 * nb + 3] = ubx[10 * nb:10 * nb + 3] = g0
         g_norm2 = float(g0 @ g0)
-    n_ell = len(ellipsoid_g)
+    n_ell = len(inequality_g)
     sol = solver(x0=np.concatenate([theta0, g0, phi0]), lbx=lbx, ubx=ubx,
                  lbg=np.concatenate([[g_norm2], np.zeros(n_ell)]),
                  ubg=np.concatenate([[g_norm2], np.full(n_ell, np.inf)]))
@@ -611,6 +607,46 @@ def _fit_conditioned(cf, dcf, ddcf, tauf, T, names, options, sample_rate_hz, pro
         "provenance": provenance,
     }
     return fitted
+
+
+def phase_cross_validation(c, dc, tau_c, *, sample_rate_hz: float, coupling=None,
+                           coordinate_names=None,
+                           options: DynamicsFitOptions = DynamicsFitOptions(), folds: int = 5,
+                           period_samples: int | None = None) -> dict:
+    """Cross-validation within one periodic excitation recording, by phase of the period.
+
+    The signals are conditioned once (whole recording); sample i gets the fold
+    floor(folds * phase_i), phase_i = ((i mod P) / P), P the excitation period (estimated with
+    :func:`signals.excitation_period` unless given). Each fold is held out in turn: the model is
+    fitted on the other phases and scored on this one, so every held-out stretch of the trajectory
+    (states, velocity combinations) is one the fit never saw - unlike a first/last split of a
+    periodic recording, whose last part repeats the first. Returns per-coordinate relative error
+    ||tau - tau_hat|| / ||tau|| pooled over the folds, and the solver status of each fit."""
+    T = np.eye(N_COORD) if coupling is None else np.asarray(coupling, dtype=float)
+    names = tuple(coordinate_names or ("yaw", "pitch", "insertion", "roll", "wrist_pitch",
+                                       "wrist_yaw", "jaw"))
+    c, dc, tau_c = _check_inputs(c, dc, tau_c, options, "cross-validation data")
+    if period_samples is None:
+        period_samples = excitation_period(c, min_lag=int(sample_rate_hz))
+        if period_samples is None:
+            raise IdentificationInputError("cross-validation data: no excitation period found "
+                                           "(the trajectory does not repeat)")
+    cf, dcf, ddcf, tauf = condition_signals(c, dc, tau_c, sample_rate_hz, options)
+    phase = ((np.arange(len(cf)) + options.trim) % period_samples) / period_samples
+    fold = np.minimum((phase * folds).astype(int), folds - 1)
+    sq_err = np.zeros(N_COORD)
+    sq_tau = np.zeros(N_COORD)
+    status = []
+    for k in range(folds):
+        fit, held = fold != k, fold == k
+        m = _fit_conditioned(cf[fit], dcf[fit], ddcf[fit], tauf[fit], T, names, options,
+                             sample_rate_hz, "", time.perf_counter())
+        sq_err += np.sum((tauf[held] - m.predict_coordinates(cf[held], dcf[held], ddcf[held]))
+                         ** 2, axis=0)
+        sq_tau += np.sum(tauf[held] ** 2, axis=0)
+        status.append(m.info["solver_status"])
+    return {"relative_error": np.sqrt(sq_err / sq_tau).tolist(), "folds": folds,
+            "period_samples": int(period_samples), "solver_status": status}
 
 
 def _relative_error(tau, tau_hat) -> np.ndarray:

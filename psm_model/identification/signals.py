@@ -63,3 +63,24 @@ def derivative(x, sample_rate_hz: float) -> np.ndarray:
     if arr.shape[0] < 3:
         raise IdentificationInputError("at least 3 samples are needed to differentiate")
     return np.gradient(arr, 1.0 / sample_rate_hz, axis=0)
+
+
+def excitation_period(x, *, min_lag: int = 1, tolerance: float = 0.1) -> int | None:
+    """Smallest lag (samples) >= ``min_lag`` at which the trajectory ``x`` (N, k) repeats itself:
+    the first local minimum of ||x[lag:] - x[:-lag]|| / ||x[lag:] - mean(x)|| below
+    ``tolerance``; None if it never does (within the first half of the recording). Periodic
+    excitation (a Fourier series) makes a split of one recording into a first and a last part an
+    in-sample test; this finds the period to split by phase instead."""
+    arr = check_finite_2d(x, "trajectory", min_rows=4)
+
+    def mismatch(lag):
+        a = arr[lag:]
+        return np.linalg.norm(a - arr[:-lag]) / np.linalg.norm(a - a.mean(axis=0))
+
+    for lag in range(max(1, min_lag), arr.shape[0] // 2):
+        if mismatch(lag) <= tolerance:
+            # the first lag under the tolerance may sit just before the period: go to the minimum
+            while lag + 1 < arr.shape[0] // 2 and mismatch(lag + 1) < mismatch(lag):
+                lag += 1
+            return lag
+    return None
