@@ -45,7 +45,7 @@ import torch  # noqa: E402
 from hybrid.causal import CausalTransformer  # noqa: E402
 from hybrid.data import fit_scalers, load_dataset  # noqa: E402
 from hybrid.evaluate import EVAL_START  # noqa: E402
-from hybrid.hybrid import add_prior_columns, hybrid_columns  # noqa: E402
+from hybrid.hybrid import add_prior_columns, hybrid_columns, select_base  # noqa: E402
 from hybrid.metrics import axis_metrics, postprocess  # noqa: E402
 from hybrid.models import PaperTransformer, count_parameters  # noqa: E402
 from hybrid.streaming import CausalFilter, Flags, StreamingEstimator, make_backend  # noqa: E402
@@ -112,6 +112,7 @@ def _load(args, tmp: Path):
             add_prior_columns(dataset, prior)
         torch.manual_seed(0)
         model = CausalTransformer(len(features)).eval()
+        base = select_base(dataset.select(split="train"), base)
         xs, ys = fit_scalers(dataset.select(split="train"), features, base_columns=base)
         make = lambda **o: StreamingEstimator(model, features, xs, ys, base, prior, **o)  # noqa
         label = "untrained default hybrid" + (" with prior" if prior is not None else

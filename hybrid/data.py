@@ -237,14 +237,28 @@ class Scaler:
         return cls(np.asarray(d["mean"], np.float32), np.asarray(d["std"], np.float32))
 
 
+NO_BASE = ""
+"""A base entry for an axis on which the network's output is the force itself (no base added)."""
+
+
+def base_matrix(trial: Trial, base_columns: Sequence[str]) -> np.ndarray:
+    """The (N, 3) base added to a residual model's output: per axis the trial's column, or zeros
+    where the entry is :data:`NO_BASE`."""
+    if len(base_columns) != 3:
+        raise DatasetError(f"base needs 3 entries (x, y, z), got {list(base_columns)}")
+    used = [c for c in base_columns if c != NO_BASE]
+    out = np.zeros((len(trial), 3))
+    out[:, [k for k, c in enumerate(base_columns) if c != NO_BASE]] = trial.matrix(used, np.float64)
+    return out
+
+
 def target_matrix(trial: Trial, base_columns: Sequence[str] = (), dtype=np.float32) -> np.ndarray:
-    """The (N, 3) training target: the ATI force in the HEX10 frame, minus the three
-    ``base_columns`` when given (a residual target; the model's output is added to the base)."""
+    """The (N, 3) training target: the ATI force in the HEX10 frame, minus the base
+    (:func:`base_matrix`) when ``base_columns`` are given (a residual target; the model's output is
+    added to the base)."""
     y = trial.matrix(TARGETS, np.float64)
     if base_columns:
-        if len(base_columns) != 3:
-            raise DatasetError(f"base needs 3 columns (x, y, z), got {list(base_columns)}")
-        y = y - trial.matrix(base_columns, np.float64)
+        y = y - base_matrix(trial, base_columns)
     return y.astype(dtype)
 
 

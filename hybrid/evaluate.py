@@ -21,7 +21,8 @@ from typing import Mapping, Sequence
 import numpy as np
 import torch
 
-from hybrid.data import Dataset, Trial, load_dataset, lstm_columns, sliding_windows
+from hybrid.data import (Dataset, Trial, base_matrix, load_dataset, lstm_columns,
+                         sliding_windows)
 from hybrid.metrics import AXES, axis_metrics, postprocess
 from psm_model.recording import TARGETS
 
@@ -88,7 +89,7 @@ def predict_trial(model: torch.nn.Module, setup, trial: Trial, *, batch: int = 8
     if model.output_space == "scaled":
         out = setup.target_scaler.inverse(out)
     if setup.base_columns:
-        out = out + trial.matrix(setup.base_columns, np.float64)
+        out = out + base_matrix(trial, setup.base_columns)
     return out
 
 

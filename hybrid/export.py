@@ -172,7 +172,8 @@ def export(checkpoint: str | Path, out_dir: str | Path) -> dict:
             "x = (features - input_scaler.mean) / input_scaler.std  (float32, 'features' order)",
             "n_valid = min(samples since start including this one, attention_window)",
             "y, keys, values = graph(x, keys, values, n_valid)  (caches start at zeros)",
-            "force_hex10_N = y * target_scaler.std + target_scaler.mean + base_columns",
+            "force_hex10_N = y * target_scaler.std + target_scaler.mean + base_columns  (per axis; "
+            "an empty base entry adds nothing on that axis)",
             "warming up while samples since start < window"],
         "units": "force in N, external force on the tool, HEX10 frame",
         "versions": ckpt.versions, "provenance": ckpt.provenance,

@@ -10,10 +10,21 @@ inputs (:data:`HYBRID_FEATURES`), and the network learns the residual:
     estimate (N, HEX10 frame) = (hex10_f - prior_f) + target_scaler.inverse(net(scaled inputs))
 
 so ``BASE_COLUMNS`` (= ``comp_fx, comp_fy, comp_fz``) are added to the un-scaled network output,
-as :func:`hybrid.train.predict_trial` does for any model with base columns.
+as :func:`hybrid.evaluate.predict_trial` does for any model with base columns.
+
+**Residual only where the base helps** (:func:`select_base`). Laterally the compensated reading
+is the tip force plus a small error (cables run along the shaft and carry little shear), so the
+residual is far smaller than the force. Axially it is not: a tip load makes a moment about the
+wrist pulleys that the cables resist with tensions many times the load (jaw length >> pulley
+radius), and what of that compression the prior does not explain (capstan friction, hysteresis,
+elasticity under load) can exceed the axial tip force itself (on the simulated bench, scale 0.05:
+std of ``ati_fz - comp_fz`` 2.1 N in traction against 0.9 N for ``ati_fz``). An axis whose base
+does not shrink the target on the training trials gets :data:`hybrid.data.NO_BASE`: there the
+network predicts the force, with ``comp_fz`` still among its inputs.
 
 :data:`PRIOR_FZ` (``prior_fz``): the prior's internal axial force itself (N, HEX10 frame,
-compression negative), an optional extra input (:data:`HYBRID_FEATURES_PRIOR_FZ`). Why: what
+compression negative), an extra input (:data:`HYBRID_FEATURES_PRIOR_FZ`, the default inputs of
+:func:`hybrid_columns`; it lowered the validation NRMSE on every axis, ``docs/results.md``). Why: what
 the prior misses along the shaft (capstan friction, hysteresis, wrist elasticity) depends on the
 cable load it predicts and on its regime (taut or slack, direction of sliding), with a sign that
 changes between regimes, so the Fz residual ``ati_fz - comp_fz`` is not a function of ``comp_*``
@@ -44,6 +55,7 @@ from typing import Sequence
 import numpy as np
 import pandas as pd
 
+from hybrid.data import NO_BASE
 from psm_model.recording import HEX10, HEX10_FORCE, JOINT_POSITIONS, PAPER_FEATURES
 
 COMPENSATED_HEX10 = tuple(f"comp_{c}" for c in HEX10)
@@ -67,8 +79,23 @@ class HybridInputError(ValueError):
 def hybrid_columns(use_prior: bool = True) -> tuple[tuple[str, ...], tuple[str, ...]]:
     """(input features, base columns) of the hybrid, or of its no-prior ablation."""
     if use_prior:
-        return HYBRID_FEATURES, BASE_COLUMNS
+        return HYBRID_FEATURES_PRIOR_FZ, BASE_COLUMNS
     return PAPER_FEATURES, HEX10_FORCE
+
+
+def select_base(trials, base_columns: Sequence[str]) -> tuple[str, ...]:
+    """``base_columns`` with :data:`hybrid.data.NO_BASE` on every axis where subtracting the base
+    does not lower the target's variance over ``trials`` (the training trials; module docstring).
+    """
+    from psm_model.recording import TARGETS
+    if len(base_columns) != 3:
+        raise HybridInputError(f"base needs 3 columns (x, y, z), got {list(base_columns)}")
+    if not trials:
+        raise HybridInputError("no training trials to select the base on")
+    y = np.concatenate([t.matrix(TARGETS, np.float64) for t in trials])
+    b = np.concatenate([t.matrix(base_columns, np.float64) for t in trials])
+    helps = (y - b).var(axis=0) < y.var(axis=0)
+    return tuple(c if keep else NO_BASE for c, keep in zip(base_columns, helps))
 
 
 def compensated_hex10(frame: pd.DataFrame, prior) -> dict[str, np.ndarray]:
@@ -189,12 +216,14 @@ class HybridInputs:
         if uses_prior and prior is None:
             raise HybridInputError(f"columns {sorted(derived & set(self.features))} need a prior")
         self.prior = sample_prior(prior, psm) if uses_prior else None
+        if len(self.base_columns) not in (0, 3):
+            raise HybridInputError(f"base needs 0 or 3 entries, got {list(self.base_columns)}")
         raw = [c for c in self.features + self.base_columns + tuple(extra_columns)
-               if c not in derived]
+               if c not in derived and c != NO_BASE]
         if self.prior is not None:
             raw += list(HEX10) + list(self.prior.input_columns)
         self.raw_columns = tuple(dict.fromkeys(raw))
-        source = self.raw_columns + PRIOR_COLUMNS
+        source = self.raw_columns + PRIOR_COLUMNS + (NO_BASE,)  # the last slot stays 0
         self._feature_index = np.array([source.index(c) for c in self.features])
         self._base_index = np.array([source.index(c) for c in self.base_columns], dtype=np.intp)
         self._mean = np.asarray(input_scaler.mean, np.float32)
@@ -208,7 +237,7 @@ class HybridInputs:
             self._prior_index = np.array([self.raw_columns.index(c)
                                           for c in self.prior.input_columns])
             self._prior_in = np.zeros(len(self._prior_index))
-        self._source = np.zeros(n_raw + len(PRIOR_COLUMNS))
+        self._source = np.zeros(len(source))
         self._raw_view = self._source[:n_raw]
         self._comp_view = self._source[n_raw:n_raw + 6]
         self._prior_fz_index = n_raw + 6
@@ -222,6 +251,7 @@ class HybridInputs:
         if missing:
             raise HybridInputError(f"recording lacks columns {missing}")
         cols = {c: frame[c].to_numpy(dtype=np.float64) for c in self.raw_columns}
+        cols[NO_BASE] = np.zeros(len(frame))
         if self.prior is not None:
             cols.update(compensated_hex10(frame, self.prior))
         x = np.column_stack([cols[c] for c in self.features])

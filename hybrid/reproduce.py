@@ -47,7 +47,7 @@ BUDGETS: dict[str, dict] = {
     "full": {"pretrain": {"default": {}}, "finetune": {"default": {}}},
     "cpu": {"pretrain": {"transformer": {"max_epochs": 6, "max_batches_per_epoch": 8,
                                          "max_val_batches": 4},
-                         "hybrid": {"max_epochs": 30, "max_batches_per_epoch": 16,
+                         "hybrid": {"max_epochs": 100, "max_batches_per_epoch": 32,
                                     "max_val_batches": 6},
                          "default": {"max_epochs": 10, "max_batches_per_epoch": 16,
                                      "max_val_batches": 6}},
@@ -248,7 +248,7 @@ def reproduce(out: str | Path, scale: float = 0.05, device: str = "cpu", seed: i
     CUDA device and ``"cpu"`` otherwise."""
     from psm_model import PSM
     from psm_model.sim import simulate
-    from hybrid.hybrid import add_prior_columns, prior_to_json
+    from hybrid.hybrid import add_prior_columns, prior_to_json, select_base
     from hybrid.plots import (plot_ablation_boxes, plot_hex10_vs_ati, plot_scatter,
                               plot_time_series)
 
@@ -287,7 +287,8 @@ def reproduce(out: str | Path, scale: float = 0.05, device: str = "cpu", seed: i
     def setup_for(name: str, trials, features=None, use_prior: bool = True) -> Setup:
         if name == "hybrid":
             feats, base = hybrid_feature_set(features, use_prior)
-            return make_setup("hybrid", trials, features=feats, base_columns=base,
+            return make_setup("hybrid", trials, features=feats,
+                              base_columns=select_base(trials, base),
                               derivation="prior" if use_prior else "none",
                               prior_json=prior_json if use_prior else None)
         return make_setup(name, trials, features=features)

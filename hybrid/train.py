@@ -260,10 +260,11 @@ def hybrid_feature_set(features: str | Sequence[str] | None = None,
     """(input columns, base columns) of the hybrid for a feature-set name of
     :data:`hybrid.data.FEATURE_SETS` (None = "paper") or an explicit list.
 
-    With the prior, a named set is the hybrid's inputs (:data:`hybrid.hybrid.HYBRID_FEATURES`)
+    With the prior, a named set is the hybrid's inputs (:func:`hybrid.hybrid.hybrid_columns`)
     minus the columns whose recorded source that ablation removes (a compensated HEX10 column's
-    source is its HEX10 column); the base (compensated HEX10 force) stays, since it is the
-    prior's output and not a network input. Without the prior (the ablation of
+    source is its HEX10 column); the base (compensated HEX10 force) and ``prior_fz`` stay, since
+    they are the prior's output, not a recorded input. The trainers then drop the base on axes
+    where it does not help (:func:`hybrid.hybrid.select_base`). Without the prior (the ablation of
     :func:`hybrid.hybrid.hybrid_columns`), the named set itself with the raw HEX10 force as base.
     """
     from hybrid.hybrid import COMPENSATED_HEX10, hybrid_columns
@@ -311,12 +312,13 @@ def train(data_dir: str | Path, model: str, out_checkpoint: str | Path, *,
         dataset.add_columns(lstm_columns(PSM()))
         derivation, features = "lstm", None
     elif model == "hybrid":
-        from hybrid.hybrid import add_prior_columns, prior_to_json
+        from hybrid.hybrid import add_prior_columns, prior_to_json, select_base
         if use_prior:
             prior = _load_prior(prior) or fit_prior(train_trials)
             add_prior_columns(dataset, prior)
             derivation, prior_json = "prior", prior_to_json(prior)
         features, base = hybrid_feature_set(features, use_prior)
+        base = select_base(train_trials, base)
     setup = make_setup(model, train_trials, features=features, config=config, base_columns=base,
                        derivation=derivation, prior_json=prior_json)
     net, report = train_model(setup, train_trials, val_trials, cfg)

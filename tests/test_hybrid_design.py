@@ -1,13 +1,18 @@
-"""The hybrid's optional input ``prior_fz`` (the prior's internal axial force): derived the same
-way for whole recordings and for one streamed sample, and consistent with the compensated HEX10."""
+"""Design choices of the hybrid: the per-axis base (residual only where the prior-compensated
+HEX10 makes the target easier) and the optional input ``prior_fz`` (the prior's internal axial
+force), each derived the same way for whole recordings and for one streamed sample."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
+from hybrid.data import NO_BASE, Trial, base_matrix, fit_scalers, target_matrix
+from hybrid.evaluate import predict_trial
 from hybrid.hybrid import (BASE_COLUMNS, HYBRID_FEATURES, HYBRID_FEATURES_PRIOR_FZ, PRIOR_FZ,
-                           HybridInputError, HybridInputs, compensated_hex10)
+                           HybridInputError, HybridInputs, add_prior_columns, compensated_hex10,
+                           select_base)
+from hybrid.train import Setup
 from hybrid.streaming import StreamingEstimator
 from test_streaming import StandInPrior, model_and_scalers, one_thread, recording  # noqa: F401
 
@@ -48,3 +53,72 @@ def test_streaming_with_prior_fz_equals_offline():
     offline = est.predict_recording(frame)
     online = np.stack([est.step(row).force_hex10 for row in frame.to_dict("records")])
     assert np.abs(online - offline).max() < 1e-4
+
+
+def _trial(fx_base_error: float, fz_base_error: float, n: int = 500, seed: int = 0) -> Trial:
+    """ATI force plus a base that equals it up to noise of the given sizes on x and z; y's base
+    is unrelated to the force."""
+    rng = np.random.default_rng(seed)
+    ati = rng.standard_normal((n, 3))
+    frame = recording(n, seed)
+    frame[["ati_fx", "ati_fy", "ati_fz"]] = ati
+    frame["comp_fx"] = ati[:, 0] + fx_base_error * rng.standard_normal(n)
+    frame["comp_fy"] = 3.0 * rng.standard_normal(n)
+    frame["comp_fz"] = ati[:, 2] + fz_base_error * rng.standard_normal(n)
+    return Trial("t.csv", "Traction", "train", frame)
+
+
+def test_select_base_keeps_an_axis_only_where_the_residual_is_smaller():
+    assert select_base([_trial(0.1, 2.0)], BASE_COLUMNS) == ("comp_fx", NO_BASE, NO_BASE)
+    assert select_base([_trial(0.1, 0.5)], BASE_COLUMNS) == ("comp_fx", NO_BASE, "comp_fz")
+    with pytest.raises(HybridInputError, match="3 columns"):
+        select_base([_trial(0.1, 0.1)], BASE_COLUMNS[:2])
+
+
+def test_no_base_axis_adds_nothing_and_its_target_is_the_force():
+    trial = _trial(0.1, 2.0)
+    base = ("comp_fx", NO_BASE, "comp_fz")
+    b = base_matrix(trial, base)
+    np.testing.assert_array_equal(b[:, 1], 0.0)
+    np.testing.assert_array_equal(b[:, 0], trial.frame["comp_fx"])
+    y = target_matrix(trial, base, np.float64)
+    np.testing.assert_array_equal(y[:, 1], trial.frame["ati_fy"])
+    np.testing.assert_allclose(y[:, 2], trial.frame["ati_fz"] - trial.frame["comp_fz"])
+
+
+def test_streaming_with_a_no_base_axis_equals_offline_evaluation():
+    """One base axis empty: the streamed estimate, the estimator's batch path and the evaluation's
+    predict_trial (which training and scoring use) agree."""
+    frame, prior = recording(300), StandInPrior(seed=2)
+    frame[["ati_fx", "ati_fy", "ati_fz"]] = 0.0
+    base = (BASE_COLUMNS[0], BASE_COLUMNS[1], NO_BASE)
+    model, xs, ys = model_and_scalers(len(HYBRID_FEATURES))
+    est = StreamingEstimator(model, HYBRID_FEATURES, xs, ys, base, prior)
+    online = np.stack([est.step(row).force_hex10 for row in frame.to_dict("records")])
+    offline = est.predict_recording(frame)
+    assert np.abs(online - offline).max() < 1e-4
+
+    class _Dataset:  # add_prior_columns needs only add_columns
+        def __init__(self, trial):
+            self.trial = trial
+
+        def add_columns(self, fn):
+            for k, v in fn(self.trial).items():
+                self.trial.frame[k] = v
+
+    trial = Trial("t.csv", "Free", "test", frame.copy())
+    add_prior_columns(_Dataset(trial), prior)
+    setup = Setup("hybrid", {}, HYBRID_FEATURES, xs, ys, base)
+    evaluated = predict_trial(model, setup, trial)
+    warm = model.window
+    np.testing.assert_allclose(evaluated[warm:], offline[warm:], atol=1e-4)
+    # the empty axis is the un-scaled network output alone, the others add their base
+    raw = evaluated - base_matrix(trial, base)
+    np.testing.assert_array_equal(raw[:, 2], evaluated[:, 2])
+    assert not np.allclose(raw[warm:, 0], evaluated[warm:, 0])
+
+
+def test_fit_scalers_on_a_no_base_target():
+    trial = _trial(0.1, 2.0)
+    _, ys = fit_scalers([trial], ("comp_fx",), base_columns=("comp_fx", NO_BASE, NO_BASE))
+    assert ys.std[2] == pytest.approx(trial.frame["ati_fz"].std(ddof=0), rel=1e-5)

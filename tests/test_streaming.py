@@ -75,8 +75,8 @@ def model_and_scalers(n_features: int = 21, seed: int = 0):
 
 
 def estimator(use_prior: bool = True, **options) -> StreamingEstimator:
-    model, xs, ys = model_and_scalers()
     features, base = hybrid_columns(use_prior)
+    model, xs, ys = model_and_scalers(len(features))
     return StreamingEstimator(model, features, xs, ys, base,
                               StandInPrior() if use_prior else None, **options)
 
