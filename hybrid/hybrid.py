@@ -17,14 +17,16 @@ is the tip force plus a small error (cables run along the shaft and carry little
 residual is far smaller than the force. Axially it is not: a tip load makes a moment about the
 wrist pulleys that the cables resist with tensions many times the load (jaw length >> pulley
 radius), and what of that compression the prior does not explain (capstan friction, hysteresis,
-elasticity under load) can exceed the axial tip force itself (on the simulated bench, scale 0.05:
-std of ``ati_fz - comp_fz`` 2.1 N in traction against 0.9 N for ``ati_fz``). An axis whose base
+elasticity under load) can exceed the axial tip force itself (simulated bench, scale 0.05,
+training traction trials: std of ``ati_fz - comp_fz`` 1.97 N against 0.94 N for ``ati_fz``;
+``benchmarks/hybrid_design.py``). An axis whose base
 does not shrink the target on the training trials gets :data:`hybrid.data.NO_BASE`: there the
 network predicts the force, with ``comp_fz`` still among its inputs.
 
 :data:`PRIOR_FZ` (``prior_fz``): the prior's internal axial force itself (N, HEX10 frame,
 compression negative), an extra input (:data:`HYBRID_FEATURES_PRIOR_FZ`, the default inputs of
-:func:`hybrid_columns`; it lowered the validation NRMSE on every axis, ``docs/results.md``). Why: what
+:func:`hybrid_columns`; it lowered the validation NRMSE on every axis,
+``benchmarks/hybrid_design.py``). Why: what
 the prior misses along the shaft (capstan friction, hysteresis, wrist elasticity) depends on the
 cable load it predicts and on its regime (taut or slack, direction of sliding), with a sign that
 changes between regimes, so the Fz residual ``ati_fz - comp_fz`` is not a function of ``comp_*``
@@ -87,14 +89,14 @@ def select_base(trials, base_columns: Sequence[str]) -> tuple[str, ...]:
     """``base_columns`` with :data:`hybrid.data.NO_BASE` on every axis where subtracting the base
     does not lower the target's variance over ``trials`` (the training trials; module docstring).
     """
-    from psm_model.recording import TARGETS
+    from hybrid.data import target_matrix
     if len(base_columns) != 3:
         raise HybridInputError(f"base needs 3 columns (x, y, z), got {list(base_columns)}")
     if not trials:
         raise HybridInputError("no training trials to select the base on")
-    y = np.concatenate([t.matrix(TARGETS, np.float64) for t in trials])
-    b = np.concatenate([t.matrix(base_columns, np.float64) for t in trials])
-    helps = (y - b).var(axis=0) < y.var(axis=0)
+    force = np.concatenate([target_matrix(t, (), np.float64) for t in trials])
+    residual = np.concatenate([target_matrix(t, base_columns, np.float64) for t in trials])
+    helps = residual.var(axis=0) < force.var(axis=0)
     return tuple(c if keep else NO_BASE for c, keep in zip(base_columns, helps))
 
 

@@ -1,0 +1,88 @@
+"""The figures behind the hybrid's design choices (docs/results.md, hybrid/hybrid.py docstring).
+
+    python benchmarks/hybrid_design.py --data DIR [--seed 0] [--json OUT.json]
+
+``DIR``: a simulated automated dataset (``psmforce simulate --protocol automated --scale 0.05
+--seed 0 --out DIR`` for the committed figures). The validation trials are the 10 % of the
+training trials that ``psmforce reproduce`` holds out with the same seed. Prints and writes:
+
+1. per condition of the training trials, the standard deviation (N) of the ATI force and of the
+   residual ``ati - comp`` (the force minus the prior-compensated HEX10 reading), per axis:
+   where the residual is not smaller, a residual target is harder than the force itself
+   (:func:`hybrid.hybrid.select_base`);
+2. three hybrid variants trained with the ``cpu`` budget of ``psmforce reproduce`` and scored
+   (paper post-processing, NRMSE %) on the validation trials - the selection criterion - and,
+   for information only, on the test trials:
+   residual on every axis (no ``prior_fz``), no base on z, no base on z + ``prior_fz`` input.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from hybrid.data import NO_BASE, load_dataset, split_validation, target_matrix
+from hybrid.hybrid import (BASE_COLUMNS, HYBRID_FEATURES, HYBRID_FEATURES_PRIOR_FZ,
+                           add_prior_columns, prior_to_json)
+from hybrid.metrics import AXES
+from hybrid.reproduce import _config, _score_models
+from hybrid.train import fit_prior, make_setup, train_model
+
+VARIANTS = {
+    "residual on every axis": (HYBRID_FEATURES, BASE_COLUMNS),
+    "no base on z": (HYBRID_FEATURES, BASE_COLUMNS[:2] + (NO_BASE,)),
+    "no base on z + prior_fz input": (HYBRID_FEATURES_PRIOR_FZ, BASE_COLUMNS[:2] + (NO_BASE,)),
+}
+
+
+def main() -> dict:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--data", required=True, type=Path)
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--json", type=Path)
+    args = ap.parse_args()
+    torch.set_num_threads(2)
+    ds = load_dataset(args.data)
+    train, val = split_validation(ds.select(split="train"), 0.1, args.seed)
+    test = ds.select(split="test")
+    prior = fit_prior(train)
+    add_prior_columns(ds, prior)
+    result = {"data": str(args.data), "seed": args.seed, "spread_N": {}, "variants": {}}
+
+    print("training trials: std (N) of the ATI force / of ati - comp, per axis")
+    for cond in sorted({t.condition for t in train}):
+        trials = [t for t in train if t.condition == cond]
+        force = np.concatenate([target_matrix(t, (), np.float64) for t in trials]).std(axis=0)
+        resid = np.concatenate([target_matrix(t, BASE_COLUMNS, np.float64)
+                                for t in trials]).std(axis=0)
+        result["spread_N"][cond] = {"ati": force.tolist(), "ati_minus_comp": resid.tolist()}
+        print(f"  {cond:10s} " + "   ".join(f"{a} {f:.3f} / {r:.3f}"
+                                           for a, f, r in zip(AXES, force, resid)))
+
+    cfg = _config("cpu", "pretrain", args.seed, "cpu", "hybrid")
+    print(f"hybrid variants (budget {cfg.max_epochs} epochs x {cfg.max_batches_per_epoch} batches)"
+          ": NRMSE % Fx / Fy / Fz on validation | test")
+    for name, (features, base) in VARIANTS.items():
+        setup = make_setup("hybrid", train, features=features, base_columns=base,
+                           derivation="prior", prior_json=prior_to_json(prior))
+        model, report = train_model(setup, train, val, cfg)
+        scores = {split: _score_models({name: (model, setup)}, trials, "cpu")[0][name]
+                  for split, trials in (("validation", val), ("test", test))}
+        result["variants"][name] = {"epochs": report["epochs_run"],
+                                    "seconds": report["seconds"], **scores}
+        print(f"  {name:32s} " + " | ".join(
+            " / ".join(f"{scores[s][a]['nrmse_pct']:5.2f}" for a in AXES)
+            for s in ("validation", "test")) + f"   ({report['epochs_run']} epochs)")
+    if args.json:
+        args.json.parent.mkdir(parents=True, exist_ok=True)
+        args.json.write_text(json.dumps(result, indent=2) + "\n")
+        print(f"wrote {args.json}")
+    return result
+
+
+if __name__ == "__main__":
+    main()
