@@ -55,7 +55,7 @@ def test_all_effects_off_hex10_force_is_external_force_in_hex10_frame(condition)
     else:
         q = protocols.palpation_q(60.0, 45.0, np.array([[0.3, 0.2, -0.3, 0.4], [-0.5, -0.4, 0.3, 0.2]]),
                                   0.4, 1.1, 0.4)
-        contact = protocols.palpation_contact("shore_22a")
+        contact = protocols.palpation_contact("shore_22a", 60.0, 45.0)
     df = _run(q, contact)
     hex10 = df[["fx", "fy", "fz"]].to_numpy()
     target = df[["ati_fx", "ati_fy", "ati_fz"]].to_numpy()
@@ -265,14 +265,54 @@ def test_crosstalk_mixes_channels_by_the_matrix():
     np.testing.assert_allclose(mixed[["fx", "fy", "fz", "tx", "ty", "tz"]].to_numpy(), w @ x.T, atol=1e-12)
 
 
-def test_surface_friction_opposes_sliding():
+def _press(path_xyz, material="shore_22a"):
     from psm_model.sim import contacts
 
-    p = np.array([[0.0, 0.0, -0.003]])
-    v = np.array([[0.01, 0.0, 0.0]])
-    f = contacts.surface(p, v, np.zeros(3), np.array([0, 0, 1.0]), contacts.MATERIALS["rigid"])
-    assert f[0, 2] > 0 and f[0, 0] < 0
-    assert abs(f[0, 0]) <= contacts.MATERIALS["rigid"].friction * f[0, 2]
+    p = np.asarray(path_xyz, dtype=float)
+    return contacts.surface(p, np.zeros_like(p), np.zeros(3), np.array([0, 0, 1.0]), contacts.MATERIALS[material])
+
+
+@pytest.mark.parametrize("material", ["shore_22a", "rigid"])
+def test_oblique_press_sticks_with_mindlin_shear_ratio(material):
+    """Quasi-static press at angle a from the normal: while stuck, the shear integrates
+    k_t = 2/3 dFn/dd along du = tan(a) dd, so F_t / F_n = (2/3) tan(a) for any power law."""
+    from psm_model.sim import contacts
+
+    a = np.deg2rad(20.0)
+    d = np.linspace(0.0, 0.006, 6001)
+    f = _press(np.column_stack([d * np.tan(a), np.zeros_like(d), -d]), material)
+    assert (2.0 / 3.0) * np.tan(a) < contacts.MATERIALS[material].friction  # the case sticks
+    np.testing.assert_allclose(f[-1, 0] / f[-1, 2], -(2.0 / 3.0) * np.tan(a), rtol=2e-3)
+    assert f[-1, 1] == 0.0
+
+
+def test_shear_is_held_in_the_dwell_and_lost_out_of_contact():
+    d = np.linspace(0.0, 0.006, 600)
+    press = np.column_stack([0.5 * d, np.zeros_like(d), -d])
+    dwell = np.repeat(press[-1:], 100, 0)
+    out = np.linspace(press[-1], [0.003, 0.0, 0.001], 100)
+    straight = np.column_stack([np.full(50, 0.003), np.zeros(50), -np.linspace(0.0, 0.004, 50)])
+    f = _press(np.vstack([press, dwell, out, straight]))
+    held = f[600:700]
+    assert held[0, 0] < -0.1 and np.allclose(held, held[0])  # the press holds its shear at rest
+    assert np.all(f[700:800][f[700:800, 2] == 0.0] == 0.0)  # nothing once out of contact
+    np.testing.assert_array_equal(f[800:, :2], 0.0)  # a straight press after leaving starts unsheared
+
+
+def test_drag_slides_at_coulomb_limit_opposing_motion_then_sticks_on_reversal():
+    from psm_model.sim import contacts
+
+    mu = contacts.MATERIALS["shore_8a"].friction
+    down = np.column_stack([np.zeros(200), np.zeros(200), -np.linspace(0.0, 0.006, 200)])
+    drag = np.column_stack([np.linspace(0.0, 0.02, 400), np.zeros(400), np.full(400, -0.006)])
+    back = np.column_stack([np.linspace(0.02, 0.0199, 11)[1:], np.zeros(10), np.full(10, -0.006)])
+    f = _press(np.vstack([down, drag, back]), "shore_8a")
+    sliding = f[400:600]
+    np.testing.assert_allclose(sliding[:, 0], -mu * sliding[:, 2], rtol=1e-12)
+    reversed_ = f[600:]
+    assert np.all(np.diff(reversed_[:, 0]) > 0)  # backing off unloads the shear elastically...
+    assert np.all(np.abs(reversed_[:, 0]) < mu * reversed_[:, 2])  # ...without sliding
+    assert np.all(reversed_[:, 0] < 0)
 
 
 def test_encoder_quantisation_snaps_to_encoder_steps():

@@ -2,7 +2,8 @@
 
 Automated benchtop (paper Tables "Factorial design" and "Automated dataset composition"):
 traction (phi 6 x theta 3 x force 3 x wrist configurations, 2 trials), palpation (phi 6 x theta 3 x
-3 silicones, a new wrist configuration before each approach from 5 cm to 8 mm past the surface),
+3 silicones, a new wrist configuration before each approach from 5 cm to a point 8 mm below the
+top of the silicone cylinder),
 free space replaying both, and a test set (15 / 9 configurations, continuous random free-space
 states at phi = theta = 0). Teleoperation: three PSM configurations with large yaw/pitch,
 rigid / soft / free, three human-like demonstrations each.
@@ -39,6 +40,10 @@ WRIST_TO_TIP_M = 0.0246
 string is stretched by the level's extension at a straight wrist."""
 APPROACH_M = 0.05
 PALPATION_DEPTH_M = 0.008
+"""Paper: the palpation reference point is 8 mm below the silicone's top surface, on the approach
+vector drawn from the centre of the ATI; the tip starts 5 cm from it along that vector."""
+BLOCK_RADIUS_M = 0.0085
+"""The cylindrical silicone interfaces, cast to the Nano17's 17 mm diameter (**assumed**)."""
 WRIST_LIMITS = np.array([[-2.5, 2.5], [-1.0, 1.0], [-1.0, 1.0], [0.0, 0.8]])
 """Sampling box of (roll, wrist_pitch, wrist_yaw, jaw), rad: inside the dVRK limits."""
 TRACTION_WRIST_LIMITS = np.array([[-2.5, 2.5], [-0.6, 0.6], [-0.6, 0.6], [0.0, 0.8]])
@@ -194,8 +199,12 @@ def _traction_static(phi, theta, level):
     return lambda configs: np.column_stack([np.tile(arm, (len(configs), 1)), configs])
 
 
+def _palpation_reference() -> np.ndarray:
+    return ANCHOR - np.array([0.0, 0.0, PALPATION_DEPTH_M])
+
+
 def _palpation_static(phi, theta):
-    bottom = ANCHOR - PALPATION_DEPTH_M * _unit(phi, theta)
+    bottom = _palpation_reference()
     return lambda configs: arm_ik_for_tip(np.tile(bottom, (len(configs), 1)), configs)
 
 
@@ -205,9 +214,8 @@ def traction_contact() -> Contact:
 
 
 def palpation_q(phi, theta, configs, t_wrist, t_app, t_dwell) -> np.ndarray:
-    u = _unit(phi, theta)
-    retract = ANCHOR + (APPROACH_M) * u
-    bottom = ANCHOR - PALPATION_DEPTH_M * u
+    bottom = _palpation_reference()
+    retract = bottom + APPROACH_M * _unit(phi, theta)
     tips, wrists = [], []
     prev = configs[0]
     settle = int(round(SETTLE / DT))
@@ -222,8 +230,18 @@ def palpation_q(phi, theta, configs, t_wrist, t_app, t_dwell) -> np.ndarray:
     return arm_ik_for_tip(np.concatenate(tips), np.concatenate(wrists))
 
 
-def palpation_contact(material: str) -> Contact:
-    return Contact(kind="surface", point=ANCHOR.copy(), normal=np.array([0.0, 0.0, 1.0]),
+def palpation_contact(material: str, phi: float, theta: float) -> Contact:
+    """The face of the cylindrical block (top at ANCHOR) that the approach enters: the top if the
+    ray from the reference point along u(phi, theta) rises 8 mm within the block's radius, else
+    the side wall facing the approach (a 0 deg elevation presses the cylinder sideways)."""
+    u = _unit(phi, theta)
+    across = np.hypot(u[0], u[1])
+    if PALPATION_DEPTH_M * across < BLOCK_RADIUS_M * u[2]:
+        point, normal = ANCHOR.copy(), np.array([0.0, 0.0, 1.0])
+    else:
+        normal = np.array([u[0], u[1], 0.0]) / across
+        point = _palpation_reference() + BLOCK_RADIUS_M * normal
+    return Contact(kind="surface", point=point, normal=normal,
                    material=material, ati_origin=ANCHOR - np.array([0.0, 0.0, 0.02]))
 
 
@@ -266,11 +284,11 @@ def automated(scale: float, seed: int) -> list[Plan]:
         for m, material in enumerate(PALPATION_MATERIALS):
             rng = np.random.default_rng([seed, 3, i, j, m])
             configs = _safe_configs(rng, n_train, WRIST_LIMITS, _palpation_static(phi, theta),
-                                    palpation_contact(material))
+                                    palpation_contact(material, phi, theta))
             q = palpation_q(phi, theta, configs, PALP_WRIST, PALP_APPROACH, PALP_DWELL)
             palp_q0 = q if palp_q0 is None else palp_q0
             plans.append(Plan(f"train/Palpation/{tag}_{material}.csv", "train", "Palpation", q,
-                              palpation_contact(material),
+                              palpation_contact(material, phi, theta),
                               {**base_info, "material": material, "trial": m,
                                "wrist_configs": configs.tolist()}))
         # Free space replays the same joint trajectories with the fixture removed.
@@ -296,10 +314,10 @@ def automated(scale: float, seed: int) -> list[Plan]:
         for m, material in enumerate(PALPATION_MATERIALS):
             rng = np.random.default_rng([seed, 5, i, j, m])
             configs = _safe_configs(rng, n_test_palp, WRIST_LIMITS, _palpation_static(phi, theta),
-                                    palpation_contact(material))
+                                    palpation_contact(material, phi, theta))
             q = palpation_q(phi, theta, configs, TEST_PALP_WRIST, TEST_PALP_APPROACH, TEST_PALP_DWELL)
             plans.append(Plan(f"test/Palpation/{tag}_{material}.csv", "test", "Palpation", q,
-                              palpation_contact(material),
+                              palpation_contact(material, phi, theta),
                               {**base_info, "material": material, "wrist_configs": configs.tolist()}))
     plans.append(_random_free(seed, max(5.0, TEST_FREE_S * scale)))
     return plans
