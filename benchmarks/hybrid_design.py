@@ -10,10 +10,12 @@ training trials that ``psmforce reproduce`` holds out with the same seed. Prints
    residual ``ati - comp`` (the force minus the prior-compensated HEX10 reading), per axis:
    where the residual is not smaller, a residual target is harder than the force itself
    (:func:`hybrid.hybrid.select_base`);
-2. three hybrid variants trained with the ``cpu`` budget of ``psmforce reproduce`` and scored
+   Also the residual ``ati_fz - insertion_fz`` (the axial force from the insertion effort).
+2. five hybrid variants trained with the ``cpu`` budget of ``psmforce reproduce`` and scored
    (paper post-processing, NRMSE %) on the validation trials - the selection criterion - and,
-   for information only, on the test trials:
-   residual on every axis (no ``prior_fz``), no base on z, no base on z + ``prior_fz`` input.
+   for information only, on the test trials: residual on every axis (no ``prior_fz``), no base
+   on z, no base on z + ``prior_fz`` input, + ``insertion_fz`` input, + ``insertion_fz`` input and
+   z base (the default, :data:`hybrid.hybrid.BASE_COLUMNS`).
 """
 
 from __future__ import annotations
@@ -26,16 +28,20 @@ import numpy as np
 import torch
 
 from hybrid.data import NO_BASE, load_dataset, split_validation, target_matrix
-from hybrid.hybrid import (BASE_COLUMNS, HYBRID_FEATURES, HYBRID_FEATURES_PRIOR_FZ,
-                           add_prior_columns, prior_to_json)
+from hybrid.hybrid import (COMPENSATED_HEX10, HYBRID_FEATURES,
+                           HYBRID_FEATURES_PRIOR_FZ, INSERTION_FZ, add_prior_columns, prior_to_json)
 from hybrid.metrics import AXES
 from hybrid.reproduce import _config, _score_models
 from hybrid.train import fit_prior, make_setup, train_model
 
 VARIANTS = {
-    "residual on every axis": (HYBRID_FEATURES, BASE_COLUMNS),
-    "no base on z": (HYBRID_FEATURES, BASE_COLUMNS[:2] + (NO_BASE,)),
-    "no base on z + prior_fz input": (HYBRID_FEATURES_PRIOR_FZ, BASE_COLUMNS[:2] + (NO_BASE,)),
+    "residual on every axis": (HYBRID_FEATURES, COMPENSATED_HEX10[:3]),
+    "no base on z": (HYBRID_FEATURES, COMPENSATED_HEX10[:2] + (NO_BASE,)),
+    "no base on z + prior_fz input": (HYBRID_FEATURES_PRIOR_FZ, COMPENSATED_HEX10[:2] + (NO_BASE,)),
+    "+ insertion_fz input": (HYBRID_FEATURES_PRIOR_FZ + (INSERTION_FZ,),
+                             COMPENSATED_HEX10[:2] + (NO_BASE,)),
+    "+ insertion_fz input and base on z": (HYBRID_FEATURES_PRIOR_FZ + (INSERTION_FZ,),
+                                           COMPENSATED_HEX10[:2] + (INSERTION_FZ,)),
 }
 
 
@@ -57,11 +63,15 @@ def main() -> dict:
     for cond in sorted({t.condition for t in train}):
         trials = [t for t in train if t.condition == cond]
         force = np.concatenate([target_matrix(t, (), np.float64) for t in trials]).std(axis=0)
-        resid = np.concatenate([target_matrix(t, BASE_COLUMNS, np.float64)
+        resid = np.concatenate([target_matrix(t, COMPENSATED_HEX10[:3], np.float64)
                                 for t in trials]).std(axis=0)
-        result["spread_N"][cond] = {"ati": force.tolist(), "ati_minus_comp": resid.tolist()}
+        axial = np.concatenate([target_matrix(t, (NO_BASE, NO_BASE, INSERTION_FZ), np.float64)
+                                [:, 2] for t in trials]).std()
+        result["spread_N"][cond] = {"ati": force.tolist(), "ati_minus_comp": resid.tolist(),
+                                    "ati_fz_minus_insertion_fz": float(axial)}
         print(f"  {cond:10s} " + "   ".join(f"{a} {f:.3f} / {r:.3f}"
-                                           for a, f, r in zip(AXES, force, resid)))
+                                           for a, f, r in zip(AXES, force, resid))
+              + f"   (Fz - insertion_fz {axial:.3f})")
 
     cfg = _config("cpu", "pretrain", args.seed, "cpu", "hybrid")
     print(f"hybrid variants (budget {cfg.max_epochs} epochs x {cfg.max_batches_per_epoch} batches)"

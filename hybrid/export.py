@@ -169,6 +169,9 @@ def export(checkpoint: str | Path, out_dir: str | Path) -> dict:
             "comp_{fx..tz} = HEX10 {fx..tz} - prior(sample)  (only if features use comp_*; the "
             "prior's model and inputs: its JSON and psm_model/identification/prior.py; its "
             "gravity term needs R_base_hex10(q) from the PSM kinematics)",
+            "insertion_fz = prior.insertion(d, insertion_velocity) - insertion_effort  (only if "
+            "features or base use it; d = third column of R_base_hex10(q); the model: "
+            "psm_model/identification/insertion.py)",
             "x = (features - input_scaler.mean) / input_scaler.std  (float32, 'features' order)",
             "n_valid = min(samples since start including this one, attention_window)",
             "y, keys, values = graph(x, keys, values, n_valid)  (caches start at zeros)",

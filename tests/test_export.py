@@ -13,7 +13,7 @@ from hybrid.hybrid import hybrid_columns, prior_to_json
 from hybrid.models import build_model
 from hybrid.streaming import StreamingEstimator
 from psm_model.identification.prior import InternalForcePrior
-from test_streaming import model_and_scalers, one_thread, recording  # noqa: F401
+from test_streaming import INSERTION, model_and_scalers, one_thread, recording  # noqa: F401
 
 
 def _checkpoint(tmp_path, use_prior: bool):
@@ -25,7 +25,8 @@ def _checkpoint(tmp_path, use_prior: bool):
         features=features, input_scaler=xs, target_scaler=ys, base_columns=base,
         derivation="prior" if use_prior else "none",
         # the identification prior with its default (physical) parameters, as a fit would save it
-        prior_json=prior_to_json(InternalForcePrior(converged=True)) if use_prior else None,
+        prior_json=prior_to_json(InternalForcePrior(converged=True, insertion=INSERTION))
+        if use_prior else None,
         provenance={"seed": 3})
 
 

@@ -9,7 +9,7 @@ import pytest
 
 from hybrid.data import NO_BASE, Trial, base_matrix, fit_scalers, target_matrix
 from hybrid.evaluate import predict_trial
-from hybrid.hybrid import (BASE_COLUMNS, HYBRID_FEATURES, HYBRID_FEATURES_PRIOR_FZ, PRIOR_FZ,
+from hybrid.hybrid import (COMPENSATED_HEX10, HYBRID_FEATURES, HYBRID_FEATURES_PRIOR_FZ, PRIOR_FZ,
                            HybridInputError, HybridInputs, add_prior_columns, compensated_hex10,
                            select_base)
 from hybrid.train import Setup
@@ -28,7 +28,7 @@ def test_prior_fz_is_the_priors_internal_fz_and_completes_comp_fz():
 def test_prior_fz_input_per_sample_equals_whole_recording():
     frame, prior = recording(80), StandInPrior(seed=3)
     _, xs, _ = model_and_scalers(len(HYBRID_FEATURES_PRIOR_FZ))
-    inputs = HybridInputs(HYBRID_FEATURES_PRIOR_FZ, BASE_COLUMNS, xs, prior)
+    inputs = HybridInputs(HYBRID_FEATURES_PRIOR_FZ, COMPENSATED_HEX10[:3], xs, prior)
     x, base = inputs.frame(frame)
     expected = (prior.predict(frame)[:, 2] - xs.mean[-1]) / xs.std[-1]
     np.testing.assert_allclose(x[:, -1], expected, rtol=1e-5, atol=1e-5)
@@ -48,7 +48,7 @@ def test_prior_fz_needs_a_prior():
 def test_streaming_with_prior_fz_equals_offline():
     frame = recording(200)
     model, xs, ys = model_and_scalers(len(HYBRID_FEATURES_PRIOR_FZ))
-    est = StreamingEstimator(model, HYBRID_FEATURES_PRIOR_FZ, xs, ys, BASE_COLUMNS,
+    est = StreamingEstimator(model, HYBRID_FEATURES_PRIOR_FZ, xs, ys, COMPENSATED_HEX10[:3],
                              StandInPrior())
     offline = est.predict_recording(frame)
     online = np.stack([est.step(row).force_hex10 for row in frame.to_dict("records")])
@@ -69,10 +69,10 @@ def _trial(fx_base_error: float, fz_base_error: float, n: int = 500, seed: int =
 
 
 def test_select_base_keeps_an_axis_only_where_the_residual_is_smaller():
-    assert select_base([_trial(0.1, 2.0)], BASE_COLUMNS) == ("comp_fx", NO_BASE, NO_BASE)
-    assert select_base([_trial(0.1, 0.5)], BASE_COLUMNS) == ("comp_fx", NO_BASE, "comp_fz")
+    assert select_base([_trial(0.1, 2.0)], COMPENSATED_HEX10[:3]) == ("comp_fx", NO_BASE, NO_BASE)
+    assert select_base([_trial(0.1, 0.5)], COMPENSATED_HEX10[:3]) == ("comp_fx", NO_BASE, "comp_fz")
     with pytest.raises(HybridInputError, match="3 columns"):
-        select_base([_trial(0.1, 0.1)], BASE_COLUMNS[:2])
+        select_base([_trial(0.1, 0.1)], COMPENSATED_HEX10[:2])
 
 
 def test_no_base_axis_adds_nothing_and_its_target_is_the_force():
@@ -91,7 +91,7 @@ def test_streaming_with_a_no_base_axis_equals_offline_evaluation():
     predict_trial (which training and scoring use) agree."""
     frame, prior = recording(300), StandInPrior(seed=2)
     frame[["ati_fx", "ati_fy", "ati_fz"]] = 0.0
-    base = (BASE_COLUMNS[0], BASE_COLUMNS[1], NO_BASE)
+    base = (COMPENSATED_HEX10[0], COMPENSATED_HEX10[1], NO_BASE)
     model, xs, ys = model_and_scalers(len(HYBRID_FEATURES))
     est = StreamingEstimator(model, HYBRID_FEATURES, xs, ys, base, prior)
     online = np.stack([est.step(row).force_hex10 for row in frame.to_dict("records")])

@@ -16,6 +16,7 @@ from hybrid.hybrid import (BASE_COLUMNS, COMPENSATED_HEX10, HYBRID_FEATURES, Hex
 from hybrid.models import build_model
 from hybrid.streaming import (CHAIN_POSITIONS, CausalFilter, Flags, StreamingError,
                               StreamingEstimator)
+from psm_model.identification.insertion import InsertionEffortModel
 from psm_model.recording import HEX10, PAPER_FEATURES, REQUIRED
 
 RATE_HZ = 100.0
@@ -30,11 +31,17 @@ def one_thread():
     torch.set_num_threads(before)
 
 
+INSERTION = InsertionEffortModel((0.3, -0.2, 8.8, 0.35, 2.0, 0.05), 0.005, {})
+"""An insertion model with physical parameters (g_b N, Coulomb N, viscous N s/m, offset N)."""
+
+
 class StandInPrior:
     """A linear internal-wrench model with the prior's interface (the real
     InternalForcePrior is tested by its owner): internal = A @ wrist efforts + b."""
 
-    input_columns = ("roll_effort", "wrist_pitch_effort", "wrist_yaw_effort", "jaw_effort")
+    input_columns = ("roll_effort", "wrist_pitch_effort", "wrist_yaw_effort", "jaw_effort",
+                     "insertion_effort")
+    insertion = "stand-in: insertion_fz = 0.5 - insertion_effort"
 
     def __init__(self, seed: int = 0):
         rng = np.random.default_rng(seed)
@@ -42,10 +49,13 @@ class StandInPrior:
         self.b = rng.standard_normal(6)
 
     def predict(self, frame: pd.DataFrame) -> np.ndarray:
-        return frame[list(self.input_columns)].to_numpy(float) @ self.A.T + self.b
+        return frame[list(self.input_columns[:4])].to_numpy(float) @ self.A.T + self.b
+
+    def insertion_axial_force(self, frame: pd.DataFrame) -> np.ndarray:
+        return 0.5 - frame["insertion_effort"].to_numpy(float)
 
     def predict_sample(self, values: np.ndarray) -> np.ndarray:
-        return self.A @ values + self.b
+        return np.r_[self.A @ values[:4] + self.b, 0.5 - values[4]]
 
 
 def recording(n: int = 400, seed: int = 0) -> pd.DataFrame:
@@ -89,11 +99,11 @@ def stream(est: StreamingEstimator, frame: pd.DataFrame):
 def test_hybrid_inputs_subtract_the_prior_and_keep_the_papers_order():
     frame, prior = recording(50), StandInPrior()
     assert HYBRID_FEATURES[-6:] == tuple(f"comp_{c}" for c in PAPER_FEATURES[-6:])
-    assert BASE_COLUMNS == COMPENSATED_HEX10[:3]
+    assert BASE_COLUMNS == COMPENSATED_HEX10[:2] + ("insertion_fz",)
     comp = compensated_hex10(frame, prior)
     np.testing.assert_allclose(comp["comp_fz"], frame["fz"] - prior.predict(frame)[:, 2])
     _, xs, _ = model_and_scalers()
-    inputs = HybridInputs(HYBRID_FEATURES, BASE_COLUMNS, xs, prior)
+    inputs = HybridInputs(HYBRID_FEATURES, COMPENSATED_HEX10[:3], xs, prior)
     x, base = inputs.frame(frame)
     np.testing.assert_allclose(base[:, 0], comp["comp_fx"])
     for i, row in enumerate(frame[list(inputs.raw_columns)].to_numpy()):
@@ -238,12 +248,16 @@ def test_from_checkpoint_uses_the_training_checkpoint(tmp_path):
 def test_sample_prior_matches_the_identification_prior_on_whole_recordings():
     from psm_model.identification.prior import InternalForcePrior, gravity_in_hex10
     frame = recording(40)
-    prior = sample_prior(InternalForcePrior())  # default parameters: a valid physical model
+    # default parameters: a valid physical model
+    prior = sample_prior(InternalForcePrior(insertion=INSERTION))
     assert isinstance(prior, SamplePrior)
     whole = prior.predict(frame)
     values = frame[list(prior.input_columns)].to_numpy()
     per_sample = np.stack([prior.predict_sample(v).copy() for v in values])
-    np.testing.assert_allclose(per_sample, whole, rtol=1e-9, atol=1e-9)
+    np.testing.assert_allclose(per_sample[:, :6], whole, rtol=1e-9, atol=1e-9)
+    axial = prior.insertion_axial_force(frame)
+    assert np.ptp(axial) > 0.1  # the shaft direction and the effort vary in this recording
+    np.testing.assert_allclose(per_sample[:, 6], axial, rtol=1e-9, atol=1e-9)
     q = frame[list(CHAIN_POSITIONS)].to_numpy()
     g_hex = gravity_in_hex10(q, prior.psm)
     assert np.abs(g_hex).max() > 1.0  # gravity enters the prediction for these poses

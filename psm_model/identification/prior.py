@@ -40,6 +40,7 @@ from pathlib import Path
 import numpy as np
 
 from psm_model.identification.errors import IdentificationInputError, NotConvergedError
+from psm_model.identification.insertion import InsertionEffortModel
 from psm_model.identification.signals import check_finite_2d
 
 KAPPA = 0.8306 / 1.0186
@@ -126,13 +127,19 @@ def gravity_in_hex10(q, psm=None) -> np.ndarray:
 
 def arrays_from_frame(frame, psm=None) -> dict:
     """Model inputs (positions (N,2) roll and wrist_pitch, efforts (N,3), velocities (N,3),
-    g_hex (N,3)) from a recording frame."""
+    g_hex (N,3)) from a recording frame, and ``d_shaft`` (N,3): the HEX10 z axis (the shaft,
+    towards the tip) in the base frame, for the insertion model."""
     from psm_model.recording import JOINT_POSITIONS
+
+    from psm_model import PSM
 
     q = frame[list(JOINT_POSITIONS)].to_numpy(dtype=float)
     e = frame[["wrist_pitch_effort", "wrist_yaw_effort", "jaw_effort"]].to_numpy(dtype=float)
     v = frame[["wrist_pitch_velocity", "wrist_yaw_velocity", "jaw_velocity"]].to_numpy(dtype=float)
-    return {"positions": q[:, [3, 4]], "efforts": e, "velocities": v, "g_hex": gravity_in_hex10(q, psm)}
+    r = (psm or PSM()).rotation(q, "hex10")
+    return {"positions": q[:, [3, 4]], "efforts": e, "velocities": v,
+            "g_hex": np.einsum("nji,j->ni", r, np.array([0.0, 0.0, -GRAVITY_MPS2])),
+            "d_shaft": r[:, :, 2]}
 
 
 def _check_arrays(positions, efforts, velocities, g_hex):
@@ -154,6 +161,21 @@ class InternalForcePrior:
     params: np.ndarray = field(default_factory=lambda: np.array([p[4] for p in PARAMETERS]))
     converged: bool = False
     info: dict = field(default_factory=dict)
+    insertion: InsertionEffortModel | None = None
+    """The insertion joint's internal effort (:mod:`psm_model.identification.insertion`), fitted
+    alongside when the recordings carry the external force; None otherwise."""
+
+    def insertion_axial_force(self, frame, psm=None) -> np.ndarray:
+        """(N,) external force along the shaft (N, HEX10 z) from the insertion effort."""
+        if self.insertion is None:
+            raise IdentificationInputError("this prior has no insertion model (it was fitted "
+                                           "without known external forces)")
+        from psm_model import PSM
+        from psm_model.recording import JOINT_POSITIONS
+        q = frame[list(JOINT_POSITIONS)].to_numpy(dtype=float)
+        d = (psm or PSM()).rotation(q, "hex10")[:, :, 2]
+        return self.insertion.axial_force(d, frame["insertion_velocity"].to_numpy(dtype=float),
+                                          frame["insertion_effort"].to_numpy(dtype=float))
 
     # ------------------------------------------------------------ prediction
     def predict_arrays(self, positions, efforts, velocities, g_hex) -> np.ndarray:
@@ -198,7 +220,7 @@ class InternalForcePrior:
         t0 = time.perf_counter()
         if len(recordings) == 0:
             raise IdentificationInputError("no recordings to fit the prior on")
-        parts = []
+        parts, axial = [], []
         sources = []
         for rec in recordings:
             if isinstance(rec, (str, Path)):
@@ -216,6 +238,11 @@ class InternalForcePrior:
             if OVERLOAD_COLUMN in rec.columns:
                 mask[rec[OVERLOAD_COLUMN].to_numpy() > 0] = 0.0
             parts.append((a, y, mask))
+            if all(t in rec.columns for t in TARGETS) and \
+                    {"insertion_velocity", "insertion_effort"} <= set(rec.columns):
+                axial.append((a["d_shaft"], rec["insertion_velocity"].to_numpy(dtype=float),
+                              rec["insertion_effort"].to_numpy(dtype=float),
+                              rec[TARGETS[2]].to_numpy(dtype=float)))
         pos = np.concatenate([p[0]["positions"] for p in parts])
         e = np.concatenate([p[0]["efforts"] for p in parts])
         v = np.concatenate([p[0]["velocities"] for p in parts])
@@ -258,7 +285,9 @@ class InternalForcePrior:
         sol = solver(x0=z0, lbx=0.0, ubx=1.0)
         stats = solver.stats()
         params = lo + np.array(sol["x"]).ravel() * scale
-        prior = cls(params=params, converged=bool(stats["success"]))
+        insertion = (InsertionEffortModel.fit(*map(list, zip(*axial)))
+                     if len(axial) == len(parts) else None)
+        prior = cls(params=params, converged=bool(stats["success"]), insertion=insertion)
         fitted = prior.predict_arrays(pos, e, v, g)
         prior.info = {
             "solver": "CasADi IPOPT", "solver_status": stats["return_status"],
@@ -281,7 +310,8 @@ class InternalForcePrior:
                 "model": "see psm_model/identification/prior.py module docstring",
                 "parameters": {n: {"value": float(x), "unit": u, "lower": lo, "upper": hi}
                                for (n, u, lo, hi, _), x in zip(PARAMETERS, self.params)},
-                "info": self.info}
+                "info": self.info,
+                **({"insertion": self.insertion.to_dict()} if self.insertion is not None else {})}
 
     def save(self, path) -> None:
         """Write human-readable JSON atomically; refuses a non-converged fit."""
@@ -304,8 +334,9 @@ class InternalForcePrior:
         missing = [n for n in NAMES if n not in d["parameters"]]
         if missing:
             raise IdentificationInputError(f"{path}: missing parameters {missing}")
+        insertion = InsertionEffortModel.from_dict(d["insertion"]) if "insertion" in d else None
         return cls(params=np.array([d["parameters"][n]["value"] for n in NAMES]),
-                   converged=bool(d["converged"]), info=d["info"])
+                   converged=bool(d["converged"]), info=d["info"], insertion=insertion)
 
 
 OVERLOAD_COLUMN = "hex10_overload"
