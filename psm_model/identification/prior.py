@@ -120,9 +120,12 @@ def gravity_in_hex10(q, psm=None) -> np.ndarray:
     """(N,3) gravity (m/s^2) in the HEX10 frame for joint vectors q (N,6|7), base upright."""
     from psm_model import PSM
 
-    psm = psm or PSM()
-    R = psm.rotation(q, "hex10")
-    return np.einsum("nji,j->ni", R, np.array([0.0, 0.0, -GRAVITY_MPS2]))
+    return _gravity_in_frame((psm or PSM()).rotation(q, "hex10"))
+
+
+def _gravity_in_frame(r_base_frame: np.ndarray) -> np.ndarray:
+    """(N,3) gravity of the upright base, R^T (0, 0, -g), in frames with rotations (N,3,3)."""
+    return np.einsum("nji,j->ni", r_base_frame, np.array([0.0, 0.0, -GRAVITY_MPS2]))
 
 
 def arrays_from_frame(frame, psm=None) -> dict:
@@ -138,7 +141,7 @@ def arrays_from_frame(frame, psm=None) -> dict:
     v = frame[["wrist_pitch_velocity", "wrist_yaw_velocity", "jaw_velocity"]].to_numpy(dtype=float)
     r = (psm or PSM()).rotation(q, "hex10")
     return {"positions": q[:, [3, 4]], "efforts": e, "velocities": v,
-            "g_hex": np.einsum("nji,j->ni", r, np.array([0.0, 0.0, -GRAVITY_MPS2])),
+            "g_hex": _gravity_in_frame(r),
             "d_shaft": r[:, :, 2]}
 
 
@@ -398,7 +401,8 @@ def fit_prior_cli(data_dir, out_json, *, use_loaded: bool = False) -> dict:
     report = {"data_dir": str(data_dir), "conditions": list(conds), "converged": prior.converged,
               "solver_status": prior.info["solver_status"], "fit_time_s": prior.info["fit_time_s"],
               "parameters": dict(zip(NAMES, prior.params.tolist())),
-              "bounds_hit": prior.info["bounds_hit"]}
+              "bounds_hit": prior.info["bounds_hit"],
+              "insertion": prior.insertion.to_dict() if prior.insertion is not None else None}
     if test:
         frames = [read_recording(p) for p in test]
         y = np.concatenate([f[list(CHANNELS)].to_numpy(dtype=float) for f in frames])
