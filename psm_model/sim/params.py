@@ -177,7 +177,7 @@ class Effects:
     arm_dynamics: bool = True
     """Arm inertia, gravity and friction in the efforts."""
     contact_friction: bool = True
-    """Tangential friction at palpation and rigid contacts."""
+    """Tangential (stick-slip) friction at palpation and rigid contacts."""
 
     @classmethod
     def none(cls) -> "Effects":
