@@ -20,7 +20,6 @@ axis of:
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 
@@ -32,6 +31,7 @@ from hybrid.hybrid import BASE_COLUMNS, add_prior_columns
 from hybrid.metrics import AXES, axis_metrics, postprocess
 from hybrid.train import fit_prior
 from psm_model.recording import TARGETS
+from _report import write_json
 
 
 def _scores(trials, estimate) -> dict:
@@ -77,9 +77,7 @@ def main() -> dict:
                   + " ".join(f"{m[a]['nrmse_pct']:10.2f}" for a in AXES) + "   "
                   + " ".join(f"{m[a]['rmse_n']:9.3f}" for a in AXES))
     if args.json:
-        args.json.parent.mkdir(parents=True, exist_ok=True)
-        args.json.write_text(json.dumps(result, indent=2) + "\n")
-        print(f"wrote {args.json}")
+        write_json(args.json, result)
     return result
 
 

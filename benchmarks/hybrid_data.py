@@ -12,7 +12,6 @@ torch; the CSV reader uses two threads.
 from __future__ import annotations
 
 import argparse
-import json
 import tempfile
 import time
 from pathlib import Path
@@ -23,6 +22,7 @@ import torch
 
 from hybrid.data import WindowSet, fit_scalers, load_dataset, resolve_features
 from psm_model.recording import REQUIRED, TARGETS, write_recording
+from _report import write_json
 
 
 def main() -> dict:
@@ -68,7 +68,7 @@ def main() -> dict:
           f"{len(windows)} windows (L=100, s=5, free x4 sparser) in {t_windows:.2f} s; "
           f"one batch of 256 windows gathered in {t_batches / 100 * 1e3:.2f} ms")
     if args.json:
-        Path(args.json).write_text(json.dumps(result, indent=2) + "\n")
+        write_json(args.json, result)
     return result
 
 

@@ -21,7 +21,6 @@ training trials that ``psmforce reproduce`` holds out with the same seed. Prints
 from __future__ import annotations
 
 import argparse
-import json
 from pathlib import Path
 
 import numpy as np
@@ -33,6 +32,7 @@ from hybrid.hybrid import (COMPENSATED_HEX10, HYBRID_FEATURES,
 from hybrid.metrics import AXES
 from hybrid.reproduce import _config, _score_models
 from hybrid.train import fit_prior, make_setup, train_model
+from _report import write_json
 
 VARIANTS = {
     "residual on every axis": (HYBRID_FEATURES, COMPENSATED_HEX10[:3]),
@@ -88,9 +88,7 @@ def main() -> dict:
             " / ".join(f"{scores[s][a]['nrmse_pct']:5.2f}" for a in AXES)
             for s in ("validation", "test")) + f"   ({report['epochs_run']} epochs)")
     if args.json:
-        args.json.parent.mkdir(parents=True, exist_ok=True)
-        args.json.write_text(json.dumps(result, indent=2) + "\n")
-        print(f"wrote {args.json}")
+        write_json(args.json, result)
     return result
 
 

@@ -18,6 +18,8 @@ from pathlib import Path
 
 import numpy as np
 
+from _report import write_json
+
 
 def _selection_study(wpi_dir: Path) -> dict:
     """Model selection on the training file only: phase cross-validation (5 folds by phase of the
@@ -141,7 +143,7 @@ def main() -> dict:
             if "predict_one_us" in rep:
                 print(f"  predict_one: {rep['predict_one_us']:.1f} us per sample")
     if args.json:
-        args.json.write_text(json.dumps(result, indent=2, default=float) + "\n")
+        write_json(args.json, result)
     return result
 
 

@@ -16,7 +16,6 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ[_var] = "1"
 
 import argparse  # noqa: E402
-import json  # noqa: E402
 import platform  # noqa: E402
 import time  # noqa: E402
 from pathlib import Path  # noqa: E402
@@ -26,6 +25,7 @@ import pinocchio as pin  # noqa: E402
 
 from psm_model import PSM  # noqa: E402
 from psm_model.wrench import DEFAULT_SIGMA_THRESHOLD  # noqa: E402
+from _report import write_json  # noqa: E402
 
 TARGET_CONFIGS_PER_S = 200_000
 
@@ -124,12 +124,7 @@ def main(argv=None):
                   f"1st pct {band['sigma_min_p1']:.2e}, median {band['sigma_min_p50']:.2e}, "
                   f"damped {100 * band['fraction_damped']:.2f} %")
     if args.json:
-        tmp = args.json.with_name(args.json.name + ".part")
-        try:
-            tmp.write_text(json.dumps(result, indent=2) + "\n")
-            tmp.replace(args.json)
-        finally:
-            tmp.unlink(missing_ok=True)
+        write_json(args.json, result)
         print(f"wrote {args.json}")
 
 

@@ -20,6 +20,7 @@ import numpy as np
 import pandas as pd
 
 from psm_model.sim import Contact, Effects, InstrumentParams, protocols, run_trajectory, simulate
+from _report import write_json
 
 PAPER = {"train_min": 131.1, "val_min": 14.6, "test_min": 54.5,
          "ati_range_x": (-2.9, 2.9), "ati_range_y": (-4.1, 3.2), "ati_range_z": (-4.1, 4.6)}
@@ -133,7 +134,7 @@ def main(argv=None) -> int:
             print(f"{k:40s} {v}")
     print(f"{'paper':40s} {r['paper']}")
     if args.json:
-        args.json.write_text(json.dumps(r, indent=1))
+        write_json(args.json, r)
     return 0
 
 

@@ -50,6 +50,7 @@ from hybrid.metrics import axis_metrics, postprocess  # noqa: E402
 from hybrid.models import PaperTransformer, count_parameters  # noqa: E402
 from hybrid.streaming import CausalFilter, Flags, StreamingEstimator, make_backend  # noqa: E402
 from psm_model.recording import PAPER_FEATURES, TARGETS  # noqa: E402
+from _report import write_json  # noqa: E402
 
 TARGET_P99_MS = 1.0
 TARGET_SPEEDUP = 5.0
@@ -267,7 +268,4 @@ if __name__ == "__main__":
     figures, json_path = main()
     _print(figures)
     if json_path:
-        path = Path(json_path)
-        tmp = path.with_name(path.name + ".part")
-        tmp.write_text(json.dumps(figures, indent=2) + "\n")
-        tmp.replace(path)
+        write_json(json_path, figures)

@@ -290,13 +290,23 @@ def test_shear_is_held_in_the_dwell_and_lost_out_of_contact():
     d = np.linspace(0.0, 0.006, 600)
     press = np.column_stack([0.5 * d, np.zeros_like(d), -d])
     dwell = np.repeat(press[-1:], 100, 0)
-    out = np.linspace(press[-1], [0.003, 0.0, 0.001], 100)
-    straight = np.column_stack([np.full(50, 0.003), np.zeros(50), -np.linspace(0.0, 0.004, 50)])
+    # lifted out and pressed back faster than one sample, so no shrinking cap can hide a lost reset
+    out = np.tile([0.003, 0.0, 0.001], (100, 1))
+    straight = np.tile([0.003, 0.0, -0.004], (50, 1))
     f = _press(np.vstack([press, dwell, out, straight]))
     held = f[600:700]
     assert held[0, 0] < -0.1 and np.allclose(held, held[0])  # the press holds its shear at rest
     assert np.all(f[700:800][f[700:800, 2] == 0.0] == 0.0)  # nothing once out of contact
     np.testing.assert_array_equal(f[800:, :2], 0.0)  # a straight press after leaving starts unsheared
+
+
+@pytest.mark.parametrize("theta", protocols.THETA_DEG)
+def test_every_palpation_elevation_presses_the_block(theta):
+    """The approach enters the block's top (45, 90 deg) or side wall (0 deg) and loads the ATI."""
+    q = protocols.palpation_q(120.0, theta, np.array([[0.3, 0.2, -0.3, 0.4]]), 0.4, 1.1, 0.4)
+    df = _run(q, protocols.palpation_contact("shore_22a", 120.0, theta))
+    force = np.linalg.norm(df[["ati_fx", "ati_fy", "ati_fz"]].to_numpy(), axis=1)
+    assert force[0] == 0.0 and force.max() > 2.0
 
 
 def test_drag_slides_at_coulomb_limit_opposing_motion_then_sticks_on_reversal():

@@ -7,8 +7,9 @@ z axis) and ``F`` the force the environment applies on the tool,
     tau_ins = -d . F + g_b . d + F_c tanh(v / v_s) + b v + c           (N; effort = what the motor applies)
 
 ``g_b . d`` is the gravity of everything the insertion stage carries (mass x gravity vector in
-the base frame, 3 parameters, so no upright assumption), then Coulomb (smooth sign over v_s) and
-viscous friction of the carriage, and an offset. Inertia (``m a``, below 0.1 N at teleoperation
+the base frame, 3 parameters, so no upright assumption), then the carriage's Coulomb (smooth
+sign over v_s), viscous and offset terms of :mod:`psm_model.identification.friction` (no
+Stribeck). Inertia (``m a``, below 0.1 N at teleoperation
 accelerations) and the centripetal load of yaw/pitch rates are left out: the model stays
 instantaneous, so a streaming loop needs no history. Everything is linear in the parameters
 ``(g_b, F_c, b, c)``, fitted by least squares on recordings whose external force is known
@@ -29,6 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from psm_model.identification.errors import IdentificationInputError
+from psm_model.identification.friction import TERMS, FrictionShape, friction_regressor
 from psm_model.identification.signals import check_finite_2d
 
 SMOOTH_SIGN_CANDIDATES_MPS = (0.002, 0.005, 0.02, 0.05)
@@ -38,9 +40,12 @@ NAMES = ("gravity_x", "gravity_y", "gravity_z", "coulomb", "viscous", "offset")
 UNITS = ("N", "N", "N", "N", "N s/m", "N")
 
 
+_FRICTION_COLUMNS = [TERMS.index(t) for t in ("coulomb", "viscous", "offset")]
+
+
 def _regressors(d_shaft: np.ndarray, velocity: np.ndarray, smooth_sign_mps: float) -> np.ndarray:
-    return np.column_stack([d_shaft, np.tanh(velocity / smooth_sign_mps), velocity,
-                            np.ones(len(velocity))])
+    friction = friction_regressor(velocity, FrictionShape(smooth_sign_velocity=smooth_sign_mps))
+    return np.column_stack([d_shaft, friction[:, _FRICTION_COLUMNS]])
 
 
 @dataclass(frozen=True)
