@@ -4,6 +4,8 @@ Two model families share the training loop (:mod:`hybrid.train`):
 
 * window models, ``kind = "window"``: ``forward(x: (B, L, F)) -> (B, 3)``, one estimate for the
   last sample of each window (the paper's transformer, ``L = 100``; the FCN, ``L = 1``);
+  Window models split into ``features(x) -> (B, d)`` and ``decode(features) -> (B, 3)``, the
+  part finetuning trains, so finetuning can compute the frozen features once;
 * chunk models, ``kind = "chunk"``: ``forward(x: (B, T, F)) -> (B, T, 3)``, an estimate for every
   sample of a chunk, causal, supervised after a warm-up of ``window`` samples (the per-joint LSTM
   here and the hybrid's causal transformer in :mod:`hybrid.causal`).
@@ -23,6 +25,7 @@ import math
 
 import torch
 from torch import nn
+from torch.nn import functional as F
 
 LSTM_MAX_TORQUE = (10.0, 10.0, 10.0, 0.2, 0.2, 0.2)
 """Yang et al.'s output bound per chain joint (tanh x bound): Nm (revolute), N (insertion)."""
@@ -51,7 +54,19 @@ class _SinusoidalPositions(nn.Module):
 class PaperTransformer(nn.Module):
     """The seed paper's estimator: Linear(F -> 64) + sinusoidal positions + 3 encoder layers
     (8 heads, feed-forward 256, dropout 0.1, post-norm) -> last time step -> Linear 64 - ReLU -
-    Linear 3. 155,715 parameters with the paper's 21 inputs."""
+    Linear 3. 155,715 parameters with the paper's 21 inputs.
+
+    The layers are :class:`torch.nn.TransformerEncoderLayer` (their parameters and checkpoints),
+    but :meth:`forward` runs them itself, for speed on a CPU and with the same function:
+
+    * only the last sample's estimate is read, so the last layer computes its query, residual,
+      norms and feed-forward for the last position only (its keys and values still span the
+      window): one third of the work, and the same output as the full layer's last row;
+    * attention goes through :func:`torch.nn.functional.scaled_dot_product_attention`, with the
+      layer's dropout on the attention weights while training (as the stock layer does).
+
+    ``tests/test_hybrid_pipeline.py`` checks it against the stock ``nn.TransformerEncoder``.
+    """
 
     kind = "window"
     output_space = "scaled"
@@ -66,9 +81,38 @@ class PaperTransformer(nn.Module):
         self.encoder = nn.TransformerEncoder(layer, n_layers, enable_nested_tensor=False)
         self.decoder = nn.Sequential(nn.Linear(d_model, d_model), nn.ReLU(), nn.Linear(d_model, 3))
 
+    @staticmethod
+    def _layer(layer: nn.TransformerEncoderLayer, h: torch.Tensor,
+               last_only: bool) -> torch.Tensor:
+        """One post-norm encoder layer; ``last_only``: the output at the last position only."""
+        mha = layer.self_attn
+        d = h.shape[-1]
+        heads = mha.num_heads
+        w, b = mha.in_proj_weight, mha.in_proj_bias
+        k, v = F.linear(h, w[d:], b[d:]).unflatten(-1, (2, heads, d // heads)).permute(
+            2, 0, 3, 1, 4)
+        hq = h[:, -1:] if last_only else h
+        q = F.linear(hq, w[:d], b[:d]).unflatten(-1, (heads, d // heads)).transpose(1, 2)
+        attn = F.scaled_dot_product_attention(q, k, v,
+                                              dropout_p=mha.dropout if layer.training else 0.0)
+        h = layer.norm1(hq + layer.dropout1(mha.out_proj(attn.transpose(1, 2).flatten(-2))))
+        ff = layer.linear2(layer.dropout(layer.activation(layer.linear1(h))))
+        return layer.norm2(h + layer.dropout2(ff))
+
+    def features(self, x: torch.Tensor) -> torch.Tensor:
+        """(B, L, F) -> (B, d_model): the encoder's output at the last sample (the decoder's
+        input; finetuning trains the decoder on these)."""
+        h = self.positions(self.embed(x))
+        layers = self.encoder.layers
+        for i, layer in enumerate(layers):
+            h = self._layer(layer, h, last_only=i == len(layers) - 1)
+        return h[:, -1]
+
     def forward(self, x: torch.Tensor) -> torch.Tensor:
-        h = self.encoder(self.positions(self.embed(x)))
-        return self.decoder(h[:, -1])
+        return self.decoder(self.features(x))
+
+    def decode(self, features: torch.Tensor) -> torch.Tensor:
+        return self.decoder(features)
 
     def finetune_modules(self) -> list[nn.Module]:
         return [self.decoder]
@@ -89,8 +133,14 @@ class FCN(nn.Module):
                                   nn.Linear(hidden, hidden), nn.ReLU())
         self.head = nn.Linear(hidden, 3)
 
+    def features(self, x: torch.Tensor) -> torch.Tensor:
+        return self.body(x[:, -1])
+
+    def decode(self, features: torch.Tensor) -> torch.Tensor:
+        return self.head(features)
+
     def forward(self, x: torch.Tensor) -> torch.Tensor:
-        return self.head(self.body(x[:, -1]))
+        return self.head(self.features(x))
 
     def finetune_modules(self) -> list[nn.Module]:
         return [self.head]

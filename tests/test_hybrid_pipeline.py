@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import copy
 import json
 
 import numpy as np
@@ -200,6 +201,63 @@ def test_models_overfit_a_tiny_set(kind):
     assert report["best_val_loss"] < 0.1 * losses[0] and report["best_val_loss"] < 0.1
 
 
+def test_paper_transformer_equals_the_stock_encoder():
+    """The fast forward (last layer for the last sample only, SDPA) computes the stock layers'
+    function: same output and same gradients as nn.TransformerEncoder's last row."""
+    torch.manual_seed(0)
+    model = PaperTransformer(21, window=12, dropout=0.0)
+    x = torch.randn(5, 12, 21)
+
+    def stock(m):
+        return m.decoder(m.encoder(m.positions(m.embed(x)))[:, -1])
+    for mode in ("eval", "train"):
+        getattr(model, mode)()
+        fast, ref = model(x), stock(model)
+        torch.testing.assert_close(fast, ref, rtol=1e-5, atol=1e-6)
+    g_fast = torch.autograd.grad(model(x).square().sum(), list(model.parameters()),
+                                 allow_unused=True)
+    g_ref = torch.autograd.grad(stock(model).square().sum(), list(model.parameters()))
+    for a, b in zip(g_fast, g_ref):
+        torch.testing.assert_close(a if a is not None else torch.zeros_like(b), b,
+                                   rtol=1e-4, atol=1e-6)
+
+
+def test_finetuning_on_cached_features_equals_the_frozen_model():
+    """Training the decoder on features computed once gives the same decoder as training it
+    under the frozen trunk batch by batch (same order, same steps)."""
+    trials, val = [_trial(150, 0), _trial(150, 1)], [_trial(150, 2)]
+    setup = make_setup("transformer", trials, features="paper")
+    cfg = TrainConfig(max_epochs=3, patience=5, batch_size=32, stride=3, progress=False)
+    torch.manual_seed(0)
+    base = PaperTransformer(21, window=10)
+    cached, direct = copy.deepcopy(base), copy.deepcopy(base)
+    freeze_for_finetuning(cached)
+    report = fit(cached, trials, val, setup, cfg, frozen_in_eval=True)
+    freeze_for_finetuning(direct)
+    report_direct = fit(_Uncached(direct), trials, val, setup, cfg, frozen_in_eval=True)
+    assert report["epochs_run"] == report_direct["epochs_run"] == 3
+    assert report["train_windows"] == report_direct["train_windows"]
+    for a, b in zip(cached.decoder.parameters(), direct.decoder.parameters()):
+        torch.testing.assert_close(a, b, rtol=1e-4, atol=1e-6)
+    assert report["stopped_by"] == "epoch_limit" and not report["converged"]
+
+
+class _Uncached(nn.Module):
+    """The same model without ``features``: the loop must run the trunk every batch."""
+
+    kind, output_space = "window", "scaled"
+
+    def __init__(self, model):
+        super().__init__()
+        self.model, self.window = model, model.window
+
+    def forward(self, x):
+        return self.model(x)
+
+    def finetune_modules(self):
+        return self.model.finetune_modules()
+
+
 def test_early_stopping_and_lr_decay():
     trials = [_trial(60, 0)]
     val = [_trial(60, 9)]     # unrelated noise: validation cannot improve for long
@@ -207,7 +265,15 @@ def test_early_stopping_and_lr_decay():
     cfg = TrainConfig(max_epochs=100, patience=4, lr_patience=1, batch_size=16, progress=False)
     report = fit(FCN(1), trials, val, setup, cfg)
     assert report["epochs_run"] < 100
+    assert report["stopped_by"] == "patience" and report["converged"]
     assert min(h["lr"] for h in report["history"]) < cfg.lr
+    steps = [h["steps"] for h in report["history"]]
+    assert steps == sorted(steps) and steps[-1] == report["epochs_run"] * report[
+        "batches_per_epoch"]
+    capped = fit(FCN(1), trials, val, setup, TrainConfig(**{**cfg.to_dict(),
+                                                            "max_batches_per_epoch": 1,
+                                                            "batch_size": 2}))
+    assert capped["capped"] and not capped["converged"]
 
 
 # ------------------------------------------------------------------------------ checkpoints
