@@ -167,22 +167,42 @@ def load_dataset(root: str | Path, *, require_targets: bool = True, threads: int
     return Dataset(root, trials, metadata)
 
 
+def trajectory_group(trial: Trial) -> str:
+    """The trajectory family a trial belongs to: its metadata ``group`` if given, else its
+    (phi, theta) cell on the automated bench (a cell's free-space trials replay its traction and
+    palpation trajectories), else the trial itself."""
+    if "group" in trial.params:
+        return str(trial.params["group"])
+    if "phi_deg" in trial.params and "theta_deg" in trial.params:
+        return f"phi{float(trial.params['phi_deg']):g}_theta{float(trial.params['theta_deg']):g}"
+    return trial.path
+
+
 def split_validation(trials: Sequence[Trial], fraction: float = 0.1,
                      seed: int = 0) -> tuple[list[Trial], list[Trial]]:
-    """(train, validation): ``fraction`` of the trials of each condition (rounded, at least one
-    where a condition has two or more trials) go to validation, drawn with ``seed``."""
+    """(train, validation), drawn with ``seed``, so that validation measures generalisation to
+    unseen trajectories: when trials share trajectory groups (:func:`trajectory_group`), whole
+    groups go to validation (``fraction`` of them, rounded, at least one where there are two or
+    more); otherwise ``fraction`` of the trials of each condition (same rounding)."""
     if not 0 <= fraction < 1:
         raise DatasetError(f"validation fraction must be in [0, 1), got {fraction}")
     rng = np.random.default_rng(seed)
-    train, val = [], []
-    for cond in sorted({t.condition for t in trials}):
-        group = [t for t in trials if t.condition == cond]
-        n_val = int(round(fraction * len(group)))
-        if fraction > 0 and len(group) >= 2:
+    keys = [trajectory_group(t) for t in trials]
+    if len(set(keys)) < len(keys):
+        pools = [sorted(set(keys))]
+    else:
+        keys = [t.path for t in trials]
+        pools = [[t.path for t in trials if t.condition == c]
+                 for c in sorted({t.condition for t in trials})]
+    chosen: set[str] = set()
+    for pool in pools:
+        n_val = int(round(fraction * len(pool)))
+        if fraction > 0 and len(pool) >= 2:
             n_val = max(n_val, 1)
-        chosen = set(rng.permutation(len(group))[:n_val].tolist())
-        for i, t in enumerate(group):
-            (val if i in chosen else train).append(t)
+        chosen |= {pool[i] for i in rng.permutation(len(pool))[:n_val]}
+    train, val = [], []
+    for t, key in zip(trials, keys):
+        (val if key in chosen else train).append(t)
     return train, val
 
 

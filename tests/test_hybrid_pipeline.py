@@ -98,6 +98,23 @@ def test_validation_split_is_seeded_and_per_condition():
     assert {t.condition for t in subsample_trials(trials, 0.1)} == {"Traction", "Palpation", "Free"}
 
 
+def test_validation_split_keeps_trajectory_families_together():
+    """On the automated bench a free-space trial replays its cell's traction and palpation
+    trajectories: a cell goes to validation whole, never half in training."""
+    trials = []
+    for cell in range(6):
+        for cond in ("Traction", "Traction", "Palpation", "Free"):
+            t = _trial(20, len(trials), cond)
+            t.path = f"train/{cond}/c{cell}_{len(trials)}.csv"
+            t.params = {"phi_deg": 60.0 * cell, "theta_deg": 45.0}
+            trials.append(t)
+    for seed in range(5):
+        train, val = split_validation(trials, 0.1, seed=seed)
+        val_cells = {t.params["phi_deg"] for t in val}
+        assert len(val_cells) == 1 and len(val) == 4
+        assert not val_cells & {t.params["phi_deg"] for t in train}
+
+
 def test_scalers_use_training_data_only_and_pass_raw_columns():
     t = _trial(100, 0)
     xs, ys = fit_scalers([t], ("fx", "fy"), raw_columns=("fy",))

@@ -36,6 +36,7 @@ def test_automated_layout_metadata_and_recording_contract(automated):
     assert sorted(paths) == _files(out) and summary["trials"] == len(paths)
     folders = {p.rsplit("/", 1)[0] for p in paths}
     assert folders == {f"{s}/{c}" for s in ("train", "test") for c in ("Free", "Traction", "Palpation")}
+    assert sum(p.startswith("test/Free/") for p in paths) >= 3   # a spread for every condition
     rows = 0
     for trial in meta["trials"]:
         assert {"split", "condition", "phi_deg", "theta_deg"} <= set(trial)
@@ -66,6 +67,18 @@ def test_teleop_layout(tmp_path):
     free = read_recording(tmp_path / "t" / "config_0" / "Free" / "demo_0.csv", require_targets=True)
     assert np.abs(rigid[["ati_fx", "ati_fy", "ati_fz"]]).to_numpy().max() > 0.5
     assert np.abs(free[["ati_fx", "ati_fy", "ati_fz"]]).to_numpy().max() < 0.1
+
+
+def test_teleop_bias_window_is_contact_free(tmp_path):
+    """The evaluation subtracts the mean prediction over its bias window as the free-space zero:
+    the protocol must guarantee no contact there (ground truth at the ATI's noise level)."""
+    from hybrid.evaluate import EVAL_START
+    from hybrid.metrics import BIAS_SECONDS
+    simulate("teleop", scale=0.02, seed=1, out=tmp_path / "t")
+    window = slice(EVAL_START, EVAL_START + int(round(BIAS_SECONDS * 100)))
+    for path in sorted((tmp_path / "t").rglob("*.csv")):
+        truth = read_recording(path)[["ati_fx", "ati_fy", "ati_fz"]].to_numpy()
+        assert np.abs(truth[window]).max() < 0.03, path
 
 
 def test_same_seed_is_bit_exact_and_another_seed_differs(tmp_path):

@@ -61,7 +61,13 @@ TEST_PALP_WRIST, TEST_PALP_APPROACH, TEST_PALP_DWELL = 0.33, 0.9, 0.4
 SETTLE = 1.0
 ARM_MOVE = 2.0
 TEST_FREE_S = 600.0
+TEST_FREE_TRIALS_PER_MIN = 1.0
+"""The continuous random free-space test is cut into trials of about a minute (at least 3), so
+the free-space condition has several test trials for a spread at every scale."""
 TELEOP_DEMO_S = 120.0
+TELEOP_SETTLE_S = 2.0
+"""Teleoperation demos start held still in free space this long: the evaluation's bias window
+(samples 99-148, :mod:`hybrid.evaluate`) must lie before the first contact, with margin."""
 TELEOP_CONFIGS = ((0.75, 0.45, 0.17), (-0.70, 0.50, 0.16), (0.35, -0.65, 0.18))
 """(yaw, pitch, insertion) of the three teleoperation PSM configurations."""
 
@@ -319,12 +325,14 @@ def automated(scale: float, seed: int) -> list[Plan]:
             plans.append(Plan(f"test/Palpation/{tag}_{material}.csv", "test", "Palpation", q,
                               palpation_contact(material, phi, theta),
                               {**base_info, "material": material, "wrist_configs": configs.tolist()}))
-    plans.append(_random_free(seed, max(5.0, TEST_FREE_S * scale)))
+    duration = TEST_FREE_S * scale
+    n_free = max(3, int(round(duration / 60.0 * TEST_FREE_TRIALS_PER_MIN)))
+    plans += [_random_free(seed, part, max(5.0, duration / n_free)) for part in range(n_free)]
     return plans
 
 
-def _random_free(seed: int, duration: float) -> Plan:
-    rng = np.random.default_rng([seed, 6])
+def _random_free(seed: int, part: int, duration: float) -> Plan:
+    rng = np.random.default_rng([seed, 6, part])
     moves = []
     total = 0.0
     while total < duration:
@@ -337,7 +345,7 @@ def _random_free(seed: int, duration: float) -> Plan:
     q = np.zeros((len(wrist), 7))
     q[:, :3] = _traction_arm(0.0, 0.0, 1)
     q[:, 3:] = wrist
-    return Plan("test/Free/random_states.csv", "test", "Free", q, Contact(),
+    return Plan(f"test/Free/random_states_{part}.csv", "test", "Free", q, Contact(),
                 {"phi_deg": 0.0, "theta_deg": 0.0, "replays": "continuous random states"})
 
 
@@ -405,7 +413,7 @@ def teleop(scale: float, seed: int) -> list[Plan]:
                 way, wrist_way, move, hold = _teleop_actions(rng, duration, depth_max)
                 off = piecewise(way, move, hold)
                 wrist = piecewise(wrist_way, move, hold)
-                settle = int(round(SETTLE / DT))
+                settle = int(round(TELEOP_SETTLE_S / DT))
                 off = np.vstack([np.repeat(off[:1], settle, 0), off])
                 wrist = np.vstack([np.repeat(wrist[:1], settle, 0), wrist])
                 q = arm_ik_for_tip(work + off, wrist)
