@@ -60,6 +60,7 @@ from scipy import signal
 
 from hybrid.causal import CausalTransformer, NumpyStepper, predict_sequence
 from hybrid.hybrid import HexRotation, HybridInputs
+from hybrid.metrics import lowpass_causal
 from psm_model.recording import JOINT_POSITIONS, OVERLOAD
 
 CHAIN_POSITIONS = JOINT_POSITIONS
@@ -169,8 +170,7 @@ class CausalFilter:
                 windows = np.lib.stride_tricks.sliding_window_view(force, k, axis=0)
                 out[k - 1:] = np.median(windows, axis=-1)
             return out
-        zi = self._zi_unit[:, :, None] * force[0]
-        return signal.sosfilt(self._sos, force, axis=0, zi=zi)[0]
+        return lowpass_causal(force, self.rate_hz, self.lowpass_hz, self.lowpass_order)
 
 
 class TorchStepper:

@@ -175,6 +175,37 @@ def test_postprocess_bias_then_centred_median():
 
 # ------------------------------------------------------------------------------ models, training
 
+def test_causal_postprocessing_never_looks_ahead_and_the_floor():
+    """Causal modes: changing a future sample never changes an earlier output; the paper's
+    centred median does. A step in the truth leaves the paper metric a floor the raw causal
+    metric does not have; the low-pass lags a ramp by its stated delay."""
+    from hybrid.evaluate import floor_metrics
+    from hybrid.metrics import lowpass_lag_samples
+    rng = np.random.default_rng(0)
+    pred = rng.normal(size=(400, 3))
+    later = pred.copy()
+    later[300:] += 5.0
+    for mode in ("causal", "causal_lowpass"):
+        a = postprocess(pred, bias=False, mode=mode)
+        b = postprocess(later, bias=False, mode=mode)
+        np.testing.assert_array_equal(a[:300], b[:300])
+    assert not np.array_equal(postprocess(pred, bias=False)[:300],
+                              postprocess(later, bias=False)[:300])
+    ramp = np.repeat(np.arange(2000.0)[:, None], 3, axis=1) * 0.01
+    lagged = postprocess(ramp, bias=False, mode="causal_lowpass")
+    np.testing.assert_allclose(ramp[1000:] - lagged[1000:], lowpass_lag_samples() * 0.01,
+                               rtol=1e-3)
+    with pytest.raises(MetricError, match="post-processing"):
+        postprocess(pred, mode="centred")
+    t = _trial(400, 0)
+    t.frame[["ati_fx", "ati_fy", "ati_fz"]] = 0.0
+    t.frame.loc[250:, ["ati_fx", "ati_fy", "ati_fz"]] = 1.0
+    t.frame.loc[260:, ["ati_fx", "ati_fy", "ati_fz"]] = 0.0   # a 0.1 s tap
+    floor = floor_metrics([t])
+    assert floor["causal"]["Fx"]["nrmse_pct"] == 0.0
+    assert floor["paper"]["Fx"]["nrmse_pct"] > 10.0
+
+
 def test_paper_model_sizes():
     assert count_parameters(PaperTransformer(21)) == 155_715
     assert count_parameters(FCN(21)) == 5_763
