@@ -30,7 +30,7 @@ from hybrid.data import NO_BASE, load_dataset, split_validation, target_matrix
 from hybrid.hybrid import (COMPENSATED_HEX10, HYBRID_FEATURES,
                            HYBRID_FEATURES_PRIOR_FZ, INSERTION_FZ, add_prior_columns, prior_to_json)
 from hybrid.metrics import AXES
-from hybrid.reproduce import _config, _score_models
+from hybrid.reproduce import _config, _scores
 from hybrid.train import fit_prior, make_setup, train_model
 from _report import write_json
 
@@ -80,7 +80,7 @@ def main() -> dict:
         setup = make_setup("hybrid", train, features=features, base_columns=base,
                            derivation="prior", prior_json=prior_to_json(prior))
         model, report = train_model(setup, train, val, cfg)
-        scores = {split: _score_models({name: (model, setup)}, trials, "cpu")[0][name]
+        scores = {split: _scores(model, setup, trials, "cpu")["overall"]["paper"]
                   for split, trials in (("validation", val), ("test", test))}
         result["variants"][name] = {"epochs": report["epochs_run"],
                                     "seconds": report["seconds"], **scores}

@@ -111,3 +111,27 @@ def plot_ablation_boxes(per_trial: Mapping[str, Sequence[Mapping]], path) -> Pat
                        tick_labels=labels if i == 0 else [""] * len(labels))
             ax.set_xlabel(f"{axis} {name}")
     return _save(fig, path)
+
+
+def plot_learning_curves(curves: Mapping[str, Sequence[Sequence[Mapping]]], path) -> Path:
+    """Validation loss per model (columns) against optimiser steps (top) and wall-clock (bottom),
+    one line per seed; a dot marks each run's best epoch (the weights kept). ``curves``:
+    {label: [history of one run: [{"steps", "elapsed_s", "val_loss"}, ...], ...]}."""
+    labels = list(curves)
+    fig, axes = plt.subplots(2, len(labels), figsize=(3.6 * len(labels), 6), squeeze=False)
+    for c, label in enumerate(labels):
+        for run in curves[label]:
+            val = np.array([h["val_loss"] for h in run])
+            best = int(np.argmin(val))
+            for r, key in enumerate(("steps", "elapsed_s")):
+                x = np.array([h[key] for h in run])
+                line, = axes[r, c].plot(x, val, lw=1)
+                axes[r, c].plot(x[best], val[best], "o", color=line.get_color(), ms=4)
+        axes[0, c].set_title(label, fontsize=9)
+        axes[0, c].set_xlabel("optimiser steps")
+        axes[1, c].set_xlabel("wall-clock (s)")
+        for r in range(2):
+            axes[r, c].set_yscale("log")
+    axes[0, 0].set_ylabel("validation loss (scaled MSE)")
+    axes[1, 0].set_ylabel("validation loss (scaled MSE)")
+    return _save(fig, path)

@@ -7,7 +7,7 @@ import pytest
 
 from hybrid.data import FEATURE_SETS, Trial
 from hybrid.evaluate import automated_table, teleop_table
-from hybrid.reproduce import BUDGETS, _config, _teleop_folds
+from hybrid.reproduce import BUDGETS, _config, _teleop_folds, reproduce, verdicts
 from hybrid.train import hybrid_feature_set
 
 hybrid_mod = pytest.importorskip("hybrid.hybrid")
@@ -71,6 +71,47 @@ def test_budgets_keep_the_papers_optimiser_settings():
     full = _config("full", "pretrain", 0, "cpu", "transformer")
     assert (full.max_epochs, full.lr, full.weight_decay, full.batch_size, full.patience,
             full.lr_patience, full.stride) == (100, 1e-3, 1e-4, 256, 10, 3, 5)
+    assert full.max_batches_per_epoch is None and full.max_val_batches is None
     lstm = _config("cpu", "pretrain", 0, "cpu", "lstm")
-    assert (lstm.lr, lstm.weight_decay) == (5e-3, 1e-6)
+    assert (lstm.lr, lstm.weight_decay, lstm.chunk) == (5e-3, 1e-6, 1000)
+    tele_lstm = _config("full", "finetune", 0, "cpu", "lstm")
+    assert (tele_lstm.lr, tele_lstm.weight_decay, tele_lstm.chunk) == (1e-3, 1e-4, 1000)
     assert set(BUDGETS) == {"full", "cpu", "quick"}
+    for stage in BUDGETS["full"].values():   # the published budget caps nothing
+        assert not any(k.startswith("max_") for caps in stage.values() for k in caps)
+
+
+def _spread(means: dict) -> dict:
+    return {m: {a: {"nrmse_pct": {"mean": mu, "std": sd, "n": 3}} for a in ("Fx", "Fy", "Fz")}
+            for m, (mu, sd) in means.items()}
+
+
+def test_a_win_needs_to_clear_the_spread():
+    v = verdicts(_spread({"A": (1.0, 0.1), "B": (1.5, 0.2), "C": (3.0, 0.1)}))
+    assert v["Fx"] == {"best": "A", "win": True, "tied_with": []}
+    v = verdicts(_spread({"A": (1.0, 0.3), "B": (1.5, 0.3), "C": (3.0, 0.1)}))
+    assert v["Fx"] == {"best": "A", "win": False, "tied_with": ["B"]}
+
+
+def test_reproduce_resumes_and_reports_convergence(tmp_path):
+    """A tiny grid end to end: two seeds, spread and floors, convergence recorded per run; a
+    rerun reuses every task (no training), and a run at another scale is refused."""
+    logs: list[str] = []
+    kw = dict(scale=0.01, seeds=(1, 2), budget="quick", models=("fcn", "hybrid"),
+              ablations=False, efficiency=False, teleop=False)
+    r = reproduce(tmp_path / "run", log=logs.append, **kw)
+    assert r["automated"]["causal"]["FCN"]["Fx"]["nrmse_pct"]["n"] == 2
+    assert r["floor"]["automated"]["causal"]["Fx"]["nrmse_pct"]["mean"] == 0.0
+    assert r["floor"]["automated"]["paper"]["Fx"]["nrmse_pct"]["mean"] > 0.0
+    assert not r["all_converged"]          # quick caps batches: never called converged
+    assert all(not t["converged"] and (t["capped"] or t["stopped_by"] == "epoch_limit")
+               for t in r["training"].values())
+    md = (tmp_path / "run" / "results.md").read_text()
+    assert "not converged" in md and "floor (truth post-processed)" in md
+    assert (tmp_path / "run" / "figures" / "learning_curves.png").exists()
+    logs.clear()
+    again = reproduce(tmp_path / "run", log=logs.append, **kw)
+    assert not any("to run" in line and not line.endswith("0 to run") for line in logs)
+    assert again["automated"] == r["automated"]
+    with pytest.raises(ValueError, match="another scale"):
+        reproduce(tmp_path / "run", **{**kw, "scale": 0.02})

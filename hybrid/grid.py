@@ -1,0 +1,138 @@
+"""A grid of independent, cached tasks: how ``psmforce reproduce`` runs and resumes.
+
+A task is a pair (function, parameters): a top-level function ``fn(params: dict) -> dict``
+(importable by name, so another process or machine can run it) and JSON parameters that say
+everything the result depends on. Its result is cached as ``CACHE/<name>-<key>.json``, where
+``key`` hashes the function's qualified name and the parameters: run the grid again after an
+interruption and every finished task is read back, not recomputed; change a parameter and only
+the tasks it reaches run again. A result is written atomically (temporary file, then rename), so
+an interrupted task leaves nothing that reads as done.
+
+Executors: in-process, one task after another (the default; no extra dependency), or Ray
+(``ray_address``: ``"auto"``, ``"local"`` for a fresh local instance, or a cluster address; the
+optional extra ``psmforce[cluster]``), which runs the same functions on the same parameters and
+writes the same cache, so a run may be started on a laptop and finished on a cluster.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import importlib
+import json
+import logging
+import os
+import sys
+import time
+from pathlib import Path
+from typing import Callable, Sequence
+
+TaskSpec = tuple[Callable[[dict], dict], dict]
+
+
+class GridError(RuntimeError):
+    """A grid that cannot run as asked (bad executor, unserialisable parameters, failed task)."""
+
+
+def _qualname(fn: Callable) -> str:
+    return f"{fn.__module__}:{fn.__qualname__}"
+
+
+def task_key(fn: Callable, params: dict) -> str:
+    """Stable 16-hex-digit key of a task: its function's qualified name and its parameters."""
+    try:
+        text = json.dumps({"fn": _qualname(fn), "params": params}, sort_keys=True)
+    except TypeError as err:
+        raise GridError(f"task parameters must be JSON: {err}") from None
+    return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+def cache_path(cache: Path, fn: Callable, params: dict) -> Path:
+    return Path(cache) / f"{fn.__name__.lstrip('_')}-{task_key(fn, params)}.json"
+
+
+def _write_atomic(path: Path, text: str) -> None:
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.part")
+    tmp.write_text(text)
+    tmp.replace(path)
+
+
+def run_task(qualname: str, params: dict, cache: str) -> dict:
+    """Run one task by its function's qualified name and cache its result (what a worker runs)."""
+    module, name = qualname.split(":")
+    fn = getattr(importlib.import_module(module), name)
+    path = cache_path(Path(cache), fn, params)
+    if path.exists():
+        return json.loads(path.read_text())["result"]
+    t0 = time.perf_counter()
+    result = fn(params)
+    record = {"task": qualname, "params": params, "seconds": time.perf_counter() - t0,
+              "result": result}
+    _write_atomic(path, json.dumps(record, indent=1) + "\n")
+    return result
+
+
+def run_grid(tasks: Sequence[TaskSpec], cache: str | Path, *, ray_address: str | None = None,
+             log: Callable[[str], None] = print) -> list[dict]:
+    """Results of ``tasks`` in order, each read from ``cache`` when done before, else computed
+    (in-process, or on Ray when ``ray_address`` is given) and cached."""
+    cache = Path(cache)
+    cache.mkdir(parents=True, exist_ok=True)
+    todo = [(i, fn, p) for i, (fn, p) in enumerate(tasks) if not cache_path(cache, fn, p).exists()]
+    log(f"grid: {len(tasks)} tasks, {len(tasks) - len(todo)} cached, {len(todo)} to run"
+        + (f" on Ray ({ray_address})" if ray_address and todo else ""))
+    if todo and ray_address:
+        _run_on_ray(todo, cache, ray_address, log)
+    for n, (i, fn, p) in enumerate(todo):
+        if not ray_address:
+            t0 = time.perf_counter()
+            run_task(_qualname(fn), p, str(cache))
+            log(f"  [{n + 1}/{len(todo)}] {fn.__name__.lstrip('_')} {_short(p)}: "
+                f"{time.perf_counter() - t0:.0f} s")
+    return [json.loads(cache_path(cache, fn, p).read_text())["result"] for fn, p in tasks]
+
+
+def _short(params: dict) -> str:
+    return " ".join(f"{k}={v}" for k, v in params.items()
+                    if isinstance(v, (int, float, str)) and k not in ("run_dir",))
+
+
+def _local_ray() -> dict:
+    """``ray.init`` arguments for a fresh instance on this machine (``"local"``, which Ray takes to
+    mean a new instance even where one started by ``ray start`` runs: ``None`` would join that).
+    Its workers run this interpreter here, so they get the driver's import path: any task function
+    the in-process executor can import (a script's, a test's), they can too. Results travel
+    through the cache files, not the object store, so a small store spares the machine's memory."""
+    return {"object_store_memory": 100 * 2**20,
+            "runtime_env": {"env_vars": {"PYTHONPATH": os.pathsep.join(p for p in sys.path if p)}}}
+
+
+def _run_on_ray(todo, cache: Path, address: str, log) -> None:
+    """Run ``todo`` on Ray, joining an instance already started in this process, else starting or
+    joining ``address`` for the call only; Ray's own start-up chatter is kept below warnings, the
+    grid's log says what runs."""
+    try:
+        import ray
+    except ImportError:
+        raise GridError("--ray needs Ray: pip install 'psmforce[cluster]'") from None
+    started = not ray.is_initialized()
+    if started:
+        ray.init(address=address, include_dashboard=False, log_to_driver=False,
+                 logging_level=logging.WARNING,
+                 **(_local_ray() if address == "local" else {}))
+    try:
+        remote = ray.remote(run_task)
+        pending = {remote.remote(_qualname(fn), p, str(cache.resolve())): (fn, p)
+                   for _, fn, p in todo}
+        done = 0
+        while pending:
+            ready, _ = ray.wait(list(pending), num_returns=1)
+            fn, p = pending.pop(ready[0])
+            try:
+                ray.get(ready[0])
+            except Exception as err:  # a worker's failure names its task
+                raise GridError(f"task {fn.__name__} {_short(p)} failed on Ray: {err}") from None
+            done += 1
+            log(f"  [{done}/{len(todo)}] {fn.__name__.lstrip('_')} {_short(p)} (Ray)")
+    finally:
+        if started:
+            ray.shutdown()

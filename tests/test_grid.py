@@ -1,0 +1,170 @@
+"""The task grid: stable keys, resume after an interruption, atomic results, Ray = in-process."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from hybrid.grid import GridError, cache_path, run_grid, run_task, task_key
+
+CALLS: list[dict] = []  # parameters of every in-process call of the task functions below
+FAIL_AT: set[int] = set()  # values of ``i`` at which ``_counted_task`` raises
+
+
+class _Interrupted(Exception):
+    """Stands for whatever stops a run (Ctrl-C, a killed job, a crashed task)."""
+
+
+def _stats_task(params: dict) -> dict:
+    """Deterministic numpy work from a seed, free of BLAS, so any thread count gives the same bits."""
+    x = np.random.default_rng(params["seed"]).standard_normal(params["n"])
+    return {"seed": params["seed"], "sum": float(np.sum(x)), "max": float(np.max(x)),
+            "q90": float(np.quantile(x, 0.9)), "sorted_head": np.sort(x)[:3].tolist()}
+
+
+def _counted_task(params: dict) -> dict:
+    CALLS.append(params)
+    if params["i"] in FAIL_AT:
+        raise _Interrupted(f"task {params['i']} stopped")
+    return _stats_task(params)
+
+
+def _failing_task(params: dict) -> dict:
+    raise ValueError(f"bad seed {params['seed']}")
+
+
+@pytest.fixture(autouse=True)
+def _fresh_counters():
+    CALLS.clear()
+    FAIL_AT.clear()
+    yield
+    CALLS.clear()
+    FAIL_AT.clear()
+
+
+def _grid(n_tasks: int) -> list:
+    return [(_counted_task, {"i": i, "seed": 100 + i, "n": 257}) for i in range(n_tasks)]
+
+
+def _files(cache: Path) -> set[str]:
+    return {p.name for p in cache.iterdir()}
+
+
+def test_task_key_is_stable_and_changes_with_every_parameter():
+    params = {"seed": 3, "lr": 1e-3, "protocol": "rigid", "layers": [2, 4], "opt": {"wd": 0.0}}
+    key = task_key(run_task, params)
+    # A golden value: changing how keys are made would orphan every cache already on disk.
+    assert key == "86f6bea4b07e8c30"
+    assert task_key(run_task, dict(reversed(list(params.items())))) == key  # order-free
+    changed = {"seed": 4, "lr": 2e-3, "protocol": "soft", "layers": [2, 5], "opt": {"wd": 0.1}}
+    keys = {task_key(run_task, {**params, k: v}) for k, v in changed.items()}
+    keys |= {task_key(run_task, {**params, "seed": 3.0}),  # 3 and 3.0 are different runs
+             task_key(run_task, {**params, "extra": None}),
+             task_key(_stats_task, params)}  # another function, another task
+    assert len(keys) == 8 and key not in keys
+    assert len(key) == 16 and int(key, 16) >= 0
+    assert cache_path(Path("c"), _counted_task, params).name == (
+        f"counted_task-{task_key(_counted_task, params)}.json")
+
+
+@pytest.mark.parametrize("bad", [{1, 2}, Path("x"), np.int64(3), object()])
+def test_non_json_parameters_raise_grid_error_before_anything_runs(tmp_path, bad):
+    with pytest.raises(GridError, match="JSON"):
+        task_key(_stats_task, {"seed": bad})
+    with pytest.raises(GridError, match="JSON"):
+        run_grid([(_counted_task, {"i": 0, "seed": 1, "n": 4}),
+                  (_counted_task, {"i": 1, "seed": bad, "n": 4})], tmp_path, log=lambda s: None)
+    assert CALLS == [] and _files(tmp_path) == set()
+
+
+def test_resume_runs_only_unfinished_tasks_and_matches_a_fresh_run(tmp_path):
+    tasks = _grid(5)
+    cache = tmp_path / "cache"
+    FAIL_AT.add(2)
+    with pytest.raises(_Interrupted):
+        run_grid(tasks, cache, log=lambda s: None)
+    assert [c["i"] for c in CALLS] == [0, 1, 2]
+    # Exactly the two finished tasks' results: nothing for the third, no partial file.
+    assert _files(cache) == {cache_path(cache, fn, p).name for fn, p in tasks[:2]}
+
+    FAIL_AT.clear()
+    CALLS.clear()
+    lines: list[str] = []
+    resumed = run_grid(tasks, cache, log=lines.append)
+    assert [c["i"] for c in CALLS] == [2, 3, 4]
+    assert lines[0] == "grid: 5 tasks, 2 cached, 3 to run"
+    assert _files(cache) == {cache_path(cache, fn, p).name for fn, p in tasks}
+
+    CALLS.clear()
+    fresh = run_grid(tasks, tmp_path / "fresh", log=lambda s: None)
+    assert resumed == fresh == [_stats_task(p) for _, p in tasks]
+
+    CALLS.clear()
+    assert run_grid(tasks, cache, log=lines.append) == fresh
+    assert CALLS == [] and lines[-1] == "grid: 5 tasks, 5 cached, 0 to run"
+
+
+def test_record_holds_task_params_and_result(tmp_path):
+    (fn, p), = _grid(1)
+    [result] = run_grid([(fn, p)], tmp_path, log=lambda s: None)
+    record = json.loads(cache_path(tmp_path, fn, p).read_text())
+    assert record["task"] == f"{fn.__module__}:_counted_task"
+    assert record["params"] == p and record["result"] == result and record["seconds"] >= 0
+
+
+def test_interrupted_write_leaves_nothing_that_reads_as_done(tmp_path, monkeypatch):
+    tasks = _grid(2)
+    real_replace = Path.replace
+
+    def killed_before_rename(self, target):
+        raise _Interrupted("killed between write and rename")
+
+    monkeypatch.setattr(Path, "replace", killed_before_rename)
+    with pytest.raises(_Interrupted):
+        run_grid(tasks, tmp_path, log=lambda s: None)
+    monkeypatch.setattr(Path, "replace", real_replace)
+    # The result reached only the temporary file, which is not a result.
+    parts = [n for n in _files(tmp_path) if n.endswith(".part")]
+    assert len(parts) == 1 and parts[0].startswith(".")
+    assert not any(n.endswith(".json") for n in _files(tmp_path))
+
+    # A stray temporary file, even one holding a well-formed record, does not count as done.
+    fn, p = tasks[1]
+    stray = tmp_path / f".{cache_path(tmp_path, fn, p).name}.12345.part"
+    stray.write_text(json.dumps({"task": "x", "params": p, "seconds": 0, "result": {"bogus": 1}}))
+    CALLS.clear()
+    lines: list[str] = []
+    results = run_grid(tasks, tmp_path, log=lines.append)
+    assert lines[0] == "grid: 2 tasks, 0 cached, 2 to run"
+    assert [c["i"] for c in CALLS] == [0, 1]
+    assert results == [_stats_task(p) for _, p in tasks]
+
+
+def test_ray_local_matches_in_process(tmp_path):
+    pytest.importorskip("ray")
+    tasks = [(_stats_task, {"seed": s, "n": 1000}) for s in (0, 1, 7, 42)]
+    local = run_grid(tasks, tmp_path / "inproc", log=lambda s: None)
+    lines: list[str] = []
+    on_ray = run_grid(tasks, tmp_path / "ray", ray_address="local", log=lines.append)
+    assert on_ray == local
+    assert lines[0] == "grid: 4 tasks, 0 cached, 4 to run on Ray (local)"
+    assert len(lines) == 5 and all(line.endswith("(Ray)") for line in lines[1:])
+    # The same cache: file names and results agree, so a run can move between executors.
+    assert _files(tmp_path / "ray") == _files(tmp_path / "inproc")
+    for name in _files(tmp_path / "ray"):
+        a, b = (json.loads((tmp_path / d / name).read_text()) for d in ("inproc", "ray"))
+        assert a["result"] == b["result"] and a["params"] == b["params"]
+    # Everything cached: Ray is not even started.
+    assert run_grid(tasks, tmp_path / "ray", ray_address="local", log=lines.append) == local
+    assert lines[-1] == "grid: 4 tasks, 4 cached, 0 to run"
+
+
+def test_ray_task_failure_raises_grid_error_naming_the_task(tmp_path):
+    pytest.importorskip("ray")
+    expected = r"(?s)task _failing_task seed=5 failed on Ray: .*ValueError: bad seed 5"
+    with pytest.raises(GridError, match=expected):
+        run_grid([(_failing_task, {"seed": 5})], tmp_path, ray_address="local", log=lambda s: None)
+    assert _files(tmp_path) == set()
