@@ -99,7 +99,7 @@ class TrainingError(ValueError):
 
 def _loss(model: nn.Module, x: torch.Tensor, y: torch.Tensor,
           target_scaler: Scaler, forward=None) -> torch.Tensor:
-    pred = (forward or model)(x)
+    pred = (model if forward is None else forward)(x)
     if model.output_space == "newton":
         pred = (pred - torch.as_tensor(target_scaler.mean, device=pred.device)) / torch.as_tensor(
             target_scaler.std, device=pred.device)

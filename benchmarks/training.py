@@ -1,0 +1,143 @@
+"""Training throughput of every model, before and after the CPU work on the paper transformer,
+and its wall-clock to convergence.
+
+    python benchmarks/training.py [--steps 6] [--threads 2] [--converge-scale 0.1] [--json OUT]
+
+Throughput: optimiser steps (forward, backward, Adam) on batches of the training loop's shape
+(window models: 256 windows; chunk models: 16 chunks, the LSTM's of 1000 samples, the hybrid's of
+400), timed after warm-up steps, best of ``--steps``. Printed and written per model as windows/s
+(chunks/s for chunk models) and supervised samples/s (one per window; ``chunk - window`` per
+chunk). The paper transformer is timed three ways, all the same function
+(``tests/test_hybrid_pipeline.py`` checks the first two equal):
+
+* ``before``: the stock ``nn.TransformerEncoder`` forward (the implementation this replaced);
+* ``after``: :class:`hybrid.models.PaperTransformer`'s forward (last layer for the last sample
+  only, scaled-dot-product attention);
+* ``after, compiled``: the same through ``torch.compile`` (the published budget's setting;
+  compile time printed apart).
+
+``--converge-scale S``: simulate an automated bench at scale ``S`` (seed 1), fit the prior, and
+train the paper transformer with the published budget (early stopping, no caps, compiled) on it;
+prints epochs, why it stopped and the wall-clock. Target: converged in under 30 minutes at
+S >= 0.1 on 2 cores.
+"""
+
+from __future__ import annotations
+
+import argparse
+import platform
+import tempfile
+import time
+from pathlib import Path
+
+import torch
+
+from hybrid.models import PaperTransformer, build_model
+from hybrid.train import MODEL_DEFAULTS, DEFAULT_CHUNK
+from _report import write_json
+
+
+class _StockTransformer(PaperTransformer):
+    """The paper transformer through the stock encoder: every layer over every position."""
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        return self.decoder(self.encoder(self.positions(self.embed(x)))[:, -1])
+
+
+def _step_seconds(model, x, steps: int, compile_model: bool = False) -> tuple[float, float]:
+    """(best seconds per optimiser step, compile + warm-up seconds)."""
+    torch.manual_seed(0)
+    model.train()
+    forward = torch.compile(model) if compile_model else model
+    opt = torch.optim.Adam(model.parameters(), lr=1e-3, weight_decay=1e-4)
+
+    def step():
+        opt.zero_grad(set_to_none=True)
+        out = forward(x)
+        loss = out[:, model.window:].square().mean() if model.kind == "chunk" else \
+            out.square().mean()
+        loss.backward()
+        opt.step()
+    t0 = time.perf_counter()
+    for _ in range(2):
+        step()
+    warm = time.perf_counter() - t0
+    best = float("inf")
+    for _ in range(steps):
+        t0 = time.perf_counter()
+        step()
+        best = min(best, time.perf_counter() - t0)
+    return best, warm
+
+
+def _throughput(steps: int) -> dict:
+    from hybrid.hybrid import hybrid_columns
+    n_hybrid = len(hybrid_columns(True)[0])
+    lstm_chunk = MODEL_DEFAULTS["lstm"]["chunk"]
+    cases = {  # name: (model, input columns, batch, samples per window or chunk, compiled)
+        "transformer (before: stock encoder)": (_StockTransformer(21), 21, 256, 100, False),
+        "transformer (after)": (PaperTransformer(21), 21, 256, 100, False),
+        "transformer (after, compiled)": (PaperTransformer(21), 21, 256, 100, True),
+        "fcn": (build_model("fcn", 21), 21, 256, 1, False),
+        "lstm": (build_model("lstm", 36), 36, 16, lstm_chunk, False),
+        "hybrid": (build_model("hybrid", n_hybrid), n_hybrid, 16, DEFAULT_CHUNK, False),
+    }
+    out = {}
+    for name, (model, n_inputs, batch, length, compiled) in cases.items():
+        sec, warm = _step_seconds(model, torch.randn(batch, length, n_inputs), steps, compiled)
+        unit = "windows" if model.kind == "window" else "chunks"
+        supervised = batch if model.kind == "window" else batch * (length - model.window)
+        out[name] = {"seconds_per_step": sec, "first_two_steps_s": warm, "batch": batch,
+                     "length": length, f"{unit}_per_s": batch / sec,
+                     "supervised_samples_per_s": supervised / sec}
+        print(f"  {name:38s} {batch / sec:9.1f} {unit}/s {supervised / sec:10.0f} supervised "
+              f"samples/s ({sec:.3f} s/step; first two steps {warm:.1f} s)", flush=True)
+    before = out["transformer (before: stock encoder)"]["seconds_per_step"]
+    for k in ("transformer (after)", "transformer (after, compiled)"):
+        out[k]["speedup_vs_before"] = before / out[k]["seconds_per_step"]
+    return out
+
+
+def _converge(scale: float) -> dict:
+    from hybrid.data import load_dataset, split_validation
+    from hybrid.reproduce import _config
+    from hybrid.train import make_setup, train_model
+    from psm_model.sim import simulate
+    with tempfile.TemporaryDirectory() as tmp:
+        simulate("automated", scale=scale, seed=1, out=Path(tmp) / "bench")
+        ds = load_dataset(Path(tmp) / "bench")
+        train, val = split_validation(ds.select(split="train"), 0.1, 1)
+        setup = make_setup("transformer", train)
+        cfg = _config("full", "pretrain", 1, "cpu", "transformer")
+        _, rep = train_model(setup, train, val, cfg)
+    result = {"scale": scale, "epochs_run": rep["epochs_run"], "stopped_by": rep["stopped_by"],
+              "converged": rep["converged"], "seconds": rep["seconds"],
+              "train_windows": rep["train_windows"], "best_val_loss": rep["best_val_loss"],
+              "compiled": cfg.compile}
+    print(f"  paper transformer at scale {scale}: {rep['epochs_run']} epochs, stopped by "
+          f"{rep['stopped_by']}, converged {rep['converged']}, {rep['seconds'] / 60:.1f} min, "
+          f"{rep['train_windows']} training windows per epoch", flush=True)
+    return result
+
+
+def main() -> dict:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--steps", type=int, default=6, help="timed steps per model (best taken)")
+    ap.add_argument("--threads", type=int, default=2)
+    ap.add_argument("--converge-scale", type=float,
+                    help="also train the paper transformer to convergence at this scale")
+    ap.add_argument("--json", type=Path)
+    args = ap.parse_args()
+    torch.set_num_threads(args.threads)
+    print(f"training throughput, {args.threads} threads, torch {torch.__version__}")
+    result = {"machine": {"platform": platform.platform(), "threads": args.threads,
+                          "torch": torch.__version__}, "throughput": _throughput(args.steps)}
+    if args.converge_scale:
+        result["convergence"] = _converge(args.converge_scale)
+    if args.json:
+        write_json(args.json, result)
+    return result
+
+
+if __name__ == "__main__":
+    main()
