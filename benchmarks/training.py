@@ -13,11 +13,11 @@ chunk). The paper transformer is timed three ways, all the same function
 * ``before``: the stock ``nn.TransformerEncoder`` forward (the implementation this replaced);
 * ``after``: :class:`hybrid.models.PaperTransformer`'s forward (last layer for the last sample
   only, scaled-dot-product attention);
-* ``after, compiled``: the same through ``torch.compile`` (the published budget's setting;
-  compile time printed apart).
+* ``after, compiled``: the same through ``torch.compile`` (``TrainConfig.compile``; the first
+  two steps, which include compiling, are printed apart).
 
 ``--converge-scale S``: simulate an automated bench at scale ``S`` (seed 1), fit the prior, and
-train the paper transformer with the published budget (early stopping, no caps, compiled) on it;
+train the paper transformer with the published budget (early stopping, no caps) on it;
 prints epochs, why it stopped and the wall-clock. Target: converged in under 30 minutes at
 S >= 0.1 on 2 cores.
 """

@@ -64,6 +64,11 @@ def predict_trial(model: torch.nn.Module, setup, trial: Trial, *, batch: int = 8
     x = setup.input_scaler.transform(trial.matrix(setup.features))
     n = len(x)
     out = np.full((n, 3), np.nan, dtype=np.float64)
+    if model.kind == "rocket":   # closed-form window model (hybrid.rocket), numpy in and out
+        if n >= model.window:
+            out[model.window - 1:] = model.predict(np.ascontiguousarray(
+                sliding_windows(x, model.window, 1)))
+        return setup.target_scaler.inverse(out)
     model.eval()
     with torch.no_grad():
         if model.kind == "window":

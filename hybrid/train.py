@@ -68,8 +68,9 @@ class TrainConfig:
     max_val_batches: int | None = None
     """Smoke-run cap: evenly spaced validation batches (None: all)."""
     compile: bool = False
-    """Train through :func:`torch.compile` (window models; ~40 s to compile on a CPU, then the
-    paper transformer's steps run ~2-3x faster: worth it for runs to convergence)."""
+    """Train window models through :func:`torch.compile` (the same function). Off by default:
+    on a 2-core CPU the compiled paper transformer's steps were slower than its eager path
+    (``benchmarks/training.py``); it may pay on other hardware."""
     seed: int = 0
     device: str = "cpu"
     progress: bool = True

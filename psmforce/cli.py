@@ -83,6 +83,9 @@ def _evaluate(args) -> dict:
     return evaluate(args.checkpoint, args.data, args.out)
 
 
+REPRODUCE_MODELS = ("transformer", "fcn", "lstm", "hybrid", "rocket")
+
+
 def _reproduce(args) -> dict:
     from hybrid.reproduce import reproduce
     return reproduce(args.out, scale=args.scale, seeds=args.seeds, device=args.device,
@@ -208,8 +211,9 @@ def _parser() -> argparse.ArgumentParser:
                    help="bench and initialisation seeds (default 1 2 3; 0 was used in design)")
     p.add_argument("--budget", default="full", choices=["full", "cpu", "quick"],
                    help="full: train to early stopping (published); cpu/quick: capped smoke runs")
-    p.add_argument("--models", nargs="+", default=["transformer", "fcn", "lstm", "hybrid"],
-                   choices=["transformer", "fcn", "lstm", "hybrid"])
+    p.add_argument("--models", nargs="+", default=list(REPRODUCE_MODELS),
+                   choices=list(REPRODUCE_MODELS),
+                   help="default: all (rocket = MultiRocket-Hydra, closed form)")
     p.add_argument("--no-ablations", action="store_true", help="skip the hybrid's ablations")
     p.add_argument("--no-efficiency", action="store_true", help="skip the data-efficiency runs")
     p.add_argument("--no-teleop", action="store_true", help="skip teleoperation finetuning")
