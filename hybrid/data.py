@@ -168,41 +168,36 @@ def load_dataset(root: str | Path, *, require_targets: bool = True, threads: int
 
 
 def trajectory_group(trial: Trial) -> str:
-    """The trajectory family a trial belongs to: its metadata ``group`` if given, else its
-    (phi, theta) cell on the automated bench (a cell's free-space trials replay its traction and
-    palpation trajectories), else the trial itself."""
-    if "group" in trial.params:
-        return str(trial.params["group"])
-    if "phi_deg" in trial.params and "theta_deg" in trial.params:
-        return f"phi{float(trial.params['phi_deg']):g}_theta{float(trial.params['theta_deg']):g}"
-    return trial.path
+    """The trajectory family a trial belongs to: its metadata ``group`` (the simulator names one
+    per trajectory: a free-space replay shares its group with the trials it replays), else the
+    trial itself."""
+    return str(trial.params.get("group", trial.path))
 
 
 def split_validation(trials: Sequence[Trial], fraction: float = 0.1,
                      seed: int = 0) -> tuple[list[Trial], list[Trial]]:
     """(train, validation), drawn with ``seed``, so that validation measures generalisation to
-    unseen trajectories: when trials share trajectory groups (:func:`trajectory_group`), whole
-    groups go to validation (``fraction`` of them, rounded, at least one where there are two or
-    more); otherwise ``fraction`` of the trials of each condition (same rounding)."""
+    unseen trajectories: whole trajectory families (:func:`trajectory_group`) go to validation,
+    ``fraction`` of the families of each condition (rounded, at least one where a condition has
+    two or more); a family's condition is that of its non-free-space trials (free space alone
+    when it has none)."""
     if not 0 <= fraction < 1:
         raise DatasetError(f"validation fraction must be in [0, 1), got {fraction}")
     rng = np.random.default_rng(seed)
-    keys = [trajectory_group(t) for t in trials]
-    if len(set(keys)) < len(keys):
-        pools = [sorted(set(keys))]
-    else:
-        keys = [t.path for t in trials]
-        pools = [[t.path for t in trials if t.condition == c]
-                 for c in sorted({t.condition for t in trials})]
+    members: dict[str, list[Trial]] = {}
+    for t in trials:
+        members.setdefault(trajectory_group(t), []).append(t)
+    family_condition = {g: min((t.condition for t in ts if t.condition != "Free"),
+                               default="Free") for g, ts in members.items()}
     chosen: set[str] = set()
-    for pool in pools:
+    for cond in sorted(set(family_condition.values())):
+        pool = sorted(g for g, c in family_condition.items() if c == cond)
         n_val = int(round(fraction * len(pool)))
         if fraction > 0 and len(pool) >= 2:
             n_val = max(n_val, 1)
         chosen |= {pool[i] for i in rng.permutation(len(pool))[:n_val]}
-    train, val = [], []
-    for t, key in zip(trials, keys):
-        (val if key in chosen else train).append(t)
+    train = [t for t in trials if trajectory_group(t) not in chosen]
+    val = [t for t in trials if trajectory_group(t) in chosen]
     return train, val
 
 

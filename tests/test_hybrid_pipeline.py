@@ -99,20 +99,23 @@ def test_validation_split_is_seeded_and_per_condition():
 
 
 def test_validation_split_keeps_trajectory_families_together():
-    """On the automated bench a free-space trial replays its cell's traction and palpation
-    trajectories: a cell goes to validation whole, never half in training."""
+    """On the automated bench a free-space trial replays traction / palpation trajectories: a
+    family (metadata ``group``) goes to validation whole, never half in training."""
     trials = []
     for cell in range(6):
-        for cond in ("Traction", "Traction", "Palpation", "Free"):
+        for k, cond in enumerate(("Traction", "Traction", "Palpation", "Free")):
             t = _trial(20, len(trials), cond)
             t.path = f"train/{cond}/c{cell}_{len(trials)}.csv"
-            t.params = {"phi_deg": 60.0 * cell, "theta_deg": 45.0}
+            t.params = {"group": f"c{cell}_" + ("replayed" if k in (0, 3) else str(k))}
             trials.append(t)
-    for seed in range(5):
+    for seed in range(8):
         train, val = split_validation(trials, 0.1, seed=seed)
-        val_cells = {t.params["phi_deg"] for t in val}
-        assert len(val_cells) == 1 and len(val) == 4
-        assert not val_cells & {t.params["phi_deg"] for t in train}
+        val_groups = {t.params["group"] for t in val}
+        assert not val_groups & {t.params["group"] for t in train}
+        assert {t.condition for t in val} >= {"Traction", "Palpation"}
+        assert len(train) + len(val) == len(trials)
+    seen = {t.path for seed in range(8) for t in split_validation(trials, 0.1, seed)[1]}
+    assert any("Free" in p for p in seen)   # free space reaches validation with its family
 
 
 def test_scalers_use_training_data_only_and_pass_raw_columns():

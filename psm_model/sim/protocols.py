@@ -282,6 +282,8 @@ def automated(scale: float, seed: int) -> list[Plan]:
                 plans.append(Plan(f"train/Traction/{tag}_f{level}_r{rep}.csv", "train", "Traction", q,
                                   traction_contact(),
                                   {**base_info, "force_level": level, "trial": rep,
+                                   "group": f"{tag}_traction_r0" if rep == 0
+                                   else f"{tag}_f{level}_r{rep}",
                                    "extension_m": TRACTION_EXTENSION_M[level],
                                    "wrist_configs": configs.tolist()}))
                 if rep == 0:
@@ -296,8 +298,11 @@ def automated(scale: float, seed: int) -> list[Plan]:
             plans.append(Plan(f"train/Palpation/{tag}_{material}.csv", "train", "Palpation", q,
                               palpation_contact(material, phi, theta),
                               {**base_info, "material": material, "trial": m,
+                               "group": f"{tag}_palpation_{PALPATION_MATERIALS[0]}" if m == 0
+                               else f"{tag}_{material}",
                                "wrist_configs": configs.tolist()}))
-        # Free space replays the same joint trajectories with the fixture removed.
+        # Free space replays the same joint trajectories with the fixture removed; "group" names
+        # the trajectory family so validation never splits a replay from what it replays.
         arm_moves = []
         for level, q in enumerate(free_trac_q):
             if level:
@@ -305,9 +310,11 @@ def automated(scale: float, seed: int) -> list[Plan]:
                 arm_moves.append(piecewise(np.vstack([prev, q[0]]), np.array([ARM_MOVE]), np.array([0.0])))
             arm_moves.append(q)
         plans.append(Plan(f"train/Free/{tag}_traction.csv", "train", "Free", np.concatenate(arm_moves),
-                          Contact(), {**base_info, "replays": "Traction"}))
+                          Contact(), {**base_info, "replays": "Traction",
+                                      "group": f"{tag}_traction_r0"}))
         plans.append(Plan(f"train/Free/{tag}_palpation.csv", "train", "Free", palp_q0, Contact(),
-                          {**base_info, "replays": "Palpation"}))
+                          {**base_info, "replays": "Palpation",
+                           "group": f"{tag}_palpation_{PALPATION_MATERIALS[0]}"}))
         # --- test set ---
         for level in range(3):
             rng = np.random.default_rng([seed, 4, i, j, level])
