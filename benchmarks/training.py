@@ -109,6 +109,7 @@ def _converge(scale: float) -> dict:
         train, val = split_validation(ds.select(split="train"), 0.1, 1)
         setup = make_setup("transformer", train)
         cfg = _config("full", "pretrain", 1, "cpu", "transformer")
+        cfg.progress = True   # a run of tens of minutes: show its epochs
         _, rep = train_model(setup, train, val, cfg)
     result = {"scale": scale, "epochs_run": rep["epochs_run"], "stopped_by": rep["stopped_by"],
               "converged": rep["converged"], "seconds": rep["seconds"],
