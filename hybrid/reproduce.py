@@ -374,8 +374,9 @@ def reproduce(out: str | Path, scale: float = 0.1, seeds: Sequence[int] = (1, 2,
     if efficiency:
         variants += [(m, "full", f) for f in DATA_FRACTIONS for m in ("transformer", "hybrid")
                      if m in models]
+    # Main models over every seed first: an interrupted run has the headline comparison soonest.
     pre_specs = [(_pretrain_task, {**common, "seed": s, "model": m, "variant": v,
-                                   "fraction": f}) for s in seeds for m, v, f in variants]
+                                   "fraction": f}) for m, v, f in variants for s in seeds]
     pre = run_grid(pre_specs, cache, ray_address=ray_address, log=say)
     pre_by = {(p["model"], p["variant"], p["fraction"], p["seed"]): r
               for (_, p), r in zip(pre_specs, pre)}
