@@ -14,16 +14,17 @@ Frames, units and signs are those of ``docs/conventions.md``; in short:
 * Joints in dVRK order: yaw, pitch, insertion, roll, wrist_pitch, wrist_yaw (+ jaw, which moves no
   chain frame). rad and m; wrenches [force; moment] in N and Nm.
 
-The URDF (``urdf/psm_cadiere.urdf``) is the single source of truth: the chain used here is read
-from the Pinocchio model built from it (joint placements and axes, frame placements). Poses and
-Jacobians are composed in numpy over a whole batch of configurations at once (several times the
-throughput of a per-sample Pinocchio loop in Python; ``benchmarks/kinematics.py`` prints both), and
-the tests check the numpy chain against Pinocchio.
+The URDF (``psm_model/urdf/psm_cadiere.urdf``, package data) is the single source of truth: the
+chain used here is read from the Pinocchio model built from it (joint placements and axes, frame
+placements). Poses and Jacobians are composed in numpy over a whole batch of configurations at
+once (several times the throughput of a per-sample Pinocchio loop in Python;
+``benchmarks/kinematics.py`` prints both), and the tests check the numpy chain against Pinocchio.
 """
 
 from __future__ import annotations
 
 import warnings
+from importlib import resources
 from pathlib import Path
 
 import numpy as np
@@ -31,8 +32,10 @@ import pinocchio as pin
 
 from psm_model import wrench as _wrench
 
-BUNDLED_URDF = Path(__file__).resolve().parents[1] / "urdf" / "psm_cadiere.urdf"
-"""The bundled URDF of the Classic PSM + Cadiere forceps + HEX10."""
+BUNDLED_URDF = resources.files("psm_model") / "urdf" / "psm_cadiere.urdf"
+"""The bundled URDF of the Classic PSM + Cadiere forceps + HEX10: package data, found through
+``importlib.resources`` so that an installed wheel carries it (a path on disk for every ordinary
+install; read as text, so a zipped install works too)."""
 
 CHAIN_JOINTS = ("yaw", "pitch", "insertion", "roll", "wrist_pitch", "wrist_yaw")
 """The six joints of the serial chain, dVRK order."""
@@ -81,7 +84,7 @@ class PSM:
         self.urdf_path = Path(urdf_path) if urdf_path is not None else BUNDLED_URDF
         if not self.urdf_path.is_file():
             raise FileNotFoundError(f"PSM URDF not found: {self.urdf_path}")
-        self.model = pin.buildModelFromUrdf(str(self.urdf_path), mimic=True)
+        self.model = pin.buildModelFromXML(self.urdf_path.read_text(), mimic=True)
         self.joint_names = CHAIN_JOINTS
         self._joint_ids = []
         for name in CHAIN_JOINTS + (JAW_JOINT,):

@@ -13,6 +13,8 @@ import json
 import sys
 from pathlib import Path
 
+from psmforce import __version__
+
 
 def _write_json(path: str | None, payload: dict) -> None:
     if path is None:
@@ -108,6 +110,7 @@ def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="psmforce",
         description="Tool-tip force estimation for the dVRK PSM with a shaft-integrated HEX10 sensor.")
+    parser.add_argument("--version", action="version", version=f"psmforce {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
     def add(name, func, help_, description):

@@ -178,8 +178,10 @@ _KEPT_COLUMNS = np.concatenate([np.arange(10) + 10 * j for j in (0, 1, 2, 3, 4, 
 """Regressor columns of the identified bodies (the crank is massless: its 10 are dropped)."""
 
 
-def _file_digest(path: Path) -> str:
-    return hashlib.sha256(Path(path).read_bytes()).hexdigest()[:16]
+def _file_digest(path) -> str:
+    """First 16 hex digits of the SHA-256 of a file: a path or an ``importlib.resources`` file."""
+    source = Path(path) if isinstance(path, str) else path
+    return hashlib.sha256(source.read_bytes()).hexdigest()[:16]
 
 
 @dataclass
