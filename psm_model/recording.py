@@ -30,6 +30,8 @@ The paper's 21 model inputs are :data:`PAPER_FEATURES` in the paper's order.
 
 from __future__ import annotations
 
+import json
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -66,6 +68,55 @@ PAPER_FEATURES = (
 
 class RecordingError(ValueError):
     """A recording that cannot be used as it is; the message names the file and the problem."""
+
+
+FREE_SPACE = "Free"
+"""The condition of recordings without contact (the folder name the simulator writes them to)."""
+
+
+@dataclass(frozen=True)
+class ListedRecording:
+    """One recording of a dataset: its file, condition (``Free``, ``Traction``, ...; '' unknown)
+    and split (``train``, ``test``, ``config_k``; '' unknown)."""
+
+    path: Path
+    condition: str
+    split: str
+
+
+def list_recordings(root: str | Path) -> list[ListedRecording]:
+    """The recordings under ``root``, a dataset folder or one recording CSV.
+
+    Condition and split come from the folder's ``metadata.json`` ``trials`` list where there is
+    one (the simulator writes it), else from the folders: condition = the parent folder's name,
+    split = the grandparent's ('' for files directly under ``root``). A single file gets ''
+    for both. Raises :class:`RecordingError` for a missing path, unreadable metadata or a folder
+    without ``*.csv`` files. Files are not read here (:func:`read_recording` checks them).
+    """
+    root = Path(root)
+    if root.is_file():
+        return [ListedRecording(root, "", "")]
+    if not root.is_dir():
+        raise RecordingError(f"{root}: no such recording file or folder")
+    meta_path = root / "metadata.json"
+    entries = None
+    if meta_path.is_file():
+        try:
+            entries = json.loads(meta_path.read_text()).get("trials")
+            listed = [ListedRecording(root / e["path"], str(e["condition"]), str(e["split"]))
+                      for e in entries or ()]
+        except (json.JSONDecodeError, AttributeError, TypeError) as err:
+            raise RecordingError(f"{meta_path}: not a dataset metadata file ({err})") from None
+        except KeyError as err:
+            raise RecordingError(f"{meta_path}: a trial entry lacks {err}") from None
+    if not entries:
+        listed = [ListedRecording(p, p.parent.name if p.parent != root else "",
+                                  p.parent.parent.name if p.parent.parent != root
+                                  and p.parent != root else "")
+                  for p in sorted(root.rglob("*.csv"))]
+    if not listed:
+        raise RecordingError(f"{root}: no recordings (*.csv)")
+    return listed
 
 
 def read_recording(path: str | Path, *, require_targets: bool = False,

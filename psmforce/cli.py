@@ -59,8 +59,39 @@ def _convert(args) -> dict:
 
 def _fit_dynamics(args) -> dict:
     from psm_model.identification import fit_dynamics_cli
-    return fit_dynamics_cli(train=args.train, test=args.test, fmt=args.format,
-                            json_out=None, model_out=args.model_out)
+    report = fit_dynamics_cli(train=args.train, test=args.test, fmt=args.format, json_out=None,
+                              model_out=args.model_out, data=args.data, select=args.select,
+                              gravity=args.gravity)
+    if "selection" in report:
+        print(f"selected: {report['selection']['selected']} ({report['selection']['method']})")
+    print(f"fit: {report['solver_status']} in {report['fit_time_s']:.1f} s, "
+          f"{report['n_base_parameters']} base parameters, physically consistent "
+          f"{report['physically_consistent']}; model: {report.get('model')}")
+    for key in ("train_relative_error_percent", "test_relative_error_percent"):
+        if key in report:
+            print(f"{key.split('_')[0]} relative torque error %: " + ", ".join(
+                f"{n} {e:.1f}" for n, e in zip(report["coordinates"], report[key])))
+    return report
+
+
+def _wrench(args) -> dict:
+    from psm_model.identification import ArmDynamicsModel
+    from psm_model.identification.recordings import recording_wrench
+    model = ArmDynamicsModel.load(args.dynamics)
+    table = recording_wrench(model, args.recording, frame=args.frame,
+                             expressed_in=args.expressed_in)
+    out = Path(args.out)
+    tmp = out.with_name(out.name + ".part")
+    try:
+        table.to_csv(tmp, index=False, float_format="%.7g")
+        tmp.replace(out)
+    finally:
+        tmp.unlink(missing_ok=True)
+    damped = int(table["damped"].sum())
+    print(f"wrote {out}: {len(table)} samples, {damped} damped (near a singularity)")
+    return {"recording": args.recording, "dynamics": args.dynamics, "out": str(out),
+            "frame": args.frame, "expressed_in": args.expressed_in, "samples": len(table),
+            "damped_samples": damped, "sigma_min_smallest": float(table["sigma_min"].min())}
 
 
 def _fit_prior(args) -> dict:
@@ -150,14 +181,46 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--json", help="write the conversion report here")
 
     p = add("fit-dynamics", _fit_dynamics, "identify the arm's dynamics (CasADi)",
-            "Fit physically consistent arm dynamics plus friction on a training recording and "
-            "report per-joint relative torque errors on a test recording.")
-    p.add_argument("--format", choices=["wpi", "csv"], default="csv",
-                   help="'wpi': the WPI dvrk_dynamics_identification CSV; 'csv': our layout")
-    p.add_argument("--train", required=True)
-    p.add_argument("--test", required=True)
+            "Fit physically consistent arm dynamics plus friction (CasADi / IPOPT) on free-space "
+            "training recordings and report per-coordinate relative torque errors on the "
+            "training and test recordings. Our layout (default): any rate, cut at time gaps; "
+            "from a dataset folder only its Free recordings. docs/identification.md.")
+    p.add_argument("--format", choices=["csv", "wpi"], default="csv",
+                   help="'csv' (default): recordings in our layout (--data); 'wpi': the WPI "
+                        "dvrk_dynamics_identification files (--train, --test)")
+    p.add_argument("--data", metavar="DIR|FILE",
+                   help="csv: a dataset folder (its train split fits, its test split scores), a "
+                        "folder of recordings or one recording (all of it fits)")
+    p.add_argument("--train", metavar="FILE", help="wpi: the training file")
+    p.add_argument("--test", metavar="PATH",
+                   help="wpi: the test file (published protocol); csv: test recordings (file "
+                        "or folder) instead of the dataset's test split")
+    p.add_argument("--select", action="store_true",
+                   help="csv: choose the model variant by blocked 5-fold cross-validation on "
+                        "the training recordings (never the test ones); slower")
+    p.add_argument("--gravity", type=float, nargs=3, metavar=("GX", "GY", "GZ"),
+                   help="csv: gravity in the base (RCM) frame, m/s^2, where the arm's mounting "
+                        "is known (e.g. 0 0 -9.81 upright); default: identified")
     p.add_argument("--model-out", help="save the fitted model (JSON) here")
-    p.add_argument("--json", help="write the error table here")
+    p.add_argument("--json", help="write the report here")
+
+    p = add("wrench", _wrench, "external wrench on the tool from joint torques",
+            "Per sample of a recording: the wrench the environment applies on the tool, from the "
+            "joint efforts minus the identified arm dynamics (fit-dynamics), solved through the "
+            "PSM Jacobian with damping near singularities. Writes time, ext_fx ext_fy ext_fz "
+            "(N), ext_tx ext_ty ext_tz (Nm), sigma_min (smallest singular value of the "
+            "Jacobian) and damped (0/1). Signals are low-passed zero-phase at the model's "
+            "cutoff (offline).")
+    p.add_argument("recording", help="recording CSV in our layout")
+    p.add_argument("--dynamics", required=True, metavar="ARM.json",
+                   help="arm model written by fit-dynamics --model-out")
+    p.add_argument("--out", required=True, metavar="FILE.csv", help="CSV file to write")
+    p.add_argument("--frame", choices=["cp", "jaw_tip", "roll", "hex10"], default="cp",
+                   help="reference frame: its origin is the moment's point (default cp)")
+    p.add_argument("--expressed-in", choices=["frame", "base", "base_at_frame"], default="frame",
+                   help="frame: the frame's axes (default); base: moment about the RCM, base "
+                        "axes; base_at_frame: moment about the frame's origin, base axes")
+    p.add_argument("--json", help="write a summary here")
 
     p = add("fit-prior", _fit_prior, "fit the internal-force prior (CasADi)",
             "Fit the instrument's internal-force prior (what the HEX10 reads with no external "

@@ -672,53 +672,67 @@ def evaluate_wpi_protocol(model: ArmDynamicsModel, recording, *, test_samples: i
             "n_samples": test_samples}
 
 
-def fit_dynamics_cli(train, test=None, fmt: str = "wpi", json_out=None, model_out=None, *,
-                     options: DynamicsFitOptions = DynamicsFitOptions()) -> dict:
-    """What ``psmforce fit-dynamics`` runs: fit on ``train``, evaluate on ``test`` (published
-    protocol for ``fmt="wpi"``), write the report JSON (and the model JSON if converged)."""
+def _fit_report(model: ArmDynamicsModel) -> dict:
+    """The part of the fit report every data format shares."""
+    return {"coordinates": list(model.coordinate_names), "converged": model.converged,
+            "solver_status": model.info["solver_status"],
+            "fit_time_s": model.info["fit_time_s"],
+            "n_parameters": model.info["n_parameters"],
+            "n_base_parameters": model.info["n_base_parameters"],
+            "gravity_mps2": model.gravity.tolist(),
+            "physically_consistent": all(_inertia.consistency_report(p)["physically_consistent"]
+                                         for p in model.body_parameters),
+            "bodies": {n: {k: r[k] for k in ("mass_kg", "com_m")} for n, r in
+                       ((n, _inertia.consistency_report(p)) for n, p in
+                        zip(BODIES, model.body_parameters))},
+            "train_relative_error_percent": [100 * e for e in model.info["train_relative_error"]]}
+
+
+def fit_dynamics_cli(train=None, test=None, fmt: str = "csv", json_out=None, model_out=None, *,
+                     data=None, select: bool = False, folds: int = 5,
+                     options: DynamicsFitOptions | None = None, gravity=None) -> dict:
+    """What ``psmforce fit-dynamics`` runs: fit, evaluate, write the report JSON (and the model
+    JSON if converged); returns the report.
+
+    ``fmt="csv"`` (default): recordings in our layout, ``data`` = a dataset folder (train split
+    fits, test split scores), a folder of recordings or one recording; ``test`` optionally
+    replaces the dataset's test split; ``select=True`` picks the model variant by blocked
+    ``folds``-fold cross-validation on the training recordings only
+    (:mod:`psm_model.identification.recordings`). ``fmt="wpi"``: ``train`` / ``test`` are WPI
+    files, scored by the published protocol. ``options`` default: :class:`DynamicsFitOptions`;
+    ``gravity`` (3,) m/s^2 in the base frame, where the arm's mounting is known (csv only;
+    default identified).
+    """
     from psm_model.identification import wpi
 
-    if fmt != "wpi":
-        raise IdentificationInputError(f"unknown dynamics data format {fmt!r}; supported: 'wpi'")
-    rec = wpi.load_wpi(train)
-    model = fit_arm_dynamics(rec.q, rec.dq, rec.tau, sample_rate_hz=rec.sample_rate_hz,
-                             coupling=wpi.coordinates_to_dvrk_matrix(),
-                             coordinate_names=wpi.MOTOR_COORDINATES, options=options,
-                             provenance=f"WPI recording {rec.source} "
-                                        f"(sha256 {_file_digest(Path(rec.source))})")
-    report = {"train": str(train), "converged": model.converged,
-              "solver_status": model.info["solver_status"],
-              "fit_time_s": model.info["fit_time_s"],
-              "n_parameters": model.info["n_parameters"],
-              "n_base_parameters": model.info["n_base_parameters"],
-              "gravity_mps2": model.gravity.tolist(),
-              "physically_consistent": all(_inertia.consistency_report(p)["physically_consistent"]
-                                           for p in model.body_parameters),
-              "bodies": {n: {k: r[k] for k in ("mass_kg", "com_m")} for n, r in
-                         ((n, _inertia.consistency_report(p)) for n, p in
-                          zip(BODIES, model.body_parameters))},
-              "train_relative_error_percent": [100 * e for e in
-                                               model.info["train_relative_error"]]}
-    if test is not None:
-        ev = evaluate_wpi_protocol(model, wpi.load_wpi(test))
-        ours = [100 * e for e in ev["relative_error"]]
-        report.update({
-            "test": str(test), "protocol": "5.4 Hz zero-phase Butterworth (order 4, sosfiltfilt) "
-            "on q, dq, tau; ddq from filtered dq; 200-sample trim; first 1111 samples of the test "
-            "file; joints 5-7 in the recorder's motor coordinates",
-            "coordinates": list(wpi.MOTOR_COORDINATES),
-            "test_relative_error_percent": ours,
-            "published_wang_2019_percent": list(PUBLISHED_WANG_2019_PERCENT),
-            "beats_published": [o < p for o, p in zip(ours, PUBLISHED_WANG_2019_PERCENT)],
-        })
-        report["all_joints_beat_published"] = all(report["beats_published"])
-        report["targets_not_met"] = (
-            [f"{n}: {o:.1f} % vs published {p:.1f} %" for n, o, p, b in zip(
-                wpi.MOTOR_COORDINATES, ours, PUBLISHED_WANG_2019_PERCENT, report["beats_published"])
-             if not b]
-            + ([f"fit time {report['fit_time_s']:.1f} s >= 60 s"] if report["fit_time_s"] >= 60
-               else [])
-            + ([] if report["physically_consistent"] else ["physical consistency"]))
+    if fmt == "csv":
+        from psm_model.identification.recordings import fit_recordings_report
+
+        if data is None or train is not None:
+            raise IdentificationInputError("fit-dynamics on our layout takes the recordings as "
+                                           "data=DIR|FILE (--data), not train")
+        model, extra = fit_recordings_report(data, test=test, select=select, folds=folds,
+                                             options=options, gravity=gravity)
+        report = {**extra, **_fit_report(model)}
+    elif fmt == "wpi":
+        if train is None or data is not None or select or gravity is not None:
+            raise IdentificationInputError("fit-dynamics on WPI files takes train=FILE (--train) "
+                                           "and optionally test=FILE; no data, select or "
+                                           "gravity (the published protocol identifies it)")
+        rec = wpi.load_wpi(train)
+        model = fit_arm_dynamics(rec.q, rec.dq, rec.tau, sample_rate_hz=rec.sample_rate_hz,
+                                 coupling=wpi.coordinates_to_dvrk_matrix(),
+                                 coordinate_names=wpi.MOTOR_COORDINATES,
+                                 options=options or DynamicsFitOptions(),
+                                 provenance=f"WPI recording {rec.source} "
+                                            f"(sha256 {_file_digest(Path(rec.source))})")
+        report = {"train": str(train), **_fit_report(model)}
+        if test is not None:
+            report.update(_wpi_test_report(model, test, report["fit_time_s"],
+                                           report["physically_consistent"]))
+    else:
+        raise IdentificationInputError(
+            f"unknown dynamics data format {fmt!r}; supported: 'csv' (our layout), 'wpi'")
     if model_out is not None and model.converged:
         model.save(model_out)
         report["model"] = str(model_out)
@@ -728,6 +742,29 @@ def fit_dynamics_cli(train, test=None, fmt: str = "wpi", json_out=None, model_ou
     if json_out is not None:
         _atomic_write_json(report, json_out)
     return report
+
+
+def _wpi_test_report(model, test, fit_time_s: float, consistent: bool) -> dict:
+    """Published protocol on the WPI test file, next to Wang et al. 2019's figures."""
+    from psm_model.identification import wpi
+
+    ev = evaluate_wpi_protocol(model, wpi.load_wpi(test))
+    ours = [100 * e for e in ev["relative_error"]]
+    beats = [o < p for o, p in zip(ours, PUBLISHED_WANG_2019_PERCENT)]
+    return {
+        "test": str(test), "protocol": "5.4 Hz zero-phase Butterworth (order 4, sosfiltfilt) "
+        "on q, dq, tau; ddq from filtered dq; 200-sample trim; first 1111 samples of the test "
+        "file; joints 5-7 in the recorder's motor coordinates",
+        "test_relative_error_percent": ours,
+        "published_wang_2019_percent": list(PUBLISHED_WANG_2019_PERCENT),
+        "beats_published": beats,
+        "all_joints_beat_published": all(beats),
+        "targets_not_met": (
+            [f"{n}: {o:.1f} % vs published {p:.1f} %" for n, o, p, b in zip(
+                wpi.MOTOR_COORDINATES, ours, PUBLISHED_WANG_2019_PERCENT, beats) if not b]
+            + ([f"fit time {fit_time_s:.1f} s >= 60 s"] if fit_time_s >= 60 else [])
+            + ([] if consistent else ["physical consistency"])),
+    }
 
 
 def external_wrench_on_tool(model: ArmDynamicsModel, q, dq, ddq, tau, *, psm=None,
