@@ -42,6 +42,7 @@ import numpy as np
 from psm_model.identification.errors import IdentificationInputError, NotConvergedError
 from psm_model.identification.insertion import InsertionEffortModel
 from psm_model.identification.signals import check_finite_2d
+from psm_model.recording import list_recordings
 
 KAPPA = 0.8306 / 1.0186
 CABLE_ANGLES_RAD = np.deg2rad([0.0, 60.0, 120.0])
@@ -369,12 +370,10 @@ def channel_metrics(y, y_hat, mask=None) -> dict:
 
 
 def _dataset_trials(data_dir: Path, split: str, conditions) -> list[Path]:
-    meta_path = data_dir / "metadata.json"
-    if not meta_path.is_file():
+    if not (data_dir / "metadata.json").is_file():
         raise IdentificationInputError(f"{data_dir}: no metadata.json (not a simulated dataset)")
-    meta = json.loads(meta_path.read_text())
-    return [data_dir / t["path"] for t in meta["trials"]
-            if t["split"] == split and t["condition"] in conditions]
+    return [r.path for r in list_recordings(data_dir)
+            if r.split == split and r.condition in conditions]
 
 
 def fit_prior_cli(data_dir, out_json, *, use_loaded: bool = False) -> dict:

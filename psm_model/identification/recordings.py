@@ -136,19 +136,17 @@ def load_segments(paths) -> list[Segment]:
 
 def condition_segments(segments, options: DynamicsFitOptions):
     """Condition every segment long enough (``2 * trim`` plus the filter's own padding) and
-    stack them: ((c, dc, ddc, tau) each (N, 7), per-sample segment index, skipped sources)."""
-    parts, index, skipped = [], [], []
-    for k, s in enumerate(segments):
+    stack them: ((c, dc, ddc, tau) each (N, 7) or None if none was, skipped sources)."""
+    parts, skipped = [], []
+    for s in segments:
         if len(s.c) <= 2 * options.trim + 3 * (2 * options.filter_order + 1):
             skipped.append(f"{s.source}: {len(s.c)} samples, fewer than twice the "
                            f"{options.trim}-sample trim")
             continue
         parts.append(condition_signals(s.c, s.dc, s.tau, s.sample_rate_hz, options))
-        index.append(np.full(len(parts[-1][0]), k))
     if not parts:
-        return None, np.zeros(0, dtype=int), skipped
-    stacked = tuple(np.concatenate([p[i] for p in parts]) for i in range(4))
-    return stacked, np.concatenate(index), skipped
+        return None, skipped
+    return tuple(np.concatenate([p[i] for p in parts]) for i in range(4)), skipped
 
 
 def _thin(arrays, max_samples: int):
@@ -222,7 +220,7 @@ def fit_recordings_report(data, *, test=None, select: bool = False, folds: int =
         raise IdentificationInputError(f"{data}: no training recordings")
     segments = load_segments(train_paths)
     base = options or DynamicsFitOptions()
-    arrays, _, skipped = condition_segments(segments, base)
+    arrays, skipped = condition_segments(segments, base)
     n_conditioned = 0 if arrays is None else len(arrays[0])
     if n_conditioned < base.min_samples:
         raise IdentificationInputError(
@@ -245,7 +243,7 @@ def fit_recordings_report(data, *, test=None, select: bool = False, folds: int =
                  f"recordings {', '.join(str(p) for p in train_paths)}")
     report["thinning_stride"] = stride
     if test_paths:
-        test_arrays, _, test_skipped = condition_segments(load_segments(test_paths), chosen)
+        test_arrays, test_skipped = condition_segments(load_segments(test_paths), chosen)
         report["test_recordings"] = [str(p) for p in test_paths]
         report["test_segments_skipped"] = test_skipped
         if test_arrays is not None:
