@@ -46,7 +46,8 @@ STEP_TOLERANCE = 0.05
 MAX_FIT_SAMPLES = 30_000
 """Cap on the conditioned training samples of one fit (memory of the regressor: about 7 kB a
 sample); above it every k-th sample is kept. The signals are low-passed at ``cutoff_hz`` first,
-so thinning to a rate still several times the cutoff loses no information the model can use."""
+so neighbouring samples carry little new information, and a regression on samples needs no
+Nyquist rate (``thinning_stride`` in the report)."""
 
 SELECTION_CANDIDATES = {
     "default": DynamicsFitOptions(),
