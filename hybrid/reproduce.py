@@ -76,12 +76,12 @@ ABLATION_GROUPS = ("no_hex10", "no_efforts", "no_positions", "no_velocities",
                    "no_positions_velocities")
 DATA_FRACTIONS = (0.1, 0.3)
 TELEOP_CONDITIONS = ("Rigid", "Soft", "Free")
-TELEOP_MODELS = ("transformer", "fcn", "lstm", "hybrid")
+TELEOP_MODELS = MODELS
 LABELS = {"transformer": "Transformer (paper)", "fcn": "FCN", "lstm": "LSTM (Yang et al.)",
           "hybrid": "Hybrid (ours)", "rocket": "MultiRocket-Hydra"}
 """MultiRocket-Hydra (:mod:`hybrid.rocket`) is fitted in closed form (converged by
-construction); it has no decoder block to finetune, so it is left out of the teleoperation
-finetuning, and of the timing and figures, which load torch checkpoints."""
+construction); finetuning refits its ridge on frozen features (the analogue of the networks'
+last decoder block). It is left out of the GPU-style timing and the figures of torch models."""
 TORCH_MODELS = ("transformer", "fcn", "lstm", "hybrid")
 
 
@@ -176,30 +176,6 @@ def _training_summary(rep: dict) -> dict:
         for h in rep["history"]]}
 
 
-def _rocket_task(p: dict, ds: Dataset, train: Sequence[Trial], val: Sequence[Trial]) -> dict:
-    """MultiRocket-Hydra on the paper's 21 inputs and 100-sample windows (stride 5, free space
-    4x sparser, as the networks' training windows), its penalty chosen on the validation trials."""
-    from hybrid.data import WindowSet
-    from hybrid.rocket import RocketRegressor
-    setup = make_setup("rocket", train)
-
-    def windows(trials):
-        w = WindowSet(trials, setup.features, setup.input_scaler, setup.target_scaler, 100, 5,
-                      downsample_free=True)
-        return w.batch(torch.arange(len(w)))
-    (x, y), (xv, yv) = windows(train), windows(val)
-    t0 = time.perf_counter()
-    model = RocketRegressor(seed=p["seed"], threads=p["threads"])
-    fit = model.fit(x.numpy(), y.numpy(), xv.numpy(), yv.numpy())
-    training = {"epochs_run": 1, "stopped_by": "closed form", "capped": False, "converged": True,
-                "best_val_loss": fit["criterion_rmse"] ** 2,   # validation MSE, scaled units
-                "seconds": time.perf_counter() - t0, "train_windows": fit["n_windows_used"],
-                "val_windows": len(xv), "batches_per_epoch": None, "chunk": None,
-                "parameters": fit["n_features"] * 3 + 3, "history": [], "fit": fit}
-    return {"training": training, "checkpoint": None,
-            "test": _scores(model, setup, ds.select(split="test"), p["device"])}
-
-
 def _pretrain_task(p: dict) -> dict:
     """Train one (model, seed, variant, fraction) on the automated bench, save its checkpoint,
     score it on the automated test set."""
@@ -210,8 +186,6 @@ def _pretrain_task(p: dict) -> dict:
     train, val = _automated_split(ds, p["seed"])
     if p["fraction"] < 1:
         train = subsample_trials(train, p["fraction"], p["seed"])
-    if p["model"] == "rocket":
-        return _rocket_task(p, ds, train, val)
     prior_json = prior_to_json(InternalForcePrior.load(_prior_path(p["run_dir"], p["seed"])))
     setup = _setup(p["model"], train, prior_json, p["variant"])
     model, rep = train_model(setup, train, val,

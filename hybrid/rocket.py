@@ -21,8 +21,10 @@ standard-scaled (B, L, F) windows -> (B, 3) standard-scaled targets; it is not a
 
 Bounded cost: training windows are subsampled with the seed to ``max_train_windows``; features
 are computed, standardised and multiplied in batches; the ridge keeps the feature matrix in
-float32 and only p x p arrays in float64. Saved models are pickles (:meth:`to_bytes`): load only
-files this project wrote.
+float32 and only p x p arrays in float64. A fitted model saves as plain tensors
+(:meth:`state_dict`: MultiRocket's dilations, biases and channel choices, Hydra's kernels, the
+scaling and the ridge), so a checkpoint holding one stays free of pickled code;
+:meth:`load_state_dict` rebuilds aeon's transforms around them.
 
 aeon (with numba and scikit-learn) is imported only when fitting or loading, so this module
 imports without it. numba compiles MultiRocket's kernels on first use (~40 s, once per
@@ -32,7 +34,6 @@ environment: aeon caches them on disk).
 from __future__ import annotations
 
 import contextlib
-import pickle
 import time
 import warnings
 from dataclasses import dataclass
@@ -63,11 +64,12 @@ number of windows). Larger kernel counts are refused."""
 HYDRA_KERNELS_PER_GROUP = 8
 """aeon's Hydra default: kernels compete within groups of this size."""
 
-FORMAT = "psmforce-rocket"
-FORMAT_VERSION = 1
-
 _HYDRA_BATCH = 256
 """Windows per Hydra call: its grouped convolutions run ~15 % faster than in batches of 1,024."""
+
+_MULTIROCKET_ARRAYS = 5
+"""aeon's fitted MultiRocket holds per input (series, difference) a tuple of 5 arrays: channels
+per kernel, channel indices, dilations, features per dilation, biases."""
 
 _ROW_BLOCK = 4096
 """Rows per block of the float64 work in the ridge and the column statistics (~165 MB each)."""
@@ -213,8 +215,8 @@ def _ridge(features: np.ndarray, targets: np.ndarray, alphas: np.ndarray = ALPHA
 
 @dataclass
 class _Fitted:
-    """What predict needs (pickled by ``to_bytes``): the fitted transforms, the scaling of the
-    (n_hydra Hydra + MultiRocket) feature columns and the ridge weights."""
+    """What predict needs: the fitted transforms, the scaling of the (n_hydra Hydra +
+    MultiRocket) feature columns and the ridge weights."""
 
     n_channels: int
     multirocket: object
@@ -309,7 +311,7 @@ class RocketRegressor:
             raise ValueError(f"{name} window {int(index[np.argmin(finite)])} contains NaN or inf")
         return x
 
-    def _subsample(self, n: int, stream: int) -> np.ndarray:
+    def subsample_indices(self, n: int, stream: int) -> np.ndarray:
         """Sorted indices of at most ``max_train_windows`` of ``n`` windows, drawn with the seed
         (``stream`` keeps training and validation draws independent)."""
         if n <= self.max_train_windows:
@@ -317,18 +319,7 @@ class RocketRegressor:
         rng = np.random.default_rng([self.seed, stream])
         return np.sort(rng.choice(n, self.max_train_windows, replace=False))
 
-    def fit(self, windows: np.ndarray, targets: np.ndarray, val_windows: np.ndarray | None = None,
-            val_targets: np.ndarray | None = None) -> dict:
-        """Fit on standard-scaled windows (N, L, F) and their scaled targets (N, 3); zero-copy
-        views are fine, only the subsampled windows are gathered. ``val_windows``/``val_targets``
-        (other trials, scaled alike, also capped at ``max_train_windows``) choose the penalty;
-        without them leave-one-out does (see the module docstring). Returns a report: windows
-        used, features, chosen alpha, the criterion and its RMSE at that alpha (scaled units,
-        over the three axes), seconds."""
-        from aeon.transformations.collection.convolution_based import (HydraTransformer,
-                                                                       MultiRocket)
-        start = time.perf_counter()
-        self._fitted = None
+    def _checked_pair(self, windows, targets, val_windows, val_targets):
         windows = self._check_windows(windows)
         if len(windows) < 2:
             raise ValueError(f"fit needs at least 2 windows, got {len(windows)}")
@@ -343,8 +334,43 @@ class RocketRegressor:
             if val_windows.shape[2] != windows.shape[2]:
                 raise ValueError(f"val_windows have {val_windows.shape[2]} features, windows "
                                  f"{windows.shape[2]}")
+        return windows, targets, val_windows, val_targets
 
-        used = self._subsample(len(windows), 0)
+    def _fit_ridge(self, features, targets, used, val_windows, val_targets,
+                   transforms: tuple) -> dict:
+        """Ridge on standardised ``features`` (the ``used`` training windows), its penalty chosen
+        on the validation windows' features when given; sets ``self._fitted``."""
+        n_channels, multirocket, hydra, n_hydra, offset, scale = transforms
+        validation = None
+        if val_windows is not None:
+            val_used = self.subsample_indices(len(val_windows), 1)
+            val_features = _feature_matrix(multirocket, hydra, self._aeon_layout(
+                val_windows[val_used], val_used, "validation"))
+            _standardise(val_features, offset, scale, n_hydra)
+            validation = (val_features, val_targets[val_used])
+        coef, intercept, best, mse = _ridge(features, targets[used], ALPHAS, validation)
+        self._fitted = _Fitted(n_channels, multirocket, hydra, n_hydra, offset, scale,
+                               coef.astype(np.float32), intercept, float(ALPHAS[best]))
+        return {"n_windows_used": len(used), "n_features": features.shape[1],
+                "alpha": float(ALPHAS[best]),
+                "criterion": "leave-one-out" if validation is None else "validation",
+                "criterion_rmse": float(np.sqrt(mse[best]))}
+
+    def fit(self, windows: np.ndarray, targets: np.ndarray, val_windows: np.ndarray | None = None,
+            val_targets: np.ndarray | None = None) -> dict:
+        """Fit on standard-scaled windows (N, L, F) and their scaled targets (N, 3); zero-copy
+        views are fine, only the subsampled windows are gathered. ``val_windows``/``val_targets``
+        (other trials, scaled alike, also capped at ``max_train_windows``) choose the penalty;
+        without them leave-one-out does (see the module docstring). Returns a report: windows
+        used, features, chosen alpha, the criterion and its RMSE at that alpha (scaled units,
+        over the three axes), seconds."""
+        from aeon.transformations.collection.convolution_based import (HydraTransformer,
+                                                                       MultiRocket)
+        start = time.perf_counter()
+        self._fitted = None
+        windows, targets, val_windows, val_targets = self._checked_pair(
+            windows, targets, val_windows, val_targets)
+        used = self.subsample_indices(len(windows), 0)
         with _threads(self.threads), _own_global_rngs():
             x = self._aeon_layout(windows[used], used, "training")
             multirocket = MultiRocket(n_kernels=self.n_kernels_multirocket, n_jobs=self.threads,
@@ -358,28 +384,40 @@ class RocketRegressor:
             del x
             offset, scale = _scaling(features, n_hydra)
             _standardise(features, offset, scale, n_hydra)
-            validation = None
-            if val_windows is not None:
-                val_used = self._subsample(len(val_windows), 1)
-                val_features = _feature_matrix(multirocket, hydra, self._aeon_layout(
-                    val_windows[val_used], val_used, "validation"))
-                _standardise(val_features, offset, scale, n_hydra)
-                validation = (val_features, val_targets[val_used])
-            coef, intercept, best, mse = _ridge(features, targets[used], ALPHAS, validation)
-        self._fitted = _Fitted(windows.shape[2], multirocket, hydra, n_hydra, offset, scale,
-                               coef.astype(np.float32), intercept, float(ALPHAS[best]))
-        return {"n_windows_used": len(used), "n_features": features.shape[1],
-                "alpha": float(ALPHAS[best]),
-                "criterion": "leave-one-out" if validation is None else "validation",
-                "criterion_rmse": float(np.sqrt(mse[best])),
-                "seconds": round(time.perf_counter() - start, 2)}
+            report = self._fit_ridge(features, targets, used, val_windows, val_targets,
+                                     (windows.shape[2], multirocket, hydra, n_hydra, offset,
+                                      scale))
+        return report | {"seconds": round(time.perf_counter() - start, 2)}
+
+    def refit_head(self, windows: np.ndarray, targets: np.ndarray,
+                   val_windows: np.ndarray | None = None,
+                   val_targets: np.ndarray | None = None) -> dict:
+        """Finetuning's analogue: the fitted transforms and feature scaling stay (the frozen
+        trunk), the ridge (the head) is fitted again on new windows, its penalty chosen on
+        ``val_windows`` when given. Same arguments and report as :meth:`fit`."""
+        if self._fitted is None:
+            raise RuntimeError("RocketRegressor.refit_head called before fit (or "
+                               "load_state_dict)")
+        start = time.perf_counter()
+        windows, targets, val_windows, val_targets = self._checked_pair(
+            windows, targets, val_windows, val_targets)
+        f = self._fitted
+        used = self.subsample_indices(len(windows), 0)
+        with _threads(self.threads):
+            features = _feature_matrix(f.multirocket, f.hydra,
+                                       self._aeon_layout(windows[used], used, "training"))
+            _standardise(features, f.offset, f.scale, f.n_hydra)
+            report = self._fit_ridge(features, targets, used, val_windows, val_targets,
+                                     (f.n_channels, f.multirocket, f.hydra, f.n_hydra,
+                                      f.offset, f.scale))
+        return report | {"seconds": round(time.perf_counter() - start, 2)}
 
     def predict(self, windows: np.ndarray, batch: int = 4096) -> np.ndarray:
         """(N, 3) float32 scaled estimates for (N, L, F) standard-scaled windows, ``batch``
         windows at a time (features: batch x 5,056 float32, 83 MB at the defaults); ~650
         windows/s on one thread."""
         if self._fitted is None:
-            raise RuntimeError("RocketRegressor.predict called before fit (or from_bytes)")
+            raise RuntimeError("RocketRegressor.predict called before fit (or load_state_dict)")
         windows = self._check_windows(windows)
         batch = _positive_int("batch", batch)
         fitted = self._fitted
@@ -392,30 +430,93 @@ class RocketRegressor:
                 out[i:i + batch] = block @ fitted.coef + fitted.intercept
         return out
 
-    def to_bytes(self) -> bytes:
-        """The fitted model as a pickle (aeon's fitted transformers, scaling, ridge weights)."""
-        if self._fitted is None:
-            raise RuntimeError("RocketRegressor.to_bytes called before fit")
-        return pickle.dumps({"format": FORMAT, "version": FORMAT_VERSION,
-                             "config": self.config(), "fitted": self._fitted},
-                            protocol=pickle.HIGHEST_PROTOCOL)
+    def _state_keys(self) -> list[str]:
+        aeon_arrays = [f"multirocket.{name}.{i}" for name in ("parameter", "parameter1")
+                       for i in range(_MULTIROCKET_ARRAYS)]
+        return aeon_arrays + ["hydra.W", "hydra.idx", "offset", "scale", "coef", "intercept",
+                              "alpha", "n_hydra", "n_channels"]
 
-    @classmethod
-    def from_bytes(cls, data: bytes) -> "RocketRegressor":
-        """Inverse of :meth:`to_bytes`. Unpickling runs code from the data: only for files this
-        project wrote. Raises ValueError for data that is not a saved RocketRegressor."""
-        try:
-            payload = pickle.loads(data)
-        except ImportError:  # aeon missing: say so, not "bad data"
-            raise
-        except Exception as err:  # a corrupt pickle fails in many ways: report it as bad data
-            raise ValueError(f"not a saved RocketRegressor ({type(err).__name__}: {err})") \
-                from None
-        if not isinstance(payload, dict) or payload.get("format") != FORMAT:
-            raise ValueError("not a saved RocketRegressor (no psmforce-rocket header)")
-        if payload.get("version") != FORMAT_VERSION:
-            raise ValueError(f"saved RocketRegressor format version {payload.get('version')}, "
-                             f"this code reads {FORMAT_VERSION}")
-        model = cls(**payload["config"])
-        model._fitted = payload["fitted"]
-        return model
+    def state_dict(self) -> dict[str, torch.Tensor]:
+        """The fitted model as plain tensors (what a checkpoint stores): MultiRocket's fitted
+        arrays, Hydra's kernels and channel choices, the scaling, the ridge."""
+        if self._fitted is None:
+            raise RuntimeError("RocketRegressor.state_dict called before fit")
+        f = self._fitted
+        state = {f"multirocket.{name}.{i}": torch.from_numpy(np.array(a))
+                 for name in ("parameter", "parameter1")
+                 for i, a in enumerate(getattr(f.multirocket, name))}
+        state |= {"hydra.W": f.hydra._hydra.W.detach().clone(),
+                  "hydra.idx": torch.stack(list(f.hydra._hydra.idx)),
+                  "offset": torch.from_numpy(f.offset), "scale": torch.from_numpy(f.scale),
+                  "coef": torch.from_numpy(f.coef),
+                  "intercept": torch.from_numpy(np.asarray(f.intercept, dtype=np.float64)),
+                  "alpha": torch.tensor(f.alpha, dtype=torch.float64),
+                  "n_hydra": torch.tensor(f.n_hydra), "n_channels": torch.tensor(f.n_channels)}
+        return state
+
+    def load_state_dict(self, state: dict, strict: bool = True) -> None:
+        """Inverse of :meth:`state_dict`: aeon's transforms are built on a dummy input of the
+        saved shape (which sets their bookkeeping), then given the saved arrays. Raises
+        RuntimeError naming what does not fit (missing or unexpected keys, shapes)."""
+        from aeon.transformations.collection.convolution_based import (HydraTransformer,
+                                                                       MultiRocket)
+        keys = self._state_keys()
+        missing, extra = sorted(set(keys) - set(state)), sorted(set(state) - set(keys))
+        if missing or (strict and extra):
+            raise RuntimeError(f"RocketRegressor state: missing keys {missing}, unexpected "
+                               f"keys {extra}")
+        n_channels, n_hydra = int(state["n_channels"]), int(state["n_hydra"])
+        if n_channels < 1 or n_hydra < 1:
+            raise RuntimeError(f"RocketRegressor state: n_channels {n_channels}, n_hydra "
+                               f"{n_hydra} must be positive")
+        dummy = np.zeros((2, n_channels, self.window), dtype=np.float32)
+        with _threads(self.threads), _own_global_rngs():
+            multirocket = MultiRocket(n_kernels=self.n_kernels_multirocket, n_jobs=self.threads,
+                                      random_state=self.seed).fit(dummy)
+            hydra = HydraTransformer(n_kernels=HYDRA_KERNELS_PER_GROUP,
+                                     n_groups=self.n_kernels_hydra // HYDRA_KERNELS_PER_GROUP,
+                                     n_jobs=self.threads, random_state=self.seed,
+                                     output_type="numpy").fit(dummy)
+        for name in ("parameter", "parameter1"):
+            built = getattr(multirocket, name)
+            saved = tuple(state[f"multirocket.{name}.{i}"].numpy().astype(a.dtype, copy=False)
+                          for i, a in enumerate(built))
+            # Array lengths depend on the fitted channel choices; the kernel count does not.
+            if saved[0].shape != built[0].shape or saved[4].shape != built[4].shape:
+                raise RuntimeError(f"RocketRegressor state: MultiRocket {name} has "
+                                   f"{saved[0].shape[0]} kernels, the config gives "
+                                   f"{built[0].shape[0]}")
+            setattr(multirocket, name, saved)
+        for key, built in (("hydra.W", hydra._hydra.W),
+                           ("hydra.idx", torch.stack(list(hydra._hydra.idx)))):
+            if state[key].shape != built.shape:
+                raise RuntimeError(f"RocketRegressor state: {key} has shape "
+                                   f"{tuple(state[key].shape)}, the config gives "
+                                   f"{tuple(built.shape)}")
+        hydra._hydra.W = state["hydra.W"].to(hydra._hydra.W.dtype).clone()
+        hydra._hydra.idx = list(state["hydra.idx"].to(hydra._hydra.idx[0].dtype).unbind())
+        p = _raw_features(multirocket, hydra, dummy[:1]).shape[1]
+        shapes = {"offset": (p,), "scale": (p,), "coef": (p, 3), "intercept": (3,)}
+        for key, shape in shapes.items():
+            if tuple(state[key].shape) != shape:
+                raise RuntimeError(f"RocketRegressor state: {key} has shape "
+                                   f"{tuple(state[key].shape)}, the transforms give {shape}")
+        self._fitted = _Fitted(n_channels, multirocket, hydra, n_hydra,
+                               state["offset"].numpy().astype(np.float32),
+                               state["scale"].numpy().astype(np.float32),
+                               state["coef"].numpy().astype(np.float32),
+                               state["intercept"].numpy().astype(np.float64),
+                               float(state["alpha"]))
+
+    def n_parameters(self) -> int:
+        """Fitted ridge weights and intercepts (the random kernels are not learned)."""
+        if self._fitted is None:
+            raise RuntimeError("RocketRegressor.n_parameters called before fit")
+        return int(self._fitted.coef.size + self._fitted.intercept.size)
+
+    def to(self, device) -> "RocketRegressor":
+        """Checkpoint-loading symmetry with torch models: features run on the CPU in numpy."""
+        return self
+
+    def eval(self) -> "RocketRegressor":
+        return self

@@ -299,9 +299,52 @@ def make_setup(model_name: str, train_trials: Sequence[Trial], *,
                  tuple(base_columns), derivation, prior_json)
 
 
+def _rocket_windows(model, trials: Sequence[Trial], setup: Setup, cfg: TrainConfig,
+                    stream: int) -> tuple[np.ndarray, np.ndarray]:
+    """The window models' training windows (stride ``cfg.stride``, free space 4x sparser) as
+    arrays, only the seeded subsample the regressor keeps gathered."""
+    data = _window_set(model, trials, setup, cfg)
+    x, y = data.batch(torch.from_numpy(model.subsample_indices(len(data), stream)))
+    return x.numpy(), y.numpy()
+
+
+def _closed_form_report(model, fit_report: dict, n_train: int, n_val: int) -> dict:
+    """A closed-form fit in the shape of :func:`fit`'s report: no epochs, converged by
+    construction; ``best_val_loss`` is the validation MSE (scaled units) at the chosen penalty."""
+    n = model.n_parameters()
+    return {"history": [], "best_val_loss": fit_report["criterion_rmse"] ** 2, "epochs_run": 1,
+            "stopped_by": "closed form", "capped": False, "converged": True,
+            "train_windows": n_train, "val_windows": n_val, "batches_per_epoch": None,
+            "chunk": None, "parameters": n, "trainable_parameters": n, "fit": fit_report}
+
+
+def _fit_rocket(setup: Setup, train_trials: Sequence[Trial], val_trials: Sequence[Trial],
+                cfg: TrainConfig, head_of=None) -> tuple[object, dict]:
+    """MultiRocket-Hydra (:mod:`hybrid.rocket`) on the same windows as the networks, its ridge
+    penalty chosen on the validation trials. ``head_of``: a fitted regressor whose transforms
+    and scaling stay and whose ridge is refitted (finetuning)."""
+    if not val_trials:
+        raise TrainingError("no validation trials: the ridge penalty is chosen on them")
+    t0 = time.perf_counter()
+    model = head_of
+    if model is None:
+        model = build_model("rocket", len(setup.features), {
+            **setup.config, "seed": cfg.seed, "threads": torch.get_num_threads()})
+        setup.config = model.config()  # every constructor argument, for the checkpoint
+    (x, y), (xv, yv) = (_rocket_windows(model, trials, setup, cfg, stream)
+                        for stream, trials in ((0, train_trials), (1, val_trials)))
+    fit_report = (model.refit_head if head_of is not None else model.fit)(x, y, xv, yv)
+    report = _closed_form_report(model, fit_report, len(x), len(xv))
+    report["seconds"] = time.perf_counter() - t0
+    return model, report
+
+
 def train_model(setup: Setup, train_trials: Sequence[Trial], val_trials: Sequence[Trial],
                 cfg: TrainConfig, *, desc: str | None = None) -> tuple[nn.Module, dict]:
-    """Build the model of ``setup``, train it, return (model with best weights, fit report)."""
+    """Build the model of ``setup``, train it, return (model with best weights, fit report).
+    ``rocket`` is fitted in closed form (its config gains the seed and thread count)."""
+    if setup.model_name == "rocket":
+        return _fit_rocket(setup, train_trials, val_trials, cfg)
     torch.manual_seed(cfg.seed)
     model = build_model(setup.model_name, len(setup.features), setup.config)
     t0 = time.perf_counter()
@@ -317,7 +360,10 @@ def finetune_model(model: nn.Module, setup: Setup, train_trials: Sequence[Trial]
                    desc: str = "finetune") -> dict:
     """Freeze all but the last decoder block, train that on new data with the pretrained scalers
     (the paper's transfer protocol). Frozen parts run in eval mode (no dropout): they act as a
-    fixed feature extractor. Returns the fit report with trainable/total parameter counts."""
+    fixed feature extractor; for ``rocket`` the transforms and scaling stay and the ridge is
+    refitted. Returns the fit report with trainable/total parameter counts."""
+    if setup.model_name == "rocket":
+        return _fit_rocket(setup, train_trials, val_trials, cfg, head_of=model)[1]
     trainable, total = freeze_for_finetuning(model)
     t0 = time.perf_counter()
     report = fit(model, train_trials, val_trials, setup, cfg, desc=desc, frozen_in_eval=True)
@@ -371,7 +417,7 @@ def train(data_dir: str | Path, model: str, out_checkpoint: str | Path, *,
           features: str | Sequence[str] | None = None, epochs: int = 100, seed: int = 0,
           device: str = "cpu", prior=None, use_prior: bool = True, config: dict | None = None,
           train_config: TrainConfig | None = None) -> dict:
-    """Train ``model`` (transformer | fcn | lstm | hybrid) on the ``train`` split of the dataset in
+    """Train ``model`` (transformer | fcn | lstm | hybrid | rocket) on the ``train`` split of the dataset in
     ``data_dir`` (10 % of its trials per condition held out for validation, seeded) and write a
     checkpoint. ``features``: a name of :data:`hybrid.data.FEATURE_SETS` or a column list
     (ignored by the LSTM, whose inputs are fixed). Hybrid only: ``prior`` is an

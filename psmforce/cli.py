@@ -35,7 +35,8 @@ def _jsonable(value):
 
 def _simulate(args) -> dict:
     from psm_model.sim import simulate
-    return simulate(protocol=args.protocol, scale=args.scale, seed=args.seed, out=args.out)
+    return simulate(protocol=args.protocol, scale=args.scale, seed=args.seed, out=args.out,
+                    port=args.port)
 
 
 def _convert(args) -> dict:
@@ -157,6 +158,10 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--scale", type=float, default=1.0,
                    help="fraction of the paper's protocol to run (1.0 = about 200 min of data)")
     p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--port", choices=["none", "cannula", "abdominal-wall"], default="none",
+                   help="the cannula the shaft passes through at the remote centre: seal friction "
+                        "and lateral port forces the joints feel and the HEX10 does not (default "
+                        "none: the paper's benchtop); recorded in metadata.json")
     p.add_argument("--out", required=True, help="output folder (must not hold a dataset yet)")
     p.add_argument("--json", help="write the run summary here")
 
@@ -233,10 +238,12 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--json", help="write the fit statistics here")
 
     p = add("train", _train, "train an estimator",
-            "Train one estimator (hybrid, transformer, fcn, lstm) on a dataset folder; writes a "
-            "checkpoint holding weights, features, scalers, prior and provenance.")
+            "Train one estimator (hybrid, transformer, fcn, lstm, rocket = MultiRocket-Hydra, "
+            "fitted in closed form) on a dataset folder; writes a checkpoint holding weights, "
+            "features, scalers, prior and provenance.")
     p.add_argument("--data", required=True)
-    p.add_argument("--model", choices=["hybrid", "transformer", "fcn", "lstm"], default="hybrid")
+    p.add_argument("--model", choices=["hybrid", "transformer", "fcn", "lstm", "rocket"],
+                   default="hybrid")
     p.add_argument("--out", required=True, help="checkpoint file to write")
     p.add_argument("--features", default="paper", help="feature set name (default: paper)")
     p.add_argument("--prior", help="prior JSON (hybrid; default: fit one on the data's free space)")
@@ -247,7 +254,8 @@ def _parser() -> argparse.ArgumentParser:
 
     p = add("finetune", _finetune, "finetune an estimator on new recordings",
             "Freeze all but the last decoder block of a trained estimator and train it on a new "
-            "dataset folder (e.g. a new PSM configuration).")
+            "dataset folder (e.g. a new PSM configuration); for rocket, refit the ridge on its "
+            "frozen features.")
     p.add_argument("checkpoint")
     p.add_argument("--data", required=True)
     p.add_argument("--out", required=True, help="checkpoint file to write")

@@ -393,6 +393,40 @@ def test_train_and_evaluate_files_end_to_end(tmp_path):
     assert json.loads((tmp_path / "eval" / "metrics.json").read_text())["model"] == "fcn"
 
 
+def test_rocket_trains_evaluates_and_finetunes_through_checkpoints(tmp_path):
+    pytest.importorskip("aeon")
+    from hybrid.evaluate import evaluate, predict_trial, setup_from_checkpoint
+    from hybrid.train import finetune, train
+    data = tmp_path / "data"
+    for split, cond, k in (("train", "Traction", 0), ("train", "Traction", 1), ("train", "Free", 2),
+                           ("train", "Free", 3), ("test", "Traction", 4), ("test", "Free", 5)):
+        (data / split / cond).mkdir(parents=True, exist_ok=True)
+        write_recording(_frame(260, k), data / split / cond / f"t{k}.csv")
+    small = {"n_kernels_multirocket": 168, "n_kernels_hydra": 32}
+    summary = train(data, "rocket", tmp_path / "rocket.pt", seed=3, config=small)
+    assert summary["stopped_by"] == "closed form" and summary["converged"]
+    ckpt = ck.load_checkpoint(tmp_path / "rocket.pt")
+    assert ckpt.config == {**ckpt.model.config(), **small} and ckpt.config["seed"] == 3
+    payload = torch.load(tmp_path / "rocket.pt", weights_only=True)  # nothing but tensors
+    assert all(isinstance(v, torch.Tensor) for v in payload["state_dict"].values())
+    result = evaluate(tmp_path / "rocket.pt", data, tmp_path / "eval", plots=False)
+    assert set(result["by_condition"]) == {"Free", "Traction"}
+    tool = tmp_path / "new_tool"  # another mapping from inputs to force
+    for cond, k in (("Traction", 6), ("Traction", 7), ("Free", 8), ("Free", 9)):
+        (tool / "train" / cond).mkdir(parents=True, exist_ok=True)
+        frame = _frame(260, k)
+        frame[["ati_fx", "ati_fy", "ati_fz"]] *= -1.5
+        write_recording(frame, tool / "train" / cond / f"t{k}.csv")
+    tuned = finetune(tmp_path / "rocket.pt", tool, tmp_path / "tuned.pt", seed=3)
+    assert tuned["stopped_by"] == "closed form"
+    before, after = (ck.load_checkpoint(tmp_path / f) for f in ("rocket.pt", "tuned.pt"))
+    trial = load_dataset(data).select(split="test")[0]
+    pred = [predict_trial(c.model, setup_from_checkpoint(c), trial) for c in (before, after)]
+    assert np.isfinite(pred[0][99:]).all() and np.isnan(pred[0][:99]).all()
+    assert not np.allclose(pred[0][99:], pred[1][99:])  # the head was refitted
+    np.testing.assert_array_equal(before.model._fitted.scale, after.model._fitted.scale)
+
+
 def test_chunked_offline_prediction_equals_one_causal_pass():
     """Chunks overlapping by the model's window reproduce a single pass over the whole trial
     exactly for a causal model whose receptive field is within that window."""

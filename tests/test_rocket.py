@@ -1,4 +1,5 @@
-"""MultiRocket-Hydra baseline (hybrid.rocket): learning, determinism, saving, input errors.
+"""MultiRocket-Hydra baseline (hybrid.rocket): learning, determinism, saving, refitting,
+input errors; train / evaluate / finetune through checkpoints.
 
 Small windows (40 samples, 4 channels) and kernel counts keep each fit to about a second once
 numba has compiled aeon's kernels (the first fit in a fresh environment compiles them, ~40 s).
@@ -75,17 +76,36 @@ def test_deterministic_given_seed_and_leaves_global_state(data):
     assert not np.array_equal(preds[0], preds[2])
 
 
-def test_round_trip_through_bytes(data, fitted):
+def test_round_trip_through_plain_tensors(data, fitted):
+    import torch
     w, _ = data
     model, _ = fitted
-    loaded = RocketRegressor.from_bytes(model.to_bytes())
-    assert loaded.config() == model.config()
+    state = model.state_dict()
+    assert all(isinstance(v, torch.Tensor) for v in state.values())  # no pickled objects
+    loaded = RocketRegressor(**model.config())
+    loaded.load_state_dict(state)
     np.testing.assert_array_equal(loaded.predict(w[1250:1300]), model.predict(w[1250:1300]))
     # batching changes only float32 rounding (BLAS blocks by shape)
     np.testing.assert_allclose(model.predict(w[1250:1300], batch=7),
                                model.predict(w[1250:1300]), rtol=1e-5, atol=1e-5)
-    with pytest.raises(ValueError, match="not a saved RocketRegressor"):
-        RocketRegressor.from_bytes(b"garbage")
+    with pytest.raises(RuntimeError, match="missing keys.*coef"):
+        RocketRegressor(**model.config()).load_state_dict(
+            {k: v for k, v in state.items() if k != "coef"})
+    with pytest.raises(RuntimeError, match="kernels, the config gives"):
+        RocketRegressor(**{**model.config(), "n_kernels_multirocket": 252}).load_state_dict(state)
+
+
+def test_refit_head_keeps_the_transforms_and_learns_the_new_targets(data, fitted):
+    w, y = data
+    model, _ = fitted
+    copy = RocketRegressor(**model.config())
+    copy.load_state_dict(model.state_dict())
+    flipped = -2.0 * y + 1.0  # a new tool: same features, other mapping
+    report = copy.refit_head(w[:1000], flipped[:1000], w[1000:1250], flipped[1000:1250])
+    assert report["criterion"] == "validation"
+    np.testing.assert_array_equal(copy._fitted.scale, model._fitted.scale)
+    assert (_r2(copy.predict(w[1250:]), flipped[1250:]) > 0.5).all()
+    assert (_r2(model.predict(w[1250:]), flipped[1250:]) < 0).all()  # the old head is wrong
 
 
 def test_bad_inputs_raise_naming_the_problem(data, fitted):
