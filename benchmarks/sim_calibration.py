@@ -1,15 +1,23 @@
-"""Calibration of the simulated bench against the seed paper's observations.
+"""Calibration of the simulated bench against the seed paper's observations and a real dVRK.
 
 Runs the automated protocol (``--scale``, default 1.0 = the paper's size), times it, reads the
 written dataset back and prints each figure next to the paper's value and the acceptance rule of
-issue 3; ``--json PATH`` writes them. Usage::
+issue 3. Then the joint-effort channels against the real WPI arm (issue 13): per joint, the
+residual our arm identification leaves (fitted on one trajectory, scored on another) on the real
+recordings and on the simulator replaying the same trajectories, its std raw / after the causal
+5 Hz low-pass / after the paper's centred median, its spectrum and autocorrelation, and the
+ratio sim / real (rule: every std ratio within [0.67, 1.5]); skipped when the WPI folder is
+absent. ``--derive`` also prints the coloured disturbance derived from the WPI residual (the
+numbers written into psm_model/sim/params.py). ``--json PATH`` writes everything. Usage::
 
     python benchmarks/sim_calibration.py [--scale 1.0] [--seed 0] [--out DIR] [--json PATH]
+                                         [--wpi ../shared/data/wpi_psm] [--derive]
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import sys
 import tempfile
@@ -19,8 +27,15 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from psm_model.sim import Contact, Effects, InstrumentParams, protocols, run_trajectory, simulate
+from psm_model.sim import Contact, Effects, InstrumentParams, calibration, protocols, run_trajectory, simulate
 from _report import write_json
+
+WPI_DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data" / "wpi_psm"
+EFFORT_RATIO_RANGE = (0.67, 1.5)
+EFFORT_CHECKED = ("std_raw", "std_lowpass5", "std_median71")
+DERIVE_SEEDS = (0, 1, 2)
+"""Noise realisations the disturbance is derived on; the check runs on others (CHECK_SEEDS)."""
+CHECK_SEEDS = (10, 11, 12)
 
 PAPER = {"train_min": 131.1, "val_min": 14.6, "test_min": 54.5,
          "ati_range_x": (-2.9, 2.9), "ati_range_y": (-4.1, 3.2), "ati_range_z": (-4.1, 4.6)}
@@ -119,12 +134,56 @@ def calibrate(scale: float, seed: int, out: Path) -> dict:
     return r
 
 
+def effort_channels(wpi_dir: Path, derive: bool) -> dict:
+    """Per-joint residual statistics, real vs simulated (mean over CHECK_SEEDS), their ratios and
+    the check; with ``derive`` the disturbance parameters derived on DERIVE_SEEDS."""
+    start = time.perf_counter()
+    real_res = calibration.real_residual(wpi_dir)
+    real = calibration.residual_statistics(real_res)
+    sim = calibration.mean_statistics([calibration.simulated_residual(wpi_dir, s) for s in CHECK_SEEDS])
+    table = {}
+    for j, joint in enumerate(calibration.JOINT_NAMES):
+        table[joint] = {stat: {"real": float(real[stat][j]), "sim": float(sim[stat][j]),
+                               "ratio": float(sim[stat][j] / real[stat][j])}
+                        for stat in calibration.STATISTICS}
+    ratios = [table[j][s]["ratio"] for j in table for s in EFFORT_CHECKED]
+    out = {"wpi": str(wpi_dir), "rate_hz": calibration.RATE_HZ, "check_seeds": list(CHECK_SEEDS),
+           "units": "Nm (insertion: N)", "table": table,
+           "rule": f"every {', '.join(EFFORT_CHECKED)} ratio sim/real within {list(EFFORT_RATIO_RANGE)}",
+           "effort_ok": bool(all(EFFORT_RATIO_RANGE[0] <= r <= EFFORT_RATIO_RANGE[1] for r in ratios))}
+    if derive:
+        quiet = dataclasses.replace(Effects(), coloured_effort_noise=False)
+        det = [calibration.simulated_residual(wpi_dir, s, effects=quiet) for s in DERIVE_SEEDS]
+        out["derived_disturbance"] = calibration.derive_disturbance(real_res, det)
+        out["derived_on_seeds"] = list(DERIVE_SEEDS)
+    out["seconds"] = round(time.perf_counter() - start, 1)
+    return out
+
+
+def _print_effort(e: dict) -> None:
+    names = calibration.JOINT_NAMES
+    print(f"\neffort channels vs the real WPI arm ({e['units']}; sim = mean over seeds {e['check_seeds']})")
+    print(f"{'statistic':22s}" + "".join(f"{n:>12s}" for n in names))
+    for stat in calibration.STATISTICS:
+        for who in ("real", "sim", "ratio"):
+            label = stat if who == "real" else f"  {who}"
+            print(f"{label:22s}" + "".join(f"{e['table'][n][stat][who]:12.4g}" for n in names))
+    print(f"{'rule':22s}{e['rule']}: {'ok' if e['effort_ok'] else 'NOT MET'}")
+    if "derived_disturbance" in e:
+        print(f"derived disturbance (seeds {e['derived_on_seeds']}):")
+        for k, v in e["derived_disturbance"].items():
+            print(f"  {k:28s} {np.round(v, 5).tolist()}")
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--scale", type=float, default=1.0)
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--out", type=Path, default=None, help="dataset folder (default: a temporary one)")
     ap.add_argument("--json", type=Path, default=None)
+    ap.add_argument("--wpi", type=Path, default=WPI_DEFAULT, help="folder of the WPI recordings")
+    ap.add_argument("--derive", action="store_true",
+                    help="also derive the coloured effort disturbance from the WPI residual")
     args = ap.parse_args(argv)
     with tempfile.TemporaryDirectory() as tmp:
         out = args.out or Path(tmp) / "sim"
@@ -133,6 +192,12 @@ def main(argv=None) -> int:
         if k != "paper":
             print(f"{k:40s} {v}")
     print(f"{'paper':40s} {r['paper']}")
+    if (args.wpi / "one_results.csv").is_file():
+        r["effort_channels"] = effort_channels(args.wpi, args.derive)
+        _print_effort(r["effort_channels"])
+    else:
+        r["effort_channels"] = f"skipped: no WPI recordings in {args.wpi}"
+        print(r["effort_channels"])
     if args.json:
         write_json(args.json, r)
     return 0

@@ -5,5 +5,7 @@ docs/simulator.md."""
 from .bench import Contact, run_trajectory
 from .dataset import SimulationConfigError, simulate
 from .params import Effects, InstrumentParams
+from .port import PORT_NAMES, PORTS, Port
 
-__all__ = ["simulate", "InstrumentParams", "Effects", "SimulationConfigError", "run_trajectory", "Contact"]
+__all__ = ["simulate", "InstrumentParams", "Effects", "SimulationConfigError", "run_trajectory", "Contact",
+           "Port", "PORTS", "PORT_NAMES"]

@@ -16,8 +16,10 @@ import pandas as pd
 
 from ..frames import ati_force_in_hex10
 from ..recording import JOINTS
-from . import cables, contacts, sensors
+from . import cables, contacts, drive, sensors
+from . import port as port_mod
 from .params import Effects, InstrumentParams
+from .port import Port
 
 GRAVITY_UPRIGHT = np.array([0.0, 0.0, -9.81])
 """Gravity in the base frame of the upright benchtop PSM (shaft pointing down at q = 0)."""
@@ -84,10 +86,11 @@ def _contact_force(contact: Contact, p_tip, v_tip, effects: Effects) -> np.ndarr
 def run_trajectory(q_cmd: np.ndarray, dt: float, contact: Contact, params: InstrumentParams,
                    effects: Effects, rng: np.random.Generator,
                    gravity: np.ndarray = GRAVITY_UPRIGHT, r_base_ati: np.ndarray | None = None,
-                   truth: bool = True) -> pd.DataFrame:
+                   truth: bool = True, port: Port | None = None) -> pd.DataFrame:
     """Simulate one recording. ``q_cmd`` (N, 7): motor-side joint positions in dVRK order
-    (what the position controller tracks and the encoders see). Returns a frame in the
-    recording layout (psm_model.recording), plus ``sim_*`` truth columns if ``truth``."""
+    (what the position controller tracks and the encoders see); ``port``: the cannula the shaft
+    passes through (None: the benchtop, no port). Returns a frame in the recording layout
+    (psm_model.recording), plus ``sim_*`` truth columns if ``truth``."""
     q_cmd = np.asarray(q_cmd, dtype=float)
     if q_cmd.ndim != 2 or q_cmd.shape[1] != 7 or len(q_cmd) < 2:
         raise ValueError(f"q_cmd must have shape (N, 7) with N >= 2, got {q_cmd.shape}")
@@ -150,23 +153,72 @@ def run_trajectory(q_cmd: np.ndarray, dt: float, contact: Contact, params: Instr
                         _moment_about(a_pitch, 0.0, p_tip, f_ext),
                         np.einsum("ij,ij->i", d_shaft, f_ext),
                         _moment_about(a_roll, p_roll, p_tip, f_ext)], axis=1)
+    seal = None
+    if port is not None:
+        # The port loads the shaft proximal of the HEX10 (section wrench above unchanged).
+        f_port, at = port_mod.lateral_force(port, d_shaft, np.arange(n) * dt)
+        if np.any(np.einsum("ij,ij->i", at - p_hex, d_shaft) >= 0.0):
+            raise ValueError("the port lies distal of the HEX10 (insertion too small)")
+        tau_ext[:, 0] += _moment_about(a_yaw, 0.0, at, f_port)
+        tau_ext[:, 1] += _moment_about(a_pitch, 0.0, at, f_port)
+        seal = port_mod.seal_levels(port, q_cmd[:, 2], np.gradient(q_cmd[:, 2], dt),
+                                    np.linalg.norm(f_port, axis=1))
     effort[:, :4] = -tau_ext
+    qd = np.gradient(q_cmd[:, :4], dt, axis=0)
     if effects.arm_dynamics:
-        qd = np.gradient(q_cmd[:, :3], dt, axis=0)
-        qdd = np.gradient(qd, dt, axis=0)
-        com = (q_cmd[:, 2] - params.arm_gravity_com_offset_m)[:, None] * d_shaft
-        f_arm = params.arm_gravity_mass_kg * g[None, :]
-        effort[:, 0] -= _moment_about(a_yaw, 0.0, com, f_arm)
-        effort[:, 1] -= _moment_about(a_pitch, 0.0, com, f_arm)
-        effort[:, 2] -= d_shaft @ f_arm[0]
-        effort[:, :3] += (np.asarray(params.arm_inertia) * qdd
-                          + np.asarray(params.arm_coulomb) * np.tanh(qd / 0.005)
-                          + np.asarray(params.arm_viscous) * qd)
-        z_roll = cables.dahl_direction(q_cmd[:, 3:4], params.roll_presliding_rad, effects.hysteresis)[:, 0]
-        effort[:, 3] += params.roll_torsion_nm_per_rad * q_cmd[:, 3] + params.roll_friction_nm * z_roll
+        qdd = np.gradient(qd[:, :3], dt, axis=0)
+        # Two lumped masses on the shaft line, the pitch links' (fixed distance) and the
+        # insertion stage's (moves with q3): the motors supply m (p'' - g) to each, through the
+        # columns of its Jacobian (a x p for yaw / pitch about axes through the RCM, d for the
+        # insertion, which only the stage's mass loads), so gravity, centripetal and Coriolis
+        # loads are exact for them.
+        for mass, dist, on_insertion in (
+                (params.arm_gravity_mass_kg, np.full(n, params.arm_gravity_com_m), False),
+                (params.insertion_stage_mass_kg, q_cmd[:, 2] - params.arm_gravity_com_offset_m, True)):
+            com = dist[:, None] * d_shaft
+            acc = np.gradient(np.gradient(com, dt, axis=0), dt, axis=0)
+            f_arm = mass * (acc - g[None, :])
+            effort[:, 0] += _moment_about(a_yaw, 0.0, com, f_arm)
+            effort[:, 1] += _moment_about(a_pitch, 0.0, com, f_arm)
+            if on_insertion:
+                effort[:, 2] += np.einsum("ij,ij->i", d_shaft, f_arm)
+        effort[:, :3] += np.asarray(params.arm_inertia) * qdd
+        effort[:, 3] += params.roll_torsion_nm_per_rad * q_cmd[:, 3]
+        if not effects.drive_friction:
+            effort[:, :3] += (np.asarray(params.arm_coulomb) * np.tanh(qd[:, :3] / 0.005)
+                              + np.asarray(params.arm_viscous) * qd[:, :3])
+            z_roll = cables.dahl_direction(q_cmd[:, 3:4], params.roll_presliding_rad, effects.hysteresis)[:, 0]
+            effort[:, 3] += params.roll_friction_nm * z_roll
+    # Friction with stiction (drive.py) per joint: the drive's own element (``drive_friction``,
+    # with the arm's dynamics; its direction a smooth sign of the velocity: the belt / cable
+    # drives' compliance spreads each reversal) and the port's seal along and about the shaft.
+    elements: list[list] = [[] for _ in range(4)]
+    if effects.arm_dynamics and effects.drive_friction:
+        for j, law in enumerate(drive.drive_laws(q_cmd, tau_ext, params)):
+            elements[j].append((law, np.tanh(qd[:, j] / params.arm_friction_smoothing[j])))
+    if seal is not None:
+        kinetic, static = seal
+        # Along the shaft on insertion (N); about it on roll the same friction at the shaft's
+        # radius r (Nm; the seal slides at r w). A rubber seal reverses sharply (stick-slip).
+        for j, r in ((2, 1.0), (3, port.shaft_radius_m)):
+            law = drive.FrictionLaw(r * kinetic, r * static, port.seal_stribeck_velocity_mps / r,
+                                    r ** 2 * port.seal_viscous_n_s_per_m)
+            elements[j].append((law, np.tanh(r * qd[:, j] / port.seal_smoothing_mps)))
+    for j, joint_elements in enumerate(elements):
+        if joint_elements:
+            effort[:, j] = drive.stick_slip_effort(effort[:, j], qd[:, j], joint_elements,
+                                                   params.drive_stick_velocity[j])
     effort[:, 4:] = trans["effort"]
+    if effects.arm_dynamics and effects.drive_friction:
+        effort[:, 4:] = drive.disc_friction_efforts(effort[:, 4:], q_cmd[:, 4:], dt, params, effects.hysteresis)
     if effects.sensor_noise:
         effort += np.asarray(params.effort_noise) * rng.standard_normal((n, 7))
+    if effects.coloured_effort_noise:
+        effort += drive.coloured_disturbance(n, dt, params, rng)
+    if effects.remount_offsets:
+        effort += drive.remount_offset(params, rng)[None, :]
+    if effects.current_quantisation:
+        effort = drive.quantise_currents(effort, params)
 
     # --- ATI and the paper's eq. 4 target (measured joints, calibrated fixture rotation) ---
     arm = (contact.anchor if contact.kind == "traction" else p_tip) - contact.ati_origin

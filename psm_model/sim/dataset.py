@@ -22,8 +22,9 @@ from ..recording import write_recording
 from . import protocols
 from .bench import run_trajectory
 from .params import Effects, InstrumentParams
+from .port import PORT_NAMES, port_by_name
 
-SIM_VERSION = "1.0"
+SIM_VERSION = "2.0"
 PROTOCOLS = ("automated", "teleop")
 
 
@@ -58,7 +59,9 @@ def _check_out(out) -> Path:
     return path
 
 
-def _validate(protocol, scale, seed, out, instrument, effects):
+def _validate(protocol, scale, seed, out, instrument, effects, port):
+    if port not in PORT_NAMES:
+        raise SimulationConfigError(f"port: unknown {port!r}, expected one of {PORT_NAMES}")
     if protocol not in PROTOCOLS:
         raise SimulationConfigError(f"protocol: unknown {protocol!r}, expected one of {PROTOCOLS}")
     if isinstance(scale, bool) or not isinstance(scale, numbers.Real) or not math.isfinite(scale) or scale <= 0:
@@ -74,15 +77,17 @@ def _validate(protocol, scale, seed, out, instrument, effects):
 
 def simulate(protocol: str = "automated", scale: float = 1.0, seed: int = 0, out=None,
              instrument: InstrumentParams | None = None, effects: Effects | None = None,
-             truth: bool = True) -> dict:
+             truth: bool = True, port: str = "none") -> dict:
     """Simulate a protocol and write the dataset to ``out`` (must not exist or be empty).
 
     ``scale`` shrinks the protocol proportionally (1.0 = the paper's size); ``seed`` makes the run
     bit-exact; ``instrument`` defaults to the nominal tool, ``effects`` to everything on;
-    ``truth`` adds the ``sim_*`` truth columns. Returns a summary (trials, rows, minutes per split
-    and condition, seconds taken). Raises :class:`SimulationConfigError` before writing anything.
+    ``truth`` adds the ``sim_*`` truth columns; ``port`` the cannula the shaft passes through
+    (``"none"``: the paper's benchtop; ``"cannula"``, ``"abdominal-wall"``: psm_model/sim/port.py).
+    Returns a summary (trials, rows, minutes per split and condition, seconds taken). Raises :class:`SimulationConfigError` before writing anything.
     """
-    path = _validate(protocol, scale, seed, out, instrument, effects)
+    path = _validate(protocol, scale, seed, out, instrument, effects, port)
+    port_params = port_by_name(port)
     instrument = instrument or InstrumentParams()
     effects = effects or Effects()
     start = time.perf_counter()
@@ -92,7 +97,7 @@ def simulate(protocol: str = "automated", scale: float = 1.0, seed: int = 0, out
     for index, plan in enumerate(plans):
         rng = np.random.default_rng([seed, 100, index])
         frame = run_trajectory(plan.q, protocols.DT, plan.contact, instrument, effects, rng,
-                               r_base_ati=protocols.R_BASE_ATI, truth=truth)
+                               r_base_ati=protocols.R_BASE_ATI, truth=truth, port=port_params)
         target = path / plan.path
         target.parent.mkdir(parents=True, exist_ok=True)
         write_recording(frame, target)
@@ -106,6 +111,7 @@ def simulate(protocol: str = "automated", scale: float = 1.0, seed: int = 0, out
         "simulator_version": SIM_VERSION, "software_version": _package_version(),
         "protocol": protocol, "scale": float(scale), "seed": int(seed), "sample_rate_hz": 1.0 / protocols.DT,
         "instrument": instrument.to_dict(), "effects": effects.to_dict(),
+        "port": {"name": port, **({} if port_params is None else port_params.to_dict())},
         "gravity_base": [0.0, 0.0, -9.81],
         "R_base_ati": protocols.R_BASE_ATI.tolist(),
         "ati_convention": "ati_raw_* = load the fixture puts on the Nano17 (= minus the force on the "

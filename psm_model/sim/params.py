@@ -61,7 +61,8 @@ class InstrumentParams:
     pitch_path_mismatch_m: float = 1.5e-6
     """Blade-cable path length left uncompensated by the coupling: dL = e * (1 - cos pitch)."""
     roll_torsion_nm_per_rad: float = 0.004
-    roll_friction_nm: float = 0.010
+    roll_friction_nm: float = 0.0023
+    """Roll Coulomb level (Nm): our identification's value on the real WPI arm."""
     roll_presliding_rad: float = 0.02
     # --- distal masses (distal of the HEX10 section) ---
     distal_body_mass_kg: float = 0.004
@@ -90,16 +91,80 @@ class InstrumentParams:
     """Radius at which the six cables cross the sensor bore (pairs on opposite sides)."""
     # --- dVRK arm ---
     arm_gravity_mass_kg: float = 0.9
-    """Uncompensated moving mass lumped on the shaft line (carriage + instrument + links)."""
+    """Uncompensated mass of the pitch links lumped on the shaft line (turns with yaw and pitch,
+    does not translate with the insertion)."""
+    arm_gravity_com_m: float = -0.09
+    """Where it sits on the shaft line, from the RCM (negative: behind it)."""
+    insertion_stage_mass_kg: float = 0.1
+    """Mass the insertion stage lifts along the shaft (carriage + tool, less its balance): the
+    real arm's insertion effort carries little weight (WPI: mean 0.03 N while the pitch sweeps
+    +-0.8 rad; our identification finds a 25-35 g equivalent insertion + roll body)."""
     arm_gravity_com_offset_m: float = 0.25
-    """COM lies on the shaft line at (insertion - offset) from the RCM."""
+    """The insertion stage's COM lies on the shaft line at (insertion - offset) from the RCM."""
     arm_inertia: tuple[float, float, float] = (0.06, 0.06, 0.6)
     """Effective inertia of yaw, pitch (kg m^2) and insertion (kg)."""
-    arm_coulomb: tuple[float, float, float] = (0.06, 0.05, 0.35)
-    arm_viscous: tuple[float, float, float] = (0.04, 0.04, 2.0)
+    arm_coulomb: tuple[float, float, float] = (0.056, 0.135, 0.64)
+    """Kinetic Coulomb level of yaw, pitch (Nm) and insertion (N): the levels our identification
+    finds on the real WPI arm (docs/simulator.md, section 8)."""
+    arm_viscous: tuple[float, float, float] = (0.083, 0.149, 0.56)
+    """Viscous coefficients (Nm s/rad, N s/m), from the same WPI identification."""
     effort_noise: tuple[float, ...] = (0.006, 0.006, 0.03, 0.0008, 0.0006, 0.0005, 0.0005)
-    """Std of current-derived effort noise per joint (Nm or N)."""
+    """Std of the white part of the effort noise per joint (Nm or N); on when ``sensor_noise``."""
     velocity_filter_s: float = 0.01
+    # --- dVRK joint-effort channels: drive friction, disturbance, current measurement ---
+    # (psm_model/sim/drive.py; joints yaw, pitch, insertion, roll unless said otherwise)
+    drive_static_ratio: float = 1.4
+    """Static (breakaway) over kinetic Coulomb level (Stribeck peak) of yaw, pitch, insertion and
+    roll: **assumed**, typical 1.2-1.5."""
+    drive_stribeck_velocity: tuple[float, float, float, float] = (0.02, 0.02, 0.002, 0.05)
+    """Velocity over which the static excess decays (rad/s; m/s for insertion), **assumed**."""
+    arm_friction_smoothing: tuple[float, float, float, float] = (0.1, 0.1, 0.05, 0.1)
+    """Velocity (rad/s, m/s) over which the friction of yaw, pitch, insertion and roll changes sign,
+    ``tanh(v / v_eps)``: the compliance of their cable / belt drives spreads each reversal. The
+    smooth-sign widths our identification selects on the real WPI arm; sharper transitions
+    leave a residual the real arm does not show (docs/simulator.md, section 8)."""
+    drive_stick_velocity: tuple[float, float, float, float] = (2e-3, 2e-3, 2e-4, 5e-3)
+    """Below this speed a joint sticks: its effort then follows the load only beyond the static
+    level (the deadband); **assumed**, about a tenth of the Stribeck velocity."""
+    disc_coulomb: tuple[float, float, float] = (0.0081, 0.0063, 0.0067)
+    """Coulomb level (Nm) of the wrist-pitch, blade 1 and blade 2 instrument discs (motor side:
+    sterile adapter, disc bearings): our identification's values on the real WPI arm, whose
+    wrist coordinates are these discs (docs/simulator.md, section 8)."""
+    disc_viscous: tuple[float, float, float] = (0.0059, 0.0052, 0.0075)
+    """Their viscous coefficients (Nm s/rad), same source."""
+    disc_presliding_rad: float = 0.02
+    disc_stribeck_velocity: float = 0.05
+    disc_stick_velocity: float = 5e-3
+    drive_position_friction: float = 0.15
+    """Relative ripple of the friction levels with position (bearing preload, cable routing)."""
+    drive_position_wavelength: tuple[float, float, float, float] = (0.7, 0.7, 0.05, 2.0)
+    """Period of that ripple in joint position (rad; m for insertion), **assumed**."""
+    drive_load_friction_gain: float = 0.05
+    """Extra friction level per unit of the joint's external load (bearings / guides pressed by
+    the load): the deadband grows with the load, **assumed** (a friction coefficient)."""
+    effort_band_noise: tuple[float, ...] = (0.057, 0.086, 0.170, 0.00044, 0.0054, 0.0039, 0.0031)
+    """Std of the coloured effort disturbance per joint (Nm or N): what our identification leaves
+    unexplained on the real arm beyond what the simulated effects leave; white noise through a
+    second-order resonator (``effort_band_hz``, ``effort_band_damping``). Derived from the WPI
+    residual by ``benchmarks/sim_calibration.py --derive`` (docs/simulator.md, section 8)."""
+    effort_band_hz: tuple[float, ...] = (1.67, 1.89, 2.14, 2.14, 1.89, 1.89, 1.67)
+    effort_band_damping: tuple[float, ...] = (0.20, 0.77, 0.29, 0.20, 0.77, 2.47, 0.77)
+    insertion_resonance_hz: float = 12.0
+    """The insertion stage's lightly damped mode (belt / cable drive of the carriage): a narrow
+    peak of the WPI insertion residual, at the same frequency whatever the insertion speed."""
+    insertion_resonance_damping: float = 0.14
+    insertion_resonance_n: float = 0.227
+    """Stationary std of the insertion-stage resonance (N), from the WPI residual's 7-20 Hz power."""
+    current_quantum_a: float = 1.907e-4
+    """Motor-current step of the dVRK controller: the WPI efforts move in steps of 0.472 mNm
+    (yaw, pitch), 2.812 mN (insertion), 62.6 uNm (roll) = 0.1907 mA x torque constant x gear."""
+    torque_constant_nm_per_a: float = 0.0438
+    gear_ratios: tuple[float, ...] = (56.5, 56.5, 336.6, 11.71, 11.71, 11.71, 11.71)
+    """Motor rad per joint rad (per m for insertion); instrument discs 11.71 (psm_facts)."""
+    remount_effort_offset: tuple[float, float, float, float] = (0.0005, 0.004, 0.0015, 0.001)
+    """Std of the constant effort offset of roll, wrist pitch, wrist yaw, jaw (Nm) drawn per
+    recording: each trial mounts the tool anew on the sterile adapter (disc engagement, cable
+    preload); order of the WPI test residual's mean on those joints, **assumed**."""
     # --- ATI Nano17 ---
     ati_force_noise_n: float = 0.004
     ati_moment_noise_nm: float = 3.0e-5
@@ -178,6 +243,15 @@ class Effects:
     """Arm inertia, gravity and friction in the efforts."""
     contact_friction: bool = True
     """Tangential (stick-slip) friction at palpation and rigid contacts."""
+    drive_friction: bool = True
+    """Stribeck, stiction with a load- and history-dependent deadband at rest, position-dependent
+    friction on yaw, pitch, insertion and roll (off: the smooth Coulomb + viscous law)."""
+    coloured_effort_noise: bool = True
+    """Low-frequency effort disturbance and the insertion-stage resonance (white part: ``sensor_noise``)."""
+    current_quantisation: bool = True
+    """Efforts in steps of the motor-current quantum."""
+    remount_offsets: bool = True
+    """A constant effort offset on the instrument joints per recording (tool re-mounted)."""
 
     @classmethod
     def none(cls) -> "Effects":

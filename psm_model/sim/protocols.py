@@ -159,7 +159,8 @@ def _safe_configs(rng: np.random.Generator, n: int, limits: np.ndarray, static_q
     from .bench import run_trajectory
     from .params import Effects, InstrumentParams
 
-    quiet = dataclasses.replace(Effects(), sensor_noise=False, hex10_drift=False, encoder_quantisation=False)
+    quiet = dataclasses.replace(Effects(), sensor_noise=False, hex10_drift=False, encoder_quantisation=False,
+                                coloured_effort_noise=False, remount_offsets=False)
     kept = []
     for _ in range(20):
         candidates = _configs(rng, 2 * n, limits)
