@@ -20,7 +20,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
-from scipy.signal import lfilter
+from scipy.signal import freqz, lfilter, welch
 
 from . import drive
 from .bench import Contact, run_trajectory
@@ -134,16 +134,14 @@ def mean_statistics(residuals: list[np.ndarray]) -> dict[str, np.ndarray]:
 
 def _resonator_density(freq: np.ndarray, frequency_hz: float, damping: float, rate_hz: float) -> np.ndarray:
     """One-sided power density (per Hz) at ``freq`` of unit-variance :func:`drive.resonator_noise`."""
-    from scipy.signal import freqz
-
     a = drive.resonator(frequency_hz, damping, 1.0 / rate_hz)
     h = freqz([1.0], a, worN=freq, fs=rate_hz)[1]
     impulse = lfilter([1.0], a, np.r_[1.0, np.zeros(20000)])
     return 2.0 / rate_hz * np.abs(h) ** 2 / np.sum(impulse ** 2)
 
 
-def _fit_band(freq, target, band, frequencies, dampings, rate_hz):
-    """(f0, zeta) of the resonator whose density, scaled to carry the target's variance in
+def _fit_band(freq, target, band, frequencies, dampings, rate_hz) -> tuple[float, float, float]:
+    """(f0, zeta, std) of the resonator whose density, scaled to carry the target's variance in
     ``band``, is nearest the target there: least squares on log densities (floored at 1 % of the
     peak), so that the bins with little missing power weigh as much as the peak."""
     sel = (freq > band[0]) & (freq <= band[1])
@@ -152,10 +150,10 @@ def _fit_band(freq, target, band, frequencies, dampings, rate_hz):
     for f0 in frequencies:
         for zeta in dampings:
             shape = _resonator_density(freq[sel], f0, zeta, rate_hz)
-            model = shape * target[sel].sum() / shape.sum()
-            err = np.sum((np.log(target[sel] + floor) - np.log(model + floor)) ** 2)
+            variance = target[sel].sum() / shape.sum()
+            err = np.sum((np.log(target[sel] + floor) - np.log(variance * shape + floor)) ** 2)
             if best is None or err < best[0]:
-                best = (err, float(f0), float(zeta))
+                best = (err, float(f0), float(zeta), float(np.sqrt(variance)))
     return best[1:]
 
 
@@ -165,28 +163,16 @@ def derive_disturbance(real: np.ndarray, deterministic: list[np.ndarray], rate_h
     simulated ones without the disturbance (independent parts add), the density still missing,
     ``max(P_real - P_sim, 0)``, is matched in 0-5 Hz (the band the evaluation's low-pass keeps)
     by one :func:`drive.resonator` per joint, and on the insertion in 5-25 Hz by the stage's
-    lightly damped mode; each scaled so its variance in its band equals the missing one."""
-    from scipy.signal import welch
-
+    lightly damped mode; each scaled so its variance in its band equals the missing one. Returns
+    the :class:`InstrumentParams` fields it sets."""
     freq, p_real = welch(real - real.mean(axis=0), fs=rate_hz, nperseg=512, axis=0)
     p_sim = np.mean([welch(r - r.mean(axis=0), fs=rate_hz, nperseg=512, axis=0)[1]
                      for r in deterministic], axis=0)
     missing = np.maximum(p_real - p_sim, 0.0)
-    df = freq[1] - freq[0]
-    out = {"effort_band_noise": [], "effort_band_hz": [], "effort_band_damping": []}
-    for j in range(real.shape[1]):
-        f0, zeta = _fit_band(freq, missing[:, j], (0.0, 5.0), np.geomspace(0.2, 4.0, 25),
-                                np.geomspace(0.2, 3.0, 15), rate_hz)
-        sel = (freq > 0) & (freq <= 5.0)
-        shape = _resonator_density(freq[sel], f0, zeta, rate_hz)
-        out["effort_band_noise"].append(float(np.sqrt(missing[sel, j].sum() / shape.sum())))
-        out["effort_band_hz"].append(f0)
-        out["effort_band_damping"].append(zeta)
-    f0, zeta = _fit_band(freq, missing[:, 2], (5.0, 25.0), np.linspace(6.0, 20.0, 29),
-                            np.geomspace(0.03, 0.5, 12), rate_hz)
-    sel = (freq > 5.0) & (freq <= 25.0)
-    shape = _resonator_density(freq[sel], f0, zeta, rate_hz)
-    out.update({"insertion_resonance_hz": f0, "insertion_resonance_damping": zeta,
-                "insertion_resonance_n": float(np.sqrt(missing[sel, 2].sum() / shape.sum()))})
-    out["welch_bin_hz"] = float(df)
-    return out
+    bands = [_fit_band(freq, missing[:, j], (0.0, 5.0), np.geomspace(0.2, 4.0, 25),
+                       np.geomspace(0.2, 3.0, 15), rate_hz) for j in range(real.shape[1])]
+    f0, zeta, std = _fit_band(freq, missing[:, 2], (5.0, 25.0), np.linspace(6.0, 20.0, 29),
+                              np.geomspace(0.03, 0.5, 12), rate_hz)
+    return {"effort_band_noise": [b[2] for b in bands], "effort_band_hz": [b[0] for b in bands],
+            "effort_band_damping": [b[1] for b in bands], "insertion_resonance_hz": f0,
+            "insertion_resonance_damping": zeta, "insertion_resonance_n": std}

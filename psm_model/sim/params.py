@@ -133,8 +133,10 @@ class InstrumentParams:
     disc_viscous: tuple[float, float, float] = (0.0059, 0.0052, 0.0075)
     """Their viscous coefficients (Nm s/rad), same source."""
     disc_presliding_rad: float = 0.02
+    """Dahl pre-sliding length of the discs (their cables' hysteresis), **assumed** like the roll's."""
     disc_stribeck_velocity: float = 0.05
     disc_stick_velocity: float = 5e-3
+    """Stribeck and sticking speeds of the discs (rad/s), **assumed** like the roll's."""
     drive_position_friction: float = 0.15
     """Relative ripple of the friction levels with position (bearing preload, cable routing)."""
     drive_position_wavelength: tuple[float, float, float, float] = (0.7, 0.7, 0.05, 2.0)
@@ -148,13 +150,16 @@ class InstrumentParams:
     second-order resonator (``effort_band_hz``, ``effort_band_damping``). Derived from the WPI
     residual by ``benchmarks/sim_calibration.py --derive`` (docs/simulator.md, section 8)."""
     effort_band_hz: tuple[float, ...] = (1.67, 1.89, 2.14, 2.14, 1.89, 1.89, 1.67)
+    """Natural frequency of each joint's resonator (Hz), derived with it."""
     effort_band_damping: tuple[float, ...] = (0.20, 0.77, 0.29, 0.20, 0.77, 2.47, 0.77)
+    """Damping ratio of each joint's resonator (over 1: a low-pass band), derived with it."""
     insertion_resonance_hz: float = 12.0
     """The insertion stage's lightly damped mode (belt / cable drive of the carriage): a narrow
     peak of the WPI insertion residual, at the same frequency whatever the insertion speed."""
     insertion_resonance_damping: float = 0.14
     insertion_resonance_n: float = 0.227
-    """Stationary std of the insertion-stage resonance (N), from the WPI residual's 7-20 Hz power."""
+    """Stationary std of the insertion-stage mode (N); frequency, damping and std derived from
+    the WPI residual's 5-25 Hz band by the same script."""
     current_quantum_a: float = 1.907e-4
     """Motor-current step of the dVRK controller: the WPI efforts move in steps of 0.472 mNm
     (yaw, pitch), 2.812 mN (insertion), 62.6 uNm (roll) = 0.1907 mA x torque constant x gear."""
