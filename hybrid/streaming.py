@@ -13,20 +13,33 @@ Per-sample :class:`Flags` (bit mask, several may be set):
 ``WARMING_UP``      fewer than ``model.window`` samples since the start or the last reset: the
                     estimate exists but has seen less history than in training.
 ``OVERLOAD``        the sample's ``hex10_overload`` signal is set (the reading is clipped).
-``INVALID_INPUT``   a NaN / inf value, a missing field, or a non-finite timestamp: the sample
-                    is not used; the state is untouched.
-``TIME_BACKWARDS``  timestamp not after the last accepted one: the sample is not used.
+``INVALID_INPUT``   the sample is not used and the state is untouched: a NaN / inf value, a
+                    value beyond its physical bound (:func:`physical_bounds`: joint limits with a
+                    margin, effort and velocity limits, the HEX10 overload), a missing or
+                    non-numeric field, a wrongly shaped array, a missing or non-finite timestamp.
+``TIME_BACKWARDS``  timestamp not after the last accepted one: the sample is not used. A clock
+                    that stays behind for more than ``max_gap_samples`` samples in a row is a
+                    restarted clock: it is accepted as a ``GAP`` (one bad future timestamp cannot
+                    lock the estimator out).
 ``GAP``             more than ``max_gap_samples`` samples missing since the last accepted one
                     (from the timestamps): the history is discontinuous, so the network and
                     filter state are reset and this sample starts a new warm-up.
-``EXTRAPOLATION``   an input lies outside the training range: beyond ``input_range`` (raw
-                    units) when given, else more than ``extrapolation_z`` training standard
-                    deviations from the training mean.
+``EXTRAPOLATION``   an input lies outside the training range, in this sample or in one the
+                    estimate still remembers (the network's ``window`` plus the post-filter's
+                    :meth:`CausalFilter.memory_samples`): beyond ``input_range`` (raw units)
+                    when given, else more than ``extrapolation_z`` training standard deviations
+                    from the training mean.
 ``HELD``            no new estimate: the returned force is the last one (NaN before the first).
+``RESET``           the network's output or the filter's state was not finite: both were
+                    reset, the last good estimate is held and a new warm-up starts.
+``IMPLAUSIBLE``     the estimate exceeds :data:`MAX_FORCE_N` on an axis, more than the shaft
+                    sensor can carry: returned, but not a force to act on.
 
 A sample that is not used never touches the state, so the estimator recovers by itself: up to
 ``max_gap_samples`` dropped samples are bridged (the network sees the next good sample as the
-next one), longer gaps restart the warm-up.
+next one), longer gaps restart the warm-up. No sample, however malformed, raises: every
+estimate after the first is finite (``tests/test_streaming.py`` drives adversarial streams;
+``benchmarks/streaming_fuzz.py`` 10^6 samples).
 
 Backends for the network step (identical outputs within 1e-5, tests/test_streaming.py):
 ``"onnx"`` (ONNX Runtime, one thread, on the step graph of :mod:`hybrid.export`), ``"numpy"``
@@ -49,6 +62,7 @@ sample within float32 rounding.
 from __future__ import annotations
 
 import enum
+import math
 import operator
 from pathlib import Path
 from typing import NamedTuple, Sequence
@@ -61,11 +75,60 @@ from scipy import signal
 from hybrid.causal import CausalTransformer, NumpyStepper, predict_sequence
 from hybrid.hybrid import HexRotation, HybridInputs
 from hybrid.metrics import lowpass_causal
-from psm_model.recording import JOINT_POSITIONS, OVERLOAD
+from psm_model.recording import (HEX10_FORCE, HEX10_TORQUE, JOINT_EFFORTS, JOINT_POSITIONS,
+                                  JOINT_VELOCITIES, JOINTS, OVERLOAD)
+from psm_model.sim.params import InstrumentParams
 
 CHAIN_POSITIONS = JOINT_POSITIONS
 """Joint positions the base-frame rotation reads (dVRK order, jaw last)."""
 BACKENDS = ("numpy", "onnx", "torch")
+
+POSITION_MARGIN = 0.1
+"""Joint positions may pass the URDF limits by this fraction of each joint's range: the dVRK's
+limits are software limits that a backdriven or homing arm overshoots by a few degrees; beyond
+that a value is not a pose but a corrupt sample."""
+VELOCITY_FACTOR = 10.0
+"""Joint velocities may reach this multiple of the URDF velocity limit: they are encoder
+differences that spike on quantisation and impacts (the simulated bench reaches 3.8x on roll)."""
+EFFORT_FACTOR = 3.0
+"""Joint efforts may reach this multiple of the URDF effort limit (max current x torque constant x
+gear ratio): joint efforts are coupled sums of saturated actuator currents (the bench: 1.04x)."""
+HEX10_FACTOR = 1.5
+"""HEX10 channels may reach this multiple of the sensor's overload range (clipped there), which
+leaves room for a re-tared offset; a larger reading cannot come from the sensor."""
+_HEX10 = InstrumentParams()  # the sensor's data-sheet ranges are stated once, with the simulator's sensor
+MAX_FORCE_N = HEX10_FACTOR * _HEX10.hex10_overload_n
+"""An estimated force beyond this on an axis (N) cannot be carried through the shaft sensor: the
+estimate is flagged ``IMPLAUSIBLE``."""
+_FILTER_SETTLED = 1e-4
+"""The post-filter has forgotten a sample once its impulse response is below this (a
+:data:`MAX_FORCE_N` spike then contributes < 0.02 N)."""
+
+
+def physical_bounds(psm=None) -> dict[str, tuple[float, float]]:
+    """Per recorded column, the (low, high) range a real sample can take (units of
+    :mod:`psm_model.recording`): the URDF's joint, velocity and effort limits of ``psm`` (default
+    the bundled PSM) widened by :data:`POSITION_MARGIN`, :data:`VELOCITY_FACTOR`,
+    :data:`EFFORT_FACTOR`, and the HEX10's overload times :data:`HEX10_FACTOR`."""
+    if psm is None:
+        from psm_model import PSM
+        psm = PSM()
+    model = psm.model
+    idx_v = [model.joints[model.getJointId(j)].idx_v for j in JOINTS]
+    low, high = np.asarray(psm.lower_limits, float), np.asarray(psm.upper_limits, float)
+    margin = POSITION_MARGIN * (high - low)
+    velocity = VELOCITY_FACTOR * np.asarray(model.velocityLimit)[idx_v]
+    effort = EFFORT_FACTOR * np.asarray(model.effortLimit)[idx_v]
+    bounds = {}
+    for k in range(len(JOINTS)):
+        bounds[JOINT_POSITIONS[k]] = (low[k] - margin[k], high[k] + margin[k])
+        bounds[JOINT_VELOCITIES[k]] = (-velocity[k], velocity[k])
+        bounds[JOINT_EFFORTS[k]] = (-effort[k], effort[k])
+    for names, limit in ((HEX10_FORCE, _HEX10.hex10_overload_n),
+                         (HEX10_TORQUE, _HEX10.hex10_overload_moment_nm)):
+        for c in names:
+            bounds[c] = (-HEX10_FACTOR * limit, HEX10_FACTOR * limit)
+    return bounds
 
 
 class StreamingError(ValueError):
@@ -83,6 +146,8 @@ class Flags(enum.IntFlag):
     GAP = 16
     EXTRAPOLATION = 32
     HELD = 64
+    RESET = 128
+    IMPLAUSIBLE = 256
 
 
 class Estimate(NamedTuple):
@@ -120,6 +185,18 @@ class CausalFilter:
 
     def reset(self) -> None:
         self._n = 0
+
+    def memory_samples(self) -> int:
+        """How many outputs one input still influences: 1 without a filter, the kernel for the
+        median, for the low-pass until its impulse response falls below ``_FILTER_SETTLED``."""
+        if self.kind == "median":
+            return self.median_kernel
+        if self.kind == "lowpass":
+            impulse = np.zeros(int(20 * self.rate_hz / self.lowpass_hz))  # 20 cut-off periods
+            impulse[0] = 1.0
+            response = np.abs(signal.sosfilt(self._sos, impulse))
+            return int(np.nonzero(response > _FILTER_SETTLED)[0].max()) + 1
+        return 1
 
     def lag_samples(self) -> float:
         """Delay the filter adds to slow signals, samples: (k - 1) / 2 for the trailing median
@@ -234,9 +311,12 @@ class StreamingEstimator:
                                  f"{type(model).__name__}")
         if len(base_columns) not in (0, 3):
             raise StreamingError(f"base needs 0 or 3 columns, got {list(base_columns)}")
-        if rate_hz <= 0 or max_gap_samples < 0:
-            raise StreamingError(f"rate_hz must be > 0 and max_gap_samples >= 0, got {rate_hz}, "
-                                 f"{max_gap_samples}")
+        if not (isinstance(rate_hz, (int, float)) and math.isfinite(rate_hz) and rate_hz > 0):
+            raise StreamingError(f"rate_hz must be a finite number > 0 (Hz), got {rate_hz!r}")
+        if isinstance(max_gap_samples, bool) or not isinstance(max_gap_samples, int) \
+                or max_gap_samples < 0:
+            raise StreamingError(f"max_gap_samples must be an integer >= 0, got "
+                                 f"{max_gap_samples!r}")
         self.model = model.eval()
         self.inputs = HybridInputs(features, base_columns, input_scaler, prior,
                                    extra_columns=CHAIN_POSITIONS if psm is not None else (),
@@ -263,6 +343,11 @@ class StreamingEstimator:
             self._lo = np.full(n_feat, -extrapolation_z, np.float32)
             self._hi = np.full(n_feat, extrapolation_z, np.float32)
         self._get = operator.itemgetter(*self.columns)
+        bounds = physical_bounds(psm)
+        finite = np.finfo(np.float64).max  # a column without a physical bound: finite is enough
+        self._raw_lo = np.array([bounds.get(c, (-finite, finite))[0] for c in self.columns])
+        self._raw_hi = np.array([bounds.get(c, (-finite, finite))[1] for c in self.columns])
+        self._memory = self.window + self.filter.memory_samples() - 1
         if psm is not None:
             self._hex_rotation = HexRotation(psm)
             self._q_index = np.array([self.columns.index(c) for c in CHAIN_POSITIONS])
@@ -270,6 +355,7 @@ class StreamingEstimator:
         self._force = np.zeros(3)
         self._held = np.full(3, np.nan)
         self._outside = np.zeros(n_feat, bool)
+        self._in_bounds = np.zeros(len(self.columns), bool)
         self.reset()
 
     @classmethod
@@ -288,16 +374,16 @@ class StreamingEstimator:
 
     def reset(self) -> None:
         """Forget all history (network cache, filter, timestamps): the next sample starts over."""
-        self._net.reset()
-        self.filter.reset()
-        self._seen = 0
+        self._restart()
         self._last_time: float | None = None
+        self._behind = 0
         self._held[:] = np.nan
 
     def _restart(self) -> None:
         self._net.reset()
         self.filter.reset()
         self._seen = 0
+        self._tainted = 0  # outputs left that remember an extrapolating input
 
     def _held_estimate(self, flags: int, base_frame: bool) -> Estimate:
         flags |= Flags.HELD
@@ -311,6 +397,33 @@ class StreamingEstimator:
     def _rotation(self) -> np.ndarray:
         return self._hex_rotation(self._raw[self._q_index])
 
+    def _read(self, sample, time, overload) -> tuple[float, bool] | None:
+        """Sample -> :attr:`_raw`, (time s, overload); None for a sample that cannot be used
+        (malformed, non-finite, beyond its physical bounds)."""
+        try:
+            if isinstance(sample, np.ndarray):
+                if sample.shape != self._raw.shape:
+                    return None
+                self._raw[:] = sample
+            else:
+                self._raw[:] = self._get(sample)
+                if time is None:
+                    time = sample.get("time")
+                if overload is None:
+                    overload = sample.get(OVERLOAD, 0)
+            time = float(time)
+            overload = bool(overload)
+        except (KeyError, TypeError, ValueError, AttributeError, OverflowError):
+            return None
+        # one comparison per bound also refuses NaN (every comparison with NaN is false)
+        np.less_equal(self._raw_lo, self._raw, out=self._in_bounds)
+        if not self._in_bounds.all():
+            return None
+        np.less_equal(self._raw, self._raw_hi, out=self._in_bounds)
+        if not self._in_bounds.all() or not math.isfinite(time):
+            return None
+        return time, overload
+
     def step(self, sample, time: float | None = None, *, overload: bool | None = None,
              base_frame: bool = False) -> Estimate:
         """Feed one sample; return its :class:`Estimate`.
@@ -318,65 +431,63 @@ class StreamingEstimator:
         ``sample``: a mapping with every name of :attr:`columns` (plus optionally ``time`` and
         ``hex10_overload``), or a 1-D array in :attr:`columns` order. ``time`` (s) overrides
         the mapping's ``time``. ``overload``: the sensor's overload signal for array samples.
-        Bad samples are flagged, never raised; a wrongly shaped array is a programming error
-        and raises :class:`StreamingError`.
+        Bad samples (anything :class:`Flags` lists) are flagged, never raised; only asking for
+        ``base_frame`` without a PSM model raises :class:`StreamingError`.
         """
         if base_frame and not hasattr(self, "_hex_rotation"):
             raise StreamingError("base-frame output needs the PSM model: construct the estimator "
                                  "with psm=psm_model.PSM()")
-        flags = 0
-        if isinstance(sample, np.ndarray):
-            if sample.shape != self._raw.shape:
-                raise StreamingError(f"array sample must have shape {self._raw.shape} "
-                                     f"(columns {list(self.columns)}), got {sample.shape}")
-            self._raw[:] = sample
-        else:
-            try:
-                self._raw[:] = self._get(sample)
-                if time is None:
-                    time = sample["time"]
-            except (KeyError, TypeError, ValueError):
-                return self._held_estimate(flags | Flags.INVALID_INPUT, base_frame)
-            if overload is None:
-                overload = sample.get(OVERLOAD, 0)
-        if time is None:
-            raise StreamingError("no timestamp: pass time=... or a 'time' field")
-        try:
-            time = float(time)
-        except (TypeError, ValueError):
-            return self._held_estimate(flags | Flags.INVALID_INPUT, base_frame)
-        if not (np.isfinite(self._raw).all() and np.isfinite(time)):
-            return self._held_estimate(flags | Flags.INVALID_INPUT, base_frame)
+        read = self._read(sample, time, overload)
+        if read is None:
+            return self._held_estimate(Flags.INVALID_INPUT, base_frame)
+        time, overload = read
+        flags = Flags.OVERLOAD if overload else 0
         last = self._last_time
         if last is not None:
             if time <= last:
-                return self._held_estimate(flags | Flags.TIME_BACKWARDS, base_frame)
-            if round((time - last) * self.rate_hz) - 1 > self.max_gap_samples:
+                self._behind += 1
+                if self._behind <= self.max_gap_samples:
+                    return self._held_estimate(flags | Flags.TIME_BACKWARDS, base_frame)
+                flags |= Flags.TIME_BACKWARDS | Flags.GAP  # the clock restarted: so do we
+                self._restart()
+            elif round((time - last) * self.rate_hz) - 1 > self.max_gap_samples:
                 flags |= Flags.GAP
                 self._restart()
-        self._last_time = time
-        if overload:
-            flags |= Flags.OVERLOAD
 
         inputs = self.inputs
         inputs.sample(self._raw)
+        if not (np.isfinite(inputs.x).all() and np.isfinite(inputs.base).all()):
+            return self._held_estimate(flags | Flags.INVALID_INPUT, base_frame)
+        self._last_time = time
+        self._behind = 0
         np.less(inputs.x, self._lo, out=self._outside)
-        if self._outside.any():
-            flags |= Flags.EXTRAPOLATION
-        else:
+        extrapolating = self._outside.any()
+        if not extrapolating:
             np.greater(inputs.x, self._hi, out=self._outside)
-            if self._outside.any():
-                flags |= Flags.EXTRAPOLATION
+            extrapolating = self._outside.any()
         y = self._net.step(inputs.x)
         force = self._force
         np.multiply(y, self._y_std, out=force)
         np.add(force, self._y_mean, out=force)
         if len(inputs.base):
             np.add(force, inputs.base, out=force)
+        if not np.isfinite(force).all():
+            self._restart()
+            return self._held_estimate(flags | Flags.RESET, base_frame)
         filtered = self.filter.step(force)
+        if not np.isfinite(filtered).all():
+            self._restart()
+            return self._held_estimate(flags | Flags.RESET, base_frame)
         self._seen += 1
+        if extrapolating:
+            self._tainted = self._memory
+        if self._tainted > 0:
+            flags |= Flags.EXTRAPOLATION
+            self._tainted -= 1
         if self._seen < self.window:
             flags |= Flags.WARMING_UP
+        if (np.abs(filtered) > MAX_FORCE_N).any():
+            flags |= Flags.IMPLAUSIBLE
         self._held[:] = filtered
         base = self._rotation() @ filtered if base_frame else None
         return Estimate(filtered.copy(), int(flags), base)

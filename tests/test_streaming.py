@@ -14,8 +14,8 @@ from hybrid.hybrid import (BASE_COLUMNS, COMPENSATED_HEX10, HYBRID_FEATURES, Hex
                            HybridInputs, SamplePrior, compensated_hex10, hybrid_columns,
                            sample_prior)
 from hybrid.models import build_model
-from hybrid.streaming import (CHAIN_POSITIONS, CausalFilter, Flags, StreamingError,
-                              StreamingEstimator)
+from hybrid.streaming import (CHAIN_POSITIONS, MAX_FORCE_N, CausalFilter, Flags, StreamingError,
+                              StreamingEstimator, physical_bounds)
 from psm_model.identification.insertion import InsertionEffortModel
 from psm_model.recording import HEX10, PAPER_FEATURES, REQUIRED
 
@@ -58,14 +58,21 @@ class StandInPrior:
         return np.r_[self.A @ values[:4] + self.b, 0.5 - values[4]]
 
 
+BOUNDS = physical_bounds()
+
+
 def recording(n: int = 400, seed: int = 0) -> pd.DataFrame:
-    """Smooth random signals in the recording layout (joint positions inside the PSM's range)."""
+    """Smooth random signals in the recording layout, well inside each column's physical bounds
+    (amplitude 0.5 or a quarter of the bound, whichever is smaller)."""
     rng = np.random.default_rng(seed)
     t = np.arange(n) / RATE_HZ
     cols = {"time": t}
     for k, c in enumerate(REQUIRED[1:]):
         f = rng.uniform(0.1, 1.0)
-        cols[c] = 0.5 * np.sin(2 * np.pi * f * t + k) + 0.05 * rng.standard_normal(n)
+        lo, hi = BOUNDS[c]
+        amplitude = min(0.5, (hi - lo) / 8)
+        cols[c] = ((lo + hi) / 2 + amplitude * np.sin(2 * np.pi * f * t + k)
+                   + 0.1 * amplitude * rng.standard_normal(n))
     cols["insertion_position"] = 0.12 + 0.02 * np.sin(t)
     return pd.DataFrame(cols)
 
@@ -186,13 +193,13 @@ def test_overload_extrapolation_and_array_input():
     out = est.step(values[1], time=row["time"] + 0.01)
     assert out.flags == Flags.WARMING_UP
     far = values[2].copy()
-    far[est.columns.index("pitch_effort")] = 1e3
+    far[est.columns.index("pitch_effort")] = 5.0  # Nm: physical, far outside the training range
     assert est.step(far, time=row["time"] + 0.02, overload=True).flags & (
         Flags.EXTRAPOLATION | Flags.OVERLOAD) == Flags.EXTRAPOLATION | Flags.OVERLOAD
-    with pytest.raises(StreamingError, match="array sample must have shape"):
-        est.step(values[3][:-1], time=1.0)
-    with pytest.raises(StreamingError, match="no timestamp"):
-        est.step(values[3])
+    # a bad array sample is flagged like a bad mapping, never raised
+    for bad, when in ((values[3][:-1], 1.0), (values[3], None), (np.full(values[3].shape, "abc"), 1.0)):
+        out = est.step(bad, time=when)
+        assert out.flags & Flags.INVALID_INPUT and out.flags & Flags.HELD
 
 
 def test_base_frame_output_is_the_psm_rotation_of_the_hex10_force():
@@ -262,3 +269,112 @@ def test_sample_prior_matches_the_identification_prior_on_whole_recordings():
     g_hex = gravity_in_hex10(q, prior.psm)
     assert np.abs(g_hex).max() > 1.0  # gravity enters the prediction for these poses
     assert sample_prior(StandInPrior()).__class__ is StandInPrior
+
+
+# ------------------------------------------------------------------ samples that cannot poison
+
+def _skipping(frame: pd.DataFrame, skip: int, **options) -> np.ndarray:
+    """The clean stream's estimates with sample ``skip`` left out (a bridged one-sample gap)."""
+    est = estimator(**options)
+    rows = frame.to_dict("records")
+    out = [est.step(r).force_hex10 for k, r in enumerate(rows) if k != skip]
+    return np.stack(out[:skip] + [out[skip - 1]] + out[skip:])
+
+
+@pytest.mark.parametrize("column, value", [("roll_position", 1e30), ("fz", 1e39),
+                                           ("jaw_velocity", 1e39), ("insertion_effort", 1e4),
+                                           ("insertion_effort", 1e20), ("tx", -1e5)])
+def test_one_finite_extreme_sample_is_refused_and_leaves_no_trace(column, value):
+    """Issue 14 item 1: with the low-pass, one such sample gave NaN for good (flags 0)."""
+    frame = recording(200)
+    clean = _skipping(frame, 100, post_filter="lowpass")
+    est = estimator(post_filter="lowpass")
+    rows = frame.to_dict("records")
+    outs = [est.step(dict(r, **{column: value}) if k == 100 else r) for k, r in enumerate(rows)]
+    assert outs[100].flags & Flags.INVALID_INPUT and outs[100].flags & Flags.HELD
+    assert not any(o.flags & (Flags.INVALID_INPUT | Flags.EXTRAPOLATION) for o in outs[101:])
+    np.testing.assert_allclose(np.stack([o.force_hex10 for o in outs]), clean, atol=1e-9)
+
+
+def test_physical_spike_is_flagged_until_the_estimate_has_forgotten_it():
+    frame = recording(300)
+    clean = _skipping(frame, 100, post_filter="lowpass")
+    est = estimator(post_filter="lowpass")
+    memory = est.window + est.filter.memory_samples() - 1
+    assert est.filter.memory_samples() > 10  # the low-pass remembers for tens of samples
+    rows = frame.to_dict("records")
+    spike = 25.0  # N: inside the insertion drive's physical bound, far outside the training range
+    outs = [est.step(dict(r, insertion_effort=spike) if k == 100 else r)
+            for k, r in enumerate(rows)]
+    flags = np.array([o.flags for o in outs])
+    assert (flags[100:100 + memory] & Flags.EXTRAPOLATION).all()
+    assert not (flags[100 + memory:] & Flags.EXTRAPOLATION).any()
+    forces = np.stack([o.force_hex10 for o in outs])
+    assert np.abs(forces[100:100 + memory] - clean[100:100 + memory]).max() > 1.0  # it did move
+    np.testing.assert_allclose(forces[100 + memory:], clean[100 + memory:], atol=1e-3)
+
+
+def test_non_finite_state_resets_itself_and_says_so(monkeypatch):
+    frame = recording(120)
+    rows = frame.to_dict("records")
+    est = estimator(post_filter="lowpass")
+    last = [est.step(r) for r in rows[:50]][-1]
+    est.filter._z[:] = np.nan  # a corrupted filter state
+    out = est.step(rows[50])
+    assert out.flags & Flags.RESET and out.flags & Flags.HELD and out.flags & Flags.WARMING_UP
+    np.testing.assert_array_equal(out.force_hex10, last.force_hex10)
+    monkeypatch.setattr(est._net, "step", lambda x: np.full(3, np.inf, np.float32))
+    out = est.step(rows[51])
+    assert out.flags & Flags.RESET and np.isfinite(out.force_hex10).all()
+    monkeypatch.undo()
+    after = [est.step(r) for r in rows[52:]]
+    assert all(np.isfinite(o.force_hex10).all() for o in after)
+    assert after[0].flags & Flags.WARMING_UP and not after[-1].flags & Flags.WARMING_UP
+
+
+@pytest.mark.parametrize("rate_hz", [float("nan"), float("inf"), 0.0, -100.0, "100"])
+def test_constructor_refuses_a_rate_that_is_not_a_positive_number(rate_hz):
+    with pytest.raises(StreamingError, match="rate_hz"):
+        estimator(rate_hz=rate_hz)
+
+
+def test_missing_time_is_flagged_and_a_future_timestamp_cannot_lock_the_stream_out():
+    frame = recording(80)
+    rows = frame.to_dict("records")
+    est = estimator()
+    for r in rows[:20]:
+        est.step(r)
+    out = est.step({k: v for k, v in rows[20].items() if k != "time"})
+    assert out.flags & Flags.INVALID_INPUT and out.flags & Flags.HELD
+    assert not est.step(rows[20], time=None).flags & Flags.HELD  # the mapping's time is used
+    values = frame[list(est.columns)].to_numpy()
+    assert est.step(values[21], time=None).flags & Flags.INVALID_INPUT  # an array has none
+    out = est.step(dict(rows[21], time=1e9))  # one corrupt clock reading, far ahead
+    assert out.flags & Flags.GAP
+    outs = [est.step(r) for r in rows[22:]]
+    held = est.max_gap_samples
+    assert all(o.flags & Flags.TIME_BACKWARDS and o.flags & Flags.HELD for o in outs[:held])
+    assert outs[held].flags & Flags.GAP and not outs[held].flags & Flags.HELD  # clock restarted
+    assert not any(o.flags & (Flags.HELD | Flags.TIME_BACKWARDS) for o in outs[held + 1:])
+
+
+def test_an_estimate_beyond_what_the_sensor_can_carry_is_flagged():
+    features, base = hybrid_columns(True)
+    model, xs, _ = model_and_scalers(len(features))
+    huge = Scaler(np.full(3, 2 * MAX_FORCE_N, np.float32), np.ones(3, np.float32))
+    est = StreamingEstimator(model, features, xs, huge, base, StandInPrior())
+    out = est.step(recording(1).to_dict("records")[0])
+    assert out.flags & Flags.IMPLAUSIBLE and np.isfinite(out.force_hex10).all()
+
+
+def test_adversarial_stream_property():
+    """2 x 10^4 samples, 10 % corrupted (hybrid/streaming_fuzz.py; 10^6 in
+    benchmarks/streaming_fuzz.py): no exception, every estimate finite, every malformed sample
+    refused, every estimate far from the clean stream's flagged."""
+    from hybrid.streaming_fuzz import KINDS, fuzz_stream
+    report = fuzz_stream(lambda: estimator(post_filter="lowpass", backend="numpy"),
+                         recording(2000, seed=3), 20_000, seed=1)
+    assert set(report["kinds"]) == set(KINDS)
+    assert report["flags"]["INVALID_INPUT"] > 1000 and report["flags"]["EXTRAPOLATION"] > 100
+    for violation in ("exceptions", "non_finite", "not_refused", "unflagged_far"):
+        assert report[violation] == 0, (violation, report["examples"][violation])
