@@ -8,18 +8,23 @@ for the Jacobian-map columns, ``"prior"`` for the prior-compensated columns) wit
 JSON its ``save`` writes; software versions; training provenance (data folder, split, seed, epochs,
 losses, wall time). Writes are atomic (temporary file, then rename).
 
-Loading refuses, with :class:`CheckpointError` naming the problem: an unreadable or corrupt file,
-a file of another format or format version, a model name or config the code cannot build, and
-weights that do not fit the config. :func:`check_compatible` refuses a checkpoint for a setup it
+The metadata carries ``weights_sha256``, a SHA-256 over the weights (:func:`weights_sha256`: each
+tensor's name, dtype, shape and bytes, in name order); loading recomputes it, so bytes changed
+inside the weights are caught, not loaded (version 1 files, written before the checksum, load
+without it).
+
+Loading refuses, with :class:`CheckpointError` naming the file and the problem in one line: an
+empty, unreadable or corrupt file (a text file, a truncated one, weights not matching their
+checksum), a file of another format or format version, a model name or config the code cannot
+build, and weights that do not fit the config. :func:`check_compatible` refuses a checkpoint for a setup it
 was not trained for (another model, other features, a dataset lacking its input columns).
 """
 
 from __future__ import annotations
 
+import hashlib
 import json
-import pickle
 import platform
-import zipfile
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Sequence
@@ -32,7 +37,9 @@ from hybrid.data import Scaler
 from hybrid.models import build_model
 
 FORMAT = "psmforce-checkpoint"
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2
+"""2: the metadata carries ``weights_sha256``. Version 1 files (no checksum) are still read."""
+_READABLE_VERSIONS = (1, 2)
 
 
 class CheckpointError(ValueError):
@@ -64,17 +71,34 @@ def _versions() -> dict:
             "python": platform.python_version()}
 
 
+def weights_sha256(state: dict) -> str:
+    """SHA-256 hex digest of a state dict of tensors: name, dtype, shape and raw bytes of each,
+    in name order (independent of the device and of how torch lays out the file)."""
+    digest = hashlib.sha256()
+    for name in sorted(state):
+        tensor = state[name].detach().cpu().contiguous()
+        digest.update(f"{name}|{tensor.dtype}|{tuple(tensor.shape)}|".encode())
+        digest.update(tensor.reshape(-1).view(torch.uint8).numpy().tobytes())
+    return digest.hexdigest()
+
+
+def _first_line(err: BaseException) -> str:
+    text = str(err).strip()
+    return f"{type(err).__name__}: {text.splitlines()[0][:200]}" if text else type(err).__name__
+
+
 def save_checkpoint(path: str | Path, model: nn.Module, *, model_name: str, config: dict,
                     features: Sequence[str], input_scaler: Scaler, target_scaler: Scaler,
                     base_columns: Sequence[str] = (), derivation: str = "none", prior_json: str | None = None,
                     provenance: dict | None = None) -> Path:
     path = Path(path)
+    state = {k: v.detach().cpu() for k, v in model.state_dict().items()}
     meta = {"format": FORMAT, "format_version": FORMAT_VERSION, "model": model_name,
             "config": config, "features": list(features),
             "input_scaler": input_scaler.to_dict(), "target_scaler": target_scaler.to_dict(),
-            "base_columns": list(base_columns), "derivation": derivation, "versions": _versions(), "provenance": provenance or {}}
-    payload = {"meta": json.dumps(meta), "prior_json": prior_json or "",
-               "state_dict": {k: v.detach().cpu() for k, v in model.state_dict().items()}}
+            "base_columns": list(base_columns), "derivation": derivation, "versions": _versions(),
+            "provenance": provenance or {}, "weights_sha256": weights_sha256(state)}
+    payload = {"meta": json.dumps(meta), "prior_json": prior_json or "", "state_dict": state}
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(path.name + ".part")
     try:
@@ -89,22 +113,34 @@ def load_checkpoint(path: str | Path, device: str = "cpu") -> Checkpoint:
     path = Path(path)
     if not path.is_file():
         raise CheckpointError(f"checkpoint {path} does not exist")
+    if path.stat().st_size == 0:
+        raise CheckpointError(f"{path}: empty file, not a psmforce checkpoint")
     try:
         payload = torch.load(path, map_location=device, weights_only=True)
-    except (RuntimeError, EOFError, OSError, ValueError, pickle.UnpicklingError,
-            zipfile.BadZipFile) as err:
+    except Exception as err:  # noqa: BLE001 - foreign bytes raise anything (text: KeyError)
         raise CheckpointError(f"{path}: corrupt or not a psmforce checkpoint "
-                              f"({type(err).__name__}: {str(err).splitlines()[0][:200]})") from None
+                              f"({_first_line(err)})") from None
     try:
         meta = json.loads(payload["meta"])
         state = payload["state_dict"]
-    except (TypeError, KeyError, json.JSONDecodeError):
+        version = meta.get("format_version")
+    except (TypeError, KeyError, IndexError, AttributeError, json.JSONDecodeError):
         raise CheckpointError(f"{path}: not a psmforce checkpoint (no metadata)") from None
     if meta.get("format") != FORMAT:
         raise CheckpointError(f"{path}: not a psmforce checkpoint (format {meta.get('format')!r})")
-    if meta.get("format_version") != FORMAT_VERSION:
-        raise CheckpointError(f"{path}: checkpoint format version {meta.get('format_version')}, "
-                              f"this code reads version {FORMAT_VERSION}")
+    if version not in _READABLE_VERSIONS:
+        raise CheckpointError(f"{path}: checkpoint format version {version!r}, this code reads "
+                              f"versions {list(_READABLE_VERSIONS)}")
+    if not isinstance(state, dict) or not all(isinstance(v, torch.Tensor)
+                                              for v in state.values()):
+        raise CheckpointError(f"{path}: corrupt checkpoint (weights are not a dict of tensors)")
+    if version >= 2 and weights_sha256(state) != meta.get("weights_sha256"):
+        raise CheckpointError(f"{path}: corrupt checkpoint (the weights do not match their "
+                              f"SHA-256 checksum)")
+    missing = [k for k in ("model", "config", "features", "input_scaler", "target_scaler",
+                           "base_columns", "derivation") if k not in meta]
+    if missing:
+        raise CheckpointError(f"{path}: corrupt checkpoint (metadata lacks {missing})")
     features = tuple(meta["features"])
     try:
         model = build_model(meta["model"], len(features), meta["config"])
@@ -115,15 +151,15 @@ def load_checkpoint(path: str | Path, device: str = "cpu") -> Checkpoint:
         model.load_state_dict(state, strict=True)
     except RuntimeError as err:
         raise CheckpointError(f"{path}: weights do not fit model '{meta['model']}' with "
-                              f"{len(features)} inputs and config {meta['config']}: "
-                              f"{str(err).splitlines()[0][:300]}") from None
+                              f"{len(features)} inputs and config {meta['config']} "
+                              f"({_first_line(err)})") from None
     model.to(device).eval()
     return Checkpoint(meta["model"], meta["config"], features,
                       Scaler.from_dict(meta["input_scaler"]),
                       Scaler.from_dict(meta["target_scaler"]), tuple(meta["base_columns"]),
                       meta["derivation"],
-                      payload.get("prior_json") or None, meta["versions"], meta["provenance"],
-                      model)
+                      payload.get("prior_json") or None, meta.get("versions", {}),
+                      meta.get("provenance", {}), model)
 
 
 def check_compatible(ckpt: Checkpoint, *, model_name: str | None = None,
