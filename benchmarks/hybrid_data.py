@@ -20,7 +20,7 @@ import numpy as np
 import pandas as pd
 import torch
 
-from hybrid.data import WindowSet, fit_scalers, load_dataset, resolve_features
+from hybrid.data import WindowSet, fit_scalers, index_recordings, load_dataset, resolve_features
 from psm_model.recording import REQUIRED, TARGETS, write_recording
 from _report import write_json
 
@@ -42,6 +42,7 @@ def main() -> dict:
             data = {"time": np.arange(per_file) / 100.0}
             data.update({c: rng.normal(size=per_file) for c in REQUIRED[1:] + TARGETS})
             write_recording(pd.DataFrame(data), folder / f"trial_{k:03d}.csv")
+        index_recordings(root)
         t0 = time.perf_counter()
         dataset = load_dataset(root)
         t_load = time.perf_counter() - t0

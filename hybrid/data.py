@@ -1,9 +1,11 @@
 """Recordings -> model-ready arrays: loading, feature sets, the paper's split, scaling, windows.
 
-A dataset is a folder of recording CSVs (layout and units: :mod:`psm_model.recording`). With a
-``metadata.json`` (the simulator writes one) its ``trials`` list gives each file's condition and
-split; without one, the condition is the parent folder's name (Free, Traction, Palpation, Rigid,
-Soft) and the split the grandparent's (train, test, config_k, ...).
+A dataset is a folder of recording CSVs (layout and units: :mod:`psm_model.recording`) with a
+``metadata.json`` whose ``trials`` list gives each file's path, condition and split. The simulator
+writes it last, so a folder without it is an interrupted or foreign one and is refused: a dataset
+is read whole or not at all. A folder of your own recordings becomes a dataset explicitly with
+:func:`index_recordings` (``psmforce index DIR``): condition = each file's parent folder (Free,
+Traction, Palpation, Rigid, Soft), split = the grandparent (train, test, config_k, ...).
 
 Splits (seed paper, "Training and Testing Data Split"): the test trials are fixed by the dataset;
 validation is ~10 % of the training trials, drawn per condition with a seed; free-space training
@@ -28,7 +30,7 @@ import pandas as pd
 import torch
 
 from psm_model.recording import (HEX10, JOINT_EFFORTS, JOINT_POSITIONS, JOINT_VELOCITIES,
-                                 PAPER_FEATURES, TARGETS, read_recording)
+                                 PAPER_FEATURES, TARGETS, list_recordings, read_recording)
 
 FREE_STRIDE_FACTOR = 4
 """Free-space trials are windowed this many times sparser in train/val (25 % down-sampling)."""
@@ -129,32 +131,40 @@ class Dataset:
                                      pd.DataFrame(new, index=trial.frame.index)], axis=1)
 
 
+METADATA = "metadata.json"
+
+
 def load_dataset(root: str | Path, *, require_targets: bool = True, threads: int = 2) -> Dataset:
-    """Read every recording under ``root`` (see module docstring for how conditions and splits
-    are found). Raises :class:`DatasetError` for a missing or empty folder and passes on
-    :class:`psm_model.recording.RecordingError` naming a bad file."""
+    """Read every recording listed in ``root/metadata.json`` (module docstring). Raises
+    :class:`DatasetError` naming the folder or file: a missing folder, no or unreadable
+    metadata, an empty or malformed ``trials`` list; passes on
+    :class:`psm_model.recording.RecordingError` naming a bad recording."""
     root = Path(root)
     if not root.is_dir():
         raise DatasetError(f"dataset folder {root} does not exist")
-    meta_path = root / "metadata.json"
-    metadata: dict = {}
-    if meta_path.exists():
-        try:
-            metadata = json.loads(meta_path.read_text())
-        except json.JSONDecodeError as err:
-            raise DatasetError(f"{meta_path}: not valid JSON ({err})") from None
-    entries = metadata.get("trials")
-    if entries:
-        try:
-            listed = [(e["path"], e["condition"], e["split"], e) for e in entries]
-        except KeyError as err:
-            raise DatasetError(f"{meta_path}: a trial entry lacks {err}") from None
-    else:
-        files = sorted(root.rglob("*.csv"))
-        listed = [(str(p.relative_to(root)), p.parent.name,
-                   p.parent.parent.name if p.parent.parent != root else "", {}) for p in files]
-    if not listed:
-        raise DatasetError(f"no recordings (*.csv) under {root}")
+    meta_path = root / METADATA
+    if not meta_path.is_file():
+        raise DatasetError(f"{root}: no {METADATA}, so not a complete dataset (an interrupted "
+                           f"simulate leaves none); for a folder of your own recordings run "
+                           f"'psmforce index {root}' first")
+    try:
+        metadata = json.loads(meta_path.read_text())
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as err:
+        raise DatasetError(f"{meta_path}: not valid JSON ({err})") from None
+    entries = metadata.get("trials") if isinstance(metadata, dict) else None
+    if not isinstance(entries, list) or not entries:
+        raise DatasetError(f"{meta_path}: needs a non-empty 'trials' list (one entry per "
+                           f"recording: path, condition, split)")
+    listed = []
+    for k, e in enumerate(entries):
+        if not isinstance(e, dict) or not all(isinstance(e.get(f), str)
+                                              for f in ("path", "condition", "split")):
+            raise DatasetError(f"{meta_path}: trial entry {k} needs string fields 'path', "
+                               f"'condition' and 'split', got {e!r:.200}")
+        if Path(e["path"]).is_absolute() or ".." in Path(e["path"]).parts:
+            raise DatasetError(f"{meta_path}: trial entry {k} path {e['path']!r} must be "
+                               f"relative and inside {root}")
+        listed.append((e["path"], e["condition"], e["split"], e))
 
     def read(item):
         rel, condition, split, extra = item
@@ -165,6 +175,26 @@ def load_dataset(root: str | Path, *, require_targets: bool = True, threads: int
     with ThreadPoolExecutor(max_workers=max(1, threads)) as pool:
         trials = list(pool.map(read, listed))
     return Dataset(root, trials, metadata)
+
+
+def index_recordings(root: str | Path) -> Path:
+    """Make a folder of recordings a dataset: write ``root/metadata.json`` listing every CSV
+    under it, condition and split from its folders (module docstring). Refuses a folder that
+    already has one (it may hold a simulator's parameters). Returns the metadata path."""
+    from hybrid.evaluate import write_text_atomic
+    root = Path(root)
+    meta_path = root / METADATA
+    if root.is_file():
+        raise DatasetError(f"{root}: a dataset is a folder of recordings, not one file")
+    if meta_path.exists():
+        raise DatasetError(f"{meta_path} exists: the folder is already a dataset")
+    listed = list_recordings(root)  # refuses a missing folder or one without CSVs
+    trials = [{"path": r.path.relative_to(root).as_posix(), "condition": r.condition,
+               "split": r.split} for r in listed]
+    write_text_atomic(meta_path, json.dumps(
+        {"source": "psmforce index: condition = parent folder, split = its parent",
+         "trials": trials}, indent=1) + "\n")
+    return meta_path
 
 
 def trajectory_group(trial: Trial) -> str:

@@ -95,6 +95,14 @@ def _wrench(args) -> dict:
             "damped_samples": damped, "sigma_min_smallest": float(table["sigma_min"].min())}
 
 
+def _index(args) -> dict:
+    from hybrid.data import index_recordings
+    path = index_recordings(args.data)
+    trials = json.loads(path.read_text())["trials"]
+    print(f"wrote {path}: {len(trials)} recordings")
+    return {"metadata": str(path), "trials": trials}
+
+
 def _fit_prior(args) -> dict:
     from psm_model.identification import fit_prior_cli
     return fit_prior_cli(args.data, args.out, use_loaded=args.use_loaded)
@@ -226,6 +234,14 @@ def _parser() -> argparse.ArgumentParser:
                    help="frame: the frame's axes (default); base: moment about the RCM, base "
                         "axes; base_at_frame: moment about the frame's origin, base axes")
     p.add_argument("--json", help="write a summary here")
+
+    p = add("index", _index, "make a folder of your own recordings a dataset",
+            "Write DIR/metadata.json listing every recording CSV under DIR, its condition from its "
+            "folder (Free, Traction, Palpation, ...) and its split from the folder above (train, "
+            "test, config_k). train / finetune / evaluate read only folders with a metadata.json "
+            "(simulate writes one last, so an interrupted run is never read half).")
+    p.add_argument("data", metavar="DIR", help="folder of recordings: DIR/SPLIT/CONDITION/*.csv")
+    p.add_argument("--json", help="write the list of trials here")
 
     p = add("fit-prior", _fit_prior, "fit the internal-force prior (CasADi)",
             "Fit the instrument's internal-force prior (what the HEX10 reads with no external "

@@ -7,8 +7,8 @@ import pytest
 
 from psmforce.cli import main
 
-COMMANDS = ("simulate", "convert", "fit-dynamics", "fit-prior", "train", "finetune", "evaluate",
-            "reproduce", "export", "demo")
+COMMANDS = ("simulate", "convert", "index", "fit-dynamics", "fit-prior", "train", "finetune",
+            "evaluate", "reproduce", "export", "demo")
 
 
 @pytest.mark.parametrize("command", COMMANDS)

@@ -13,8 +13,8 @@ from torch import nn
 
 from hybrid import checkpoint as ck
 from hybrid.data import (FEATURE_SETS, FREE_STRIDE_FACTOR, DatasetError, Scaler, Trial, WindowSet,
-                         fit_scalers, load_dataset, resolve_features, sliding_windows,
-                         split_validation, subsample_trials)
+                         fit_scalers, index_recordings, load_dataset, resolve_features,
+                         sliding_windows, split_validation, subsample_trials)
 from hybrid.metrics import MetricError, axis_metrics, nrmse, postprocess, r2, rmse
 from hybrid.models import (FCN, PaperTransformer, build_model, count_parameters,
                            freeze_for_finetuning)
@@ -133,6 +133,9 @@ def test_load_dataset_from_folders_and_metadata(tmp_path):
                            ("test", "Palpation", 2)):
         (tmp_path / split / cond).mkdir(parents=True)
         write_recording(_frame(50, k), tmp_path / split / cond / f"t{k}.csv")
+    with pytest.raises(DatasetError, match="no metadata.json.*psmforce index"):
+        load_dataset(tmp_path)  # loose recordings become a dataset only explicitly
+    index_recordings(tmp_path)
     ds = load_dataset(tmp_path)
     assert sorted((t.split, t.condition) for t in ds.trials) == [
         ("test", "Palpation"), ("train", "Free"), ("train", "Traction")]
@@ -384,6 +387,7 @@ def test_train_and_evaluate_files_end_to_end(tmp_path):
                            ("train", "Free", 3), ("test", "Traction", 4), ("test", "Free", 5)):
         (data / split / cond).mkdir(parents=True, exist_ok=True)
         write_recording(_frame(260, k), data / split / cond / f"t{k}.csv")
+    index_recordings(data)
     summary = train(data, "fcn", tmp_path / "fcn.pt", epochs=2, seed=0,
                     train_config=TrainConfig(progress=False))
     assert summary["epochs_run"] == 2 and (tmp_path / "fcn.pt").exists()
@@ -402,6 +406,7 @@ def test_rocket_trains_evaluates_and_finetunes_through_checkpoints(tmp_path):
                            ("train", "Free", 3), ("test", "Traction", 4), ("test", "Free", 5)):
         (data / split / cond).mkdir(parents=True, exist_ok=True)
         write_recording(_frame(260, k), data / split / cond / f"t{k}.csv")
+    index_recordings(data)
     small = {"n_kernels_multirocket": 168, "n_kernels_hydra": 32}
     summary = train(data, "rocket", tmp_path / "rocket.pt", seed=3, config=small)
     assert summary["stopped_by"] == "closed form" and summary["converged"]
@@ -417,6 +422,7 @@ def test_rocket_trains_evaluates_and_finetunes_through_checkpoints(tmp_path):
         frame = _frame(260, k)
         frame[["ati_fx", "ati_fy", "ati_fz"]] *= -1.5
         write_recording(frame, tool / "train" / cond / f"t{k}.csv")
+    index_recordings(tool)
     tuned = finetune(tmp_path / "rocket.pt", tool, tmp_path / "tuned.pt", seed=3)
     assert tuned["stopped_by"] == "closed form"
     before, after = (ck.load_checkpoint(tmp_path / f) for f in ("rocket.pt", "tuned.pt"))
