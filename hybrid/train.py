@@ -427,6 +427,8 @@ def train(data_dir: str | Path, model: str, out_checkpoint: str | Path, *,
     from hybrid.models import MODEL_NAMES
     if model not in MODEL_NAMES:
         raise TrainingError(f"unknown model '{model}'; known: {list(MODEL_NAMES)}")
+    if isinstance(epochs, bool) or not isinstance(epochs, int) or epochs < 1:
+        raise TrainingError(f"epochs must be an integer >= 1, got {epochs!r}")
     cfg = train_config or TrainConfig(**MODEL_DEFAULTS.get(model, {}))
     cfg = TrainConfig(**{**cfg.to_dict(), "max_epochs": epochs, "seed": seed, "device": device})
     dataset = load_dataset(data_dir)
@@ -465,6 +467,8 @@ def finetune(checkpoint: str | Path, data_dir: str | Path, out: str | Path, *, e
     split folders, default all but ``test``), 10 % held out for validation; writes ``out``."""
     from hybrid.checkpoint import load_checkpoint
     from hybrid.evaluate import derive_for_checkpoint, setup_from_checkpoint
+    if isinstance(epochs, bool) or not isinstance(epochs, int) or epochs < 1:
+        raise TrainingError(f"epochs must be an integer >= 1, got {epochs!r}")
     ckpt = load_checkpoint(checkpoint, device)
     dataset = load_dataset(data_dir)
     derive_for_checkpoint(dataset, ckpt)

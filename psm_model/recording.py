@@ -145,9 +145,16 @@ def read_recording(path: str | Path, *, require_targets: bool = False,
         raise RecordingError(f"{path}: no rows")
     numeric = [c for c in frame.columns if c in COLUMNS or c.startswith("sim_")]
     values = frame[numeric]
-    if not all(np.issubdtype(t, np.number) for t in values.dtypes):
-        bad = [c for c, t in values.dtypes.items() if not np.issubdtype(t, np.number)]
-        raise RecordingError(f"{path}: non-numeric values in columns {bad}")
+    # is_numeric_dtype, not np.issubdtype: pandas reads a text cell as a string (extension)
+    # dtype numpy cannot interpret
+    bad = [c for c, t in values.dtypes.items() if not pd.api.types.is_numeric_dtype(t)]
+    if bad:
+        column = frame[bad[0]]
+        text = column.notna() & pd.to_numeric(column, errors="coerce").isna()
+        row = int(np.argmax(text.to_numpy())) if text.any() else 0
+        raise RecordingError(f"{path}: non-numeric value {column.iloc[row]!r} in column "
+                             f"'{bad[0]}' at row {row}" + (f" (also columns {bad[1:]})"
+                                                           if len(bad) > 1 else ""))
     finite = np.isfinite(values.to_numpy(dtype=float))
     if not finite.all():
         row, col = np.argwhere(~finite)[0]

@@ -10,10 +10,60 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 from pathlib import Path
 
 from psmforce import __version__
+
+MAX_SIMULATE_SCALE = 10.0
+"""``simulate --scale`` above this is refused before anything is allocated: 10 is ten times the
+paper's protocol (about 33 h of 100 Hz data, some 17 million rows, several GB of CSV); larger
+values are typos (1e6 ran out of memory half-way)."""
+
+
+def _writable_ancestor(target: Path, option: str) -> None:
+    """The nearest existing folder above ``target`` must be writable (the library creates the
+    missing ones): found before the work that produces the output, not after."""
+    parent = target.parent
+    while not parent.exists() and parent != parent.parent:
+        parent = parent.parent
+    if not parent.is_dir() or not os.access(parent, os.W_OK | os.X_OK):
+        raise ValueError(f"{option}: cannot write {target}: {parent} is not a writable folder")
+
+
+def _output_file(path: str, option: str, *, parents: bool = True) -> None:
+    """Refuse an output file that cannot be written (``parents``: missing folders get created)."""
+    target = Path(path)
+    if target.is_dir():
+        raise ValueError(f"{option}: {target} is a folder, expected a file name")
+    if not parents and not target.parent.is_dir():
+        raise ValueError(f"{option}: folder {target.parent} does not exist")
+    _writable_ancestor(target, option)
+
+
+def _fresh_folder(path: str, option: str) -> None:
+    """An output folder must be new or empty: results are never mixed with older ones."""
+    target = Path(path)
+    if target.exists():
+        if not target.is_dir():
+            raise ValueError(f"{option}: {target} exists and is not a folder")
+        if any(target.iterdir()):
+            raise ValueError(f"{option}: {target} is not empty (refusing to overwrite or mix "
+                             f"results; give a new folder)")
+    _writable_ancestor(target, option)
+
+
+def _training_options(args) -> None:
+    """What train / finetune would discover only after loading data or training."""
+    if args.epochs < 1:
+        raise ValueError(f"--epochs: must be at least 1, got {args.epochs}")
+    if args.device == "cuda":
+        import torch
+        if not torch.cuda.is_available():
+            raise ValueError("--device cuda: torch sees no CUDA device on this machine "
+                             "(use --device cpu)")
+    _output_file(args.out, "--out")
 
 
 def _write_json(path: str | None, payload: dict) -> None:
@@ -34,6 +84,9 @@ def _jsonable(value):
 
 
 def _simulate(args) -> dict:
+    if args.scale > MAX_SIMULATE_SCALE:
+        raise ValueError(f"--scale: at most {MAX_SIMULATE_SCALE:g} (times the paper's protocol), "
+                         f"got {args.scale:g}")
     from psm_model.sim import simulate
     return simulate(protocol=args.protocol, scale=args.scale, seed=args.seed, out=args.out,
                     port=args.port)
@@ -109,18 +162,21 @@ def _fit_prior(args) -> dict:
 
 
 def _train(args) -> dict:
+    _training_options(args)
     from hybrid.train import train
     return train(args.data, args.model, args.out, features=args.features, epochs=args.epochs,
                  seed=args.seed, device=args.device, prior=args.prior)
 
 
 def _finetune(args) -> dict:
+    _training_options(args)
     from hybrid.train import finetune
     return finetune(args.checkpoint, args.data, args.out, epochs=args.epochs, seed=args.seed,
                     device=args.device)
 
 
 def _evaluate(args) -> dict:
+    _fresh_folder(args.out, "--out")
     from hybrid.evaluate import evaluate
     return evaluate(args.checkpoint, args.data, args.out)
 
@@ -137,6 +193,7 @@ def _reproduce(args) -> dict:
 
 
 def _export(args) -> dict:
+    _fresh_folder(args.out, "--out")
     from hybrid.export import export
     return export(args.checkpoint, args.out)
 
@@ -332,6 +389,8 @@ def _parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     try:
+        if getattr(args, "json", None):
+            _output_file(args.json, "--json", parents=False)  # before the work, not after it
         result = args.func(args)
         _write_json(getattr(args, "json", None), result if isinstance(result, dict) else {})
     except KeyboardInterrupt:
