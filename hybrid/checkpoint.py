@@ -16,8 +16,9 @@ without it).
 Loading refuses, with :class:`CheckpointError` naming the file and the problem in one line: an
 empty, unreadable or corrupt file (a text file, a truncated one, weights not matching their
 checksum), a file of another format or format version, a model name or config the code cannot
-build, and weights that do not fit the config. :func:`check_compatible` refuses a checkpoint for a setup it
-was not trained for (another model, other features, a dataset lacking its input columns).
+build, and weights that do not fit the config. :func:`check_compatible` refuses a checkpoint for a
+setup it was not trained for (another model, other features, a dataset lacking its input
+columns).
 """
 
 from __future__ import annotations

@@ -96,7 +96,7 @@ gear ratio): joint efforts are coupled sums of saturated actuator currents (the 
 HEX10_FACTOR = 1.5
 """HEX10 channels may reach this multiple of the sensor's overload range (clipped there), which
 leaves room for a re-tared offset; a larger reading cannot come from the sensor."""
-_HEX10 = InstrumentParams()  # the sensor's data-sheet ranges are stated once, with the simulator's sensor
+_HEX10 = InstrumentParams()  # the HEX10's data-sheet ranges, stated once with the simulated sensor
 MAX_FORCE_N = HEX10_FACTOR * _HEX10.hex10_overload_n
 """An estimated force beyond this on an axis (N) cannot be carried through the shaft sensor: the
 estimate is flagged ``IMPLAUSIBLE``."""

@@ -197,7 +197,8 @@ def test_overload_extrapolation_and_array_input():
     assert est.step(far, time=row["time"] + 0.02, overload=True).flags & (
         Flags.EXTRAPOLATION | Flags.OVERLOAD) == Flags.EXTRAPOLATION | Flags.OVERLOAD
     # a bad array sample is flagged like a bad mapping, never raised
-    for bad, when in ((values[3][:-1], 1.0), (values[3], None), (np.full(values[3].shape, "abc"), 1.0)):
+    text = np.full(values[3].shape, "abc")
+    for bad, when in ((values[3][:-1], 1.0), (values[3], None), (text, 1.0)):
         out = est.step(bad, time=when)
         assert out.flags & Flags.INVALID_INPUT and out.flags & Flags.HELD
 
