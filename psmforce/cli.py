@@ -158,7 +158,17 @@ def _index(args) -> dict:
 
 def _fit_prior(args) -> dict:
     from psm_model.identification import fit_prior_cli
-    return fit_prior_cli(args.data, args.out, use_loaded=args.use_loaded)
+    report = fit_prior_cli(args.data, args.out, use_loaded=args.use_loaded,
+                           accept_poor_fit=args.accept_poor_fit)
+    metrics = report.get("test_free_metrics")
+    print(f"fit: {report['solver_status']} in {report['fit_time_s']:.1f} s; test Free "
+          + (", ".join(f"{c} RMS {metrics[c]['rms']:.3g}" for c in ("fx", "fy", "fz"))
+             + " N" if metrics else "not scored (no test/Free recordings)"))
+    if report["model"] is None:
+        raise ValueError(f"{args.out} not written: {report['model_not_saved_reason']}"
+                         + (" (--accept-poor-fit saves it anyway)" if report.get("poor_fit")
+                            else ""))
+    return report
 
 
 def _train(args) -> dict:
@@ -308,6 +318,9 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--use-loaded", action="store_true",
                    help="also fit on Traction/Palpation trials with the known ATI force "
                         "subtracted (excites the pulley radii: tip-load amplification)")
+    p.add_argument("--accept-poor-fit", action="store_true",
+                   help="save the prior even when its test Free force RMS exceeds the "
+                        "poor-fit threshold (psm_model.identification.prior.POOR_FIT_RMS_N)")
     p.add_argument("--json", help="write the fit statistics here")
 
     p = add("train", _train, "train an estimator",
