@@ -2,6 +2,7 @@
 and its wall-clock to convergence.
 
     python benchmarks/training.py [--steps 6] [--threads 2] [--converge-scale 0.1] [--json OUT]
+    python benchmarks/training.py --profile [--json OUT]
 
 Throughput: optimiser steps (forward, backward, Adam) on batches of the training loop's shape
 (window models: 256 windows; chunk models: 16 chunks, the LSTM's of 1000 samples, the hybrid's of
@@ -20,6 +21,10 @@ chunk). The paper transformer is timed three ways, all the same function
 train the paper transformer with the published budget (early stopping, no caps) on it;
 prints epochs, why it stopped and the wall-clock. Target: converged in under 30 minutes at
 S >= 0.1 on 2 cores.
+
+``--profile`` (instead of the above): where the paper transformer's training step spends its
+time, torch's profiler over two steps after warm-up, the operators with the largest share of
+self CPU time. Shares, not seconds: they hold on a busy machine where timings do not.
 """
 
 from __future__ import annotations
@@ -98,6 +103,22 @@ def _throughput(steps: int) -> dict:
     return out
 
 
+def _profile(top: int = 10) -> dict:
+    from torch.profiler import ProfilerActivity, profile
+    model, x = PaperTransformer(21), torch.randn(256, 100, 21)
+    _step_seconds(model, x, 1)  # warm-up
+    with profile(activities=[ProfilerActivity.CPU]) as prof:
+        _step_seconds(model, x, 0)  # its two untimed steps
+    ops = prof.key_averages()
+    total = sum(e.self_cpu_time_total for e in ops)
+    shares = sorted(((e.key, e.self_cpu_time_total / total, e.count) for e in ops),
+                    key=lambda t: -t[1])[:top]
+    for name, share, count in shares:
+        print(f"  {name:45s} {100 * share:5.1f} % of self CPU time ({count} calls)")
+    return {"model": "transformer (after)", "batch": 256, "length": 100,
+            "top_ops": [{"op": n, "self_cpu_share": sh, "calls": c} for n, sh, c in shares]}
+
+
 def _converge(scale: float) -> dict:
     from hybrid.data import load_dataset, split_validation
     from hybrid.reproduce import _config
@@ -127,13 +148,20 @@ def main() -> dict:
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--converge-scale", type=float,
                     help="also train the paper transformer to convergence at this scale")
+    ap.add_argument("--profile", action="store_true",
+                    help="only profile the paper transformer's training step")
     ap.add_argument("--json", type=Path)
     args = ap.parse_args()
     torch.set_num_threads(args.threads)
-    print(f"training throughput, {args.threads} threads, torch {torch.__version__}")
     result = {"machine": {"platform": platform.platform(), "threads": args.threads,
-                          "torch": torch.__version__}, "throughput": _throughput(args.steps)}
-    if args.converge_scale:
+                          "torch": torch.__version__}}
+    if args.profile:
+        print(f"paper transformer training step, {args.threads} threads")
+        result["profile"] = _profile()
+    else:
+        print(f"training throughput, {args.threads} threads, torch {torch.__version__}")
+        result["throughput"] = _throughput(args.steps)
+    if args.converge_scale and not args.profile:
         result["convergence"] = _converge(args.converge_scale)
     if args.json:
         write_json(args.json, result)
