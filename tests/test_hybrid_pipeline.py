@@ -379,15 +379,24 @@ def test_mismatched_or_corrupt_checkpoint_refused(tmp_path):
         ck.load_checkpoint(tmp_path / "future.pt")
 
 
+def _write_dataset(folder, trials, ati_gain: float = 1.0):
+    """A dataset folder of 260-sample :func:`_frame` recordings, one per (split, condition, seed),
+    the ATI force scaled by ``ati_gain``; indexed (metadata.json)."""
+    for split, cond, k in trials:
+        (folder / split / cond).mkdir(parents=True, exist_ok=True)
+        frame = _frame(260, k)
+        frame[["ati_fx", "ati_fy", "ati_fz"]] *= ati_gain
+        write_recording(frame, folder / split / cond / f"t{k}.csv")
+    index_recordings(folder)
+    return folder
+
+
 def test_train_and_evaluate_files_end_to_end(tmp_path):
     from hybrid.evaluate import evaluate
     from hybrid.train import train
-    data = tmp_path / "data"
-    for split, cond, k in (("train", "Traction", 0), ("train", "Traction", 1), ("train", "Free", 2),
-                           ("train", "Free", 3), ("test", "Traction", 4), ("test", "Free", 5)):
-        (data / split / cond).mkdir(parents=True, exist_ok=True)
-        write_recording(_frame(260, k), data / split / cond / f"t{k}.csv")
-    index_recordings(data)
+    data = _write_dataset(tmp_path / "data", ((split, cond, k) for k, (split, cond) in enumerate(
+        [("train", "Traction")] * 2 + [("train", "Free")] * 2 + [("test", "Traction"),
+                                                                ("test", "Free")])))
     summary = train(data, "fcn", tmp_path / "fcn.pt", epochs=2, seed=0,
                     train_config=TrainConfig(progress=False))
     assert summary["epochs_run"] == 2 and (tmp_path / "fcn.pt").exists()
@@ -401,12 +410,9 @@ def test_rocket_trains_evaluates_and_finetunes_through_checkpoints(tmp_path):
     pytest.importorskip("aeon")
     from hybrid.evaluate import evaluate, predict_trial, setup_from_checkpoint
     from hybrid.train import finetune, train
-    data = tmp_path / "data"
-    for split, cond, k in (("train", "Traction", 0), ("train", "Traction", 1), ("train", "Free", 2),
-                           ("train", "Free", 3), ("test", "Traction", 4), ("test", "Free", 5)):
-        (data / split / cond).mkdir(parents=True, exist_ok=True)
-        write_recording(_frame(260, k), data / split / cond / f"t{k}.csv")
-    index_recordings(data)
+    data = _write_dataset(tmp_path / "data", ((split, cond, k) for k, (split, cond) in enumerate(
+        [("train", "Traction")] * 2 + [("train", "Free")] * 2 + [("test", "Traction"),
+                                                                ("test", "Free")])))
     small = {"n_kernels_multirocket": 168, "n_kernels_hydra": 32}
     summary = train(data, "rocket", tmp_path / "rocket.pt", seed=3, config=small)
     assert summary["stopped_by"] == "closed form" and summary["converged"]
@@ -416,13 +422,8 @@ def test_rocket_trains_evaluates_and_finetunes_through_checkpoints(tmp_path):
     assert all(isinstance(v, torch.Tensor) for v in payload["state_dict"].values())
     result = evaluate(tmp_path / "rocket.pt", data, tmp_path / "eval", plots=False)
     assert set(result["by_condition"]) == {"Free", "Traction"}
-    tool = tmp_path / "new_tool"  # another mapping from inputs to force
-    for cond, k in (("Traction", 6), ("Traction", 7), ("Free", 8), ("Free", 9)):
-        (tool / "train" / cond).mkdir(parents=True, exist_ok=True)
-        frame = _frame(260, k)
-        frame[["ati_fx", "ati_fy", "ati_fz"]] *= -1.5
-        write_recording(frame, tool / "train" / cond / f"t{k}.csv")
-    index_recordings(tool)
+    tool = _write_dataset(tmp_path / "new_tool", (("train", c, k) for k, c in enumerate(
+        ["Traction", "Traction", "Free", "Free"], start=6)), ati_gain=-1.5)  # another mapping
     tuned = finetune(tmp_path / "rocket.pt", tool, tmp_path / "tuned.pt", seed=3)
     assert tuned["stopped_by"] == "closed form"
     before, after = (ck.load_checkpoint(tmp_path / f) for f in ("rocket.pt", "tuned.pt"))
