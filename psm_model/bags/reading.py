@@ -48,20 +48,31 @@ _ARM_NAMES = {**{j: j for j in ARM_JOINTS}, **{f"outer_{j}": j for j in ARM_JOIN
 _IGNORED_ARM_NAMES = {"jaw"}
 _JAW_NAMES = {"jaw": "jaw"}
 
-_JOINT_STATE = "sensor_msgs/msg/JointState"
-_WRENCH_STAMPED = "geometry_msgs/msg/WrenchStamped"
-_WRENCH = "geometry_msgs/msg/Wrench"
-_MULTI_ARRAY = "std_msgs/msg/Float64MultiArray"
+JOINT_STATE = "sensor_msgs/msg/JointState"
+WRENCH_STAMPED = "geometry_msgs/msg/WrenchStamped"
+WRENCH = "geometry_msgs/msg/Wrench"
+MULTI_ARRAY = "std_msgs/msg/Float64MultiArray"
 _ACCEPTED_TYPES = {
-    "js": (_JOINT_STATE,), "jaw": (_JOINT_STATE,),
-    "hex10": (_WRENCH_STAMPED, _WRENCH), "ati": (_WRENCH_STAMPED, _WRENCH),
-    "jacobian": (_MULTI_ARRAY,),
+    "js": (JOINT_STATE,), "jaw": (JOINT_STATE,),
+    "hex10": (WRENCH_STAMPED, WRENCH), "ati": (WRENCH_STAMPED, WRENCH),
+    "jacobian": (MULTI_ARRAY,),
 }
 JACOBIAN_COLUMNS = tuple(f"spatial_jacobian_{r}{c}" for r in range(6) for c in range(6))
 """Row-major 6x6 spatial Jacobian as the dVRK publishes it (row r, column c)."""
 
-# Old rosbag2 files carry no message definitions; these three types have not changed since.
-_FALLBACK_TYPESTORE = get_typestore(Stores.ROS2_HUMBLE)
+ROS2_TYPESTORE = get_typestore(Stores.ROS2_HUMBLE)
+"""ROS 2 Humble message definitions: the fallback for old rosbag2 files that carry none (these
+types have not changed since) and the definitions :mod:`.writing` stores in the bags it writes."""
+
+_JOINT_FIELDS = ("position", "velocity", "effort")
+
+
+def stream_columns(name: str) -> tuple[str, ...]:
+    """The recording columns stream ``name`` (:data:`STREAMS`) carries, in message order."""
+    if name in ("js", "jaw"):
+        joints = ARM_JOINTS if name == "js" else ("jaw",)
+        return tuple(f"{j}_{field}" for field in _JOINT_FIELDS for j in joints)
+    return {"hex10": HEX10, "ati": ATI_RAW, "jacobian": JACOBIAN_COLUMNS}[name]
 
 
 class BagError(RecordingError):
@@ -138,7 +149,7 @@ def read_streams(bag_path: Path, topics: dict[str, str], required: set[str]
         raise BagError(f"{bag_path}: cannot read as a ROS 1 or ROS 2 bag (a folder without "
                        f"metadata.yaml; pass a ROS 2 bag folder or its .mcap / .db3 file)")
     try:
-        reader = AnyReader([bag_path], default_typestore=_FALLBACK_TYPESTORE)
+        reader = AnyReader([bag_path], default_typestore=ROS2_TYPESTORE)
         reader.open()
     except Exception as err:  # rosbags raises many types for corrupt input; all mean "unreadable"
         raise _unreadable(bag_path, err) from None
@@ -199,17 +210,13 @@ class _Collector:
         self.log_ns: list[int] = []
         self.rows: list[np.ndarray] = []
         self._index_by_names: dict[tuple[str, ...], np.ndarray] = {}
-        if msgtype == _JOINT_STATE:
-            joints = ARM_JOINTS if name == "js" else ("jaw",)
-            self.columns = tuple(f"{j}_{field}" for field in ("position", "velocity", "effort")
-                                 for j in joints)
-            self._joints = joints
+        self.columns = stream_columns(name)
+        if msgtype == JOINT_STATE:
+            self._joints = ARM_JOINTS if name == "js" else ("jaw",)
             self._decode = self._joint_state
-        elif msgtype in (_WRENCH_STAMPED, _WRENCH):
-            self.columns = HEX10 if name == "hex10" else ATI_RAW
+        elif msgtype in (WRENCH_STAMPED, WRENCH):
             self._decode = self._wrench
         else:
-            self.columns = JACOBIAN_COLUMNS
             self._decode = self._jacobian
 
     def _fail(self, problem: str) -> BagError:
@@ -230,7 +237,7 @@ class _Collector:
             index = self._joint_index(names)
             self._index_by_names[names] = index
         parts = []
-        for field in ("position", "velocity", "effort"):
+        for field in _JOINT_FIELDS:
             values = np.asarray(getattr(message, field), dtype=float)
             if len(values) != len(names):
                 raise self._fail(f"{field} has {len(values)} values for {len(names)} joint names "
@@ -254,7 +261,7 @@ class _Collector:
         return np.array([ours.index(j) for j in self._joints])
 
     def _wrench(self, message) -> np.ndarray:
-        wrench = message.wrench if self.msgtype == _WRENCH_STAMPED else message
+        wrench = message.wrench if self.msgtype == WRENCH_STAMPED else message
         f, t = wrench.force, wrench.torque
         return np.array([f.x, f.y, f.z, t.x, t.y, t.z], dtype=float)
 
