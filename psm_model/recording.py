@@ -128,6 +128,10 @@ def read_recording(path: str | Path, *, require_targets: bool = False,
     missing columns, non-numeric or non-finite values, time not strictly increasing.
     """
     path = Path(path)
+    if path.is_dir():
+        bag = (path / "metadata.yaml").is_file()
+        raise RecordingError(f"{path}: a folder, not a recording CSV" + (
+            " (a ROS 2 bag: 'psmforce convert' it to a recording first)" if bag else ""))
     try:
         frame = pd.read_csv(path, engine="c")
     except (OSError, pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as err:

@@ -89,7 +89,7 @@ def _simulate(args) -> dict:
                          f"got {args.scale:g}")
     from psm_model.sim import simulate
     return simulate(protocol=args.protocol, scale=args.scale, seed=args.seed, out=args.out,
-                    port=args.port)
+                    port=args.port, fmt=args.format)
 
 
 def _convert(args) -> dict:
@@ -228,7 +228,8 @@ def _parser() -> argparse.ArgumentParser:
     p = add("simulate", _simulate, "generate a simulated bench dataset",
             "Simulate the benchtop (PSM + modified Cadiere forceps + HEX10 + ATI Nano17) running "
             "the paper's protocols. Writes OUT/metadata.json and one CSV per trial "
-            "(OUT/{train,test}/{Free,Traction,Palpation}/ or OUT/config_k/{Rigid,Soft,Free}/).")
+            "(OUT/{train,test}/{Free,Traction,Palpation}/ or OUT/config_k/{Rigid,Soft,Free}/); "
+            "with --format mcap one ROS 2 bag per trial instead, as a real bench records them.")
     p.add_argument("--protocol", choices=["automated", "teleop"], default="automated")
     p.add_argument("--scale", type=float, default=1.0,
                    help="fraction of the paper's protocol to run (1.0 = about 200 min of data)")
@@ -237,6 +238,11 @@ def _parser() -> argparse.ArgumentParser:
                    help="the cannula the shaft passes through at the remote centre: seal friction "
                         "and lateral port forces the joints feel and the HEX10 does not (default "
                         "none: the paper's benchtop); recorded in metadata.json")
+    p.add_argument("--format", choices=["csv", "mcap"], default="csv",
+                   help="csv (default): one recording CSV per trial; mcap: one ROS 2 MCAP bag "
+                        "folder per trial on the dVRK CRTK topics (/PSM1/measured_js, "
+                        "/PSM1/jaw/measured_js, /hex10/measured_cf, /ati/measured_cf), plus "
+                        "OUT/R_ati_psm.json for convert --r-ati-psm (docs/own_robot.md)")
     p.add_argument("--out", required=True, help="output folder (must not hold a dataset yet)")
     p.add_argument("--json", help="write the run summary here")
 

@@ -4,6 +4,11 @@ Layout (team contract): DIR/metadata.json; automated: DIR/{train,test}/{Free,Tra
 (validation is split from train at load time); teleop: DIR/config_{0,1,2}/{Rigid,Soft,Free}/demo_{k}.csv.
 Every CSV follows psm_model.recording and is written atomically by its ``write_recording``;
 metadata.json is written last (a folder without it is an interrupted run).
+
+``fmt="mcap"`` writes each trial as a ROS 2 MCAP bag folder instead (the CSV path without
+``.csv``; psm_model.bags.writing: the dVRK CRTK topics a real bench records), the trials one after
+another on one session clock, plus ``R_ati_psm.json`` (the ATI fixture calibration ``psmforce
+convert --r-ati-psm`` takes); ``metadata.json`` lists the bag folders and how to convert them.
 """
 
 from __future__ import annotations
@@ -18,6 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..bags.writing import RECEIVE_LATENCY_NS, write_bag
 from ..recording import write_recording
 from . import protocols
 from .bench import run_trajectory
@@ -26,6 +32,12 @@ from .port import PORT_NAMES, port_by_name
 
 SIM_VERSION = "2.0"
 PROTOCOLS = ("automated", "teleop")
+FORMATS = ("csv", "mcap")
+BAG_SESSION_START_NS = 1_748_854_800 * 10**9
+"""``fmt="mcap"``: header stamp of the first trial's first sample (2025-06-02 09:00:00 UTC)."""
+BAG_TRIAL_PAUSE_S = 10.0
+"""``fmt="mcap"``: the pause between one trial's last sample and the next trial's first."""
+R_ATI_PSM_FILE = "R_ati_psm.json"
 
 
 class SimulationConfigError(ValueError):
@@ -77,15 +89,19 @@ def _validate(protocol, scale, seed, out, instrument, effects, port):
 
 def simulate(protocol: str = "automated", scale: float = 1.0, seed: int = 0, out=None,
              instrument: InstrumentParams | None = None, effects: Effects | None = None,
-             truth: bool = True, port: str = "none") -> dict:
+             truth: bool = True, port: str = "none", fmt: str = "csv") -> dict:
     """Simulate a protocol and write the dataset to ``out`` (must not exist or be empty).
 
     ``scale`` shrinks the protocol proportionally (1.0 = the paper's size); ``seed`` makes the run
     bit-exact; ``instrument`` defaults to the nominal tool, ``effects`` to everything on;
     ``truth`` adds the ``sim_*`` truth columns; ``port`` the cannula the shaft passes through
     (``"none"``: the paper's benchtop; ``"cannula"``, ``"abdominal-wall"``: psm_model/sim/port.py).
+    ``fmt``: ``"csv"`` (default) one recording CSV per trial; ``"mcap"`` one ROS 2 MCAP bag per
+    trial on the dVRK topics, to be converted as a real bench's (module docstring).
     Returns a summary (trials, rows, minutes per split and condition, seconds taken). Raises :class:`SimulationConfigError` before writing anything.
     """
+    if fmt not in FORMATS:
+        raise SimulationConfigError(f"fmt: unknown {fmt!r}, expected one of {FORMATS}")
     path = _validate(protocol, scale, seed, out, instrument, effects, port)
     port_params = port_by_name(port)
     instrument = instrument or InstrumentParams()
@@ -94,17 +110,24 @@ def simulate(protocol: str = "automated", scale: float = 1.0, seed: int = 0, out
     plans = protocols.automated(scale, seed) if protocol == "automated" else protocols.teleop(scale, seed)
     path.mkdir(parents=True, exist_ok=True)
     trials, minutes, rows = [], {}, 0
+    bag_start_ns = BAG_SESSION_START_NS
     for index, plan in enumerate(plans):
         rng = np.random.default_rng([seed, 100, index])
         frame = run_trajectory(plan.q, protocols.DT, plan.contact, instrument, effects, rng,
                                r_base_ati=protocols.R_BASE_ATI, truth=truth, port=port_params)
         target = path / plan.path
         target.parent.mkdir(parents=True, exist_ok=True)
-        write_recording(frame, target)
+        if fmt == "csv":
+            write_recording(frame, target)
+        else:
+            target = target.with_suffix("")
+            topics = write_bag(frame, target, start_ns=bag_start_ns)
+            bag_start_ns += int(round((frame["time"].iat[-1] + BAG_TRIAL_PAUSE_S) * 1e9))
         rows += len(frame)
         key = f"{plan.split}/{plan.condition}"
         minutes[key] = minutes.get(key, 0.0) + len(frame) * protocols.DT / 60.0
-        trials.append({"path": plan.path, "split": plan.split, "condition": plan.condition,
+        trials.append({"path": target.relative_to(path).as_posix(), "split": plan.split,
+                       "condition": plan.condition,
                        "rows": len(frame), "contact": plan.contact.kind,
                        "hex10_overload_rows": int(frame["hex10_overload"].sum()), **plan.info})
     metadata = {
@@ -118,11 +141,34 @@ def simulate(protocol: str = "automated", scale: float = 1.0, seed: int = 0, out
                           "tool) in the ATI frame; ati_f* = -R_PSM_HEX10(q)^T R_base_ati ati_raw_f",
         "effort_convention": "efforts are what the motors apply: a static external force F on the "
                              "tool adds -J^T F",
+        "format": fmt,
         "trials": trials,
     }
+    if fmt == "mcap":
+        metadata["bags"] = _bag_session(path, topics)
     tmp = path / "metadata.json.part"
     tmp.write_text(json.dumps(metadata, indent=1))
     tmp.replace(path / "metadata.json")
-    return {"out": str(path), "protocol": protocol, "trials": len(trials), "rows": rows,
+    return {"out": str(path), "protocol": protocol, "format": fmt, "trials": len(trials),
+            "rows": rows,
             "minutes": {k: round(v, 3) for k, v in sorted(minutes.items())},
             "seconds": round(time.perf_counter() - start, 2)}
+
+
+def _bag_session(path: Path, topics: dict[str, str]) -> dict:
+    """``fmt="mcap"``: write the ATI fixture calibration a lab would hold (R_ati_PSM, the PSM base
+    axes in the ATI frame: the transpose of R_base_ati) and describe the bags for metadata.json."""
+    tmp = path / (R_ATI_PSM_FILE + ".part")
+    tmp.write_text(json.dumps(protocols.R_BASE_ATI.T.tolist()) + "\n")
+    tmp.replace(path / R_ATI_PSM_FILE)
+    return {
+        "storage": "ROS 2 bag, MCAP (one folder per trial: metadata.yaml + .mcap)",
+        "topics": topics,
+        "time": "header stamps at the sample instants, trials one after another on one clock",
+        "session_start_ns": BAG_SESSION_START_NS, "trial_pause_s": BAG_TRIAL_PAUSE_S,
+        "receive_latency_ns": RECEIVE_LATENCY_NS,
+        "r_ati_psm": R_ATI_PSM_FILE, "ati_sign": -1,
+        "not_in_bags": "hex10_overload and the sim_* truth columns (no dVRK topic carries them)",
+        "convert": f"psmforce convert DIR/PATH --out CSV_DIR/PATH.csv --r-ati-psm "
+                   f"DIR/{R_ATI_PSM_FILE}, then psmforce index CSV_DIR",
+    }
