@@ -87,9 +87,14 @@ def _simulate(args) -> dict:
     if args.scale > MAX_SIMULATE_SCALE:
         raise ValueError(f"--scale: at most {MAX_SIMULATE_SCALE:g} (times the paper's protocol), "
                          f"got {args.scale:g}")
+    if args.tool_spread is not None and args.tool_seed is None:
+        raise ValueError("--tool-spread: only with --tool-seed (without it the bench runs the "
+                         "nominal tool)")
     from psm_model.sim import simulate
+    spread = 1.0 if args.tool_spread is None else args.tool_spread
     return simulate(protocol=args.protocol, scale=args.scale, seed=args.seed, out=args.out,
-                    port=args.port, fmt=args.format)
+                    port=args.port, tool_seed=args.tool_seed, tool_spread=spread,
+                    fmt=args.format)
 
 
 def _convert(args) -> dict:
@@ -185,6 +190,20 @@ def _finetune(args) -> dict:
                     device=args.device)
 
 
+def _calibrate(args) -> dict:
+    _training_options(args)
+    from hybrid.calibrate import calibrate
+    result = calibrate(args.checkpoint, args.data, args.out, minutes=args.minutes,
+                       epochs=args.epochs, seed=args.seed, device=args.device)
+    record = result["calibration"]
+    print(f"calibrated on {len(record['trials'])} trials, {record['minutes_used']:.2f} min "
+          f"(Free {record['minutes_by_condition']['Free']:.2f}, Traction "
+          f"{record['minutes_by_condition']['Traction']:.2f})"
+          + (", prior refitted" if record["prior_refit"] else "")
+          + f"; {record['epochs_run']} epochs ({record['stopped_by']}); wrote {args.out}")
+    return result
+
+
 def _evaluate(args) -> dict:
     _fresh_folder(args.out, "--out")
     from hybrid.evaluate import evaluate
@@ -238,6 +257,13 @@ def _parser() -> argparse.ArgumentParser:
                    help="the cannula the shaft passes through at the remote centre: seal friction "
                         "and lateral port forces the joints feel and the HEX10 does not (default "
                         "none: the paper's benchtop); recorded in metadata.json")
+    p.add_argument("--tool-seed", type=int, metavar="N",
+                   help="another modified tool: instrument parameters drawn with "
+                        "InstrumentParams.sample(N, --tool-spread) (default: the nominal tool); "
+                        "seed and spread recorded in metadata.json under 'tool'")
+    p.add_argument("--tool-spread", type=float, metavar="S",
+                   help="with --tool-seed: the draw's spread, 1 = the nominal tool-to-tool "
+                        "spread of docs/simulator.md section 10, 2 = twice it (default 1)")
     p.add_argument("--format", choices=["csv", "mcap"], default="csv",
                    help="csv (default): one recording CSV per trial; mcap: one ROS 2 MCAP bag "
                         "folder per trial on the dVRK CRTK topics (/PSM1/measured_js, "
@@ -355,6 +381,25 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--device", default="cpu", choices=["cpu", "cuda"])
     p.add_argument("--json", help="write finetuning statistics here")
+
+    p = add("calibrate", _calibrate, "calibrate an estimator to another instrument",
+            "Few-shot calibration to a new tool from the first --minutes of its calibration "
+            "trials: the train split's Free and Traction recordings of DATA, interleaved by "
+            "minutes in metadata.json order (hybrid/calibrate.py states the rule). The hybrid's "
+            "internal-force prior is refitted on them; every model's last block is finetuned on "
+            "them (rocket: its ridge), with early stopping on a validation split of the same "
+            "trials. The checkpoint's provenance names the trials and minutes.")
+    p.add_argument("checkpoint", help="trained checkpoint (the old tool)")
+    p.add_argument("--data", required=True, metavar="NEW_TOOL_DIR",
+                   help="dataset folder recorded with the new tool")
+    p.add_argument("--out", required=True, help="checkpoint file to write")
+    p.add_argument("--minutes", type=float, default=5.0,
+                   help="minutes of calibration trials to use (default 5: on the simulated bench "
+                        "at scale 1, one free-space replay and four traction trials)")
+    p.add_argument("--epochs", type=int, default=100)
+    p.add_argument("--seed", type=int, default=0, help="validation split and shuffling")
+    p.add_argument("--device", default="cpu", choices=["cpu", "cuda"])
+    p.add_argument("--json", help="write the calibration report here")
 
     p = add("evaluate", _evaluate, "evaluate an estimator as in the paper",
             "Score RMSE / NRMSE / R^2 per axis on the test recordings of a dataset folder, by "

@@ -87,15 +87,33 @@ def _validate(protocol, scale, seed, out, instrument, effects, port):
     return _check_out(out)
 
 
+def _check_tool(tool_seed, tool_spread) -> dict | None:
+    """The ``metadata["tool"]`` entry of a drawn tool (None: the instrument as given)."""
+    if tool_seed is None:
+        return None
+    if isinstance(tool_seed, bool) or not isinstance(tool_seed, numbers.Integral) or tool_seed < 0:
+        raise SimulationConfigError(f"tool_seed: must be an integer >= 0 or None, got {tool_seed!r}")
+    if (isinstance(tool_spread, bool) or not isinstance(tool_spread, numbers.Real)
+            or not math.isfinite(tool_spread) or tool_spread < 0):
+        raise SimulationConfigError(f"tool_spread: must be a finite number >= 0, got {tool_spread!r}")
+    return {"seed": int(tool_seed), "spread": float(tool_spread),
+            "drawn_with": "InstrumentParams.sample(seed, spread) around the instrument given "
+                          "(nominal by default); 'instrument' holds the drawn parameters"}
+
+
 def simulate(protocol: str = "automated", scale: float = 1.0, seed: int = 0, out=None,
              instrument: InstrumentParams | None = None, effects: Effects | None = None,
-             truth: bool = True, port: str = "none", fmt: str = "csv") -> dict:
+             truth: bool = True, port: str = "none", tool_seed: int | None = None,
+             tool_spread: float = 1.0, fmt: str = "csv") -> dict:
     """Simulate a protocol and write the dataset to ``out`` (must not exist or be empty).
 
     ``scale`` shrinks the protocol proportionally (1.0 = the paper's size); ``seed`` makes the run
     bit-exact; ``instrument`` defaults to the nominal tool, ``effects`` to everything on;
     ``truth`` adds the ``sim_*`` truth columns; ``port`` the cannula the shaft passes through
     (``"none"``: the paper's benchtop; ``"cannula"``, ``"abdominal-wall"``: psm_model/sim/port.py).
+    ``tool_seed``: another modified tool, ``instrument.sample(tool_seed, tool_spread)`` (around
+    the nominal tool when ``instrument`` is None), recorded as ``metadata["tool"]``; None (default)
+    keeps ``instrument`` as given and writes no ``tool`` entry, so the default output is unchanged.
     ``fmt``: ``"csv"`` (default) one recording CSV per trial; ``"mcap"`` one ROS 2 MCAP bag per
     trial on the dVRK topics, to be converted as a real bench's (module docstring).
     Returns a summary (trials, rows, minutes per split and condition, seconds taken). Raises :class:`SimulationConfigError` before writing anything.
@@ -105,6 +123,9 @@ def simulate(protocol: str = "automated", scale: float = 1.0, seed: int = 0, out
     path = _validate(protocol, scale, seed, out, instrument, effects, port)
     port_params = port_by_name(port)
     instrument = instrument or InstrumentParams()
+    tool = _check_tool(tool_seed, tool_spread)
+    if tool is not None:
+        instrument = instrument.sample(tool_seed, tool_spread)
     effects = effects or Effects()
     start = time.perf_counter()
     plans = protocols.automated(scale, seed) if protocol == "automated" else protocols.teleop(scale, seed)
@@ -133,7 +154,8 @@ def simulate(protocol: str = "automated", scale: float = 1.0, seed: int = 0, out
     metadata = {
         "simulator_version": SIM_VERSION, "software_version": _package_version(),
         "protocol": protocol, "scale": float(scale), "seed": int(seed), "sample_rate_hz": 1.0 / protocols.DT,
-        "instrument": instrument.to_dict(), "effects": effects.to_dict(),
+        "instrument": instrument.to_dict(), **({} if tool is None else {"tool": tool}),
+        "effects": effects.to_dict(),
         "port": {"name": port, **({} if port_params is None else port_params.to_dict())},
         "gravity_base": [0.0, 0.0, -9.81],
         "R_base_ati": protocols.R_BASE_ATI.tolist(),
