@@ -64,6 +64,8 @@ def test_a_poor_fit_is_not_saved_unless_accepted(corrupted_bench, tmp_path, caps
     assert "fz RMS" in printed  # the quality figures are printed either way
     assert len(err.strip().splitlines()) == 1 and "--accept-poor-fit" in err
     assert not out.exists()
-    report = fit_prior_cli(corrupted_bench, out, accept_poor_fit=True)
+    assert fit_prior_cli(corrupted_bench, out, accept_poor_fit=False)["model"] is None
+    assert not out.exists()
+    report = fit_prior_cli(corrupted_bench, out)  # the library saves and reports
     assert report["poor_fit"] and report["poor_fit_threshold_rms_n"] == POOR_FIT_RMS_N
     assert out.exists()
