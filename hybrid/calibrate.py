@@ -23,8 +23,8 @@ each).
 **What changes per model.** The calibration trials are split into training and validation
 (:func:`hybrid.data.split_validation`, seeded, by trajectory family). For the hybrid (inputs
 derived from the internal-force prior) the prior, the physics that changes with the tool, is
-refitted on the training part (:func:`hybrid.train.fit_prior`, as in training; its
-insertion-effort model, the arm's, is kept) and its columns recomputed; then every model's last block is finetuned on the training part with early stopping
+refitted on the training part (as :func:`hybrid.train.fit_prior` in training: every condition,
+the known ATI force subtracted; its insertion-effort model, the arm's, is kept) and its columns recomputed; then every model's last block is finetuned on the training part with early stopping
 on the validation part (:func:`hybrid.train.finetune_model`: the last decoder block of the
 networks, the ridge of ``rocket``), with the pretrained scalers. The new checkpoint's provenance
 names the calibration trials, their roles and minutes, and the prior before / after.
@@ -50,6 +50,8 @@ MIN_FREE_TRIALS = 1
 """The prior's refit needs free-space motion (the internal force alone)."""
 MIN_TRACTION_TRIALS = 2
 """One traction trial to finetune on, one to stop on (validation)."""
+INSERTION_COLUMNS = ("insertion_velocity", "insertion_effort")
+"""What the prior's fit would fit the insertion-effort model on; left out of the refit."""
 VALIDATION_FRACTION = 0.1
 """As in training and finetuning; :func:`split_validation` takes at least one family from every
 condition with two or more."""
@@ -151,7 +153,8 @@ def calibrate(checkpoint: str | Path, data_dir: str | Path, out: str | Path, *,
     from hybrid.checkpoint import load_checkpoint
     from hybrid.evaluate import derive_for_checkpoint, setup_from_checkpoint
     from hybrid.hybrid import prior_from_json, prior_to_json
-    from hybrid.train import TrainConfig, TrainingError, finetune_model, fit_prior, save_setup
+    from hybrid.train import TrainConfig, TrainingError, finetune_model, save_setup
+    from psm_model.identification import InternalForcePrior
     from psm_model.identification.errors import NotConvergedError
     from psm_model.identification.prior import NAMES
     if isinstance(epochs, bool) or not isinstance(epochs, int) or epochs < 1:
@@ -164,11 +167,17 @@ def calibrate(checkpoint: str | Path, data_dir: str | Path, out: str | Path, *,
     prior_report = None
     if ckpt.derivation == "prior":
         old = prior_from_json(ckpt.prior_json)
-        # the insertion-effort model is the arm's (carriage gravity and friction), not the
+        # The insertion-effort model is the arm's (carriage gravity and friction), not the
         # tool's, and Free + Traction trials barely move the insertion: refitted on them its
         # friction terms are not identifiable (on a scale-0.02 bench its cross-validated error
-        # was 120 N), so the trained one is kept
-        new = dataclasses.replace(fit_prior(train_trials), insertion=old.insertion)
+        # was 120 N; on a scale-0.01 one the fit refuses). The fit sees the recordings without
+        # the insertion joint's effort, so it fits the cable model only, as in training
+        # otherwise (hybrid.train.fit_prior: every condition, the ATI force subtracted), and
+        # the trained insertion model is kept.
+        frames = [t.frame.drop(columns=list(INSERTION_COLUMNS)) for t in train_trials]
+        new = dataclasses.replace(
+            InternalForcePrior.fit(frames, provenance={"trials": [t.path for t in train_trials]}),
+            insertion=old.insertion)
         try:
             ckpt.prior_json = prior_to_json(new)
         except NotConvergedError as err:
