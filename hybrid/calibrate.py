@@ -17,16 +17,17 @@ free-space trial away from the prior's refit. The prefix must hold at least
 :data:`MIN_FREE_TRIALS` free-space and :data:`MIN_TRACTION_TRIALS` traction trials (one to train
 on, one to stop on); a dataset with fewer than ``minutes`` of such trials is refused, so a
 calibration never claims minutes it did not have. On the simulated bench at scale 1 the default
-:data:`DEFAULT_MINUTES` gives one free-space replay (1.9 min) and four traction trials (0.6 min
-each).
+:data:`DEFAULT_MINUTES` takes one free-space replay (1.8 min) and four traction trials (0.58 min
+each), 4.1 min in all.
 
 **What changes per model.** The calibration trials are split into training and validation
 (:func:`hybrid.data.split_validation`, seeded, by trajectory family). For the hybrid (inputs
 derived from the internal-force prior) the prior, the physics that changes with the tool, is
 refitted on the training part (as :func:`hybrid.train.fit_prior` in training: every condition,
-the known ATI force subtracted; its insertion-effort model, the arm's, is kept) and its columns recomputed; then every model's last block is finetuned on the training part with early stopping
-on the validation part (:func:`hybrid.train.finetune_model`: the last decoder block of the
-networks, the ridge of ``rocket``), with the pretrained scalers. The new checkpoint's provenance
+the known ATI force subtracted; its insertion-effort model, the arm's, is kept) and its columns
+recomputed; then every model's last block is finetuned on the training part with early
+stopping on the validation part (:func:`hybrid.train.finetune_model`: the last decoder block of
+the networks, the ridge of ``rocket``), with the pretrained scalers. The new checkpoint's provenance
 names the calibration trials, their roles and minutes, and the prior before / after.
 """
 
@@ -39,8 +40,7 @@ from pathlib import Path
 
 import numpy as np
 
-from hybrid.data import Dataset, DatasetError, Trial, load_dataset, split_validation, \
-    trajectory_group
+from hybrid.data import Dataset, Trial, load_dataset, split_validation, trajectory_group
 
 CALIBRATION_CONDITIONS = ("Free", "Traction")
 DEFAULT_MINUTES = 5.0
