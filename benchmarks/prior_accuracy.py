@@ -1,0 +1,121 @@
+"""The internal-force prior's held-out accuracy on the simulated bench, and which simulated effect
+costs it what (the figures of docs/identification.md, section 2).
+
+For each bench variant (the default bench, then the bench with one joint-effort channel effect of
+docs/simulator.md section 8 switched off at a time, then with all four off) the automated protocol
+is simulated (``--scale``, ``--seed``), the prior is fitted on the training split, Free trials
+only (``fit-prior``'s default) and Free + Traction + Palpation (``--use-loaded``, what the
+hybrid's training fits), and scored on the test Free trials, per force axis: RMS of
+``reading - prior`` (N), R^2, the reading's std (the RMS a constant at the test mean would
+leave), the fz error against the bench's true internal axial force (``sim_internal_fz``, before
+the HEX10's own noise and drift), and the fz RMS after the evaluation's start-up tare (each test
+recording's first 0.5 s mean of ``reading - prior`` removed). The HEX10 readings are the same in
+every variant (the effects switched off act on the joint efforts only), so the rows differ by
+what the prior's inputs carry. Usage::
+
+    python benchmarks/prior_accuracy.py [--scale 0.05] [--seed 1] [--json PATH]
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from _report import write_json
+
+EFFORT_EFFECTS = ("drive_friction", "coloured_effort_noise", "current_quantisation",
+                  "remount_offsets")
+"""The joint-effort channel effects of the calibrated bench (docs/simulator.md, section 8);
+``drive_friction`` includes the wrist discs' friction with stiction."""
+TARE_SAMPLES = 50
+"""The evaluation's start-up tare: the first 0.5 s at 100 Hz (hybrid.metrics.BIAS_SECONDS)."""
+
+
+def _score(prior, frames, psm) -> dict:
+    from psm_model.identification.prior import CHANNELS
+
+    y = np.concatenate([f[list(CHANNELS[:3])].to_numpy() for f in frames])
+    pred = [prior.predict(f, psm)[:, :3] for f in frames]
+    y_hat = np.concatenate(pred)
+    internal = np.concatenate([f["sim_internal_fz"].to_numpy() for f in frames])
+    tared = np.concatenate([
+        f["fz"].to_numpy() - p[:, 2] - (f["fz"].to_numpy()[:TARE_SAMPLES]
+                                        - p[:TARE_SAMPLES, 2]).mean() for f, p in zip(frames, pred)])
+    out = {}
+    for k, axis in enumerate(("fx", "fy", "fz")):
+        r = y[:, k] - y_hat[:, k]
+        out[axis] = {"rms_n": float(np.sqrt(np.mean(r ** 2))), "std_n": float(y[:, k].std()),
+                     "r2": float(1.0 - np.mean(r ** 2) / y[:, k].var())}
+    out["fz"]["rms_vs_true_internal_n"] = float(np.sqrt(np.mean((y_hat[:, 2] - internal) ** 2)))
+    out["fz"]["rms_after_tare_n"] = float(np.sqrt(np.mean(tared ** 2)))
+    return out
+
+
+def run_variant(effects, scale: float, seed: int, workdir: Path) -> dict:
+    from psm_model import PSM
+    from psm_model.identification.prior import InternalForcePrior
+    from psm_model.recording import list_recordings, read_recording
+    from psm_model.sim import simulate
+
+    simulate("automated", scale=scale, seed=seed, out=workdir, effects=effects)
+    recs = list_recordings(workdir)
+    psm = PSM()
+
+    def frames(split, conditions):
+        return [read_recording(r.path) for r in recs
+                if r.split == split and r.condition in conditions]
+
+    test = frames("test", ("Free",))
+    out = {}
+    for label, conditions in (("free", ("Free",)), ("loaded", ("Free", "Traction", "Palpation"))):
+        t0 = time.perf_counter()
+        prior = InternalForcePrior.fit(frames("train", conditions), psm=psm)
+        out[label] = {"fit_s": round(time.perf_counter() - t0, 2),
+                      "solver_status": prior.info["solver_status"],
+                      "bounds_hit": prior.info["bounds_hit"],
+                      "train_fz_rms_n": prior.info["train_metrics"]["fz"]["rms"],
+                      "test_free": _score(prior, test, psm)}
+    return out
+
+
+def main() -> dict:
+    ap = argparse.ArgumentParser(description=__doc__)
+    ap.add_argument("--scale", type=float, default=0.05)
+    ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--json", type=Path)
+    args = ap.parse_args()
+    from psm_model.sim import Effects
+
+    default = Effects()
+    variants = {"default bench": default}
+    variants.update({f"without {name}": dataclasses.replace(default, **{name: False})
+                     for name in EFFORT_EFFECTS})
+    variants["without all four"] = dataclasses.replace(
+        default, **{name: False for name in EFFORT_EFFECTS})
+    result = {"scale": args.scale, "seed": args.seed, "variants": {}}
+    print(f"prior on the automated bench, scale {args.scale}, seed {args.seed}: test Free, "
+          "RMS of reading - prior (N) / R^2; fz vs true internal; fz after the start-up tare")
+    with tempfile.TemporaryDirectory() as tmp:
+        for i, (name, effects) in enumerate(variants.items()):
+            r = run_variant(effects, args.scale, args.seed, Path(tmp) / str(i))
+            result["variants"][name] = r
+            for label in ("free", "loaded"):
+                s = r[label]["test_free"]
+                print(f"  {name:34s} {label:6s} " + "  ".join(
+                    f"{a} {s[a]['rms_n']:.3f}/{s[a]['r2']:+.2f}" for a in ("fx", "fy", "fz"))
+                    + f"  (fz std {s['fz']['std_n']:.3f}) vs internal "
+                      f"{s['fz']['rms_vs_true_internal_n']:.3f} tared "
+                      f"{s['fz']['rms_after_tare_n']:.3f}  [{r[label]['solver_status']}, "
+                      f"bounds {r[label]['bounds_hit']}]")
+    if args.json:
+        write_json(args.json, result)
+    return result
+
+
+if __name__ == "__main__":
+    main()
