@@ -11,9 +11,14 @@ leave), the fz error against the bench's true internal axial force (``sim_intern
 the HEX10's own noise and drift), and the fz RMS after the evaluation's start-up tare (each test
 recording's first 0.5 s mean of ``reading - prior`` removed). The HEX10 readings are the same in
 every variant (the effects switched off act on the joint efforts only), so the rows differ by
-what the prior's inputs carry. Usage::
+what the prior's inputs carry.
 
-    python benchmarks/prior_accuracy.py [--scale 0.05] [--seed 1] [--json PATH]
+With the WPI recordings present (``--wpi``), also the wrist discs' Coulomb levels our arm
+identification finds on the real arm (fitted on ``one_results``) and on the default bench replaying
+the same trajectory (as ``psm_model.sim.calibration`` does, noise seed 10): whether the bench's
+motor-side friction, which the prior cannot see, is larger than the real arm's. Usage::
+
+    python benchmarks/prior_accuracy.py [--scale 0.05] [--seed 1] [--json PATH] [--wpi DIR]
 """
 
 from __future__ import annotations
@@ -83,11 +88,42 @@ def run_variant(effects, scale: float, seed: int, workdir: Path) -> dict:
     return out
 
 
+def disc_coulomb(wpi_dir: Path) -> dict:
+    """{"real": (3,), "bench": (3,)} Coulomb levels (Nm) of the three wrist discs identified by
+    :func:`psm_model.identification.dynamics.fit_arm_dynamics` in WPI's recorder coordinates."""
+    from psm_model.identification import wpi
+    from psm_model.identification.dynamics import DynamicsFitOptions, fit_arm_dynamics
+    from psm_model.identification.signals import zero_phase_lowpass
+    from psm_model.sim import Contact, Effects, InstrumentParams, calibration, run_trajectory
+
+    t = wpi.coordinates_to_dvrk_matrix()
+    t_inv = np.linalg.inv(t)
+
+    def coulomb(q, dq, tau, rate_hz):
+        model = fit_arm_dynamics(q @ t_inv.T, dq @ t_inv.T, tau @ t, sample_rate_hz=rate_hz,
+                                 coupling=t, coordinate_names=wpi.MOTOR_COORDINATES)
+        values = dict(zip(model._layout.names, model.linear_parameters))
+        return [float(values[f"{c}.friction.coulomb"]) for c in wpi.MOTOR_COORDINATES[4:]]
+
+    rec = wpi.load_wpi(wpi_dir / "one_results.csv")
+    q, dq, tau = rec.to_dvrk()
+    step = int(round(rec.sample_rate_hz / calibration.RATE_HZ))
+    q_cmd = zero_phase_lowpass(q, rec.sample_rate_hz, DynamicsFitOptions().cutoff_hz)[::step]
+    frame = run_trajectory(q_cmd, 1.0 / calibration.RATE_HZ, Contact(), InstrumentParams(),
+                           Effects(), np.random.default_rng([10, 14, 0]), truth=False)
+    sim = [frame[[f"{j}_{kind}" for j in calibration.JOINT_NAMES]].to_numpy()
+           for kind in ("position", "velocity", "effort")]
+    return {"real": coulomb(q, dq, tau, rec.sample_rate_hz),
+            "bench": coulomb(*sim, calibration.RATE_HZ)}
+
+
 def main() -> dict:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--scale", type=float, default=0.05)
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--json", type=Path)
+    ap.add_argument("--wpi", type=Path,
+                    default=Path(__file__).resolve().parents[2] / "shared" / "data" / "wpi_psm")
     args = ap.parse_args()
     from psm_model.sim import Effects
 
@@ -112,6 +148,13 @@ def main() -> dict:
                       f"{s['fz']['rms_vs_true_internal_n']:.3f} tared "
                       f"{s['fz']['rms_after_tare_n']:.3f}  [{r[label]['solver_status']}, "
                       f"bounds {r[label]['bounds_hit']}]")
+    if (args.wpi / "one_results.csv").is_file():
+        result["disc_coulomb_nm"] = c = disc_coulomb(args.wpi)
+        print("wrist disc Coulomb (Nm) identified, real WPI arm: "
+              + " ".join(f"{x:.4f}" for x in c["real"]) + "; bench replaying it: "
+              + " ".join(f"{x:.4f}" for x in c["bench"]))
+    else:
+        print(f"WPI data not found in {args.wpi}: disc friction comparison skipped")
     if args.json:
         write_json(args.json, result)
     return result
