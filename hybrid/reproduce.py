@@ -31,6 +31,7 @@ import json
 import os
 import platform
 import shutil
+import subprocess
 import sys
 import time
 from pathlib import Path
@@ -374,6 +375,31 @@ def reproduce(out: str | Path, scale: float = 0.1, seeds: Sequence[int] = (1, 2,
     return results
 
 
+def _code_version() -> dict:
+    """The package version and, in a git checkout, the commit of the code rendering the tables
+    (cached tasks keep what the code that ran them computed)."""
+    from importlib.metadata import PackageNotFoundError, version
+    try:
+        ours = version("psmforce")
+    except PackageNotFoundError:
+        ours = "unknown"
+    try:
+        commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True,
+                                text=True, cwd=Path(__file__).parent, timeout=10,
+                                check=True).stdout.strip()
+    except (OSError, subprocess.SubprocessError):
+        commit = None
+    return {"psmforce": ours, "git_commit": commit}
+
+
+def _bench_versions(run_dir: Path, seeds: Sequence[int], teleop: bool) -> dict:
+    """{bench: simulator version} from each simulated bench's metadata.json."""
+    protocols = ("automated",) + (("teleop",) if teleop else ())
+    return {f"{proto} seed {s}": json.loads((_data_dir(str(run_dir), proto, s) / "metadata.json")
+                                            .read_text()).get("simulator_version")
+            for proto in protocols for s in seeds}
+
+
 def _collect(call, seeds, models, variants, pre_by, ft_specs, ft, floors, started, out,
              ray_address) -> dict:
     main = {LABELS[m]: [pre_by[(m, "full", 1.0, s)] for s in seeds] for m in models}
@@ -410,6 +436,7 @@ def _collect(call, seeds, models, variants, pre_by, ft_specs, ft, floors, starte
              if call["teleop"] else {}}
     return {
         "command": " ".join(sys.argv) if sys.argv and sys.argv[0] else None, "call": call,
+        "code": _code_version(), "benches": _bench_versions(out / "work", seeds, call["teleop"]),
         "budget": BUDGETS[call["budget"]], "executor": f"ray {ray_address}" if ray_address
         else "in-process",
         "machine": {"platform": platform.platform(), "cpu_count": os.cpu_count(),
@@ -513,6 +540,9 @@ def _markdown(r: dict) -> str:
         "**not converged**: at least one model hit a cap or its epoch limit (see Training)"
     lines = ["# Reproduction of the seed paper on the simulated bench", "",
              f"- command: `{r['command']}`", f"- call: `{c}`",
+             f"- code rendering these tables: {r['code']} (each cached task keeps what the "
+             f"code that ran it computed); simulator versions of the benches: "
+             f"{sorted(set(r['benches'].values()))}",
              f"- machine: {r['machine']['platform']}, {r['machine']['cpu_count']} CPU cores, "
              f"torch {r['machine']['torch']}; executor {r['executor']}",
              f"- started {r['started_utc']}, this invocation {r['duration_s']:.0f} s "

@@ -114,8 +114,11 @@ def test_reproduce_resumes_and_reports_convergence(tmp_path):
             assert not t["converged"] and (t["capped"] or t["stopped_by"] == "epoch_limit")
     if rocket:
         assert r["automated"]["causal"]["MultiRocket-Hydra"]["Fz"]["nrmse_pct"]["n"] == 2
+    from psm_model.sim.dataset import SIM_VERSION
+    assert r["benches"] == {"automated seed 1": SIM_VERSION, "automated seed 2": SIM_VERSION}
     md = (tmp_path / "run" / "results.md").read_text()
     assert "not converged" in md and "floor (truth post-processed)" in md
+    assert f"simulator versions of the benches: ['{SIM_VERSION}']" in md
     assert (tmp_path / "run" / "figures" / "learning_curves.png").exists()
     logs.clear()
     again = reproduce(tmp_path / "run", log=logs.append, **kw)
