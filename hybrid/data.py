@@ -137,11 +137,12 @@ METADATA = "metadata.json"
 def load_dataset(root: str | Path, *, require_targets: bool = True, threads: int = 2) -> Dataset:
     """Read every recording listed in ``root/metadata.json`` (module docstring). Raises
     :class:`DatasetError` naming the folder or file: a missing folder, no or unreadable
-    metadata, an empty or malformed ``trials`` list; passes on
-    :class:`psm_model.recording.RecordingError` naming a bad recording."""
+    metadata, an empty or malformed ``trials`` list, a value outside its physical range; passes
+    on :class:`psm_model.recording.RecordingError` naming a bad recording."""
     root = Path(root)
     if not root.is_dir():
-        raise DatasetError(f"dataset folder {root} does not exist")
+        raise DatasetError(f"dataset folder {root} " + ("is a file, not a folder" if root.exists()
+                                                         else "does not exist"))
     meta_path = root / METADATA
     if not meta_path.is_file():
         raise DatasetError(f"{root}: no {METADATA}, so not a complete dataset (an interrupted "
@@ -166,15 +167,33 @@ def load_dataset(root: str | Path, *, require_targets: bool = True, threads: int
                                f"relative and inside {root}")
         listed.append((e["path"], e["condition"], e["split"], e))
 
+    from hybrid.streaming import physical_bounds  # hybrid.streaming imports this module
+    bounds = physical_bounds()
+
     def read(item):
         rel, condition, split, extra = item
         frame = read_recording(root / rel, require_targets=require_targets)
+        _check_physical(frame, root / rel, bounds)
         params = {k: v for k, v in extra.items() if k not in ("path", "condition", "split")}
         return Trial(str(rel), str(condition), str(split), frame, params)
 
     with ThreadPoolExecutor(max_workers=max(1, threads)) as pool:
         trials = list(pool.map(read, listed))
     return Dataset(root, trials, metadata)
+
+
+def _check_physical(frame: pd.DataFrame, path: Path, bounds: dict) -> None:
+    """Every value inside the physical range the streaming estimator accepts
+    (:func:`hybrid.streaming.physical_bounds`): a model is never trained or scored on samples
+    it would refuse when streaming (a roll of 1e30 rad would set a scaler and train silently)."""
+    for column, (low, high) in bounds.items():
+        values = frame[column].to_numpy(dtype=float)
+        outside = (values < low) | (values > high)
+        if outside.any():
+            row = int(np.argmax(outside))
+            raise DatasetError(f"{path}: {column} = {values[row]:.6g} at row {row} is outside its "
+                               f"physical range [{low:.4g}, {high:.4g}] "
+                               f"(hybrid.streaming.physical_bounds)")
 
 
 def index_recordings(root: str | Path) -> Path:

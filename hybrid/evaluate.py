@@ -225,6 +225,10 @@ def evaluate(checkpoint: str | Path, data_dir: str | Path, out_dir: str | Path, 
     trials = dataset.select(split=split) if split else dataset.trials
     if not trials:
         raise ValueError(f"{data_dir}: no trials in split '{split}'")
+    short = [t.path for t in trials if len(t) <= EVAL_START]
+    if short:  # scored from EVAL_START on: refused by name, not dropped from the tables
+        raise ValueError(f"{data_dir}: recordings of at most {EVAL_START} samples (the evaluation "
+                         f"start) cannot be scored: {short}")
     setup = setup_from_checkpoint(ckpt)
     preds = {t.path: predict_trial(ckpt.model, setup, t, device=device) for t in trials}
     bias = uses_bias_correction(ckpt.model_name)

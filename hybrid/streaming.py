@@ -365,6 +365,9 @@ class StreamingEstimator:
         from hybrid.checkpoint import load_checkpoint
         from hybrid.hybrid import prior_from_json
         ckpt = load_checkpoint(path)
+        if not isinstance(ckpt.model, CausalTransformer):
+            raise StreamingError(f"{path}: holds a '{ckpt.model_name}' model; streaming needs a "
+                                 f"hybrid.causal.CausalTransformer (the hybrid)")
         if ckpt.derivation not in ("prior", "none"):
             raise StreamingError(f"{path}: a '{ckpt.model_name}' checkpoint with "
                                  f"'{ckpt.derivation}' inputs cannot stream")

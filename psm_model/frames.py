@@ -75,7 +75,7 @@ def ati_force_in_hex10(force_ati, q, R_ati_psm, psm: PSM | None = None, *,
     the recording's target ``ati_fx, ati_fy, ati_fz`` (force on the tool, HEX10 frame).
     """
     psm = psm or _default_psm()
-    R = _check_rotation(R_ati_psm, "R_ati_psm")
+    R = check_rotation(R_ati_psm, "R_ati_psm")
     if sign not in (1.0, -1.0):
         raise KinematicsInputError(f"sign must be +1 or -1, got {sign!r}")
     R_ati_hex10 = R @ psm.rotation(q, "hex10")
@@ -96,7 +96,9 @@ def _apply(R: np.ndarray, force, name: str) -> np.ndarray:
     return np.einsum("...ij,...j->...i", R, f)
 
 
-def _check_rotation(R, name: str) -> np.ndarray:
+def check_rotation(R, name: str) -> np.ndarray:
+    """``R`` as a (3, 3) float array if it is a finite proper rotation, else
+    KinematicsInputError naming it ``name``."""
     R = np.asarray(R, dtype=float)
     if R.shape != (3, 3):
         raise KinematicsInputError(f"{name} must have shape (3,3); got {R.shape}")

@@ -147,7 +147,7 @@ def read_recording(path: str | Path, *, require_targets: bool = False,
         raise RecordingError(f"{path}: missing columns {missing}")
     if len(frame) == 0:
         raise RecordingError(f"{path}: no rows")
-    numeric = [c for c in frame.columns if c in COLUMNS or c.startswith("sim_")]
+    numeric = _numeric_columns(frame)
     values = frame[numeric]
     # is_numeric_dtype, not np.issubdtype: pandas reads a text cell as a string (extension)
     # dtype numpy cannot interpret
@@ -159,7 +159,19 @@ def read_recording(path: str | Path, *, require_targets: bool = False,
         raise RecordingError(f"{path}: non-numeric value {column.iloc[row]!r} in column "
                              f"'{bad[0]}' at row {row}" + (f" (also columns {bad[1:]})"
                                                            if len(bad) > 1 else ""))
-    finite = np.isfinite(values.to_numpy(dtype=float))
+    _check_values(frame, numeric, path)
+    return frame
+
+
+def _numeric_columns(frame: pd.DataFrame) -> list[str]:
+    """The layout's columns and the simulator's truth signals: the ones that must be numbers."""
+    return [c for c in frame.columns if c in COLUMNS or c.startswith("sim_")]
+
+
+def _check_values(frame: pd.DataFrame, numeric: list[str], path: Path) -> None:
+    """Every ``numeric`` value finite and time strictly increasing, else RecordingError naming
+    ``path``, the column and the row: what reading refuses, writing refuses too."""
+    finite = np.isfinite(frame[numeric].to_numpy(dtype=float))
     if not finite.all():
         row, col = np.argwhere(~finite)[0]
         raise RecordingError(f"{path}: non-finite value (NaN or inf) in column "
@@ -168,11 +180,12 @@ def read_recording(path: str | Path, *, require_targets: bool = False,
     if len(t) > 1 and not (np.diff(t) > 0).all():
         row = int(np.argmin(np.diff(t) > 0)) + 1
         raise RecordingError(f"{path}: time is not strictly increasing at row {row}")
-    return frame
 
 
 def write_recording(frame: pd.DataFrame, path: str | Path) -> None:
     """Write a recording atomically (temporary file, then rename): no partial files on failure.
+    Refuses (:class:`RecordingError`) what :func:`read_recording` would: NaN or infinite values,
+    time not strictly increasing.
 
     Columns in :data:`COLUMNS` order, extra columns after. Numbers with 7 significant digits
     (beyond every sensor's resolution), ``time`` in microseconds (7 digits would stop it
@@ -183,6 +196,9 @@ def write_recording(frame: pd.DataFrame, path: str | Path) -> None:
     missing = [c for c in REQUIRED if c not in frame.columns]
     if missing:
         raise RecordingError(f"{path}: refusing to write a recording without columns {missing}")
+    # a file read_recording would refuse is not written: the error comes where the bad values
+    # were made, not when someone reads them later
+    _check_values(frame, _numeric_columns(frame), path)
     names = [c for c in COLUMNS if c in frame.columns]
     names += [c for c in frame.columns if c not in COLUMNS]
     formats = ["%.6f" if c == "time" else

@@ -54,15 +54,30 @@ def _fresh_folder(path: str, option: str) -> None:
     _writable_ancestor(target, option)
 
 
-def _training_options(args) -> None:
-    """What train / finetune would discover only after loading data or training."""
-    if args.epochs < 1:
-        raise ValueError(f"--epochs: must be at least 1, got {args.epochs}")
+def _device(args) -> None:
     if args.device == "cuda":
         import torch
         if not torch.cuda.is_available():
             raise ValueError("--device cuda: torch sees no CUDA device on this machine "
                              "(use --device cpu)")
+
+
+MAX_SEED = 2**32 - 1
+"""numpy's generators take seeds in [0, 2**32 - 1]; outside it they fail with a message that
+names no option."""
+
+
+def _seed(value: int, option: str) -> None:
+    if not 0 <= value <= MAX_SEED:
+        raise ValueError(f"{option}: must be an integer in [0, {MAX_SEED}], got {value}")
+
+
+def _training_options(args) -> None:
+    """What train / finetune would discover only after loading data or training."""
+    if args.epochs < 1:
+        raise ValueError(f"--epochs: must be at least 1, got {args.epochs}")
+    _seed(args.seed, "--seed")
+    _device(args)
     _output_file(args.out, "--out")
 
 
@@ -83,10 +98,14 @@ def _jsonable(value):
     raise TypeError(f"not JSON serialisable: {type(value).__name__}")
 
 
+def _scale(value: float) -> None:
+    if not 0 < value <= MAX_SIMULATE_SCALE:  # also refuses NaN
+        raise ValueError(f"--scale: must be in (0, {MAX_SIMULATE_SCALE:g}] (times the paper's "
+                         f"protocol), got {value:g}")
+
+
 def _simulate(args) -> dict:
-    if args.scale > MAX_SIMULATE_SCALE:
-        raise ValueError(f"--scale: at most {MAX_SIMULATE_SCALE:g} (times the paper's protocol), "
-                         f"got {args.scale:g}")
+    _scale(args.scale)
     if args.tool_spread is not None and args.tool_seed is None:
         raise ValueError("--tool-spread: only with --tool-seed (without it the bench runs the "
                          "nominal tool)")
@@ -99,6 +118,7 @@ def _simulate(args) -> dict:
 
 def _convert(args) -> dict:
     from psm_model.bags import convert_bag, convert_csv, summary_line
+    _output_file(args.out, "--out", parents=False)
     if Path(args.bag).suffix.lower() == ".csv":
         report = convert_csv(args.bag, args.out, column_map=args.column_map)
         print(f"wrote {args.out}")
@@ -109,7 +129,14 @@ def _convert(args) -> dict:
     r_ati_psm = None
     if args.r_ati_psm is not None:
         import numpy as np
-        r_ati_psm = np.asarray(json.loads(Path(args.r_ati_psm).read_text()), dtype=float)
+
+        from psm_model.frames import check_rotation
+        option = f"--r-ati-psm {args.r_ati_psm}"
+        try:  # ValueError: invalid JSON or not numbers; TypeError: null entries
+            matrix = np.asarray(json.loads(Path(args.r_ati_psm).read_text()), dtype=float)
+        except (OSError, ValueError, TypeError) as err:
+            raise ValueError(f"{option}: not a JSON 3x3 rotation matrix ({err})") from None
+        r_ati_psm = check_rotation(matrix, option)
     report = convert_bag(args.bag, args.out, rate_hz=args.rate, arm=args.arm,
                          topics=topics or None, r_ati_psm=r_ati_psm, on_gap=args.on_gap)
     print(summary_line(report))
@@ -117,10 +144,12 @@ def _convert(args) -> dict:
 
 
 def _fit_dynamics(args) -> dict:
+    if args.model_out:
+        _output_file(args.model_out, "--model-out")
     from psm_model.identification import fit_dynamics_cli
     report = fit_dynamics_cli(train=args.train, test=args.test, fmt=args.format, json_out=None,
                               model_out=args.model_out, data=args.data, select=args.select,
-                              gravity=args.gravity)
+                              gravity=args.gravity, accept_poor_fit=args.accept_poor_fit)
     if "selection" in report:
         print(f"selected: {report['selection']['selected']} ({report['selection']['method']})")
     print(f"fit: {report['solver_status']} in {report['fit_time_s']:.1f} s, "
@@ -130,10 +159,16 @@ def _fit_dynamics(args) -> dict:
         if key in report:
             print(f"{key.split('_')[0]} relative torque error %: " + ", ".join(
                 f"{n} {e:.1f}" for n, e in zip(report["coordinates"], report[key])))
+    if report["poor_fit"] and not args.accept_poor_fit:
+        raise ValueError(("" if args.model_out is None else f"{args.model_out} not written: ")
+                         + f"poor fit: relative torque error above "
+                         f"{report['poor_fit_threshold_relative_error_percent']:g} % on every "
+                         f"coordinate (--accept-poor-fit keeps it)")
     return report
 
 
 def _wrench(args) -> dict:
+    _output_file(args.out, "--out", parents=False)
     from psm_model.identification import ArmDynamicsModel
     from psm_model.identification.recordings import recording_wrench
     model = ArmDynamicsModel.load(args.dynamics)
@@ -162,6 +197,7 @@ def _index(args) -> dict:
 
 
 def _fit_prior(args) -> dict:
+    _output_file(args.out, "--out")
     from psm_model.identification import fit_prior_cli
     report = fit_prior_cli(args.data, args.out, use_loaded=args.use_loaded,
                            accept_poor_fit=args.accept_poor_fit)
@@ -214,6 +250,15 @@ REPRODUCE_MODELS = ("transformer", "fcn", "lstm", "hybrid", "rocket")
 
 
 def _reproduce(args) -> dict:
+    # before reproduce() writes OUT/work: bad arguments leave nothing behind
+    _scale(args.scale)
+    for seed in args.seeds:
+        _seed(seed, "--seeds")
+    _device(args)
+    target = Path(args.out)
+    if target.exists() and not target.is_dir():
+        raise ValueError(f"--out: {target} exists and is not a folder")
+    _writable_ancestor(target, "--out")
     from hybrid.reproduce import reproduce
     return reproduce(args.out, scale=args.scale, seeds=args.seeds, device=args.device,
                      budget=args.budget, models=args.models, ablations=not args.no_ablations,
@@ -314,6 +359,10 @@ def _parser() -> argparse.ArgumentParser:
                    help="csv: gravity in the base (RCM) frame, m/s^2, where the arm's mounting "
                         "is known (e.g. 0 0 -9.81 upright); default: identified")
     p.add_argument("--model-out", help="save the fitted model (JSON) here")
+    p.add_argument("--accept-poor-fit", action="store_true",
+                   help="save the model (and exit 0) even when its relative torque error exceeds "
+                        "the poor-fit threshold on every coordinate (psm_model.identification."
+                        "dynamics.POOR_FIT_RELATIVE_ERROR_PERCENT)")
     p.add_argument("--json", help="write the report here")
 
     p = add("wrench", _wrench, "external wrench on the tool from joint torques",

@@ -18,10 +18,14 @@ from hybrid.data import (FEATURE_SETS, FREE_STRIDE_FACTOR, DatasetError, Scaler,
 from hybrid.metrics import MetricError, axis_metrics, nrmse, postprocess, r2, rmse
 from hybrid.models import (FCN, PaperTransformer, build_model, count_parameters,
                            freeze_for_finetuning)
+from hybrid.streaming import physical_bounds
 from hybrid.train import Setup, TrainConfig, fit, make_setup
 from psm_model.recording import PAPER_FEATURES, REQUIRED, TARGETS, write_recording
 
 torch.set_num_threads(1)
+
+
+BOUNDS = physical_bounds()
 
 
 def _frame(n: int, seed: int) -> pd.DataFrame:
@@ -29,7 +33,10 @@ def _frame(n: int, seed: int) -> pd.DataFrame:
     rng = np.random.default_rng(seed)
     data = {"time": np.arange(n) / 100.0}
     for c in REQUIRED[1:]:
-        data[c] = np.cumsum(rng.normal(0, 0.05, n))
+        # a random walk squashed into the middle half of the column's physical range, which
+        # load_dataset enforces (an unbounded walk leaves it: insertion below 0 m)
+        low, high = BOUNDS[c]
+        data[c] = (low + high) / 2 + (high - low) / 4 * np.tanh(np.cumsum(rng.normal(0, 0.05, n)))
     hx = np.convolve(data["fx"], np.ones(5) / 5, mode="same")
     data["ati_fx"] = 0.5 * hx + 0.1 * data["insertion_effort"]
     data["ati_fy"] = -0.3 * data["fy"] + 0.2 * data["roll_position"]
