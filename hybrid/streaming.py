@@ -16,7 +16,8 @@ Per-sample :class:`Flags` (bit mask, several may be set):
 ``INVALID_INPUT``   the sample is not used and the state is untouched: a NaN / inf value, a
                     value beyond its physical bound (:func:`physical_bounds`: joint limits with a
                     margin, effort and velocity limits, the HEX10 overload), a missing or
-                    non-numeric field, a wrongly shaped array, a missing or non-finite timestamp.
+                    non-numeric field (the overload signal included), a wrongly shaped array, a
+                    missing or non-finite timestamp.
 ``TIME_BACKWARDS``  timestamp not after the last accepted one: the sample is not used. A clock
                     that stays behind for more than ``max_gap_samples`` samples in a row is a
                     restarted clock: it is accepted as a ``GAP`` (one bad future timestamp cannot
@@ -415,9 +416,14 @@ class StreamingEstimator:
                 if overload is None:
                     overload = sample.get(OVERLOAD, 0)
             time = float(time)
-            overload = bool(overload)
+            # a number (0 / 1, as recorded) or a bool: float() refuses text, whose truth value
+            # ('no' is true) says nothing about the sensor
+            overload = float(overload)
         except (KeyError, TypeError, ValueError, AttributeError, OverflowError):
             return None
+        if not math.isfinite(overload):
+            return None
+        overload = overload != 0
         # one comparison per bound also refuses NaN (every comparison with NaN is false)
         np.less_equal(self._raw_lo, self._raw, out=self._in_bounds)
         if not self._in_bounds.all():

@@ -205,3 +205,23 @@ def test_fit_dynamics_refuses_a_poor_fit_unless_accepted(noise, tmp_path, capsys
     report = fit_dynamics_cli(noise, noise, "wpi", model_out=tmp_path / "lib.json")
     assert report["poor_fit"] and report["model"] == str(tmp_path / "lib.json")  # library: saves
     assert min(report["test_relative_error_percent"]) > POOR_FIT_RELATIVE_ERROR_PERCENT
+
+
+@pytest.mark.parametrize("signal, flagged", [
+    ("no", "INVALID_INPUT"), ("yes", "INVALID_INPUT"), (float("nan"), "INVALID_INPUT"),
+    (1, "OVERLOAD"), (True, "OVERLOAD"), (0, None)])
+def test_a_non_numeric_overload_signal_is_invalid_not_an_overload(tmp_path, signal, flagged):
+    from hybrid.causal import CausalTransformer
+    from hybrid.hybrid import hybrid_columns
+    from hybrid.streaming import Flags
+    features, base = hybrid_columns(use_prior=False)
+    n = len(features)
+    scaler = Scaler(np.zeros(n, np.float32), np.ones(n, np.float32))
+    target = Scaler(np.zeros(3, np.float32), np.ones(3, np.float32))
+    model = CausalTransformer(n, d_model=16, n_heads=2, d_ff=32, attention_window=8)
+    est = StreamingEstimator(model, features, scaler, target, base)
+    sample = {c: 0.0 for c in est.columns} | {"time": 0.0, "insertion_position": 0.1,
+                                               "hex10_overload": signal}
+    flags = Flags(est.step(sample).flags)
+    assert (Flags.INVALID_INPUT in flags) == (flagged == "INVALID_INPUT")
+    assert (Flags.OVERLOAD in flags) == (flagged == "OVERLOAD")
