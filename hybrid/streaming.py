@@ -418,7 +418,7 @@ class StreamingEstimator:
             time = float(time)
             # a number (0 / 1, as recorded) or a bool: float() refuses text, whose truth value
             # ('no' is true) says nothing about the sensor
-            overload = float(overload)
+            overload = 0.0 if overload is None else float(overload)  # None: array, no signal
         except (KeyError, TypeError, ValueError, AttributeError, OverflowError):
             return None
         if not math.isfinite(overload):
