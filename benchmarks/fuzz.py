@@ -1,0 +1,1171 @@
+"""Bad input against the command line and the Python API (issue 14): every case runnable, each
+classified automatically.
+
+    python benchmarks/fuzz.py [--json results/benchmarks/fuzz.json] [--only TEXT]
+
+Builds once, in a temporary folder, a tiny simulated bench (scale 0.005, seed 0: 20 recordings of
+240-1120 samples), a nominal prior (default parameters, the insertion model at physical values)
+and two one-epoch checkpoints (fcn, hybrid); then runs each case in its own folder, CLI cases
+in-process (``psmforce.cli.main``, stdout and stderr captured). Verdicts:
+
+REJECTED  exit 2 (CLI) or a library error (a ValueError or OSError: the library's own error
+          types derive from ValueError) whose one-line message names the file or option the
+          case names, and every file in the case's folder and the shared inputs unchanged;
+HANDLED   accepted, and the case's own check of the output holds (output correct, or the problem
+          flagged in it);
+UNCLEAR   rejected, but the message is not one line naming the file or option;
+SILENT    accepted with wrong, NaN or misleading output, or rejected leaving files behind;
+CRASH     a traceback: an exception the CLI does not catch, or from the API one that is not a
+          library error (TypeError, IndexError, AttributeError, ...), or an exit code not 0 / 2.
+
+Each case also states the verdict it should get (REJECTED or HANDLED). Cases whose acceptance
+would start expensive work (a simulation at scale 1e6, a reproduce run) patch that work to raise
+:class:`Reached`: reaching it with the bad input is SILENT. Prints the counts and every case that
+is not REJECTED or HANDLED (and any verdict other than expected), writes the JSON, exits 1 if any
+case is SILENT, UNCLEAR or CRASH or differs from its expected verdict.
+"""
+
+import os
+
+for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ[_var] = "1"
+
+import argparse  # noqa: E402
+import contextlib  # noqa: E402
+import io  # noqa: E402
+import json  # noqa: E402
+import platform  # noqa: E402
+import shutil  # noqa: E402
+import sys  # noqa: E402
+import tempfile  # noqa: E402
+import time  # noqa: E402
+import traceback  # noqa: E402
+from collections import Counter  # noqa: E402
+from dataclasses import dataclass  # noqa: E402
+from pathlib import Path  # noqa: E402
+from typing import Callable  # noqa: E402
+from unittest import mock  # noqa: E402
+
+import numpy as np  # noqa: E402
+import pandas as pd  # noqa: E402
+import torch  # noqa: E402
+
+from _report import write_json  # noqa: E402
+from streaming_fuzz import NOMINAL_INSERTION  # noqa: E402  (a fit is not what is tested here)
+
+SCALE = 0.005
+"""The bench's protocol scale: tiny, every trial at or near the simulator's minimum length."""
+RECOVERED_N = 1e-3
+"""Some 250 samples after one corrupted sample a stream is back on the clean stream's estimates
+within a millinewton (far below any sensor's resolution): a refused sample never entered the
+network or the filter, and the 5 Hz filter has long forgotten a one-sample shift."""
+EXPECTED = ("REJECTED", "HANDLED")
+FAILING = ("SILENT", "UNCLEAR", "CRASH")
+
+
+class Reached(Exception):
+    """Raised by a patched expensive step: the bad input got past every check to the work."""
+
+
+@dataclass
+class Attempt:
+    """One prepared case: what to run and what its outcome must show."""
+    argv: list[str] | None = None              # CLI arguments (``psmforce`` ...)
+    call: Callable | None = None               # or a Python call
+    names: tuple[str, ...] = ()                # a rejection must name one of these
+    check: Callable | None = None              # acceptance: result -> (ok, note)
+    guard: str | None = None                   # dotted attribute that acceptance would reach
+
+
+@dataclass
+class Case:
+    kind: str
+    name: str
+    expect: str
+    prepare: Callable  # (shared: Shared, folder: Path) -> Attempt
+
+
+@dataclass
+class Outcome:
+    verdict: str
+    detail: str
+    seconds: float = 0.0
+
+
+# ---------------------------------------------------------------------------- shared inputs
+
+class Shared:
+    """The bench, prior, arm model and checkpoints every case starts from (never modified by a
+    case)."""
+
+    def __init__(self, root: Path):
+        from hybrid.train import train
+        from psm_model.identification.insertion import InsertionEffortModel
+        from psm_model.identification.prior import InternalForcePrior
+        from psm_model.sim import simulate
+        self.root = root
+        self.bench = root / "bench"
+        simulate("automated", scale=SCALE, seed=0, out=self.bench)
+        self.prior = root / "prior.json"
+        InternalForcePrior(converged=True, insertion=InsertionEffortModel(
+            NOMINAL_INSERTION, 0.005, {})).save(self.prior)
+        from psm_model.identification import fit_dynamics_cli
+        self.arm = root / "arm.json"
+        with contextlib.redirect_stdout(io.StringIO()):  # IPOPT's banner
+            fit_dynamics_cli(data=self.bench, model_out=self.arm, accept_poor_fit=True)
+        quiet = io.StringIO()
+        with contextlib.redirect_stderr(quiet):  # progress bars
+            self.fcn = Path(train(self.bench, "fcn", root / "fcn.pt", epochs=1)["checkpoint"])
+            self.hybrid = Path(train(self.bench, "hybrid", root / "hybrid.pt", epochs=1,
+                                     prior=self.prior)["checkpoint"])
+
+    def copy(self, folder: Path) -> Path:
+        data = folder / "bench"
+        shutil.copytree(self.bench, data)
+        return data
+
+
+def trial(data: Path, split: str = "train", condition: str = "Free") -> Path:
+    return sorted(data.glob(f"{split}/{condition}/*.csv"))[0]
+
+
+def edit_csv(path: Path, change: Callable[[pd.DataFrame], pd.DataFrame | None]) -> None:
+    """Rewrite a recording through pandas (not write_recording, which refuses bad values)."""
+    change(pd.read_csv(path)).to_csv(path, index=False)
+
+
+def _set(column: str, value, row: int = 7):
+    def change(frame):
+        if isinstance(value, str):
+            frame[column] = frame[column].astype(object)
+        frame.loc[row, column] = value
+        return frame
+    return change
+
+
+def _time(change):
+    def edit(frame):
+        t = frame["time"].to_numpy().copy()
+        change(t)
+        frame["time"] = t
+        return frame
+    return edit
+
+
+def _swap(t):
+    t[10], t[11] = t[11], t[10]
+
+
+def _repeat(t):
+    t[11] = t[10]
+
+
+def _garbage(path: Path) -> None:
+    path.write_bytes(np.random.default_rng(0).integers(0, 256, 4096, dtype=np.uint8).tobytes())
+
+
+RECORDING_DAMAGE: dict[str, Callable[[Path], None]] = {
+    "zero-byte file": lambda p: p.write_bytes(b""),
+    "text, not CSV": lambda p: p.write_text("this is not a recording\n"),
+    "binary garbage": _garbage,
+    "header only": lambda p: p.write_text(p.read_text().splitlines()[0] + "\n"),
+    "ragged row": lambda p: p.write_text(p.read_text() + "1,2,3\n"),
+    "missing column": lambda p: edit_csv(p, lambda f: f.drop(columns=["roll_effort"])),
+    "NaN cell": lambda p: edit_csv(p, _set("yaw_effort", np.nan)),
+    "inf cell": lambda p: edit_csv(p, _set("fz", np.inf)),
+    "text cell": lambda p: edit_csv(p, _set("roll_effort", "abc")),
+    "backwards time": lambda p: edit_csv(p, _time(_swap)),
+    "duplicate time": lambda p: edit_csv(p, _time(_repeat)),
+}
+"""What a recording file can be instead of a recording: each read refuses it naming the file."""
+
+
+# ---------------------------------------------------------------------------- running a case
+
+def _tree(*roots: Path) -> dict:
+    """Every file under ``roots`` with its size and modification time: what a rejection must
+    leave as it found it."""
+    state = {}
+    for root in roots:
+        for p in sorted(root.rglob("*")):
+            if p.is_file():
+                st = p.stat()
+                state[str(p)] = (st.st_size, st.st_mtime_ns)
+            elif p.is_dir():
+                state[str(p)] = "dir"
+    return state
+
+
+def _changes(before: dict, after: dict) -> list[str]:
+    return sorted({k for k in before.keys() | after.keys() if before.get(k) != after.get(k)})
+
+
+def _guarded(target: str | None):
+    if target is None:
+        return contextlib.nullcontext()
+    return mock.patch(target, side_effect=Reached(target))
+
+
+def run_case(case: Case, shared: Shared, folder: Path) -> Outcome:
+    folder.mkdir(parents=True)
+    attempt = case.prepare(shared, folder)
+    before = _tree(folder, shared.root)
+    out, err = io.StringIO(), io.StringIO()
+    result, error, rc = None, None, None
+    start = time.perf_counter()
+    with _guarded(attempt.guard), contextlib.redirect_stdout(out), \
+            contextlib.redirect_stderr(err):
+        try:
+            if attempt.argv is not None:
+                from psmforce.cli import main
+                try:
+                    rc = main(attempt.argv)
+                except SystemExit as exit_:  # argparse
+                    rc = exit_.code if isinstance(exit_.code, int) else 1
+            else:
+                result = attempt.call()
+        except Exception as exc:  # noqa: BLE001 - classified below
+            error = exc
+            trace = traceback.format_exc()
+    seconds = time.perf_counter() - start
+    left = _changes(before, _tree(folder, shared.root))
+    stderr = err.getvalue()
+
+    def outcome(verdict, detail):
+        return Outcome(verdict, detail, seconds)
+
+    if isinstance(error, Reached):
+        return outcome("SILENT", f"accepted: reached {error} with the bad input")
+    if error is not None and (attempt.argv is not None or not isinstance(error, (ValueError,
+                                                                                  OSError))):
+        return outcome("CRASH", f"{type(error).__name__}: {error} | "
+                                f"{trace.strip().splitlines()[-3].strip()}")
+    if attempt.argv is not None:
+        if rc not in (0, 2):
+            return outcome("CRASH", f"exit {rc}: {stderr.strip()[-300:]}")
+        if "Traceback" in stderr:
+            return outcome("CRASH", f"traceback on stderr: {stderr.strip()[-300:]}")
+        if rc == 2:
+            lines = [ln for ln in stderr.splitlines() if ln.startswith("psmforce ")]
+            message = lines[-1] if lines else stderr.strip()
+            return _rejected(message, len(lines) == 1, attempt, left, outcome)
+    elif error is not None:
+        message = str(error)
+        return _rejected(message, "\n" not in message.strip(), attempt, left, outcome)
+    if attempt.check is None:
+        return outcome("SILENT", "accepted: " + (stderr.strip() or out.getvalue().strip())[-200:])
+    ok, note = attempt.check(result if attempt.argv is None else out.getvalue())
+    return outcome("HANDLED" if ok else "SILENT", note)
+
+
+def _rejected(message: str, one_line: bool, attempt: Attempt, left: list[str], outcome):
+    if left:
+        return outcome("SILENT", f"rejected ({message}) but left behind: "
+                                 + ", ".join(Path(p).name for p in left[:5]))
+    named = [n for n in attempt.names if n in message]
+    if not one_line or not named:
+        return outcome("UNCLEAR", f"names none of {list(attempt.names)}: {message}")
+    return outcome("REJECTED", message)
+
+
+# ---------------------------------------------------------------------------- the cases
+
+def cases() -> list[Case]:
+    found: list[Case] = []
+
+    def case(kind: str, name: str, expect: str = "REJECTED"):
+        def register(prepare):
+            found.append(Case(kind, name, expect, prepare))
+            return prepare
+        return register
+
+    # --- recordings: every reader refuses a damaged file naming it --------------------------
+    for damage, apply in RECORDING_DAMAGE.items():
+        def read(s, d, apply=apply):
+            from psm_model.recording import read_recording
+            path = d / "rec.csv"
+            shutil.copy(trial(s.bench), path)
+            apply(path)
+            return Attempt(call=lambda: read_recording(path), names=(str(path),))
+        found.append(Case("api read_recording", damage, "REJECTED", read))
+
+        def train_on(s, d, apply=apply):
+            data = s.copy(d)
+            bad = trial(data)
+            apply(bad)
+            return Attempt(argv=["train", "--data", str(data), "--model", "fcn", "--epochs", "1",
+                                 "--out", str(d / "m.pt")], names=(str(bad),))
+        found.append(Case("cli train: recording", damage, "REJECTED", train_on))
+
+        def evaluate_on(s, d, apply=apply):
+            data = s.copy(d)
+            bad = trial(data, "test", "Palpation")
+            apply(bad)
+            return Attempt(argv=["evaluate", str(s.fcn), "--data", str(data),
+                                 "--out", str(d / "eval")], names=(str(bad),))
+        found.append(Case("cli evaluate: recording", damage, "REJECTED", evaluate_on))
+
+    for damage in ("zero-byte file", "NaN cell", "text cell", "backwards time",
+                   "missing column"):
+        def wrench_on(s, d, apply=RECORDING_DAMAGE[damage]):
+            rec = d / "rec.csv"
+            shutil.copy(trial(s.bench), rec)
+            apply(rec)
+            return Attempt(argv=["wrench", str(rec), "--dynamics", str(s.arm),
+                                 "--out", str(d / "w.csv")], names=(str(rec),))
+        found.append(Case("cli wrench: recording", damage, "REJECTED", wrench_on))
+
+        def finetune_on(s, d, apply=RECORDING_DAMAGE[damage]):
+            data = s.copy(d)
+            bad = trial(data)
+            apply(bad)
+            return Attempt(argv=["finetune", str(s.fcn), "--data", str(data), "--epochs", "1",
+                                 "--out", str(d / "t.pt")], names=(str(bad),))
+        found.append(Case("cli finetune: recording", damage, "REJECTED", finetune_on))
+
+    for damage in ("zero-byte file", "NaN cell", "text cell", "backwards time"):
+        def fit_prior_on(s, d, apply=RECORDING_DAMAGE[damage]):
+            data = s.copy(d)
+            bad = trial(data)
+            apply(bad)
+            return Attempt(argv=["fit-prior", "--data", str(data), "--out", str(d / "p.json")],
+                           names=(str(bad),))
+        found.append(Case("cli fit-prior: recording", damage, "REJECTED", fit_prior_on))
+
+        def convert_on(s, d, apply=RECORDING_DAMAGE[damage]):
+            src = d / "export.csv"
+            shutil.copy(trial(s.bench), src)
+            apply(src)
+            return Attempt(argv=["convert", str(src), "--out", str(d / "out.csv")],
+                           names=(str(src),))
+        found.append(Case("cli convert: CSV export", damage, "REJECTED", convert_on))
+
+    # --- write_recording refuses what read_recording would refuse ---------------------------
+    for damage, change in (("NaN cell", _set("yaw_effort", np.nan)),
+                           ("inf cell", _set("fz", -np.inf)),
+                           ("backwards time", _time(_swap)),
+                           ("duplicate time", _time(_repeat)),
+                           ("missing column", lambda f: f.drop(columns=["roll_effort"]))):
+        def write(s, d, change=change):
+            from psm_model.recording import write_recording
+            frame = change(pd.read_csv(trial(s.bench)))
+            path = d / "rec.csv"
+            return Attempt(call=lambda: write_recording(frame, path), names=(str(path),))
+        found.append(Case("api write_recording", damage, "REJECTED", write))
+
+    # --- physically impossible values ------------------------------------------------------
+    for what, column, value in (("insertion 5 m", "insertion_position", 5.0),
+                                ("roll 1e30 rad", "roll_position", 1e30),
+                                ("fz 1e39 N", "fz", 1e39)):
+        def impossible(s, d, column=column, value=value):
+            data = s.copy(d)
+            bad = trial(data)
+            edit_csv(bad, _set(column, value))
+            return Attempt(argv=["train", "--data", str(data), "--model", "fcn", "--epochs", "1",
+                                 "--out", str(d / "m.pt")], names=(str(bad),))
+        found.append(Case("cli train: recording", f"out of range: {what}", "REJECTED",
+                          impossible))
+
+    # --- datasets: whole or refused ---------------------------------------------------------
+    def dataset_case(name, damage, expect="REJECTED"):
+        def prepare(s, d):
+            data = s.copy(d)
+            named = damage(data)
+            return Attempt(argv=["train", "--data", str(data), "--model", "fcn", "--epochs", "1",
+                                 "--out", str(d / "m.pt")], names=(named or str(data),))
+        found.append(Case("cli train: dataset", name, expect, prepare))
+
+    def metadata(text):
+        def damage(data):
+            (data / "metadata.json").write_text(text)
+            return str(data / "metadata.json")
+        return damage
+
+    def meta_trials(edit):
+        def damage(data):
+            meta = json.loads((data / "metadata.json").read_text())
+            meta["trials"] = edit(meta["trials"])
+            (data / "metadata.json").write_text(json.dumps(meta))
+            return str(data / "metadata.json")
+        return damage
+
+    dataset_case("interrupted simulate (no metadata.json)",
+                 lambda data: (data / "metadata.json").unlink())
+    dataset_case("metadata.json zero bytes", metadata(""))
+    dataset_case("metadata.json invalid JSON", metadata("{trials: ["))
+    dataset_case("metadata.json a list", metadata("[1, 2]"))
+    dataset_case("metadata trials []", meta_trials(lambda t: []))
+    dataset_case("metadata trial without path",
+                 meta_trials(lambda t: [{k: v for k, v in e.items() if k != "path"} for e in t]))
+    dataset_case("metadata trial path outside the folder",
+                 meta_trials(lambda t: [{**t[0], "path": "../../etc/passwd"}] + t[1:]))
+    dataset_case("metadata trial path a number",
+                 meta_trials(lambda t: [{**t[0], "path": 3}] + t[1:]))
+
+    def listed_missing(data):
+        path = trial(data)
+        path.unlink()
+        return str(path)
+    dataset_case("a listed recording deleted", listed_missing)
+    def no_train_split(data):
+        meta_trials(lambda t: [e for e in t if e["split"] != "train"])(data)
+        return str(data)
+    dataset_case("no train split", no_train_split)
+
+    def no_targets(data):
+        bad = trial(data)
+        edit_csv(bad, lambda f: f.drop(columns=["ati_fx", "ati_fy", "ati_fz"]))
+        return str(bad)
+    dataset_case("recording without ATI targets", no_targets)
+
+    @case("cli train: dataset", "train recording shorter than the transformer's window")
+    def _(s, d):
+        data = s.copy(d)
+        bad = trial(data, "train", "Traction")
+        edit_csv(bad, lambda f: f.iloc[:50])
+        return Attempt(argv=["train", "--data", str(data), "--model", "transformer",
+                             "--epochs", "1", "--out", str(d / "m.pt")],
+                       names=(bad.relative_to(data).as_posix(),))
+
+    @case("cli train: dataset", "data folder missing")
+    def _(s, d):
+        return Attempt(argv=["train", "--data", str(d / "nowhere"), "--model", "fcn",
+                             "--out", str(d / "m.pt")], names=(str(d / "nowhere"),))
+
+    @case("cli train: dataset", "data folder empty")
+    def _(s, d):
+        (d / "empty").mkdir()
+        return Attempt(argv=["train", "--data", str(d / "empty"), "--model", "fcn",
+                             "--out", str(d / "m.pt")], names=(str(d / "empty"),))
+
+    @case("cli train: dataset", "data is a file")
+    def _(s, d):
+        return Attempt(argv=["train", "--data", str(s.fcn), "--model", "fcn",
+                             "--out", str(d / "m.pt")], names=(str(s.fcn),))
+
+    @case("api train", "short Traction trials (240 < chunk 400) trained on, not dropped",
+          "HANDLED")
+    def _(s, d):
+        from hybrid.checkpoint import load_checkpoint
+        from hybrid.data import load_dataset
+        from hybrid.train import train
+        out = d / "h.pt"
+
+        def check(result):
+            ckpt = load_checkpoint(out)
+            used = set(ckpt.provenance["train_trials"]) | set(ckpt.provenance["val_trials"])
+            listed = {t.path for t in load_dataset(s.bench).select(split="train")}
+            traction = [p for p in used if "/Traction/" in p]
+            return (used == listed and bool(traction),
+                    f"chunk {result['chunk']}: all {len(listed)} train recordings used, "
+                    f"{len(traction)} Traction")
+
+        def run():
+            with contextlib.redirect_stderr(io.StringIO()):
+                return train(s.bench, "hybrid", out, epochs=1, prior=s.prior)
+        return Attempt(call=run, check=check)
+
+    @case("cli index", "interrupted simulate indexed explicitly", "HANDLED")
+    def _(s, d):
+        data = s.copy(d)
+        (data / "metadata.json").unlink()
+        n = len(list(data.rglob("*.csv")))
+
+        def check(stdout):
+            from hybrid.data import load_dataset
+            got = len(load_dataset(data).trials)
+            return got == n, f"{got} of {n} recordings listed: {stdout.strip()}"
+        return Attempt(argv=["index", str(data)], check=check)
+
+    @case("cli index", "folder already a dataset")
+    def _(s, d):
+        data = s.copy(d)
+        return Attempt(argv=["index", str(data)], names=(str(data),))
+
+    @case("cli index", "missing folder")
+    def _(s, d):
+        return Attempt(argv=["index", str(d / "nowhere")], names=(str(d / "nowhere"),))
+
+    @case("cli index", "folder without recordings")
+    def _(s, d):
+        (d / "empty").mkdir()
+        (d / "empty" / "notes.txt").write_text("no csv here\n")
+        return Attempt(argv=["index", str(d / "empty")], names=(str(d / "empty"),))
+
+    @case("cli index", "a file")
+    def _(s, d):
+        path = d / "rec.csv"
+        shutil.copy(trial(s.bench), path)
+        return Attempt(argv=["index", str(path)], names=(str(path),))
+
+    # --- train options -----------------------------------------------------------------------
+    def train_option(name, extra, names, out="m.pt", guard="hybrid.train.load_dataset"):
+        def prepare(s, d):
+            target = d / out
+            if out == "folder":
+                target.mkdir()
+            return Attempt(argv=["train", "--data", str(s.bench), "--model", "fcn",
+                                 "--out", str(target), *extra], names=names, guard=guard)
+        found.append(Case("cli train: options", name, "REJECTED", prepare))
+
+    train_option("--epochs 0", ["--epochs", "0"], ("--epochs",))
+    train_option("--epochs -1", ["--epochs", "-1"], ("--epochs",))
+    train_option("--epochs 1e9 (not an integer)", ["--epochs", "1e9"], ("--epochs",))
+    train_option("--epochs nan", ["--epochs", "nan"], ("--epochs",))
+    if not torch.cuda.is_available():
+        train_option("--device cuda without CUDA", ["--device", "cuda"], ("--device",))
+    train_option("--device tpu", ["--device", "tpu"], ("--device",))
+    train_option("--seed 1e23", ["--seed", "1e23"], ("--seed",))
+    train_option("--seed -1", ["--seed", "-1"], ("--seed",), guard=None)
+    train_option("--seed 2**70", ["--seed", str(2 ** 70)], ("--seed",), guard=None)
+    train_option("--model svm", ["--model", "svm"], ("--model",))
+    train_option("--features unknown", ["--features", "everything"], ("everything", "feature"),
+                 guard=None)
+    train_option("--out is a folder", [], ("--out",), out="folder")
+    train_option("--json into a missing folder", ["--json", "/nonexistent/dir/t.json"],
+                 ("--json",))
+
+    @case("cli train: options", "--out under a file (parent is a file)")
+    def _(s, d):
+        (d / "blocker").write_text("")
+        return Attempt(argv=["train", "--data", str(s.bench), "--model", "fcn",
+                             "--out", str(d / "blocker" / "m.pt")], names=("--out",),
+                       guard="hybrid.train.load_dataset")
+
+    # --- priors ------------------------------------------------------------------------------
+    def prior_file(s, d, edit):
+        path = d / "prior.json"
+        doc = json.loads(s.prior.read_text())
+        text = edit(doc)
+        path.write_text(text if isinstance(text, str) else json.dumps(doc))
+        return path
+
+    def set_param(name, value):
+        def edit(doc):
+            doc["parameters"][name]["value"] = value
+        return edit
+
+    prior_damage = {
+        "zero-byte": lambda doc: "",
+        "not JSON": lambda doc: "prior: yes\n",
+        "a list": lambda doc: "[1, 2, 3]",
+        "a string": lambda doc: '"prior"',
+        "another format": lambda doc: json.dumps({"format": "psm-arm-dynamics"}),
+        "string parameter": set_param("bias_fz", "0.1"),
+        "NaN parameter": set_param("pretension_total", float("nan")),
+        "infinite parameter": set_param("bias_fx", float("inf")),
+        "negative pulley radius": set_param("pulley_radius_pitch", -1.0),
+        "null parameter": set_param("distal_mass", None),
+        "parameters a list": lambda doc: json.dumps({**doc, "parameters": [1, 2]}),
+    }
+    for damage, edit in prior_damage.items():
+        def load(s, d, edit=edit):
+            from psm_model.identification.prior import InternalForcePrior
+            path = prior_file(s, d, edit)
+            return Attempt(call=lambda: InternalForcePrior.load(path), names=(str(path),))
+        found.append(Case("api InternalForcePrior.load", damage, "REJECTED", load))
+
+        def train_with(s, d, edit=edit):
+            path = prior_file(s, d, edit)
+            return Attempt(argv=["train", "--data", str(s.bench), "--model", "hybrid",
+                                 "--prior", str(path), "--epochs", "1", "--out", str(d / "h.pt")],
+                           names=(str(path),))
+        found.append(Case("cli train --prior", damage, "REJECTED", train_with))
+
+    @case("cli train --prior", "missing file")
+    def _(s, d):
+        return Attempt(argv=["train", "--data", str(s.bench), "--model", "hybrid", "--prior",
+                             str(d / "none.json"), "--epochs", "1", "--out", str(d / "h.pt")],
+                       names=(str(d / "none.json"),))
+
+    @case("cli fit-prior", "one training trial reads fz = 1e6 N (poor fit)")
+    def _(s, d):
+        data = s.copy(d)
+        edit_csv(trial(data), lambda f: f.assign(fz=1e6))
+        out = d / "p.json"
+        return Attempt(argv=["fit-prior", "--data", str(data), "--out", str(out)],
+                       names=("--accept-poor-fit",))
+
+    @case("cli fit-prior", "--data missing")
+    def _(s, d):
+        return Attempt(argv=["fit-prior", "--data", str(d / "none"), "--out", str(d / "p.json")],
+                       names=(str(d / "none"),))
+
+    @case("cli fit-prior", "--out is a folder")
+    def _(s, d):
+        return Attempt(argv=["fit-prior", "--data", str(s.bench), "--out", str(d)],
+                       names=("--out", str(d)), guard="psm_model.identification.fit_prior_cli")
+
+    @case("cli fit-prior", "--json into a missing folder")
+    def _(s, d):
+        return Attempt(argv=["fit-prior", "--data", str(s.bench), "--out", str(d / "p.json"),
+                             "--json", str(d / "no" / "p.json")], names=("--json",),
+                       guard="psm_model.identification.fit_prior_cli")
+
+    # --- checkpoints -------------------------------------------------------------------------
+    def flip_weights(path: Path, out: Path) -> None:
+        """Overwrite 8 bytes inside the largest stored tensor (uncompressed in the zip)."""
+        from hybrid.checkpoint import load_checkpoint
+        state = load_checkpoint(path).model.state_dict()
+        tensor = max(state.values(), key=lambda t: t.numel())
+        raw = path.read_bytes()
+        at = raw.find(tensor.detach().numpy().tobytes()[:64])
+        out.write_bytes(raw[:at + 16] + b"\x7f" * 8 + raw[at + 24:])
+
+    ckpt_damage = {
+        "zero-byte": lambda s, out: out.write_bytes(b""),
+        "text": lambda s, out: out.write_text("hello, this is not a checkpoint\n"),
+        "truncated to half": lambda s, out: out.write_bytes(s.fcn.read_bytes()[
+            :s.fcn.stat().st_size // 2]),
+        "flipped weight bytes": lambda s, out: flip_weights(s.fcn, out),
+        "a prior JSON": lambda s, out: shutil.copy(s.prior, out),
+        "missing": lambda s, out: None,
+    }
+    for damage, make in ckpt_damage.items():
+        def checkpoint(s, d, make=make):
+            path = d / "model.pt"
+            make(s, path)
+            return path
+
+        def evaluate_with(s, d, checkpoint=checkpoint):
+            path = checkpoint(s, d)
+            return Attempt(argv=["evaluate", str(path), "--data", str(s.bench),
+                                 "--out", str(d / "eval")], names=(str(path),))
+
+        def finetune_with(s, d, checkpoint=checkpoint):
+            path = checkpoint(s, d)
+            return Attempt(argv=["finetune", str(path), "--data", str(s.bench), "--epochs", "1",
+                                 "--out", str(d / "t.pt")], names=(str(path),))
+
+        def export_with(s, d, checkpoint=checkpoint):
+            path = checkpoint(s, d)
+            return Attempt(argv=["export", str(path), "--out", str(d / "onnx")],
+                           names=(str(path),))
+
+        def stream_with(s, d, checkpoint=checkpoint):
+            from hybrid.streaming import StreamingEstimator
+            path = checkpoint(s, d)
+            return Attempt(call=lambda: StreamingEstimator.from_checkpoint(path),
+                           names=(str(path),))
+        found.append(Case("cli evaluate: checkpoint", damage, "REJECTED", evaluate_with))
+        found.append(Case("cli finetune: checkpoint", damage, "REJECTED", finetune_with))
+        found.append(Case("cli export: checkpoint", damage, "REJECTED", export_with))
+        found.append(Case("api StreamingEstimator.from_checkpoint", damage, "REJECTED",
+                          stream_with))
+
+    @case("cli export: checkpoint", "an fcn checkpoint (only the hybrid exports)")
+    def _(s, d):
+        return Attempt(argv=["export", str(s.fcn), "--out", str(d / "onnx")],
+                       names=(str(s.fcn),))
+
+    @case("cli evaluate: options", "--out not empty")
+    def _(s, d):
+        (d / "eval").mkdir()
+        (d / "eval" / "metrics.json").write_text("{}\n")
+        return Attempt(argv=["evaluate", str(s.fcn), "--data", str(s.bench),
+                             "--out", str(d / "eval")], names=("--out",))
+
+    @case("cli evaluate: options", "--out is a file")
+    def _(s, d):
+        (d / "eval").write_text("")
+        return Attempt(argv=["evaluate", str(s.fcn), "--data", str(s.bench),
+                             "--out", str(d / "eval")], names=("--out",))
+
+    @case("cli evaluate: dataset", "a test recording shorter than the evaluation start")
+    def _(s, d):
+        data = s.copy(d)
+        bad = trial(data, "test", "Traction")
+        edit_csv(bad, lambda f: f.iloc[:60])
+        return Attempt(argv=["evaluate", str(s.fcn), "--data", str(data),
+                             "--out", str(d / "eval")], names=(bad.relative_to(data).as_posix(),))
+
+    @case("cli evaluate: dataset", "no test split")
+    def _(s, d):
+        data = s.copy(d)
+        meta = json.loads((data / "metadata.json").read_text())
+        meta["trials"] = [e for e in meta["trials"] if e["split"] != "test"]
+        (data / "metadata.json").write_text(json.dumps(meta))
+        return Attempt(argv=["evaluate", str(s.fcn), "--data", str(data),
+                             "--out", str(d / "eval")], names=(str(data),))
+
+    @case("cli evaluate: dataset", "interrupted simulate (no metadata.json)")
+    def _(s, d):
+        data = s.copy(d)
+        (data / "metadata.json").unlink()
+        return Attempt(argv=["evaluate", str(s.fcn), "--data", str(data),
+                             "--out", str(d / "eval")], names=(str(data),))
+
+    @case("cli evaluate: options", "--out under a file")
+    def _(s, d):
+        (d / "blocker").write_text("")
+        return Attempt(argv=["evaluate", str(s.fcn), "--data", str(s.bench),
+                             "--out", str(d / "blocker" / "eval")], names=("--out",))
+
+    @case("cli export: options", "--out is a file")
+    def _(s, d):
+        (d / "onnx").write_text("")
+        return Attempt(argv=["export", str(s.hybrid), "--out", str(d / "onnx")],
+                       names=("--out",))
+
+    @case("cli finetune: dataset", "interrupted simulate (no metadata.json)")
+    def _(s, d):
+        data = s.copy(d)
+        (data / "metadata.json").unlink()
+        return Attempt(argv=["finetune", str(s.fcn), "--data", str(data), "--epochs", "1",
+                             "--out", str(d / "t.pt")], names=(str(data),))
+
+    @case("cli export: options", "--out not empty")
+    def _(s, d):
+        (d / "onnx").mkdir()
+        (d / "onnx" / "model.onnx").write_text("older\n")
+        return Attempt(argv=["export", str(s.hybrid), "--out", str(d / "onnx")],
+                       names=("--out",))
+
+    @case("cli finetune: options", "--epochs 0")
+    def _(s, d):
+        return Attempt(argv=["finetune", str(s.fcn), "--data", str(s.bench), "--epochs", "0",
+                             "--out", str(d / "t.pt")], names=("--epochs",))
+
+    @case("cli finetune: options", "--out is the folder itself")
+    def _(s, d):
+        return Attempt(argv=["finetune", str(s.fcn), "--data", str(s.bench), "--epochs", "1",
+                             "--out", str(d)], names=("--out",))
+
+    # --- simulate ----------------------------------------------------------------------------
+    def simulate_option(name, extra, names, prepare_out=None):
+        def prepare(s, d):
+            out = d / "sim"
+            if prepare_out:
+                prepare_out(out)
+            return Attempt(argv=["simulate", "--out", str(out), *extra], names=names,
+                           guard="psm_model.sim.protocols.automated")
+        found.append(Case("cli simulate", name, "REJECTED", prepare))
+
+    simulate_option("--scale 1e6", ["--scale", "1e6"], ("--scale",))
+    simulate_option("--scale 0", ["--scale", "0"], ("--scale", "scale"))
+    simulate_option("--scale -1", ["--scale", "-1"], ("--scale", "scale"))
+    simulate_option("--scale nan", ["--scale", "nan"], ("--scale", "scale"))
+    simulate_option("--scale inf", ["--scale", "inf"], ("--scale", "scale"))
+    simulate_option("--scale abc", ["--scale", "abc"], ("--scale",))
+    simulate_option("--seed 1e23", ["--seed", "1e23"], ("--seed",))
+    simulate_option("--seed -1", ["--seed", "-1"], ("--seed", "seed"))
+    simulate_option("--tool-spread without --tool-seed", ["--tool-spread", "2"],
+                    ("--tool-spread",))
+    simulate_option("--tool-spread -1", ["--tool-seed", "1", "--tool-spread", "-1"],
+                    ("--tool-spread", "tool_spread"))
+    simulate_option("--tool-spread nan", ["--tool-seed", "1", "--tool-spread", "nan"],
+                    ("--tool-spread", "tool_spread"))
+    simulate_option("--protocol surgery", ["--protocol", "surgery"], ("--protocol",))
+    simulate_option("--json into a missing folder", ["--json", "/nonexistent/dir/s.json"],
+                    ("--json",))
+    simulate_option("--out holds a dataset", [], ("--out", "out"),
+                    prepare_out=lambda out: (out.mkdir(), (out / "metadata.json").write_text(
+                        '{"trials": []}')))
+    simulate_option("--out is a file", [], ("--out", "out"),
+                    prepare_out=lambda out: out.write_text(""))
+
+    @case("cli simulate", "--out under a file")
+    def _(s, d):
+        (d / "blocker").write_text("")
+        return Attempt(argv=["simulate", "--scale", "0.005", "--out", str(d / "blocker" / "b")],
+                       names=(str(d / "blocker"),), guard="psm_model.sim.protocols.automated")
+
+    # --- convert -----------------------------------------------------------------------------
+    def convert_case(name, build, extra=(), names=None):
+        def prepare(s, d):
+            src, named = build(s, d)
+            return Attempt(argv=["convert", str(src), "--out", str(d / "out.csv"), *extra],
+                           names=names or (str(named),))
+        found.append(Case("cli convert", name, "REJECTED", prepare))
+
+    def missing_bag(s, d):
+        return d / "run.mcap", d / "run.mcap"
+
+    def empty_bag(s, d):
+        (d / "run.mcap").write_bytes(b"")
+        return d / "run.mcap", d / "run.mcap"
+
+    def text_bag(s, d):
+        (d / "run.bag").write_text("not a bag\n")
+        return d / "run.bag", d / "run.bag"
+
+    def empty_bag_folder(s, d):
+        (d / "bag").mkdir()
+        return d / "bag", d / "bag"
+
+    def csv_with_map(text):
+        def build(s, d):
+            shutil.copy(trial(s.bench), d / "e.csv")
+            (d / "map.json").write_text(text)
+            return d / "e.csv", d / "map.json"
+        return build
+
+    convert_case("missing bag", missing_bag)
+    convert_case("zero-byte .mcap", empty_bag)
+    convert_case("text file as ROS 1 bag", text_bag)
+    convert_case("empty folder as ROS 2 bag", empty_bag_folder)
+    for text, name in (("[1, 2]", "column map a list"), ("{not json", "column map not JSON"),
+                       ('{"no_such_column": "time"}', "column map names absent columns")):
+        def with_map(s, d, text=text):
+            src, mp = csv_with_map(text)(s, d)
+            return Attempt(argv=["convert", str(src), "--column-map", str(mp),
+                                 "--out", str(d / "out.csv")], names=(str(mp), str(src)))
+        found.append(Case("cli convert", name, "REJECTED", with_map))
+    @case("cli convert", "--out is a folder")
+    def _(s, d):
+        src = d / "e.csv"
+        shutil.copy(trial(s.bench), src)
+        return Attempt(argv=["convert", str(src), "--out", str(d)], names=("--out",))
+    for rate in ("0", "-5", "nan"):
+        def bad_rate(s, d, rate=rate):
+            (d / "bag").mkdir()
+            return Attempt(argv=["convert", str(d / "bag"), "--rate", rate,
+                                 "--out", str(d / "out.csv")], names=("--rate", "rate"))
+        found.append(Case("cli convert", f"--rate {rate}", "REJECTED", bad_rate))
+    for text, name in (("[[1, 0], [0, 1]]", "--r-ati-psm 2x2"),
+                       ("[[2, 0, 0], [0, 2, 0], [0, 0, 2]]", "--r-ati-psm not a rotation"),
+                       ("rotation", "--r-ati-psm not JSON")):
+        def bad_rotation(s, d, text=text):
+            (d / "bag").mkdir()
+            (d / "r.json").write_text(text)
+            return Attempt(argv=["convert", str(d / "bag"), "--r-ati-psm", str(d / "r.json"),
+                                 "--out", str(d / "out.csv")],
+                           names=("--r-ati-psm", str(d / "r.json")))
+        found.append(Case("cli convert", name, "REJECTED", bad_rotation))
+
+    # --- fit-dynamics and wrench -------------------------------------------------------------
+    @case("cli fit-dynamics", "default --format csv without --data")
+    def _(s, d):
+        return Attempt(argv=["fit-dynamics", "--model-out", str(d / "arm.json")],
+                       names=("--data",))
+
+    @case("cli fit-dynamics", "--format wpi without --train")
+    def _(s, d):
+        return Attempt(argv=["fit-dynamics", "--format", "wpi", "--model-out",
+                             str(d / "arm.json")], names=("--train",))
+
+    @case("cli fit-dynamics", "--data missing")
+    def _(s, d):
+        return Attempt(argv=["fit-dynamics", "--data", str(d / "none"), "--model-out",
+                             str(d / "arm.json")], names=(str(d / "none"),))
+
+    @case("cli fit-dynamics", "--data a text file")
+    def _(s, d):
+        (d / "free.csv").write_text("hello\n")
+        return Attempt(argv=["fit-dynamics", "--data", str(d / "free.csv"), "--model-out",
+                             str(d / "arm.json")], names=(str(d / "free.csv"),))
+
+    @case("cli fit-dynamics", "--gravity nan nan nan")
+    def _(s, d):
+        return Attempt(argv=["fit-dynamics", "--data", str(s.bench), "--gravity", "nan", "nan",
+                             "nan", "--model-out", str(d / "arm.json")],
+                       names=("--gravity", "gravity"),
+                       guard="psm_model.identification.dynamics.fit_arm_dynamics")
+
+    @case("cli fit-dynamics", "--format wpi on 3000 x 21 random numbers")
+    def _(s, d):
+        noise = np.random.default_rng(0).standard_normal((3000, 21))
+        for name in ("train.csv", "test.csv"):
+            np.savetxt(d / name, noise, delimiter=",")
+        return Attempt(argv=["fit-dynamics", "--format", "wpi", "--train", str(d / "train.csv"),
+                             "--test", str(d / "test.csv"), "--model-out", str(d / "arm.json")],
+                       names=("--accept-poor-fit", str(d / "train.csv")))
+
+    def dynamics_file(name, write):
+        @case("cli wrench", f"--dynamics {name}")
+        def _(s, d):
+            path = d / "arm.json"
+            write(s, path)
+            return Attempt(argv=["wrench", str(trial(s.bench)), "--dynamics", str(path),
+                                 "--out", str(d / "w.csv")], names=(str(path),))
+
+    @case("cli wrench", "--out is a folder")
+    def _(s, d):
+        return Attempt(argv=["wrench", str(trial(s.bench)), "--dynamics", str(s.arm),
+                             "--out", str(d)], names=("--out",))
+
+    @case("cli wrench", "--out in a missing folder")
+    def _(s, d):
+        return Attempt(argv=["wrench", str(trial(s.bench)), "--dynamics", str(s.arm),
+                             "--out", str(d / "no" / "w.csv")], names=("--out",))
+
+    @case("cli wrench", "--dynamics with a NaN parameter")
+    def _(s, d):
+        doc = json.loads(s.arm.read_text())
+        doc["gravity_mps2"][0] = float("nan")
+        path = d / "arm.json"
+        path.write_text(json.dumps(doc))
+        return Attempt(argv=["wrench", str(trial(s.bench)), "--dynamics", str(path),
+                             "--out", str(d / "w.csv")], names=(str(path),))
+
+    dynamics_file("missing", lambda s, path: None)
+    dynamics_file("zero-byte", lambda s, path: path.write_text(""))
+    dynamics_file("not JSON", lambda s, path: path.write_text("arm: yes\n"))
+    dynamics_file("a list", lambda s, path: path.write_text("[1, 2]"))
+    dynamics_file("a prior JSON", lambda s, path: shutil.copy(s.prior, path))
+
+    # --- calibrate ----------------------------------------------------------------------------
+    def calibrate_option(name, extra, names, damage=None):
+        def prepare(s, d):
+            ckpt = s.fcn
+            if damage:
+                ckpt = d / "model.pt"
+                damage(s, ckpt)
+            return Attempt(argv=["calibrate", str(ckpt), "--data", str(s.bench),
+                                 "--out", str(d / "c.pt"), *extra],
+                           names=tuple(str(ckpt) if n == "CKPT" else n for n in names))
+        found.append(Case("cli calibrate", name, "REJECTED", prepare))
+
+    calibrate_option("--minutes 0", ["--minutes", "0", "--epochs", "1"],
+                     ("--minutes", "minutes"))
+    calibrate_option("--minutes -1", ["--minutes", "-1", "--epochs", "1"],
+                     ("--minutes", "minutes"))
+    calibrate_option("--minutes nan", ["--minutes", "nan", "--epochs", "1"],
+                     ("--minutes", "minutes"))
+    calibrate_option("--epochs 0", ["--epochs", "0"], ("--epochs",))
+    calibrate_option("zero-byte checkpoint", ["--epochs", "1"], ("CKPT",),
+                     damage=ckpt_damage["zero-byte"])
+    calibrate_option("flipped weight bytes", ["--epochs", "1"], ("CKPT",),
+                     damage=ckpt_damage["flipped weight bytes"])
+
+    # --- reproduce and demo: bad arguments found before any folder or work --------------------
+    def reproduce_option(name, extra, names, prepare_out=None):
+        def prepare(s, d):
+            out = d / "run"
+            if prepare_out:
+                prepare_out(out)
+            return Attempt(argv=["reproduce", "--out", str(out), *extra], names=names,
+                           guard="hybrid.reproduce.run_grid")
+        found.append(Case("cli reproduce", name, "REJECTED", prepare))
+
+    reproduce_option("--scale 0", ["--scale", "0"], ("--scale",))
+    reproduce_option("--scale -1", ["--scale", "-1"], ("--scale",))
+    reproduce_option("--scale nan", ["--scale", "nan"], ("--scale",))
+    reproduce_option("--scale 1e6", ["--scale", "1e6"], ("--scale",))
+    reproduce_option("--seeds -1", ["--seeds", "-1"], ("--seeds",))
+    reproduce_option("--seeds 1e23", ["--seeds", "1e23"], ("--seeds",))
+    reproduce_option("--budget huge", ["--budget", "huge"], ("--budget",))
+    reproduce_option("--models svm", ["--models", "svm"], ("--models",))
+    if not torch.cuda.is_available():
+        reproduce_option("--device cuda without CUDA", ["--device", "cuda"], ("--device",))
+    reproduce_option("--out is a file", [], ("--out",),
+                     prepare_out=lambda out: out.write_text(""))
+
+    @case("cli reproduce", "--out under a file")
+    def _(s, d):
+        (d / "blocker").write_text("")
+        return Attempt(argv=["reproduce", "--out", str(d / "blocker" / "run")],
+                       names=("--out",), guard="hybrid.reproduce.run_grid")
+
+    @case("cli demo", "--out not empty")
+    def _(s, d):
+        (d / "demo").mkdir()
+        (d / "demo" / "notes.txt").write_text("mine\n")
+        return Attempt(argv=["demo", "--out", str(d / "demo")], names=("--out",),
+                       guard="psm_model.sim.simulate")
+
+    # --- the streaming estimator -------------------------------------------------------------
+    def warmed(estimates):
+        """Index of the first estimate after the warm-up (held NaN until then)."""
+        return next(k for k, e in enumerate(estimates) if np.isfinite(e.force_hex10).all())
+
+    def streaming(name, corrupt, flag="INVALID_INPUT", expect="HANDLED"):
+        """One corrupted sample in a clean stream: flagged, every estimate after the warm-up
+        finite, every estimate farther than hybrid.streaming_fuzz.FAR_N from the clean stream's
+        flagged, and the last ones back on the clean stream's."""
+        def prepare(s, d):
+            from hybrid.streaming import Flags, StreamingEstimator
+            frame = pd.read_csv(trial(s.bench, "test", "Palpation"))
+            rows = frame.to_dict("records")
+            bad_at = 300
+
+            def run():
+                def stream(bad):
+                    est = StreamingEstimator.from_checkpoint(s.hybrid, post_filter="lowpass")
+                    return [est.step(corrupt(dict(r)) if bad and k == bad_at else r)
+                            for k, r in enumerate(rows)]
+                return stream(False), stream(True)
+
+            def check(result):
+                from hybrid.streaming_fuzz import FAR_N
+                clean, dirty = result
+                flagged = dirty[bad_at].flags & Flags[flag]
+                start = warmed(dirty)
+                finite = all(np.isfinite(e.force_hex10).all() for e in dirty[start:])
+                far_unflagged = sum(
+                    1 for a, b in zip(clean[start:], dirty[start:])
+                    if np.abs(a.force_hex10 - b.force_hex10).max() > FAR_N and not b.flags)
+                after = max(np.abs(a.force_hex10 - b.force_hex10).max() for a, b in
+                            zip(clean[-50:], dirty[-50:]))
+                return (bool(flagged) and finite and not far_unflagged and after < RECOVERED_N,
+                        f"flags {Flags(dirty[bad_at].flags)!r}, estimates finite {finite}, "
+                        f"{far_unflagged} unflagged estimates over {FAR_N} N off, last 50 "
+                        f"within {after:.2g} N of the clean stream's")
+            return Attempt(call=run, check=check)
+        found.append(Case("api StreamingEstimator.step", name, expect, prepare))
+
+    streaming("roll_position 1e30", lambda r: {**r, "roll_position": 1e30})
+    streaming("fz 1e39", lambda r: {**r, "fz": 1e39})
+    streaming("jaw_velocity 1e39", lambda r: {**r, "jaw_velocity": 1e39})
+    streaming("insertion_effort 1e20", lambda r: {**r, "insertion_effort": 1e20})
+    streaming("insertion_effort 1e4 spike", lambda r: {**r, "insertion_effort": 1e4})
+    streaming("NaN yaw_position", lambda r: {**r, "yaw_position": float("nan")})
+    streaming("time None", lambda r: {**r, "time": None})
+    streaming("text value", lambda r: {**r, "fx": "abc"})
+    streaming("a column missing", lambda r: {k: v for k, v in r.items() if k != "fy"})
+    streaming("time 1 s backwards", lambda r: {**r, "time": r["time"] - 1.0}, "TIME_BACKWARDS")
+    streaming("time inf", lambda r: {**r, "time": float("inf")})
+    streaming("a list, not a mapping", lambda r: list(r.values()))
+    streaming("hex10_overload 'yes'", lambda r: {**r, "hex10_overload": "yes"})
+
+    @case("api StreamingEstimator.step", "a 5 s gap: flagged, the stream restarts", "HANDLED")
+    def _(s, d):
+        from hybrid.streaming import Flags, StreamingEstimator
+        rows = pd.read_csv(trial(s.bench, "test", "Palpation")).to_dict("records")
+
+        def run():
+            est = StreamingEstimator.from_checkpoint(s.hybrid, post_filter="lowpass")
+            return [est.step({**r, "time": r["time"] + (5.0 if k >= 300 else 0.0)})
+                    for k, r in enumerate(rows)]
+
+        def check(estimates):
+            after = estimates[300]
+            finite = all(np.isfinite(e.force_hex10).all() for e in estimates[warmed(estimates):])
+            return (bool(after.flags & Flags.GAP) and finite,
+                    f"flags after the gap {Flags(after.flags)!r}, estimates finite {finite}")
+        return Attempt(call=run, check=check)
+
+    @case("api StreamingEstimator", "rate_hz nan")
+    def _(s, d):
+        from hybrid.streaming import StreamingEstimator
+        return Attempt(call=lambda: StreamingEstimator.from_checkpoint(s.hybrid,
+                                                                       rate_hz=float("nan")),
+                       names=("rate_hz",))
+
+    @case("api StreamingEstimator", "max_gap_samples -1")
+    def _(s, d):
+        from hybrid.streaming import StreamingEstimator
+        return Attempt(call=lambda: StreamingEstimator.from_checkpoint(s.hybrid,
+                                                                       max_gap_samples=-1),
+                       names=("max_gap_samples",))
+
+    @case("api StreamingEstimator", "an fcn checkpoint")
+    def _(s, d):
+        from hybrid.streaming import StreamingEstimator
+        return Attempt(call=lambda: StreamingEstimator.from_checkpoint(s.fcn),
+                       names=(str(s.fcn),))
+
+    # --- Python API arguments ----------------------------------------------------------------
+    @case("api train", "epochs=0")
+    def _(s, d):
+        from hybrid.train import train
+        return Attempt(call=lambda: train(s.bench, "fcn", d / "m.pt", epochs=0),
+                       names=("epochs",))
+
+    @case("api train", "epochs=2.5")
+    def _(s, d):
+        from hybrid.train import train
+        return Attempt(call=lambda: train(s.bench, "fcn", d / "m.pt", epochs=2.5),
+                       names=("epochs",))
+
+    @case("api simulate", "scale=-1")
+    def _(s, d):
+        from psm_model.sim import simulate
+        return Attempt(call=lambda: simulate("automated", scale=-1, out=d / "b"),
+                       names=("scale",))
+
+    @case("api simulate", "seed=1e23")
+    def _(s, d):
+        from psm_model.sim import simulate
+        return Attempt(call=lambda: simulate("automated", scale=0.005, seed=1e23, out=d / "b"),
+                       names=("seed",))
+
+    @case("api simulate", "scale=1e-9: every trial at its minimum length", "HANDLED")
+    def _(s, d):
+        from hybrid.data import load_dataset
+        from psm_model.sim import simulate
+
+        def check(summary):
+            trials = load_dataset(d / "b").trials
+            kinds = {(t.split, t.condition) for t in trials}
+            return (len(kinds) == 6 and min(len(t) for t in trials) > 1,
+                    f"{len(trials)} readable trials covering {len(kinds)} split x condition, "
+                    f"{min(len(t) for t in trials)} samples or more each")
+        return Attempt(call=lambda: simulate("automated", scale=1e-9, out=d / "b"), check=check)
+
+    @case("api fit_prior_cli", "a poor fit is saved marked poor_fit", "HANDLED")
+    def _(s, d):
+        from psm_model.identification.prior import fit_prior_cli
+        data = s.copy(d)
+        edit_csv(trial(data), lambda f: f.assign(fz=1e6))
+
+        def check(report):
+            return (bool(report.get("poor_fit")) and report["model"] is not None,
+                    f"saved with poor_fit={report.get('poor_fit')} (test Free fz RMS "
+                    f"{report['test_free_metrics']['fz']['rms']:.3g} N)")
+        return Attempt(call=lambda: fit_prior_cli(data, d / "p.json"), check=check)
+
+    @case("api PSM", "q of 5 joints")
+    def _(s, d):
+        from psm_model import PSM
+        return Attempt(call=lambda: PSM().spatial_jacobian(np.zeros(5)), names=("q", "6"))
+
+    @case("api PSM", "forward_kinematics of NaN joints")
+    def _(s, d):
+        from psm_model import PSM
+        return Attempt(call=lambda: PSM().forward_kinematics(np.full(6, np.nan)), names=("q",))
+
+    @case("api PSM", "frame 'elbow'")
+    def _(s, d):
+        from psm_model import PSM
+        return Attempt(call=lambda: PSM().forward_kinematics(np.zeros(6), frame="elbow"),
+                       names=("elbow", "frame"))
+
+    @case("api PSM", "wrench_from_torques with NaN torques")
+    def _(s, d):
+        from psm_model import PSM
+        q = np.array([0.1, -0.2, 0.12, 0.3, 0.1, -0.1])
+        return Attempt(call=lambda: PSM().wrench_from_torques(q, np.full(6, np.nan)),
+                       names=("tau", "torque", "NaN", "finite"))
+
+    return found
+
+
+# ---------------------------------------------------------------------------- main
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--json", help="write the table here")
+    parser.add_argument("--only", help="run the cases whose kind or name contains this")
+    args = parser.parse_args()
+    torch.set_num_threads(1)
+    selected = [c for c in cases() if not args.only or args.only in f"{c.kind}: {c.name}"]
+    rows = []
+    started = time.perf_counter()
+    with tempfile.TemporaryDirectory() as tmp:
+        root = Path(tmp)
+        shared = Shared(root / "inputs")
+        setup_s = time.perf_counter() - started
+        for k, case in enumerate(selected):
+            outcome = run_case(case, shared, root / "cases" / f"{k:03d}")
+            rows.append({"kind": case.kind, "case": case.name, "expected": case.expect,
+                         "verdict": outcome.verdict, "detail": outcome.detail.replace(tmp, "TMP"),
+                         "seconds": round(outcome.seconds, 3)})
+    counts = Counter(r["verdict"] for r in rows)
+    unexpected = [r for r in rows if r["verdict"] != r["expected"]]
+    print(f"{len(rows)} cases in {time.perf_counter() - started:.0f} s (inputs {setup_s:.0f} s): "
+          + ", ".join(f"{v} {counts.get(v, 0)}" for v in EXPECTED + FAILING))
+    for r in rows:
+        if r["verdict"] not in EXPECTED or r["verdict"] != r["expected"]:
+            print(f"  {r['verdict']:8} (expected {r['expected']}) {r['kind']}: {r['case']}\n"
+                  f"           {r['detail'][:400]}")
+    if args.json:
+        write_json(args.json, {"machine": platform.platform(), "scale": SCALE,
+                               "counts": {v: counts.get(v, 0) for v in EXPECTED + FAILING},
+                               "unexpected": len(unexpected), "cases": rows})
+    failed = any(r["verdict"] in FAILING for r in rows) or unexpected
+    return 1 if failed else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
