@@ -235,7 +235,8 @@ def run_case(case: Case, shared: Shared, folder: Path) -> Outcome:
         return Outcome(verdict, detail, seconds)
 
     if isinstance(error, Reached):
-        return outcome("SILENT", f"accepted: reached {error} with the bad input")
+        return outcome("SILENT", f"accepted: reached {error} with the bad input" + (
+            "; wrote " + ", ".join(Path(p).name for p in left[:5]) if left else ""))
     if error is not None and (attempt.argv is not None or not isinstance(error, (ValueError,
                                                                                   OSError))):
         return outcome("CRASH", f"{type(error).__name__}: {error} | "
@@ -956,6 +957,14 @@ def cases() -> list[Case]:
         (d / "blocker").write_text("")
         return Attempt(argv=["reproduce", "--out", str(d / "blocker" / "run")],
                        names=("--out",), guard="hybrid.reproduce.run_grid")
+
+    for name, kwargs in (("scale=-1", {"scale": -1.0}), ("scale=nan", {"scale": float("nan")}),
+                         ("seeds=[-1]", {"seeds": [-1]})):
+        def reproduce_api(s, d, kwargs=kwargs):
+            from hybrid.reproduce import reproduce
+            return Attempt(call=lambda: reproduce(d / "run", **kwargs),
+                           names=tuple(kwargs), guard="hybrid.reproduce.run_grid")
+        found.append(Case("api reproduce", name, "REJECTED", reproduce_api))
 
     @case("cli demo", "--out not empty")
     def _(s, d):
