@@ -772,11 +772,11 @@ def cases() -> list[Case]:
                        names=(str(d / "blocker"),), guard="psm_model.sim.protocols.automated")
 
     # --- convert -----------------------------------------------------------------------------
-    def convert_case(name, build, extra=(), names=None):
+    def convert_case(name, build):
         def prepare(s, d):
             src, named = build(s, d)
-            return Attempt(argv=["convert", str(src), "--out", str(d / "out.csv"), *extra],
-                           names=names or (str(named),))
+            return Attempt(argv=["convert", str(src), "--out", str(d / "out.csv")],
+                           names=(str(named),))
         found.append(Case("cli convert", name, "REJECTED", prepare))
 
     def missing_bag(s, d):
