@@ -320,6 +320,9 @@ def reproduce(out: str | Path, scale: float = 0.1, seeds: Sequence[int] = (1, 2,
         raise ValueError(f"models must be among {list(LABELS)}, got {list(models)}")
     if not seeds:
         raise ValueError("at least one seed")
+    from psm_model.sim.dataset import check_scale_and_seed
+    for s in seeds:  # before anything is written: a bad value must leave no OUT/work behind
+        check_scale_and_seed(scale, s, "seeds")
     out = Path(out)
     call = {"scale": scale, "seeds": list(seeds), "device": device, "budget": budget,
             "models": list(models), "ablations": ablations, "efficiency": efficiency,

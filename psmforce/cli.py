@@ -16,10 +16,6 @@ from pathlib import Path
 
 from psmforce import __version__
 
-MAX_SIMULATE_SCALE = 10.0
-"""``simulate --scale`` above this is refused before anything is allocated: 10 is ten times the
-paper's protocol (about 33 h of 100 Hz data, some 17 million rows, several GB of CSV); larger
-values are typos (1e6 ran out of memory half-way)."""
 
 
 def _writable_ancestor(target: Path, option: str) -> None:
@@ -62,12 +58,8 @@ def _device(args) -> None:
                              "(use --device cpu)")
 
 
-MAX_SEED = 2**32 - 1
-"""numpy's generators take seeds in [0, 2**32 - 1]; outside it they fail with a message that
-names no option."""
-
-
 def _seed(value: int, option: str) -> None:
+    from psm_model.sim.dataset import MAX_SEED  # the simulator's limit (numpy's seed range)
     if not 0 <= value <= MAX_SEED:
         raise ValueError(f"{option}: must be an integer in [0, {MAX_SEED}], got {value}")
 
@@ -99,8 +91,9 @@ def _jsonable(value):
 
 
 def _scale(value: float) -> None:
-    if not 0 < value <= MAX_SIMULATE_SCALE:  # also refuses NaN
-        raise ValueError(f"--scale: must be in (0, {MAX_SIMULATE_SCALE:g}] (times the paper's "
+    from psm_model.sim.dataset import MAX_SCALE  # the simulator's limit, checked before it runs
+    if not 0 < value <= MAX_SCALE:  # also refuses NaN
+        raise ValueError(f"--scale: must be in (0, {MAX_SCALE:g}] (times the paper's "
                          f"protocol), got {value:g}")
 
 

@@ -11,7 +11,8 @@ import torch
 
 import hybrid.train
 from psm_model.sim import simulate
-from psmforce.cli import MAX_SIMULATE_SCALE, main
+from psm_model.sim.dataset import MAX_SCALE as MAX_SIMULATE_SCALE
+from psmforce.cli import main
 
 
 @pytest.fixture(scope="module")

@@ -152,6 +152,14 @@ def test_reproduce_refuses_bad_arguments_before_writing_anything(tmp_path, capsy
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a_file"]
 
 
+@pytest.mark.parametrize("kw, name", [({"scale": -1}, "scale"), ({"scale": float("nan")}, "scale"),
+                                      ({"scale": 1e6}, "scale"), ({"seeds": [1, -1]}, "seeds")])
+def test_reproduce_from_python_refuses_bad_scale_or_seed_before_writing(tmp_path, kw, name):
+    with pytest.raises(ValueError, match=f"^{name}: must be"):
+        hybrid.reproduce.reproduce(tmp_path / "run", **{"seeds": [1], **kw})
+    assert not (tmp_path / "run").exists()
+
+
 @pytest.mark.parametrize("text, reason", [
     ("", "cannot read"), ("arm: yes", "cannot read"), ("[1, 2]", "not an ArmDynamicsModel"),
     ("FORMAT_ONLY", "malformed")])

@@ -40,6 +40,29 @@ BAG_TRIAL_PAUSE_S = 10.0
 R_ATI_PSM_FILE = "R_ati_psm.json"
 
 
+MAX_SCALE = 10.0
+"""Protocol scales above this are refused before anything is allocated: 10 is ten times the
+paper's protocol (about 33 h of 100 Hz data, some 17 million rows, several GB of CSV); larger
+values are typos (1e6 ran out of memory half-way)."""
+
+MAX_SEED = 2**32 - 1
+"""numpy's generators take seeds in [0, 2**32 - 1]; outside it they fail with a message that
+names no option."""
+
+
+def check_scale_and_seed(scale, seed, seed_name: str = "seed") -> None:
+    """Raise :class:`SimulationConfigError` naming ``scale`` or the seed (as ``seed_name``) when
+    a bench could not be simulated with them (callers that simulate later, such as reproduce,
+    check first)."""
+    if (isinstance(scale, bool) or not isinstance(scale, numbers.Real) or not math.isfinite(scale)
+            or not 0 < scale <= MAX_SCALE):
+        raise SimulationConfigError(f"scale: must be a finite number in (0, {MAX_SCALE:g}], "
+                                    f"got {scale!r}")
+    if isinstance(seed, bool) or not isinstance(seed, numbers.Integral) or not 0 <= seed <= MAX_SEED:
+        raise SimulationConfigError(f"{seed_name}: must be an integer in [0, {MAX_SEED}], got "
+                                    f"{seed!r}")
+
+
 class SimulationConfigError(ValueError):
     """Invalid simulate() arguments; raised before anything is written."""
 
@@ -76,10 +99,7 @@ def _validate(protocol, scale, seed, out, instrument, effects, port):
         raise SimulationConfigError(f"port: unknown {port!r}, expected one of {PORT_NAMES}")
     if protocol not in PROTOCOLS:
         raise SimulationConfigError(f"protocol: unknown {protocol!r}, expected one of {PROTOCOLS}")
-    if isinstance(scale, bool) or not isinstance(scale, numbers.Real) or not math.isfinite(scale) or scale <= 0:
-        raise SimulationConfigError(f"scale: must be a finite number > 0, got {scale!r}")
-    if isinstance(seed, bool) or not isinstance(seed, numbers.Integral) or seed < 0:
-        raise SimulationConfigError(f"seed: must be an integer >= 0, got {seed!r}")
+    check_scale_and_seed(scale, seed)
     if instrument is not None and not isinstance(instrument, InstrumentParams):
         raise SimulationConfigError(f"instrument: expected InstrumentParams or None, got {type(instrument).__name__}")
     if effects is not None and not isinstance(effects, Effects):
