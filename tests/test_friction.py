@@ -34,3 +34,26 @@ def test_regressor_columns_linear_in_parameters():
 def test_bad_shape_constants():
     with pytest.raises(IdentificationInputError):
         fr.FrictionShape(smooth_sign_velocity=0.0)
+
+
+def test_maxwell_slip_states_closed_form():
+    """Up by 3 delta then down by 5 delta: z = min(x / delta, 1) on the way up; after the
+    reversal z = 1 - (x_max - x) / delta, clipped at -1 (elasto-plastic element)."""
+    delta = np.array([0.1, 0.4])
+    up = np.linspace(0.0, 0.3, 31)
+    down = np.linspace(0.3, -0.2, 51)[1:]
+    x = np.concatenate([up, down])
+    z = fr.maxwell_slip_states(x, delta)
+    expected_up = np.minimum(up[:, None] / delta, 1.0)
+    expected_down = np.maximum(expected_up[-1] - (0.3 - down[:, None]) / delta, -1.0)
+    assert np.allclose(z, np.concatenate([expected_up, expected_down]), atol=1e-12)
+    # rate independent: the same path sampled twice as densely gives the same states there
+    x2 = np.interp(np.arange(2 * len(x) - 1) / 2, np.arange(len(x)), x)
+    assert np.allclose(fr.maxwell_slip_states(x2, delta)[::2], z, atol=1e-12)
+    # dissipative with F >= 0: positive work of the friction torque around a closed cycle
+    t = np.linspace(0, 4 * np.pi, 2001)
+    xs = 0.3 * np.sin(t)
+    tau_h = fr.maxwell_slip_states(xs, delta) @ np.array([0.02, 0.05])
+    assert np.sum(tau_h[1:] * np.diff(xs)) > 0
+    with pytest.raises(IdentificationInputError):
+        fr.maxwell_slip_states(x, [0.1, 0.0])

@@ -172,3 +172,67 @@ def test_excitation_period_and_phase_cross_validation_input():
     with pytest.raises(IdentificationInputError, match="no excitation period"):
         phase_cross_validation(drifting, np.ones_like(c), np.ones_like(c), sample_rate_hz=200,
                                options=DynamicsFitOptions(min_samples=500))
+
+
+def test_hysteresis_columns_states_and_row_subsets():
+    """The Maxwell-slip columns are the element states of their coordinate (grid per joint type)
+    on its row only; states integrated on the whole sequence give the same columns for any subset
+    of rows, which is how the cross-validation fits on phases of one recording."""
+    from psm_model.identification import dynamics as dyn
+    from psm_model.identification import friction as fr
+
+    c, dc, _ = _synthetic(600)
+    ddc = np.gradient(dc, 1 / 200, axis=0)
+    opts = dyn.DynamicsFitOptions(hysteresis_coordinates=(2, 3))
+    T = wpi.coordinates_to_dvrk_matrix()
+    L = dyn._linear_columns(opts, T, c, dc, ddc)
+    names = dyn._linear_layout(opts, wpi.MOTOR_COORDINATES).names
+    for k, grid in ((2, dyn.HYSTERESIS_BREAKAWAY_M), (3, dyn.HYSTERESIS_BREAKAWAY_RAD)):
+        idx = [i for i, n in enumerate(names)
+               if n.startswith(f"{wpi.MOTOR_COORDINATES[k]}.friction.maxwell_slip_")]
+        assert len(idx) == len(grid)
+        block = L[:, :, idx]
+        assert np.allclose(block[:, k], fr.maxwell_slip_states(c[:, k], grid))
+        assert np.allclose(np.delete(block, k, axis=1), 0.0)  # acts on its own coordinate only
+    z = dyn.hysteresis_states(c)
+    rows = np.arange(0, 600, 7)
+    assert np.allclose(dyn._linear_columns(opts, T, c[rows], dc[rows], ddc[rows], z[rows]),
+                       L[rows])
+    # conditioned states are integrated along the whole filtered recording, trimmed after
+    o = dyn.DynamicsFitOptions(trim=50)
+    raw = _synthetic(1200)
+    out = dyn.condition_signals(*raw, 200.0, o, with_states=True)
+    filt = signals.zero_phase_lowpass(raw[0], 200.0, o.cutoff_hz, order=o.filter_order)
+    assert np.allclose(out[4], dyn.hysteresis_states(filt)[50:-50])
+    with pytest.raises(IdentificationInputError, match="hysteresis states"):
+        dyn._linear_columns(opts, T, c, dc, ddc, z[:10])
+
+
+@needs_wpi
+def test_wpi_selection_reads_only_the_training_file(monkeypatch, tmp_path):
+    """--select on WPI files: the phase cross-validation sees only the training file's arrays,
+    and the test file is opened only after the choice (a test file of NaNs fails afterwards,
+    with the selection already made on the training data)."""
+    from psm_model.identification import dynamics as dyn
+
+    loaded, chosen = [], []
+    real_load, real_select = wpi.load_wpi, dyn.select_by_phase_cross_validation
+    monkeypatch.setattr(wpi, "load_wpi", lambda p: loaded.append(Path(p)) or real_load(p))
+
+    def spy(c, dc, tau, **kwargs):
+        train = real_load(WPI_DIR / "one_results.csv")
+        assert np.array_equal(c, train.q) and np.array_equal(tau, train.tau)
+        out = real_select(c, dc, tau, **kwargs)
+        chosen.append((out[0], list(loaded)))
+        return out
+
+    monkeypatch.setattr(dyn, "select_by_phase_cross_validation", spy)
+    monkeypatch.setattr(dyn, "SELECTION_CANDIDATES", {
+        "no hysteresis": dyn.DynamicsFitOptions(hysteresis_coordinates=()),
+        "default": dyn.DynamicsFitOptions()})
+    nan_test = tmp_path / "two_nan.csv"
+    np.savetxt(nan_test, np.full((3000, 21), np.nan), delimiter=",")
+    with pytest.raises(IdentificationInputError, match="non-finite"):
+        fit_dynamics_cli(WPI_DIR / "one_results.csv", nan_test, "wpi", select=True, folds=2)
+    assert len(chosen) == 1 and chosen[0][1] == [WPI_DIR / "one_results.csv"]
+    assert loaded[-1] == nan_test  # opened after the choice

@@ -6,6 +6,7 @@ Model (joint space of the PSM's six chain joints + jaw; frames and units as in `
             + sum_k F(dc_k) phi_k                               friction per actuated coordinate
             + T_w^T (Fc_w s(dq_w) + Fv_w dq_w)                  wrist-joint (pulley) friction
             + Ia * ddc + K * c                                  armature, cable/torsion springs
+            + sum_i F_ki z_ki(c_k history)                      pre-sliding hysteresis (Maxwell-slip)
 
 * ``q = T c``: dVRK joints q (7) from the actuated ("recorder") coordinates c. For the WPI data T
   is identity on yaw .. roll and ``wpi.WRIST_MOTOR_TO_DVRK`` on the wrist; for library recordings
@@ -23,7 +24,12 @@ Model (joint space of the PSM's six chain joints + jaw; frames and units as in `
   radius gives the same function span. The identification model has 8 joints mapped to the chain
   by q_ext = G q, tau = G^T tau_ext (docs/identification.md).
 * Optional terms (``DynamicsFitOptions``): polynomial springs, direction-dependent Coulomb levels
-  (Fc + a, Fc - a, both >= 0), cross springs. ``phase_cross_validation`` scores options on one
+  (Fc + a, Fc - a, both >= 0), cross springs, Maxwell-slip pre-sliding hysteresis
+  (``friction.maxwell_slip_states`` on the grids :data:`HYSTERESIS_BREAKAWAY_RAD` /
+  :data:`HYSTERESIS_BREAKAWAY_M`, levels >= 0). The hysteresis states depend on the position
+  history: functions that take conditioned samples take them as ``states`` (from
+  ``condition_signals(..., with_states=True)``, computed before any subset of rows is taken);
+  where none are given they are computed from ``c`` as one time-ordered contiguous sequence. ``phase_cross_validation`` scores options on one
   periodic recording by holding out phases of its excitation period.
 * Physical consistency by construction: each body's 10 parameters come from a log-Cholesky
   parametrisation (``inertia.py``); Coulomb, viscous, Stribeck and armature >= 0.
@@ -85,6 +91,13 @@ BOUNDING_ELLIPSOIDS = {
 
 MODEL_FORMAT = "psm_model.identification.ArmDynamicsModel/1"
 
+HYSTERESIS_BREAKAWAY_RAD = (0.01, 0.03, 0.1, 0.3)
+"""Breakaway displacements (rad) of the Maxwell-slip elements of a revolute coordinate: a fixed
+log-spaced grid (factor ~3) from cable pre-sliding (0.01 rad, a fraction of a mm of cable at the
+instrument's pulleys) to a large part of the joint's range; the fit weighs them (levels >= 0)."""
+HYSTERESIS_BREAKAWAY_M = (0.0005, 0.0015, 0.005, 0.015)
+"""The same for the prismatic insertion (m): 0.5 mm to 15 mm of travel (a tenth of the stroke)."""
+
 
 @dataclass(frozen=True)
 class DynamicsFitOptions:
@@ -93,21 +106,22 @@ class DynamicsFitOptions:
     cutoff_hz: float = 5.4
     filter_order: int = 4
     trim: int = 200
-    friction_shape: _fr.FrictionShape = _fr.FrictionShape(smooth_sign_velocity=0.1,
-                                                          stribeck_velocity=0.2)
-    """Smooth-sign and Stribeck velocities of the revolute coordinates (rad/s)."""
-    friction_shape_prismatic: _fr.FrictionShape = _fr.FrictionShape(smooth_sign_velocity=0.05,
-                                                                    stribeck_velocity=0.1)
-    """The same for the insertion (m/s). A gradual Coulomb transition (pre-sliding, cable
-    compliance); chosen on an earlier first-60 %/last-40 % split of the WPI training file, which
-    the trajectory's periodicity makes an in-sample check (docs/identification.md)."""
+    friction_shape: _fr.FrictionShape = _fr.FrictionShape(smooth_sign_velocity=0.01,
+                                                          stribeck_velocity=0.02)
+    """Smooth-sign and Stribeck velocities of the revolute coordinates (rad/s). A sharp Coulomb
+    transition: the gradual one (0.1 rad/s) stood in for pre-sliding, which the Maxwell-slip
+    terms now model by displacement; sharp won the phase cross-validation
+    (:data:`SELECTION_CANDIDATES`)."""
+    friction_shape_prismatic: _fr.FrictionShape = _fr.FrictionShape(smooth_sign_velocity=0.002,
+                                                                    stribeck_velocity=0.004)
+    """The same for the insertion (m/s)."""
     stribeck: bool = False
     """Stribeck columns off by default: on the WPI training file every Stribeck term hit its 0 bound."""
-    spring_coordinates: tuple[int, ...] = (0, 1, 2, 3, 4, 5, 6)
-    """Coordinates with a linear position term K*c: roll torsion (Wang et al.), the wrist cables'
-    elasticity, and on yaw/pitch/insertion unmodelled position-dependent loads (harness, balance).
-    Springs on roll + wrist only: worse in the phase cross-validation (benchmark
-    ``--selection``)."""
+    spring_coordinates: tuple[int, ...] = (3, 4, 5, 6)
+    """Coordinates with a linear position term K*c (Nm/rad): roll torsion (Wang et al.) and the
+    wrist cables' elasticity. Springs on yaw/pitch/insertion too (unmodelled position-dependent
+    loads): the default before the hysteresis terms; with them, worse in the phase
+    cross-validation (:data:`SELECTION_CANDIDATES`, benchmark ``--selection``)."""
     roll_wrist_cross_springs: bool = True
     """Roll torque linear in the wrist coordinates (the wrist cables run along the roll axis and
     twist with it); kept from the earlier (in-sample) 60/40 selection."""
@@ -124,6 +138,13 @@ class DynamicsFitOptions:
     ``--selection``)."""
     cross_springs: tuple[tuple[int, int], ...] = ()
     """(row, column) pairs: torque on coordinate ``row`` linear in the position of ``column``."""
+    hysteresis_coordinates: tuple[int, ...] = (0, 1, 2, 3, 4, 5, 6)
+    """Coordinates with Maxwell-slip pre-sliding hysteresis (``friction.maxwell_slip_states``,
+    one element per breakaway displacement of :data:`HYSTERESIS_BREAKAWAY_RAD` /
+    :data:`HYSTERESIS_BREAKAWAY_M`, levels >= 0): friction that turns over a travel after each
+    reversal (cable stretch, pulley and carriage pre-sliding) rather than over a velocity band.
+    Default: every coordinate (lowest mean error of the phase cross-validation,
+    :data:`SELECTION_CANDIDATES`)."""
     wrist_joint_friction: bool = True
     """Extra Coulomb + viscous friction on the dVRK wrist joints (pulleys), mapped to c by T^T."""
     prior_weight: float = 1e-4
@@ -135,6 +156,36 @@ class DynamicsFitOptions:
     """Gravity (m/s^2) in the base frame if known; None: identify its direction (|g| = 9.81)."""
     max_iter: int = 3000
     min_samples: int = 1000
+
+
+_ALL = tuple(range(N_COORD))
+_GRADUAL_COULOMB = dict(
+    friction_shape=_fr.FrictionShape(smooth_sign_velocity=0.1, stribeck_velocity=0.2),
+    friction_shape_prismatic=_fr.FrictionShape(smooth_sign_velocity=0.05, stribeck_velocity=0.1))
+"""The previous default's Coulomb transition (0.1 rad/s, 0.05 m/s): ten (insertion 25) times
+more gradual than the default's."""
+SELECTION_CANDIDATES = {
+    "default": DynamicsFitOptions(),
+    "gradual Coulomb": DynamicsFitOptions(**_GRADUAL_COULOMB),
+    "gradual Coulomb, springs on all coordinates": DynamicsFitOptions(
+        **_GRADUAL_COULOMB, spring_coordinates=_ALL),
+    "gradual Coulomb, hysteresis on insertion + roll only": DynamicsFitOptions(
+        **_GRADUAL_COULOMB, hysteresis_coordinates=(2, 3), spring_coordinates=_ALL),
+    "no hysteresis (previous default)": DynamicsFitOptions(
+        **_GRADUAL_COULOMB, hysteresis_coordinates=(), spring_coordinates=_ALL),
+    "no hysteresis, symmetric Coulomb": DynamicsFitOptions(
+        **_GRADUAL_COULOMB, hysteresis_coordinates=(), spring_coordinates=_ALL,
+        asymmetric_coulomb=()),
+    "no hysteresis, springs on roll + wrist": DynamicsFitOptions(
+        **_GRADUAL_COULOMB, hysteresis_coordinates=()),
+}
+"""The model variants scored by model selection on training data: the WPI study
+(:func:`select_by_phase_cross_validation`, ``psmforce fit-dynamics --format wpi --select``,
+benchmark ``--selection``) and ``recordings.select_options`` (our layout, ``--select``). The
+default (Maxwell-slip hysteresis on every coordinate, springs on roll + wrist, sharp Coulomb
+transition) is the WPI study's winner; the others are the choices it was made against: the
+gradual Coulomb transition, springs on yaw/pitch/insertion, hysteresis on fewer coordinates or
+none (the previous default), symmetric Coulomb."""
 
 
 def _prior_model():
@@ -223,11 +274,28 @@ def _linear_layout(opts: DynamicsFitOptions, coord_names) -> _Layout:
         lay.add(f"{coord_names[k]}.friction.coulomb_asymmetry", "N" if k == 2 else "Nm", -np.inf)
     for r, k in opts.cross_springs:
         lay.add(f"{coord_names[r]}.spring_from_{coord_names[k]}", "(N or Nm)/(m or rad)", -np.inf)
+    for k in opts.hysteresis_coordinates:
+        for d in _breakaways(k):
+            lay.add(f"{coord_names[k]}.friction.maxwell_slip_{d:g}{'m' if k == _INSERTION else 'rad'}",
+                    "N" if k == _INSERTION else "Nm", 0.0)
     return lay
 
 
-def _linear_columns(opts, T, c, dc, ddc) -> np.ndarray:
-    """(N, 7, n_phi) columns of the linear terms in coordinate space c."""
+def _breakaways(k: int) -> tuple[float, ...]:
+    return HYSTERESIS_BREAKAWAY_M if k == _INSERTION else HYSTERESIS_BREAKAWAY_RAD
+
+
+def hysteresis_states(c) -> np.ndarray:
+    """Maxwell-slip states (N, 7, 4) of every coordinate on its breakaway grid, along c (N, 7)
+    taken as one time-ordered contiguous sequence (z = 0 at its first sample)."""
+    c = np.asarray(c, dtype=float)
+    return np.stack([_fr.maxwell_slip_states(c[:, k], _breakaways(k)) for k in range(N_COORD)],
+                    axis=1)
+
+
+def _linear_columns(opts, T, c, dc, ddc, states=None) -> np.ndarray:
+    """(N, 7, n_phi) columns of the linear terms in coordinate space c; ``states``: hysteresis
+    states (N, 7, 4) of these rows (default: from c as one contiguous sequence)."""
     n = c.shape[0]
     terms = [i for i, t in enumerate(_fr.TERMS) if opts.stribeck or t != "stribeck"]
     fr = _fr.friction_regressor(dc, opts.friction_shape)[:, :, terms]  # (N,7,nt)
@@ -269,6 +337,15 @@ def _linear_columns(opts, T, c, dc, ddc) -> np.ndarray:
         block = np.zeros((n, N_COORD, 1))
         block[:, r, 0] = c[:, k]
         cols.append(block)
+    if opts.hysteresis_coordinates:
+        z = hysteresis_states(c) if states is None else np.asarray(states, dtype=float)
+        if z.shape != (n, N_COORD, len(HYSTERESIS_BREAKAWAY_RAD)):
+            raise IdentificationInputError(f"hysteresis states must be ({n}, {N_COORD}, "
+                                           f"{len(HYSTERESIS_BREAKAWAY_RAD)}); got {z.shape}")
+        for k in opts.hysteresis_coordinates:
+            block = np.zeros((n, N_COORD, z.shape[2]))
+            block[:, k, :] = z[:, k, :]
+            cols.append(block)
     return np.concatenate(cols, axis=2)
 
 
@@ -319,8 +396,11 @@ class ArmDynamicsModel:
         self._layout = _linear_layout(self.options, self.coordinate_names)
 
     # -------------------------------------------------------------- prediction
-    def predict_coordinates(self, c, dc, ddc) -> np.ndarray:
-        """Torques (N,7) in the actuated coordinates c from c, dc, ddc (N,7) (recorder space)."""
+    def predict_coordinates(self, c, dc, ddc, states=None) -> np.ndarray:
+        """Torques (N,7) in the actuated coordinates c from c, dc, ddc (N,7) (recorder space).
+
+        ``states``: hysteresis states (N,7,4) of these rows (``condition_signals(...,
+        with_states=True)``); default: computed from c as one time-ordered contiguous sequence."""
         c, dc, ddc = (check_finite_2d(x, n, width=N_COORD) for x, n in
                       ((c, "c"), (dc, "dc"), (ddc, "ddc")))
         if not (c.shape == dc.shape == ddc.shape):
@@ -332,11 +412,12 @@ class ArmDynamicsModel:
         pi = self.body_parameters.ravel()
         tau_q6 = Y0 @ pi + np.einsum("k,knjp,p->nj", self.gravity, Yg, pi[mass_cols])
         tau_c = np.concatenate([tau_q6, np.zeros((len(q), 1))], axis=1) @ T
-        lin = _linear_columns(self.options, T, c, dc, ddc) @ self.linear_parameters
+        lin = _linear_columns(self.options, T, c, dc, ddc, states) @ self.linear_parameters
         return tau_c + lin
 
     def predict(self, q, dq, ddq) -> np.ndarray:
-        """dVRK joint torques (N,7) (Nm; insertion N) from dVRK joint q, dq, ddq (N,7)."""
+        """dVRK joint torques (N,7) (Nm; insertion N) from dVRK joint q, dq, ddq (N,7), one
+        time-ordered contiguous sequence where the model has hysteresis terms."""
         Tinv = np.linalg.inv(self.coupling)
         q, dq, ddq = (check_finite_2d(x, n, width=N_COORD) for x, n in
                       ((q, "q"), (dq, "dq"), (ddq, "ddq")))
@@ -358,6 +439,8 @@ class ArmDynamicsModel:
         opts["friction_shape"] = dict(self.options.friction_shape.__dict__)
         opts["friction_shape_prismatic"] = dict(self.options.friction_shape_prismatic.__dict__)
         opts["spring_coordinates"] = list(opts["spring_coordinates"])
+        opts["hysteresis_breakaway"] = {"rad": list(HYSTERESIS_BREAKAWAY_RAD),
+                                        "m": list(HYSTERESIS_BREAKAWAY_M)}
         return {"format": MODEL_FORMAT, "converged": bool(self.converged),
                 "frames_and_units": "body parameters about each joint frame origin (Pinocchio "
                                     "order m, m*c, I); gravity in the base = RCM frame, m/s^2; "
@@ -398,9 +481,10 @@ class ArmDynamicsModel:
     @classmethod
     def _from_dict(cls, d: dict) -> ArmDynamicsModel:
         o = dict(d["options"])
+        o.pop("hysteresis_breakaway", None)  # module constants; written for the reader
         o["friction_shape"] = _fr.FrictionShape(**o["friction_shape"])
         o["friction_shape_prismatic"] = _fr.FrictionShape(**o["friction_shape_prismatic"])
-        for key in ("spring_coordinates", "asymmetric_coulomb"):
+        for key in ("spring_coordinates", "asymmetric_coulomb", "hysteresis_coordinates"):
             o[key] = tuple(o.get(key, ()))
         for key in ("spring_polynomial", "cross_springs"):
             o[key] = tuple(tuple(pair) for pair in o.get(key, ()))
@@ -425,13 +509,17 @@ def _atomic_write_json(obj, path) -> None:
 
 
 # ------------------------------------------------------------------ conditioning
-def condition_signals(c, dc, tau_c, sample_rate_hz: float, opts: DynamicsFitOptions):
-    """Filter c, dc, tau (zero phase), differentiate dc, trim both ends: (c, dc, ddc, tau)."""
+def condition_signals(c, dc, tau_c, sample_rate_hz: float, opts: DynamicsFitOptions, *,
+                      with_states: bool = False):
+    """Filter c, dc, tau (zero phase), differentiate dc, trim both ends: (c, dc, ddc, tau), and
+    with ``with_states`` the hysteresis states (N,7,4) of the kept rows, integrated along the
+    whole filtered recording (so the trimmed start has settled them)."""
     filt = [zero_phase_lowpass(x, sample_rate_hz, opts.cutoff_hz, order=opts.filter_order)
             for x in (c, dc, tau_c)]
     ddc = derivative(filt[1], sample_rate_hz)
     sl = slice(opts.trim, len(c) - opts.trim)
-    return filt[0][sl], filt[1][sl], ddc[sl], filt[2][sl]
+    out = (filt[0][sl], filt[1][sl], ddc[sl], filt[2][sl])
+    return out + (hysteresis_states(filt[0])[sl],) if with_states else out
 
 
 def _check_inputs(c, dc, tau, opts, name):
@@ -481,14 +569,16 @@ def fit_arm_dynamics(c, dc, tau_c, *, sample_rate_hz: float, coupling=None,
                                        "wrist_yaw", "jaw"))
     c, dc, tau_c = _check_inputs(c, dc, tau_c, options, "training data")
     _check_excitation(dc, names, "training data")
-    cf, dcf, ddcf, tauf = condition_signals(c, dc, tau_c, sample_rate_hz, options)
+    cf, dcf, ddcf, tauf, zf = condition_signals(c, dc, tau_c, sample_rate_hz, options,
+                                                with_states=True)
     return _fit_conditioned(cf, dcf, ddcf, tauf, T, names, options, sample_rate_hz, provenance,
-                            t_start)
+                            t_start, states=zf)
 
 
 def _fit_conditioned(cf, dcf, ddcf, tauf, T, names, options, sample_rate_hz, provenance,
-                     t_start) -> ArmDynamicsModel:
-    """The fit proper on already conditioned samples (rows need not be contiguous in time)."""
+                     t_start, states=None) -> ArmDynamicsModel:
+    """The fit proper on already conditioned samples (rows need not be contiguous in time when
+    their hysteresis ``states`` are given)."""
     import casadi as ca
 
     model, urdf = _prior_model()
@@ -499,7 +589,7 @@ def _fit_conditioned(cf, dcf, ddcf, tauf, T, names, options, sample_rate_hz, pro
     T6 = T[:6]
     A0 = np.einsum("njp,jk->nkp", Y0, T6)
     Ag = np.einsum("xnjp,jk->xnkp", Yg, T6)
-    L = _linear_columns(options, T, cf, dcf, ddcf)
+    L = _linear_columns(options, T, cf, dcf, ddcf, states)
     layout = _linear_layout(options, names)
     n_phi = L.shape[2]
 
@@ -612,7 +702,7 @@ def _fit_conditioned(cf, dcf, ddcf, tauf, T, names, options, sample_rate_hz, pro
 
     fitted = ArmDynamicsModel(body, g_fit, phi_fit, T, names, options,
                               converged=bool(stats["success"]))
-    tau_hat = fitted.predict_coordinates(cf, dcf, ddcf)
+    tau_hat = fitted.predict_coordinates(cf, dcf, ddcf, states)
     bounds_hit = [n for n, v, lo in zip(layout.names, phi_fit, layout.lower)
                   if np.isfinite(lo) and v <= lo + 1e-9]
     fitted.info = {
@@ -651,7 +741,8 @@ def phase_cross_validation(c, dc, tau_c, *, sample_rate_hz: float, coupling=None
         if period_samples is None:
             raise IdentificationInputError("cross-validation data: no excitation period found "
                                            "(the trajectory does not repeat)")
-    cf, dcf, ddcf, tauf = condition_signals(c, dc, tau_c, sample_rate_hz, options)
+    cf, dcf, ddcf, tauf, zf = condition_signals(c, dc, tau_c, sample_rate_hz, options,
+                                                with_states=True)
     phase = ((np.arange(len(cf)) + options.trim) % period_samples) / period_samples
     fold = np.minimum((phase * folds).astype(int), folds - 1)
     sq_err = np.zeros(N_COORD)
@@ -660,13 +751,33 @@ def phase_cross_validation(c, dc, tau_c, *, sample_rate_hz: float, coupling=None
     for k in range(folds):
         fit, held = fold != k, fold == k
         m = _fit_conditioned(cf[fit], dcf[fit], ddcf[fit], tauf[fit], T, names, options,
-                             sample_rate_hz, "", time.perf_counter())
-        sq_err += np.sum((tauf[held] - m.predict_coordinates(cf[held], dcf[held], ddcf[held]))
-                         ** 2, axis=0)
+                             sample_rate_hz, "", time.perf_counter(), states=zf[fit])
+        sq_err += np.sum((tauf[held] - m.predict_coordinates(cf[held], dcf[held], ddcf[held],
+                                                             zf[held])) ** 2, axis=0)
         sq_tau += np.sum(tauf[held] ** 2, axis=0)
         status.append(m.info["solver_status"])
     return {"relative_error": np.sqrt(sq_err / sq_tau).tolist(), "folds": folds,
             "period_samples": int(period_samples), "solver_status": status}
+
+
+def select_by_phase_cross_validation(c, dc, tau_c, *, sample_rate_hz: float, coupling=None,
+                                     coordinate_names=None, candidates=None, folds: int = 5,
+                                     period_samples: int | None = None) -> tuple[str, dict]:
+    """Model selection on one periodic training recording: :func:`phase_cross_validation` of
+    each candidate (default :data:`SELECTION_CANDIDATES`), score = mean over the 7 coordinates
+    of the held-out relative error. Returns the best name and every candidate's figures
+    (``held_out_percent``, ``mean_percent``, ``solver_status``). Only these arrays are read."""
+    candidates = SELECTION_CANDIDATES if candidates is None else candidates
+    table = {}
+    for name, opts in candidates.items():
+        cv = phase_cross_validation(c, dc, tau_c, sample_rate_hz=sample_rate_hz,
+                                    coupling=coupling, coordinate_names=coordinate_names,
+                                    options=opts, folds=folds, period_samples=period_samples)
+        err = 100 * np.asarray(cv["relative_error"])
+        table[name] = {"held_out_percent": err.tolist(), "mean_percent": float(err.mean()),
+                       "period_samples": cv["period_samples"],
+                       "solver_status": cv["solver_status"]}
+    return min(table, key=lambda n: table[n]["mean_percent"]), table
 
 
 def _relative_error(tau, tau_hat) -> np.ndarray:
@@ -679,13 +790,13 @@ def evaluate_wpi_protocol(model: ArmDynamicsModel, recording, *, test_samples: i
     """Published protocol on a WPI test recording: filter, trim, first ``test_samples`` samples,
     per-coordinate ||tau - tau_hat|| / ||tau|| (joints 5-7 in the recorder's motor coordinates)."""
     o = model.options
-    c, dc, ddc, tau = condition_signals(recording.q, recording.dq, recording.tau,
-                                        recording.sample_rate_hz, o)
+    c, dc, ddc, tau, z = condition_signals(recording.q, recording.dq, recording.tau,
+                                           recording.sample_rate_hz, o, with_states=True)
     if len(c) < test_samples:
         raise IdentificationInputError(
             f"{recording.source}: {len(c)} samples after trimming; {test_samples} needed")
     sl = slice(0, test_samples)
-    tau_hat = model.predict_coordinates(c[sl], dc[sl], ddc[sl])
+    tau_hat = model.predict_coordinates(c[sl], dc[sl], ddc[sl], z[sl])
     return {"relative_error": _relative_error(tau[sl], tau_hat).tolist(),
             "n_samples": test_samples}
 
@@ -729,7 +840,8 @@ def fit_dynamics_cli(train=None, test=None, fmt: str = "csv", json_out=None, mod
     replaces the dataset's test split; ``select=True`` picks the model variant by blocked
     ``folds``-fold cross-validation on the training recordings only
     (:mod:`psm_model.identification.recordings`). ``fmt="wpi"``: ``train`` / ``test`` are WPI
-    files, scored by the published protocol. ``options`` default: :class:`DynamicsFitOptions`;
+    files, scored by the published protocol; ``select=True`` picks the variant by
+    :func:`select_by_phase_cross_validation` on the training file only. ``options`` default: :class:`DynamicsFitOptions`;
     ``gravity`` (3,) m/s^2 in the base frame, where the arm's mounting is known (csv only;
     default identified). The report's ``poor_fit``: the relative error exceeds
     :data:`POOR_FIT_RELATIVE_ERROR_PERCENT` on every coordinate; ``accept_poor_fit=False`` (the
@@ -747,18 +859,29 @@ def fit_dynamics_cli(train=None, test=None, fmt: str = "csv", json_out=None, mod
                                              options=options, gravity=gravity)
         report = {**extra, **_fit_report(model)}
     elif fmt == "wpi":
-        if train is None or data is not None or select or gravity is not None:
+        if train is None or data is not None or gravity is not None:
             raise IdentificationInputError("fit-dynamics on WPI files takes train=FILE (--train) "
-                                           "and optionally test=FILE; no data, select or "
-                                           "gravity (the published protocol identifies it)")
+                                           "and optionally test=FILE; no data or gravity (the "
+                                           "published protocol identifies it)")
+        if select and options is not None:
+            raise IdentificationInputError("give either options or select=True, not both")
         rec = wpi.load_wpi(train)
-        model = fit_arm_dynamics(rec.q, rec.dq, rec.tau, sample_rate_hz=rec.sample_rate_hz,
-                                 coupling=wpi.coordinates_to_dvrk_matrix(),
-                                 coordinate_names=wpi.MOTOR_COORDINATES,
+        coords = dict(sample_rate_hz=rec.sample_rate_hz, coupling=wpi.coordinates_to_dvrk_matrix(),
+                      coordinate_names=wpi.MOTOR_COORDINATES)
+        selection = None
+        if select:  # before the test file is even opened: it cannot influence the choice
+            name, table = select_by_phase_cross_validation(rec.q, rec.dq, rec.tau, folds=folds,
+                                                           **coords)
+            options = SELECTION_CANDIDATES[name]
+            selection = {"method": f"{folds}-fold phase cross-validation on the training file",
+                         "selected": name, "candidates": table}
+        model = fit_arm_dynamics(rec.q, rec.dq, rec.tau, **coords,
                                  options=options or DynamicsFitOptions(),
                                  provenance=f"WPI recording {rec.source} "
                                             f"(sha256 {_file_digest(Path(rec.source))})")
         report = {"train": str(train), **_fit_report(model)}
+        if selection is not None:
+            report["selection"] = selection
         if test is not None:
             report.update(_wpi_test_report(model, test, report["fit_time_s"],
                                            report["physically_consistent"]))

@@ -15,6 +15,20 @@ has the sign of v) is linear in its parameters::
 
 ``TERMS`` is the column order of :func:`friction_regressor` and of every parameter vector here.
 Physical bounds used by the fits: Fc >= 0, Fv >= 0, Fs >= 0; Fo free.
+
+Pre-sliding hysteresis (:func:`maxwell_slip_states`): a Maxwell-slip model (Lampaert, Al-Bender,
+Swevers 2003), m elasto-plastic elements in parallel, element i sticking until the coordinate has
+moved ``delta_i`` (rad or m) since the last reversal and slipping at its level ``F_i`` after::
+
+    tau_h = sum_i F_i z_i,   z_i(t) = clip(z_i(t - 1) + (x(t) - x(t - 1)) / delta_i, -1, 1)
+
+z_i is dimensionless and has the sign of the recent motion, so ``F_i >= 0`` (Nm or N) is
+friction the actuator spends, like Coulomb. The breakaway displacements are fixed (a log-spaced
+grid), which keeps the model linear in F_i. Unlike the smooth sign, whose transition is a
+velocity band, z turns over a travel after each reversal, whatever the speed: the hysteresis of
+cable and belt transmissions (cable stretch and pulley pre-sliding) in the torque-position
+plane. z depends on the position history, so it is computed along a time-ordered contiguous
+sequence, from the relaxed state z = 0 at its first sample.
 """
 
 from __future__ import annotations
@@ -83,3 +97,21 @@ def friction_torque_torch(velocity, params, shape: FrictionShape = FrictionShape
     cols = torch.stack([s, velocity, s * torch.exp(-(velocity / shape.stribeck_velocity) ** 2),
                         torch.ones_like(velocity)], dim=-1)
     return (cols * params).sum(dim=-1)
+
+
+def maxwell_slip_states(position, breakaway) -> np.ndarray:
+    """Maxwell-slip element states z (N, m) in [-1, 1] along a time-ordered contiguous position
+    sequence (N,) (rad or m), for breakaway displacements (m,) in the same unit; z = 0 at the
+    first sample (module docstring)."""
+    x = np.asarray(position, dtype=float)
+    delta = np.asarray(breakaway, dtype=float)
+    if x.ndim != 1 or delta.ndim != 1 or not (np.isfinite(delta).all() and (delta > 0).all()):
+        raise IdentificationInputError("maxwell_slip_states: position (N,) and breakaway "
+                                       "displacements (m,) > 0")
+    step = np.diff(x, prepend=x[:1])[:, None] / delta[None, :]
+    z = np.empty((len(x), len(delta)))
+    zi = np.zeros(len(delta))
+    for i, s in enumerate(step):  # clipping makes it a scan, not a cumulative sum
+        zi = np.clip(zi + s, -1.0, 1.0)
+        z[i] = zi
+    return z

@@ -29,12 +29,12 @@ from pathlib import Path
 import numpy as np
 
 from psm_model.identification import wpi
-from psm_model.identification.dynamics import (N_COORD, ArmDynamicsModel, DynamicsFitOptions,
+from psm_model.identification.dynamics import (N_COORD, SELECTION_CANDIDATES,
+                                               ArmDynamicsModel, DynamicsFitOptions,
                                                _check_excitation, _fit_conditioned,
                                                _relative_error, condition_signals,
                                                external_wrench_on_tool)
 from psm_model.identification.errors import IdentificationInputError
-from psm_model.identification.friction import FrictionShape
 from psm_model.identification.signals import derivative, zero_phase_lowpass
 from psm_model.recording import (FREE_SPACE, JOINT_EFFORTS, JOINT_POSITIONS, JOINT_VELOCITIES,
                                  list_recordings, read_recording)
@@ -48,21 +48,6 @@ MAX_FIT_SAMPLES = 30_000
 sample); above it every k-th sample is kept. The signals are low-passed at ``cutoff_hz`` first,
 so neighbouring samples carry little new information, and a regression on samples needs no
 Nyquist rate (``thinning_stride`` in the report)."""
-
-SELECTION_CANDIDATES = {
-    "default": DynamicsFitOptions(),
-    "symmetric Coulomb": DynamicsFitOptions(asymmetric_coulomb=()),
-    "springs on roll + wrist only": DynamicsFitOptions(spring_coordinates=(3, 4, 5, 6)),
-    "sharp Coulomb": DynamicsFitOptions(
-        friction_shape=FrictionShape(smooth_sign_velocity=0.01, stribeck_velocity=0.02),
-        friction_shape_prismatic=FrictionShape(smooth_sign_velocity=0.002,
-                                               stribeck_velocity=0.004)),
-}
-"""Model variants scored by :func:`select_options`: three of the WPI selection study, and a
-Coulomb transition ten (insertion: 25) times sharper than the default's for recordings that move
-slowly (dwells, contact approaches), where the default's gradual transition under-predicts the
-friction level."""
-
 
 @dataclass(frozen=True)
 class Segment:
@@ -137,17 +122,19 @@ def load_segments(paths) -> list[Segment]:
 
 def condition_segments(segments, options: DynamicsFitOptions):
     """Condition every segment long enough (``2 * trim`` plus the filter's own padding) and
-    stack them: ((c, dc, ddc, tau) each (N, 7) or None if none was, skipped sources)."""
+    stack them: ((c, dc, ddc, tau) each (N, 7) and the hysteresis states (N, 7, 4), integrated
+    per segment, or None if none was; skipped sources)."""
     parts, skipped = [], []
     for s in segments:
         if len(s.c) <= 2 * options.trim + 3 * (2 * options.filter_order + 1):
             skipped.append(f"{s.source}: {len(s.c)} samples, fewer than twice the "
                            f"{options.trim}-sample trim")
             continue
-        parts.append(condition_signals(s.c, s.dc, s.tau, s.sample_rate_hz, options))
+        parts.append(condition_signals(s.c, s.dc, s.tau, s.sample_rate_hz, options,
+                                       with_states=True))
     if not parts:
         return None, skipped
-    return tuple(np.concatenate([p[i] for p in parts]) for i in range(4)), skipped
+    return tuple(np.concatenate([p[i] for p in parts]) for i in range(5)), skipped
 
 
 def _thin(arrays, max_samples: int):
@@ -156,8 +143,8 @@ def _thin(arrays, max_samples: int):
 
 
 def _fit(arrays, options, rate_hz, provenance):
-    return _fit_conditioned(*arrays, wpi.coordinates_to_dvrk_matrix(), wpi.MOTOR_COORDINATES,
-                            options, rate_hz, provenance, time.perf_counter())
+    return _fit_conditioned(*arrays[:4], wpi.coordinates_to_dvrk_matrix(), wpi.MOTOR_COORDINATES,
+                            options, rate_hz, provenance, time.perf_counter(), states=arrays[4])
 
 
 def select_options(arrays, rate_hz: float, *, candidates=None, folds: int = 5,
@@ -182,7 +169,8 @@ def select_options(arrays, rate_hz: float, *, candidates=None, folds: int = 5,
         for k in range(folds):
             m = _fit(tuple(a[fold != k] for a in arrays), opts, rate_hz, "")
             held = tuple(a[fold == k] for a in arrays)
-            sq_err += np.sum((held[3] - m.predict_coordinates(*held[:3])) ** 2, axis=0)
+            sq_err += np.sum((held[3] - m.predict_coordinates(*held[:3], held[4])) ** 2,
+                             axis=0)
             sq_tau += np.sum(held[3] ** 2, axis=0)
             status.append(m.info["solver_status"])
         err = 100 * np.sqrt(sq_err / sq_tau)
@@ -248,7 +236,7 @@ def fit_recordings_report(data, *, test=None, select: bool = False, folds: int =
         report["test_recordings"] = [str(p) for p in test_paths]
         report["test_segments_skipped"] = test_skipped
         if test_arrays is not None:
-            tau_hat = model.predict_coordinates(*test_arrays[:3])
+            tau_hat = model.predict_coordinates(*test_arrays[:3], test_arrays[4])
             report["test_relative_error_percent"] = (
                 100 * _relative_error(test_arrays[3], tau_hat)).tolist()
             # absolute too: a coordinate with almost no torque on the test recordings (pitch of
