@@ -92,16 +92,21 @@ def disc_coulomb(wpi_dir: Path) -> dict:
     """{"real": (3,), "bench": (3,)} Coulomb levels (Nm) of the three wrist discs identified by
     :func:`psm_model.identification.dynamics.fit_arm_dynamics` in WPI's recorder coordinates."""
     from psm_model.identification import wpi
-    from psm_model.identification.dynamics import DynamicsFitOptions, fit_arm_dynamics
+    from psm_model.identification.dynamics import (SELECTION_CANDIDATES, DynamicsFitOptions,
+                                                   fit_arm_dynamics)
     from psm_model.identification.signals import zero_phase_lowpass
     from psm_model.sim import Contact, Effects, InstrumentParams, calibration, run_trajectory
 
+    # the model the bench's disc friction was calibrated with: without the Maxwell-slip terms,
+    # whose elements would take part of the level the comparison reads as Coulomb
+    options = SELECTION_CANDIDATES["no hysteresis (previous default)"]
     t = wpi.coordinates_to_dvrk_matrix()
     t_inv = np.linalg.inv(t)
 
     def coulomb(q, dq, tau, rate_hz):
         model = fit_arm_dynamics(q @ t_inv.T, dq @ t_inv.T, tau @ t, sample_rate_hz=rate_hz,
-                                 coupling=t, coordinate_names=wpi.MOTOR_COORDINATES)
+                                 coupling=t, coordinate_names=wpi.MOTOR_COORDINATES,
+                                 options=options)
         values = dict(zip(model._layout.names, model.linear_parameters))
         return [float(values[f"{c}.friction.coulomb"]) for c in wpi.MOTOR_COORDINATES[4:]]
 
