@@ -128,14 +128,14 @@ class DynamicsFitOptions:
     spring_polynomial: tuple[tuple[int, int], ...] = ((3, 2),)
     """(coordinate, degree) pairs: position terms c_k^2 .. c_k^degree on coordinate k besides the
     linear spring. Default: roll torque quadratic in roll (torsion stiffness that differs between
-    the two twist directions). Chosen by phase cross-validation on the WPI training file
-    (benchmark ``--selection``, figures in docs/identification.md)."""
+    the two twist directions). Chosen by phase cross-validation on the WPI training file in the
+    study before the hysteresis terms (docs/identification.md, git history); not re-tested since."""
     asymmetric_coulomb: tuple[int, ...] = (2, 3)
     """Coordinates whose Coulomb level may differ between the + and - directions: an extra column
     |s(v)| with coefficient a, so that the levels are Fc + a (v > 0) and Fc - a (v < 0), both
     constrained >= 0. Default insertion and roll (cable/carriage friction that depends on the
-    direction of travel): lowest mean error of the phase cross-validation (benchmark
-    ``--selection``)."""
+    direction of travel): chosen by the phase cross-validation before the hysteresis terms; its
+    symmetric alternative is re-scored without hysteresis in :data:`SELECTION_CANDIDATES`."""
     cross_springs: tuple[tuple[int, int], ...] = ()
     """(row, column) pairs: torque on coordinate ``row`` linear in the position of ``column``."""
     hysteresis_coordinates: tuple[int, ...] = (0, 1, 2, 3, 4, 5, 6)
