@@ -346,8 +346,9 @@ def _parser() -> argparse.ArgumentParser:
                    help="wpi: the test file (published protocol); csv: test recordings (file "
                         "or folder) instead of the dataset's test split")
     p.add_argument("--select", action="store_true",
-                   help="csv: choose the model variant by blocked 5-fold cross-validation on "
-                        "the training recordings (never the test ones); slower")
+                   help="choose the model variant on the training data only (never the test "
+                        "ones): csv by blocked 5-fold cross-validation over the recordings, wpi "
+                        "by phase cross-validation within the training file; slower")
     p.add_argument("--gravity", type=float, nargs=3, metavar=("GX", "GY", "GZ"),
                    help="csv: gravity in the base (RCM) frame, m/s^2, where the arm's mounting "
                         "is known (e.g. 0 0 -9.81 upright); default: identified")
