@@ -22,28 +22,14 @@ def bench(tmp_path_factory):
     return out
 
 
-@pytest.fixture
-def no_training(monkeypatch):
-    """Any check that fires only after training would reach this and fail the test."""
-    def refuse(*args, **kwargs):
-        raise AssertionError("the bad option was not found before the expensive work")
-    monkeypatch.setattr(hybrid.train, "load_dataset", refuse)
-
-
-def _one_line(capsys, command: str) -> str:
-    lines = capsys.readouterr().err.strip().splitlines()
-    assert len(lines) == 1 and lines[0].startswith(f"psmforce {command}: error: "), lines
-    return lines[0]
-
-
-def test_train_epochs_0_is_refused_first(bench, tmp_path, capsys, no_training):
+def test_train_epochs_0_is_refused_first(bench, tmp_path, cli_error, no_training):
     ckpt = tmp_path / "m.pt"
     assert main(["train", "--data", str(bench), "--model", "fcn", "--epochs", "0",
                  "--out", str(ckpt)]) == 2
-    assert "--epochs" in _one_line(capsys, "train") and not ckpt.exists()
+    assert "--epochs" in cli_error("train") and not ckpt.exists()
     assert main(["finetune", str(ckpt), "--data", str(bench), "--epochs", "-3",
                  "--out", str(tmp_path / "t.pt")]) == 2
-    assert "--epochs" in _one_line(capsys, "finetune")
+    assert "--epochs" in cli_error("finetune")
 
 
 def test_train_epochs_0_from_python_is_refused(bench, tmp_path):
@@ -53,14 +39,14 @@ def test_train_epochs_0_from_python_is_refused(bench, tmp_path):
 
 
 @pytest.mark.skipif(torch.cuda.is_available(), reason="needs a machine without CUDA")
-def test_device_cuda_without_cuda_is_refused_first(bench, tmp_path, capsys, no_training):
+def test_device_cuda_without_cuda_is_refused_first(bench, tmp_path, cli_error, no_training):
     assert main(["train", "--data", str(bench), "--model", "fcn", "--device", "cuda",
                  "--out", str(tmp_path / "m.pt")]) == 2
-    assert "--device cuda" in _one_line(capsys, "train")
+    assert "--device cuda" in cli_error("train")
     assert not list(tmp_path.iterdir())
 
 
-def test_unwritable_out_is_found_before_training(bench, tmp_path, capsys, no_training):
+def test_unwritable_out_is_found_before_training(bench, tmp_path, cli_error, no_training):
     blocker = tmp_path / "a_file"
     blocker.write_text("")
     unwritable = [blocker / "sub" / "m.pt"]  # a file where a folder must be: even root fails
@@ -73,17 +59,17 @@ def test_unwritable_out_is_found_before_training(bench, tmp_path, capsys, no_tra
         for out in unwritable:
             assert main(["train", "--data", str(bench), "--model", "fcn", "--epochs", "1",
                          "--out", str(out)]) == 2
-            line = _one_line(capsys, "train")
+            line = cli_error("train")
             assert line.count("--out") == 1 and "not a writable folder" in line
     finally:
         if os.geteuid() != 0:
             locked.chmod(0o700)
     assert main(["train", "--data", str(bench), "--out", str(tmp_path)]) == 2
-    assert "is a folder" in _one_line(capsys, "train")
+    assert "is a folder" in cli_error("train")
 
 
 @pytest.mark.parametrize("command", ["evaluate", "export"])
-def test_evaluate_and_export_refuse_a_non_empty_out(tmp_path, capsys, command):
+def test_evaluate_and_export_refuse_a_non_empty_out(tmp_path, cli_error, command):
     out = tmp_path / "results"
     out.mkdir()
     (out / "metrics.json").write_text("{}\n")  # an earlier run's result
@@ -92,31 +78,31 @@ def test_evaluate_and_export_refuse_a_non_empty_out(tmp_path, capsys, command):
     args = [command, str(ckpt), "--out", str(out)] + (
         ["--data", str(tmp_path)] if command == "evaluate" else [])
     assert main(args) == 2
-    line = _one_line(capsys, command)
+    line = cli_error(command)
     assert "--out" in line and "not empty" in line
     assert [p.name for p in out.iterdir()] == ["metrics.json"]
     assert (out / "metrics.json").read_text() == "{}\n"
 
 
-def test_simulate_scale_above_the_bound_is_refused_before_allocating(tmp_path, capsys,
+def test_simulate_scale_above_the_bound_is_refused_before_allocating(tmp_path, cli_error,
                                                                      monkeypatch):
     import psm_model.sim as sim
     monkeypatch.setattr(sim, "simulate", lambda **kw: pytest.fail("simulate was called"))
     out = tmp_path / "bench"
     assert main(["simulate", "--scale", "1e6", "--out", str(out)]) == 2
-    assert "--scale" in _one_line(capsys, "simulate") and not out.exists()
+    assert "--scale" in cli_error("simulate") and not out.exists()
     assert MAX_SIMULATE_SCALE >= 1.0  # the paper's own protocol stays allowed
 
 
-def test_json_into_a_missing_folder_is_refused_before_the_work(tmp_path, capsys):
+def test_json_into_a_missing_folder_is_refused_before_the_work(tmp_path, cli_error):
     out = tmp_path / "bench"
     assert main(["simulate", "--scale", "0.01", "--out", str(out),
                  "--json", str(tmp_path / "missing" / "s.json")]) == 2
-    assert "--json" in _one_line(capsys, "simulate")
+    assert "--json" in cli_error("simulate")
     assert not out.exists()  # no dataset left behind without its summary
 
 
-def test_text_cell_in_a_numeric_column_names_file_column_and_row(bench, tmp_path, capsys):
+def test_text_cell_in_a_numeric_column_names_file_column_and_row(bench, tmp_path, cli_error):
     import shutil
     data = tmp_path / "data"
     shutil.copytree(bench, data)
@@ -127,6 +113,6 @@ def test_text_cell_in_a_numeric_column_names_file_column_and_row(bench, tmp_path
     ckpt = tmp_path / "m.pt"
     assert main(["train", "--data", str(data), "--model", "fcn", "--epochs", "1",
                  "--out", str(ckpt)]) == 2
-    line = _one_line(capsys, "train")
+    line = cli_error("train")
     assert str(bad) in line and "'roll_effort'" in line and "'abc'" in line and "row 7" in line
     assert not ckpt.exists()

@@ -11,7 +11,6 @@ import pandas as pd
 import pytest
 
 import hybrid.reproduce
-import hybrid.train
 from hybrid.checkpoint import save_checkpoint
 from hybrid.data import DatasetError, Scaler, load_dataset
 from hybrid.evaluate import EVAL_START, evaluate
@@ -30,20 +29,6 @@ def bench(tmp_path_factory):
     out = tmp_path_factory.mktemp("fuzz") / "bench"
     simulate("automated", scale=0.005, seed=0, out=out)
     return out
-
-
-@pytest.fixture
-def no_training(monkeypatch):
-    """Any check that fires only after loading the data would reach this and fail the test."""
-    def refuse(*args, **kwargs):
-        raise AssertionError("the bad option was not found before the expensive work")
-    monkeypatch.setattr(hybrid.train, "load_dataset", refuse)
-
-
-def _one_line(capsys, command: str) -> str:
-    lines = capsys.readouterr().err.strip().splitlines()
-    assert len(lines) == 1 and lines[0].startswith(f"psmforce {command}: error: "), lines
-    return lines[0]
 
 
 def _fcn_checkpoint(path):
@@ -78,7 +63,7 @@ def test_write_recording_refuses_what_read_recording_would(bench, tmp_path, colu
 
 @pytest.mark.parametrize("column, value", [("insertion_position", 5.0),
                                            ("roll_position", 1e30), ("fz", 1e39)])
-def test_a_value_outside_its_physical_range_is_refused_by_name(bench, tmp_path, capsys,
+def test_a_value_outside_its_physical_range_is_refused_by_name(bench, tmp_path, cli_error,
                                                                column, value):
     import shutil
     data = tmp_path / "data"
@@ -94,7 +79,7 @@ def test_a_value_outside_its_physical_range_is_refused_by_name(bench, tmp_path, 
     ckpt = tmp_path / "m.pt"
     assert main(["train", "--data", str(data), "--model", "fcn", "--epochs", "1",
                  "--out", str(ckpt)]) == 2
-    assert str(bad) in _one_line(capsys, "train") and not ckpt.exists()
+    assert str(bad) in cli_error("train") and not ckpt.exists()
 
 
 def test_the_simulated_bench_is_inside_the_physical_ranges(bench):
@@ -102,11 +87,11 @@ def test_the_simulated_bench_is_inside_the_physical_ranges(bench):
 
 
 @pytest.mark.parametrize("seed", ["-1", str(2**70)])
-def test_a_seed_numpy_cannot_take_is_refused_naming_the_option(bench, tmp_path, capsys,
+def test_a_seed_numpy_cannot_take_is_refused_naming_the_option(bench, tmp_path, cli_error,
                                                                 no_training, seed):
     assert main(["train", "--data", str(bench), "--model", "fcn", "--seed", seed,
                  "--out", str(tmp_path / "m.pt")]) == 2
-    assert "--seed" in _one_line(capsys, "train")
+    assert "--seed" in cli_error("train")
 
 
 @pytest.mark.parametrize("command", [
@@ -114,23 +99,23 @@ def test_a_seed_numpy_cannot_take_is_refused_naming_the_option(bench, tmp_path, 
     ["convert", "REC", "--out", "OUT"],
     ["wrench", "REC", "--dynamics", "arm.json", "--out", "OUT"],
     ["fit-dynamics", "--data", "BENCH", "--model-out", "OUT"]])
-def test_an_output_file_that_is_a_folder_is_refused_first(bench, tmp_path, capsys, command):
+def test_an_output_file_that_is_a_folder_is_refused_first(bench, tmp_path, cli_error, command):
     rec = sorted(bench.glob("train/Free/*.csv"))[0]
     argv = [{"BENCH": str(bench), "REC": str(rec), "OUT": str(tmp_path)}.get(a, a)
             for a in command]
     assert main(argv) == 2
-    assert "is a folder" in _one_line(capsys, command[0])
+    assert "is a folder" in cli_error(command[0])
     assert list(tmp_path.iterdir()) == []
 
 
 @pytest.mark.parametrize("text", ["[[1, 0], [0, 1]]", "[[2, 0, 0], [0, 2, 0], [0, 0, 2]]",
                                   "rotation", '[["a", 0, 0], [0, 1, 0], [0, 0, 1]]'])
-def test_convert_names_a_bad_r_ati_psm(tmp_path, capsys, text):
+def test_convert_names_a_bad_r_ati_psm(tmp_path, cli_error, text):
     (tmp_path / "bag").mkdir()
     (tmp_path / "r.json").write_text(text)
     assert main(["convert", str(tmp_path / "bag"), "--r-ati-psm", str(tmp_path / "r.json"),
                  "--out", str(tmp_path / "out.csv")]) == 2
-    assert f"--r-ati-psm {tmp_path / 'r.json'}" in _one_line(capsys, "convert")
+    assert f"--r-ati-psm {tmp_path / 'r.json'}" in cli_error("convert")
     assert not (tmp_path / "out.csv").exists()
 
 
@@ -138,7 +123,7 @@ def test_convert_names_a_bad_r_ati_psm(tmp_path, capsys, text):
     (["--scale", "0"], "--scale"), (["--scale", "-1"], "--scale"), (["--scale", "nan"], "--scale"),
     (["--scale", "1e6"], "--scale"), (["--seeds", "1", "-1"], "--seeds"),
     (["--out", "FILE"], "--out"), (["--out", "FILE/run"], "--out")])
-def test_reproduce_refuses_bad_arguments_before_writing_anything(tmp_path, capsys, monkeypatch,
+def test_reproduce_refuses_bad_arguments_before_writing_anything(tmp_path, cli_error, monkeypatch,
                                                                  args, option):
     monkeypatch.setattr(hybrid.reproduce, "run_grid",
                         lambda *a, **k: pytest.fail("reproduce started its tasks"))
@@ -148,7 +133,7 @@ def test_reproduce_refuses_bad_arguments_before_writing_anything(tmp_path, capsy
     if "--out" not in argv:
         argv += ["--out", str(tmp_path / "run")]
     assert main(["reproduce", *argv]) == 2
-    assert option in _one_line(capsys, "reproduce")
+    assert option in cli_error("reproduce")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a_file"]
 
 
