@@ -36,6 +36,7 @@ from torch import nn
 
 from hybrid.data import Scaler
 from hybrid.models import build_model
+from psm_model.files import atomic_path
 
 FORMAT = "psmforce-checkpoint"
 FORMAT_VERSION = 2
@@ -101,12 +102,8 @@ def save_checkpoint(path: str | Path, model: nn.Module, *, model_name: str, conf
             "provenance": provenance or {}, "weights_sha256": weights_sha256(state)}
     payload = {"meta": json.dumps(meta), "prior_json": prior_json or "", "state_dict": state}
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(path.name + ".part")
-    try:
+    with atomic_path(path) as tmp:
         torch.save(payload, tmp)
-        tmp.replace(path)
-    finally:
-        tmp.unlink(missing_ok=True)
     return path
 
 

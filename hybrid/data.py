@@ -200,7 +200,7 @@ def index_recordings(root: str | Path) -> Path:
     """Make a folder of recordings a dataset: write ``root/metadata.json`` listing every CSV
     under it, condition and split from its folders (module docstring). Refuses a folder that
     already has one (it may hold a simulator's parameters). Returns the metadata path."""
-    from hybrid.evaluate import write_text_atomic
+    from psm_model.files import write_text_atomic
     root = Path(root)
     meta_path = root / METADATA
     if root.is_file():

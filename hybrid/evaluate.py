@@ -24,6 +24,7 @@ import torch
 from hybrid.data import (Dataset, Trial, base_matrix, load_dataset, lstm_columns,
                          sliding_windows)
 from hybrid.metrics import AXES, POSTPROCESSING, axis_metrics, postprocess
+from psm_model.files import write_text_atomic
 from psm_model.recording import TARGETS
 
 EVAL_START = 99
@@ -205,12 +206,6 @@ def teleop_table(results: Mapping[str, Mapping[str, Sequence[Mapping]]]) -> str:
                           for k in ("rmse_n", "nrmse_pct", "r2_pct")]
             rows.append(f"| {cond} | {seen} | {axis} | " + " | ".join(cells) + " |")
     return "\n".join(rows) + "\n"
-
-
-def write_text_atomic(path: Path, text: str) -> None:
-    tmp = path.with_name(path.name + ".part")
-    tmp.write_text(text)
-    tmp.replace(path)
 
 
 def evaluate(checkpoint: str | Path, data_dir: str | Path, out_dir: str | Path, *,

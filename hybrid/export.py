@@ -36,6 +36,7 @@ import torch
 from hybrid.causal import CausalTransformer
 from hybrid.data import Scaler
 from hybrid.hybrid import HybridInputs
+from psm_model.files import write_bytes_atomic
 
 FORMAT = "psmforce-hybrid-export"
 FORMAT_VERSION = 1
@@ -128,15 +129,6 @@ class OnnxStepper:
         return self._y[0]
 
 
-def _write_atomic(path: Path, data: bytes) -> None:
-    tmp = path.with_name(path.name + ".part")
-    try:
-        tmp.write_bytes(data)
-        tmp.replace(path)
-    finally:
-        tmp.unlink(missing_ok=True)
-
-
 def export(checkpoint: str | Path, out_dir: str | Path) -> dict:
     """Write ``hybrid_step.onnx`` and ``hybrid.json`` for a hybrid checkpoint into ``out_dir``;
     check the ONNX graph against the eager step on random inputs. Returns a summary (paths,
@@ -183,8 +175,8 @@ def export(checkpoint: str | Path, out_dir: str | Path) -> dict:
     }
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    _write_atomic(out / ONNX_NAME, onnx_bytes)
-    _write_atomic(out / JSON_NAME, (json.dumps(spec, indent=2) + "\n").encode())
+    write_bytes_atomic(out / ONNX_NAME, onnx_bytes)
+    write_bytes_atomic(out / JSON_NAME, (json.dumps(spec, indent=2) + "\n").encode())
     return {"onnx": str(out / ONNX_NAME), "json": str(out / JSON_NAME),
             "onnx_bytes": len(onnx_bytes), "onnx_vs_torch_max_abs_diff": check}
 

@@ -26,6 +26,8 @@ import time
 from pathlib import Path
 from typing import Callable, Sequence
 
+from psm_model.files import atomic_path
+
 TaskSpec = tuple[Callable[[dict], dict], dict]
 
 
@@ -50,12 +52,6 @@ def cache_path(cache: Path, fn: Callable, params: dict) -> Path:
     return Path(cache) / f"{fn.__name__.lstrip('_')}-{task_key(fn, params)}.json"
 
 
-def _write_atomic(path: Path, text: str) -> None:
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.part")
-    tmp.write_text(text)
-    tmp.replace(path)
-
-
 def run_task(qualname: str, params: dict, cache: str) -> dict:
     """Run one task by its function's qualified name and cache its result (what a worker runs)."""
     module, name = qualname.split(":")
@@ -67,7 +63,8 @@ def run_task(qualname: str, params: dict, cache: str) -> dict:
     result = fn(params)
     record = {"task": qualname, "params": params, "seconds": time.perf_counter() - t0,
               "result": result}
-    _write_atomic(path, json.dumps(record, indent=1) + "\n")
+    with atomic_path(path, per_process=True) as tmp:  # Ray workers may race on one key
+        tmp.write_text(json.dumps(record, indent=1) + "\n")
     return result
 
 

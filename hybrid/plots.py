@@ -16,6 +16,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from hybrid.metrics import AXES  # noqa: E402
+from psm_model.files import atomic_path  # noqa: E402
 from psm_model.recording import HEX10_FORCE, TARGETS  # noqa: E402
 
 Segments = Mapping[str, tuple[np.ndarray, np.ndarray]]
@@ -24,10 +25,11 @@ Segments = Mapping[str, tuple[np.ndarray, np.ndarray]]
 def _save(fig, path: Path) -> Path:
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(path.stem + ".part.png")
-    fig.savefig(tmp, dpi=110, bbox_inches="tight")
-    plt.close(fig)
-    tmp.replace(path)
+    try:
+        with atomic_path(path, keep_suffix=True) as tmp:
+            fig.savefig(tmp, dpi=110, bbox_inches="tight")
+    finally:
+        plt.close(fig)
     return path
 
 

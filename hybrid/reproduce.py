@@ -43,10 +43,11 @@ import torch
 from hybrid.data import Dataset, Trial, load_dataset, lstm_columns, split_validation, \
     subsample_trials
 from hybrid.evaluate import (EVAL_START, floor_metrics, predict_trial, score_modes,
-                             scored_segment, uses_bias_correction, write_text_atomic)
+                             scored_segment, uses_bias_correction)
 from hybrid.grid import run_grid
 from hybrid.metrics import AXES, POSTPROCESSING, axis_metrics, lowpass_lag_samples
 from hybrid.models import count_parameters
+from psm_model.files import write_text_atomic
 from hybrid.train import (MODEL_DEFAULTS, Setup, TrainConfig, finetune_model, fit_prior,
                           hybrid_feature_set, make_setup, save_setup, train_model)
 

@@ -37,6 +37,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from psm_model.files import atomic_path
+
 JOINTS = ("yaw", "pitch", "insertion", "roll", "wrist_pitch", "wrist_yaw", "jaw")
 """dVRK joint order (dVRK >= 2024 names). The paper's q5 / q6 are wrist_yaw / wrist_pitch."""
 
@@ -205,13 +207,8 @@ def write_recording(frame: pd.DataFrame, path: str | Path) -> None:
                "%d" if np.issubdtype(frame[c].dtype, np.integer) else "%.7g" for c in names]
     values = np.column_stack([frame[c].to_numpy(dtype=float) for c in names])
     row = ",".join(formats) + "\n"
-    tmp = path.with_name(path.name + ".part")
-    try:
-        with open(tmp, "w") as fh:
-            fh.write(",".join(names) + "\n")
-            for start in range(0, len(values), 20000):
-                block = values[start:start + 20000]
-                fh.write((row * len(block)) % tuple(block.ravel().tolist()))
-        tmp.replace(path)
-    finally:
-        tmp.unlink(missing_ok=True)
+    with atomic_path(path) as tmp, open(tmp, "w") as fh:
+        fh.write(",".join(names) + "\n")
+        for start in range(0, len(values), 20000):
+            block = values[start:start + 20000]
+            fh.write((row * len(block)) % tuple(block.ravel().tolist()))

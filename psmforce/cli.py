@@ -76,10 +76,8 @@ def _training_options(args) -> None:
 def _write_json(path: str | None, payload: dict) -> None:
     if path is None:
         return
-    target = Path(path)
-    tmp = target.with_name(target.name + ".part")
-    tmp.write_text(json.dumps(payload, indent=2, default=_jsonable) + "\n")
-    tmp.replace(target)
+    from psm_model.files import write_text_atomic
+    write_text_atomic(path, json.dumps(payload, indent=2, default=_jsonable) + "\n")
 
 
 def _jsonable(value):
@@ -162,18 +160,15 @@ def _fit_dynamics(args) -> dict:
 
 def _wrench(args) -> dict:
     _output_file(args.out, "--out", parents=False)
+    from psm_model.files import atomic_path
     from psm_model.identification import ArmDynamicsModel
     from psm_model.identification.recordings import recording_wrench
     model = ArmDynamicsModel.load(args.dynamics)
     table = recording_wrench(model, args.recording, frame=args.frame,
                              expressed_in=args.expressed_in)
     out = Path(args.out)
-    tmp = out.with_name(out.name + ".part")
-    try:
+    with atomic_path(out) as tmp:
         table.to_csv(tmp, index=False, float_format="%.7g")
-        tmp.replace(out)
-    finally:
-        tmp.unlink(missing_ok=True)
     damped = int(table["damped"].sum())
     print(f"wrote {out}: {len(table)} samples, {damped} damped (near a singularity)")
     return {"recording": args.recording, "dynamics": args.dynamics, "out": str(out),

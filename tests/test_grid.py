@@ -117,15 +117,18 @@ def test_record_holds_task_params_and_result(tmp_path):
 
 def test_interrupted_write_leaves_nothing_that_reads_as_done(tmp_path, monkeypatch):
     tasks = _grid(2)
-    real_replace = Path.replace
+    real_replace, real_unlink = Path.replace, Path.unlink
 
     def killed_before_rename(self, target):
         raise _Interrupted("killed between write and rename")
 
+    # A killed process runs no clean-up either: the temporary file stays.
     monkeypatch.setattr(Path, "replace", killed_before_rename)
+    monkeypatch.setattr(Path, "unlink", lambda self, missing_ok=False: None)
     with pytest.raises(_Interrupted):
         run_grid(tasks, tmp_path, log=lambda s: None)
     monkeypatch.setattr(Path, "replace", real_replace)
+    monkeypatch.setattr(Path, "unlink", real_unlink)
     # The result reached only the temporary file, which is not a result.
     parts = [n for n in _files(tmp_path) if n.endswith(".part")]
     assert len(parts) == 1 and parts[0].startswith(".")

@@ -45,7 +45,6 @@ from __future__ import annotations
 
 import hashlib
 import json
-import os
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -53,6 +52,7 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
+from psm_model.files import write_text_atomic
 from psm_model.identification import friction as _fr
 from psm_model.identification import inertia as _inertia
 from psm_model.identification.errors import IdentificationInputError, NotConvergedError
@@ -499,13 +499,7 @@ class ArmDynamicsModel:
 
 
 def _atomic_write_json(obj, path) -> None:
-    path = Path(path)
-    tmp = path.with_name(path.name + ".part")
-    try:
-        tmp.write_text(json.dumps(obj, indent=2, allow_nan=False) + "\n")
-        os.replace(tmp, path)
-    finally:
-        tmp.unlink(missing_ok=True)
+    write_text_atomic(path, json.dumps(obj, indent=2, allow_nan=False) + "\n")
 
 
 # ------------------------------------------------------------------ conditioning

@@ -47,6 +47,7 @@ from pathlib import Path
 
 import numpy as np
 
+from psm_model.files import write_text_atomic
 from psm_model.identification.errors import IdentificationInputError, NotConvergedError
 from psm_model.identification.insertion import InsertionEffortModel
 from psm_model.identification.signals import check_finite_2d
@@ -337,12 +338,7 @@ class InternalForcePrior:
             raise NotConvergedError("refusing to save a prior whose fit did not converge "
                                     f"({self.info.get('solver_status')})")
         path = Path(path)
-        tmp = path.with_name(path.name + ".part")
-        try:
-            tmp.write_text(json.dumps(self.to_dict(), indent=2, allow_nan=False) + "\n")
-            tmp.replace(path)
-        finally:
-            tmp.unlink(missing_ok=True)
+        write_text_atomic(path, json.dumps(self.to_dict(), indent=2, allow_nan=False) + "\n")
 
     @classmethod
     def load(cls, path) -> InternalForcePrior:

@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from ..bags.writing import RECEIVE_LATENCY_NS, write_bag
+from ..files import write_text_atomic
 from ..recording import write_recording
 from . import protocols
 from .bench import run_trajectory
@@ -188,9 +189,7 @@ def simulate(protocol: str = "automated", scale: float = 1.0, seed: int = 0, out
     }
     if fmt == "mcap":
         metadata["bags"] = _bag_session(path, topics)
-    tmp = path / "metadata.json.part"
-    tmp.write_text(json.dumps(metadata, indent=1))
-    tmp.replace(path / "metadata.json")
+    write_text_atomic(path / "metadata.json", json.dumps(metadata, indent=1))
     return {"out": str(path), "protocol": protocol, "format": fmt, "trials": len(trials),
             "rows": rows,
             "minutes": {k: round(v, 3) for k, v in sorted(minutes.items())},
@@ -200,9 +199,7 @@ def simulate(protocol: str = "automated", scale: float = 1.0, seed: int = 0, out
 def _bag_session(path: Path, topics: dict[str, str]) -> dict:
     """``fmt="mcap"``: write the ATI fixture calibration a lab would hold (R_ati_PSM, the PSM base
     axes in the ATI frame: the transpose of R_base_ati) and describe the bags for metadata.json."""
-    tmp = path / (R_ATI_PSM_FILE + ".part")
-    tmp.write_text(json.dumps(protocols.R_BASE_ATI.T.tolist()) + "\n")
-    tmp.replace(path / R_ATI_PSM_FILE)
+    write_text_atomic(path / R_ATI_PSM_FILE, json.dumps(protocols.R_BASE_ATI.T.tolist()) + "\n")
     return {
         "storage": "ROS 2 bag, MCAP (one folder per trial: metadata.yaml + .mcap)",
         "topics": topics,

@@ -1,0 +1,35 @@
+"""psm_model.files: a file is replaced whole or left as it was, and no temporary stays behind."""
+
+import os
+
+import pytest
+
+from psm_model.files import atomic_path, write_bytes_atomic, write_text_atomic
+
+
+def test_a_failed_write_leaves_the_previous_file_and_no_part(tmp_path):
+    target = tmp_path / "report.json"
+    write_text_atomic(target, "old")
+    with pytest.raises(RuntimeError):
+        with atomic_path(target) as tmp:
+            tmp.write_text("half of the new")
+            raise RuntimeError("interrupted")
+    assert target.read_text() == "old"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["report.json"]
+
+
+def test_a_complete_write_replaces_the_file(tmp_path):
+    target = tmp_path / "model.onnx"
+    write_bytes_atomic(target, b"\x00\x01")
+    write_bytes_atomic(target, b"\x02")
+    assert target.read_bytes() == b"\x02" and len(list(tmp_path.iterdir())) == 1
+
+
+def test_temporary_names(tmp_path):
+    with atomic_path(tmp_path / "fig.png", keep_suffix=True) as tmp:
+        assert tmp.name == "fig.part.png"  # matplotlib picks the format by suffix
+        tmp.write_bytes(b"png")
+    with atomic_path(tmp_path / "task.json", per_process=True) as tmp:
+        assert tmp.name == f".task.json.{os.getpid()}.part"
+        tmp.write_text("{}")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["fig.png", "task.json"]
