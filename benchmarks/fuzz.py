@@ -733,14 +733,19 @@ def cases() -> list[Case]:
                              "--out", str(d)], names=("--out",))
 
     # --- simulate ----------------------------------------------------------------------------
-    def simulate_option(name, extra, names, prepare_out=None):
-        def prepare(s, d):
-            out = d / "sim"
-            if prepare_out:
-                prepare_out(out)
-            return Attempt(argv=["simulate", "--out", str(out), *extra], names=names,
-                           guard="psm_model.sim.protocols.automated")
-        found.append(Case("cli simulate", name, "REJECTED", prepare))
+    def out_option(command, folder, guard):
+        """A case adder for ``command --out d/folder EXTRA``: refused before ``guard`` runs."""
+        def add(name, extra, names, prepare_out=None):
+            def prepare(s, d):
+                out = d / folder
+                if prepare_out:
+                    prepare_out(out)
+                return Attempt(argv=[command, "--out", str(out), *extra], names=names,
+                               guard=guard)
+            found.append(Case(f"cli {command}", name, "REJECTED", prepare))
+        return add
+
+    simulate_option = out_option("simulate", "sim", "psm_model.sim.protocols.automated")
 
     simulate_option("--scale 1e6", ["--scale", "1e6"], ("--scale",))
     simulate_option("--scale 0", ["--scale", "0"], ("--scale", "scale"))
@@ -930,14 +935,7 @@ def cases() -> list[Case]:
                      damage=ckpt_damage["flipped weight bytes"])
 
     # --- reproduce and demo: bad arguments found before any folder or work --------------------
-    def reproduce_option(name, extra, names, prepare_out=None):
-        def prepare(s, d):
-            out = d / "run"
-            if prepare_out:
-                prepare_out(out)
-            return Attempt(argv=["reproduce", "--out", str(out), *extra], names=names,
-                           guard="hybrid.reproduce.run_grid")
-        found.append(Case("cli reproduce", name, "REJECTED", prepare))
+    reproduce_option = out_option("reproduce", "run", "hybrid.reproduce.run_grid")
 
     reproduce_option("--scale 0", ["--scale", "0"], ("--scale",))
     reproduce_option("--scale -1", ["--scale", "-1"], ("--scale",))

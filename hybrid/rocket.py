@@ -319,6 +319,19 @@ class RocketRegressor:
         rng = np.random.default_rng([self.seed, stream])
         return np.sort(rng.choice(n, self.max_train_windows, replace=False))
 
+    def _fit_transforms(self, x: np.ndarray) -> tuple:
+        """aeon's MultiRocket and Hydra transforms of this config fitted on (n, F, L) windows
+        (Hydra's kernels depend on the seed only; MultiRocket's biases on ``x``)."""
+        from aeon.transformations.collection.convolution_based import (HydraTransformer,
+                                                                       MultiRocket)
+        multirocket = MultiRocket(n_kernels=self.n_kernels_multirocket, n_jobs=self.threads,
+                                  random_state=self.seed).fit(x)
+        hydra = HydraTransformer(n_kernels=HYDRA_KERNELS_PER_GROUP,
+                                 n_groups=self.n_kernels_hydra // HYDRA_KERNELS_PER_GROUP,
+                                 n_jobs=self.threads, random_state=self.seed,
+                                 output_type="numpy").fit(x)
+        return multirocket, hydra
+
     def _checked_pair(self, windows, targets, val_windows, val_targets):
         windows = self._check_windows(windows)
         if len(windows) < 2:
@@ -364,8 +377,6 @@ class RocketRegressor:
         without them leave-one-out does (see the module docstring). Returns a report: windows
         used, features, chosen alpha, the criterion and its RMSE at that alpha (scaled units,
         over the three axes), seconds."""
-        from aeon.transformations.collection.convolution_based import (HydraTransformer,
-                                                                       MultiRocket)
         start = time.perf_counter()
         self._fitted = None
         windows, targets, val_windows, val_targets = self._checked_pair(
@@ -373,12 +384,7 @@ class RocketRegressor:
         used = self.subsample_indices(len(windows), 0)
         with _threads(self.threads), _own_global_rngs():
             x = self._aeon_layout(windows[used], used, "training")
-            multirocket = MultiRocket(n_kernels=self.n_kernels_multirocket, n_jobs=self.threads,
-                                      random_state=self.seed).fit(x)
-            hydra = HydraTransformer(n_kernels=HYDRA_KERNELS_PER_GROUP,
-                                     n_groups=self.n_kernels_hydra // HYDRA_KERNELS_PER_GROUP,
-                                     n_jobs=self.threads, random_state=self.seed,
-                                     output_type="numpy").fit(x)
+            multirocket, hydra = self._fit_transforms(x)
             n_hydra = hydra.transform(x[:1]).shape[1]
             features = _feature_matrix(multirocket, hydra, x)
             del x
@@ -458,8 +464,6 @@ class RocketRegressor:
         """Inverse of :meth:`state_dict`: aeon's transforms are built on a dummy input of the
         saved shape (which sets their bookkeeping), then given the saved arrays. Raises
         RuntimeError naming what does not fit (missing or unexpected keys, shapes)."""
-        from aeon.transformations.collection.convolution_based import (HydraTransformer,
-                                                                       MultiRocket)
         keys = self._state_keys()
         missing, extra = sorted(set(keys) - set(state)), sorted(set(state) - set(keys))
         if missing or (strict and extra):
@@ -471,12 +475,7 @@ class RocketRegressor:
                                f"{n_hydra} must be positive")
         dummy = np.zeros((2, n_channels, self.window), dtype=np.float32)
         with _threads(self.threads), _own_global_rngs():
-            multirocket = MultiRocket(n_kernels=self.n_kernels_multirocket, n_jobs=self.threads,
-                                      random_state=self.seed).fit(dummy)
-            hydra = HydraTransformer(n_kernels=HYDRA_KERNELS_PER_GROUP,
-                                     n_groups=self.n_kernels_hydra // HYDRA_KERNELS_PER_GROUP,
-                                     n_jobs=self.threads, random_state=self.seed,
-                                     output_type="numpy").fit(dummy)
+            multirocket, hydra = self._fit_transforms(dummy)
         for name in ("parameter", "parameter1"):
             built = getattr(multirocket, name)
             saved = tuple(state[f"multirocket.{name}.{i}"].numpy().astype(a.dtype, copy=False)
