@@ -27,7 +27,7 @@ import numpy as np
 
 from hybrid.data import load_dataset, split_validation
 from hybrid.evaluate import EVAL_START, NO_FREE_START
-from hybrid.hybrid import BASE_COLUMNS, add_prior_columns
+from hybrid.inputs import BASE_COLUMNS, add_prior_columns
 from hybrid.metrics import AXES, axis_metrics, postprocess
 from hybrid.train import fit_prior
 from psm_model.recording import TARGETS

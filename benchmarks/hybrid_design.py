@@ -1,4 +1,4 @@
-"""The figures behind the hybrid's design choices (docs/results.md, hybrid/hybrid.py docstring).
+"""The figures behind the hybrid's design choices (docs/results.md, hybrid/inputs.py docstring).
 
     python benchmarks/hybrid_design.py --data DIR [--seed 0] [--json OUT.json]
 
@@ -9,13 +9,13 @@ training trials that ``psmforce reproduce`` holds out with the same seed. Prints
 1. per condition of the training trials, the standard deviation (N) of the ATI force and of the
    residual ``ati - comp`` (the force minus the prior-compensated HEX10 reading), per axis:
    where the residual is not smaller, a residual target is harder than the force itself
-   (:func:`hybrid.hybrid.select_base`);
+   (:func:`hybrid.inputs.select_base`);
    Also the residual ``ati_fz - insertion_fz`` (the axial force from the insertion effort).
 2. five hybrid variants trained with the ``cpu`` budget of ``psmforce reproduce`` and scored
    (paper post-processing, NRMSE %) on the validation trials - the selection criterion - and,
    for information only, on the test trials: residual on every axis (no ``prior_fz``), no base
    on z, no base on z + ``prior_fz`` input, + ``insertion_fz`` input, + ``insertion_fz`` input and
-   z base (the default, :data:`hybrid.hybrid.BASE_COLUMNS`).
+   z base (the default, :data:`hybrid.inputs.BASE_COLUMNS`).
 """
 
 from __future__ import annotations
@@ -27,7 +27,7 @@ import numpy as np
 import torch
 
 from hybrid.data import NO_BASE, load_dataset, split_validation, target_matrix
-from hybrid.hybrid import (COMPENSATED_HEX10, HYBRID_FEATURES,
+from hybrid.inputs import (COMPENSATED_HEX10, HYBRID_FEATURES,
                            HYBRID_FEATURES_PRIOR_FZ, INSERTION_FZ, add_prior_columns, prior_to_json)
 from hybrid.metrics import AXES
 from hybrid.reproduce import _config, _scores

@@ -45,7 +45,7 @@ import torch  # noqa: E402
 from hybrid.causal import CausalTransformer  # noqa: E402
 from hybrid.data import fit_scalers, load_dataset  # noqa: E402
 from hybrid.evaluate import EVAL_START  # noqa: E402
-from hybrid.hybrid import add_prior_columns, hybrid_columns, select_base  # noqa: E402
+from hybrid.inputs import add_prior_columns, hybrid_columns, select_base  # noqa: E402
 from hybrid.metrics import axis_metrics, postprocess  # noqa: E402
 from hybrid.models import PaperTransformer, count_parameters  # noqa: E402
 from hybrid.streaming import CausalFilter, Flags, StreamingEstimator, make_backend  # noqa: E402

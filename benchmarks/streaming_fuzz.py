@@ -32,7 +32,7 @@ import torch  # noqa: E402
 from _report import write_json  # noqa: E402
 from hybrid.causal import CausalTransformer  # noqa: E402
 from hybrid.data import fit_scalers, load_dataset  # noqa: E402
-from hybrid.hybrid import add_prior_columns, hybrid_columns, select_base  # noqa: E402
+from hybrid.inputs import add_prior_columns, hybrid_columns, select_base  # noqa: E402
 from hybrid.streaming import StreamingEstimator  # noqa: E402
 from hybrid.streaming_fuzz import fuzz_stream  # noqa: E402
 

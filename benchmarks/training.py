@@ -76,7 +76,7 @@ def _step_seconds(model, x, steps: int, compile_model: bool = False) -> tuple[fl
 
 
 def _throughput(steps: int) -> dict:
-    from hybrid.hybrid import hybrid_columns
+    from hybrid.inputs import hybrid_columns
     n_hybrid = len(hybrid_columns(True)[0])
     lstm_chunk = MODEL_DEFAULTS["lstm"]["chunk"]
     cases = {  # name: (model, input columns, batch, samples per window or chunk, compiled)

@@ -152,7 +152,7 @@ def calibrate(checkpoint: str | Path, data_dir: str | Path, out: str | Path, *,
     free-space error before and after its refit."""
     from hybrid.checkpoint import load_checkpoint
     from hybrid.evaluate import derive_for_checkpoint, setup_from_checkpoint
-    from hybrid.hybrid import prior_from_json, prior_to_json
+    from hybrid.inputs import prior_from_json, prior_to_json
     from hybrid.train import TrainConfig, TrainingError, finetune_model, save_setup
     from psm_model.identification import InternalForcePrior
     from psm_model.identification.errors import NotConvergedError

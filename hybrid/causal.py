@@ -2,7 +2,7 @@
 
 :class:`CausalTransformer` (``CausalTransformer(n_features, d_model=32, n_heads=4, n_layers=2,
 d_ff=64, attention_window=50, dropout=0.1)``) maps a sequence of standard-scaled input samples to
-a standard-scaled 3-vector per sample (the residual force, see :mod:`hybrid.hybrid`):
+a standard-scaled 3-vector per sample (the residual force, see :mod:`hybrid.inputs`):
 
 * ``forward(x: (B, T, F)) -> (B, T, 3)``: chunk training and offline prediction (blocked
   sliding-window attention: O(T W) per layer, not the O(T^2) of a masked dense attention);

@@ -49,7 +49,7 @@ def derive_for_checkpoint(dataset: Dataset, ckpt) -> None:
         from psm_model import PSM
         dataset.add_columns(lstm_columns(PSM()))
     elif ckpt.derivation == "prior":
-        from hybrid.hybrid import add_prior_columns, prior_from_json
+        from hybrid.inputs import add_prior_columns, prior_from_json
         add_prior_columns(dataset, prior_from_json(ckpt.prior_json))
     for trial in dataset.trials:
         check_compatible(ckpt, available_columns=list(trial.frame.columns))

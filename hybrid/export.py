@@ -35,7 +35,7 @@ import torch
 
 from hybrid.causal import CausalTransformer
 from hybrid.data import Scaler
-from hybrid.hybrid import HybridInputs
+from hybrid.inputs import HybridInputs
 from psm_model.files import write_bytes_atomic
 
 FORMAT = "psmforce-hybrid-export"
@@ -134,7 +134,7 @@ def export(checkpoint: str | Path, out_dir: str | Path) -> dict:
     check the ONNX graph against the eager step on random inputs. Returns a summary (paths,
     sizes, that check's maximum difference)."""
     from hybrid.checkpoint import load_checkpoint
-    from hybrid.hybrid import prior_from_json
+    from hybrid.inputs import prior_from_json
     ckpt = load_checkpoint(checkpoint)
     if not isinstance(ckpt.model, CausalTransformer):
         raise ExportError(f"{checkpoint}: holds a '{ckpt.model_name}' model; only the hybrid's "
@@ -206,7 +206,7 @@ def run_export(out_dir: str | Path, frame: pd.DataFrame) -> np.ndarray:
         raise ExportError(f"{out / JSON_NAME}: not a {FORMAT} v{FORMAT_VERSION} file")
     prior = None
     if spec["prior"] is not None:
-        from hybrid.hybrid import prior_from_json
+        from hybrid.inputs import prior_from_json
         prior = prior_from_json(json.dumps(spec["prior"]))
     inputs = HybridInputs(spec["features"], spec["base_columns"],
                           Scaler.from_dict(spec["input_scaler"]), prior)

@@ -132,7 +132,7 @@ def _load(run_dir: str, protocol: str, seed: int) -> Dataset:
     """A bench of the run with every derived column (LSTM Jacobian maps, prior columns)."""
     from psm_model import PSM
     from psm_model.identification import InternalForcePrior
-    from hybrid.hybrid import add_prior_columns
+    from hybrid.inputs import add_prior_columns
     ds = load_dataset(_data_dir(run_dir, protocol, seed))
     ds.add_columns(lstm_columns(PSM()))
     add_prior_columns(ds, InternalForcePrior.load(_prior_path(run_dir, seed)))
@@ -142,7 +142,7 @@ def _load(run_dir: str, protocol: str, seed: int) -> Dataset:
 def _setup(name: str, trials: Sequence[Trial], prior_json: str, variant: str) -> Setup:
     """Variant "full" or an ablation: "no_prior" or an input group of :data:`ABLATION_GROUPS`
     (the hybrid's)."""
-    from hybrid.hybrid import select_base
+    from hybrid.inputs import select_base
     if name != "hybrid":
         return make_setup(name, trials)
     use_prior = variant != "no_prior"
@@ -181,7 +181,7 @@ def _training_summary(rep: dict) -> dict:
 def _pretrain_task(p: dict) -> dict:
     """Train one (model, seed, variant, fraction) on the automated bench, save its checkpoint,
     score it on the automated test set."""
-    from hybrid.hybrid import prior_to_json
+    from hybrid.inputs import prior_to_json
     from psm_model.identification import InternalForcePrior
     torch.set_num_threads(p["threads"])
     ds = _load(p["run_dir"], "automated", p["seed"])

@@ -1,11 +1,11 @@
 """Streaming force estimation, one sample at a time, for a 1 kHz haptic loop on one CPU core.
 
 :class:`StreamingEstimator` runs the hybrid pipeline per sample: recorded signals -> prior ->
-compensated HEX10 -> scaled inputs (:class:`hybrid.hybrid.HybridInputs`) -> one incremental step
+compensated HEX10 -> scaled inputs (:class:`hybrid.inputs.HybridInputs`) -> one incremental step
 of the causal transformer (:mod:`hybrid.causal`; keys/values cached, one token per layer) ->
 un-scaled residual + base -> optional causal post-filter. Output: the external force ON the tool
 in the HEX10 frame (N), and on request in the PSM base frame (rotated by R_base_hex10(q),
-:class:`hybrid.hybrid.HexRotation`).
+:class:`hybrid.inputs.HexRotation`).
 All buffers are allocated at construction; memory is constant.
 
 Per-sample :class:`Flags` (bit mask, several may be set):
@@ -74,7 +74,7 @@ import torch
 from scipy import signal
 
 from hybrid.causal import CausalTransformer, NumpyStepper, predict_sequence
-from hybrid.hybrid import HexRotation, HybridInputs
+from hybrid.inputs import HexRotation, HybridInputs
 from hybrid.metrics import lowpass_causal
 from psm_model.recording import (HEX10_FORCE, HEX10_TORQUE, JOINT_EFFORTS, JOINT_POSITIONS,
                                   JOINT_VELOCITIES, JOINTS, OVERLOAD)
@@ -364,7 +364,7 @@ class StreamingEstimator:
         """An estimator for a hybrid checkpoint written by :mod:`hybrid.train`
         (``options``: the keyword arguments of the constructor)."""
         from hybrid.checkpoint import load_checkpoint
-        from hybrid.hybrid import prior_from_json
+        from hybrid.inputs import prior_from_json
         ckpt = load_checkpoint(path)
         if not isinstance(ckpt.model, CausalTransformer):
             raise StreamingError(f"{path}: holds a '{ckpt.model_name}' model; streaming needs a "

@@ -387,15 +387,15 @@ def hybrid_feature_set(features: str | Sequence[str] | None = None,
     """(input columns, base columns) of the hybrid for a feature-set name of
     :data:`hybrid.data.FEATURE_SETS` (None = "paper") or an explicit list.
 
-    With the prior, a named set is the hybrid's inputs (:func:`hybrid.hybrid.hybrid_columns`)
+    With the prior, a named set is the hybrid's inputs (:func:`hybrid.inputs.hybrid_columns`)
     minus the columns whose recorded source that ablation removes (a compensated HEX10 column's
     source is its HEX10 column); the base (compensated lateral HEX10 force, ``insertion_fz``),
     ``prior_fz`` and ``insertion_fz`` stay, since they are the prior's output, not a recorded
     input. The trainers then drop the base on axes
-    where it does not help (:func:`hybrid.hybrid.select_base`). Without the prior (the ablation of
-    :func:`hybrid.hybrid.hybrid_columns`), the named set itself with the raw HEX10 force as base.
+    where it does not help (:func:`hybrid.inputs.select_base`). Without the prior (the ablation of
+    :func:`hybrid.inputs.hybrid_columns`), the named set itself with the raw HEX10 force as base.
     """
-    from hybrid.hybrid import COMPENSATED_HEX10, hybrid_columns
+    from hybrid.inputs import COMPENSATED_HEX10, hybrid_columns
     all_inputs, base = hybrid_columns(use_prior)
     if features is None or (isinstance(features, str) and features == "paper"):
         return tuple(all_inputs), tuple(base)
@@ -442,7 +442,7 @@ def train(data_dir: str | Path, model: str, out_checkpoint: str | Path, *,
         dataset.add_columns(lstm_columns(PSM()))
         derivation, features = "lstm", None
     elif model == "hybrid":
-        from hybrid.hybrid import add_prior_columns, prior_to_json, select_base
+        from hybrid.inputs import add_prior_columns, prior_to_json, select_base
         if use_prior:
             prior = _load_prior(prior) or fit_prior(train_trials)
             add_prior_columns(dataset, prior)

@@ -15,7 +15,7 @@ from hybrid.calibrate import (MIN_FREE_TRIALS, MIN_TRACTION_TRIALS, CalibrationE
 from hybrid.checkpoint import load_checkpoint
 from hybrid.data import DatasetError, load_dataset
 from hybrid.evaluate import evaluate
-from hybrid.hybrid import prior_from_json
+from hybrid.inputs import prior_from_json
 from hybrid.metrics import AXES
 from hybrid.train import TrainConfig, train
 from psm_model.recording import HEX10, TARGETS

@@ -9,7 +9,7 @@ import pytest
 
 from hybrid import checkpoint as ck
 from hybrid.export import ExportError, export, run_export
-from hybrid.hybrid import hybrid_columns, prior_to_json
+from hybrid.inputs import hybrid_columns, prior_to_json
 from hybrid.models import build_model
 from hybrid.streaming import StreamingEstimator
 from psm_model.identification.prior import InternalForcePrior

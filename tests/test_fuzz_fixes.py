@@ -205,7 +205,7 @@ def test_fit_dynamics_refuses_a_poor_fit_unless_accepted(noise, tmp_path, capsys
     (1, "OVERLOAD"), (True, "OVERLOAD"), (0, None)])
 def test_a_non_numeric_overload_signal_is_invalid_not_an_overload(tmp_path, signal, flagged):
     from hybrid.causal import CausalTransformer
-    from hybrid.hybrid import hybrid_columns
+    from hybrid.inputs import hybrid_columns
     from hybrid.streaming import Flags
     features, base = hybrid_columns(use_prior=False)
     n = len(features)

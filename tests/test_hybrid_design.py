@@ -9,7 +9,7 @@ import pytest
 
 from hybrid.data import NO_BASE, Trial, base_matrix, fit_scalers, target_matrix
 from hybrid.evaluate import predict_trial
-from hybrid.hybrid import (COMPENSATED_HEX10, HYBRID_FEATURES, HYBRID_FEATURES_PRIOR_FZ, PRIOR_FZ,
+from hybrid.inputs import (COMPENSATED_HEX10, HYBRID_FEATURES, HYBRID_FEATURES_PRIOR_FZ, PRIOR_FZ,
                            HybridInputError, HybridInputs, add_prior_columns, compensated_hex10,
                            select_base)
 from hybrid.train import Setup

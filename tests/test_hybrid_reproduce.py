@@ -12,7 +12,7 @@ from hybrid.evaluate import automated_table, teleop_table
 from hybrid.reproduce import BUDGETS, _config, _teleop_folds, reproduce, verdicts
 from hybrid.train import hybrid_feature_set
 
-hybrid_mod = pytest.importorskip("hybrid.hybrid")
+hybrid_mod = pytest.importorskip("hybrid.inputs")
 
 
 def _m(v: float) -> dict:

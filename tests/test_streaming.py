@@ -10,7 +10,7 @@ import torch
 from hybrid import checkpoint as ck
 from hybrid.causal import CausalTransformer
 from hybrid.data import Scaler
-from hybrid.hybrid import (BASE_COLUMNS, COMPENSATED_HEX10, HYBRID_FEATURES, HexRotation,
+from hybrid.inputs import (BASE_COLUMNS, COMPENSATED_HEX10, HYBRID_FEATURES, HexRotation,
                            HybridInputs, SamplePrior, compensated_hex10, hybrid_columns,
                            sample_prior)
 from hybrid.models import build_model

@@ -16,26 +16,23 @@ comp_fy, insertion_fz``) are added to the un-scaled network output, as
 **Along the shaft the base is the arm's own measurement** (:data:`INSERTION_FZ`): the prior's
 insertion model (:mod:`psm_model.identification.insertion`) turns the insertion joint's effort
 into the external axial force, gravity entering through the shaft direction, so it holds in arm
-configurations the training never visited. Validation NRMSE Fz on the simulated bench (scale
-0.05, ``benchmarks/hybrid_design.py``): 2.29 % with ``insertion_fz`` as input and z base, against
-8.55 % as input only and 10.75 % without it.
+configurations the training never visited. Why this design and not
+``insertion_fz`` as an input only: docs/results.md (the variants, chosen on validation
+trials by ``benchmarks/hybrid_design.py``).
 
 **Residual only where the base helps** (:func:`select_base`). Laterally the compensated reading
 is the tip force plus a small error (cables run along the shaft and carry little shear), so the
 residual is far smaller than the force. Axially it is not: a tip load makes a moment about the
 wrist pulleys that the cables resist with tensions many times the load (jaw length >> pulley
 radius), and what of that compression the prior does not explain (capstan friction, hysteresis,
-elasticity under load) can exceed the axial tip force itself (simulated bench, scale 0.05,
-training traction trials: std of ``ati_fz - comp_fz`` 1.97 N against 0.94 N for ``ati_fz``;
-``benchmarks/hybrid_design.py``). An axis whose base
-does not shrink the target on the training trials gets :data:`hybrid.data.NO_BASE`: there the
+elasticity under load) can exceed the axial tip force itself (``benchmarks/hybrid_design.py`` prints both
+spreads). An axis whose base does not shrink the target on the training trials gets :data:`hybrid.data.NO_BASE`: there the
 network predicts the force, with ``comp_fz`` still among its inputs. (The default z base is
 ``insertion_fz``, not ``comp_fz``, for this reason; the check still runs.)
 
 :data:`PRIOR_FZ` (``prior_fz``): the prior's internal axial force itself (N, HEX10 frame,
 compression negative), an extra input (:data:`HYBRID_FEATURES_PRIOR_FZ`, the default inputs of
-:func:`hybrid_columns`; it lowered the validation NRMSE on every axis,
-``benchmarks/hybrid_design.py``). Why: what
+:func:`hybrid_columns`; chosen on validation, ``benchmarks/hybrid_design.py``). Why: what
 the prior misses along the shaft (capstan friction, hysteresis, wrist elasticity) depends on the
 cable load it predicts and on its regime (taut or slack, direction of sliding), with a sign that
 changes between regimes, so the Fz residual ``ati_fz - comp_fz`` is not a function of ``comp_*``
