@@ -37,7 +37,8 @@ import torch
 from hybrid.calibrate import DEFAULT_MINUTES, calibrate
 from hybrid.evaluate import evaluate
 from hybrid.metrics import AXES
-from hybrid.train import MODEL_DEFAULTS, TrainConfig, train
+from hybrid.recipes import RECIPES, recipe
+from hybrid.train import TrainConfig, train
 from psm_model.sim import simulate
 from _report import write_json
 
@@ -49,7 +50,8 @@ SMOKE = {"max_batches_per_epoch": 2, "max_val_batches": 2}
 def _config(model: str | None, smoke: bool) -> TrainConfig:
     """Training's settings for ``model`` (its paper defaults), or ``psmforce calibrate``'s
     (finetuning's defaults) for None; capped for a smoke run."""
-    return TrainConfig(**MODEL_DEFAULTS.get(model, {}), progress=False, **(SMOKE if smoke else {}))
+    defaults = recipe(model).optimiser if model else {}
+    return TrainConfig(**defaults, progress=False, **(SMOKE if smoke else {}))
 
 
 def _scores(ckpt: Path, data: Path, out: Path) -> dict:
@@ -101,7 +103,7 @@ def main() -> dict:
     ap.add_argument("--tool-seeds", type=int, nargs="+", default=[11, 12, 13])
     ap.add_argument("--spreads", type=float, nargs="+", default=[1.0, 2.0])
     ap.add_argument("--models", nargs="+", default=["hybrid", "fcn"],
-                    choices=["hybrid", "transformer", "fcn", "lstm", "rocket"])
+                    choices=list(RECIPES))
     ap.add_argument("--minutes", type=float, default=DEFAULT_MINUTES,
                     help=f"calibration minutes (default {DEFAULT_MINUTES:g})")
     ap.add_argument("--checkpoints", type=Path,

@@ -31,6 +31,7 @@ from hybrid.inputs import (COMPENSATED_HEX10, HYBRID_FEATURES,
                            HYBRID_FEATURES_PRIOR_FZ, INSERTION_FZ, add_prior_columns, prior_to_json)
 from hybrid.metrics import AXES
 from hybrid.reproduce import _config, _scores
+from hybrid.recipes import Inputs
 from hybrid.train import fit_prior, make_setup, train_model
 from _report import write_json
 
@@ -77,10 +78,10 @@ def main() -> dict:
     print(f"hybrid variants (budget {cfg.max_epochs} epochs x {cfg.max_batches_per_epoch} batches)"
           ": NRMSE % Fx / Fy / Fz on validation | test")
     for name, (features, base) in VARIANTS.items():
-        setup = make_setup("hybrid", train, features=features, base_columns=base,
-                           derivation="prior", prior_json=prior_to_json(prior))
-        model, report = train_model(setup, train, val, cfg)
-        scores = {split: _scores(model, setup, trials, "cpu")["overall"]["paper"]
+        setup = make_setup("hybrid", train, prior_json=prior_to_json(prior),
+                           inputs=Inputs(features, base, derivation="prior"))
+        report = train_model(setup, train, val, cfg)
+        scores = {split: _scores(setup, trials, "cpu")["overall"]["paper"]
                   for split, trials in (("validation", val), ("test", test))}
         result["variants"][name] = {"epochs": report["epochs_run"],
                                     "seconds": report["seconds"], **scores}

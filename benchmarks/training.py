@@ -37,8 +37,9 @@ from pathlib import Path
 
 import torch
 
-from hybrid.models import PaperTransformer, build_model
-from hybrid.train import MODEL_DEFAULTS, DEFAULT_CHUNK
+from hybrid.models import PaperTransformer
+from hybrid.recipes import build_model, recipe
+from hybrid.train import DEFAULT_CHUNK
 from _report import write_json
 
 
@@ -78,7 +79,7 @@ def _step_seconds(model, x, steps: int, compile_model: bool = False) -> tuple[fl
 def _throughput(steps: int) -> dict:
     from hybrid.inputs import hybrid_columns
     n_hybrid = len(hybrid_columns(True)[0])
-    lstm_chunk = MODEL_DEFAULTS["lstm"]["chunk"]
+    lstm_chunk = recipe("lstm").optimiser["chunk"]
     cases = {  # name: (model, input columns, batch, samples per window or chunk, compiled)
         "transformer (before: stock encoder)": (_StockTransformer(21), 21, 256, 100, False),
         "transformer (after)": (PaperTransformer(21), 21, 256, 100, False),
@@ -131,7 +132,7 @@ def _converge(scale: float) -> dict:
         setup = make_setup("transformer", train)
         cfg = _config("full", "pretrain", 1, "cpu", "transformer")
         cfg.progress = True   # a run of tens of minutes: show its epochs
-        _, rep = train_model(setup, train, val, cfg)
+        rep = train_model(setup, train, val, cfg)
     result = {"scale": scale, "epochs_run": rep["epochs_run"], "stopped_by": rep["stopped_by"],
               "converged": rep["converged"], "seconds": rep["seconds"],
               "train_windows": rep["train_windows"], "best_val_loss": rep["best_val_loss"],

@@ -151,9 +151,8 @@ def calibrate(checkpoint: str | Path, data_dir: str | Path, out: str | Path, *,
     report, the calibration trials with their roles and minutes, and for the hybrid the prior's
     free-space error before and after its refit."""
     from hybrid.checkpoint import load_checkpoint
-    from hybrid.evaluate import derive_for_checkpoint, setup_from_checkpoint
-    from hybrid.inputs import prior_from_json, prior_to_json
-    from hybrid.train import TrainConfig, TrainingError, finetune_model, save_setup
+    from hybrid.inputs import prior_to_json
+    from hybrid.train import TrainConfig, TrainingError, finetune_model
     from psm_model.identification import InternalForcePrior
     from psm_model.identification.errors import NotConvergedError
     from psm_model.identification.prior import NAMES
@@ -165,8 +164,8 @@ def calibrate(checkpoint: str | Path, data_dir: str | Path, out: str | Path, *,
     train_trials, val_trials = split_validation(chosen, VALIDATION_FRACTION, seed)
     calibration = Dataset(dataset.root, chosen, dataset.metadata)
     prior_report = None
-    if ckpt.derivation == "prior":
-        old = prior_from_json(ckpt.prior_json)
+    if ckpt.prior_json is not None:
+        old = ckpt.prior()
         # The insertion-effort model is the arm's (carriage gravity and friction), not the
         # tool's, and Free + Traction trials barely move the insertion: refitted on them its
         # friction terms are not identifiable (on a scale-0.02 bench its cross-validated error
@@ -194,11 +193,10 @@ def calibrate(checkpoint: str | Path, data_dir: str | Path, out: str | Path, *,
             "free_space_rms_n": {r: e for r, e in errors.items() if e["before"] is not None},
             "parameters_before": dict(zip(NAMES, old.params.tolist())),
             "parameters_after": dict(zip(NAMES, new.params.tolist()))}
-    derive_for_checkpoint(calibration, ckpt)
-    setup = setup_from_checkpoint(ckpt)
+    ckpt.derive(calibration)
     cfg = train_config or TrainConfig()
     cfg = TrainConfig(**{**cfg.to_dict(), "max_epochs": epochs, "seed": seed, "device": device})
-    report = finetune_model(ckpt.model, setup, train_trials, val_trials, cfg, desc="calibrate")
+    report = finetune_model(ckpt, train_trials, val_trials, cfg, desc="calibrate")
     roles = {t.path: "train" for t in train_trials} | {t.path: "validation" for t in val_trials}
     record = {
         "data_dir": str(data_dir), "tool": dataset.metadata.get("tool"),
@@ -213,7 +211,8 @@ def calibrate(checkpoint: str | Path, data_dir: str | Path, out: str | Path, *,
         "trainable_parameters": report["trainable_parameters"],
         "epochs_run": report["epochs_run"], "stopped_by": report["stopped_by"],
         "converged": report["converged"], "best_val_loss": report["best_val_loss"]}
-    save_setup(out, ckpt.model, setup, provenance={
-        **ckpt.provenance, "calibrated_from": str(checkpoint), "calibration": record})
+    ckpt.provenance = {**ckpt.provenance, "calibrated_from": str(checkpoint),
+                       "calibration": record}
+    ckpt.save(out)
     return ({k: v for k, v in report.items() if k != "history"}
             | {"checkpoint": str(out), "calibration": record})

@@ -1,4 +1,11 @@
-"""Checkpoints: everything needed to rebuild and use a trained estimator, and nothing executable.
+"""The trained-model record: what a model reads, its weights and where it came from, in one place.
+
+:class:`TrainedModel` is a model's setup (recipe name and constructor config, input columns,
+scalers, base columns, derivation, prior) before training, and with ``model`` and
+``provenance`` filled in after it; it is what training, evaluation, finetuning, calibration,
+streaming and export pass around, and what :meth:`TrainedModel.save` writes and
+:func:`load_checkpoint` reads. The export JSON (:mod:`hybrid.export`) is written from the same
+:meth:`TrainedModel.metadata`.
 
 One file (``torch.save`` of plain tensors, strings and numbers; read back with
 ``weights_only=True``) holds: the weights; the model name and its constructor config; the input
@@ -16,9 +23,9 @@ without it).
 Loading refuses, with :class:`CheckpointError` naming the file and the problem in one line: an
 empty, unreadable or corrupt file (a text file, a truncated one, weights not matching their
 checksum), a file of another format or format version, a model name or config the code cannot
-build, and weights that do not fit the config. :func:`check_compatible` refuses a checkpoint for a
-setup it was not trained for (another model, other features, a dataset lacking its input
-columns).
+build, and weights that do not fit the config. :meth:`TrainedModel.check_compatible` refuses a
+checkpoint for a setup it was not trained for (another model, other features, a dataset lacking
+its input columns).
 """
 
 from __future__ import annotations
@@ -26,16 +33,16 @@ from __future__ import annotations
 import hashlib
 import json
 import platform
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Sequence
 
 import numpy as np
 import torch
-from torch import nn
 
 from hybrid.data import Scaler
-from hybrid.models import build_model
+from hybrid.inputs import prior_from_json
+from hybrid.recipes import DERIVATIONS, build_model, recipe
 from psm_model.files import atomic_path
 
 FORMAT = "psmforce-checkpoint"
@@ -49,18 +56,89 @@ class CheckpointError(ValueError):
 
 
 @dataclass
-class Checkpoint:
+class TrainedModel:
+    """One model's setup, weights and provenance; see the module docstring."""
+
     model_name: str
+    """A key of :data:`hybrid.recipes.RECIPES`."""
     config: dict
+    """The model constructor's keyword arguments."""
     features: tuple[str, ...]
+    """Input columns, in the network's order."""
     input_scaler: Scaler
     target_scaler: Scaler
-    base_columns: tuple[str, ...]
-    derivation: str
-    prior_json: str | None
-    versions: dict
-    provenance: dict
-    model: nn.Module
+    base_columns: tuple[str, ...] = ()
+    """Columns added to the output (a residual model); empty for none."""
+    derivation: str = "none"
+    """How the derived input columns are computed (:data:`hybrid.recipes.DERIVATIONS`)."""
+    prior_json: str | None = None
+    """The internal-force prior as its JSON (derivation ``"prior"``), else None."""
+    model: object | None = None
+    """The trained model (None before training)."""
+    provenance: dict = field(default_factory=dict)
+    """Training data, configuration, losses, wall time; what it was finetuned or calibrated from."""
+    versions: dict = field(default_factory=dict)
+    """Software versions of the run that wrote the file."""
+
+    @property
+    def recipe(self):
+        return recipe(self.model_name)
+
+    def prior(self):
+        """The internal-force prior (an ``InternalForcePrior``), or None without one."""
+        return prior_from_json(self.prior_json) if self.prior_json else None
+
+    def derive(self, dataset) -> None:
+        """Add the derived columns this model reads (Jacobian maps, prior columns) to every
+        trial of ``dataset`` and refuse data that lacks its inputs."""
+        DERIVATIONS[self.derivation](dataset, self.prior_json)
+        for trial in dataset.trials:
+            self.check_compatible(available_columns=list(trial.frame.columns))
+
+    def metadata(self) -> dict:
+        """The JSON-ready description of the setup (every field but the weights and the prior),
+        shared by the checkpoint and the export."""
+        return {"model": self.model_name, "config": self.config, "features": list(self.features),
+                "input_scaler": self.input_scaler.to_dict(),
+                "target_scaler": self.target_scaler.to_dict(),
+                "base_columns": list(self.base_columns), "derivation": self.derivation,
+                "versions": self.versions, "provenance": self.provenance}
+
+    def save(self, path: str | Path) -> Path:
+        """Write the record (trained ``model`` required) to ``path`` atomically."""
+        if self.model is None:
+            raise CheckpointError(f"{path}: nothing to save, the '{self.model_name}' model is "
+                                  f"not trained")
+        path = Path(path)
+        state = {k: v.detach().cpu() for k, v in self.model.state_dict().items()}
+        meta = {"format": FORMAT, "format_version": FORMAT_VERSION, **self.metadata(),
+                "versions": _versions(), "weights_sha256": weights_sha256(state)}
+        payload = {"meta": json.dumps(meta), "prior_json": self.prior_json or "",
+                   "state_dict": state}
+        path.parent.mkdir(parents=True, exist_ok=True)
+        with atomic_path(path) as tmp:
+            torch.save(payload, tmp)
+        return path
+
+    def check_compatible(self, *, model_name: str | None = None,
+                         features: Sequence[str] | None = None,
+                         available_columns: Sequence[str] | None = None) -> None:
+        """Raise :class:`CheckpointError` when the record does not fit the requested setup."""
+        if model_name is not None and model_name != self.model_name:
+            raise CheckpointError(f"checkpoint holds a '{self.model_name}' model, "
+                                  f"the setup asks for '{model_name}'")
+        if features is not None and tuple(features) != self.features:
+            extra = sorted(set(features) - set(self.features))
+            lacking = sorted(set(self.features) - set(features))
+            raise CheckpointError(
+                f"checkpoint was trained on {len(self.features)} input columns, the setup gives "
+                f"{len(features)}" + (f"; not in checkpoint: {extra}" if extra else "")
+                + (f"; missing from setup: {lacking}" if lacking else "")
+                + ("" if extra or lacking else "; same columns in another order"))
+        if available_columns is not None:
+            missing = [c for c in self.features if c not in set(available_columns)]
+            if missing:
+                raise CheckpointError(f"the data lacks the checkpoint's input columns {missing}")
 
 
 def _versions() -> dict:
@@ -89,25 +167,7 @@ def _first_line(err: BaseException) -> str:
     return f"{type(err).__name__}: {text.splitlines()[0][:200]}" if text else type(err).__name__
 
 
-def save_checkpoint(path: str | Path, model: nn.Module, *, model_name: str, config: dict,
-                    features: Sequence[str], input_scaler: Scaler, target_scaler: Scaler,
-                    base_columns: Sequence[str] = (), derivation: str = "none", prior_json: str | None = None,
-                    provenance: dict | None = None) -> Path:
-    path = Path(path)
-    state = {k: v.detach().cpu() for k, v in model.state_dict().items()}
-    meta = {"format": FORMAT, "format_version": FORMAT_VERSION, "model": model_name,
-            "config": config, "features": list(features),
-            "input_scaler": input_scaler.to_dict(), "target_scaler": target_scaler.to_dict(),
-            "base_columns": list(base_columns), "derivation": derivation, "versions": _versions(),
-            "provenance": provenance or {}, "weights_sha256": weights_sha256(state)}
-    payload = {"meta": json.dumps(meta), "prior_json": prior_json or "", "state_dict": state}
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with atomic_path(path) as tmp:
-        torch.save(payload, tmp)
-    return path
-
-
-def load_checkpoint(path: str | Path, device: str = "cpu") -> Checkpoint:
+def load_checkpoint(path: str | Path, device: str = "cpu") -> TrainedModel:
     path = Path(path)
     if not path.is_file():
         raise CheckpointError(f"checkpoint {path} does not exist")
@@ -139,10 +199,13 @@ def load_checkpoint(path: str | Path, device: str = "cpu") -> Checkpoint:
                            "base_columns", "derivation") if k not in meta]
     if missing:
         raise CheckpointError(f"{path}: corrupt checkpoint (metadata lacks {missing})")
+    if meta["derivation"] not in DERIVATIONS:
+        raise CheckpointError(f"{path}: unknown input derivation {meta['derivation']!r}; this "
+                              f"code knows {list(DERIVATIONS)}")
     features = tuple(meta["features"])
     try:
         model = build_model(meta["model"], len(features), meta["config"])
-    except (TypeError, ValueError) as err:
+    except (TypeError, ValueError) as err:  # an unknown name (RecipeError) is a ValueError
         raise CheckpointError(f"{path}: cannot build model '{meta['model']}' with config "
                               f"{meta['config']}: {err}") from None
     try:
@@ -152,30 +215,8 @@ def load_checkpoint(path: str | Path, device: str = "cpu") -> Checkpoint:
                               f"{len(features)} inputs and config {meta['config']} "
                               f"({_first_line(err)})") from None
     model.to(device).eval()
-    return Checkpoint(meta["model"], meta["config"], features,
-                      Scaler.from_dict(meta["input_scaler"]),
-                      Scaler.from_dict(meta["target_scaler"]), tuple(meta["base_columns"]),
-                      meta["derivation"],
-                      payload.get("prior_json") or None, meta.get("versions", {}),
-                      meta.get("provenance", {}), model)
-
-
-def check_compatible(ckpt: Checkpoint, *, model_name: str | None = None,
-                     features: Sequence[str] | None = None,
-                     available_columns: Sequence[str] | None = None) -> None:
-    """Raise :class:`CheckpointError` when the checkpoint does not fit the requested setup."""
-    if model_name is not None and model_name != ckpt.model_name:
-        raise CheckpointError(f"checkpoint holds a '{ckpt.model_name}' model, "
-                              f"the setup asks for '{model_name}'")
-    if features is not None and tuple(features) != ckpt.features:
-        extra = sorted(set(features) - set(ckpt.features))
-        lacking = sorted(set(ckpt.features) - set(features))
-        raise CheckpointError(
-            f"checkpoint was trained on {len(ckpt.features)} input columns, the setup gives "
-            f"{len(features)}" + (f"; not in checkpoint: {extra}" if extra else "")
-            + (f"; missing from setup: {lacking}" if lacking else "")
-            + ("" if extra or lacking else "; same columns in another order"))
-    if available_columns is not None:
-        missing = [c for c in ckpt.features if c not in set(available_columns)]
-        if missing:
-            raise CheckpointError(f"the data lacks the checkpoint's input columns {missing}")
+    return TrainedModel(meta["model"], meta["config"], features,
+                        Scaler.from_dict(meta["input_scaler"]),
+                        Scaler.from_dict(meta["target_scaler"]), tuple(meta["base_columns"]),
+                        meta["derivation"], payload.get("prior_json") or None, model,
+                        meta.get("provenance", {}), meta.get("versions", {}))

@@ -7,7 +7,8 @@ set are concatenated and scored per axis (RMSE, NRMSE over the set's range, R^2)
 the paper's tables are computed.
 
 The bias step (subtract the mean prediction of the first 0.5 s) assumes the tool is held still in
-free space then. It is skipped for the LSTM (as in the paper) and for trials that do not start in
+free space then. It is skipped for models whose recipe says so (the LSTM, as in the paper,
+:attr:`hybrid.recipes.Recipe.bias_correction`) and for trials that do not start in
 free space: traction trials (:data:`NO_FREE_START`), where the hook is attached and the spring
 loaded from the first sample, so the "bias" would remove real force.
 """
@@ -21,8 +22,8 @@ from typing import Mapping, Sequence
 import numpy as np
 import torch
 
-from hybrid.data import (Dataset, Trial, base_matrix, load_dataset, lstm_columns,
-                         sliding_windows)
+from hybrid.checkpoint import TrainedModel, load_checkpoint
+from hybrid.data import Trial, base_matrix, load_dataset, sliding_windows
 from hybrid.metrics import AXES, POSTPROCESSING, axis_metrics, postprocess
 from psm_model.files import write_text_atomic
 from psm_model.recording import TARGETS
@@ -35,33 +36,15 @@ PREDICT_CHUNK = 1024
 """Chunk length for offline prediction with chunk models (overlapping by the model's window)."""
 
 
-def setup_from_checkpoint(ckpt):
-    from hybrid.train import Setup
-    return Setup(ckpt.model_name, dict(ckpt.config), ckpt.features, ckpt.input_scaler,
-                 ckpt.target_scaler, ckpt.base_columns, ckpt.derivation, ckpt.prior_json)
-
-
-def derive_for_checkpoint(dataset: Dataset, ckpt) -> None:
-    """Add the derived columns the checkpoint's model reads (Jacobian maps, prior columns) and
-    refuse data that lacks its inputs."""
-    from hybrid.checkpoint import check_compatible
-    if ckpt.derivation == "lstm":
-        from psm_model import PSM
-        dataset.add_columns(lstm_columns(PSM()))
-    elif ckpt.derivation == "prior":
-        from hybrid.inputs import add_prior_columns, prior_from_json
-        add_prior_columns(dataset, prior_from_json(ckpt.prior_json))
-    for trial in dataset.trials:
-        check_compatible(ckpt, available_columns=list(trial.frame.columns))
-
-
-def predict_trial(model: torch.nn.Module, setup, trial: Trial, *, batch: int = 8192,
+def predict_trial(setup: TrainedModel, trial: Trial, *, batch: int = 8192,
                   device: str = "cpu") -> np.ndarray:
-    """(N, 3) force estimates in N (HEX10 frame) for one trial; NaN where the model has no
+    """(N, 3) force estimates in N (HEX10 frame) of ``setup.model`` for one trial (derived
+    columns added, :meth:`hybrid.checkpoint.TrainedModel.derive`); NaN where the model has no
     estimate (the first ``window - 1`` samples for window models). Chunk models run over chunks
     of up to :data:`PREDICT_CHUNK` samples overlapping by ``model.window``: exact for a causal
     model whose receptive field is ``window``; for the LSTM a state reset every chunk, after a
     ``window``-sample warm-up, as in its training."""
+    model = setup.model
     x = setup.input_scaler.transform(trial.matrix(setup.features))
     n = len(x)
     out = np.full((n, 3), np.nan, dtype=np.float64)
@@ -143,11 +126,6 @@ def floor_metrics(trials: Sequence[Trial]) -> dict:
     return {m: score(truth, trials, bias=False, mode=m) for m in POSTPROCESSING}
 
 
-def uses_bias_correction(model_name: str) -> bool:
-    """The paper applies the first-0.5 s bias correction to all but the LSTM baseline."""
-    return model_name != "lstm"
-
-
 def automated_table(results: Mapping[str, Mapping[str, Mapping[str, float]]],
                     title: str = "Automated test set") -> str:
     """The paper's Table (automated test set): one row per axis, range, then RMSE / NRMSE / R^2
@@ -213,10 +191,9 @@ def evaluate(checkpoint: str | Path, data_dir: str | Path, out_dir: str | Path, 
     """Score a checkpoint on the ``split`` trials of ``data_dir`` (all trials when None), overall
     and per condition; writes metrics.json, metrics.md and (``plots``) PNG figures into
     ``out_dir``. Returns the metrics dict."""
-    from hybrid.checkpoint import load_checkpoint
     ckpt = load_checkpoint(checkpoint, device)
     dataset = load_dataset(data_dir)
-    derive_for_checkpoint(dataset, ckpt)
+    ckpt.derive(dataset)
     trials = dataset.select(split=split) if split else dataset.trials
     if not trials:
         raise ValueError(f"{data_dir}: no trials in split '{split}'")
@@ -224,9 +201,8 @@ def evaluate(checkpoint: str | Path, data_dir: str | Path, out_dir: str | Path, 
     if short:  # scored from EVAL_START on: refused by name, not dropped from the tables
         raise ValueError(f"{data_dir}: recordings of at most {EVAL_START} samples (the evaluation "
                          f"start) cannot be scored: {short}")
-    setup = setup_from_checkpoint(ckpt)
-    preds = {t.path: predict_trial(ckpt.model, setup, t, device=device) for t in trials}
-    bias = uses_bias_correction(ckpt.model_name)
+    preds = {t.path: predict_trial(ckpt, t, device=device) for t in trials}
+    bias = ckpt.recipe.bias_correction
     conditions = sorted({t.condition for t in trials})
     result = {"checkpoint": str(checkpoint), "model": ckpt.model_name, "data_dir": str(data_dir),
               "split": split, "eval_start_sample": EVAL_START, "bias_correction": bias,

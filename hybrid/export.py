@@ -134,25 +134,21 @@ def export(checkpoint: str | Path, out_dir: str | Path) -> dict:
     check the ONNX graph against the eager step on random inputs. Returns a summary (paths,
     sizes, that check's maximum difference)."""
     from hybrid.checkpoint import load_checkpoint
-    from hybrid.inputs import prior_from_json
     ckpt = load_checkpoint(checkpoint)
-    if not isinstance(ckpt.model, CausalTransformer):
-        raise ExportError(f"{checkpoint}: holds a '{ckpt.model_name}' model; only the hybrid's "
-                          f"causal transformer exports to a streaming step graph")
+    if not ckpt.recipe.streams:
+        raise ExportError(f"{checkpoint}: holds a '{ckpt.model_name}' model, which does not "
+                          f"stream (hybrid.recipes: streams=False), so has no step graph")
     model = ckpt.model.eval()
-    prior = prior_from_json(ckpt.prior_json) if ckpt.derivation == "prior" else None
-    inputs = HybridInputs(ckpt.features, ckpt.base_columns, ckpt.input_scaler, prior)
+    inputs = HybridInputs(ckpt.features, ckpt.base_columns, ckpt.input_scaler, ckpt.prior())
     onnx_bytes = step_onnx_bytes(model)
     check = _check_graph(model, onnx_bytes)
     shape = [model.n_layers, 1, model.attention_window, model.d_model]
     spec = {
         "format": FORMAT, "format_version": FORMAT_VERSION, "onnx": ONNX_NAME, "opset": OPSET,
-        "model": ckpt.model_name, "config": ckpt.config, "window": model.window,
+        **ckpt.metadata(), "window": model.window,
         "attention_window": model.attention_window, "n_layers": model.n_layers,
         "d_model": model.d_model,
-        "raw_columns": list(inputs.raw_columns), "features": list(ckpt.features),
-        "base_columns": list(ckpt.base_columns), "derivation": ckpt.derivation,
-        "input_scaler": ckpt.input_scaler.to_dict(), "target_scaler": ckpt.target_scaler.to_dict(),
+        "raw_columns": list(inputs.raw_columns),
         "prior": json.loads(ckpt.prior_json) if ckpt.prior_json else None,
         "graph": {"inputs": {"x": [1, len(ckpt.features)], "keys": shape, "values": shape,
                              "n_valid": [1]},
@@ -171,7 +167,6 @@ def export(checkpoint: str | Path, out_dir: str | Path) -> dict:
             "an empty base entry adds nothing on that axis)",
             "warming up while samples since start < window"],
         "units": "force in N, external force on the tool, HEX10 frame",
-        "versions": ckpt.versions, "provenance": ckpt.provenance,
     }
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)

@@ -65,7 +65,7 @@ from typing import Sequence
 import numpy as np
 import pandas as pd
 
-from hybrid.data import NO_BASE
+from hybrid.data import FEATURE_SETS, NO_BASE, resolve_features, target_matrix
 from psm_model.recording import HEX10, HEX10_FORCE, JOINT_POSITIONS, PAPER_FEATURES
 
 COMPENSATED_HEX10 = tuple(f"comp_{c}" for c in HEX10)
@@ -99,11 +99,33 @@ def hybrid_columns(use_prior: bool = True) -> tuple[tuple[str, ...], tuple[str, 
     return PAPER_FEATURES, HEX10_FORCE
 
 
+def hybrid_feature_set(features: str | Sequence[str] | None = None,
+                       use_prior: bool = True) -> tuple[tuple[str, ...], tuple[str, ...]]:
+    """(input columns, base columns) of the hybrid for a feature-set name of
+    :data:`hybrid.data.FEATURE_SETS` (None = "paper") or an explicit list.
+
+    With the prior, a named set is the hybrid's inputs (:func:`hybrid_columns`)
+    minus the columns whose recorded source that ablation removes (a compensated HEX10 column's
+    source is its HEX10 column); the base (compensated lateral HEX10 force, ``insertion_fz``),
+    ``prior_fz`` and ``insertion_fz`` stay, since they are the prior's output, not a recorded
+    input. The trainers then drop the base on axes
+    where it does not help (:func:`select_base`). Without the prior (the ablation of
+    :func:`hybrid_columns`), the named set itself with the raw HEX10 force as base.
+    """
+    all_inputs, base = hybrid_columns(use_prior)
+    if features is None or (isinstance(features, str) and features == "paper"):
+        return tuple(all_inputs), tuple(base)
+    if not isinstance(features, str):
+        return resolve_features(features), tuple(base)
+    removed = set(FEATURE_SETS["paper"]) - set(resolve_features(features))
+    source = dict(zip(COMPENSATED_HEX10, HEX10))
+    return tuple(c for c in all_inputs if source.get(c, c) not in removed), tuple(base)
+
+
 def select_base(trials, base_columns: Sequence[str]) -> tuple[str, ...]:
     """``base_columns`` with :data:`hybrid.data.NO_BASE` on every axis where subtracting the base
     does not lower the target's variance over ``trials`` (the training trials; module docstring).
     """
-    from hybrid.data import target_matrix
     if len(base_columns) != 3:
         raise HybridInputError(f"base needs 3 columns (x, y, z), got {list(base_columns)}")
     if not trials:

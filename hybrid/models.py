@@ -218,30 +218,3 @@ def freeze_for_finetuning(model: nn.Module) -> tuple[int, int]:
         for p in module.parameters():
             p.requires_grad_(True)
     return count_parameters(model, trainable_only=True), count_parameters(model)
-
-
-MODEL_NAMES = ("transformer", "fcn", "lstm", "hybrid", "rocket")
-
-
-def build_model(name: str, n_features: int, config: dict | None = None) -> nn.Module:
-    """A fresh model by name; ``config`` holds its constructor's keyword arguments (saved in
-    checkpoints). ``hybrid`` is :class:`hybrid.causal.CausalTransformer`; ``rocket`` is
-    :class:`hybrid.rocket.RocketRegressor`, not a torch module (fitted in closed form; it reads
-    its input count when fitted)."""
-    config = dict(config or {})
-    if name == "transformer":
-        return PaperTransformer(n_features, **config)
-    if name == "fcn":
-        return FCN(n_features, **config)
-    if name == "lstm":
-        if n_features != 36:
-            raise ValueError(f"the LSTM baseline takes the 36 columns of "
-                             f"hybrid.data.LSTM_FEATURES, got {n_features}")
-        return JointLSTMForce(**config)
-    if name == "hybrid":
-        from hybrid.causal import CausalTransformer
-        return CausalTransformer(n_features, **config)
-    if name == "rocket":
-        from hybrid.rocket import RocketRegressor
-        return RocketRegressor(**config)
-    raise ValueError(f"unknown model '{name}'; known: {list(MODEL_NAMES)}")

@@ -40,16 +40,16 @@ from typing import Callable, Sequence
 import numpy as np
 import torch
 
-from hybrid.data import Dataset, Trial, load_dataset, lstm_columns, split_validation, \
-    subsample_trials
+from hybrid.checkpoint import TrainedModel, load_checkpoint
+from hybrid.data import Dataset, Trial, load_dataset, split_validation, subsample_trials
 from hybrid.evaluate import (EVAL_START, floor_metrics, predict_trial, score_modes,
-                             scored_segment, uses_bias_correction)
+                             scored_segment)
 from hybrid.grid import run_grid
 from hybrid.metrics import AXES, POSTPROCESSING, axis_metrics, lowpass_lag_samples
 from hybrid.models import count_parameters
+from hybrid.recipes import DERIVATIONS, RECIPES, recipe
+from hybrid.train import TrainConfig, finetune_model, fit_prior, make_setup, train_model
 from psm_model.files import write_text_atomic
-from hybrid.train import (MODEL_DEFAULTS, Setup, TrainConfig, finetune_model, fit_prior,
-                          hybrid_feature_set, make_setup, save_setup, train_model)
 
 BUDGETS: dict[str, dict] = {
     "full": {"pretrain": {"default": {}}, "finetune": {"default": {}}},
@@ -70,28 +70,15 @@ BUDGETS: dict[str, dict] = {
 the paper's protocol, trained to early stopping. ``cpu`` and ``quick`` cap batches: smoke runs,
 never published as a comparison. A budget's settings are part of every task's cache key."""
 
-PAPER_TRANSFORMER_NRMSE = {"Fx": 1.45, "Fy": 1.31, "Fz": 2.26}
-"""Seed paper, Table III, transformer NRMSE (%) on its automated test set."""
-
-MODELS = ("transformer", "fcn", "lstm", "hybrid", "rocket")
-ABLATION_GROUPS = ("no_hex10", "no_efforts", "no_positions", "no_velocities",
-                   "no_positions_velocities")
 DATA_FRACTIONS = (0.1, 0.3)
 TELEOP_CONDITIONS = ("Rigid", "Soft", "Free")
-TELEOP_MODELS = MODELS
-LABELS = {"transformer": "Transformer (paper)", "fcn": "FCN", "lstm": "LSTM (Yang et al.)",
-          "hybrid": "Hybrid (ours)", "rocket": "MultiRocket-Hydra"}
-"""MultiRocket-Hydra (:mod:`hybrid.rocket`) is fitted in closed form (converged by
-construction); finetuning refits its ridge on frozen features (the analogue of the networks'
-last decoder block). It is left out of the GPU-style timing and the figures of torch models."""
-TORCH_MODELS = ("transformer", "fcn", "lstm", "hybrid")
 
 
 def _config(budget: str, stage: str, seed: int, device: str, model: str) -> TrainConfig:
     """Budget caps + the paper's per-model settings (Table S1: automated data for pretraining;
     teleoperation finetuning uses lr 1e-3, weight decay 1e-4 for every model, and the LSTM keeps
     its 1000-sample sequences)."""
-    hparams = dict(MODEL_DEFAULTS.get(model, {}))
+    hparams = dict(recipe(model).optimiser)
     if stage == "finetune":
         hparams = {k: v for k, v in hparams.items() if k not in ("lr", "weight_decay")}
     caps = BUDGETS[budget][stage]
@@ -129,28 +116,20 @@ def _automated_split(ds: Dataset, seed: int) -> tuple[list[Trial], list[Trial]]:
 
 
 def _load(run_dir: str, protocol: str, seed: int) -> Dataset:
-    """A bench of the run with every derived column (LSTM Jacobian maps, prior columns)."""
-    from psm_model import PSM
-    from psm_model.identification import InternalForcePrior
-    from hybrid.inputs import add_prior_columns
+    """A bench of the run with every derived column (:data:`hybrid.recipes.DERIVATIONS`)."""
     ds = load_dataset(_data_dir(run_dir, protocol, seed))
-    ds.add_columns(lstm_columns(PSM()))
-    add_prior_columns(ds, InternalForcePrior.load(_prior_path(run_dir, seed)))
+    prior_json = _prior_path(run_dir, seed).read_text()
+    for derive in DERIVATIONS.values():
+        derive(ds, prior_json)
     return ds
 
 
-def _setup(name: str, trials: Sequence[Trial], prior_json: str, variant: str) -> Setup:
-    """Variant "full" or an ablation: "no_prior" or an input group of :data:`ABLATION_GROUPS`
-    (the hybrid's)."""
-    from hybrid.inputs import select_base
-    if name != "hybrid":
-        return make_setup(name, trials)
-    use_prior = variant != "no_prior"
-    feats, base = hybrid_feature_set(None if variant in ("full", "no_prior") else variant,
-                                     use_prior)
-    return make_setup("hybrid", trials, features=feats, base_columns=select_base(trials, base),
-                      derivation="prior" if use_prior else "none",
-                      prior_json=prior_json if use_prior else None)
+def _setup(name: str, trials: Sequence[Trial], prior_json: str, variant: str) -> TrainedModel:
+    """Variant "full" or one of the recipe's ablations: "no_prior" or an input group of
+    :data:`hybrid.data.FEATURE_SETS`."""
+    use_prior = recipe(name).uses_prior and variant != "no_prior"
+    return make_setup(name, trials, features=None if variant in ("full", "no_prior") else variant,
+                      use_prior=variant != "no_prior", prior_json=prior_json if use_prior else None)
 
 
 def _checkpoint(run_dir: str, p: dict) -> Path:
@@ -158,10 +137,10 @@ def _checkpoint(run_dir: str, p: dict) -> Path:
                                             f"seed{p['seed']}_{p['budget']}_{p['device']}.pt")
 
 
-def _scores(model, setup: Setup, trials: Sequence[Trial], device: str) -> dict:
+def _scores(setup: TrainedModel, trials: Sequence[Trial], device: str) -> dict:
     """Every post-processing's metrics overall and per condition, and per-trial paper metrics."""
-    preds = {t.path: predict_trial(model, setup, t, device=device) for t in trials}
-    bias = uses_bias_correction(setup.model_name)
+    preds = {t.path: predict_trial(setup, t, device=device) for t in trials}
+    bias = setup.recipe.bias_correction
     conditions = sorted({t.condition for t in trials})
     return {"overall": score_modes(preds, trials, bias=bias),
             "by_condition": {c: score_modes(preds, [t for t in trials if t.condition == c],
@@ -181,23 +160,22 @@ def _training_summary(rep: dict) -> dict:
 def _pretrain_task(p: dict) -> dict:
     """Train one (model, seed, variant, fraction) on the automated bench, save its checkpoint,
     score it on the automated test set."""
-    from hybrid.inputs import prior_to_json
-    from psm_model.identification import InternalForcePrior
     torch.set_num_threads(p["threads"])
     ds = _load(p["run_dir"], "automated", p["seed"])
     train, val = _automated_split(ds, p["seed"])
     if p["fraction"] < 1:
         train = subsample_trials(train, p["fraction"], p["seed"])
-    prior_json = prior_to_json(InternalForcePrior.load(_prior_path(p["run_dir"], p["seed"])))
+    prior_json = _prior_path(p["run_dir"], p["seed"]).read_text()
     setup = _setup(p["model"], train, prior_json, p["variant"])
-    model, rep = train_model(setup, train, val,
-                             _config(p["budget"], "pretrain", p["seed"], p["device"], p["model"]),
-                             desc=f"{p['model']} seed {p['seed']}")
+    rep = train_model(setup, train, val,
+                      _config(p["budget"], "pretrain", p["seed"], p["device"], p["model"]),
+                      desc=f"{p['model']} seed {p['seed']}")
     path = _checkpoint(p["run_dir"], p)
-    save_setup(path, model, setup, provenance={"reproduce": p, "train_trials": [
-        t.path for t in train], "val_trials": [t.path for t in val], "history": rep["history"]})
+    setup.provenance = {"reproduce": p, "train_trials": [t.path for t in train],
+                        "val_trials": [t.path for t in val], "history": rep["history"]}
+    setup.save(path)
     return {"training": _training_summary(rep), "checkpoint": str(path),
-            "test": _scores(model, setup, ds.select(split="test"), p["device"])}
+            "test": _scores(setup, ds.select(split="test"), p["device"])}
 
 
 def _teleop_folds(tele: Dataset) -> list[dict]:
@@ -223,23 +201,19 @@ def _teleop_folds(tele: Dataset) -> list[dict]:
 def _finetune_task(p: dict) -> dict:
     """Finetune the pretrained (model, seed) on one teleoperation fold (last decoder block only,
     pretrained scalers, trained to early stopping) and score it per condition, seen and unseen."""
-    from hybrid.checkpoint import load_checkpoint
-    from hybrid.evaluate import setup_from_checkpoint
     torch.set_num_threads(p["threads"])
     ckpt = load_checkpoint(_checkpoint(p["run_dir"], {**p, "variant": "full", "fraction": 1.0}))
-    setup = setup_from_checkpoint(ckpt)
     tele = _load(p["run_dir"], "teleop", p["seed"])
     fold = next(f for f in _teleop_folds(tele) if f["unseen"] == p["fold"])
     ft_train, ft_val = split_validation(fold["train"], 0.25, p["seed"])
-    rep = finetune_model(ckpt.model, setup, ft_train, ft_val,
+    rep = finetune_model(ckpt, ft_train, ft_val,
                          _config(p["budget"], "finetune", p["seed"], p["device"], p["model"]),
                          desc=f"finetune {p['model']} {p['fold']}")
     scores = {}
     for which in ("seen", "unseen"):
         for cond in TELEOP_CONDITIONS:
             group = [t for t in fold[f"{which}_test"] if t.condition == cond]
-            scores[f"{cond}/{which.capitalize()}"] = _scores(ckpt.model, setup, group,
-                                                             p["device"])["overall"]
+            scores[f"{cond}/{which.capitalize()}"] = _scores(ckpt, group, p["device"])["overall"]
     return {"training": _training_summary(rep), "scores": scores,
             "parameters": {"trainable": rep["trainable_parameters"], "total": rep["parameters"]}}
 
@@ -306,19 +280,20 @@ def _table(spread: dict, floor: dict | None, title: str, key: str = "nrmse_pct")
 
 def reproduce(out: str | Path, scale: float = 0.1, seeds: Sequence[int] = (1, 2, 3),
               device: str = "cpu", *, budget: str = "full", threads: int = 2,
-              models: Sequence[str] = MODELS, ablations: bool = True, efficiency: bool = True,
+              models: Sequence[str] | None = None, ablations: bool = True, efficiency: bool = True,
               teleop: bool = True, ray_address: str | None = None,
               log: Callable[[str], None] | None = None) -> dict:
     """Run (or resume) the grid into ``out`` and write ``results.md``, ``results.json``,
     ``learning_curves.json`` and figures there. ``out`` must be new, empty, or hold a previous
     run at the same scale: its finished tasks are reused, so a run resumes, and a later call
-    with more seeds, models or parts adds only what is missing."""
+    with more seeds, models or parts adds only what is missing. ``models``: names of
+    :data:`hybrid.recipes.RECIPES` (default: all, in the table's order)."""
     say = log or (lambda s: print(s, flush=True))
     if budget not in BUDGETS:
         raise ValueError(f"unknown budget '{budget}'; known: {sorted(BUDGETS)}")
-    unknown = set(models) - set(LABELS)
-    if unknown or not models:
-        raise ValueError(f"models must be among {list(LABELS)}, got {list(models)}")
+    models = tuple(RECIPES) if models is None else tuple(models)
+    if set(models) - set(RECIPES) or not models:
+        raise ValueError(f"models must be among {list(RECIPES)}, got {list(models)}")
     if not seeds:
         raise ValueError("at least one seed")
     from psm_model.sim.dataset import check_scale_and_seed
@@ -348,11 +323,11 @@ def reproduce(out: str | Path, scale: float = 0.1, seeds: Sequence[int] = (1, 2,
     floors = run_grid([(_floor_task, {"run_dir": run_dir, "seed": s, "teleop": teleop})
                        for s in seeds], cache, log=say)
     variants = [(m, "full", 1.0) for m in models]
-    if ablations and "hybrid" in models:
-        variants += [("hybrid", v, 1.0) for v in ("no_prior",) + ABLATION_GROUPS]
+    if ablations:
+        variants += [(m, v, 1.0) for m in models for v in recipe(m).ablations]
     if efficiency:
-        variants += [(m, "full", f) for f in DATA_FRACTIONS for m in ("transformer", "hybrid")
-                     if m in models]
+        variants += [(m, "full", f) for f in DATA_FRACTIONS for m in models
+                     if recipe(m).data_efficiency]
     # Main models over every seed first: an interrupted run has the headline comparison soonest.
     pre_specs = [(_pretrain_task, {**common, "seed": s, "model": m, "variant": v,
                                    "fraction": f}) for m, v, f in variants for s in seeds]
@@ -363,13 +338,15 @@ def reproduce(out: str | Path, scale: float = 0.1, seeds: Sequence[int] = (1, 2,
     if teleop:
         folds = [f"config_{k}" for k in range(3)]
         ft_specs = [(_finetune_task, {**common, "seed": s, "model": m, "fold": f})
-                    for s in seeds for m in TELEOP_MODELS if m in models for f in folds]
+                    for s in seeds for m in models for f in folds]
     ft = run_grid(ft_specs, cache, ray_address=ray_address, log=say)
 
     results = _collect(call, seeds, models, variants, pre_by, ft_specs, ft, floors,
                        started, out, ray_address)
-    torch_models = [m for m in models if m in TORCH_MODELS]
-    results["timing"] = _timing({LABELS[m]: pre_by[(m, "full", 1.0, seeds[0])]["checkpoint"]
+    # a closed-form model (MultiRocket-Hydra) is left out of the timing and the figures of
+    # trained networks: it has no learning curve, and its batch-1 latency is not a network's
+    torch_models = [m for m in models if not recipe(m).closed_form]
+    results["timing"] = _timing({recipe(m).label: pre_by[(m, "full", 1.0, seeds[0])]["checkpoint"]
                                  for m in torch_models})
     results["figures"] = _figures(out, run_dir, seeds[0], torch_models, pre_by)
     write_text_atomic(out / "results.json", json.dumps(results, indent=1) + "\n")
@@ -406,7 +383,7 @@ def _bench_versions(run_dir: Path, seeds: Sequence[int], teleop: bool) -> dict:
 
 def _collect(call, seeds, models, variants, pre_by, ft_specs, ft, floors, started, out,
              ray_address) -> dict:
-    main = {LABELS[m]: [pre_by[(m, "full", 1.0, s)] for s in seeds] for m in models}
+    main = {recipe(m).label: [pre_by[(m, "full", 1.0, s)] for s in seeds] for m in models}
     automated = {mode: {lab: _spread([r["test"]["overall"][mode] for r in rs])
                         for lab, rs in main.items()} for mode in POSTPROCESSING}
     conditions = sorted(next(iter(main.values()))[0]["test"]["by_condition"])
@@ -415,20 +392,20 @@ def _collect(call, seeds, models, variants, pre_by, ft_specs, ft, floors, starte
                     for c in conditions}
     training = {f"{m} {v} {f} seed {s}": {k: vv for k, vv in pre_by[(m, v, f, s)][
         "training"].items() if k != "history"} for m, v, f in variants for s in seeds}
-    ablation = {f"hybrid {v}": {mode: _spread([pre_by[("hybrid", v, 1.0, s)]["test"]["overall"]
-                                               [mode] for s in seeds]) for mode in POSTPROCESSING}
-                for m, v, f in variants if m == "hybrid" and v != "full"}
+    ablation = {f"{m} {v}": {mode: _spread([pre_by[(m, v, 1.0, s)]["test"]["overall"][mode]
+                                            for s in seeds]) for mode in POSTPROCESSING}
+                for m, v, f in variants if v != "full"}
     efficiency = {}
     for m, v, f in variants:
         if f < 1:
             for frac in (f, 1.0):
-                efficiency.setdefault(LABELS[m], {})[str(frac)] = {
+                efficiency.setdefault(recipe(m).label, {})[str(frac)] = {
                     mode: _spread([pre_by[(m, v, frac, s)]["test"]["overall"][mode]
                                    for s in seeds]) for mode in POSTPROCESSING}
     teleop, ft_training = {}, {}
     for (_, p), r in zip(ft_specs, ft):
         for group, by_mode in r["scores"].items():
-            teleop.setdefault(group, {}).setdefault(LABELS[p["model"]], []).append(by_mode)
+            teleop.setdefault(group, {}).setdefault(recipe(p["model"]).label, []).append(by_mode)
         ft_training[f"{p['model']} {p['fold']} seed {p['seed']}"] = {
             k: v for k, v in r["training"].items() if k != "history"}
     teleop = {g: {mode: {lab: _spread([x[mode] for x in runs]) for lab, runs in labs.items()}
@@ -452,7 +429,9 @@ def _collect(call, seeds, models, variants, pre_by, ft_specs, ft, floors, starte
         "training": training, "finetune_training": ft_training,
         "causal_lowpass_lag_ms": lowpass_lag_samples() * 10.0,
         "automated": automated, "automated_by_condition": by_condition, "floor": floor,
-        "paper_transformer_nrmse_pct": PAPER_TRANSFORMER_NRMSE, "ablation": ablation,
+        "published_nrmse_pct": {recipe(m).label: recipe(m).published_nrmse_pct for m in models
+                                if recipe(m).published_nrmse_pct},
+        "ablation": ablation,
         "data_efficiency": efficiency, "teleop": teleop,
         "verdicts": {mode: verdicts(automated[mode]) for mode in POSTPROCESSING},
     }
@@ -465,10 +444,9 @@ def _curves(specs, results) -> dict:
 
 def _timing(checkpoints: dict, reps: int = 300) -> dict:
     """Batch-1 latency of one force estimate per model on one CPU thread (ms; mean, std, p99).
-    Window models recompute their window; the LSTM runs one streaming step (state carried); the
-    hybrid one streaming step of its numpy backend (key / value cache). Network only."""
+    Window models recompute their window; a streaming model runs one step of its numpy backend
+    (the hybrid: key / value cache); the LSTM one recurrent step (state carried). Network only."""
     from hybrid.causal import NumpyStepper
-    from hybrid.checkpoint import load_checkpoint
     threads = torch.get_num_threads()
     torch.set_num_threads(1)
     out = {}
@@ -480,7 +458,7 @@ def _timing(checkpoints: dict, reps: int = 300) -> dict:
                 if model.kind == "window":
                     x = torch.randn(1, model.window, n_f)
                     call, mode = (lambda: model(x)), "full window"
-                elif ckpt.model_name == "hybrid":
+                elif ckpt.recipe.streams:
                     stepper = NumpyStepper(model)
                     x1 = np.random.default_rng(0).normal(size=n_f).astype(np.float32)
                     call, mode = (lambda: stepper.step(x1)), "streaming step (numpy, KV cache)"
@@ -510,8 +488,6 @@ def _timing(checkpoints: dict, reps: int = 300) -> dict:
 def _figures(out: Path, run_dir: str, seed: int, models, pre_by) -> list[str]:
     """Time series, scatter and histogram of the first seed's models on its automated test set,
     and the learning curves of every pretraining."""
-    from hybrid.checkpoint import load_checkpoint
-    from hybrid.evaluate import setup_from_checkpoint
     from hybrid.plots import (plot_ablation_boxes, plot_hex10_vs_ati, plot_learning_curves,
                               plot_scatter, plot_time_series)
     fig_dir = out / "figures"
@@ -519,22 +495,22 @@ def _figures(out: Path, run_dir: str, seed: int, models, pre_by) -> list[str]:
     segments = {}
     for m in models:
         ckpt = load_checkpoint(pre_by[(m, "full", 1.0, seed)]["checkpoint"])
-        setup = setup_from_checkpoint(ckpt)
-        bias = uses_bias_correction(ckpt.model_name)
-        segments[LABELS[m]] = {t.path: scored_segment(predict_trial(ckpt.model, setup, t), t,
-                                                      bias=bias) for t in test}
+        bias = ckpt.recipe.bias_correction
+        segments[ckpt.recipe.label] = {t.path: scored_segment(predict_trial(ckpt, t), t,
+                                                              bias=bias) for t in test}
     plot_time_series(segments, test, fig_dir / "automated_time_series.png")
     plot_scatter(segments, fig_dir / "automated_scatter.png")
     plot_hex10_vs_ati(test, fig_dir / "hex10_vs_ati_histograms.png")
-    curves = {LABELS[m]: [pre_by[k]["training"]["history"] for k in pre_by
+    curves = {recipe(m).label: [pre_by[k]["training"]["history"] for k in pre_by
                           if k[0] == m and k[1] == "full" and k[2] == 1.0] for m in models}
     plot_learning_curves(curves, fig_dir / "learning_curves.png")
-    boxes = {f"hybrid {k[1]}": [] for k in pre_by if k[0] == "hybrid" and k[2] == 1.0}
-    for k, r in pre_by.items():
-        if k[0] == "hybrid" and k[2] == 1.0:
-            boxes[f"hybrid {k[1]}"] += r["test"]["per_trial"]
-    if len(boxes) > 1:
-        plot_ablation_boxes(boxes, fig_dir / "ablation_boxplots.png")
+    for m in models:  # one box plot per model with ablations: its variants side by side
+        boxes = {f"{m} {k[1]}": [] for k in pre_by if k[0] == m and k[2] == 1.0}
+        for k, r in pre_by.items():
+            if k[0] == m and k[2] == 1.0:
+                boxes[f"{m} {k[1]}"] += r["test"]["per_trial"]
+        if len(boxes) > 1:
+            plot_ablation_boxes(boxes, fig_dir / f"ablation_boxplots_{m}.png")
     return sorted(str(p.relative_to(out)) for p in fig_dir.glob("*.png"))
 
 
@@ -575,7 +551,7 @@ def _markdown(r: dict) -> str:
             for mode in ("causal", "paper"):
                 lines += [_table(by_mode[mode], tf.get(mode), f"{group}, {mode}"), ""]
     if r["ablation"]:
-        lines += ["## Hybrid ablations (automated test set)", ""]
+        lines += ["## Ablations (automated test set)", ""]
         lines += [_table({k: v["causal"] for k, v in r["ablation"].items()}, None,
                          "Ablations, causal"), ""]
     if r["data_efficiency"]:
@@ -583,15 +559,15 @@ def _markdown(r: dict) -> str:
         for lab, by_frac in r["data_efficiency"].items():
             lines += [_table({f"{lab} {f}": v["causal"] for f, v in by_frac.items()}, None,
                              f"{lab} by training fraction"), ""]
-    lines += ["## Paper transformer vs the paper's figures (NRMSE %, paper metric)", "",
-              "| | Fx | Fy | Fz |", "|---|---|---|---|",
-              "| paper (real bench) | " + " | ".join(
-                  f"{r['paper_transformer_nrmse_pct'][a]:.2f}" for a in AXES) + " |"]
-    if LABELS["transformer"] in r["automated"]["paper"]:
-        s = r["automated"]["paper"][LABELS["transformer"]]
-        lines.append("| ours (simulated bench) | " + " | ".join(
-            f"{s[a]['nrmse_pct']['mean']:.2f} ± {s[a]['nrmse_pct']['std']:.2f}" for a in AXES)
-            + " |")
+    for label, published in r["published_nrmse_pct"].items():
+        ours = r["automated"]["paper"][label]
+        lines += [f"## {label} vs the paper's figures (NRMSE %, paper metric)", "",
+                  "| | Fx | Fy | Fz |", "|---|---|---|---|",
+                  "| paper (real bench) | " + " | ".join(f"{published[a]:.2f}" for a in AXES)
+                  + " |",
+                  "| ours (simulated bench) | " + " | ".join(
+                      f"{ours[a]['nrmse_pct']['mean']:.2f} ± {ours[a]['nrmse_pct']['std']:.2f}"
+                      for a in AXES) + " |"]
     lines += ["", "## Training (every pretraining and finetuning)", "",
               "| Run | epochs | stopped by | converged | best val loss | seconds |",
               "|---|---|---|---|---|---|"]

@@ -364,17 +364,12 @@ class StreamingEstimator:
         """An estimator for a hybrid checkpoint written by :mod:`hybrid.train`
         (``options``: the keyword arguments of the constructor)."""
         from hybrid.checkpoint import load_checkpoint
-        from hybrid.inputs import prior_from_json
         ckpt = load_checkpoint(path)
-        if not isinstance(ckpt.model, CausalTransformer):
-            raise StreamingError(f"{path}: holds a '{ckpt.model_name}' model; streaming needs a "
-                                 f"hybrid.causal.CausalTransformer (the hybrid)")
-        if ckpt.derivation not in ("prior", "none"):
-            raise StreamingError(f"{path}: a '{ckpt.model_name}' checkpoint with "
-                                 f"'{ckpt.derivation}' inputs cannot stream")
-        prior = prior_from_json(ckpt.prior_json) if ckpt.derivation == "prior" else None
+        if not ckpt.recipe.streams:
+            raise StreamingError(f"{path}: holds a '{ckpt.model_name}' model, which does not "
+                                 f"stream (hybrid.recipes: streams=False)")
         return cls(ckpt.model, ckpt.features, ckpt.input_scaler, ckpt.target_scaler,
-                   ckpt.base_columns, prior, **options)
+                   ckpt.base_columns, ckpt.prior(), **options)
 
     def reset(self) -> None:
         """Forget all history (network cache, filter, timestamps): the next sample starts over."""

@@ -19,6 +19,7 @@ Deterministic given ``seed`` on one device and thread count.
 from __future__ import annotations
 
 import copy
+import dataclasses
 import math
 import time
 from dataclasses import asdict, dataclass, field
@@ -30,15 +31,12 @@ import torch
 from torch import nn
 from tqdm import tqdm
 
-from hybrid.data import (FEATURE_SETS, LSTM_FEATURES, LSTM_RAW_COLUMNS, DatasetError, Scaler,
-                         Trial, WindowSet, fit_scalers, load_dataset, lstm_columns,
-                         resolve_features, split_validation)
-from hybrid.models import build_model, count_parameters, freeze_for_finetuning
-from psm_model.recording import HEX10
-
-MODEL_DEFAULTS: dict[str, dict] = {"lstm": {"lr": 5e-3, "weight_decay": 1e-6, "chunk": 1000}}
-"""Per-model settings from the seed paper's Table S1 (automated data; the LSTM's sequence length
-1000 is Yang et al.'s); others use :class:`TrainConfig`'s defaults (lr 1e-3, weight decay 1e-4)."""
+from hybrid.checkpoint import TrainedModel, load_checkpoint
+from hybrid.data import (DatasetError, Scaler, Trial, WindowSet, fit_scalers, load_dataset,
+                         split_validation)
+from hybrid.inputs import prior_to_json, select_base
+from hybrid.models import count_parameters, freeze_for_finetuning
+from hybrid.recipes import DERIVATIONS, Features, Inputs, build_model, recipe
 
 DEFAULT_CHUNK = 400
 """Chunk length (samples) for chunk models: 4 s at 100 Hz, 3 s of it supervised with window 100."""
@@ -79,21 +77,6 @@ class TrainConfig:
         return asdict(self)
 
 
-@dataclass
-class Setup:
-    """What the model sees: its name and config, input columns, base columns, scalers."""
-
-    model_name: str
-    config: dict
-    features: tuple[str, ...]
-    input_scaler: Scaler
-    target_scaler: Scaler
-    base_columns: tuple[str, ...] = ()
-    derivation: str = "none"
-    prior_json: str | None = None
-    history: list = field(default_factory=list)
-
-
 class TrainingError(ValueError):
     """A training request that cannot run as asked; the message says why."""
 
@@ -122,7 +105,7 @@ def _chunk_length(model: nn.Module, trials: Sequence[Trial], cfg: TrainConfig) -
     return min(cfg.chunk, min(len(t) for t in trials))
 
 
-def _window_set(model: nn.Module, trials: Sequence[Trial], setup: Setup, cfg: TrainConfig,
+def _window_set(model: nn.Module, trials: Sequence[Trial], setup: TrainedModel, cfg: TrainConfig,
                 stride: int | None = None) -> WindowSet:
     if model.kind == "chunk":
         chunk = _chunk_length(model, trials, cfg)
@@ -138,7 +121,7 @@ def _window_set(model: nn.Module, trials: Sequence[Trial], setup: Setup, cfg: Tr
                      base_columns=setup.base_columns)
 
 
-def _evaluate_loss(model, data, setup: Setup, cfg: TrainConfig, batch: int) -> float:
+def _evaluate_loss(model, data, setup: TrainedModel, cfg: TrainConfig, batch: int) -> float:
     model.eval()
     n_batches = math.ceil(len(data) / batch)
     chosen = range(n_batches)
@@ -189,7 +172,7 @@ class _Head(nn.Module):
 
 
 def fit(model: nn.Module, train_trials: Sequence[Trial], val_trials: Sequence[Trial],
-        setup: Setup, cfg: TrainConfig, *, desc: str = "train",
+        setup: TrainedModel, cfg: TrainConfig, *, desc: str = "train",
         frozen_in_eval: bool = False) -> dict:
     """Train ``model`` in place and leave it holding its best-validation weights.
 
@@ -280,26 +263,28 @@ def fit(model: nn.Module, train_trials: Sequence[Trial], val_trials: Sequence[Tr
             if model.kind == "chunk" else None}
 
 
-def make_setup(model_name: str, train_trials: Sequence[Trial], *,
-               features: str | Sequence[str] | None = None, config: dict | None = None,
-               base_columns: Sequence[str] = (), derivation: str = "none",
-               prior_json: str | None = None) -> Setup:
-    """Resolve the input columns and fit the scalers on the training trials only."""
-    if model_name == "lstm":
-        cols, raw = LSTM_FEATURES, LSTM_RAW_COLUMNS
-        if features not in (None, "lstm") and tuple(resolve_features(features)) != LSTM_FEATURES:
-            raise TrainingError("the LSTM baseline takes its fixed inputs (hybrid.data."
-                                "LSTM_FEATURES); feature sets do not apply to it")
-        derivation = "lstm"
-    else:
-        cols, raw = resolve_features(features or "paper"), ()
-    x_scaler, y_scaler = fit_scalers(train_trials, cols, raw_columns=raw,
-                                     base_columns=base_columns)
-    return Setup(model_name, dict(config or {}), tuple(cols), x_scaler, y_scaler,
-                 tuple(base_columns), derivation, prior_json)
+def make_setup(model_name: str, train_trials: Sequence[Trial], *, features: Features = None,
+               use_prior: bool = True, prior_json: str | None = None, config: dict | None = None,
+               inputs: Inputs | None = None) -> TrainedModel:
+    """The untrained record of a model: its recipe's inputs for ``features`` / ``use_prior``,
+    their base kept only on axes where it helps (:func:`hybrid.inputs.select_base`), and the
+    scalers fitted on the training trials only. ``inputs`` replaces the recipe's, base as given
+    (design studies). The trials must hold the derived columns
+    (:data:`hybrid.recipes.DERIVATIONS`); ``prior_json`` goes with derivation ``"prior"``."""
+    if inputs is None:
+        inputs = recipe(model_name).inputs(features, use_prior)
+        if inputs.base:
+            inputs = dataclasses.replace(inputs, base=select_base(train_trials, inputs.base))
+    if (inputs.derivation == "prior") != (prior_json is not None):
+        raise TrainingError(f"derivation '{inputs.derivation}' and "
+                            f"{'a' if prior_json else 'no'} prior do not go together")
+    x_scaler, y_scaler = fit_scalers(train_trials, inputs.features, raw_columns=inputs.raw,
+                                     base_columns=inputs.base)
+    return TrainedModel(model_name, dict(config or {}), inputs.features, x_scaler, y_scaler,
+                        inputs.base, inputs.derivation, prior_json)
 
 
-def _rocket_windows(model, trials: Sequence[Trial], setup: Setup, cfg: TrainConfig,
+def _closed_form_windows(model, trials: Sequence[Trial], setup: TrainedModel, cfg: TrainConfig,
                     stream: int) -> tuple[np.ndarray, np.ndarray]:
     """The window models' training windows (stride ``cfg.stride``, free space 4x sparser) as
     arrays, only the seeded subsample the regressor keeps gathered."""
@@ -318,20 +303,20 @@ def _closed_form_report(model, fit_report: dict, n_train: int, n_val: int) -> di
             "chunk": None, "parameters": n, "trainable_parameters": n, "fit": fit_report}
 
 
-def _fit_rocket(setup: Setup, train_trials: Sequence[Trial], val_trials: Sequence[Trial],
+def _fit_closed_form(setup: TrainedModel, train_trials: Sequence[Trial], val_trials: Sequence[Trial],
                 cfg: TrainConfig, head_of=None) -> tuple[object, dict]:
-    """MultiRocket-Hydra (:mod:`hybrid.rocket`) on the same windows as the networks, its ridge
-    penalty chosen on the validation trials. ``head_of``: a fitted regressor whose transforms
-    and scaling stay and whose ridge is refitted (finetuning)."""
+    """A closed-form window model (MultiRocket-Hydra, :mod:`hybrid.rocket`) on the same windows
+    as the networks, its penalty chosen on the validation trials. ``head_of``: a fitted model
+    whose features stay and whose head (the ridge) is refitted (finetuning)."""
     if not val_trials:
-        raise TrainingError("no validation trials: the ridge penalty is chosen on them")
+        raise TrainingError("no validation trials: the penalty is chosen on them")
     t0 = time.perf_counter()
     model = head_of
     if model is None:
-        model = build_model("rocket", len(setup.features), {
+        model = build_model(setup.model_name, len(setup.features), {
             **setup.config, "seed": cfg.seed, "threads": torch.get_num_threads()})
         setup.config = model.config()  # every constructor argument, for the checkpoint
-    (x, y), (xv, yv) = (_rocket_windows(model, trials, setup, cfg, stream)
+    (x, y), (xv, yv) = (_closed_form_windows(model, trials, setup, cfg, stream)
                         for stream, trials in ((0, train_trials), (1, val_trials)))
     fit_report = (model.refit_head if head_of is not None else model.fit)(x, y, xv, yv)
     report = _closed_form_report(model, fit_report, len(x), len(xv))
@@ -339,34 +324,37 @@ def _fit_rocket(setup: Setup, train_trials: Sequence[Trial], val_trials: Sequenc
     return model, report
 
 
-def train_model(setup: Setup, train_trials: Sequence[Trial], val_trials: Sequence[Trial],
-                cfg: TrainConfig, *, desc: str | None = None) -> tuple[nn.Module, dict]:
-    """Build the model of ``setup``, train it, return (model with best weights, fit report).
-    ``rocket`` is fitted in closed form (its config gains the seed and thread count)."""
-    if setup.model_name == "rocket":
-        return _fit_rocket(setup, train_trials, val_trials, cfg)
+def train_model(setup: TrainedModel, train_trials: Sequence[Trial],
+                val_trials: Sequence[Trial], cfg: TrainConfig, *, desc: str | None = None) -> dict:
+    """Build the model of ``setup``, train it, leave it with its best weights in
+    ``setup.model``; return the fit report. A closed-form recipe is fitted by its own ``fit``
+    (its config gains the seed and thread count)."""
+    if recipe(setup.model_name).closed_form:
+        setup.model, report = _fit_closed_form(setup, train_trials, val_trials, cfg)
+        return report
     torch.manual_seed(cfg.seed)
-    model = build_model(setup.model_name, len(setup.features), setup.config)
+    setup.model = build_model(setup.model_name, len(setup.features), setup.config)
     t0 = time.perf_counter()
-    report = fit(model, train_trials, val_trials, setup, cfg, desc=desc or setup.model_name)
+    report = fit(setup.model, train_trials, val_trials, setup, cfg,
+                 desc=desc or setup.model_name)
     report["seconds"] = time.perf_counter() - t0
-    report["parameters"] = count_parameters(model)
-    setup.history = report["history"]
-    return model, report
+    report["parameters"] = count_parameters(setup.model)
+    return report
 
 
-def finetune_model(model: nn.Module, setup: Setup, train_trials: Sequence[Trial],
+def finetune_model(setup: TrainedModel, train_trials: Sequence[Trial],
                    val_trials: Sequence[Trial], cfg: TrainConfig, *,
                    desc: str = "finetune") -> dict:
-    """Freeze all but the last decoder block, train that on new data with the pretrained scalers
-    (the paper's transfer protocol). Frozen parts run in eval mode (no dropout): they act as a
-    fixed feature extractor; for ``rocket`` the transforms and scaling stay and the ridge is
-    refitted. Returns the fit report with trainable/total parameter counts."""
-    if setup.model_name == "rocket":
-        return _fit_rocket(setup, train_trials, val_trials, cfg, head_of=model)[1]
-    trainable, total = freeze_for_finetuning(model)
+    """Freeze all but the last decoder block of ``setup.model``, train that on new data with the
+    pretrained scalers (the paper's transfer protocol). Frozen parts run in eval mode (no
+    dropout): they act as a fixed feature extractor; a closed-form model keeps its features and
+    refits its head. Returns the fit report with trainable/total parameter counts."""
+    if recipe(setup.model_name).closed_form:
+        return _fit_closed_form(setup, train_trials, val_trials, cfg, head_of=setup.model)[1]
+    trainable, total = freeze_for_finetuning(setup.model)
     t0 = time.perf_counter()
-    report = fit(model, train_trials, val_trials, setup, cfg, desc=desc, frozen_in_eval=True)
+    report = fit(setup.model, train_trials, val_trials, setup, cfg, desc=desc,
+                 frozen_in_eval=True)
     report.update(seconds=time.perf_counter() - t0, trainable_parameters=trainable,
                   parameters=total)
     return report
@@ -382,30 +370,6 @@ def fit_prior(train_trials: Sequence[Trial], psm=None):
                                   provenance={"trials": [t.path for t in train_trials]})
 
 
-def hybrid_feature_set(features: str | Sequence[str] | None = None,
-                       use_prior: bool = True) -> tuple[tuple[str, ...], tuple[str, ...]]:
-    """(input columns, base columns) of the hybrid for a feature-set name of
-    :data:`hybrid.data.FEATURE_SETS` (None = "paper") or an explicit list.
-
-    With the prior, a named set is the hybrid's inputs (:func:`hybrid.inputs.hybrid_columns`)
-    minus the columns whose recorded source that ablation removes (a compensated HEX10 column's
-    source is its HEX10 column); the base (compensated lateral HEX10 force, ``insertion_fz``),
-    ``prior_fz`` and ``insertion_fz`` stay, since they are the prior's output, not a recorded
-    input. The trainers then drop the base on axes
-    where it does not help (:func:`hybrid.inputs.select_base`). Without the prior (the ablation of
-    :func:`hybrid.inputs.hybrid_columns`), the named set itself with the raw HEX10 force as base.
-    """
-    from hybrid.inputs import COMPENSATED_HEX10, hybrid_columns
-    all_inputs, base = hybrid_columns(use_prior)
-    if features is None or (isinstance(features, str) and features == "paper"):
-        return tuple(all_inputs), tuple(base)
-    if not isinstance(features, str):
-        return resolve_features(features), tuple(base)
-    removed = set(FEATURE_SETS["paper"]) - set(resolve_features(features))
-    source = dict(zip(COMPENSATED_HEX10, HEX10))
-    return tuple(c for c in all_inputs if source.get(c, c) not in removed), tuple(base)
-
-
 def _load_prior(prior):
     if prior is None or not isinstance(prior, (str, Path)):
         return prior
@@ -413,50 +377,48 @@ def _load_prior(prior):
     return InternalForcePrior.load(prior)
 
 
-def train(data_dir: str | Path, model: str, out_checkpoint: str | Path, *,
-          features: str | Sequence[str] | None = None, epochs: int = 100, seed: int = 0,
-          device: str = "cpu", prior=None, use_prior: bool = True, config: dict | None = None,
-          train_config: TrainConfig | None = None) -> dict:
-    """Train ``model`` (transformer | fcn | lstm | hybrid | rocket) on the ``train`` split of the dataset in
-    ``data_dir`` (10 % of its trials per condition held out for validation, seeded) and write a
-    checkpoint. ``features``: a name of :data:`hybrid.data.FEATURE_SETS` or a column list
-    (ignored by the LSTM, whose inputs are fixed). Hybrid only: ``prior`` is an
-    InternalForcePrior or the path of its JSON, fitted on the training trials when None;
-    ``use_prior=False`` trains the "hybrid without the prior" ablation. Returns a summary
-    (losses, epochs, windows, seconds, checkpoint path)."""
-    from hybrid.models import MODEL_NAMES
-    if model not in MODEL_NAMES:
-        raise TrainingError(f"unknown model '{model}'; known: {list(MODEL_NAMES)}")
+def _epochs(epochs) -> None:
     if isinstance(epochs, bool) or not isinstance(epochs, int) or epochs < 1:
         raise TrainingError(f"epochs must be an integer >= 1, got {epochs!r}")
-    cfg = train_config or TrainConfig(**MODEL_DEFAULTS.get(model, {}))
+
+
+def train(data_dir: str | Path, model: str, out_checkpoint: str | Path, *,
+          features: Features = None, epochs: int = 100, seed: int = 0, device: str = "cpu",
+          prior=None, use_prior: bool = True, config: dict | None = None,
+          train_config: TrainConfig | None = None) -> dict:
+    """Train ``model`` (a name of :data:`hybrid.recipes.RECIPES`) on the ``train`` split of the
+    dataset in ``data_dir`` (10 % of its trials per condition held out for validation, seeded)
+    and write a checkpoint. ``features``: a name of :data:`hybrid.data.FEATURE_SETS` or a column
+    list (the LSTM's inputs are fixed). Models whose recipe uses the prior: ``prior`` is an
+    InternalForcePrior or the path of its JSON, fitted on the training trials when None;
+    ``use_prior=False`` trains the "without the prior" ablation. ``train_config`` defaults to
+    the recipe's optimiser settings. Returns a summary (losses, epochs, windows, seconds,
+    checkpoint path)."""
+    spec = recipe(model)
+    _epochs(epochs)
+    if prior is not None and not (spec.uses_prior and use_prior):
+        raise TrainingError(f"a prior was given, but the '{model}' model "
+                            f"{'is trained without one' if spec.uses_prior else 'uses none'}")
+    cfg = train_config or TrainConfig(**spec.optimiser)
     cfg = TrainConfig(**{**cfg.to_dict(), "max_epochs": epochs, "seed": seed, "device": device})
     dataset = load_dataset(data_dir)
     trials = dataset.select(split="train")
     if not trials:
         raise DatasetError(f"{data_dir}: no trials in a 'train' split")
     train_trials, val_trials = split_validation(trials, 0.1, seed)
-    derivation, prior_json, base = "none", None, ()
-    if model == "lstm":
-        from psm_model import PSM
-        dataset.add_columns(lstm_columns(PSM()))
-        derivation, features = "lstm", None
-    elif model == "hybrid":
-        from hybrid.inputs import add_prior_columns, prior_to_json, select_base
-        if use_prior:
-            prior = _load_prior(prior) or fit_prior(train_trials)
-            add_prior_columns(dataset, prior)
-            derivation, prior_json = "prior", prior_to_json(prior)
-        features, base = hybrid_feature_set(features, use_prior)
-        base = select_base(train_trials, base)
-    setup = make_setup(model, train_trials, features=features, config=config, base_columns=base,
-                       derivation=derivation, prior_json=prior_json)
-    net, report = train_model(setup, train_trials, val_trials, cfg)
-    save_setup(out_checkpoint, net, setup, provenance={
+    prior_json = None
+    if spec.uses_prior and use_prior:
+        prior_json = prior_to_json(_load_prior(prior) or fit_prior(train_trials))
+    DERIVATIONS[spec.inputs(features, use_prior).derivation](dataset, prior_json)
+    setup = make_setup(model, train_trials, features=features, use_prior=use_prior,
+                       prior_json=prior_json, config=config)
+    report = train_model(setup, train_trials, val_trials, cfg)
+    setup.provenance = {
         "data_dir": str(data_dir), "train_trials": [t.path for t in train_trials],
         "val_trials": [t.path for t in val_trials], "train_config": cfg.to_dict(),
         "best_val_loss": report["best_val_loss"], "epochs_run": report["epochs_run"],
-        "seconds": report["seconds"], "history": report["history"]})
+        "seconds": report["seconds"], "history": report["history"]}
+    setup.save(out_checkpoint)
     return {k: v for k, v in report.items() if k != "history"} | {"checkpoint": str(out_checkpoint)}
 
 
@@ -465,13 +427,10 @@ def finetune(checkpoint: str | Path, data_dir: str | Path, out: str | Path, *, e
              train_config: TrainConfig | None = None) -> dict:
     """Finetune a checkpoint's last decoder block on the trials of ``data_dir`` (``splits``: which
     split folders, default all but ``test``), 10 % held out for validation; writes ``out``."""
-    from hybrid.checkpoint import load_checkpoint
-    from hybrid.evaluate import derive_for_checkpoint, setup_from_checkpoint
-    if isinstance(epochs, bool) or not isinstance(epochs, int) or epochs < 1:
-        raise TrainingError(f"epochs must be an integer >= 1, got {epochs!r}")
-    ckpt = load_checkpoint(checkpoint, device)
+    _epochs(epochs)
+    record = load_checkpoint(checkpoint, device)
     dataset = load_dataset(data_dir)
-    derive_for_checkpoint(dataset, ckpt)
+    record.derive(dataset)
     trials = (dataset.select(split=splits) if splits else
               [t for t in dataset.trials if t.split != "test"])
     if not trials:
@@ -479,19 +438,10 @@ def finetune(checkpoint: str | Path, data_dir: str | Path, out: str | Path, *, e
     cfg = train_config or TrainConfig()
     cfg = TrainConfig(**{**cfg.to_dict(), "max_epochs": epochs, "seed": seed, "device": device})
     train_trials, val_trials = split_validation(trials, 0.1, seed)
-    setup = setup_from_checkpoint(ckpt)
-    report = finetune_model(ckpt.model, setup, train_trials, val_trials, cfg)
-    save_setup(out, ckpt.model, setup, provenance={
-        **ckpt.provenance, "finetuned_from": str(checkpoint), "finetune_data_dir": str(data_dir),
-        "finetune_trials": [t.path for t in train_trials],
-        "finetune_config": cfg.to_dict(), "trainable_parameters": report["trainable_parameters"]})
+    report = finetune_model(record, train_trials, val_trials, cfg)
+    record.provenance = {
+        **record.provenance, "finetuned_from": str(checkpoint),
+        "finetune_data_dir": str(data_dir), "finetune_trials": [t.path for t in train_trials],
+        "finetune_config": cfg.to_dict(), "trainable_parameters": report["trainable_parameters"]}
+    record.save(out)
     return {k: v for k, v in report.items() if k != "history"} | {"checkpoint": str(out)}
-
-
-def save_setup(path, model: nn.Module, setup: Setup, provenance: dict) -> Path:
-    from hybrid.checkpoint import save_checkpoint
-    return save_checkpoint(path, model, model_name=setup.model_name, config=setup.config,
-                           features=setup.features, input_scaler=setup.input_scaler,
-                           target_scaler=setup.target_scaler, base_columns=setup.base_columns,
-                           derivation=setup.derivation, prior_json=setup.prior_json,
-                           provenance=provenance)

@@ -234,9 +234,6 @@ def _evaluate(args) -> dict:
     return evaluate(args.checkpoint, args.data, args.out)
 
 
-REPRODUCE_MODELS = ("transformer", "fcn", "lstm", "hybrid", "rocket")
-
-
 def _reproduce(args) -> dict:
     # before reproduce() writes OUT/work: bad arguments leave nothing behind
     _scale(args.scale)
@@ -398,10 +395,11 @@ def _parser() -> argparse.ArgumentParser:
             "fitted in closed form) on a dataset folder; writes a checkpoint holding weights, "
             "features, scalers, prior and provenance.")
     p.add_argument("--data", required=True)
-    p.add_argument("--model", choices=["hybrid", "transformer", "fcn", "lstm", "rocket"],
-                   default="hybrid")
+    p.add_argument("--model", default="hybrid",
+                   help="a model of the recipe table, hybrid.recipes.RECIPES (default hybrid)")
     p.add_argument("--out", required=True, help="checkpoint file to write")
-    p.add_argument("--features", default="paper", help="feature set name (default: paper)")
+    p.add_argument("--features", help="feature set name (default: the model's own inputs, the "
+                                       "paper's for most)")
     p.add_argument("--prior", help="prior JSON (hybrid; default: fit one on the data's free space)")
     p.add_argument("--epochs", type=int, default=100)
     p.add_argument("--seed", type=int, default=0)
@@ -462,10 +460,10 @@ def _parser() -> argparse.ArgumentParser:
                    help="bench and initialisation seeds (default 1 2 3; 0 was used in design)")
     p.add_argument("--budget", default="full", choices=["full", "cpu", "quick"],
                    help="full: train to early stopping (published); cpu/quick: capped smoke runs")
-    p.add_argument("--models", nargs="+", default=list(REPRODUCE_MODELS),
-                   choices=list(REPRODUCE_MODELS),
-                   help="default: all (rocket = MultiRocket-Hydra, closed form)")
-    p.add_argument("--no-ablations", action="store_true", help="skip the hybrid's ablations")
+    p.add_argument("--models", nargs="+",
+                   help="models of the recipe table, hybrid.recipes.RECIPES (default: all)")
+    p.add_argument("--no-ablations", action="store_true",
+                   help="skip the ablations (the hybrid's variants)")
     p.add_argument("--no-efficiency", action="store_true", help="skip the data-efficiency runs")
     p.add_argument("--no-teleop", action="store_true", help="skip teleoperation finetuning")
     p.add_argument("--ray", metavar="ADDRESS",

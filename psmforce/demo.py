@@ -27,6 +27,7 @@ def run_demo(out: str | Path, *, seed: int = 0, scale: float = DEMO_SCALE,
              budget: dict | None = None) -> dict:
     """Run the demo into the new or empty folder ``out``; return the metrics table as a dict."""
     from hybrid.evaluate import automated_table, evaluate
+    from hybrid.recipes import recipe
     from psm_model.files import write_text_atomic
     from hybrid.train import TrainConfig, train
     from psm_model.identification import fit_prior_cli
@@ -56,7 +57,7 @@ def run_demo(out: str | Path, *, seed: int = 0, scale: float = DEMO_SCALE,
         step(f"training {model} (budget {budget})")
         config = TrainConfig(**budget, seed=seed)
         train(data, model, ckpt, epochs=budget["max_epochs"], seed=seed,
-              prior=prior_path if model == "hybrid" else None, train_config=config)
+              prior=prior_path if recipe(model).uses_prior else None, train_config=config)
         step(f"evaluating {model} on the test trials")
         metrics[model] = evaluate(ckpt, data, out / f"eval_{model}")
         checkpoints[model] = str(ckpt)

@@ -7,7 +7,8 @@ import pytest
 import torch
 
 from hybrid.causal import CausalTransformer, NumpyStepper, predict_sequence
-from hybrid.models import build_model, freeze_for_finetuning
+from hybrid.models import freeze_for_finetuning
+from hybrid.recipes import build_model
 from test_streaming import one_thread  # noqa: F401  (autouse fixture)
 
 

@@ -11,7 +11,7 @@ import torch
 
 from hybrid import checkpoint as ck
 from hybrid.data import Scaler
-from hybrid.models import build_model
+from hybrid.recipes import build_model
 from psmforce.cli import main
 
 torch.set_num_threads(1)
@@ -23,8 +23,8 @@ def _saved(tmp_path):
     model = build_model("fcn", len(FEATURES))
     scaler = Scaler(np.zeros(len(FEATURES), np.float32), np.ones(len(FEATURES), np.float32))
     target = Scaler(np.zeros(3, np.float32), np.ones(3, np.float32))
-    path = ck.save_checkpoint(tmp_path / "m.pt", model, model_name="fcn", config={},
-                              features=FEATURES, input_scaler=scaler, target_scaler=target)
+    path = ck.TrainedModel("fcn", {}, FEATURES, scaler, target, model=model).save(
+        tmp_path / "m.pt")
     return path, model
 
 

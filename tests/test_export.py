@@ -10,7 +10,7 @@ import pytest
 from hybrid import checkpoint as ck
 from hybrid.export import ExportError, export, run_export
 from hybrid.inputs import hybrid_columns, prior_to_json
-from hybrid.models import build_model
+from hybrid.recipes import build_model
 from hybrid.streaming import StreamingEstimator
 from psm_model.identification.prior import InternalForcePrior
 from test_streaming import INSERTION, model_and_scalers, one_thread, recording  # noqa: F401
@@ -19,15 +19,14 @@ from test_streaming import INSERTION, model_and_scalers, one_thread, recording  
 def _checkpoint(tmp_path, use_prior: bool):
     features, base = hybrid_columns(use_prior)
     model, xs, ys = model_and_scalers(len(features))
-    return ck.save_checkpoint(
-        tmp_path / "hybrid.pt", model, model_name="hybrid",
-        config={"d_model": 16, "n_heads": 2, "d_ff": 32, "attention_window": 8},
-        features=features, input_scaler=xs, target_scaler=ys, base_columns=base,
+    return ck.TrainedModel(
+        "hybrid", {"d_model": 16, "n_heads": 2, "d_ff": 32, "attention_window": 8},
+        features, xs, ys, base, model=model,
         derivation="prior" if use_prior else "none",
         # the identification prior with its default (physical) parameters, as a fit would save it
         prior_json=prior_to_json(InternalForcePrior(converged=True, insertion=INSERTION))
         if use_prior else None,
-        provenance={"seed": 3})
+        provenance={"seed": 3}).save(tmp_path / "hybrid.pt")
 
 
 @pytest.mark.parametrize("use_prior", [True, False])
@@ -49,9 +48,9 @@ def test_export_round_trip_matches_python_estimator(tmp_path, use_prior):
 
 def test_export_refuses_other_models_and_foreign_folders(tmp_path):
     _, xs, ys = model_and_scalers(1)
-    path = ck.save_checkpoint(tmp_path / "fcn.pt", build_model("fcn", 1), model_name="fcn",
-                              config={}, features=["fx"], input_scaler=xs, target_scaler=ys)
-    with pytest.raises(ExportError, match="only the hybrid's causal transformer"):
+    path = ck.TrainedModel("fcn", {}, ("fx",), xs, ys, model=build_model("fcn", 1)).save(
+        tmp_path / "fcn.pt")
+    with pytest.raises(ExportError, match="does not stream"):
         export(path, tmp_path / "out")
     with pytest.raises(ExportError, match="no readable hybrid.json"):
         run_export(tmp_path / "nothing", recording(5))

@@ -11,10 +11,10 @@ import pandas as pd
 import pytest
 
 import hybrid.reproduce
-from hybrid.checkpoint import save_checkpoint
+from hybrid.checkpoint import TrainedModel
 from hybrid.data import DatasetError, Scaler, load_dataset
 from hybrid.evaluate import EVAL_START, evaluate
-from hybrid.models import build_model
+from hybrid.recipes import build_model
 from hybrid.streaming import StreamingError, StreamingEstimator, physical_bounds
 from psm_model.identification.dynamics import (POOR_FIT_RELATIVE_ERROR_PERCENT, ArmDynamicsModel,
                                                fit_dynamics_cli)
@@ -34,10 +34,10 @@ def bench(tmp_path_factory):
 def _fcn_checkpoint(path):
     """An untrained FCN on the paper's inputs: enough for what is checked before predicting."""
     n = len(PAPER_FEATURES)
-    return save_checkpoint(path, build_model("fcn", n), model_name="fcn", config={},
-                           features=PAPER_FEATURES,
-                           input_scaler=Scaler(np.zeros(n, np.float32), np.ones(n, np.float32)),
-                           target_scaler=Scaler(np.zeros(3, np.float32), np.ones(3, np.float32)))
+    return TrainedModel("fcn", {}, PAPER_FEATURES,
+                        Scaler(np.zeros(n, np.float32), np.ones(n, np.float32)),
+                        Scaler(np.zeros(3, np.float32), np.ones(3, np.float32)),
+                        model=build_model("fcn", n)).save(path)
 
 
 @pytest.mark.parametrize("column, value, reason", [

@@ -12,7 +12,7 @@ from hybrid.evaluate import predict_trial
 from hybrid.inputs import (COMPENSATED_HEX10, HYBRID_FEATURES, HYBRID_FEATURES_PRIOR_FZ, PRIOR_FZ,
                            HybridInputError, HybridInputs, add_prior_columns, compensated_hex10,
                            select_base)
-from hybrid.train import Setup
+from hybrid.checkpoint import TrainedModel
 from hybrid.streaming import StreamingEstimator
 from test_streaming import StandInPrior, model_and_scalers, one_thread, recording  # noqa: F401
 
@@ -108,13 +108,14 @@ def test_streaming_with_a_no_base_axis_equals_offline_evaluation():
 
     trial = Trial("t.csv", "Free", "test", frame.copy())
     add_prior_columns(_Dataset(trial), prior)
-    setup = Setup("hybrid", {}, HYBRID_FEATURES, xs, ys, base)
-    evaluated = predict_trial(model, setup, trial)
+    evaluated = predict_trial(TrainedModel("hybrid", {}, HYBRID_FEATURES, xs, ys, base,
+                                           model=model), trial)
     warm = model.window
     np.testing.assert_allclose(evaluated[warm:], offline[warm:], atol=1e-4)
     # the same network without any base: the empty axis is exactly its output, the others differ
     # from it by their base column
-    network_only = predict_trial(model, Setup("hybrid", {}, HYBRID_FEATURES, xs, ys), trial)
+    network_only = predict_trial(TrainedModel("hybrid", {}, HYBRID_FEATURES, xs, ys, model=model),
+                                 trial)
     np.testing.assert_allclose(evaluated[:, 2], network_only[:, 2], atol=1e-12)
     np.testing.assert_allclose(evaluated[:, :2] - network_only[:, :2],
                                trial.frame[list(base[:2])].to_numpy(), atol=1e-9)

@@ -16,10 +16,10 @@ from hybrid.data import (FEATURE_SETS, FREE_STRIDE_FACTOR, DatasetError, Scaler,
                          fit_scalers, index_recordings, load_dataset, resolve_features,
                          sliding_windows, split_validation, subsample_trials)
 from hybrid.metrics import MetricError, axis_metrics, nrmse, postprocess, r2, rmse
-from hybrid.models import (FCN, PaperTransformer, build_model, count_parameters,
-                           freeze_for_finetuning)
+from hybrid.models import FCN, PaperTransformer, count_parameters, freeze_for_finetuning
+from hybrid.recipes import build_model
 from hybrid.streaming import physical_bounds
-from hybrid.train import Setup, TrainConfig, fit, make_setup
+from hybrid.train import TrainConfig, fit, make_setup
 from psm_model.recording import PAPER_FEATURES, REQUIRED, TARGETS, write_recording
 
 torch.set_num_threads(1)
@@ -343,20 +343,20 @@ def _trained_fcn(tmp_path):
     trials = [_trial(80, 0)]
     setup = make_setup("fcn", trials, features="no_hex10")
     model = build_model("fcn", len(setup.features))
-    path = ck.save_checkpoint(tmp_path / "m.pt", model, model_name="fcn", config={},
-                              features=setup.features, input_scaler=setup.input_scaler,
-                              target_scaler=setup.target_scaler, provenance={"seed": 0})
+    path = ck.TrainedModel("fcn", {}, setup.features, setup.input_scaler, setup.target_scaler,
+                           model=model, provenance={"seed": 0}).save(tmp_path / "m.pt")
     return path, model, setup, trials
 
 
 def test_checkpoint_round_trip(tmp_path):
-    from hybrid.evaluate import predict_trial, setup_from_checkpoint
+    from hybrid.evaluate import predict_trial
     path, model, setup, trials = _trained_fcn(tmp_path)
     loaded = ck.load_checkpoint(path)
     assert loaded.features == setup.features and loaded.provenance == {"seed": 0}
     assert loaded.versions["torch"] == torch.__version__
-    a = predict_trial(model, setup, trials[0])
-    b = predict_trial(loaded.model, setup_from_checkpoint(loaded), trials[0])
+    setup.model = model
+    a = predict_trial(setup, trials[0])
+    b = predict_trial(loaded, trials[0])
     np.testing.assert_array_equal(a, b)
     assert not list(tmp_path.glob("*.part"))
 
@@ -365,11 +365,11 @@ def test_mismatched_or_corrupt_checkpoint_refused(tmp_path):
     path, _, _, _ = _trained_fcn(tmp_path)
     loaded = ck.load_checkpoint(path)
     with pytest.raises(ck.CheckpointError, match="missing from setup"):
-        ck.check_compatible(loaded, features=PAPER_FEATURES[:10])
+        loaded.check_compatible(features=PAPER_FEATURES[:10])
     with pytest.raises(ck.CheckpointError, match="holds a 'fcn' model"):
-        ck.check_compatible(loaded, model_name="transformer")
+        loaded.check_compatible(model_name="transformer")
     with pytest.raises(ck.CheckpointError, match="lacks the checkpoint's input columns"):
-        ck.check_compatible(loaded, available_columns=["fx"])
+        loaded.check_compatible(available_columns=["fx"])
     bad = tmp_path / "bad.pt"
     bad.write_bytes(path.read_bytes()[:200])
     with pytest.raises(ck.CheckpointError, match="corrupt"):
@@ -415,7 +415,7 @@ def test_train_and_evaluate_files_end_to_end(tmp_path):
 
 def test_rocket_trains_evaluates_and_finetunes_through_checkpoints(tmp_path):
     pytest.importorskip("aeon")
-    from hybrid.evaluate import evaluate, predict_trial, setup_from_checkpoint
+    from hybrid.evaluate import evaluate, predict_trial
     from hybrid.train import finetune, train
     data = _write_dataset(tmp_path / "data", ((split, cond, k) for k, (split, cond) in enumerate(
         [("train", "Traction")] * 2 + [("train", "Free")] * 2 + [("test", "Traction"),
@@ -435,7 +435,7 @@ def test_rocket_trains_evaluates_and_finetunes_through_checkpoints(tmp_path):
     assert tuned["stopped_by"] == "closed form"
     before, after = (ck.load_checkpoint(tmp_path / f) for f in ("rocket.pt", "tuned.pt"))
     trial = load_dataset(data).select(split="test")[0]
-    pred = [predict_trial(c.model, setup_from_checkpoint(c), trial) for c in (before, after)]
+    pred = [predict_trial(c, trial) for c in (before, after)]
     assert np.isfinite(pred[0][99:]).all() and np.isnan(pred[0][:99]).all()
     assert not np.allclose(pred[0][99:], pred[1][99:])  # the head was refitted
     np.testing.assert_array_equal(before.model._fitted.scale, after.model._fitted.scale)
@@ -449,13 +449,15 @@ def test_chunked_offline_prediction_equals_one_causal_pass():
     setup = make_setup("fcn", [trial], features="paper")
     torch.manual_seed(0)
     model = _ChunkStandIn(21, window=6).eval()
-    pred = ev.predict_trial(model, setup, trial, batch=3 * ev.PREDICT_CHUNK)
+    setup.model = model
+    pred = ev.predict_trial(setup, trial, batch=3 * ev.PREDICT_CHUNK)
     with torch.no_grad():
         x = torch.from_numpy(setup.input_scaler.transform(trial.matrix(setup.features)))
         full = setup.target_scaler.inverse(model(x[None])[0].numpy())
     np.testing.assert_allclose(pred, full, rtol=1e-5, atol=1e-5)
     window_model = PaperTransformer(21, window=5).eval()
-    wpred = ev.predict_trial(window_model, setup, trial)
+    setup.model = window_model
+    wpred = ev.predict_trial(setup, trial)
     assert np.isnan(wpred[:4]).all() and not np.isnan(wpred[4:]).any()
     with torch.no_grad():
         last = window_model(x[None, -5:])[0].numpy()

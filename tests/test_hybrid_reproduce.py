@@ -10,7 +10,7 @@ import pytest
 from hybrid.data import FEATURE_SETS, Trial
 from hybrid.evaluate import automated_table, teleop_table
 from hybrid.reproduce import BUDGETS, _config, _teleop_folds, reproduce, verdicts
-from hybrid.train import hybrid_feature_set
+from hybrid.inputs import hybrid_feature_set
 
 hybrid_mod = pytest.importorskip("hybrid.inputs")
 

@@ -13,7 +13,7 @@ from hybrid.data import Scaler
 from hybrid.inputs import (BASE_COLUMNS, COMPENSATED_HEX10, HYBRID_FEATURES, HexRotation,
                            HybridInputs, SamplePrior, compensated_hex10, hybrid_columns,
                            sample_prior)
-from hybrid.models import build_model
+from hybrid.recipes import build_model
 from hybrid.streaming import (CHAIN_POSITIONS, MAX_FORCE_N, CausalFilter, Flags, StreamingError,
                               StreamingEstimator, physical_bounds)
 from psm_model.identification.insertion import InsertionEffortModel
@@ -237,18 +237,16 @@ def test_causal_filters_lag_and_step_response():
 def test_from_checkpoint_uses_the_training_checkpoint(tmp_path):
     model, xs, ys = model_and_scalers(len(PAPER_FEATURES))
     features, base = hybrid_columns(use_prior=False)
-    path = ck.save_checkpoint(tmp_path / "h.pt", model, model_name="hybrid",
-                              config={"d_model": 16, "n_heads": 2, "d_ff": 32,
-                                      "attention_window": 8},
-                              features=features, input_scaler=xs, target_scaler=ys,
-                              base_columns=base)
+    config = {"d_model": 16, "n_heads": 2, "d_ff": 32, "attention_window": 8}
+    path = ck.TrainedModel("hybrid", config, features, xs, ys, base, model=model).save(
+        tmp_path / "h.pt")
     frame = recording(100)
     loaded = StreamingEstimator.from_checkpoint(path)
     direct = StreamingEstimator(model, features, xs, ys, base)
     np.testing.assert_allclose(stream(loaded, frame)[0], stream(direct, frame)[0], atol=1e-6)
-    fcn = ck.save_checkpoint(tmp_path / "f.pt", build_model("fcn", 1), model_name="fcn",
-                             config={}, features=["fx"], input_scaler=xs, target_scaler=ys)
-    with pytest.raises(StreamingError, match="needs a hybrid.causal.CausalTransformer"):
+    fcn = ck.TrainedModel("fcn", {}, ("fx",), xs, ys, model=build_model("fcn", 1)).save(
+        tmp_path / "f.pt")
+    with pytest.raises(StreamingError, match="does not stream"):
         StreamingEstimator.from_checkpoint(fcn)
     assert set(HEX10) <= set(loaded.columns)
 
