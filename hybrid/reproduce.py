@@ -467,7 +467,7 @@ def _timing(checkpoints: dict, reps: int = 300) -> dict:
     """Batch-1 latency of one force estimate per model on one CPU thread (ms; mean, std, p99).
     Window models recompute their window; the LSTM runs one streaming step (state carried); the
     hybrid one streaming step of its numpy backend (key / value cache). Network only."""
-    from hybrid.causal import NumpyStepper
+    from hybrid.steppers import NumpyStepper
     from hybrid.checkpoint import load_checkpoint
     threads = torch.get_num_threads()
     torch.set_num_threads(1)

@@ -51,7 +51,7 @@ def test_export_refuses_other_models_and_foreign_folders(tmp_path):
     _, xs, ys = model_and_scalers(1)
     path = ck.save_checkpoint(tmp_path / "fcn.pt", build_model("fcn", 1), model_name="fcn",
                               config={}, features=["fx"], input_scaler=xs, target_scaler=ys)
-    with pytest.raises(ExportError, match="only the hybrid's causal transformer"):
+    with pytest.raises(ExportError, match="only a streamable model"):
         export(path, tmp_path / "out")
     with pytest.raises(ExportError, match="no readable hybrid.json"):
         run_export(tmp_path / "nothing", recording(5))

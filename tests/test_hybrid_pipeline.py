@@ -18,7 +18,7 @@ from hybrid.data import (FEATURE_SETS, FREE_STRIDE_FACTOR, DatasetError, Scaler,
 from hybrid.metrics import MetricError, axis_metrics, nrmse, postprocess, r2, rmse
 from hybrid.models import (FCN, PaperTransformer, build_model, count_parameters,
                            freeze_for_finetuning)
-from hybrid.streaming import physical_bounds
+from hybrid.bounds import physical_bounds
 from hybrid.train import Setup, TrainConfig, fit, make_setup
 from psm_model.recording import PAPER_FEATURES, REQUIRED, TARGETS, write_recording
 
