@@ -29,7 +29,8 @@ buffer: copy to keep) and ``backend`` (its name), agree within float32 rounding
   allocation-free; needs nothing but numpy.
 
 :func:`make_backend` picks one (``"auto"``: onnx when onnxruntime is installed, else numpy where
-the model has a numpy path, else torch).
+the model has a numpy path, else torch) and raises :class:`StreamingError`, the error of every
+streaming request that cannot be served (:mod:`hybrid.streaming` raises it too).
 """
 
 from __future__ import annotations
