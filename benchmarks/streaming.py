@@ -48,7 +48,9 @@ from hybrid.evaluate import EVAL_START  # noqa: E402
 from hybrid.inputs import add_prior_columns, hybrid_columns, select_base  # noqa: E402
 from hybrid.metrics import axis_metrics, postprocess  # noqa: E402
 from hybrid.models import PaperTransformer, count_parameters  # noqa: E402
-from hybrid.streaming import CausalFilter, Flags, StreamingEstimator, make_backend  # noqa: E402
+from hybrid.postfilter import CausalFilter  # noqa: E402
+from hybrid.steppers import make_backend  # noqa: E402
+from hybrid.streaming import Flags, StreamingEstimator  # noqa: E402
 from psm_model.recording import PAPER_FEATURES, TARGETS  # noqa: E402
 from _report import write_json  # noqa: E402
 

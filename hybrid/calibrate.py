@@ -40,7 +40,10 @@ from pathlib import Path
 
 import numpy as np
 
+from hybrid.checkpoint import load_checkpoint
 from hybrid.data import Dataset, Trial, load_dataset, split_validation, trajectory_group
+from hybrid.inputs import prior_to_json
+from hybrid.train import TrainConfig, TrainingError, finetune_model
 
 CALIBRATION_CONDITIONS = ("Free", "Traction")
 DEFAULT_MINUTES = 5.0
@@ -150,9 +153,6 @@ def calibrate(checkpoint: str | Path, data_dir: str | Path, out: str | Path, *,
     :class:`hybrid.train.TrainConfig` (default: finetuning's). Returns a summary: the finetuning
     report, the calibration trials with their roles and minutes, and for the hybrid the prior's
     free-space error before and after its refit."""
-    from hybrid.checkpoint import load_checkpoint
-    from hybrid.inputs import prior_to_json
-    from hybrid.train import TrainConfig, TrainingError, finetune_model
     from psm_model.identification import InternalForcePrior
     from psm_model.identification.errors import NotConvergedError
     from psm_model.identification.prior import NAMES

@@ -29,6 +29,7 @@ import numpy as np
 import pandas as pd
 import torch
 
+from hybrid.bounds import physical_bounds
 from psm_model.recording import (HEX10, JOINT_EFFORTS, JOINT_POSITIONS, JOINT_VELOCITIES,
                                  PAPER_FEATURES, TARGETS, list_recordings, read_recording)
 
@@ -167,7 +168,6 @@ def load_dataset(root: str | Path, *, require_targets: bool = True, threads: int
                                f"relative and inside {root}")
         listed.append((e["path"], e["condition"], e["split"], e))
 
-    from hybrid.streaming import physical_bounds  # hybrid.streaming imports this module
     bounds = physical_bounds()
 
     def read(item):
@@ -184,7 +184,7 @@ def load_dataset(root: str | Path, *, require_targets: bool = True, threads: int
 
 def _check_physical(frame: pd.DataFrame, path: Path, bounds: dict) -> None:
     """Every value inside the physical range the streaming estimator accepts
-    (:func:`hybrid.streaming.physical_bounds`): a model is never trained or scored on samples
+    (:func:`hybrid.bounds.physical_bounds`): a model is never trained or scored on samples
     it would refuse when streaming (a roll of 1e30 rad would set a scaler and train silently)."""
     for column, (low, high) in bounds.items():
         values = frame[column].to_numpy(dtype=float)
@@ -193,7 +193,7 @@ def _check_physical(frame: pd.DataFrame, path: Path, bounds: dict) -> None:
             row = int(np.argmax(outside))
             raise DatasetError(f"{path}: {column} = {values[row]:.6g} at row {row} is outside its "
                                f"physical range [{low:.4g}, {high:.4g}] "
-                               f"(hybrid.streaming.physical_bounds)")
+                               f"(hybrid.bounds.physical_bounds)")
 
 
 def index_recordings(root: str | Path) -> Path:

@@ -16,8 +16,11 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Callable, Sequence
 
+from hybrid.causal import CausalTransformer
 from hybrid.data import LSTM_FEATURES, LSTM_RAW_COLUMNS, Dataset, lstm_columns, resolve_features
 from hybrid.inputs import add_prior_columns, hybrid_feature_set, prior_from_json
+from hybrid.models import FCN, JointLSTMForce, PaperTransformer
+from hybrid.rocket import RocketRegressor
 
 Features = str | Sequence[str] | None
 """A feature-set name of :data:`hybrid.data.FEATURE_SETS`, an explicit column list, or None (the
@@ -108,17 +111,14 @@ class Recipe:
 
 
 def _transformer(n_features: int, config: dict):
-    from hybrid.models import PaperTransformer
     return PaperTransformer(n_features, **config)
 
 
 def _fcn(n_features: int, config: dict):
-    from hybrid.models import FCN
     return FCN(n_features, **config)
 
 
 def _lstm(n_features: int, config: dict):
-    from hybrid.models import JointLSTMForce
     if n_features != len(LSTM_FEATURES):
         raise ValueError(f"the LSTM baseline takes the {len(LSTM_FEATURES)} columns of "
                          f"hybrid.data.LSTM_FEATURES, got {n_features}")
@@ -126,13 +126,11 @@ def _lstm(n_features: int, config: dict):
 
 
 def _hybrid(n_features: int, config: dict):
-    from hybrid.causal import CausalTransformer
     return CausalTransformer(n_features, **config)
 
 
 def _rocket(n_features: int, config: dict):
-    from hybrid.rocket import RocketRegressor  # reads its input count when fitted
-    return RocketRegressor(**config)
+    return RocketRegressor(**config)  # reads its input count when fitted
 
 
 ABLATION_GROUPS = ("no_hex10", "no_efforts", "no_positions", "no_velocities",

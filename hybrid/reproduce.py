@@ -446,7 +446,7 @@ def _timing(checkpoints: dict, reps: int = 300) -> dict:
     """Batch-1 latency of one force estimate per model on one CPU thread (ms; mean, std, p99).
     Window models recompute their window; a streaming model runs one step of its numpy backend
     (the hybrid: key / value cache); the LSTM one recurrent step (state carried). Network only."""
-    from hybrid.causal import NumpyStepper
+    from hybrid.steppers import NumpyStepper
     threads = torch.get_num_threads()
     torch.set_num_threads(1)
     out = {}

@@ -25,7 +25,8 @@ from typing import Callable
 import numpy as np
 import pandas as pd
 
-from hybrid.streaming import Flags, StreamingEstimator, physical_bounds
+from hybrid.bounds import physical_bounds
+from hybrid.streaming import Flags, StreamingEstimator
 from psm_model.recording import OVERLOAD
 
 KINDS = ("clean", "extreme", "nonfinite", "spike", "type", "missing", "sample_type", "time",

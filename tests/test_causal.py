@@ -6,9 +6,10 @@ import numpy as np
 import pytest
 import torch
 
-from hybrid.causal import CausalTransformer, NumpyStepper, predict_sequence
+from hybrid.causal import CausalTransformer
 from hybrid.models import freeze_for_finetuning
 from hybrid.recipes import build_model
+from hybrid.steppers import NumpyStepper
 from test_streaming import one_thread  # noqa: F401  (autouse fixture)
 
 
@@ -23,13 +24,13 @@ def _model(window: int = 12, seed: int = 0, **kw) -> CausalTransformer:
 
 
 def _torch_steps(model, x: torch.Tensor) -> torch.Tensor:
-    keys, values, n_valid = model.init_cache(x.shape[0])
+    state = model.stream_state(x.shape[0])
     outs = []
     with torch.no_grad():
         for t in range(x.shape[1]):
-            n_valid = torch.clamp(n_valid + 1, max=model.attention_window)
-            y, keys, values = model.step(x[:, t], keys, values, n_valid)
+            y, *state = model.stream_step(x[:, t], *state)
             outs.append(y)
+    assert state[2].item() == min(x.shape[1], model.attention_window)  # the step counts
     return torch.stack(outs, dim=1)
 
 
@@ -63,8 +64,8 @@ def test_offline_sequence_path_equals_full_forward_for_any_block():
     with torch.no_grad():
         full = model(x)[0].numpy()
     for block in (1, 7, 64, 1000):
-        assert np.abs(predict_sequence(model, x[0].numpy(), block=block) - full).max() < 1e-5
-    assert predict_sequence(model, x[0, :3].numpy()).shape == (3, 3)
+        assert np.abs(model.predict_sequence(x[0].numpy(), block=block) - full).max() < 1e-5
+    assert model.predict_sequence(x[0, :3].numpy()).shape == (3, 3)
 
 
 def test_causal_and_receptive_field_is_window():

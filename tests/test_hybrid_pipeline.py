@@ -16,9 +16,9 @@ from hybrid.data import (FEATURE_SETS, FREE_STRIDE_FACTOR, DatasetError, Scaler,
                          fit_scalers, index_recordings, load_dataset, resolve_features,
                          sliding_windows, split_validation, subsample_trials)
 from hybrid.metrics import MetricError, axis_metrics, nrmse, postprocess, r2, rmse
+from hybrid.bounds import physical_bounds
 from hybrid.models import FCN, PaperTransformer, count_parameters, freeze_for_finetuning
 from hybrid.recipes import build_model
-from hybrid.streaming import physical_bounds
 from hybrid.train import TrainConfig, fit, make_setup
 from psm_model.recording import PAPER_FEATURES, REQUIRED, TARGETS, write_recording
 

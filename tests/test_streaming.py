@@ -8,14 +8,15 @@ import pytest
 import torch
 
 from hybrid import checkpoint as ck
+from hybrid.bounds import MAX_FORCE_N, physical_bounds
 from hybrid.causal import CausalTransformer
 from hybrid.data import Scaler
 from hybrid.inputs import (BASE_COLUMNS, COMPENSATED_HEX10, HYBRID_FEATURES, HexRotation,
                            HybridInputs, SamplePrior, compensated_hex10, hybrid_columns,
                            sample_prior)
+from hybrid.postfilter import CausalFilter
 from hybrid.recipes import build_model
-from hybrid.streaming import (CHAIN_POSITIONS, MAX_FORCE_N, CausalFilter, Flags, StreamingError,
-                              StreamingEstimator, physical_bounds)
+from hybrid.streaming import CHAIN_POSITIONS, Flags, StreamingError, StreamingEstimator
 from psm_model.identification.insertion import InsertionEffortModel
 from psm_model.recording import HEX10, PAPER_FEATURES, REQUIRED
 
@@ -142,6 +143,61 @@ def test_backends_agree_and_no_prior_variant_streams():
     assert np.abs(online - est.predict_recording(frame)).max() < 1e-4
     with pytest.raises(StreamingError, match="unknown backend"):
         estimator(backend="tensorrt")
+
+
+class TwoTapToy(torch.nn.Module):
+    """A streamable model that is not the hybrid: follows the step protocol of hybrid.steppers
+    and nothing else. y_t = (A x_t + B x_{t-1} + c) * min(t + 1, window) / window (x_{-1} = 0):
+    its state is the previous sample (float) and a sample counter (int64) the step advances."""
+
+    kind = "chunk"
+    window = 2
+    state_names = ("previous", "seen")
+
+    def __init__(self, n_features: int):
+        super().__init__()
+        self.n_features = n_features
+        self.now = torch.nn.Linear(n_features, 3)
+        self.before = torch.nn.Linear(n_features, 3, bias=False)
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        previous = torch.nn.functional.pad(x, (0, 0, 1, 0))[:, :-1]
+        ramp = torch.arange(1, x.shape[1] + 1).clamp(max=self.window) / self.window
+        return (self.now(x) + self.before(previous)) * ramp[:, None]
+
+    def stream_state(self, batch: int = 1) -> tuple[torch.Tensor, torch.Tensor]:
+        return torch.zeros(batch, self.n_features), torch.zeros(1, dtype=torch.int64)
+
+    def stream_step(self, x, previous, seen):
+        seen = torch.clamp(seen + 1, max=self.window)
+        return (self.now(x) + self.before(previous)) * (seen / self.window), x, seen
+
+    def predict_sequence(self, x: np.ndarray) -> np.ndarray:
+        with torch.inference_mode():
+            return self(torch.from_numpy(np.asarray(x, np.float32))[None])[0].numpy()
+
+
+def test_any_model_that_follows_the_step_protocol_streams_on_torch_and_onnx():
+    torch.manual_seed(1)
+    toy = TwoTapToy(len(PAPER_FEATURES)).eval()
+    _, xs, ys = model_and_scalers(len(PAPER_FEATURES))
+    frame = recording(60)
+    outs = {}
+    for backend in ("torch", "onnx", "auto"):
+        est = StreamingEstimator(toy, PAPER_FEATURES, xs, ys, backend=backend)
+        outs[backend], flags = stream(est, frame)
+        assert est.window == 2 and (flags[:1] & Flags.WARMING_UP).all()
+        assert not (flags[1:] & Flags.WARMING_UP).any()
+    assert est.backend_name == "onnx"  # auto: onnxruntime is installed, the toy has no numpy path
+    offline = est.predict_recording(frame)
+    for backend, out in outs.items():
+        assert np.abs(out - offline).max() < 1e-5, backend
+    with pytest.raises(StreamingError, match="backend 'numpy' runs .*not TwoTapToy"):
+        StreamingEstimator(toy, PAPER_FEATURES, xs, ys, backend="numpy")
+    with pytest.raises(StreamingError, match="takes 21 features, 3 given"):
+        StreamingEstimator(toy, PAPER_FEATURES[:3], xs, ys)
+    with pytest.raises(StreamingError, match="Linear lacks kind, window, n_features"):
+        StreamingEstimator(torch.nn.Linear(21, 3), PAPER_FEATURES, xs, ys)
 
 
 def test_bad_samples_flagged_state_untouched_and_recovery():
