@@ -56,29 +56,16 @@ FEATURE_SETS: dict[str, tuple[str, ...]] = {
 }
 """The paper's 21 inputs and its input ablations (seed paper, "Model Input Ablations")."""
 
-CHAIN_JOINTS = ("yaw", "pitch", "insertion", "roll", "wrist_pitch", "wrist_yaw")
-LSTM_JACOBIAN_COLUMNS = tuple(f"lstm_map_{r}{c}" for r in range(3) for c in range(6))
-LSTM_FEATURES = (tuple(f"{j}_position" for j in CHAIN_JOINTS)
-                 + tuple(f"{j}_velocity" for j in CHAIN_JOINTS)
-                 + tuple(f"{j}_effort" for j in CHAIN_JOINTS)
-                 + LSTM_JACOBIAN_COLUMNS)
-"""Inputs of :class:`hybrid.models.JointLSTMForce`: (q, dq) of joints 1-6 (standardised), their
-measured efforts and the 3x6 map A(q) = R_base_hex10^T J_s^-T[:3] (both left raw)."""
-LSTM_RAW_COLUMNS = LSTM_FEATURES[12:]
-
-
 class DatasetError(ValueError):
     """A dataset folder or a request on it that cannot be served; the message says why."""
 
 
 def resolve_features(features: str | Sequence[str]) -> tuple[str, ...]:
-    """A feature-set name from :data:`FEATURE_SETS` (or ``"lstm"``), or an explicit column list."""
+    """A feature-set name from :data:`FEATURE_SETS`, or an explicit column list."""
     if isinstance(features, str):
-        if features == "lstm":
-            return LSTM_FEATURES
         if features not in FEATURE_SETS:
             raise DatasetError(f"unknown feature set '{features}'; known: "
-                               f"{sorted(FEATURE_SETS) + ['lstm']} or an explicit column list")
+                               f"{sorted(FEATURE_SETS)} or an explicit column list")
         return FEATURE_SETS[features]
     cols = tuple(features)
     if not cols or len(set(cols)) != len(cols):
@@ -390,31 +377,3 @@ class WindowSet:
         x = self._x_view[s]
         y = self.targets[s + self.window - 1] if self.mode == "last" else self._y_view[s]
         return x, y
-
-
-def lstm_columns(psm) -> Callable[[Trial], dict[str, np.ndarray]]:
-    """Deriver for :meth:`Dataset.add_columns`: the per-sample 3x6 map A(q) of the LSTM baseline,
-    F_tool_hex10 = A(q) (tau - tau_hat).
-
-    Sign and frames: dVRK efforts are the torques the motors apply, so a static external force F
-    on the tool shows up as tau = -J^T [F; m] (the simulator's ``effort_convention``), while
-    ``psm.wrench_from_torques`` returns the wrench w with J^T w = tau. Hence A(q) is minus the
-    force rows of that map: the seed paper's F = J_s^-T (tau - tau_hat) with the sign that makes F
-    the force ON the tool, expressed in the HEX10 frame (eq. 2; the force of a wrench does not
-    depend on the reduction point, so reducing at the HEX10 origin is the same force as at cp).
-    The map is linear in tau (damping near singularities depends on J only), so six unit-torque
-    calls give it for a whole recording at once.
-    """
-    def derive(trial: Trial) -> dict[str, np.ndarray]:
-        q = trial.matrix([f"{j}_position" for j in CHAIN_JOINTS], np.float64)
-        n = len(q)
-        cols = []
-        for j in range(6):
-            unit = np.zeros((n, 6))
-            unit[:, j] = 1.0
-            wrench = np.asarray(psm.wrench_from_torques(q, unit, frame="hex10",
-                                                        expressed_in="frame"))
-            cols.append(-wrench[:, :3])
-        amap = np.stack(cols, axis=-1)  # (N, 3, 6): rows force axes, columns joints
-        return {name: amap.reshape(n, 18)[:, k] for k, name in enumerate(LSTM_JACOBIAN_COLUMNS)}
-    return derive

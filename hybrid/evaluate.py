@@ -24,7 +24,8 @@ import torch
 
 from hybrid.checkpoint import TrainedModel, load_checkpoint
 from hybrid.data import Trial, base_matrix, load_dataset, sliding_windows
-from hybrid.metrics import AXES, POSTPROCESSING, axis_metrics, postprocess
+from hybrid.metrics import POSTPROCESSING, axis_metrics, postprocess
+from hybrid.tables import automated_table, modes_table
 from psm_model.files import write_text_atomic
 from psm_model.recording import TARGETS
 
@@ -124,66 +125,6 @@ def floor_metrics(trials: Sequence[Trial]) -> dict:
     raw causal metric)."""
     truth = {t.path: t.matrix(TARGETS, np.float64) for t in trials}
     return {m: score(truth, trials, bias=False, mode=m) for m in POSTPROCESSING}
-
-
-def automated_table(results: Mapping[str, Mapping[str, Mapping[str, float]]],
-                    title: str = "Automated test set") -> str:
-    """The paper's Table (automated test set): one row per axis, range, then RMSE / NRMSE / R^2
-    per model; the best NRMSE per axis in bold. ``results``: {model label: axis_metrics}."""
-    labels = list(results)
-    head = ("| Axis | Range (N) | " + " | ".join(f"{m} RMSE (N) | {m} NRMSE (%) | {m} R² (%)"
-                                                for m in labels) + " |")
-    sep = "|" + "---|" * (2 + 3 * len(labels))
-    rows = [f"**{title}**", "", head, sep]
-    first = results[labels[0]]
-    for axis in AXES:
-        best = min(results[m][axis]["nrmse_pct"] for m in labels)
-        cells = []
-        for m in labels:
-            r = results[m][axis]
-            n = f"{r['nrmse_pct']:.2f}"
-            cells += [f"{r['rmse_n']:.3f}", f"**{n}**" if r["nrmse_pct"] == best else n,
-                      f"{r['r2_pct']:.2f}"]
-        rows.append(f"| {axis} | {first[axis]['range_n']:.2f} | " + " | ".join(cells) + " |")
-    return "\n".join(rows) + "\n"
-
-
-def modes_table(results: Mapping[str, Mapping[str, Mapping]], floor: Mapping[str, Mapping]) -> str:
-    """NRMSE (%) per axis of each model under each post-processing, with the floor (the truth
-    through the same post-processing) as the first row. ``results``: {label: {mode: metrics}}."""
-    from hybrid.metrics import lowpass_lag_samples
-    head = "| Model | " + " | ".join(f"{m} {a}" for m in POSTPROCESSING for a in AXES) + " |"
-    rows = [f"NRMSE %; causal = raw per-sample estimate (no look-ahead); causal_lowpass = causal "
-            f"5 Hz Butterworth, lag {lowpass_lag_samples() * 10:.0f} ms; paper = centred median "
-            f"k = 71 (looks 0.35 s ahead).", "", head, "|" + "---|" * (1 + 3 * len(POSTPROCESSING))]
-    for label, by_mode in {"floor (truth post-processed)": floor, **results}.items():
-        rows.append(f"| {label} | " + " | ".join(f"{by_mode[m][a]['nrmse_pct']:.2f}"
-                                               for m in POSTPROCESSING for a in AXES) + " |")
-    return "\n".join(rows) + "\n"
-
-
-def teleop_table(results: Mapping[str, Mapping[str, Sequence[Mapping]]]) -> str:
-    """The paper's finetuning table: rows (condition, seen/unseen, axis), mean ± std over the
-    cross-validation folds. ``results``: {model label: {"Rigid/Seen": [axis_metrics per fold]}}."""
-    labels = list(results)
-    groups = list(results[labels[0]])
-    head = ("| Condition | Config | Axis | Range (N) | " + " | ".join(
-        f"{m} RMSE (N) | {m} NRMSE (%) | {m} R² (%)" for m in labels) + " |")
-    rows = [head, "|" + "---|" * (4 + 3 * len(labels))]
-
-    def ms(values):
-        return f"{np.mean(values):.2f} ± {np.std(values):.2f}"
-    for g in groups:
-        cond, seen = g.split("/")
-        for axis in AXES:
-            folds0 = results[labels[0]][g]
-            cells = [ms([f[axis]["range_n"] for f in folds0])]
-            for m in labels:
-                folds = results[m][g]
-                cells += [ms([f[axis][k] for f in folds])
-                          for k in ("rmse_n", "nrmse_pct", "r2_pct")]
-            rows.append(f"| {cond} | {seen} | {axis} | " + " | ".join(cells) + " |")
-    return "\n".join(rows) + "\n"
 
 
 def evaluate(checkpoint: str | Path, data_dir: str | Path, out_dir: str | Path, *,

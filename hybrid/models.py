@@ -157,11 +157,11 @@ class JointLSTMForce(nn.Module):
 
     i.e. F = J_s^-T (tau - tau_hat) in the base frame, its force rows rotated into the HEX10 frame
     (paper eq. 2; the minus because dVRK efforts are what the motors apply, see
-    :func:`hybrid.data.lstm_columns`, which precomputes A per sample with the PSM model). A enters
+    :func:`hybrid.lstm_inputs.lstm_columns`, which precomputes A per sample with the PSM model). A enters
     as input columns, so the whole map is differentiable and the loss is the MSE on the
     HEX10-frame force (eq. 3).
 
-    Input columns, in order (see :data:`hybrid.data.LSTM_FEATURES`): 12 standardised (q, dq) of
+    Input columns, in order (see :data:`hybrid.lstm_inputs.LSTM_FEATURES`): 12 standardised (q, dq) of
     joints 1-6, 6 raw measured efforts tau (Nm, N), 18 raw entries of A (row-major). A chunk
     model: (B, T, 36) -> (B, T, 3) in N, sequence-to-sequence as Yang et al. train it.
     486,150 parameters.

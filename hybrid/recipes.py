@@ -17,7 +17,8 @@ from dataclasses import dataclass, field
 from typing import Callable, Sequence
 
 from hybrid.causal import CausalTransformer
-from hybrid.data import LSTM_FEATURES, LSTM_RAW_COLUMNS, Dataset, lstm_columns, resolve_features
+from hybrid.data import Dataset, resolve_features
+from hybrid.lstm_inputs import LSTM_FEATURES, LSTM_RAW_COLUMNS, lstm_columns
 from hybrid.inputs import add_prior_columns, hybrid_feature_set, prior_from_json
 from hybrid.models import FCN, JointLSTMForce, PaperTransformer
 from hybrid.rocket import RocketRegressor
@@ -50,7 +51,7 @@ def recorded_inputs(features: Features = None, use_prior: bool = True) -> Inputs
 
 def _lstm_inputs(features: Features = None, use_prior: bool = True) -> Inputs:
     if features not in (None, "lstm") and resolve_features(features) != LSTM_FEATURES:
-        raise RecipeError("the LSTM baseline takes its fixed inputs (hybrid.data.LSTM_FEATURES); "
+        raise RecipeError("the LSTM baseline takes its fixed inputs (hybrid.lstm_inputs.LSTM_FEATURES); "
                           "feature sets do not apply to it")
     return Inputs(LSTM_FEATURES, raw=LSTM_RAW_COLUMNS, derivation="lstm")
 
@@ -75,7 +76,7 @@ DERIVATIONS: dict[str, Callable[[Dataset, str | None], None]] = {
     "prior": _derive_prior,
 }
 """How the derived input columns are added to every trial of a dataset: ``"lstm"``, the
-Jacobian map A(q) of the LSTM baseline (:func:`hybrid.data.lstm_columns`); ``"prior"``, the
+Jacobian map A(q) of the LSTM baseline (:func:`hybrid.lstm_inputs.lstm_columns`); ``"prior"``, the
 prior-compensated columns (:func:`hybrid.inputs.add_prior_columns`, the prior from its JSON)."""
 
 
@@ -121,7 +122,7 @@ def _fcn(n_features: int, config: dict):
 def _lstm(n_features: int, config: dict):
     if n_features != len(LSTM_FEATURES):
         raise ValueError(f"the LSTM baseline takes the {len(LSTM_FEATURES)} columns of "
-                         f"hybrid.data.LSTM_FEATURES, got {n_features}")
+                         f"hybrid.lstm_inputs.LSTM_FEATURES, got {n_features}")
     return JointLSTMForce(**config)
 
 

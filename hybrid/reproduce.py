@@ -23,6 +23,10 @@ The work is a grid of independent tasks (:mod:`hybrid.grid`): simulate a bench, 
 pretrain a (model, seed, variant, data fraction), finetune a (model, seed, fold). Each is cached
 by its inputs under ``OUT/work/cache``, so an interrupted run resumes where it stopped, and
 ``ray_address`` runs the same tasks on Ray.
+
+Size: the grid's tasks and their assembly into results. A task's module and name are part of
+its cache key (:func:`hybrid.grid.task_key`), so moving the tasks elsewhere would orphan every
+cached result of a run in progress; the tables they feed live in :mod:`hybrid.tables`.
 """
 
 from __future__ import annotations
@@ -45,9 +49,10 @@ from hybrid.data import Dataset, Trial, load_dataset, split_validation, subsampl
 from hybrid.evaluate import (EVAL_START, floor_metrics, predict_trial, score_modes,
                              scored_segment)
 from hybrid.grid import run_grid
-from hybrid.metrics import AXES, POSTPROCESSING, axis_metrics, lowpass_lag_samples
+from hybrid.metrics import POSTPROCESSING, axis_metrics, lowpass_lag_samples
 from hybrid.models import count_parameters
 from hybrid.recipes import DERIVATIONS, RECIPES, recipe
+from hybrid.tables import results_markdown, spread, verdicts
 from hybrid.train import TrainConfig, finetune_model, fit_prior, make_setup, train_model
 from psm_model.files import write_text_atomic
 
@@ -231,51 +236,6 @@ def _floor_task(p: dict) -> dict:
     return out
 
 
-# ------------------------------------------------------------------------------ statistics
-
-def _spread(values: Sequence[dict]) -> dict:
-    """{axis: {key: {mean, std, n}}} over a list of axis_metrics dicts."""
-    return {a: {k: {"mean": float(np.mean([v[a][k] for v in values])),
-                    "std": float(np.std([v[a][k] for v in values])), "n": len(values)}
-                for k in ("rmse_n", "nrmse_pct", "r2_pct", "range_n")} for a in AXES}
-
-
-def verdicts(spread: dict, key: str = "nrmse_pct") -> dict:
-    """{axis: {"best": label, "win": bool, "tied_with": [labels]}} from {label: _spread(...)}:
-    the lowest mean wins the axis only when its mean + std lies below every other model's
-    mean - std; otherwise it ties with those whose interval overlaps."""
-    out = {}
-    for a in AXES:
-        stats = {m: (s[a][key]["mean"], s[a][key]["std"]) for m, s in spread.items()}
-        best = min(stats, key=lambda m: stats[m][0])
-        top = stats[best][0] + stats[best][1]
-        tied = [m for m, (mu, sd) in stats.items() if m != best and mu - sd <= top]
-        out[a] = {"best": best, "win": not tied, "tied_with": tied}
-    return out
-
-
-def _table(spread: dict, floor: dict | None, title: str, key: str = "nrmse_pct") -> str:
-    """Markdown: one row per model, mean ± std per axis, the winner in bold, ties marked."""
-    v = verdicts(spread, key)
-    unit = {"nrmse_pct": "NRMSE %", "rmse_n": "RMSE N", "r2_pct": "R² %"}[key]
-    rows = [f"**{title}** ({unit}, mean ± std over {next(iter(spread.values()))['Fx'][key]['n']}"
-            f" runs)", "", "| Model | Fx | Fy | Fz |", "|---|---|---|---|"]
-    if floor:
-        rows.append("| *floor (truth post-processed)* | " + " | ".join(
-            f"{floor[a][key]['mean']:.2f} ± {floor[a][key]['std']:.2f}" for a in AXES) + " |")
-    for m, s in spread.items():
-        cells = []
-        for a in AXES:
-            c = f"{s[a][key]['mean']:.2f} ± {s[a][key]['std']:.2f}"
-            if v[a]["best"] == m:
-                c = f"**{c}**" if v[a]["win"] else f"{c} (tie)"
-            elif m in v[a]["tied_with"]:
-                c += " (tie)"
-            cells.append(c)
-        rows.append(f"| {m} | " + " | ".join(cells) + " |")
-    return "\n".join(rows) + "\n"
-
-
 # ------------------------------------------------------------------------------ the run
 
 def reproduce(out: str | Path, scale: float = 0.1, seeds: Sequence[int] = (1, 2, 3),
@@ -351,7 +311,7 @@ def reproduce(out: str | Path, scale: float = 0.1, seeds: Sequence[int] = (1, 2,
     results["figures"] = _figures(out, run_dir, seeds[0], torch_models, pre_by)
     write_text_atomic(out / "results.json", json.dumps(results, indent=1) + "\n")
     write_text_atomic(out / "learning_curves.json", json.dumps(_curves(pre_specs, pre), indent=1))
-    write_text_atomic(out / "results.md", _markdown(results))
+    write_text_atomic(out / "results.md", results_markdown(results))
     say(f"done -> {out / 'results.md'}")
     return results
 
@@ -384,15 +344,15 @@ def _bench_versions(run_dir: Path, seeds: Sequence[int], teleop: bool) -> dict:
 def _collect(call, seeds, models, variants, pre_by, ft_specs, ft, floors, started, out,
              ray_address) -> dict:
     main = {recipe(m).label: [pre_by[(m, "full", 1.0, s)] for s in seeds] for m in models}
-    automated = {mode: {lab: _spread([r["test"]["overall"][mode] for r in rs])
+    automated = {mode: {lab: spread([r["test"]["overall"][mode] for r in rs])
                         for lab, rs in main.items()} for mode in POSTPROCESSING}
     conditions = sorted(next(iter(main.values()))[0]["test"]["by_condition"])
-    by_condition = {c: {mode: {lab: _spread([r["test"]["by_condition"][c][mode] for r in rs])
+    by_condition = {c: {mode: {lab: spread([r["test"]["by_condition"][c][mode] for r in rs])
                                for lab, rs in main.items()} for mode in POSTPROCESSING}
                     for c in conditions}
     training = {f"{m} {v} {f} seed {s}": {k: vv for k, vv in pre_by[(m, v, f, s)][
         "training"].items() if k != "history"} for m, v, f in variants for s in seeds}
-    ablation = {f"{m} {v}": {mode: _spread([pre_by[(m, v, 1.0, s)]["test"]["overall"][mode]
+    ablation = {f"{m} {v}": {mode: spread([pre_by[(m, v, 1.0, s)]["test"]["overall"][mode]
                                             for s in seeds]) for mode in POSTPROCESSING}
                 for m, v, f in variants if v != "full"}
     efficiency = {}
@@ -400,7 +360,7 @@ def _collect(call, seeds, models, variants, pre_by, ft_specs, ft, floors, starte
         if f < 1:
             for frac in (f, 1.0):
                 efficiency.setdefault(recipe(m).label, {})[str(frac)] = {
-                    mode: _spread([pre_by[(m, v, frac, s)]["test"]["overall"][mode]
+                    mode: spread([pre_by[(m, v, frac, s)]["test"]["overall"][mode]
                                    for s in seeds]) for mode in POSTPROCESSING}
     teleop, ft_training = {}, {}
     for (_, p), r in zip(ft_specs, ft):
@@ -408,11 +368,11 @@ def _collect(call, seeds, models, variants, pre_by, ft_specs, ft, floors, starte
             teleop.setdefault(group, {}).setdefault(recipe(p["model"]).label, []).append(by_mode)
         ft_training[f"{p['model']} {p['fold']} seed {p['seed']}"] = {
             k: v for k, v in r["training"].items() if k != "history"}
-    teleop = {g: {mode: {lab: _spread([x[mode] for x in runs]) for lab, runs in labs.items()}
+    teleop = {g: {mode: {lab: spread([x[mode] for x in runs]) for lab, runs in labs.items()}
                   for mode in POSTPROCESSING} for g, labs in teleop.items()}
-    floor = {"automated": {mode: _spread([f["automated"][mode] for f in floors])
+    floor = {"automated": {mode: spread([f["automated"][mode] for f in floors])
                            for mode in POSTPROCESSING},
-             "teleop": {c: {mode: _spread([f["teleop"][c][mode] for f in floors])
+             "teleop": {c: {mode: spread([f["teleop"][c][mode] for f in floors])
                             for mode in POSTPROCESSING} for c in TELEOP_CONDITIONS}
              if call["teleop"] else {}}
     return {
@@ -512,73 +472,3 @@ def _figures(out: Path, run_dir: str, seed: int, models, pre_by) -> list[str]:
         if len(boxes) > 1:
             plot_ablation_boxes(boxes, fig_dir / f"ablation_boxplots_{m}.png")
     return sorted(str(p.relative_to(out)) for p in fig_dir.glob("*.png"))
-
-
-def _markdown(r: dict) -> str:
-    c = r["call"]
-    conv = "every model converged (early stopping fired, no cap)" if r["all_converged"] else \
-        "**not converged**: at least one model hit a cap or its epoch limit (see Training)"
-    lines = ["# Reproduction of the seed paper on the simulated bench", "",
-             f"- command: `{r['command']}`", f"- call: `{c}`",
-             f"- code rendering these tables: {r['code']} (each cached task keeps what the "
-             f"code that ran it computed); simulator versions of the benches: "
-             f"{sorted(set(r['benches'].values()))}",
-             f"- machine: {r['machine']['platform']}, {r['machine']['cpu_count']} CPU cores, "
-             f"torch {r['machine']['torch']}; executor {r['executor']}",
-             f"- started {r['started_utc']}, this invocation {r['duration_s']:.0f} s "
-             f"(cached tasks not rerun)",
-             f"- budget `{c['budget']}`: {r['budget']}", f"- convergence: {conv}", "",
-             "Metrics. **causal** = the raw per-sample estimate a haptic loop gets (free-space "
-             "tare at start-up, no filter, no look-ahead); **causal_lowpass** = the same through "
-             f"a causal 5 Hz Butterworth ({r['causal_lowpass_lag_ms']:.0f} ms lag); **paper** = "
-             "bias + centred median k = 71 (looks 0.35 s ahead). The causal metric leads: its "
-             "floor is zero, so it separates models the paper metric's floor hides. A model wins "
-             "an axis (bold) only when mean + std < every other model's mean - std; otherwise "
-             "the cell says tie.", ""]
-    floor = r["floor"]["automated"]
-    for mode in ("causal", "causal_lowpass", "paper"):
-        lines += [_table(r["automated"][mode], floor.get(mode),
-                         f"Automated test set, {mode}"), ""]
-    lines += ["## Per condition (causal and paper)", ""]
-    for cond, by_mode in r["automated_by_condition"].items():
-        for mode in ("causal", "paper"):
-            lines += [_table(by_mode[mode], None, f"{cond} test trials, {mode}"), ""]
-    if r["teleop"]:
-        lines += ["## Teleoperation after finetuning (leave one configuration out; "
-                  "mean ± std over seeds x 3 folds)", ""]
-        for group, by_mode in r["teleop"].items():
-            tf = r["floor"]["teleop"][group.split("/")[0]]
-            for mode in ("causal", "paper"):
-                lines += [_table(by_mode[mode], tf.get(mode), f"{group}, {mode}"), ""]
-    if r["ablation"]:
-        lines += ["## Ablations (automated test set)", ""]
-        lines += [_table({k: v["causal"] for k, v in r["ablation"].items()}, None,
-                         "Ablations, causal"), ""]
-    if r["data_efficiency"]:
-        lines += ["## Data efficiency (automated test set, causal)", ""]
-        for lab, by_frac in r["data_efficiency"].items():
-            lines += [_table({f"{lab} {f}": v["causal"] for f, v in by_frac.items()}, None,
-                             f"{lab} by training fraction"), ""]
-    for label, published in r["published_nrmse_pct"].items():
-        ours = r["automated"]["paper"][label]
-        lines += [f"## {label} vs the paper's figures (NRMSE %, paper metric)", "",
-                  "| | Fx | Fy | Fz |", "|---|---|---|---|",
-                  "| paper (real bench) | " + " | ".join(f"{published[a]:.2f}" for a in AXES)
-                  + " |",
-                  "| ours (simulated bench) | " + " | ".join(
-                      f"{ours[a]['nrmse_pct']['mean']:.2f} ± {ours[a]['nrmse_pct']['std']:.2f}"
-                      for a in AXES) + " |"]
-    lines += ["", "## Training (every pretraining and finetuning)", "",
-              "| Run | epochs | stopped by | converged | best val loss | seconds |",
-              "|---|---|---|---|---|---|"]
-    for k, t in {**r["training"], **r["finetune_training"]}.items():
-        lines.append(f"| {k} | {t['epochs_run']} | {t['stopped_by']} | "
-                     f"{'yes' if t['converged'] else '**no**'} | {t['best_val_loss']:.4f} | "
-                     f"{t['seconds']:.0f} |")
-    lines += ["", "## Inference timing (batch 1, one CPU thread)", "",
-              "| Model | Mode | ms (mean ± std) | p99 ms | parameters |", "|---|---|---|---|---|"]
-    for k, v in r["timing"].items():
-        lines.append(f"| {k} | {v['mode']} | {v['ms_mean']:.3f} ± {v['ms_std']:.3f} | "
-                     f"{v['ms_p99']:.3f} | {v['parameters']} |")
-    lines += ["", "## Figures", ""] + [f"![{Path(f).stem}]({f})" for f in r["figures"]]
-    return "\n".join(lines) + "\n"

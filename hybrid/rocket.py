@@ -29,6 +29,9 @@ scaling and the ridge), so a checkpoint holding one stays free of pickled code;
 aeon (with numba and scikit-learn) is imported only when fitting or loading, so this module
 imports without it. numba compiles MultiRocket's kernels on first use (~40 s, once per
 environment: aeon caches them on disk).
+
+Size: one model. The transforms' batched standardisation, the ridge with its penalty choice and
+the tensor-only state are private to it and exist only for it.
 """
 
 from __future__ import annotations

@@ -14,6 +14,10 @@ internal force for the hybrid) turns the target into the residual ``ATI - base``
 learns that residual and :func:`predict_trial` adds the base back.
 
 Deterministic given ``seed`` on one device and thread count.
+
+Size: the loop, its closed-form counterpart and the file-level API (:func:`train`,
+:func:`finetune`) share :class:`TrainConfig`, the window sets and the fit report; kept together
+they read top to bottom as one pipeline, and no part is used without the others.
 """
 
 from __future__ import annotations
@@ -22,7 +26,7 @@ import copy
 import dataclasses
 import math
 import time
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Sequence
 

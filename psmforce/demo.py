@@ -26,8 +26,9 @@ under a minute for the hybrid on this 2-core CPU, less for the FCN."""
 def run_demo(out: str | Path, *, seed: int = 0, scale: float = DEMO_SCALE,
              budget: dict | None = None) -> dict:
     """Run the demo into the new or empty folder ``out``; return the metrics table as a dict."""
-    from hybrid.evaluate import automated_table, evaluate
+    from hybrid.evaluate import evaluate
     from hybrid.recipes import recipe
+    from hybrid.tables import automated_table
     from psm_model.files import write_text_atomic
     from hybrid.train import TrainConfig, train
     from psm_model.identification import fit_prior_cli

@@ -7,7 +7,9 @@ import pandas as pd
 import pytest
 import torch
 
-from hybrid.data import CHAIN_JOINTS, LSTM_FEATURES, LSTM_JACOBIAN_COLUMNS, Trial, lstm_columns
+from hybrid.data import Trial
+from hybrid.lstm_inputs import LSTM_FEATURES, LSTM_JACOBIAN_COLUMNS, lstm_columns
+from psm_model.kinematics import CHAIN_JOINTS
 from hybrid.models import JointLSTMForce
 
 psm_model = pytest.importorskip("psm_model")

@@ -8,8 +8,8 @@ import pandas as pd
 import pytest
 
 from hybrid.data import FEATURE_SETS, Trial
-from hybrid.evaluate import automated_table, teleop_table
-from hybrid.reproduce import BUDGETS, _config, _teleop_folds, reproduce, verdicts
+from hybrid.tables import automated_table, teleop_table, verdicts
+from hybrid.reproduce import BUDGETS, _config, _teleop_folds, reproduce
 from hybrid.inputs import hybrid_feature_set
 
 hybrid_mod = pytest.importorskip("hybrid.inputs")

@@ -164,8 +164,9 @@ def test_wrench_recovers_the_simulated_force(bench, sharp_model, tmp_path, capsy
 
 def test_wrench_is_the_lstm_baselines_map(bench, sharp_model):
     """`psmforce wrench`'s force in the HEX10 frame equals the LSTM baseline's A(q)(tau - tau_hat)
-    (hybrid.data.lstm_columns) for the same conditioned joint states: one path, not two."""
-    from hybrid.data import LSTM_JACOBIAN_COLUMNS, Trial, lstm_columns
+    (hybrid.lstm_inputs.lstm_columns) for the same conditioned joint states: one path, not two."""
+    from hybrid.data import Trial
+    from hybrid.lstm_inputs import LSTM_JACOBIAN_COLUMNS, lstm_columns
     from psm_model import PSM
     from psm_model.identification import ArmDynamicsModel
     from psm_model.recording import JOINT_POSITIONS

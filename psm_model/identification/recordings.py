@@ -284,7 +284,7 @@ def recording_wrench(model: ArmDynamicsModel, path, *, frame: str = "cp",
     low-passed zero-phase at the model's cutoff (offline; :mod:`hybrid.streaming` is the causal
     path) and ddq is the derivative of the filtered dq, as in the fit. The solve is
     :func:`external_wrench_on_tool`, i.e. ``PSM.wrench_from_torques``, the map the LSTM baseline
-    (``hybrid.data.lstm_columns``) uses.
+    (``hybrid.lstm_inputs.lstm_columns``) uses.
     """
     import pandas as pd
 
