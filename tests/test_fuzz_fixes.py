@@ -160,7 +160,7 @@ def test_a_file_that_is_not_an_arm_model_is_refused_naming_it(tmp_path, text, re
 
 def test_streaming_names_a_checkpoint_that_is_not_a_hybrid(tmp_path):
     path = _fcn_checkpoint(tmp_path / "fcn.pt")
-    with pytest.raises(StreamingError, match="needs a streamable model") as err:
+    with pytest.raises(StreamingError, match="does not stream") as err:
         StreamingEstimator.from_checkpoint(path)
     assert str(path) in str(err.value)
 
