@@ -1,7 +1,9 @@
-"""What every benchmark does with its figures: write them as JSON, whole or not at all."""
+"""What benchmarks share: the options of one on a dataset folder, and writing its figures as
+JSON, whole or not at all."""
 
 from __future__ import annotations
 
+import argparse
 import json
 from pathlib import Path
 
@@ -15,3 +17,13 @@ def write_json(path: str | Path, figures: dict) -> None:
     path.parent.mkdir(parents=True, exist_ok=True)
     write_text_atomic(path, json.dumps(figures, indent=2, default=float) + "\n")
     print(f"wrote {path}")
+
+
+def dataset_arguments(doc: str) -> argparse.Namespace:
+    """``--data DIR`` (a dataset folder), ``--seed`` (the validation split's, default 0) and
+    ``--json OUT`` for a benchmark described by the first paragraph of ``doc``."""
+    ap = argparse.ArgumentParser(description=doc.split("\n\n")[0])
+    ap.add_argument("--data", required=True, type=Path)
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--json", type=Path)
+    return ap.parse_args()

@@ -19,9 +19,7 @@ axis of:
 
 from __future__ import annotations
 
-import argparse
 import sys
-from pathlib import Path
 
 import numpy as np
 
@@ -31,7 +29,7 @@ from hybrid.inputs import BASE_COLUMNS, add_prior_columns
 from hybrid.metrics import AXES, axis_metrics, postprocess
 from hybrid.train import fit_prior
 from psm_model.recording import TARGETS
-from _report import write_json
+from _report import dataset_arguments, write_json
 
 
 def _scores(trials, estimate) -> dict:
@@ -40,11 +38,7 @@ def _scores(trials, estimate) -> dict:
 
 
 def main() -> dict:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--data", required=True, type=Path)
-    ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--json", type=Path)
-    args = ap.parse_args()
+    args = dataset_arguments(__doc__)
     ds = load_dataset(args.data)
     train, _ = split_validation(ds.select(split="train"), 0.1, args.seed)
     test = ds.select(split="test")

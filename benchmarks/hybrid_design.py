@@ -20,8 +20,6 @@ training trials that ``psmforce reproduce`` holds out with the same seed. Prints
 
 from __future__ import annotations
 
-import argparse
-from pathlib import Path
 
 import numpy as np
 import torch
@@ -33,7 +31,7 @@ from hybrid.metrics import AXES
 from hybrid.reproduce import _config, _scores
 from hybrid.recipes import Inputs
 from hybrid.train import fit_prior, make_setup, train_model
-from _report import write_json
+from _report import dataset_arguments, write_json
 
 VARIANTS = {
     "residual on every axis": (HYBRID_FEATURES, COMPENSATED_HEX10[:3]),
@@ -47,11 +45,7 @@ VARIANTS = {
 
 
 def main() -> dict:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--data", required=True, type=Path)
-    ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--json", type=Path)
-    args = ap.parse_args()
+    args = dataset_arguments(__doc__)
     torch.set_num_threads(2)
     ds = load_dataset(args.data)
     train, val = split_validation(ds.select(split="train"), 0.1, args.seed)
