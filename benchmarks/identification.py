@@ -23,8 +23,8 @@ from _report import write_json
 
 def _selection_study(wpi_dir: Path) -> dict:
     """Model selection on the training file only: 5-fold phase cross-validation of every
-    variant of ``dynamics_options.SELECTION_CANDIDATES`` (``select_by_phase_cross_validation``), mean
-    relative error over the 7 coordinates. Then, for information only (the choice is already
+    variant of ``dynamics_options.SELECTION_CANDIDATES`` (``select_by_phase_cross_validation``),
+    mean relative error over the 7 coordinates. Then, for information only (the choice is already
     made), each variant fitted on the whole training file and scored on the test file by the
     published protocol: which term buys which joint."""
     from psm_model.identification import fit_arm_dynamics, wpi

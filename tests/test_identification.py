@@ -157,7 +157,8 @@ def test_regressor_matches_rnea_of_constrained_model():
     model.gravity = pin.Motion(g, np.zeros(3))
     for i in range(4):
         ext = [reg.extended_joints(x[i:i + 1])[0] for x in (q6, v6, a6)]
-        assert np.allclose(reg.CONSTRAINT_JACOBIAN.T @ pin.rnea(model, data, *ext), tau[i], atol=1e-10)
+        assert np.allclose(reg.CONSTRAINT_JACOBIAN.T @ pin.rnea(model, data, *ext), tau[i],
+                           atol=1e-10)
     # the coupler does not rotate: its absolute orientation is the yaw body's for any pitch
     pin.forwardKinematics(model, data, reg.extended_joints(q6[:1])[0])
     R_yaw = data.oMi[model.getJointId("yaw")].rotation

@@ -40,8 +40,9 @@ BOUNDING_ELLIPSOIDS = {
     # shaft it is left free (3 m): an axisymmetric mass moving with insertion acts identically on
     # the roll body and on the insertion body, so only the lateral extent is the roll body's own.
     # Wrist bodies: the clevis and the jaws (< 20 mm). The arm bodies get none: by the lumping
-    # argument (``dynamics_regressor`` module docstring) the yaw and pitch bodies are equivalent bodies of the whole
-    # parallelogram, not physical links, so only their positive-definiteness is meaningful.
+    # argument (``dynamics_regressor`` module docstring) the yaw and pitch bodies are equivalent
+    # bodies of the whole parallelogram, not physical links, so only their positive-definiteness
+    # is meaningful.
     "roll": ((0.0, 0.0, -0.22), (0.012, 0.012, 3.0)),
     "wrist_pitch": ((0.0, 0.0, 0.0), (0.01, 0.01, 0.01)),
     "wrist_yaw": ((0.0, 0.0, 0.0), (0.02, 0.02, 0.02)),
@@ -94,7 +95,7 @@ def check_excitation(dc, coord_names, name):
 
 
 
-def coordinates(coupling, coordinate_names) -> tuple[np.ndarray, tuple[str, ...]]:
+def coupling_and_names(coupling, coordinate_names) -> tuple[np.ndarray, tuple[str, ...]]:
     """T (7,7) with q_dvrk = T c (default identity) and the coordinates' names (default the dVRK
     joints')."""
     T = np.eye(N_COORD) if coupling is None else np.asarray(coupling, dtype=float)
@@ -117,7 +118,7 @@ def fit_arm_dynamics(c, dc, tau_c, *, sample_rate_hz: float, coupling=None,
     solver status in ``info``) when IPOPT did not converge.
     """
     t_start = time.perf_counter()
-    T, names = coordinates(coupling, coordinate_names)
+    T, names = coupling_and_names(coupling, coordinate_names)
     if T.shape != (N_COORD, N_COORD) or not np.isfinite(T).all() or abs(np.linalg.det(T)) < 1e-9:
         raise IdentificationInputError("coupling must be a finite invertible 7x7 matrix")
     c, dc, tau_c = check_fit_inputs(c, dc, tau_c, options, "training data")

@@ -107,9 +107,9 @@ SELECTION_CANDIDATES = {
         **_GRADUAL_COULOMB, hysteresis_coordinates=()),
 }
 """The model variants scored by model selection on training data: the WPI study
-(``dynamics_validation.select_by_phase_cross_validation``, ``psmforce fit-dynamics --format wpi --select``,
-benchmark ``--selection``) and ``recordings.select_options`` (our layout, ``--select``). The
-default (Maxwell-slip hysteresis on every coordinate, springs on roll + wrist, sharp Coulomb
-transition) is the WPI study's winner; the others are the choices it was made against: the
-gradual Coulomb transition, springs on yaw/pitch/insertion, hysteresis on fewer coordinates or
-none (the previous default), symmetric Coulomb."""
+(``dynamics_validation.select_by_phase_cross_validation``, ``psmforce fit-dynamics --format wpi
+--select``, benchmark ``--selection``) and ``recordings.select_options`` (our layout,
+``--select``). The default (Maxwell-slip hysteresis on every coordinate, springs on roll + wrist,
+sharp Coulomb transition) is the WPI study's winner; the others are the choices it was made
+against: the gradual Coulomb transition, springs on yaw/pitch/insertion, hysteresis on fewer
+coordinates or none (the previous default), symmetric Coulomb."""

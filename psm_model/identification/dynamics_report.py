@@ -38,10 +38,11 @@ def fit_dynamics_cli(train=None, test=None, fmt: str = "csv", json_out=None, mod
     (:mod:`psm_model.identification.recordings`). ``fmt="wpi"``: ``train`` / ``test`` are WPI
     files, scored by the published protocol; ``select=True`` picks the variant by phase
     cross-validation on the training file only (:func:`.wpi_report.fit_wpi_report`).
-    ``options`` default: :class:`DynamicsFitOptions`; ``gravity`` (3,) m/s^2 in the base frame, where the arm's mounting is known (csv only;
-    default identified). The report's ``poor_fit``: the relative error exceeds
-    :data:`POOR_FIT_RELATIVE_ERROR_PERCENT` on every coordinate; ``accept_poor_fit=False`` (the
-    CLI's default) then saves no model and says why in ``model_not_saved_reason``.
+    ``options`` default: :class:`DynamicsFitOptions`; ``gravity`` (3,) m/s^2 in the base frame,
+    where the arm's mounting is known (csv only; default identified). The report's ``poor_fit``:
+    the relative error exceeds :data:`POOR_FIT_RELATIVE_ERROR_PERCENT` on every coordinate;
+    ``accept_poor_fit=False`` (the CLI's default) then saves no model and says why in
+    ``model_not_saved_reason``.
     """
     if fmt == "csv":
         if data is None or train is not None:

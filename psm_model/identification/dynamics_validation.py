@@ -14,7 +14,7 @@ import time
 import numpy as np
 
 from psm_model.identification.dynamics_fit import (check_fit_inputs, condition_signals,
-                                                   coordinates, fit_conditioned)
+                                                   coupling_and_names, fit_conditioned)
 from psm_model.identification.dynamics_options import (N_COORD, SELECTION_CANDIDATES,
                                                        DynamicsFitOptions)
 from psm_model.identification.errors import IdentificationInputError
@@ -34,7 +34,7 @@ def phase_cross_validation(c, dc, tau_c, *, sample_rate_hz: float, coupling=None
     (states, velocity combinations) is one the fit never saw - unlike a first/last split of a
     periodic recording, whose last part repeats the first. Returns per-coordinate relative error
     ||tau - tau_hat|| / ||tau|| pooled over the folds, and the solver status of each fit."""
-    T, names = coordinates(coupling, coordinate_names)
+    T, names = coupling_and_names(coupling, coordinate_names)
     c, dc, tau_c = check_fit_inputs(c, dc, tau_c, options, "cross-validation data")
     if period_samples is None:
         period_samples = excitation_period(c, min_lag=int(sample_rate_hz))

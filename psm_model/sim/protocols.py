@@ -359,7 +359,8 @@ def teleop(scale: float, seed: int) -> list[Plan]:
     plans = []
     duration = max(4.0, TELEOP_DEMO_S * scale)
     for c, (yaw, pitch, ins) in enumerate(TELEOP_CONFIGS):
-        work = (ins - WRIST_PITCH_OFFSET_M + WRIST_TO_TIP_M) * shaft_direction(np.array(yaw), np.array(pitch))
+        work = ((ins - WRIST_PITCH_OFFSET_M + WRIST_TO_TIP_M)
+                * shaft_direction(np.array(yaw), np.array(pitch)))
         for cond, (material, depth_max) in TELEOP_CONDITIONS.items():
             for k in range(3):
                 rng = np.random.default_rng([seed, 7, c, list(TELEOP_CONDITIONS).index(cond), k])
