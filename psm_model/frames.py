@@ -12,6 +12,10 @@ must have the same N. Rotations ``R_a_b`` hold the axes of frame b in frame a, s
 
 The paper's eq. 2-3: ``F' = [R_PSM_Roll R_Roll_HEX10]^T F`` (:func:`base_to_hex10`) and eq. 4:
 ``F'_ATI = [R_ati_PSM R_PSM_Roll R_Roll_HEX10]^T F_ATI`` (:func:`ati_force_in_hex10`).
+
+The frames' names, gravity and where a wrench or Jacobian is expressed (``expressed_in``:
+``"base"``, ``"base_at_frame"``, ``"frame"``) are written once in :mod:`psm_model.conventions`,
+which ``PSM`` imports (so they cannot live here, beside these functions that need ``PSM``).
 """
 
 from __future__ import annotations
