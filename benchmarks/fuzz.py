@@ -866,7 +866,7 @@ def cases() -> list[Case]:
         return Attempt(argv=["fit-dynamics", "--data", str(s.bench), "--gravity", "nan", "nan",
                              "nan", "--model-out", str(d / "arm.json")],
                        names=("--gravity", "gravity"),
-                       guard="psm_model.identification.dynamics.fit_arm_dynamics")
+                       guard="psm_model.identification.recordings.fit_conditioned")
 
     @case("cli fit-dynamics", "--format wpi on 3000 x 21 random numbers")
     def _(s, d):

@@ -23,14 +23,14 @@ from _report import write_json
 
 def _selection_study(wpi_dir: Path) -> dict:
     """Model selection on the training file only: 5-fold phase cross-validation of every
-    variant of ``dynamics.SELECTION_CANDIDATES`` (``select_by_phase_cross_validation``), mean
-    relative error over the 7 coordinates. Then, for information only (the choice is already
+    variant of ``dynamics_options.SELECTION_CANDIDATES`` (``select_by_phase_cross_validation``),
+    mean relative error over the 7 coordinates. Then, for information only (the choice is already
     made), each variant fitted on the whole training file and scored on the test file by the
     published protocol: which term buys which joint."""
-    from psm_model.identification import wpi
-    from psm_model.identification.dynamics import (SELECTION_CANDIDATES, evaluate_wpi_protocol,
-                                                   fit_arm_dynamics,
-                                                   select_by_phase_cross_validation)
+    from psm_model.identification import fit_arm_dynamics, wpi
+    from psm_model.identification.dynamics_options import SELECTION_CANDIDATES
+    from psm_model.identification.dynamics_validation import select_by_phase_cross_validation
+    from psm_model.identification.wpi_report import evaluate_wpi_protocol
 
     rec = wpi.load_wpi(wpi_dir / "one_results.csv")
     coords = dict(sample_rate_hz=rec.sample_rate_hz, coupling=wpi.coordinates_to_dvrk_matrix(),
@@ -72,13 +72,12 @@ def main() -> dict:
         torch.set_num_threads(1)
     except ImportError:
         pass
-    from psm_model.identification.dynamics import fit_dynamics_cli
-    from psm_model.identification.prior import fit_prior_cli, InternalForcePrior
+    from psm_model.identification import InternalForcePrior, fit_dynamics_cli, fit_prior_cli
     from psm_model.sim import Effects, simulate
 
     result: dict = {}
     if (args.wpi / "one_results.csv").is_file():
-        from psm_model.identification.dynamics import DynamicsFitOptions
+        from psm_model.identification import DynamicsFitOptions
 
         for label, opts in (("default", DynamicsFitOptions()),
                             ("no_bounding_ellipsoids", DynamicsFitOptions(bounding_ellipsoids=False))):

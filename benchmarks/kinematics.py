@@ -77,8 +77,8 @@ def main(argv=None):
     t_loop = _best_time(lambda: _pinocchio_loop(psm, q[:n_loop]), 1)
 
     bands = {}
-    for convention, reference in (("base", "world"), ("base_at_frame (cp)", "local_world_aligned")):
-        sigma_min = np.linalg.svd(psm.jacobian(q, "cp", reference), compute_uv=False)[:, -1]
+    for convention, expressed_in in (("base", "base"), ("base_at_frame (cp)", "base_at_frame")):
+        sigma_min = np.linalg.svd(psm.jacobian(q, "cp", expressed_in), compute_uv=False)[:, -1]
         bands[convention] = []
         for lo, hi in ((0.0, 0.02), (0.02, 0.05), (0.05, 0.10), (0.10, 0.24)):
             sel = (q[:, 2] >= lo) & (q[:, 2] < hi)

@@ -42,9 +42,9 @@ TARE_SAMPLES = 50
 
 
 def _score(prior, frames, psm) -> dict:
-    from psm_model.identification.prior import CHANNELS
+    from psm_model.recording import HEX10_FORCE
 
-    y = np.concatenate([f[list(CHANNELS[:3])].to_numpy() for f in frames])
+    y = np.concatenate([f[list(HEX10_FORCE)].to_numpy() for f in frames])
     pred = [prior.predict(f, psm)[:, :3] for f in frames]
     y_hat = np.concatenate(pred)
     internal = np.concatenate([f["sim_internal_fz"].to_numpy() for f in frames])
@@ -90,10 +90,10 @@ def run_variant(effects, scale: float, seed: int, workdir: Path) -> dict:
 
 def disc_coulomb(wpi_dir: Path) -> dict:
     """{"real": (3,), "bench": (3,)} Coulomb levels (Nm) of the three wrist discs identified by
-    :func:`psm_model.identification.dynamics.fit_arm_dynamics` in WPI's recorder coordinates."""
-    from psm_model.identification import wpi
-    from psm_model.identification.dynamics import (SELECTION_CANDIDATES, DynamicsFitOptions,
-                                                   fit_arm_dynamics)
+    :func:`psm_model.identification.fit_arm_dynamics` in WPI's recorder coordinates."""
+    from psm_model.identification import DynamicsFitOptions, fit_arm_dynamics, wpi
+    from psm_model.identification.dynamics_options import SELECTION_CANDIDATES
+    from psm_model.recording import JOINT_EFFORTS, JOINT_POSITIONS, JOINT_VELOCITIES
     from psm_model.identification.signals import zero_phase_lowpass
     from psm_model.sim import Contact, Effects, InstrumentParams, calibration, run_trajectory
 
@@ -107,7 +107,7 @@ def disc_coulomb(wpi_dir: Path) -> dict:
         model = fit_arm_dynamics(q @ t_inv.T, dq @ t_inv.T, tau @ t, sample_rate_hz=rate_hz,
                                  coupling=t, coordinate_names=wpi.MOTOR_COORDINATES,
                                  options=options)
-        values = dict(zip(model._layout.names, model.linear_parameters))
+        values = dict(zip(model.linear_parameter_names, model.linear_parameters))
         return [float(values[f"{c}.friction.coulomb"]) for c in wpi.MOTOR_COORDINATES[4:]]
 
     rec = wpi.load_wpi(wpi_dir / "one_results.csv")
@@ -116,8 +116,8 @@ def disc_coulomb(wpi_dir: Path) -> dict:
     q_cmd = zero_phase_lowpass(q, rec.sample_rate_hz, DynamicsFitOptions().cutoff_hz)[::step]
     frame = run_trajectory(q_cmd, 1.0 / calibration.RATE_HZ, Contact(), InstrumentParams(),
                            Effects(), np.random.default_rng([10, 14, 0]), truth=False)
-    sim = [frame[[f"{j}_{kind}" for j in calibration.JOINT_NAMES]].to_numpy()
-           for kind in ("position", "velocity", "effort")]
+    sim = [frame[list(columns)].to_numpy()
+           for columns in (JOINT_POSITIONS, JOINT_VELOCITIES, JOINT_EFFORTS)]
     return {"real": coulomb(q, dq, tau, rec.sample_rate_hz),
             "bench": coulomb(*sim, calibration.RATE_HZ)}
 

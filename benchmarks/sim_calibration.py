@@ -27,7 +27,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from psm_model.sim import Contact, Effects, InstrumentParams, calibration, protocols, run_trajectory, simulate
+from psm_model.conventions import JOINTS
+from psm_model.sim import Contact, Effects, InstrumentParams, calibration, motion, protocols, run_trajectory, simulate
 from _report import write_json
 
 WPI_DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data" / "wpi_psm"
@@ -63,8 +64,8 @@ def _hysteresis_probe(seed: int) -> dict[str, float]:
     for name, joint, amp in (("wrist_pitch", 4, 0.5), ("wrist_yaw", 5, 0.5), ("roll", 3, 1.5)):
         way = np.tile(q0, (5, 1))
         way[1, joint], way[3, joint] = amp, -amp
-        q = protocols.piecewise(way, np.full(4, 1.5), np.full(4, 1.0))
-        fz = run_trajectory(q, protocols.DT, Contact(), InstrumentParams(), Effects(),
+        q = motion.piecewise(way, np.full(4, 1.5), np.full(4, 1.0))
+        fz = run_trajectory(q, motion.DT, Contact(), InstrumentParams(), Effects(),
                             np.random.default_rng(seed)).fz.to_numpy()
         n = len(q) // 4
         out[name] = float(fz[2 * n - 60:2 * n - 10].mean() - fz[4 * n - 60:4 * n - 10].mean())
@@ -142,7 +143,7 @@ def effort_channels(wpi_dir: Path, derive: bool) -> dict:
     real = calibration.residual_statistics(real_res)
     sim = calibration.mean_statistics([calibration.simulated_residual(wpi_dir, s) for s in CHECK_SEEDS])
     table = {}
-    for j, joint in enumerate(calibration.JOINT_NAMES):
+    for j, joint in enumerate(JOINTS):
         table[joint] = {stat: {"real": float(real[stat][j]), "sim": float(sim[stat][j]),
                                "ratio": float(sim[stat][j] / real[stat][j])}
                         for stat in calibration.STATISTICS}
@@ -161,7 +162,7 @@ def effort_channels(wpi_dir: Path, derive: bool) -> dict:
 
 
 def _print_effort(e: dict) -> None:
-    names = calibration.JOINT_NAMES
+    names = JOINTS
     print(f"\neffort channels vs the real WPI arm ({e['units']}; sim = mean over seeds {e['check_seeds']})")
     print(f"{'statistic':22s}" + "".join(f"{n:>12s}" for n in names))
     for stat in calibration.STATISTICS:

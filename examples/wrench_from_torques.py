@@ -6,7 +6,9 @@ Frames: PSM base = RCM (modified-DH frame 0); forces in N, moments in Nm, [force
 A known wrench w is applied BY the environment ON the tool at the jaw tip, in base axes. The joint
 torques it exerts are tau = J^T w; the motors would hold it with -tau (dVRK efforts). We recover w
 at the jaw tip (base axes), the same load at the HEX10 origin in HEX10 axes and about the RCM, and
-on UR5 / Panda at their tool frames (world axes).
+on UR5 / Panda at their tool frames (base axes: the robot's base, Pinocchio's world). Where a
+wrench is expressed (``expressed_in``): "base", "base_at_frame" or "frame", the one vocabulary of
+psm_model.conventions for PSM.jacobian, PSM.wrench_from_torques and psm_model.wrench alike.
 """
 
 import numpy as np
@@ -22,7 +24,7 @@ np.set_printoptions(precision=4, suppress=True)
 psm = PSM()
 q = np.array([0.3, -0.2, 0.12, 0.5, 0.3, -0.4])  # yaw, pitch (rad), insertion (m), roll, wrist (rad)
 w_tip = np.array([0.5, -1.0, 2.0, 0.0, 0.0, 0.0])  # 0.5, -1, 2 N at the jaw tip, base axes
-tau = psm.jacobian(q, "jaw_tip", "local_world_aligned").T @ w_tip
+tau = psm.jacobian(q, "jaw_tip", "base_at_frame").T @ w_tip
 motor_efforts = -tau  # what the dVRK would report in statics, without gravity and friction
 
 w_est, info = psm.wrench_from_torques(q, -motor_efforts, frame="jaw_tip", expressed_in="base_at_frame",
@@ -45,5 +47,5 @@ for name in ("ur5", "panda"):
     J = pin.computeFrameJacobian(model, model.createData(), qr, model.getFrameId(tool),
                                  pin.LOCAL_WORLD_ALIGNED)
     w = np.array([3.0, 0.0, -5.0, 0.1, 0.2, 0.0])
-    estimate = wrench_from_torques(model, qr, J.T @ w, tool, expressed_in="world_at_frame")
-    print(f"{name}: wrench at {tool} (world axes) applied {w}, recovered {estimate}")
+    estimate = wrench_from_torques(model, qr, J.T @ w, tool, expressed_in="base_at_frame")
+    print(f"{name}: wrench at {tool} (base axes) applied {w}, recovered {estimate}")

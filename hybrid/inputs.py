@@ -216,7 +216,7 @@ class SamplePrior:
 
     def __init__(self, prior, psm=None):
         from psm_model import PSM
-        from psm_model.identification.prior import GRAVITY_MPS2
+        from psm_model.conventions import GRAVITY_MPS2
         self.prior, self.psm = prior, psm or PSM()
         self._rotation = HexRotation(self.psm)
         self._gravity = -GRAVITY_MPS2

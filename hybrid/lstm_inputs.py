@@ -13,7 +13,7 @@ from collections.abc import Callable
 import numpy as np
 
 from hybrid.data import Trial
-from psm_model.kinematics import CHAIN_JOINTS
+from psm_model.conventions import CHAIN_JOINTS
 
 LSTM_JACOBIAN_COLUMNS = tuple(f"lstm_map_{r}{c}" for r in range(3) for c in range(6))
 LSTM_FEATURES = (tuple(f"{j}_position" for j in CHAIN_JOINTS)

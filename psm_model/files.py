@@ -9,6 +9,7 @@ interrupted by a signal or a full disk, sees the previous file or none, never ha
 
 from __future__ import annotations
 
+import json
 import os
 from contextlib import contextmanager
 from pathlib import Path
@@ -45,3 +46,9 @@ def write_text_atomic(path: str | Path, text: str) -> None:
 def write_bytes_atomic(path: str | Path, data: bytes) -> None:
     with atomic_path(path) as tmp:
         tmp.write_bytes(data)
+
+
+def write_json_atomic(path: str | Path, obj) -> None:
+    """``obj`` as indented JSON; NaN and infinity are refused (ValueError), not written as the
+    non-standard ``NaN`` / ``Infinity``."""
+    write_text_atomic(path, json.dumps(obj, indent=2, allow_nan=False) + "\n")

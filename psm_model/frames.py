@@ -12,55 +12,52 @@ must have the same N. Rotations ``R_a_b`` hold the axes of frame b in frame a, s
 
 The paper's eq. 2-3: ``F' = [R_PSM_Roll R_Roll_HEX10]^T F`` (:func:`base_to_hex10`) and eq. 4:
 ``F'_ATI = [R_ati_PSM R_PSM_Roll R_Roll_HEX10]^T F_ATI`` (:func:`ati_force_in_hex10`).
+
+The frames' names, gravity and where a wrench or Jacobian is expressed (``expressed_in``:
+``"base"``, ``"base_at_frame"``, ``"frame"``) are written once in :mod:`psm_model.conventions`,
+which ``PSM`` imports (so they cannot live here, beside these functions that need ``PSM``).
 """
 
 from __future__ import annotations
 
-from functools import lru_cache
-
 import numpy as np
 
-from psm_model.kinematics import PSM, KinematicsInputError
-
-
-@lru_cache(maxsize=1)
-def _default_psm() -> PSM:
-    return PSM()
+from psm_model.kinematics import PSM, KinematicsInputError, default_psm
 
 
 def base_to_roll(force_base, q, psm: PSM | None = None) -> np.ndarray:
     """Force in the base frame -> roll frame: ``R_PSM_Roll(q)^T f``."""
-    psm = psm or _default_psm()
+    psm = psm or default_psm()
     return _apply(np.swapaxes(psm.rotation(q, "roll"), -1, -2), force_base, "force_base")
 
 
 def roll_to_base(force_roll, q, psm: PSM | None = None) -> np.ndarray:
     """Force in the roll frame -> base frame: ``R_PSM_Roll(q) f``."""
-    psm = psm or _default_psm()
+    psm = psm or default_psm()
     return _apply(psm.rotation(q, "roll"), force_roll, "force_roll")
 
 
 def roll_to_hex10(force_roll, psm: PSM | None = None) -> np.ndarray:
     """Force in the roll frame -> HEX10 frame: ``R_Roll_HEX10^T f`` (no q: both on the shaft)."""
-    psm = psm or _default_psm()
+    psm = psm or default_psm()
     return _apply(psm.R_roll_hex10.T, force_roll, "force_roll")
 
 
 def hex10_to_roll(force_hex10, psm: PSM | None = None) -> np.ndarray:
     """Force in the HEX10 frame -> roll frame: ``R_Roll_HEX10 f``."""
-    psm = psm or _default_psm()
+    psm = psm or default_psm()
     return _apply(psm.R_roll_hex10, force_hex10, "force_hex10")
 
 
 def base_to_hex10(force_base, q, psm: PSM | None = None) -> np.ndarray:
     """Force in the base frame -> HEX10 frame (paper eq. 3): ``[R_PSM_Roll R_Roll_HEX10]^T f``."""
-    psm = psm or _default_psm()
+    psm = psm or default_psm()
     return _apply(np.swapaxes(psm.rotation(q, "hex10"), -1, -2), force_base, "force_base")
 
 
 def hex10_to_base(force_hex10, q, psm: PSM | None = None) -> np.ndarray:
     """Force in the HEX10 frame -> base frame: ``R_PSM_Roll R_Roll_HEX10 f``."""
-    psm = psm or _default_psm()
+    psm = psm or default_psm()
     return _apply(psm.rotation(q, "hex10"), force_hex10, "force_hex10")
 
 
@@ -74,7 +71,7 @@ def ati_force_in_hex10(force_ati, q, R_ati_psm, psm: PSM | None = None, *,
     own reading, i.e. the force the tool applies on the sensor (Newton's third law). The result is
     the recording's target ``ati_fx, ati_fy, ati_fz`` (force on the tool, HEX10 frame).
     """
-    psm = psm or _default_psm()
+    psm = psm or default_psm()
     R = check_rotation(R_ati_psm, "R_ati_psm")
     if sign not in (1.0, -1.0):
         raise KinematicsInputError(f"sign must be +1 or -1, got {sign!r}")

@@ -1,6 +1,7 @@
 """Kinematics of the dVRK Classic PSM with the Cadiere forceps and the HEX10 shaft sensor.
 
-Frames, units and signs are those of ``docs/conventions.md``; in short:
+Frames, units and signs are those of ``docs/conventions.md`` (values: ``psm_model.conventions``);
+in short:
 
 * Base frame = the remote centre of motion (RCM) = modified-DH frame 0 of the dVRK.
 * ``cp``: the dVRK control point, exactly what the dVRK reports as the local ``measured_cp``
@@ -17,33 +18,31 @@ Frames, units and signs are those of ``docs/conventions.md``; in short:
 The URDF (``psm_model/urdf/psm_cadiere.urdf``, package data) is the single source of truth: the
 chain used here is read from the Pinocchio model built from it (joint placements and axes, frame
 placements). Poses and Jacobians are composed in numpy over a whole batch of configurations at
-once (several times the throughput of a per-sample Pinocchio loop in Python;
-``benchmarks/kinematics.py`` prints both), and the tests check the numpy chain against Pinocchio.
+once (``psm_model.serial_chain``; several times the throughput of a per-sample Pinocchio loop in
+Python, ``benchmarks/kinematics.py`` prints both), and the tests check the numpy chain against
+Pinocchio.
 """
 
 from __future__ import annotations
 
 import warnings
+from functools import lru_cache
 from importlib import resources
 from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
 
-from psm_model import wrench as _wrench
+import psm_model.wrench as _wrench
+from psm_model.conventions import (CHAIN_JOINTS, DEPRECATED_EXPRESSED_IN, EXPRESSED_IN, JOINTS,
+                                   NAMED_FRAMES, canonical_expressed_in)
+from psm_model.serial_chain import (JOINT_AXES, chain_pose, express_jacobian, homogeneous,
+                                    rot_z)
 
 BUNDLED_URDF = resources.files("psm_model") / "urdf" / "psm_cadiere.urdf"
 """The bundled URDF of the Classic PSM + Cadiere forceps + HEX10: package data, found through
 ``importlib.resources`` so that an installed wheel carries it (a path on disk for every ordinary
 install; read as text, so a zipped install works too)."""
-
-CHAIN_JOINTS = ("yaw", "pitch", "insertion", "roll", "wrist_pitch", "wrist_yaw")
-"""The six joints of the serial chain, dVRK order."""
-
-JAW_JOINT = "jaw"
-
-NAMED_FRAMES = ("cp", "jaw_tip", "roll", "hex10")
-"""The frames this library names; any other frame of the model on the chain is accepted too."""
 
 _LIMIT_SLACK = 1e-9  # rad or m; absorbs the rounding of limits written with 6 decimals
 
@@ -58,12 +57,6 @@ class JointLimitError(KinematicsInputError):
 
 class JointLimitWarning(UserWarning):
     """A joint value outside its limits (computation goes on; ``strict=True`` raises instead)."""
-
-
-_AXIS_OF_JOINT = {
-    "JointModelRX": (True, 0), "JointModelRY": (True, 1), "JointModelRZ": (True, 2),
-    "JointModelPX": (False, 0), "JointModelPY": (False, 1), "JointModelPZ": (False, 2),
-}
 
 
 class PSM:
@@ -87,7 +80,7 @@ class PSM:
         self.model = pin.buildModelFromXML(self.urdf_path.read_text(), mimic=True)
         self.joint_names = CHAIN_JOINTS
         self._joint_ids = []
-        for name in CHAIN_JOINTS + (JAW_JOINT,):
+        for name in JOINTS:
             if not self.model.existJointName(name):
                 raise KinematicsInputError(f"{self.urdf_path}: no joint named '{name}'")
             self._joint_ids.append(self.model.getJointId(name))
@@ -106,13 +99,13 @@ class PSM:
         self._axes = []
         for j in chain_ids:
             shortname = self.model.joints[j].shortname()
-            if shortname not in _AXIS_OF_JOINT:
+            if shortname not in JOINT_AXES:
                 raise KinematicsInputError(
                     f"{self.urdf_path}: joint '{self.model.names[j]}' is {shortname}; the PSM chain "
                     "supports revolute/prismatic joints about a frame axis only")
             placement = self.model.jointPlacements[j]
             self._placements.append((placement.rotation.copy(), placement.translation.copy()))
-            self._axes.append(_AXIS_OF_JOINT[shortname])
+            self._axes.append(JOINT_AXES[shortname])
         for name in NAMED_FRAMES:
             self._chain_frame(name)
         if jaw_length is not None:
@@ -126,7 +119,7 @@ class PSM:
                 hex10_clocking, "hex10_clocking")
             self._set_frame_placement(
                 "hex10", self._frame_placement("roll")
-                * pin.SE3(_rot_z(clocking), np.array([0.0, 0.0, -distance])))
+                * pin.SE3(rot_z(clocking), np.array([0.0, 0.0, -distance])))
         # a custom URDF must place jaw_tip and hex10 as documented: fail at load, not at first use
         self._jaw_length_in_cp()
         self._hex10_in_roll()
@@ -157,7 +150,7 @@ class PSM:
     @property
     def R_roll_hex10(self) -> np.ndarray:
         """Constant rotation (3,3) of the HEX10 axes in the roll frame (the paper's R_Roll_HEX10)."""
-        return _rot_z(self.hex10_clocking)
+        return rot_z(self.hex10_clocking)
 
     def _hex10_in_roll(self) -> tuple[float, float]:
         rel = self._frame_placement("roll").actInv(self._frame_placement("hex10"))
@@ -171,7 +164,7 @@ class PSM:
     def forward_kinematics(self, q, frame: str = "cp", *, strict: bool = False) -> np.ndarray:
         """Pose (4,4) or (N,4,4) of ``frame`` in the base (RCM) frame; translation in m."""
         R, p = self._frame_pose(self._check_q(q, strict), frame)
-        return self._shape_out(_homogeneous(R, p), q)
+        return self._shape_out(homogeneous(R, p), q)
 
     def rotation(self, q, frame: str = "cp", *, strict: bool = False) -> np.ndarray:
         """Rotation (3,3) or (N,3,3) of ``frame`` in the base frame (``"roll"``: R_PSM_Roll(q))."""
@@ -194,34 +187,45 @@ class PSM:
           p = ``forward_kinematics(q)[:3, 3]``, R = ``rotation(q)`` and [p]x the cross-product
           matrix of p::
 
-            J_lwa       = [[I, -[p]x], [0, I]] @ J_world   # = jacobian(q, "cp", "local_world_aligned")
-            J_dvrk_body = blockdiag(R.T, R.T) @ J_lwa      # = jacobian(q, "cp", "local")
+            J_lwa       = [[I, -[p]x], [0, I]] @ J_world   # = jacobian(q, "cp", "base_at_frame")
+            J_dvrk_body = blockdiag(R.T, R.T) @ J_lwa      # = jacobian(q, "cp", "frame")
 
           (``J_lwa``: velocity of the cp origin in base axes, the body Jacobian rotated to base.)
         """
-        return self.jacobian(q, frame, "world", strict=strict)
+        return self.jacobian(q, frame, "base", strict=strict)
 
-    def jacobian(self, q, frame: str = "cp", reference: str = "world", *,
-                 strict: bool = False) -> np.ndarray:
+    def jacobian(self, q, frame: str = "cp", expressed_in: str = "base", *,
+                 strict: bool = False, reference: str | None = None) -> np.ndarray:
         """Jacobian (6,6)/(N,6,6) of the body carrying ``frame``, rows [v; w], columns yaw .. wrist_yaw.
 
-        ``reference`` as in Pinocchio: ``"world"`` (see :meth:`spatial_jacobian`),
-        ``"local_world_aligned"`` (v = velocity of the frame origin, both in base coordinates) or
-        ``"local"`` (same, in frame coordinates).
+        ``expressed_in`` (``psm_model.conventions``): ``"base"`` (Pinocchio WORLD, see
+        :meth:`spatial_jacobian`), ``"base_at_frame"`` (LOCAL_WORLD_ALIGNED: v = velocity of the
+        frame origin, both in base coordinates) or ``"frame"`` (LOCAL: the same in frame
+        coordinates). Deprecated for one release, with a DeprecationWarning: the argument's
+        earlier name ``reference`` and its values ``"world"``, ``"local_world_aligned"``,
+        ``"local"``.
         """
-        if reference not in _REFERENCES:
-            raise KinematicsInputError(
-                f"unknown Jacobian reference '{reference}'; expected one of {_REFERENCES}")
+        if reference is not None:
+            if expressed_in != "base":
+                raise KinematicsInputError("give expressed_in or reference (deprecated), not both")
+            expressed_in = DEPRECATED_EXPRESSED_IN.get(reference, reference)
+            warnings.warn(f"PSM.jacobian(reference={reference!r}) is deprecated; say "
+                          f"expressed_in={expressed_in!r} (same arrays)", DeprecationWarning,
+                          stacklevel=2)
+        expressed_in = canonical_expressed_in(expressed_in)
+        if expressed_in not in EXPRESSED_IN:
+            raise KinematicsInputError(f"unknown Jacobian reference {expressed_in!r}; "
+                                       f"expressed_in must be one of {EXPRESSED_IN}")
         qc = self._check_q(q, strict)
         R, p, J = self._frame_pose_and_jacobian(qc, frame)
-        return self._shape_out(_change_jacobian_reference(J, R, p, reference), q)
+        return self._shape_out(express_jacobian(J, R, p, expressed_in), q)
 
     def forward_kinematics_and_jacobian(self, q, frame: str = "cp", *, strict: bool = False
                                         ) -> tuple[np.ndarray, np.ndarray]:
         """Pose and spatial (WORLD) Jacobian in one pass over the chain: ((4,4), (6,6)) or batched."""
         qc = self._check_q(q, strict)
         R, p, J = self._frame_pose_and_jacobian(qc, frame)
-        return self._shape_out(_homogeneous(R, p), q), self._shape_out(J, q)
+        return self._shape_out(homogeneous(R, p), q), self._shape_out(J, q)
 
     def wrench_from_torques(self, q, tau, tau_internal=None, frame: str = "cp",
                             expressed_in: str = "base", *, return_info: bool = False,
@@ -259,16 +263,16 @@ class PSM:
         ``tau`` and ``tau_internal``: (6,), (7,), (N,6) or (N,7) joint torques in dVRK joint space
         (Nm, insertion N; a jaw column is ignored), with q's batch size.
         """
-        if expressed_in not in _WRENCH_REFERENCES:
+        if expressed_in not in EXPRESSED_IN:
             raise KinematicsInputError(
-                f"expressed_in must be one of {tuple(_WRENCH_REFERENCES)}, got {expressed_in!r}")
+                f"expressed_in must be one of {EXPRESSED_IN}, got {expressed_in!r}")
         qc = self._check_q(q, strict)
         tau_net = self._check_tau(tau, "tau", qc.shape[0])
         if tau_internal is not None:
             tau_net = tau_net - self._check_tau(tau_internal, "tau_internal", qc.shape[0])
         R_tip, p_tip, J_world = self._frame_pose_and_jacobian(qc, "cp")
         R, p = (R_tip, p_tip) if frame == "cp" else self._frame_pose(qc, frame)
-        J = _change_jacobian_reference(J_world, R, p, _WRENCH_REFERENCES[expressed_in])
+        J = express_jacobian(J_world, R, p, expressed_in)
         w, info = _wrench.solve_wrench(J, tau_net, sigma_threshold=sigma_threshold,
                                        max_damping=max_damping)
         if np.ndim(q) == 1:
@@ -320,7 +324,7 @@ class PSM:
             row, col = np.argwhere(~np.isfinite(arr))[0]
             raise KinematicsInputError(
                 f"q has a non-finite value ({arr[row, col]}) for joint "
-                f"'{(CHAIN_JOINTS + (JAW_JOINT,))[col]}' at sample {row}")
+                f"'{JOINTS[col]}' at sample {row}")
         ncol = arr.shape[1]
         below = arr < self.lower_limits[:ncol] - _LIMIT_SLACK
         above = arr > self.upper_limits[:ncol] + _LIMIT_SLACK
@@ -329,12 +333,11 @@ class PSM:
         return arr
 
     def _report_limits(self, arr, outside, strict):
-        names = CHAIN_JOINTS + (JAW_JOINT,)
         parts = []
         for col in np.flatnonzero(outside.any(axis=0)):
             rows = np.flatnonzero(outside[:, col])
             parts.append(
-                f"'{names[col]}' = {arr[rows[0], col]:.6g} at sample {rows[0]} "
+                f"'{JOINTS[col]}' = {arr[rows[0], col]:.6g} at sample {rows[0]} "
                 f"(limits [{self.lower_limits[col]:.6g}, {self.upper_limits[col]:.6g}], "
                 f"{rows.size} sample(s) outside)")
         message = "joint values outside the limits: " + "; ".join(parts)
@@ -361,107 +364,20 @@ class PSM:
     def _shape_out(x: np.ndarray, q) -> np.ndarray:
         return x[0] if np.ndim(q) == 1 else x
 
-    def _chain(self, q: np.ndarray, depth: int, R_f: np.ndarray, p_f: np.ndarray,
-               with_jacobian: bool):
-        """Pose (R (N,3,3), p (N,3)) of the frame at (R_f, p_f) on joint ``depth``, and WORLD Jacobian.
-
-        Computed in structure-of-arrays layout (R as (3,3,N), p as (3,N)) so that every step is a
-        contiguous vector operation over the batch; the constant placements are mostly signed
-        permutations, and their zero entries are skipped.
-        """
-        n = q.shape[0]
-        R = np.broadcast_to(np.eye(3)[:, :, None], (3, 3, n))
-        p = np.zeros((3, n))
-        J = np.zeros((6, 6, n)) if with_jacobian else None
-        for i in range(depth):
-            R_fixed, p_fixed = self._placements[i]
-            p = p + _times_constant_vector(R, p_fixed)
-            R = _times_constant_matrix(R, R_fixed)
-            revolute, k = self._axes[i]
-            axis = R[:, k]
-            if revolute:
-                R = _rotate_about_own_axis(R, k, q[:, i])
-                if with_jacobian:
-                    J[:3, i] = _cross(p, axis)
-                    J[3:, i] = axis
-            else:
-                p = p + axis * q[:, i]
-                if with_jacobian:
-                    J[:3, i] = axis
-        p = p + _times_constant_vector(R, p_f)
-        R = _times_constant_matrix(R, R_f)
-        J_out = np.ascontiguousarray(J.transpose(2, 0, 1)) if with_jacobian else None
-        return np.ascontiguousarray(R.transpose(2, 0, 1)), np.ascontiguousarray(p.T), J_out
-
     def _frame_pose(self, q: np.ndarray, frame: str):
-        R, p, _ = self._chain(q, *self._chain_frame(frame), with_jacobian=False)
+        R, p, _ = chain_pose(self._placements, self._axes, q, *self._chain_frame(frame),
+                             with_jacobian=False)
         return R, p
 
     def _frame_pose_and_jacobian(self, q: np.ndarray, frame: str):
-        return self._chain(q, *self._chain_frame(frame), with_jacobian=True)
+        return chain_pose(self._placements, self._axes, q, *self._chain_frame(frame),
+                          with_jacobian=True)
 
 
-def _times_constant_matrix(R: np.ndarray, M: np.ndarray) -> np.ndarray:
-    """R @ M for R (3,3,N) and a constant (3,3) M, skipping M's zero entries."""
-    out = np.zeros((3, 3, R.shape[2]))
-    for k in range(3):
-        for j in np.flatnonzero(M[:, k]):
-            out[:, k] += R[:, j] * M[j, k]
-    return out
-
-
-def _times_constant_vector(R: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """R @ v for R (3,3,N) and a constant (3,) v -> (3,N), skipping v's zero entries."""
-    out = np.zeros((3, R.shape[2]))
-    for j in np.flatnonzero(v):
-        out += R[:, j] * v[j]
-    return out
-
-
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Cross product of (3,N) arrays."""
-    return np.stack([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
-
-
-_REFERENCES = ("world", "local_world_aligned", "local")
-_WRENCH_REFERENCES = {"base": "world", "base_at_frame": "local_world_aligned", "frame": "local"}
-
-
-def _change_jacobian_reference(J_world, R, p, reference):
-    """WORLD Jacobian (N,6,n) -> LOCAL_WORLD_ALIGNED (velocity of point p) or LOCAL (in R's axes)."""
-    if reference == "world":
-        return J_world
-    v = J_world[:, :3] - np.cross(p[:, :, None], J_world[:, 3:], axis=1)  # v_p = v_0 + w x p
-    J = np.concatenate([v, J_world[:, 3:]], axis=1)
-    if reference == "local":
-        Rt = np.swapaxes(R, 1, 2)
-        J = np.concatenate([Rt @ J[:, :3], Rt @ J[:, 3:]], axis=1)
-    return J
-
-
-def _rotate_about_own_axis(R: np.ndarray, k: int, angle: np.ndarray) -> np.ndarray:
-    """R @ Rot_k(angle) for R (3,3,N): only the two columns other than k change."""
-    i, j = [(1, 2), (2, 0), (0, 1)][k]
-    c = np.cos(angle)
-    s = np.sin(angle)
-    out = np.empty_like(R)
-    out[:, k] = R[:, k]
-    out[:, i] = c * R[:, i] + s * R[:, j]
-    out[:, j] = c * R[:, j] - s * R[:, i]
-    return out
-
-
-def _homogeneous(R: np.ndarray, p: np.ndarray) -> np.ndarray:
-    T = np.zeros(R.shape[:-2] + (4, 4))
-    T[..., :3, :3] = R
-    T[..., :3, 3] = p
-    T[..., 3, 3] = 1.0
-    return T
-
-
-def _rot_z(angle: float) -> np.ndarray:
-    c, s = np.cos(angle), np.sin(angle)
-    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+@lru_cache(maxsize=1)
+def default_psm() -> PSM:
+    """The PSM of the bundled URDF, built once (callers must not modify it)."""
+    return PSM()
 
 
 def _finite_scalar(value, name: str) -> float:

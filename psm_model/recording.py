@@ -37,14 +37,25 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from psm_model.conventions import JOINTS
 from psm_model.files import atomic_path
 
-JOINTS = ("yaw", "pitch", "insertion", "roll", "wrist_pitch", "wrist_yaw", "jaw")
-"""dVRK joint order (dVRK >= 2024 names). The paper's q5 / q6 are wrist_yaw / wrist_pitch."""
+JOINT_QUANTITIES = ("position", "velocity", "effort")
 
-JOINT_POSITIONS = tuple(f"{j}_position" for j in JOINTS)
-JOINT_VELOCITIES = tuple(f"{j}_velocity" for j in JOINTS)
-JOINT_EFFORTS = tuple(f"{j}_effort" for j in JOINTS)
+
+def joint_column(joint: str, quantity: str) -> str:
+    """The column of ``joint`` (:data:`JOINTS`, dVRK order from ``psm_model.conventions``) and
+    ``quantity`` (:data:`JOINT_QUANTITIES`)."""
+    if joint not in JOINTS or quantity not in JOINT_QUANTITIES:
+        raise ValueError(f"no joint column for joint {joint!r} and quantity {quantity!r}; "
+                         f"joints {JOINTS}, quantities {JOINT_QUANTITIES}")
+    return f"{joint}_{quantity}"
+
+
+TIME = "time"
+JOINT_POSITIONS = tuple(joint_column(j, "position") for j in JOINTS)
+JOINT_VELOCITIES = tuple(joint_column(j, "velocity") for j in JOINTS)
+JOINT_EFFORTS = tuple(joint_column(j, "effort") for j in JOINTS)
 HEX10_FORCE = ("fx", "fy", "fz")
 HEX10_TORQUE = ("tx", "ty", "tz")
 HEX10 = HEX10_FORCE + HEX10_TORQUE
@@ -52,7 +63,7 @@ TARGETS = ("ati_fx", "ati_fy", "ati_fz")
 ATI_RAW = ("ati_raw_fx", "ati_raw_fy", "ati_raw_fz", "ati_raw_tx", "ati_raw_ty", "ati_raw_tz")
 OVERLOAD = "hex10_overload"
 
-REQUIRED = ("time",) + JOINT_POSITIONS + JOINT_VELOCITIES + JOINT_EFFORTS + HEX10
+REQUIRED = (TIME,) + JOINT_POSITIONS + JOINT_VELOCITIES + JOINT_EFFORTS + HEX10
 """Columns every recording must have (targets only where ground truth exists)."""
 
 COLUMNS = REQUIRED + (OVERLOAD,) + TARGETS + ATI_RAW
@@ -178,7 +189,7 @@ def _check_values(frame: pd.DataFrame, numeric: list[str], path: Path) -> None:
         row, col = np.argwhere(~finite)[0]
         raise RecordingError(f"{path}: non-finite value (NaN or inf) in column "
                              f"'{numeric[col]}' at row {row}")
-    t = frame["time"].to_numpy(dtype=float)
+    t = frame[TIME].to_numpy(dtype=float)
     if len(t) > 1 and not (np.diff(t) > 0).all():
         row = int(np.argmin(np.diff(t) > 0)) + 1
         raise RecordingError(f"{path}: time is not strictly increasing at row {row}")
@@ -203,7 +214,7 @@ def write_recording(frame: pd.DataFrame, path: str | Path) -> None:
     _check_values(frame, _numeric_columns(frame), path)
     names = [c for c in COLUMNS if c in frame.columns]
     names += [c for c in frame.columns if c not in COLUMNS]
-    formats = ["%.6f" if c == "time" else
+    formats = ["%.6f" if c == TIME else
                "%d" if np.issubdtype(frame[c].dtype, np.integer) else "%.7g" for c in names]
     values = np.column_stack([frame[c].to_numpy(dtype=float) for c in names])
     row = ",".join(formats) + "\n"

@@ -2,11 +2,14 @@
 
 Convention: the wrench ``w = [f; m]`` (N; Nm) is applied BY the environment ON the body that
 carries the frame, and ``tau = J^T w`` are the joint torques it exerts, with ``J`` the frame
-Jacobian for the same reference point and axes (``expressed_in``):
+Jacobian for the same reference point and axes (``expressed_in``, the vocabulary of
+:mod:`psm_model.conventions`; the base is the model's world):
 
-* ``"world"``: Pinocchio WORLD, moment about the world origin, world axes (spatial wrench);
-* ``"world_at_frame"``: Pinocchio LOCAL_WORLD_ALIGNED, moment about the frame's origin, world axes;
+* ``"base"``: Pinocchio WORLD, moment about the base origin, base axes (spatial wrench);
+* ``"base_at_frame"``: Pinocchio LOCAL_WORLD_ALIGNED, moment about the frame's origin, base axes;
 * ``"frame"``: Pinocchio LOCAL, moment about the frame's origin, the frame's axes.
+
+``"world"`` and ``"world_at_frame"``, the earlier names, still work for one release and warn.
 
 Motor torques that hold the load in statics are ``-J^T w`` (Pinocchio: ``rnea(q, 0, 0, fext)``
 without gravity), so pass their negative to get the wrench on the robot.
@@ -28,6 +31,8 @@ from dataclasses import dataclass
 
 import numpy as np
 import pinocchio as pin
+
+from psm_model.conventions import EXPRESSED_IN, canonical_expressed_in
 
 DEFAULT_SIGMA_THRESHOLD = 1e-3
 """Smallest singular value of J below which damping switches on (Jacobian units: m or 1)."""
@@ -102,27 +107,27 @@ def solve_wrench(jacobian: np.ndarray, tau: np.ndarray, *,
     return w, info
 
 
-_REFERENCE = {"world": pin.ReferenceFrame.WORLD,
-              "world_at_frame": pin.ReferenceFrame.LOCAL_WORLD_ALIGNED,
-              "frame": pin.ReferenceFrame.LOCAL}
+_PINOCCHIO_REFERENCE = {"base": pin.ReferenceFrame.WORLD,
+                        "base_at_frame": pin.ReferenceFrame.LOCAL_WORLD_ALIGNED,
+                        "frame": pin.ReferenceFrame.LOCAL}
 
 
 def wrench_from_torques(model: pin.Model, q, tau, frame: str, *, tau_internal=None,
-                        expressed_in: str = "world", return_info: bool = False,
+                        expressed_in: str = "base", return_info: bool = False,
                         sigma_threshold: float = DEFAULT_SIGMA_THRESHOLD,
                         max_damping: float = DEFAULT_MAX_DAMPING):
     """External wrench [f; m] on the body carrying ``frame``, from joint torques (``J^T w = tau``).
 
     ``q``: (nq,) or (N,nq); ``tau`` and ``tau_internal``: (nv,) or (N,nv) (Nm / N). Returns (6,) or
     (N,6), plus a :class:`WrenchConditioning` with ``return_info=True``. ``expressed_in``:
-    ``"world"``, ``"world_at_frame"`` or ``"frame"`` (module docstring). The Jacobians come from
+    ``"base"``, ``"base_at_frame"`` or ``"frame"`` (module docstring). The Jacobians come from
     one Pinocchio call per sample; the solve is batched.
     """
     if not isinstance(frame, str) or not model.existFrame(frame):
         raise WrenchInputError(f"unknown frame {frame!r} in model '{model.name}'")
-    if expressed_in not in _REFERENCE:
-        raise WrenchInputError(
-            f"expressed_in must be one of {tuple(_REFERENCE)}, got {expressed_in!r}")
+    expressed_in = canonical_expressed_in(expressed_in)
+    if expressed_in not in EXPRESSED_IN:
+        raise WrenchInputError(f"expressed_in must be one of {EXPRESSED_IN}, got {expressed_in!r}")
     qs = _batch(q, model.nq, "q")
     tau_net = _batch(tau, model.nv, "tau", qs.shape[0])
     if tau_internal is not None:
@@ -131,7 +136,8 @@ def wrench_from_torques(model: pin.Model, q, tau, frame: str, *, tau_internal=No
     frame_id = model.getFrameId(frame)
     J = np.empty((qs.shape[0], 6, model.nv))
     for k, qk in enumerate(qs):
-        J[k] = pin.computeFrameJacobian(model, data, qk, frame_id, _REFERENCE[expressed_in])
+        J[k] = pin.computeFrameJacobian(model, data, qk, frame_id,
+                                        _PINOCCHIO_REFERENCE[expressed_in])
     w, info = solve_wrench(J, tau_net, sigma_threshold=sigma_threshold, max_damping=max_damping)
     if np.ndim(q) == 1:
         w, info = w[0], info.sample(0)

@@ -187,11 +187,12 @@ def _index(args) -> dict:
 def _fit_prior(args) -> dict:
     _output_file(args.out, "--out")
     from psm_model.identification import fit_prior_cli
+    from psm_model.recording import HEX10_FORCE
     report = fit_prior_cli(args.data, args.out, use_loaded=args.use_loaded,
                            accept_poor_fit=args.accept_poor_fit)
     metrics = report.get("test_free_metrics")
     print(f"fit: {report['solver_status']} in {report['fit_time_s']:.1f} s; test Free "
-          + (", ".join(f"{c} RMS {metrics[c]['rms']:.3g}" for c in ("fx", "fy", "fz"))
+          + (", ".join(f"{c} RMS {metrics[c]['rms']:.3g}" for c in HEX10_FORCE)
              + " N" if metrics else "not scored (no test/Free recordings)"))
     if report["model"] is None:
         raise ValueError(f"{args.out} not written: {report['model_not_saved_reason']}"
@@ -348,7 +349,7 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--accept-poor-fit", action="store_true",
                    help="save the model (and exit 0) even when its relative torque error exceeds "
                         "the poor-fit threshold on every coordinate (psm_model.identification."
-                        "dynamics.POOR_FIT_RELATIVE_ERROR_PERCENT)")
+                        "dynamics_report.POOR_FIT_RELATIVE_ERROR_PERCENT)")
     p.add_argument("--json", help="write the report here")
 
     p = add("wrench", _wrench, "external wrench on the tool from joint torques",
@@ -362,6 +363,8 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--dynamics", required=True, metavar="ARM.json",
                    help="arm model written by fit-dynamics --model-out")
     p.add_argument("--out", required=True, metavar="FILE.csv", help="CSV file to write")
+    # the choices are psm_model.conventions' NAMED_FRAMES and EXPRESSED_IN, written out so that
+    # the parser does not load psm_model (Pinocchio); tests/test_conventions.py keeps them equal
     p.add_argument("--frame", choices=["cp", "jaw_tip", "roll", "hex10"], default="cp",
                    help="reference frame: its origin is the moment's point (default cp)")
     p.add_argument("--expressed-in", choices=["frame", "base", "base_at_frame"], default="frame",

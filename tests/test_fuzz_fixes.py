@@ -17,8 +17,8 @@ from hybrid.evaluate import EVAL_START, evaluate
 from hybrid.bounds import physical_bounds
 from hybrid.recipes import build_model
 from hybrid.streaming import StreamingError, StreamingEstimator
-from psm_model.identification.dynamics import (POOR_FIT_RELATIVE_ERROR_PERCENT, ArmDynamicsModel,
-                                               fit_dynamics_cli)
+from psm_model.identification import ArmDynamicsModel, fit_dynamics_cli
+from psm_model.identification.dynamics_report import POOR_FIT_RELATIVE_ERROR_PERCENT
 from psm_model.identification.errors import IdentificationInputError
 from psm_model.recording import PAPER_FEATURES, RecordingError, read_recording, write_recording
 from psm_model.sim import simulate

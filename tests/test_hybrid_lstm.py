@@ -9,7 +9,7 @@ import torch
 
 from hybrid.data import Trial
 from hybrid.lstm_inputs import LSTM_FEATURES, LSTM_JACOBIAN_COLUMNS, lstm_columns
-from psm_model.kinematics import CHAIN_JOINTS
+from psm_model.conventions import CHAIN_JOINTS
 from hybrid.models import JointLSTMForce
 
 psm_model = pytest.importorskip("psm_model")
@@ -26,7 +26,7 @@ def test_map_recovers_a_static_tool_force_in_the_hex10_frame():
                          rng.uniform(-0.8, 0.8, n), rng.uniform(-0.8, 0.8, n)])
     f_hex = rng.normal(size=(n, 3))
     R = psm.rotation(q, "hex10")                                  # HEX10 axes in base
-    J = psm.jacobian(q, "cp", "local_world_aligned")              # [v_cp; w] in base axes
+    J = psm.jacobian(q, "cp", "base_at_frame")              # [v_cp; w] in base axes
     f_base = np.einsum("nij,nj->ni", R, f_hex)
     tau = -np.einsum("nji,nj->ni", J[:, :3, :], f_base)           # force at cp, no moment
     frame = pd.DataFrame({f"{j}_position": q[:, k] for k, j in enumerate(CHAIN_JOINTS)})

@@ -1,16 +1,24 @@
 """Arm dynamics identification: inertia parametrisation, bad input, and the WPI real-data fit."""
 import json
 import os
+import re
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+from psm_model.conventions import JOINTS
+from psm_model.identification import (ArmDynamicsModel, fit_arm_dynamics, fit_dynamics_cli,
+                                      external_wrench_on_tool)
+from psm_model.identification import dynamics_regressor as reg
 from psm_model.identification import inertia as inr
-from psm_model.identification import signals, wpi
-from psm_model.identification.dynamics import (ArmDynamicsModel, PUBLISHED_WANG_2019_PERCENT,
-                                               fit_arm_dynamics, fit_dynamics_cli)
+from psm_model.identification import signals, wpi, wpi_report
+from psm_model.identification.dynamics_fit import condition_signals
+from psm_model.identification.dynamics_options import (HYSTERESIS_BREAKAWAY_M,
+                                                       HYSTERESIS_BREAKAWAY_RAD, INSERTION,
+                                                       SELECTION_CANDIDATES, DynamicsFitOptions)
 from psm_model.identification.errors import IdentificationInputError, NotConvergedError
+from psm_model.identification.wpi_report import PUBLISHED_WANG_2019_PERCENT
 
 WPI_DIR = Path(os.environ.get("PSM_WPI_DATA",
                               Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "wpi_psm"))
@@ -118,7 +126,6 @@ def test_wpi_fit_published_protocol(wpi_fit, tmp_path):
 @needs_wpi
 def test_external_wrench_recovers_applied_wrench(wpi_fit):
     from psm_model import PSM
-    from psm_model.identification.dynamics import external_wrench_on_tool
 
     model = ArmDynamicsModel.load(wpi_fit[2])
     rng = np.random.default_rng(3)
@@ -138,23 +145,22 @@ def test_regressor_matches_rnea_of_constrained_model():
     """Y(q, dq, ddq; g) pi equals G^T rnea of the 8-joint model (coupler at -q2) for the prior pi."""
     import pinocchio as pin
 
-    from psm_model.identification import dynamics as dyn
-
-    model, _ = dyn._prior_model()
+    model, _ = reg.identification_model()
     data = model.createData()
     rng = np.random.default_rng(0)
     q6, v6, a6 = rng.normal(size=(3, 4, 6))
-    Y0, Yg, mass_cols = dyn._rigid_regressors(model, q6, v6, a6)
+    Y0, Yg, mass_cols = reg.rigid_regressors(model, q6, v6, a6)
     pi = np.concatenate([model.inertias[model.getJointId(b)].toDynamicParameters()
-                         for b in dyn.BODIES])
+                         for b in reg.BODIES])
     g = np.array([0.0, 0.0, -9.81])
     tau = Y0 @ pi + np.einsum("k,knjp,p->nj", g, Yg, pi[mass_cols])
     model.gravity = pin.Motion(g, np.zeros(3))
     for i in range(4):
-        ext = [dyn._extend(x[i:i + 1])[0] for x in (q6, v6, a6)]
-        assert np.allclose(dyn._G.T @ pin.rnea(model, data, *ext), tau[i], atol=1e-10)
+        ext = [reg.extended_joints(x[i:i + 1])[0] for x in (q6, v6, a6)]
+        assert np.allclose(reg.CONSTRAINT_JACOBIAN.T @ pin.rnea(model, data, *ext), tau[i],
+                           atol=1e-10)
     # the coupler does not rotate: its absolute orientation is the yaw body's for any pitch
-    pin.forwardKinematics(model, data, dyn._extend(q6[:1])[0])
+    pin.forwardKinematics(model, data, reg.extended_joints(q6[:1])[0])
     R_yaw = data.oMi[model.getJointId("yaw")].rotation
     R_coupler = data.oMi[model.getJointId("parallelogram_coupler")].rotation
     R_pitch_rest = model.jointPlacements[model.getJointId("parallelogram_crank")].rotation
@@ -162,7 +168,7 @@ def test_regressor_matches_rnea_of_constrained_model():
 
 
 def test_excitation_period_and_phase_cross_validation_input():
-    from psm_model.identification.dynamics import DynamicsFitOptions, phase_cross_validation
+    from psm_model.identification.dynamics_validation import phase_cross_validation
 
     t = np.arange(2400) / 200
     c = np.stack([0.3 * np.sin(2 * np.pi * 0.5 * t * (k + 1) + k) for k in range(7)], axis=1)
@@ -178,34 +184,84 @@ def test_hysteresis_columns_states_and_row_subsets():
     """The Maxwell-slip columns are the element states of their coordinate (grid per joint type)
     on its row only; states integrated on the whole sequence give the same columns for any subset
     of rows, which is how the cross-validation fits on phases of one recording."""
-    from psm_model.identification import dynamics as dyn
     from psm_model.identification import friction as fr
 
     c, dc, _ = _synthetic(600)
     ddc = np.gradient(dc, 1 / 200, axis=0)
-    opts = dyn.DynamicsFitOptions(hysteresis_coordinates=(2, 3))
+    opts = DynamicsFitOptions(hysteresis_coordinates=(2, 3))
     T = wpi.coordinates_to_dvrk_matrix()
-    L = dyn._linear_columns(opts, T, c, dc, ddc)
-    names = dyn._linear_layout(opts, wpi.MOTOR_COORDINATES).names
-    for k, grid in ((2, dyn.HYSTERESIS_BREAKAWAY_M), (3, dyn.HYSTERESIS_BREAKAWAY_RAD)):
+    L = reg.linear_columns(opts, T, c, dc, ddc)
+    names = [t.name for t in reg.linear_terms(opts, wpi.MOTOR_COORDINATES)]
+    for k, grid in ((2, HYSTERESIS_BREAKAWAY_M), (3, HYSTERESIS_BREAKAWAY_RAD)):
         idx = [i for i, n in enumerate(names)
                if n.startswith(f"{wpi.MOTOR_COORDINATES[k]}.friction.maxwell_slip_")]
         assert len(idx) == len(grid)
         block = L[:, :, idx]
         assert np.allclose(block[:, k], fr.maxwell_slip_states(c[:, k], grid))
         assert np.allclose(np.delete(block, k, axis=1), 0.0)  # acts on its own coordinate only
-    z = dyn.hysteresis_states(c)
+    z = reg.hysteresis_states(c)
     rows = np.arange(0, 600, 7)
-    assert np.allclose(dyn._linear_columns(opts, T, c[rows], dc[rows], ddc[rows], z[rows]),
+    assert np.allclose(reg.linear_columns(opts, T, c[rows], dc[rows], ddc[rows], z[rows]),
                        L[rows])
     # conditioned states are integrated along the whole filtered recording, trimmed after
-    o = dyn.DynamicsFitOptions(trim=50)
+    o = DynamicsFitOptions(trim=50)
     raw = _synthetic(1200)
-    out = dyn.condition_signals(*raw, 200.0, o, with_states=True)
+    out = condition_signals(*raw, 200.0, o, with_states=True)
     filt = signals.zero_phase_lowpass(raw[0], 200.0, o.cutoff_hz, order=o.filter_order)
-    assert np.allclose(out[4], dyn.hysteresis_states(filt)[50:-50])
+    assert np.allclose(out[4], reg.hysteresis_states(filt)[50:-50])
     with pytest.raises(IdentificationInputError, match="hysteresis states"):
-        dyn._linear_columns(opts, T, c, dc, ddc, z[:10])
+        reg.linear_columns(opts, T, c, dc, ddc, z[:10])
+
+
+_EVERY_TERM = DynamicsFitOptions(stribeck=True, cross_springs=((0, 1), (2, 3)),
+                                 spring_polynomial=((3, 3), (0, 2)))
+
+
+@pytest.mark.parametrize("opts", [*SELECTION_CANDIDATES.values(), _EVERY_TERM],
+                         ids=[*SELECTION_CANDIDATES, "every term"])
+def test_linear_term_names_match_their_columns(opts):
+    """The parameters' names and the regressor's columns come from one term list: for every model
+    variant they agree in count and order, each column being what its name says."""
+    from psm_model.identification import friction as fr
+
+    c, dc, _ = _synthetic(300)
+    ddc = np.gradient(dc, 1 / 200, axis=0)
+    T = wpi.coordinates_to_dvrk_matrix()
+    coords = wpi.MOTOR_COORDINATES
+    names = [t.name for t in reg.linear_terms(opts, coords)]
+    L = reg.linear_columns(opts, T, c, dc, ddc)
+    assert L.shape == (len(c), 7, len(names)) and len(set(names)) == len(names)
+    dq = dc @ T.T
+    for column, name in zip(np.moveaxis(L, 2, 0), names):
+        owner, kind = name.split(".", 1)
+        if owner.startswith("joint_"):  # friction on a dVRK wrist joint, in c through T^T
+            j = JOINTS.index(owner.removeprefix("joint_"))
+            f = (np.tanh(dq[:, j] / opts.friction_shape.smooth_sign_velocity)
+                 if kind == "friction.coulomb" else dq[:, j])
+            np.testing.assert_array_equal(column, np.outer(f, T[j]))
+            continue
+        k = coords.index(owner)
+        np.testing.assert_array_equal(np.delete(column, k, axis=1), 0.0)  # on its own row only
+        shape = opts.friction_shape_prismatic if k == INSERTION else opts.friction_shape
+        friction = fr.friction_regressor(dc[:, k], shape)
+        slip = re.fullmatch(r"friction\.maxwell_slip_([0-9.]+)(m|rad)", kind)
+        if kind == "armature":
+            expected = ddc[:, k]
+        elif kind == "spring":
+            expected = c[:, k]
+        elif kind.startswith("spring_from_"):
+            expected = c[:, coords.index(kind.removeprefix("spring_from_"))]
+        elif kind.startswith("spring_power_"):
+            expected = c[:, k] ** int(kind.removeprefix("spring_power_"))
+        elif kind == "friction.coulomb_asymmetry":
+            expected = np.abs(friction[:, fr.TERMS.index("coulomb")])
+        elif slip:
+            grid = HYSTERESIS_BREAKAWAY_M if k == INSERTION else HYSTERESIS_BREAKAWAY_RAD
+            assert slip[2] == ("m" if k == INSERTION else "rad")
+            expected = fr.maxwell_slip_states(c[:, k], grid)[:, grid.index(float(slip[1]))]
+        else:
+            expected = friction[:, fr.TERMS.index(kind.removeprefix("friction."))]
+        np.testing.assert_array_equal(column[:, k], expected)
 
 
 @needs_wpi
@@ -213,10 +269,8 @@ def test_wpi_selection_reads_only_the_training_file(monkeypatch, tmp_path):
     """--select on WPI files: the phase cross-validation sees only the training file's arrays,
     and the test file is opened only after the choice (a test file of NaNs fails afterwards,
     with the selection already made on the training data)."""
-    from psm_model.identification import dynamics as dyn
-
     loaded, chosen = [], []
-    real_load, real_select = wpi.load_wpi, dyn.select_by_phase_cross_validation
+    real_load, real_select = wpi.load_wpi, wpi_report.select_by_phase_cross_validation
     monkeypatch.setattr(wpi, "load_wpi", lambda p: loaded.append(Path(p)) or real_load(p))
 
     def spy(c, dc, tau, **kwargs):
@@ -226,10 +280,10 @@ def test_wpi_selection_reads_only_the_training_file(monkeypatch, tmp_path):
         chosen.append((out[0], list(loaded)))
         return out
 
-    monkeypatch.setattr(dyn, "select_by_phase_cross_validation", spy)
-    monkeypatch.setattr(dyn, "SELECTION_CANDIDATES", {
-        "no hysteresis": dyn.DynamicsFitOptions(hysteresis_coordinates=()),
-        "default": dyn.DynamicsFitOptions()})
+    monkeypatch.setattr(wpi_report, "select_by_phase_cross_validation", spy)
+    monkeypatch.setattr(wpi_report, "SELECTION_CANDIDATES", {
+        "no hysteresis": DynamicsFitOptions(hysteresis_coordinates=()),
+        "default": DynamicsFitOptions()})
     nan_test = tmp_path / "two_nan.csv"
     np.savetxt(nan_test, np.full((3000, 21), np.nan), delimiter=",")
     with pytest.raises(IdentificationInputError, match="non-finite"):

@@ -119,7 +119,7 @@ def test_matches_pinocchio(psm, frame):
         np.testing.assert_allclose(T[k], data.oMf[fid].homogeneous, atol=1e-12)
         np.testing.assert_allclose(J[k], pin.getFrameJacobian(model, data, fid, pin.WORLD)[:, :6],
                                    atol=1e-12)
-        for ref, name in [(pin.LOCAL_WORLD_ALIGNED, "local_world_aligned"), (pin.LOCAL, "local")]:
+        for ref, name in [(pin.LOCAL_WORLD_ALIGNED, "base_at_frame"), (pin.LOCAL, "frame")]:
             np.testing.assert_allclose(psm.jacobian(qi, frame, name),
                                        pin.getFrameJacobian(model, data, fid, ref)[:, :6],
                                        atol=1e-12)
@@ -152,7 +152,7 @@ def test_jacobian_matches_finite_differences(psm, frame):
     q = rng.uniform(_LOWER + 1e-3, _UPPER - 1e-3, size=(200, 6))
     J_fd, v_fd = _fd_twists(psm, q, frame)
     assert np.abs(psm.spatial_jacobian(q, frame) - J_fd).max() < 1e-6
-    assert np.abs(psm.jacobian(q, frame, "local_world_aligned")[:, :3] - v_fd).max() < 1e-6
+    assert np.abs(psm.jacobian(q, frame, "base_at_frame")[:, :3] - v_fd).max() < 1e-6
 
 
 def test_dvrk_jacobian_conversion_formula(psm):
@@ -169,9 +169,9 @@ def test_dvrk_jacobian_conversion_formula(psm):
     J_lwa = shift @ J_world
     Rt6 = np.zeros((100, 6, 6))
     Rt6[:, :3, :3] = Rt6[:, 3:, 3:] = np.swapaxes(R, 1, 2)
-    np.testing.assert_allclose(J_lwa, psm.jacobian(q, "cp", "local_world_aligned"), atol=1e-12)
+    np.testing.assert_allclose(J_lwa, psm.jacobian(q, "cp", "base_at_frame"), atol=1e-12)
     body = Rt6 @ J_lwa
-    np.testing.assert_allclose(body, psm.jacobian(q, "cp", "local"), atol=1e-12)
+    np.testing.assert_allclose(body, psm.jacobian(q, "cp", "frame"), atol=1e-12)
     # and back: the dVRK's spatial Jacobian is Ad(T_base_cp) @ body Jacobian (cisst robManipulator)
     Ad = np.zeros((100, 6, 6))
     Ad[:, :3, :3] = Ad[:, 3:, 3:] = R

@@ -7,7 +7,7 @@ import pandas as pd
 import pytest
 
 from psm_model.identification import recordings
-from psm_model.identification.dynamics import DynamicsFitOptions, fit_dynamics_cli
+from psm_model.identification import DynamicsFitOptions, fit_dynamics_cli
 from psm_model.identification.signals import zero_phase_lowpass
 from psm_model.recording import list_recordings, read_recording, write_recording
 from psmforce.cli import main

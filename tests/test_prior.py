@@ -5,7 +5,8 @@ import numpy as np
 import pytest
 
 from psm_model.identification.errors import IdentificationInputError, NotConvergedError
-from psm_model.identification.prior import NAMES, InternalForcePrior, fit_prior_cli
+from psm_model.identification.prior import NAMES, InternalForcePrior
+from psm_model.identification.prior_report import fit_prior_cli
 
 
 @pytest.fixture(scope="module")

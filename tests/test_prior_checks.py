@@ -9,8 +9,8 @@ import pandas as pd
 import pytest
 
 from psm_model.identification.errors import IdentificationInputError
-from psm_model.identification.prior import (POOR_FIT_RMS_N, InternalForcePrior,
-                                            fit_prior_cli)
+from psm_model.identification.prior import InternalForcePrior
+from psm_model.identification.prior_report import POOR_FIT_RMS_N, fit_prior_cli
 from psmforce.cli import main
 
 

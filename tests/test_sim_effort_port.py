@@ -10,9 +10,10 @@ import pytest
 from scipy import signal
 
 from psm_model import PSM
+from psm_model.recording import JOINT_EFFORTS
 from psm_model.sim import Contact, Effects, InstrumentParams, calibration, drive, run_trajectory, simulate
+from psm_model.sim.motion import DT, piecewise
 from psm_model.sim.port import PORTS, Port
-from psm_model.sim.protocols import DT, piecewise
 
 WPI = Path(__file__).resolve().parents[2] / "shared" / "data" / "wpi_psm"
 
@@ -147,7 +148,7 @@ def test_lateral_port_force_enters_the_joints_through_the_jacobian_not_the_hex10
     args = (DT, Contact(), InstrumentParams(), Effects.none())
     free = run_trajectory(_static(q), *args, np.random.default_rng(0))
     ported = run_trajectory(_static(q), *args, np.random.default_rng(0), port=port)
-    effort = [f"{j}_effort" for j in ("yaw", "pitch", "insertion", "roll", "wrist_pitch", "wrist_yaw", "jaw")]
+    effort = list(JOINT_EFFORTS)
     d_tau = (ported[effort] - free[effort]).to_numpy()[0]
     d = np.array([0.0, 0.0, -1.0])                      # shaft direction at yaw = pitch = 0
     f = np.array([k * delta, 0.0, 0.0])

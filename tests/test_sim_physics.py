@@ -7,7 +7,7 @@ import pytest
 
 from psm_model import PSM
 from psm_model.sim import Contact, Effects, InstrumentParams, run_trajectory
-from psm_model.sim import cables, protocols, sensors
+from psm_model.sim import cables, motion, protocols, sensors
 
 DT = 0.01
 NOMINAL = InstrumentParams()
@@ -40,7 +40,7 @@ def _pull(direction_hex, q, stretch=0.02):
 
 def _moving_wrist():
     way = np.array([[0.5, -0.4, 0.3, 0.2], [-1.0, 0.6, -0.5, 0.6], [1.5, 0.2, 0.8, 0.1]])
-    wrist = protocols.piecewise(way, np.array([1.0, 1.0]), np.array([0.3, 0.3]))
+    wrist = motion.piecewise(way, np.array([1.0, 1.0]), np.array([0.3, 0.3]))
     q = np.zeros((len(wrist), 7))
     q[:, :3] = protocols._traction_arm(120.0, 45.0, 2)
     q[:, 3:] = wrist
@@ -144,7 +144,7 @@ def test_static_external_load_enters_arm_efforts_as_minus_jacobian_transpose():
     df = _run(q, contact)
     psm = PSM()
     f_base = psm.rotation(q[0, :6], "hex10") @ df[["ati_fx", "ati_fy", "ati_fz"]].to_numpy()[0]
-    j = psm.jacobian(q[0, :6], "jaw_tip", "local_world_aligned")
+    j = psm.jacobian(q[0, :6], "jaw_tip", "base_at_frame")
     expected = -(j[:3].T @ f_base)
     efforts = df[["yaw_effort", "pitch_effort", "insertion_effort", "roll_effort",
                   "wrist_pitch_effort", "wrist_yaw_effort"]].to_numpy()[0]
@@ -156,7 +156,7 @@ def test_friction_memory_makes_fz_depend_on_the_approach_direction():
     q0 = _hold(n=1)[0]
     way = np.tile(q0, (5, 1))
     way[1, 4], way[3, 4] = 0.5, -0.5
-    q = protocols.piecewise(way, np.full(4, 1.5), np.full(4, 1.0))
+    q = motion.piecewise(way, np.full(4, 1.5), np.full(4, 1.0))
     n = len(q) // 4
 
     def gap(effects):
@@ -184,7 +184,7 @@ def test_elastic_wrist_deflects_along_the_external_torque():
     df = _run(q, _pull([1, 0, 0], q), eff)
     psm = PSM()
     f_base = psm.rotation(q[0, :6], "hex10") @ df[["ati_fx", "ati_fy", "ati_fz"]].to_numpy()[0]
-    j = psm.jacobian(q[0, :6], "jaw_tip", "local_world_aligned")
+    j = psm.jacobian(q[0, :6], "jaw_tip", "base_at_frame")
     tau_ext = j[:3].T @ f_base
     moved = df[["sim_wrist_pitch_true", "sim_wrist_yaw_true"]].to_numpy()[0] - q[0, 4:6]
     assert np.abs(moved).max() > 1e-3
@@ -227,7 +227,7 @@ def test_arm_ik_puts_the_jaw_tip_on_target():
     rng = np.random.default_rng(4)
     wrist = rng.uniform(-1, 1, (30, 4))
     target = np.array([0.02, -0.01, -0.17]) + rng.uniform(-0.02, 0.02, (30, 3))
-    q = protocols.arm_ik_for_tip(target, wrist)
+    q = motion.arm_ik_for_tip(target, wrist)
     tip = PSM().forward_kinematics(q[:, :6], "jaw_tip")[:, :3, 3]
     np.testing.assert_allclose(tip, target, atol=1e-7)
     np.testing.assert_array_equal(q[:, 3:], wrist)

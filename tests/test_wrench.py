@@ -5,6 +5,7 @@ import pinocchio as pin
 import pytest
 
 from psm_model import PSM
+from psm_model.conventions import EXPRESSED_IN
 from psm_model.example_robots import load_example_robot
 from psm_model.frames import base_to_hex10
 from psm_model.kinematics import KinematicsInputError
@@ -77,7 +78,7 @@ def test_round_trip_with_internal_torques(psm, loads):
 def test_frames_agree_on_the_same_load(psm, loads):
     """One load, reduced at the RCM / cp / hex10: same force (rotated), moments differ by the lever."""
     q, w = loads
-    tau = _torques(psm.jacobian(q, "cp", "local_world_aligned"), w)
+    tau = _torques(psm.jacobian(q, "cp", "base_at_frame"), w)
     at_rcm = psm.wrench_from_torques(q, tau)
     at_cp = psm.wrench_from_torques(q, tau, frame="cp", expressed_in="base_at_frame")
     at_hex = psm.wrench_from_torques(q, tau, frame="hex10", expressed_in="base_at_frame")
@@ -160,8 +161,8 @@ def test_damping_is_continuous_at_the_threshold():
 
 
 @pytest.mark.parametrize("robot", ["ur5", "panda"])
-@pytest.mark.parametrize("expressed_in, reference", [("world", pin.WORLD),
-                                                     ("world_at_frame", pin.LOCAL_WORLD_ALIGNED),
+@pytest.mark.parametrize("expressed_in, reference", [("base", pin.WORLD),
+                                                     ("base_at_frame", pin.LOCAL_WORLD_ALIGNED),
                                                      ("frame", pin.LOCAL)])
 def test_generic_round_trip_example_robots(robot, expressed_in, reference):
     model, tool = load_example_robot(robot)
@@ -183,16 +184,15 @@ def test_generic_round_trip_example_robots(robot, expressed_in, reference):
 def test_generic_matches_psm_class(psm, loads):
     q, w = loads
     q7 = np.hstack([q[:50], np.zeros((50, 1))])
-    tau = np.hstack([_torques(psm.jacobian(q[:50], "jaw_tip", "local_world_aligned"), w[:50]),
+    tau = np.hstack([_torques(psm.jacobian(q[:50], "jaw_tip", "base_at_frame"), w[:50]),
                      np.zeros((50, 1))])
-    for generic_ref, psm_ref in (("world", "base"), ("world_at_frame", "base_at_frame"),
-                                 ("frame", "frame")):
-        generic = wrench_from_torques(psm.model, q7, tau, "jaw_tip", expressed_in=generic_ref)
+    for expressed_in in EXPRESSED_IN:  # one vocabulary for both
+        generic = wrench_from_torques(psm.model, q7, tau, "jaw_tip", expressed_in=expressed_in)
         np.testing.assert_allclose(
-            generic, psm.wrench_from_torques(q[:50], tau, frame="jaw_tip", expressed_in=psm_ref),
-            atol=1e-9)
+            generic, psm.wrench_from_torques(q[:50], tau, frame="jaw_tip",
+                                             expressed_in=expressed_in), atol=1e-9)
     np.testing.assert_allclose(
-        wrench_from_torques(psm.model, q7, tau, "jaw_tip", expressed_in="world_at_frame"), w[:50],
+        wrench_from_torques(psm.model, q7, tau, "jaw_tip", expressed_in="base_at_frame"), w[:50],
         atol=1e-9)
 
 

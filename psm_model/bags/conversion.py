@@ -27,12 +27,11 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from psm_model.bags.reading import ARM_JOINTS, STREAMS, BagError, read_streams, resolve_topics
+from psm_model.bags.reading import STREAMS, BagError, read_streams, resolve_topics
 from psm_model.bags.resampling import clean, gap_threshold_s, output_clock, resample
-from psm_model import PSM
 from psm_model.frames import ati_force_in_hex10
-from psm_model.kinematics import KinematicsInputError
-from psm_model.recording import ATI_RAW, TARGETS, write_recording
+from psm_model.kinematics import PSM, KinematicsInputError
+from psm_model.recording import ATI_RAW, JOINT_POSITIONS, TARGETS, TIME, write_recording
 
 GAP_COLUMN = "in_gap"
 
@@ -66,7 +65,7 @@ def convert_bag(bag_path: str | Path, out_csv: str | Path, *, rate_hz: float = 1
     streams = {name: clean(raw[name], str(bag_path)) for name in STREAMS if name in raw}
     start_ns, times = output_clock(list(streams.values()), rate_hz, str(bag_path))
 
-    columns: dict[str, np.ndarray] = {"time": times}
+    columns: dict[str, np.ndarray] = {TIME: times}
     in_gap = np.zeros(len(times), dtype=bool)
     stream_reports: dict[str, dict] = {}
     for name, stream in streams.items():
@@ -167,7 +166,7 @@ def _add_targets(columns: dict[str, np.ndarray], r_ati_psm, ati_sign: float,
         return "none (no ATI stream)"
     if r_ati_psm is None:
         return "none (r_ati_psm not given; ati_raw_* written)"
-    q = np.column_stack([columns[f"{j}_position"] for j in ARM_JOINTS])
+    q = np.column_stack([columns[c] for c in JOINT_POSITIONS[:6]])
     force = np.column_stack([columns[c] for c in ATI_RAW[:3]])
     targets = ati_force_in_hex10(force, q, r_ati_psm, psm, sign=ati_sign)
     columns.update(zip(TARGETS, targets.T))

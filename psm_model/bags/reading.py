@@ -36,17 +36,17 @@ import numpy as np
 from rosbags.highlevel import AnyReader
 from rosbags.typesys import Stores, get_typestore
 
-from psm_model.recording import ATI_RAW, HEX10, JOINTS, RecordingError
+from psm_model.conventions import CHAIN_JOINTS, JAW_JOINT
+from psm_model.recording import ATI_RAW, HEX10, RecordingError, joint_column
 
 STREAMS = ("js", "jaw", "hex10", "ati", "jacobian")
 """Stream names, the keys of the ``topics`` override of :func:`psm_model.bags.convert_bag`."""
 
 REQUIRED_STREAMS = ("js", "jaw", "hex10")
 
-ARM_JOINTS = JOINTS[:6]
-_ARM_NAMES = {**{j: j for j in ARM_JOINTS}, **{f"outer_{j}": j for j in ARM_JOINTS}}
-_IGNORED_ARM_NAMES = {"jaw"}
-_JAW_NAMES = {"jaw": "jaw"}
+_ARM_NAMES = {**{j: j for j in CHAIN_JOINTS}, **{f"outer_{j}": j for j in CHAIN_JOINTS}}
+_IGNORED_ARM_NAMES = {JAW_JOINT}
+_JAW_NAMES = {JAW_JOINT: JAW_JOINT}
 
 JOINT_STATE = "sensor_msgs/msg/JointState"
 WRENCH_STAMPED = "geometry_msgs/msg/WrenchStamped"
@@ -65,13 +65,14 @@ ROS2_TYPESTORE = get_typestore(Stores.ROS2_HUMBLE)
 types have not changed since) and the definitions :mod:`.writing` stores in the bags it writes."""
 
 _JOINT_FIELDS = ("position", "velocity", "effort")
+"""The sensor_msgs/JointState arrays read, each giving the recording column of that quantity."""
 
 
 def stream_columns(name: str) -> tuple[str, ...]:
     """The recording columns stream ``name`` (:data:`STREAMS`) carries, in message order."""
     if name in ("js", "jaw"):
-        joints = ARM_JOINTS if name == "js" else ("jaw",)
-        return tuple(f"{j}_{field}" for field in _JOINT_FIELDS for j in joints)
+        joints = CHAIN_JOINTS if name == "js" else (JAW_JOINT,)
+        return tuple(joint_column(j, field) for field in _JOINT_FIELDS for j in joints)
     return {"hex10": HEX10, "ati": ATI_RAW, "jacobian": JACOBIAN_COLUMNS}[name]
 
 
@@ -212,7 +213,7 @@ class _Collector:
         self._index_by_names: dict[tuple[str, ...], np.ndarray] = {}
         self.columns = stream_columns(name)
         if msgtype == JOINT_STATE:
-            self._joints = ARM_JOINTS if name == "js" else ("jaw",)
+            self._joints = CHAIN_JOINTS if name == "js" else (JAW_JOINT,)
             self._decode = self._joint_state
         elif msgtype in (WRENCH_STAMPED, WRENCH):
             self._decode = self._wrench

@@ -33,9 +33,10 @@ import numpy as np
 import pandas as pd
 from rosbags.rosbag2 import StoragePlugin, Writer
 
-from psm_model.bags.reading import (ARM_JOINTS, JOINT_STATE, ROS2_TYPESTORE, WRENCH,
-                                    WRENCH_STAMPED, BagError, resolve_topics, stream_columns)
-from psm_model.recording import ATI_RAW
+from psm_model.bags.reading import (JOINT_STATE, ROS2_TYPESTORE, WRENCH, WRENCH_STAMPED, BagError,
+                                    resolve_topics, stream_columns)
+from psm_model.conventions import CHAIN_JOINTS, JAW_JOINT
+from psm_model.recording import ATI_RAW, TIME
 
 RECEIVE_LATENCY_NS = {"js": 400_000, "jaw": 400_000, "hex10": 900_000, "ati": 1_300_000}
 """Bag receive time minus header stamp per stream, ns (illustrative transport latencies; the
@@ -73,11 +74,11 @@ def write_bag(frame: pd.DataFrame, path: str | Path, *, start_ns: int,
         raise BagError(f"{path}: start_ns must be a positive integer (ns since the epoch), "
                        f"got {start_ns!r}")
     streams = bag_streams(frame)
-    needed = ("time",) + tuple(c for s in streams for c in stream_columns(s))
+    needed = (TIME,) + tuple(c for s in streams for c in stream_columns(s))
     missing = [c for c in needed if c not in frame.columns]
     if missing:
         raise BagError(f"{path}: the recording lacks columns {missing}")
-    stamps = int(start_ns) + np.rint(frame["time"].to_numpy(dtype=float) * 1e9).astype(np.int64)
+    stamps = int(start_ns) + np.rint(frame[TIME].to_numpy(dtype=float) * 1e9).astype(np.int64)
     if len(stamps) < 2 or np.any(np.diff(stamps) <= 0):
         raise BagError(f"{path}: time must hold at least two strictly increasing samples "
                        f"(ns resolution)")
@@ -118,7 +119,7 @@ def _serialize(stream: str, frame: pd.DataFrame, stamps: np.ndarray) -> list[byt
     msgtype = _TYPES[stream]
     if msgtype == JOINT_STATE:
         joint_state = types[JOINT_STATE]
-        names = list(ARM_JOINTS) if stream == "js" else ["jaw"]
+        names = list(CHAIN_JOINTS) if stream == "js" else [JAW_JOINT]
         position, velocity, effort = (np.ascontiguousarray(v) for v in np.split(values, 3, axis=1))
         messages = (joint_state(header=h, name=names, position=p, velocity=v, effort=e)
                     for h, p, v, e in zip(headers, position, velocity, effort))

@@ -47,11 +47,14 @@ from pathlib import Path
 
 import numpy as np
 
-from psm_model.files import write_text_atomic
+from psm_model.conventions import GRAVITY_UPRIGHT_MPS2, INSERTION_JOINT, WRIST_JOINTS
+from psm_model.files import write_json_atomic
 from psm_model.identification.errors import IdentificationInputError, NotConvergedError
 from psm_model.identification.insertion import InsertionEffortModel
 from psm_model.identification.signals import check_finite_2d
-from psm_model.recording import list_recordings
+from psm_model.kinematics import PSM
+from psm_model.recording import (HEX10, JOINT_POSITIONS, OVERLOAD, TARGETS, joint_column,
+                                 read_recording)
 
 KAPPA = 0.8306 / 1.0186
 CABLE_ANGLES_RAD = np.deg2rad([0.0, 60.0, 120.0])
@@ -59,7 +62,6 @@ SMOOTH_MAX_N = 0.05
 """Width (N) of the smooth max between 2 T0 and |D| (slack transition)."""
 DIRECTION_VELOCITY = 0.02
 """v_eps (rad/s of cable coordinate per metre of radius) of the friction-direction smooth sign."""
-GRAVITY_MPS2 = 9.81
 FORMAT = "psm_model.identification.InternalForcePrior/1"
 
 # name, unit, lower, upper, initial
@@ -89,8 +91,11 @@ PARAMETERS = (
     ("bias_tz", "Nm", -0.5, 0.5, 0.0),
 )
 NAMES = tuple(p[0] for p in PARAMETERS)
-CHANNELS = ("fx", "fy", "fz", "tx", "ty", "tz")
 _MIN_SAMPLES = 200
+_WRIST_EFFORTS = tuple(joint_column(j, "effort") for j in WRIST_JOINTS)
+_WRIST_VELOCITIES = tuple(joint_column(j, "velocity") for j in WRIST_JOINTS)
+_INSERTION_VELOCITY = joint_column(INSERTION_JOINT, "velocity")
+_INSERTION_EFFORT = joint_column(INSERTION_JOINT, "effort")
 
 
 def _model(p, pos, e, v, g_hex, xp):
@@ -134,27 +139,21 @@ class _CasadiOps:
 
 def gravity_in_hex10(q, psm=None) -> np.ndarray:
     """(N,3) gravity (m/s^2) in the HEX10 frame for joint vectors q (N,6|7), base upright."""
-    from psm_model import PSM
-
     return _gravity_in_frame((psm or PSM()).rotation(q, "hex10"))
 
 
 def _gravity_in_frame(r_base_frame: np.ndarray) -> np.ndarray:
     """(N,3) gravity of the upright base, R^T (0, 0, -g), in frames with rotations (N,3,3)."""
-    return np.einsum("nji,j->ni", r_base_frame, np.array([0.0, 0.0, -GRAVITY_MPS2]))
+    return np.einsum("nji,j->ni", r_base_frame, np.array(GRAVITY_UPRIGHT_MPS2))
 
 
 def arrays_from_frame(frame, psm=None) -> dict:
     """Model inputs (positions (N,2) roll and wrist_pitch, efforts (N,3), velocities (N,3),
     g_hex (N,3)) from a recording frame, and ``d_shaft`` (N,3): the HEX10 z axis (the shaft,
     towards the tip) in the base frame, for the insertion model."""
-    from psm_model.recording import JOINT_POSITIONS
-
-    from psm_model import PSM
-
     q = frame[list(JOINT_POSITIONS)].to_numpy(dtype=float)
-    e = frame[["wrist_pitch_effort", "wrist_yaw_effort", "jaw_effort"]].to_numpy(dtype=float)
-    v = frame[["wrist_pitch_velocity", "wrist_yaw_velocity", "jaw_velocity"]].to_numpy(dtype=float)
+    e = frame[list(_WRIST_EFFORTS)].to_numpy(dtype=float)
+    v = frame[list(_WRIST_VELOCITIES)].to_numpy(dtype=float)
     r = (psm or PSM()).rotation(q, "hex10")
     return {"positions": q[:, [3, 4]], "efforts": e, "velocities": v,
             "g_hex": _gravity_in_frame(r),
@@ -189,12 +188,10 @@ class InternalForcePrior:
         if self.insertion is None:
             raise IdentificationInputError("this prior has no insertion model (it was fitted "
                                            "without known external forces)")
-        from psm_model import PSM
-        from psm_model.recording import JOINT_POSITIONS
         q = frame[list(JOINT_POSITIONS)].to_numpy(dtype=float)
         d = (psm or PSM()).rotation(q, "hex10")[:, :, 2]
-        return self.insertion.axial_force(d, frame["insertion_velocity"].to_numpy(dtype=float),
-                                          frame["insertion_effort"].to_numpy(dtype=float))
+        return self.insertion.axial_force(d, frame[_INSERTION_VELOCITY].to_numpy(dtype=float),
+                                          frame[_INSERTION_EFFORT].to_numpy(dtype=float))
 
     # ------------------------------------------------------------ prediction
     def predict_arrays(self, positions, efforts, velocities, g_hex) -> np.ndarray:
@@ -234,8 +231,6 @@ class InternalForcePrior:
         """
         import casadi as ca
 
-        from psm_model.recording import TARGETS, read_recording
-
         t0 = time.perf_counter()
         if len(recordings) == 0:
             raise IdentificationInputError("no recordings to fit the prior on")
@@ -248,19 +243,19 @@ class InternalForcePrior:
             else:
                 sources.append("<DataFrame>")
             a = arrays_from_frame(rec, psm)
-            y = rec[list(CHANNELS)].to_numpy(dtype=float)
+            y = rec[list(HEX10)].to_numpy(dtype=float)
             mask = np.ones_like(y)
             if all(t in rec.columns for t in TARGETS):
                 ext = rec[list(TARGETS)].to_numpy(dtype=float)
                 y[:, :3] -= ext
                 mask[np.linalg.norm(ext, axis=1) > 0.05, 3:] = 0.0
-            if OVERLOAD_COLUMN in rec.columns:
-                mask[rec[OVERLOAD_COLUMN].to_numpy() > 0] = 0.0
+            if OVERLOAD in rec.columns:
+                mask[rec[OVERLOAD].to_numpy() > 0] = 0.0
             parts.append((a, y, mask))
             if all(t in rec.columns for t in TARGETS) and \
-                    {"insertion_velocity", "insertion_effort"} <= set(rec.columns):
-                axial.append((a["d_shaft"], rec["insertion_velocity"].to_numpy(dtype=float),
-                              rec["insertion_effort"].to_numpy(dtype=float),
+                    {_INSERTION_VELOCITY, _INSERTION_EFFORT} <= set(rec.columns):
+                axial.append((a["d_shaft"], rec[_INSERTION_VELOCITY].to_numpy(dtype=float),
+                              rec[_INSERTION_EFFORT].to_numpy(dtype=float),
                               rec[TARGETS[2]].to_numpy(dtype=float)))
         pos = np.concatenate([p[0]["positions"] for p in parts])
         e = np.concatenate([p[0]["efforts"] for p in parts])
@@ -337,8 +332,7 @@ class InternalForcePrior:
         if not self.converged:
             raise NotConvergedError("refusing to save a prior whose fit did not converge "
                                     f"({self.info.get('solver_status')})")
-        path = Path(path)
-        write_text_atomic(path, json.dumps(self.to_dict(), indent=2, allow_nan=False) + "\n")
+        write_json_atomic(path, self.to_dict())
 
     @classmethod
     def load(cls, path) -> InternalForcePrior:
@@ -381,9 +375,6 @@ class InternalForcePrior:
                    info=info if isinstance(info, dict) else {}, insertion=insertion)
 
 
-OVERLOAD_COLUMN = "hex10_overload"
-
-
 def _slack_any(params, roll, e):
     T_tot, r_p, r_b, g_tw = params[:4]
     tau_b1, tau_b2 = 0.5 * e[:, 1] - e[:, 2], 0.5 * e[:, 1] + e[:, 2]
@@ -396,7 +387,7 @@ def channel_metrics(y, y_hat, mask=None) -> dict:
     """Per channel: RMS residual and R^2 (over samples where ``mask`` is 1)."""
     mask = np.ones_like(y) if mask is None else mask
     out = {}
-    for k, name in enumerate(CHANNELS):
+    for k, name in enumerate(HEX10):
         m = mask[:, k] > 0
         if not m.any():
             continue
@@ -405,81 +396,3 @@ def channel_metrics(y, y_hat, mask=None) -> dict:
         out[name] = {"rms": float(np.sqrt(np.mean(r ** 2))),
                      "r2": float(1.0 - np.mean(r ** 2) / var) if var > 0 else None}
     return out
-
-
-def _dataset_trials(data_dir: Path, split: str, conditions) -> list[Path]:
-    if not (data_dir / "metadata.json").is_file():
-        raise IdentificationInputError(f"{data_dir}: no metadata.json (not a simulated dataset)")
-    return [r.path for r in list_recordings(data_dir)
-            if r.split == split and r.condition in conditions]
-
-
-POOR_FIT_RMS_N = 2.0
-"""A prior whose held-out (test Free) RMS residual exceeds this on any force axis is a poor fit
-and is saved only on request (``accept_poor_fit``; ``--accept-poor-fit``): 8 % of the HEX10's
-nominal range, beyond what the hybrid's network can be asked to correct, and more than twice the
-free-space fz variation itself (std 0.83 N on the bench below), i.e. worse than predicting a
-constant. Measured (``benchmarks/prior_accuracy.py``, scale 0.05, seed 1, test Free fz RMS): the
-default (calibrated) bench, Free-only 0.26 N; with loaded trials (``use_loaded``) 3.4 N, which
-the gate rejects: the wrist discs' stiction makes the motor effort differ from the cable torque
-by up to its breakaway level, 5 N of axial force in the slack regime that loaded trials reach;
-the bench without its effort-channel effects 0.07 / 0.24 N; one training trial with fz = 1e6 N
-far beyond. R^2 is no gate: on a channel that is pure noise a good fit has R^2 near 0."""
-
-
-def fit_prior_cli(data_dir, out_json, *, use_loaded: bool = False,
-                  accept_poor_fit: bool = True) -> dict:
-    """What ``psmforce fit-prior`` runs: fit on the dataset's train split (Free trials; with
-    ``use_loaded`` also Traction and Palpation with the known force subtracted, which excites the
-    slack regime and so the pulley radii), evaluate on test/Free, save the JSON if converged.
-
-    Free-only is the default: on the full simulator the loaded regime carries capstan and
-    elasticity effects outside the model class, which pull the free-space fit off.
-
-    The report's ``poor_fit`` says whether the test Free force RMS exceeds
-    :data:`POOR_FIT_RMS_N`; ``accept_poor_fit=False`` (the CLI's default) then saves nothing
-    and says why in ``model_not_saved_reason``."""
-    from psm_model import PSM
-    from psm_model.recording import read_recording
-
-    data_dir = Path(data_dir)
-    conds = ("Free", "Traction", "Palpation") if use_loaded else ("Free",)
-    train = _dataset_trials(data_dir, "train", conds)
-    test = _dataset_trials(data_dir, "test", ("Free",))
-    if not train:
-        raise IdentificationInputError(f"{data_dir}: no training trials for {conds}")
-    psm = PSM()
-    prior = InternalForcePrior.fit([read_recording(p) for p in train], psm=psm,
-                                   provenance={"data_dir": str(data_dir),
-                                               "train_trials": [str(p.relative_to(data_dir))
-                                                                for p in train]})
-    report = {"data_dir": str(data_dir), "conditions": list(conds), "converged": prior.converged,
-              "solver_status": prior.info["solver_status"], "fit_time_s": prior.info["fit_time_s"],
-              "parameters": dict(zip(NAMES, prior.params.tolist())),
-              "bounds_hit": prior.info["bounds_hit"],
-              "insertion": prior.insertion.to_dict() if prior.insertion is not None else None}
-    if test:
-        frames = [read_recording(p) for p in test]
-        y = np.concatenate([f[list(CHANNELS)].to_numpy(dtype=float) for f in frames])
-        y_hat = np.concatenate([prior.predict(f, psm) for f in frames])
-        report["test_free_metrics"] = m = channel_metrics(y, y_hat)
-        prior.info["test_free_metrics"] = m
-        report["targets_not_met"] = (
-            ([] if m["fz"]["r2"] is not None and m["fz"]["r2"] >= 0.9
-             else [f"test Free fz R2 {m['fz']['r2']} < 0.90"])
-            + [f"test Free {c} RMS {m[c]['rms']:.3f} N >= 0.3 N" for c in ("fx", "fy")
-               if m[c]["rms"] >= 0.3])
-        worst = max(m[c]["rms"] for c in ("fx", "fy", "fz"))
-        report["poor_fit"] = not worst <= POOR_FIT_RMS_N  # NaN is poor too
-        report["poor_fit_threshold_rms_n"] = POOR_FIT_RMS_N
-    if not prior.converged:
-        report["model"] = None
-        report["model_not_saved_reason"] = f"fit did not converge ({prior.info['solver_status']})"
-    elif report.get("poor_fit") and not accept_poor_fit:
-        report["model"] = None
-        report["model_not_saved_reason"] = (
-            f"poor fit: test Free force RMS {worst:.3g} N > {POOR_FIT_RMS_N:g} N")
-    else:
-        prior.save(out_json)
-        report["model"] = str(out_json)
-    return report

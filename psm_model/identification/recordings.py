@@ -28,16 +28,16 @@ from pathlib import Path
 
 import numpy as np
 
-from psm_model.identification import wpi
-from psm_model.identification.dynamics import (N_COORD, SELECTION_CANDIDATES,
-                                               ArmDynamicsModel, DynamicsFitOptions,
-                                               _check_excitation, _fit_conditioned,
-                                               _relative_error, condition_signals,
-                                               external_wrench_on_tool)
+import psm_model.identification.wpi as wpi
+from psm_model.identification.dynamics import ArmDynamicsModel, external_wrench_on_tool
+from psm_model.identification.dynamics_fit import (check_excitation, condition_signals,
+                                                   fit_conditioned, relative_error)
+from psm_model.identification.dynamics_options import (N_COORD, SELECTION_CANDIDATES,
+                                                       DynamicsFitOptions)
 from psm_model.identification.errors import IdentificationInputError
 from psm_model.identification.signals import derivative, zero_phase_lowpass
 from psm_model.recording import (FREE_SPACE, JOINT_EFFORTS, JOINT_POSITIONS, JOINT_VELOCITIES,
-                                 list_recordings, read_recording)
+                                 TIME, list_recordings, read_recording)
 
 GAP_PERIODS = 1.5
 """A time step longer than this many nominal periods is a gap: the recording is cut there."""
@@ -80,7 +80,7 @@ def recording_segments(frame, source: str) -> list[tuple[slice, float]]:
 
     Cuts at gaps (steps > :data:`GAP_PERIODS` periods); raises IdentificationInputError naming
     ``source`` when the other steps are not uniform within :data:`STEP_TOLERANCE`."""
-    t = frame["time"].to_numpy(dtype=float)
+    t = frame[TIME].to_numpy(dtype=float)
     if len(t) < 3:
         raise IdentificationInputError(f"{source}: {len(t)} samples; a recording needs more")
     step = np.diff(t)
@@ -143,8 +143,8 @@ def _thin(arrays, max_samples: int):
 
 
 def _fit(arrays, options, rate_hz, provenance):
-    return _fit_conditioned(*arrays[:4], wpi.coordinates_to_dvrk_matrix(), wpi.MOTOR_COORDINATES,
-                            options, rate_hz, provenance, time.perf_counter(), states=arrays[4])
+    return fit_conditioned(*arrays[:4], wpi.coordinates_to_dvrk_matrix(), wpi.MOTOR_COORDINATES,
+                           options, rate_hz, provenance, time.perf_counter(), states=arrays[4])
 
 
 def select_options(arrays, rate_hz: float, *, candidates=None, folds: int = 5,
@@ -157,7 +157,7 @@ def select_options(arrays, rate_hz: float, *, candidates=None, folds: int = 5,
     coordinates of ||tau - tau_hat|| / ||tau|| pooled over the held-out blocks. Returns the
     best candidate's name and every candidate's figures. (A periodic excitation repeats itself, so
     its blocks are not independent: for one periodic trajectory use
-    ``dynamics.phase_cross_validation``, as the WPI study does.)"""
+    ``dynamics_validation.phase_cross_validation``, as the WPI study does.)"""
     candidates = SELECTION_CANDIDATES if candidates is None else candidates
     if folds < 2:
         raise IdentificationInputError(f"model selection needs at least 2 folds; got {folds}")
@@ -190,7 +190,7 @@ def fit_recordings_report(data, *, test=None, select: bool = False, folds: int =
     the dataset's test split. ``select``: choose the model variant by :func:`select_options` on
     the training recordings (never the test ones); else ``options`` (default: the defaults).
     ``gravity``: (3,) m/s^2 in the base (RCM) frame where the mounting is known, for every
-    variant (default: identified, |g| = 9.81).
+    variant (default: identified, |g| = ``psm_model.conventions.GRAVITY_MPS2``).
     """
     if select and options is not None:
         raise IdentificationInputError("give either options or select=True, not both")
@@ -215,7 +215,7 @@ def fit_recordings_report(data, *, test=None, select: bool = False, folds: int =
         raise IdentificationInputError(
             f"{data}: {n_conditioned} training samples after trimming {base.trim} at both ends "
             f"of each stretch; the fit needs at least {base.min_samples}")
-    _check_excitation(arrays[1], wpi.MOTOR_COORDINATES, f"{data} (training recordings)")
+    check_excitation(arrays[1], wpi.MOTOR_COORDINATES, f"{data} (training recordings)")
     rates = sorted({round(s.sample_rate_hz, 6) for s in segments})
     report = {"data": str(data), "train_recordings": [str(p) for p in train_paths],
               "segments_skipped": skipped, "sample_rates_hz": rates}
@@ -238,7 +238,7 @@ def fit_recordings_report(data, *, test=None, select: bool = False, folds: int =
         if test_arrays is not None:
             tau_hat = model.predict_coordinates(*test_arrays[:3], test_arrays[4])
             report["test_relative_error_percent"] = (
-                100 * _relative_error(test_arrays[3], tau_hat)).tolist()
+                100 * relative_error(test_arrays[3], tau_hat)).tolist()
             # absolute too: a coordinate with almost no torque on the test recordings (pitch of
             # an upright arm near q = 0) has a large relative error that means little
             report["test_rms_error_nm_or_n"] = np.sqrt(
@@ -294,7 +294,7 @@ def recording_wrench(model: ArmDynamicsModel, path, *, frame: str = "cp",
     w, info = external_wrench_on_tool(model, q, dq, ddq, tau, psm=psm, frame=frame,
                                       expressed_in=expressed_in, return_info=True)
     out = pd.DataFrame(w, columns=list(WRENCH_COLUMNS))
-    out.insert(0, "time", recording["time"].to_numpy(dtype=float))
+    out.insert(0, TIME, recording[TIME].to_numpy(dtype=float))
     out["sigma_min"] = info.sigma_min
     out["damped"] = info.damped.astype(np.int8)
     return out

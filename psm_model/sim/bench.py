@@ -14,15 +14,19 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
+import psm_model.sim.cables as cables
+import psm_model.sim.contacts as contacts
+import psm_model.sim.drive as drive
+import psm_model.sim.port as port_mod
+import psm_model.sim.sensors as sensors
+
+from ..conventions import GRAVITY_UPRIGHT_MPS2
 from ..frames import ati_force_in_hex10
-from ..recording import JOINTS
-from . import cables, contacts, drive, sensors
-from . import port as port_mod
+from ..kinematics import default_psm
+from ..recording import (ATI_RAW, HEX10, JOINT_EFFORTS, JOINT_POSITIONS, JOINT_VELOCITIES,
+                         OVERLOAD, TARGETS, TIME)
 from .params import Effects, InstrumentParams
 from .port import Port
-
-GRAVITY_UPRIGHT = np.array([0.0, 0.0, -9.81])
-"""Gravity in the base frame of the upright benchtop PSM (shaft pointing down at q = 0)."""
 
 
 @dataclass
@@ -43,19 +47,9 @@ class Contact:
     """Where the ATI sensing origin is (base frame, m): moments of the raw ATI wrench."""
 
 
-def _psm():
-    if "psm" not in _PSM_CACHE:
-        from .. import PSM  # imported late: the cable/sensor physics does not need it
-        _PSM_CACHE["psm"] = PSM()
-    return _PSM_CACHE["psm"]
-
-
-_PSM_CACHE: dict = {}
-
-
 def kinematics(q: np.ndarray) -> dict[str, np.ndarray]:
     """Positions (N, 3) and rotations (N, 3, 3) of the frames the bench needs, base frame."""
-    psm = _psm()
+    psm = default_psm()
     q6 = q[:, :6]
     out = {}
     for frame in ("roll", "cp", "jaw_tip", "hex10"):
@@ -85,7 +79,7 @@ def _contact_force(contact: Contact, p_tip, v_tip, effects: Effects) -> np.ndarr
 
 def run_trajectory(q_cmd: np.ndarray, dt: float, contact: Contact, params: InstrumentParams,
                    effects: Effects, rng: np.random.Generator,
-                   gravity: np.ndarray = GRAVITY_UPRIGHT, r_base_ati: np.ndarray | None = None,
+                   gravity=GRAVITY_UPRIGHT_MPS2, r_base_ati: np.ndarray | None = None,
                    truth: bool = True, port: Port | None = None) -> pd.DataFrame:
     """Simulate one recording. ``q_cmd`` (N, 7): motor-side joint positions in dVRK order
     (what the position controller tracks and the encoders see); ``port``: the cannula the shaft
@@ -223,20 +217,15 @@ def run_trajectory(q_cmd: np.ndarray, dt: float, contact: Contact, params: Instr
     # --- ATI and the paper's eq. 4 target (measured joints, calibrated fixture rotation) ---
     arm = (contact.anchor if contact.kind == "traction" else p_tip) - contact.ati_origin
     raw = sensors.ati_raw(f_ext, np.broadcast_to(arm, p_tip.shape), r_base_ati, params, effects, rng)
-    target = ati_force_in_hex10(raw[:, :3], q_meas[:, :6], r_base_ati.T, _psm(), sign=-1.0)
+    target = ati_force_in_hex10(raw[:, :3], q_meas[:, :6], r_base_ati.T, default_psm(), sign=-1.0)
 
-    cols = {"time": np.arange(n) * dt}
-    for j, name in enumerate(JOINTS):
-        cols[f"{name}_position"] = q_meas[:, j]
-        cols[f"{name}_velocity"] = qd_meas[:, j]
-        cols[f"{name}_effort"] = effort[:, j]
-    for k, name in enumerate(("fx", "fy", "fz", "tx", "ty", "tz")):
-        cols[name] = hex10[:, k]
-    cols["hex10_overload"] = overload.astype(np.int8)
-    for k, name in enumerate(("ati_fx", "ati_fy", "ati_fz")):
-        cols[name] = target[:, k]
-    for k, name in enumerate(("fx", "fy", "fz", "tx", "ty", "tz")):
-        cols[f"ati_raw_{name}"] = raw[:, k]
+    cols = {TIME: np.arange(n) * dt}
+    for j, names in enumerate(zip(JOINT_POSITIONS, JOINT_VELOCITIES, JOINT_EFFORTS)):
+        cols.update(zip(names, (q_meas[:, j], qd_meas[:, j], effort[:, j])))
+    cols.update(zip(HEX10, hex10.T))
+    cols[OVERLOAD] = overload.astype(np.int8)
+    cols.update(zip(TARGETS, target.T))
+    cols.update(zip(ATI_RAW, raw.T))
     if truth:
         cols["sim_section_fz"] = w_section[:, 2]
         cols["sim_internal_fz"] = w_section[:, 2] - to_hex(f_ext)[:, 2]

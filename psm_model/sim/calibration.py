@@ -1,7 +1,7 @@
 """Calibration of the bench's joint-effort channels against a real dVRK (the WPI recordings).
 
 The figure compared is what the project's own arm identification
-(:func:`psm_model.identification.dynamics.fit_arm_dynamics`, the published WPI protocol) leaves
+(:func:`psm_model.identification.dynamics_fit.fit_arm_dynamics`, the published WPI protocol) leaves
 unexplained: fitted on a training trajectory, the residual ``tau_measured - tau_model`` on a
 different test trajectory, per dVRK joint, at the bench's 100 Hz. On the real arm the two
 trajectories are WPI's ``one_results`` / ``two_results`` (free space, optimised Fourier excitation
@@ -22,15 +22,15 @@ from pathlib import Path
 import numpy as np
 from scipy.signal import freqz, lfilter, welch
 
-from . import drive
+from ..recording import JOINT_EFFORTS, JOINT_POSITIONS, JOINT_VELOCITIES
 from .bench import Contact, run_trajectory
+from .drive import resonator
+from .motion import DT
 from .params import Effects, InstrumentParams
-from .protocols import DT
 
 RATE_HZ = 1.0 / DT
 STATISTICS = ("std_raw", "std_lowpass5", "std_median71", "fraction_below_1hz", "autocorr_lag1",
               "autocorr_lag10")
-JOINT_NAMES = ("yaw", "pitch", "insertion", "roll", "wrist_pitch", "wrist_yaw", "jaw")
 
 
 def residual_statistics(residual: np.ndarray, rate_hz: float = RATE_HZ) -> dict[str, np.ndarray]:
@@ -64,9 +64,9 @@ def identification_residual(train, test, rate_hz: float) -> np.ndarray:
     recorder coordinates (joints 5-7 as wrist motors) exactly as ``psmforce fit-dynamics``; the
     residual is the raw measured effort minus the model at the conditioned (5.4 Hz zero-phase)
     states, trimmed like the fit."""
-    from psm_model.identification import wpi
-    from psm_model.identification.dynamics import (SELECTION_CANDIDATES, condition_signals,
-                                                   fit_arm_dynamics)
+    import psm_model.identification.wpi as wpi
+    from psm_model.identification.dynamics_fit import condition_signals, fit_arm_dynamics
+    from psm_model.identification.dynamics_options import SELECTION_CANDIDATES
 
     # The effort channels were calibrated against the residual of the arm model without the
     # Maxwell-slip hysteresis terms (docs/simulator.md); the current default captures the real
@@ -94,7 +94,7 @@ def identification_residual(train, test, rate_hz: float) -> np.ndarray:
 def real_residual(wpi_dir: str | Path) -> np.ndarray:
     """The residual on WPI's test file of the model fitted on its training file (dVRK joints),
     taken every second sample: 100 Hz, as a 100 Hz recorder of the same signals would see it."""
-    from psm_model.identification import wpi
+    import psm_model.identification.wpi as wpi
 
     recs = [wpi.load_wpi(Path(wpi_dir) / name) for name in ("one_results.csv", "two_results.csv")]
     res = identification_residual(recs[0].to_dvrk(), recs[1].to_dvrk(), recs[0].sample_rate_hz)
@@ -108,8 +108,8 @@ def simulated_residual(wpi_dir: str | Path, seed: int = 0, params: InstrumentPar
     then fitted on the first and evaluated on the second exactly as :func:`real_residual`. The
     trajectories are WPI's optimised excitations, so both sides see the same motion and the same
     conditioning of the fit: what differs is the arm (simulated or real)."""
-    from psm_model.identification import wpi
-    from psm_model.identification.dynamics import DynamicsFitOptions
+    import psm_model.identification.wpi as wpi
+    from psm_model.identification.dynamics_options import DynamicsFitOptions
     from psm_model.identification.signals import zero_phase_lowpass
 
     params = params or InstrumentParams()
@@ -125,8 +125,8 @@ def simulated_residual(wpi_dir: str | Path, seed: int = 0, params: InstrumentPar
         q_cmd = q_smooth[::int(round(source.sample_rate_hz / RATE_HZ))]
         frame = run_trajectory(q_cmd, DT, Contact(), params, effects,
                                np.random.default_rng([seed, 14, k]), truth=False)
-        recs.append(tuple(frame[[f"{j}_{kind}" for j in JOINT_NAMES]].to_numpy()
-                          for kind in ("position", "velocity", "effort")))
+        recs.append(tuple(frame[list(columns)].to_numpy()
+                          for columns in (JOINT_POSITIONS, JOINT_VELOCITIES, JOINT_EFFORTS)))
     return identification_residual(recs[0], recs[1], RATE_HZ)
 
 
@@ -139,8 +139,8 @@ def mean_statistics(residuals: list[np.ndarray]) -> dict[str, np.ndarray]:
 
 
 def _resonator_density(freq: np.ndarray, frequency_hz: float, damping: float, rate_hz: float) -> np.ndarray:
-    """One-sided power density (per Hz) at ``freq`` of unit-variance :func:`drive.resonator_noise`."""
-    a = drive.resonator(frequency_hz, damping, 1.0 / rate_hz)
+    """One-sided power density (per Hz) at ``freq`` of unit-variance :func:`.drive.resonator_noise`."""
+    a = resonator(frequency_hz, damping, 1.0 / rate_hz)
     h = freqz([1.0], a, worN=freq, fs=rate_hz)[1]
     impulse = lfilter([1.0], a, np.r_[1.0, np.zeros(20000)])
     return 2.0 / rate_hz * np.abs(h) ** 2 / np.sum(impulse ** 2)

@@ -23,10 +23,12 @@ from pathlib import Path
 
 import numpy as np
 
+import psm_model.sim.protocols as protocols
+
 from ..bags.writing import RECEIVE_LATENCY_NS, write_bag
+from ..conventions import GRAVITY_UPRIGHT_MPS2
 from ..files import write_text_atomic
-from ..recording import write_recording
-from . import protocols
+from ..recording import OVERLOAD, TIME, write_recording
 from .bench import run_trajectory
 from .params import Effects, InstrumentParams
 from .port import PORT_NAMES, port_by_name
@@ -164,21 +166,21 @@ def simulate(protocol: str = "automated", scale: float = 1.0, seed: int = 0, out
         else:
             target = target.with_suffix("")
             topics = write_bag(frame, target, start_ns=bag_start_ns)
-            bag_start_ns += int(round((frame["time"].iat[-1] + BAG_TRIAL_PAUSE_S) * 1e9))
+            bag_start_ns += int(round((frame[TIME].iat[-1] + BAG_TRIAL_PAUSE_S) * 1e9))
         rows += len(frame)
         key = f"{plan.split}/{plan.condition}"
         minutes[key] = minutes.get(key, 0.0) + len(frame) * protocols.DT / 60.0
         trials.append({"path": target.relative_to(path).as_posix(), "split": plan.split,
                        "condition": plan.condition,
                        "rows": len(frame), "contact": plan.contact.kind,
-                       "hex10_overload_rows": int(frame["hex10_overload"].sum()), **plan.info})
+                       "hex10_overload_rows": int(frame[OVERLOAD].sum()), **plan.info})
     metadata = {
         "simulator_version": SIM_VERSION, "software_version": _package_version(),
         "protocol": protocol, "scale": float(scale), "seed": int(seed), "sample_rate_hz": 1.0 / protocols.DT,
         "instrument": instrument.to_dict(), **({} if tool is None else {"tool": tool}),
         "effects": effects.to_dict(),
         "port": {"name": port, **({} if port_params is None else port_params.to_dict())},
-        "gravity_base": [0.0, 0.0, -9.81],
+        "gravity_base": list(GRAVITY_UPRIGHT_MPS2),
         "R_base_ati": protocols.R_BASE_ATI.tolist(),
         "ati_convention": "ati_raw_* = load the fixture puts on the Nano17 (= minus the force on the "
                           "tool) in the ATI frame; ati_f* = -R_PSM_HEX10(q)^T R_base_ati ati_raw_f",

@@ -11,7 +11,7 @@ rigid / soft / free, three human-like demonstrations each.
 Geometry (base = RCM frame, upright bench, z up, shaft pointing down at q = 0): the ATI and its
 fixtures sit 0.19 m below the RCM. ``scale`` shrinks every protocol proportionally: the number of
 (phi, theta) cells and of wrist configurations per trial (automated), the free-space test and the
-demonstration durations (teleop).
+demonstration durations (teleop). Moves and inverse kinematics: :mod:`.motion`.
 """
 
 from __future__ import annotations
@@ -21,10 +21,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .bench import Contact
+from .bench import Contact, run_trajectory
+from .motion import (DT, WRIST_PITCH_OFFSET_M, WRIST_TO_TIP_M, arm_ik_for_tip, arm_ik_for_wrist,
+                     piecewise, shaft_direction)
+from .params import Effects, InstrumentParams
 
-DT = 0.01
-"""100 Hz, the paper's recording rate."""
 PHI_DEG = (0.0, 60.0, 120.0, 180.0, 240.0, 300.0)
 THETA_DEG = (0.0, 45.0, 90.0)
 TRACTION_EXTENSION_M = (0.0, 0.01, 0.02)
@@ -35,9 +36,6 @@ FIXTURE_DEPTH_M = 0.19
 """Anchor / reference point height below the RCM."""
 STRING_REST_M = 0.06
 """String + unstretched spring length between jaw-tip hook and D-ring."""
-WRIST_TO_TIP_M = 0.0246
-"""Wrist-pitch axis to jaw tip at a straight wrist (9.1 mm + 15.5 mm): places the wrist so the
-string is stretched by the level's extension at a straight wrist."""
 APPROACH_M = 0.05
 PALPATION_DEPTH_M = 0.008
 """Paper: the palpation reference point is 8 mm below the silicone's top surface, on the approach
@@ -84,56 +82,6 @@ class Plan:
     info: dict = field(default_factory=dict)
 
 
-def min_jerk(s: np.ndarray) -> np.ndarray:
-    s = np.clip(s, 0.0, 1.0)
-    return s ** 3 * (10.0 - 15.0 * s + 6.0 * s ** 2)
-
-
-def piecewise(waypoints: np.ndarray, move: np.ndarray, hold: np.ndarray, dt: float = DT) -> np.ndarray:
-    """Minimum-jerk moves between consecutive waypoints (K+1, D), each followed by a hold."""
-    pieces = []
-    for k in range(len(waypoints) - 1):
-        steps = max(1, int(round((move[k] + hold[k]) / dt)))
-        t = np.arange(steps) * dt
-        s = min_jerk(t / move[k]) if move[k] > 0 else np.ones(steps)
-        pieces.append(waypoints[k] + (waypoints[k + 1] - waypoints[k]) * s[:, None])
-    return np.concatenate(pieces, axis=0)
-
-
-def shaft_direction(yaw, pitch):
-    """Unit shaft direction (towards the tip) in the base frame from the first two joints
-    (modified DH of the PSM: (cos p sin y, -sin p, -cos p cos y))."""
-    return np.stack([np.cos(pitch) * np.sin(yaw), -np.sin(pitch), -np.cos(pitch) * np.cos(yaw)], axis=-1)
-
-
-def arm_ik_for_wrist(p_wrist: np.ndarray) -> np.ndarray:
-    """(N, 3) yaw, pitch, insertion placing the wrist-pitch axis point at ``p_wrist`` (N, 3).
-    The wrist-pitch point lies on the shaft at (insertion - 0.0156) m from the RCM."""
-    dist = np.linalg.norm(p_wrist, axis=-1)
-    d = p_wrist / dist[..., None]
-    return np.stack([np.arctan2(d[..., 0], -d[..., 2]), np.arcsin(-d[..., 1]), dist + 0.0156], axis=-1)
-
-
-def arm_ik_for_tip(p_tip: np.ndarray, wrist: np.ndarray, iterations: int = 8) -> np.ndarray:
-    """(N, 7) joints putting the jaw tip at ``p_tip`` (N, 3) with instrument joints ``wrist``
-    (N, 4). The tip offset in the roll frame depends on the wrist angles only, so a fixed point
-    over the shaft rotation converges fast (offset ~25 mm vs ~200 mm lever)."""
-    from .bench import _psm
-
-    psm = _psm()
-    q = np.zeros((len(p_tip), 7))
-    q[:, 2] = 0.15
-    q[:, 3:] = wrist
-    t_roll = psm.forward_kinematics(q[:, :6], frame="roll")
-    t_tip = psm.forward_kinematics(q[:, :6], frame="jaw_tip")
-    offset = np.einsum("nji,nj->ni", t_roll[:, :3, :3], t_tip[:, :3, 3] - t_roll[:, :3, 3])
-    q[:, :3] = arm_ik_for_wrist(p_tip + np.array([0.0, 0.0, WRIST_TO_TIP_M]))  # guess: shaft straight down
-    for _ in range(iterations):
-        r_roll = psm.rotation(q[:, :6], "roll")
-        q[:, :3] = arm_ik_for_wrist(p_tip - np.einsum("nij,nj->ni", r_roll, offset))
-    return q
-
-
 def _unit(phi_deg: float, theta_deg: float) -> np.ndarray:
     ph, th = np.deg2rad(phi_deg), np.deg2rad(theta_deg)
     return np.array([np.cos(th) * np.cos(ph), np.cos(th) * np.sin(ph), np.sin(th)])
@@ -156,9 +104,6 @@ pass a few samples beyond."""
 def _safe_configs(rng: np.random.Generator, n: int, limits: np.ndarray, static_q, contact) -> np.ndarray:
     """``n`` wrist configurations whose static loaded HEX10 fz stays above SAFE_COMPRESSION_N.
     ``static_q(configs)`` gives the (K, 7) joints holding each configuration under the load."""
-    from .bench import run_trajectory
-    from .params import Effects, InstrumentParams
-
     quiet = dataclasses.replace(Effects(), sensor_noise=False, hex10_drift=False, encoder_quantisation=False,
                                 coloured_effort_noise=False, remount_offsets=False)
     kept = []
@@ -414,7 +359,8 @@ def teleop(scale: float, seed: int) -> list[Plan]:
     plans = []
     duration = max(4.0, TELEOP_DEMO_S * scale)
     for c, (yaw, pitch, ins) in enumerate(TELEOP_CONFIGS):
-        work = (ins - 0.0156 + WRIST_TO_TIP_M) * shaft_direction(np.array(yaw), np.array(pitch))
+        work = ((ins - WRIST_PITCH_OFFSET_M + WRIST_TO_TIP_M)
+                * shaft_direction(np.array(yaw), np.array(pitch)))
         for cond, (material, depth_max) in TELEOP_CONDITIONS.items():
             for k in range(3):
                 rng = np.random.default_rng([seed, 7, c, list(TELEOP_CONDITIONS).index(cond), k])
