@@ -9,258 +9,21 @@ Where a command produces figures, ``--json PATH`` writes them machine-readably.
 from __future__ import annotations
 
 import argparse
-import json
-import os
 import sys
-from pathlib import Path
 
 from psmforce import __version__
+from psmforce import commands
 
 
 
-def _writable_ancestor(target: Path, option: str) -> None:
-    """The nearest existing folder above ``target`` must be writable (the library creates the
-    missing ones): found before the work that produces the output, not after."""
-    parent = target.parent
-    while not parent.exists() and parent != parent.parent:
-        parent = parent.parent
-    if not parent.is_dir() or not os.access(parent, os.W_OK | os.X_OK):
-        raise ValueError(f"{option}: cannot write {target}: {parent} is not a writable folder")
-
-
-def _output_file(path: str, option: str, *, parents: bool = True) -> None:
-    """Refuse an output file that cannot be written (``parents``: missing folders get created)."""
-    target = Path(path)
-    if target.is_dir():
-        raise ValueError(f"{option}: {target} is a folder, expected a file name")
-    if not parents and not target.parent.is_dir():
-        raise ValueError(f"{option}: folder {target.parent} does not exist")
-    _writable_ancestor(target, option)
-
-
-def _fresh_folder(path: str, option: str) -> None:
-    """An output folder must be new or empty: results are never mixed with older ones."""
-    target = Path(path)
-    if target.exists():
-        if not target.is_dir():
-            raise ValueError(f"{option}: {target} exists and is not a folder")
-        if any(target.iterdir()):
-            raise ValueError(f"{option}: {target} is not empty (refusing to overwrite or mix "
-                             f"results; give a new folder)")
-    _writable_ancestor(target, option)
-
-
-def _device(args) -> None:
-    if args.device == "cuda":
-        import torch
-        if not torch.cuda.is_available():
-            raise ValueError("--device cuda: torch sees no CUDA device on this machine "
-                             "(use --device cpu)")
-
-
-def _seed(value: int, option: str) -> None:
-    from psm_model.sim.dataset import MAX_SEED  # the simulator's limit (numpy's seed range)
-    if not 0 <= value <= MAX_SEED:
-        raise ValueError(f"{option}: must be an integer in [0, {MAX_SEED}], got {value}")
-
-
-def _training_options(args) -> None:
-    """What train / finetune would discover only after loading data or training."""
-    if args.epochs < 1:
-        raise ValueError(f"--epochs: must be at least 1, got {args.epochs}")
-    _seed(args.seed, "--seed")
-    _device(args)
-    _output_file(args.out, "--out")
-
-
-def _write_json(path: str | None, payload: dict) -> None:
-    if path is None:
-        return
-    from psm_model.files import write_text_atomic
-    write_text_atomic(path, json.dumps(payload, indent=2, default=_jsonable) + "\n")
-
-
-def _jsonable(value):
-    if hasattr(value, "tolist"):
-        return value.tolist()
-    if isinstance(value, Path):
-        return str(value)
-    raise TypeError(f"not JSON serialisable: {type(value).__name__}")
-
-
-def _scale(value: float) -> None:
-    from psm_model.sim.dataset import MAX_SCALE  # the simulator's limit, checked before it runs
-    if not 0 < value <= MAX_SCALE:  # also refuses NaN
-        raise ValueError(f"--scale: must be in (0, {MAX_SCALE:g}] (times the paper's "
-                         f"protocol), got {value:g}")
-
-
-def _simulate(args) -> dict:
-    _scale(args.scale)
-    if args.tool_spread is not None and args.tool_seed is None:
-        raise ValueError("--tool-spread: only with --tool-seed (without it the bench runs the "
-                         "nominal tool)")
-    from psm_model.sim import simulate
-    spread = 1.0 if args.tool_spread is None else args.tool_spread
-    return simulate(protocol=args.protocol, scale=args.scale, seed=args.seed, out=args.out,
-                    port=args.port, tool_seed=args.tool_seed, tool_spread=spread,
-                    fmt=args.format)
-
-
-def _convert(args) -> dict:
-    from psm_model.bags import convert_bag, convert_csv, summary_line
-    _output_file(args.out, "--out", parents=False)
-    if Path(args.bag).suffix.lower() == ".csv":
-        report = convert_csv(args.bag, args.out, column_map=args.column_map)
-        print(f"wrote {args.out}")
-        return report
-    topics = {k: v for k, v in (("js", args.topic_js), ("jaw", args.topic_jaw),
-                                 ("hex10", args.topic_hex10), ("ati", args.topic_ati),
-                                 ("jacobian", args.topic_jacobian)) if v is not None}
-    r_ati_psm = None
-    if args.r_ati_psm is not None:
-        import numpy as np
-
-        from psm_model.frames import check_rotation
-        option = f"--r-ati-psm {args.r_ati_psm}"
-        try:  # ValueError: invalid JSON or not numbers; TypeError: null entries
-            matrix = np.asarray(json.loads(Path(args.r_ati_psm).read_text()), dtype=float)
-        except (OSError, ValueError, TypeError) as err:
-            raise ValueError(f"{option}: not a JSON 3x3 rotation matrix ({err})") from None
-        r_ati_psm = check_rotation(matrix, option)
-    report = convert_bag(args.bag, args.out, rate_hz=args.rate, arm=args.arm,
-                         topics=topics or None, r_ati_psm=r_ati_psm, on_gap=args.on_gap)
-    print(summary_line(report))
-    return report
-
-
-def _fit_dynamics(args) -> dict:
-    if args.model_out:
-        _output_file(args.model_out, "--model-out")
-    from psm_model.identification import fit_dynamics_cli
-    report = fit_dynamics_cli(train=args.train, test=args.test, fmt=args.format, json_out=None,
-                              model_out=args.model_out, data=args.data, select=args.select,
-                              gravity=args.gravity, accept_poor_fit=args.accept_poor_fit)
-    if "selection" in report:
-        print(f"selected: {report['selection']['selected']} ({report['selection']['method']})")
-    print(f"fit: {report['solver_status']} in {report['fit_time_s']:.1f} s, "
-          f"{report['n_base_parameters']} base parameters, physically consistent "
-          f"{report['physically_consistent']}; model: {report.get('model')}")
-    for key in ("train_relative_error_percent", "test_relative_error_percent"):
-        if key in report:
-            print(f"{key.split('_')[0]} relative torque error %: " + ", ".join(
-                f"{n} {e:.1f}" for n, e in zip(report["coordinates"], report[key])))
-    if report["poor_fit"] and not args.accept_poor_fit:
-        raise ValueError(("" if args.model_out is None else f"{args.model_out} not written: ")
-                         + f"poor fit: relative torque error above "
-                         f"{report['poor_fit_threshold_relative_error_percent']:g} % on every "
-                         f"coordinate (--accept-poor-fit keeps it)")
-    return report
-
-
-def _wrench(args) -> dict:
-    _output_file(args.out, "--out", parents=False)
-    from psm_model.files import atomic_path
-    from psm_model.identification import ArmDynamicsModel
-    from psm_model.identification.recordings import recording_wrench
-    model = ArmDynamicsModel.load(args.dynamics)
-    table = recording_wrench(model, args.recording, frame=args.frame,
-                             expressed_in=args.expressed_in)
-    out = Path(args.out)
-    with atomic_path(out) as tmp:
-        table.to_csv(tmp, index=False, float_format="%.7g")
-    damped = int(table["damped"].sum())
-    print(f"wrote {out}: {len(table)} samples, {damped} damped (near a singularity)")
-    return {"recording": args.recording, "dynamics": args.dynamics, "out": str(out),
-            "frame": args.frame, "expressed_in": args.expressed_in, "samples": len(table),
-            "damped_samples": damped, "sigma_min_smallest": float(table["sigma_min"].min())}
-
-
-def _index(args) -> dict:
-    from hybrid.data import index_recordings
-    path = index_recordings(args.data)
-    trials = json.loads(path.read_text())["trials"]
-    print(f"wrote {path}: {len(trials)} recordings")
-    return {"metadata": str(path), "trials": trials}
-
-
-def _fit_prior(args) -> dict:
-    _output_file(args.out, "--out")
-    from psm_model.identification import fit_prior_cli
-    from psm_model.recording import HEX10_FORCE
-    report = fit_prior_cli(args.data, args.out, use_loaded=args.use_loaded,
-                           accept_poor_fit=args.accept_poor_fit)
-    metrics = report.get("test_free_metrics")
-    print(f"fit: {report['solver_status']} in {report['fit_time_s']:.1f} s; test Free "
-          + (", ".join(f"{c} RMS {metrics[c]['rms']:.3g}" for c in HEX10_FORCE)
-             + " N" if metrics else "not scored (no test/Free recordings)"))
-    if report["model"] is None:
-        raise ValueError(f"{args.out} not written: {report['model_not_saved_reason']}"
-                         + (" (--accept-poor-fit saves it anyway)" if report.get("poor_fit")
-                            else ""))
-    return report
-
-
-def _train(args) -> dict:
-    _training_options(args)
-    from hybrid.train import train
-    return train(args.data, args.model, args.out, features=args.features, epochs=args.epochs,
-                 seed=args.seed, device=args.device, prior=args.prior)
-
-
-def _finetune(args) -> dict:
-    _training_options(args)
-    from hybrid.train import finetune
-    return finetune(args.checkpoint, args.data, args.out, epochs=args.epochs, seed=args.seed,
-                    device=args.device)
-
-
-def _calibrate(args) -> dict:
-    _training_options(args)
-    from hybrid.calibrate import calibrate
-    result = calibrate(args.checkpoint, args.data, args.out, minutes=args.minutes,
-                       epochs=args.epochs, seed=args.seed, device=args.device)
-    record = result["calibration"]
-    print(f"calibrated on {len(record['trials'])} trials, {record['minutes_used']:.2f} min "
-          f"(Free {record['minutes_by_condition']['Free']:.2f}, Traction "
-          f"{record['minutes_by_condition']['Traction']:.2f})"
-          + (", prior refitted" if record["prior_refit"] else "")
-          + f"; {record['epochs_run']} epochs ({record['stopped_by']}); wrote {args.out}")
-    return result
-
-
-def _evaluate(args) -> dict:
-    _fresh_folder(args.out, "--out")
-    from hybrid.evaluate import evaluate
-    return evaluate(args.checkpoint, args.data, args.out)
-
-
-def _reproduce(args) -> dict:
-    # before reproduce() writes OUT/work: bad arguments leave nothing behind
-    _scale(args.scale)
-    for seed in args.seeds:
-        _seed(seed, "--seeds")
-    _device(args)
-    target = Path(args.out)
-    if target.exists() and not target.is_dir():
-        raise ValueError(f"--out: {target} exists and is not a folder")
-    _writable_ancestor(target, "--out")
-    from hybrid.reproduce import reproduce
-    return reproduce(args.out, scale=args.scale, seeds=args.seeds, device=args.device,
-                     budget=args.budget, models=args.models, ablations=not args.no_ablations,
-                     efficiency=not args.no_efficiency, teleop=not args.no_teleop,
-                     ray_address=args.ray)
-
-
-def _export(args) -> dict:
-    _fresh_folder(args.out, "--out")
-    from hybrid.export import export
-    return export(args.checkpoint, args.out)
-
-
-def _demo(args) -> dict:
-    from psmforce.demo import run_demo
-    return run_demo(args.out, seed=args.seed)
+def training_arguments(p: argparse.ArgumentParser, report: str) -> None:
+    """The options every training command shares (train, finetune, calibrate)."""
+    p.add_argument("--epochs", type=int, default=100, help="epoch limit (default 100); early "
+                   "stopping on validation ends training first when it fires")
+    p.add_argument("--seed", type=int, default=0, help="validation split, initialisation and "
+                   "shuffling (default 0)")
+    p.add_argument("--device", default="cpu", choices=["cpu", "cuda"])
+    p.add_argument("--json", help=f"write {report} here")
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -275,7 +38,7 @@ def _parser() -> argparse.ArgumentParser:
         p.set_defaults(func=func)
         return p
 
-    p = add("simulate", _simulate, "generate a simulated bench dataset",
+    p = add("simulate", commands.simulate_command, "generate a simulated bench dataset",
             "Simulate the benchtop (PSM + modified Cadiere forceps + HEX10 + ATI Nano17) running "
             "the paper's protocols. Writes OUT/metadata.json and one CSV per trial "
             "(OUT/{train,test}/{Free,Traction,Palpation}/ or OUT/config_k/{Rigid,Soft,Free}/); "
@@ -303,7 +66,7 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--out", required=True, help="output folder (must not hold a dataset yet)")
     p.add_argument("--json", help="write the run summary here")
 
-    p = add("convert", _convert, "convert a ROS bag to the recording CSV layout",
+    p = add("convert", commands.convert_command, "convert a ROS bag to the recording CSV layout",
             "Read a ROS 2 (sqlite3 or MCAP) or ROS 1 bag with the dVRK CRTK topics, resample all "
             "streams onto one clock and write one recording CSV; reports gaps, duplicates and "
             "out-of-order messages. A .csv input with --column-map is renamed to our layout.")
@@ -323,7 +86,7 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--column-map", help="for a CSV export: JSON mapping its column names to ours")
     p.add_argument("--json", help="write the conversion report here")
 
-    p = add("fit-dynamics", _fit_dynamics, "identify the arm's dynamics (CasADi)",
+    p = add("fit-dynamics", commands.fit_dynamics_command, "identify the arm's dynamics (CasADi)",
             "Fit physically consistent arm dynamics plus friction (CasADi / IPOPT) on free-space "
             "training recordings and report per-coordinate relative torque errors on the "
             "training and test recordings. Our layout (default): any rate, cut at time gaps; "
@@ -352,7 +115,7 @@ def _parser() -> argparse.ArgumentParser:
                         "dynamics_report.POOR_FIT_RELATIVE_ERROR_PERCENT)")
     p.add_argument("--json", help="write the report here")
 
-    p = add("wrench", _wrench, "external wrench on the tool from joint torques",
+    p = add("wrench", commands.wrench_command, "external wrench on the tool from joint torques",
             "Per sample of a recording: the wrench the environment applies on the tool, from the "
             "joint efforts minus the identified arm dynamics (fit-dynamics), solved through the "
             "PSM Jacobian with damping near singularities. Writes time, ext_fx ext_fy ext_fz "
@@ -372,7 +135,7 @@ def _parser() -> argparse.ArgumentParser:
                         "axes; base_at_frame: moment about the frame's origin, base axes")
     p.add_argument("--json", help="write a summary here")
 
-    p = add("index", _index, "make a folder of your own recordings a dataset",
+    p = add("index", commands.index_command, "make a folder of your own recordings a dataset",
             "Write DIR/metadata.json listing every recording CSV under DIR, its condition from its "
             "folder (Free, Traction, Palpation, ...) and its split from the folder above (train, "
             "test, config_k). train / finetune / evaluate read only folders with a metadata.json "
@@ -380,7 +143,7 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("data", metavar="DIR", help="folder of recordings: DIR/SPLIT/CONDITION/*.csv")
     p.add_argument("--json", help="write the list of trials here")
 
-    p = add("fit-prior", _fit_prior, "fit the internal-force prior (CasADi)",
+    p = add("fit-prior", commands.fit_prior_command, "fit the internal-force prior (CasADi)",
             "Fit the instrument's internal-force prior (what the HEX10 reads with no external "
             "force) on the free-space recordings of a dataset folder; writes the model as JSON.")
     p.add_argument("--data", required=True, help="dataset folder (as written by simulate)")
@@ -393,10 +156,9 @@ def _parser() -> argparse.ArgumentParser:
                         "poor-fit threshold (psm_model.identification.prior.POOR_FIT_RMS_N)")
     p.add_argument("--json", help="write the fit statistics here")
 
-    p = add("train", _train, "train an estimator",
-            "Train one estimator (hybrid, transformer, fcn, lstm, rocket = MultiRocket-Hydra, "
-            "fitted in closed form) on a dataset folder; writes a checkpoint holding weights, "
-            "features, scalers, prior and provenance.")
+    p = add("train", commands.train_command, "train an estimator",
+            "Train one estimator (a model of hybrid/recipes.py) on a dataset folder; writes a "
+            "checkpoint holding weights, features, scalers, prior and provenance.")
     p.add_argument("--data", required=True)
     p.add_argument("--model", default="hybrid",
                    help="a model of the recipe table, hybrid.recipes.RECIPES (default hybrid)")
@@ -404,24 +166,18 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--features", help="feature set name (default: the model's own inputs, the "
                                        "paper's for most)")
     p.add_argument("--prior", help="prior JSON (hybrid; default: fit one on the data's free space)")
-    p.add_argument("--epochs", type=int, default=100)
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--device", default="cpu", choices=["cpu", "cuda"])
-    p.add_argument("--json", help="write training statistics here")
+    training_arguments(p, "training statistics")
 
-    p = add("finetune", _finetune, "finetune an estimator on new recordings",
+    p = add("finetune", commands.finetune_command, "finetune an estimator on new recordings",
             "Freeze all but the last decoder block of a trained estimator and train it on a new "
             "dataset folder (e.g. a new PSM configuration); for rocket, refit the ridge on its "
             "frozen features.")
     p.add_argument("checkpoint")
     p.add_argument("--data", required=True)
     p.add_argument("--out", required=True, help="checkpoint file to write")
-    p.add_argument("--epochs", type=int, default=100)
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--device", default="cpu", choices=["cpu", "cuda"])
-    p.add_argument("--json", help="write finetuning statistics here")
+    training_arguments(p, "finetuning statistics")
 
-    p = add("calibrate", _calibrate, "calibrate an estimator to another instrument",
+    p = add("calibrate", commands.calibrate_command, "calibrate an estimator to another instrument",
             "Few-shot calibration to a new tool from the first --minutes of its calibration "
             "trials: the train split's Free and Traction recordings of DATA, interleaved by "
             "minutes in metadata.json order (hybrid/calibrate.py states the rule). The hybrid's "
@@ -435,12 +191,9 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--minutes", type=float, default=5.0,
                    help="minutes of calibration trials to use (default 5: on the simulated bench "
                         "at scale 1, one free-space replay and four traction trials)")
-    p.add_argument("--epochs", type=int, default=100)
-    p.add_argument("--seed", type=int, default=0, help="validation split and shuffling")
-    p.add_argument("--device", default="cpu", choices=["cpu", "cuda"])
-    p.add_argument("--json", help="write the calibration report here")
+    training_arguments(p, "the calibration report")
 
-    p = add("evaluate", _evaluate, "evaluate an estimator as in the paper",
+    p = add("evaluate", commands.evaluate_command, "evaluate an estimator as in the paper",
             "Score RMSE / NRMSE / R^2 per axis on the test recordings of a dataset folder, by "
             "the paper's post-processing (bias from the first 0.5 s, centred median k=71) and "
             "by the causal ones a haptic loop gets (raw; causal 5 Hz low-pass), each beside its "
@@ -450,7 +203,7 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--out", required=True, help="folder for tables and plots")
     p.add_argument("--json", help="write the metrics here")
 
-    p = add("reproduce", _reproduce, "reproduce the paper's tables on the simulated bench",
+    p = add("reproduce", commands.reproduce_command, "reproduce the paper's tables on the simulated bench",
             "Simulate a bench per seed, fit the prior, train every model to early stopping, run "
             "the ablations, data efficiency and teleoperation finetuning, score by the causal and "
             "the paper's metrics with their floors; mean +/- std over seeds in markdown + JSON "
@@ -475,12 +228,12 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--device", default="cpu", choices=["cpu", "cuda"])
     p.add_argument("--json", help="write all tables here")
 
-    p = add("export", _export, "export an estimator for C++ / ROS 2",
+    p = add("export", commands.export_command, "export an estimator for C++ / ROS 2",
             "Write the network as ONNX plus a JSON of the prior, scalers and feature order.")
     p.add_argument("checkpoint")
     p.add_argument("--out", required=True, help="folder to write")
 
-    p = add("demo", _demo, "the main job: a small bench end to end in a few minutes",
+    p = add("demo", commands.demo_command, "the main job: a small bench end to end in a few minutes",
             "Simulate a small bench, fit the prior, train the hybrid and a baseline, evaluate "
             "them, print the table and write the plots.")
     p.add_argument("--out", default="out/demo")
@@ -493,9 +246,9 @@ def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     try:
         if getattr(args, "json", None):
-            _output_file(args.json, "--json", parents=False)  # before the work, not after it
+            commands.output_file(args.json, "--json", parents=False)  # before the work, not after it
         result = args.func(args)
-        _write_json(getattr(args, "json", None), result if isinstance(result, dict) else {})
+        commands.write_json(getattr(args, "json", None), result if isinstance(result, dict) else {})
     except KeyboardInterrupt:
         print(f"psmforce {args.command}: interrupted", file=sys.stderr)
         return 130

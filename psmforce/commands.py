@@ -1,0 +1,256 @@
+"""What each ``psmforce`` command does once its arguments are parsed (:mod:`psmforce.cli` builds
+the parser): the option checks that must pass before any work starts, so that a bad argument
+leaves nothing behind, and one handler per command calling the library. Heavy modules are
+imported inside the handlers, so ``psmforce --help`` stays fast.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+
+def _writable_ancestor(target: Path, option: str) -> None:
+    """The nearest existing folder above ``target`` must be writable (the library creates the
+    missing ones): found before the work that produces the output, not after."""
+    parent = target.parent
+    while not parent.exists() and parent != parent.parent:
+        parent = parent.parent
+    if not parent.is_dir() or not os.access(parent, os.W_OK | os.X_OK):
+        raise ValueError(f"{option}: cannot write {target}: {parent} is not a writable folder")
+
+
+def output_file(path: str, option: str, *, parents: bool = True) -> None:
+    """Refuse an output file that cannot be written (``parents``: missing folders get created)."""
+    target = Path(path)
+    if target.is_dir():
+        raise ValueError(f"{option}: {target} is a folder, expected a file name")
+    if not parents and not target.parent.is_dir():
+        raise ValueError(f"{option}: folder {target.parent} does not exist")
+    _writable_ancestor(target, option)
+
+
+def _fresh_folder(path: str, option: str) -> None:
+    """An output folder must be new or empty: results are never mixed with older ones."""
+    target = Path(path)
+    if target.exists():
+        if not target.is_dir():
+            raise ValueError(f"{option}: {target} exists and is not a folder")
+        if any(target.iterdir()):
+            raise ValueError(f"{option}: {target} is not empty (refusing to overwrite or mix "
+                             f"results; give a new folder)")
+    _writable_ancestor(target, option)
+
+
+def _device(args) -> None:
+    if args.device == "cuda":
+        import torch
+        if not torch.cuda.is_available():
+            raise ValueError("--device cuda: torch sees no CUDA device on this machine "
+                             "(use --device cpu)")
+
+
+def _seed(value: int, option: str) -> None:
+    from psm_model.sim.dataset import MAX_SEED  # the simulator's limit (numpy's seed range)
+    if not 0 <= value <= MAX_SEED:
+        raise ValueError(f"{option}: must be an integer in [0, {MAX_SEED}], got {value}")
+
+
+def _training_options(args) -> None:
+    """What train / finetune would discover only after loading data or training."""
+    if args.epochs < 1:
+        raise ValueError(f"--epochs: must be at least 1, got {args.epochs}")
+    _seed(args.seed, "--seed")
+    _device(args)
+    output_file(args.out, "--out")
+
+
+def write_json(path: str | None, payload: dict) -> None:
+    if path is None:
+        return
+    from psm_model.files import write_text_atomic
+    write_text_atomic(path, json.dumps(payload, indent=2, default=_jsonable) + "\n")
+
+
+def _jsonable(value):
+    if hasattr(value, "tolist"):
+        return value.tolist()
+    if isinstance(value, Path):
+        return str(value)
+    raise TypeError(f"not JSON serialisable: {type(value).__name__}")
+
+
+def _scale(value: float) -> None:
+    from psm_model.sim.dataset import MAX_SCALE  # the simulator's limit, checked before it runs
+    if not 0 < value <= MAX_SCALE:  # also refuses NaN
+        raise ValueError(f"--scale: must be in (0, {MAX_SCALE:g}] (times the paper's "
+                         f"protocol), got {value:g}")
+
+
+def simulate_command(args) -> dict:
+    _scale(args.scale)
+    if args.tool_spread is not None and args.tool_seed is None:
+        raise ValueError("--tool-spread: only with --tool-seed (without it the bench runs the "
+                         "nominal tool)")
+    from psm_model.sim import simulate
+    spread = 1.0 if args.tool_spread is None else args.tool_spread
+    return simulate(protocol=args.protocol, scale=args.scale, seed=args.seed, out=args.out,
+                    port=args.port, tool_seed=args.tool_seed, tool_spread=spread,
+                    fmt=args.format)
+
+
+def convert_command(args) -> dict:
+    from psm_model.bags import convert_bag, convert_csv, summary_line
+    output_file(args.out, "--out", parents=False)
+    if Path(args.bag).suffix.lower() == ".csv":
+        report = convert_csv(args.bag, args.out, column_map=args.column_map)
+        print(f"wrote {args.out}")
+        return report
+    topics = {k: v for k, v in (("js", args.topic_js), ("jaw", args.topic_jaw),
+                                 ("hex10", args.topic_hex10), ("ati", args.topic_ati),
+                                 ("jacobian", args.topic_jacobian)) if v is not None}
+    r_ati_psm = None
+    if args.r_ati_psm is not None:
+        import numpy as np
+
+        from psm_model.frames import check_rotation
+        option = f"--r-ati-psm {args.r_ati_psm}"
+        try:  # ValueError: invalid JSON or not numbers; TypeError: null entries
+            matrix = np.asarray(json.loads(Path(args.r_ati_psm).read_text()), dtype=float)
+        except (OSError, ValueError, TypeError) as err:
+            raise ValueError(f"{option}: not a JSON 3x3 rotation matrix ({err})") from None
+        r_ati_psm = check_rotation(matrix, option)
+    report = convert_bag(args.bag, args.out, rate_hz=args.rate, arm=args.arm,
+                         topics=topics or None, r_ati_psm=r_ati_psm, on_gap=args.on_gap)
+    print(summary_line(report))
+    return report
+
+
+def fit_dynamics_command(args) -> dict:
+    if args.model_out:
+        output_file(args.model_out, "--model-out")
+    from psm_model.identification import fit_dynamics_cli
+    report = fit_dynamics_cli(train=args.train, test=args.test, fmt=args.format, json_out=None,
+                              model_out=args.model_out, data=args.data, select=args.select,
+                              gravity=args.gravity, accept_poor_fit=args.accept_poor_fit)
+    if "selection" in report:
+        print(f"selected: {report['selection']['selected']} ({report['selection']['method']})")
+    print(f"fit: {report['solver_status']} in {report['fit_time_s']:.1f} s, "
+          f"{report['n_base_parameters']} base parameters, physically consistent "
+          f"{report['physically_consistent']}; model: {report.get('model')}")
+    for key in ("train_relative_error_percent", "test_relative_error_percent"):
+        if key in report:
+            print(f"{key.split('_')[0]} relative torque error %: " + ", ".join(
+                f"{n} {e:.1f}" for n, e in zip(report["coordinates"], report[key])))
+    if report["poor_fit"] and not args.accept_poor_fit:
+        raise ValueError(("" if args.model_out is None else f"{args.model_out} not written: ")
+                         + f"poor fit: relative torque error above "
+                         f"{report['poor_fit_threshold_relative_error_percent']:g} % on every "
+                         f"coordinate (--accept-poor-fit keeps it)")
+    return report
+
+
+def wrench_command(args) -> dict:
+    output_file(args.out, "--out", parents=False)
+    from psm_model.files import atomic_path
+    from psm_model.identification import ArmDynamicsModel
+    from psm_model.identification.recordings import recording_wrench
+    model = ArmDynamicsModel.load(args.dynamics)
+    table = recording_wrench(model, args.recording, frame=args.frame,
+                             expressed_in=args.expressed_in)
+    out = Path(args.out)
+    with atomic_path(out) as tmp:
+        table.to_csv(tmp, index=False, float_format="%.7g")
+    damped = int(table["damped"].sum())
+    print(f"wrote {out}: {len(table)} samples, {damped} damped (near a singularity)")
+    return {"recording": args.recording, "dynamics": args.dynamics, "out": str(out),
+            "frame": args.frame, "expressed_in": args.expressed_in, "samples": len(table),
+            "damped_samples": damped, "sigma_min_smallest": float(table["sigma_min"].min())}
+
+
+def index_command(args) -> dict:
+    from hybrid.data import index_recordings
+    path = index_recordings(args.data)
+    trials = json.loads(path.read_text())["trials"]
+    print(f"wrote {path}: {len(trials)} recordings")
+    return {"metadata": str(path), "trials": trials}
+
+
+def fit_prior_command(args) -> dict:
+    output_file(args.out, "--out")
+    from psm_model.identification import fit_prior_cli
+    from psm_model.recording import HEX10_FORCE
+    report = fit_prior_cli(args.data, args.out, use_loaded=args.use_loaded,
+                           accept_poor_fit=args.accept_poor_fit)
+    metrics = report.get("test_free_metrics")
+    print(f"fit: {report['solver_status']} in {report['fit_time_s']:.1f} s; test Free "
+          + (", ".join(f"{c} RMS {metrics[c]['rms']:.3g}" for c in HEX10_FORCE)
+             + " N" if metrics else "not scored (no test/Free recordings)"))
+    if report["model"] is None:
+        raise ValueError(f"{args.out} not written: {report['model_not_saved_reason']}"
+                         + (" (--accept-poor-fit saves it anyway)" if report.get("poor_fit")
+                            else ""))
+    return report
+
+
+def train_command(args) -> dict:
+    _training_options(args)
+    from hybrid.train import train
+    return train(args.data, args.model, args.out, features=args.features, epochs=args.epochs,
+                 seed=args.seed, device=args.device, prior=args.prior)
+
+
+def finetune_command(args) -> dict:
+    _training_options(args)
+    from hybrid.train import finetune
+    return finetune(args.checkpoint, args.data, args.out, epochs=args.epochs, seed=args.seed,
+                    device=args.device)
+
+
+def calibrate_command(args) -> dict:
+    _training_options(args)
+    from hybrid.calibrate import calibrate
+    result = calibrate(args.checkpoint, args.data, args.out, minutes=args.minutes,
+                       epochs=args.epochs, seed=args.seed, device=args.device)
+    record = result["calibration"]
+    print(f"calibrated on {len(record['trials'])} trials, {record['minutes_used']:.2f} min "
+          f"(Free {record['minutes_by_condition']['Free']:.2f}, Traction "
+          f"{record['minutes_by_condition']['Traction']:.2f})"
+          + (", prior refitted" if record["prior_refit"] else "")
+          + f"; {record['epochs_run']} epochs ({record['stopped_by']}); wrote {args.out}")
+    return result
+
+
+def evaluate_command(args) -> dict:
+    _fresh_folder(args.out, "--out")
+    from hybrid.evaluate import evaluate
+    return evaluate(args.checkpoint, args.data, args.out)
+
+
+def reproduce_command(args) -> dict:
+    # before reproduce() writes OUT/work: bad arguments leave nothing behind
+    _scale(args.scale)
+    for seed in args.seeds:
+        _seed(seed, "--seeds")
+    _device(args)
+    target = Path(args.out)
+    if target.exists() and not target.is_dir():
+        raise ValueError(f"--out: {target} exists and is not a folder")
+    _writable_ancestor(target, "--out")
+    from hybrid.reproduce import reproduce
+    return reproduce(args.out, scale=args.scale, seeds=args.seeds, device=args.device,
+                     budget=args.budget, models=args.models, ablations=not args.no_ablations,
+                     efficiency=not args.no_efficiency, teleop=not args.no_teleop,
+                     ray_address=args.ray)
+
+
+def export_command(args) -> dict:
+    _fresh_folder(args.out, "--out")
+    from hybrid.export import export
+    return export(args.checkpoint, args.out)
+
+
+def demo_command(args) -> dict:
+    from psmforce.demo import run_demo
+    return run_demo(args.out, seed=args.seed)
