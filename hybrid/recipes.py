@@ -51,8 +51,8 @@ def recorded_inputs(features: Features = None, use_prior: bool = True) -> Inputs
 
 def _lstm_inputs(features: Features = None, use_prior: bool = True) -> Inputs:
     if features not in (None, "lstm") and resolve_features(features) != LSTM_FEATURES:
-        raise RecipeError("the LSTM baseline takes its fixed inputs (hybrid.lstm_inputs.LSTM_FEATURES); "
-                          "feature sets do not apply to it")
+        raise RecipeError("the LSTM baseline takes its fixed inputs "
+                          "(hybrid.lstm_inputs.LSTM_FEATURES); feature sets do not apply to it")
     return Inputs(LSTM_FEATURES, raw=LSTM_RAW_COLUMNS, derivation="lstm")
 
 

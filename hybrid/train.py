@@ -23,10 +23,9 @@ they read top to bottom as one pipeline, and no part is used without the others.
 from __future__ import annotations
 
 import copy
-import dataclasses
 import math
 import time
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from typing import Sequence
 
@@ -278,7 +277,7 @@ def make_setup(model_name: str, train_trials: Sequence[Trial], *, features: Feat
     if inputs is None:
         inputs = recipe(model_name).inputs(features, use_prior)
         if inputs.base:
-            inputs = dataclasses.replace(inputs, base=select_base(train_trials, inputs.base))
+            inputs = replace(inputs, base=select_base(train_trials, inputs.base))
     if (inputs.derivation == "prior") != (prior_json is not None):
         raise TrainingError(f"derivation '{inputs.derivation}' and "
                             f"{'a' if prior_json else 'no'} prior do not go together")
@@ -307,7 +306,8 @@ def _closed_form_report(model, fit_report: dict, n_train: int, n_val: int) -> di
             "chunk": None, "parameters": n, "trainable_parameters": n, "fit": fit_report}
 
 
-def _fit_closed_form(setup: TrainedModel, train_trials: Sequence[Trial], val_trials: Sequence[Trial],
+def _fit_closed_form(setup: TrainedModel, train_trials: Sequence[Trial],
+                     val_trials: Sequence[Trial],
                 cfg: TrainConfig, head_of=None) -> tuple[object, dict]:
     """A closed-form window model (MultiRocket-Hydra, :mod:`hybrid.rocket`) on the same windows
     as the networks, its penalty chosen on the validation trials. ``head_of``: a fitted model
