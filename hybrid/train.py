@@ -307,8 +307,8 @@ def _closed_form_report(model, fit_report: dict, n_train: int, n_val: int) -> di
 
 
 def _fit_closed_form(setup: TrainedModel, train_trials: Sequence[Trial],
-                     val_trials: Sequence[Trial],
-                cfg: TrainConfig, head_of=None) -> tuple[object, dict]:
+                     val_trials: Sequence[Trial], cfg: TrainConfig,
+                     head_of=None) -> tuple[object, dict]:
     """A closed-form window model (MultiRocket-Hydra, :mod:`hybrid.rocket`) on the same windows
     as the networks, its penalty chosen on the validation trials. ``head_of``: a fitted model
     whose features stay and whose head (the ridge) is refitted (finetuning)."""
