@@ -44,6 +44,8 @@ from hybrid.checkpoint import load_checkpoint
 from hybrid.data import Dataset, Trial, load_dataset, split_validation, trajectory_group
 from hybrid.inputs import prior_to_json
 from hybrid.train import TrainConfig, TrainingError, finetune_model
+from psm_model.conventions import INSERTION_JOINT
+from psm_model.recording import joint_column
 
 CALIBRATION_CONDITIONS = ("Free", "Traction")
 DEFAULT_MINUTES = 5.0
@@ -53,7 +55,7 @@ MIN_FREE_TRIALS = 1
 """The prior's refit needs free-space motion (the internal force alone)."""
 MIN_TRACTION_TRIALS = 2
 """One traction trial to finetune on, one to stop on (validation)."""
-INSERTION_COLUMNS = ("insertion_velocity", "insertion_effort")
+INSERTION_COLUMNS = tuple(joint_column(INSERTION_JOINT, q) for q in ("velocity", "effort"))
 """What the prior's fit would fit the insertion-effort model on; left out of the refit."""
 VALIDATION_FRACTION = 0.1
 """As in training and finetuning; :func:`split_validation` takes at least one family from every

@@ -66,7 +66,9 @@ import numpy as np
 import pandas as pd
 
 from hybrid.data import FEATURE_SETS, NO_BASE, resolve_features, target_matrix
-from psm_model.recording import HEX10, HEX10_FORCE, JOINT_POSITIONS, PAPER_FEATURES
+from psm_model.conventions import INSERTION_JOINT, JOINTS, WRIST_JOINTS
+from psm_model.recording import (HEX10, HEX10_FORCE, JOINT_POSITIONS, PAPER_FEATURES,
+                                 joint_column)
 
 COMPENSATED_HEX10 = tuple(f"comp_{c}" for c in HEX10)
 """HEX10 reading minus the prior's internal wrench: comp_fx .. comp_tz (N, Nm, HEX10 frame)."""
@@ -208,11 +210,11 @@ class SamplePrior:
     """
 
     input_columns = (JOINT_POSITIONS
-                     + ("wrist_pitch_effort", "wrist_yaw_effort", "jaw_effort")
-                     + ("wrist_pitch_velocity", "wrist_yaw_velocity", "jaw_velocity")
-                     + ("insertion_velocity", "insertion_effort"))
-    _ROLL, _WRIST_PITCH = JOINT_POSITIONS.index("roll_position"), JOINT_POSITIONS.index(
-        "wrist_pitch_position")
+                     + tuple(joint_column(j, "effort") for j in WRIST_JOINTS)
+                     + tuple(joint_column(j, "velocity") for j in WRIST_JOINTS)
+                     + (joint_column(INSERTION_JOINT, "velocity"),
+                        joint_column(INSERTION_JOINT, "effort")))
+    _ROLL, _WRIST_PITCH = JOINTS.index("roll"), JOINTS.index("wrist_pitch")
 
     def __init__(self, prior, psm=None):
         from psm_model import PSM

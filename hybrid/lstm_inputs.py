@@ -14,12 +14,12 @@ import numpy as np
 
 from hybrid.data import Trial
 from psm_model.conventions import CHAIN_JOINTS
+from psm_model.recording import joint_column
 
 LSTM_JACOBIAN_COLUMNS = tuple(f"lstm_map_{r}{c}" for r in range(3) for c in range(6))
-LSTM_FEATURES = (tuple(f"{j}_position" for j in CHAIN_JOINTS)
-                 + tuple(f"{j}_velocity" for j in CHAIN_JOINTS)
-                 + tuple(f"{j}_effort" for j in CHAIN_JOINTS)
-                 + LSTM_JACOBIAN_COLUMNS)
+CHAIN_POSITIONS = tuple(joint_column(j, "position") for j in CHAIN_JOINTS)
+LSTM_FEATURES = (CHAIN_POSITIONS + tuple(joint_column(j, "velocity") for j in CHAIN_JOINTS)
+                 + tuple(joint_column(j, "effort") for j in CHAIN_JOINTS) + LSTM_JACOBIAN_COLUMNS)
 """Inputs of :class:`hybrid.models.JointLSTMForce`: (q, dq) of joints 1-6 (standardised), their
 measured efforts and the 3x6 map A(q) = R_base_hex10^T J_s^-T[:3] (both left raw)."""
 LSTM_RAW_COLUMNS = LSTM_FEATURES[12:]
@@ -39,7 +39,7 @@ def lstm_columns(psm) -> Callable[[Trial], dict[str, np.ndarray]]:
     calls give it for a whole recording at once.
     """
     def derive(trial: Trial) -> dict[str, np.ndarray]:
-        q = trial.matrix([f"{j}_position" for j in CHAIN_JOINTS], np.float64)
+        q = trial.matrix(CHAIN_POSITIONS, np.float64)
         n = len(q)
         cols = []
         for j in range(6):
