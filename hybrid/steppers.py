@@ -121,10 +121,12 @@ def step_onnx_bytes(model: torch.nn.Module) -> bytes:
     names = list(model.state_names)
     example = (torch.zeros(1, model.n_features), *model.stream_state(1))
     buffer = io.BytesIO()
-    # the legacy (TorchScript) exporter: the newer one needs onnxscript, not a dependency here
+    # the legacy (TorchScript) exporter: the newer one needs onnxscript, not a dependency here.
+    # The wrapper in eval mode: the exporter restores the wrapper's mode on the whole tree
+    # afterwards, and a fresh module is in training mode (it left ``model`` with dropout on).
     with torch.no_grad(), warnings.catch_warnings():
         warnings.simplefilter("ignore", DeprecationWarning)
-        torch.onnx.export(_StepGraph(model), example, buffer, dynamo=False, opset_version=OPSET,
+        torch.onnx.export(_StepGraph(model).eval(), example, buffer, dynamo=False, opset_version=OPSET,
                           input_names=["x", *names],
                           output_names=["y", *(f"{n}_out" for n in names)])
     return buffer.getvalue()

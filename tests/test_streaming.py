@@ -16,6 +16,7 @@ from hybrid.inputs import (BASE_COLUMNS, COMPENSATED_HEX10, HYBRID_FEATURES, Hex
                            sample_prior)
 from hybrid.postfilter import CausalFilter
 from hybrid.recipes import build_model
+from hybrid.steppers import step_onnx_bytes
 from hybrid.streaming import CHAIN_POSITIONS, Flags, StreamingError, StreamingEstimator
 from psm_model.identification.insertion import InsertionEffortModel
 from psm_model.recording import HEX10, PAPER_FEATURES, REQUIRED
@@ -198,6 +199,14 @@ def test_any_model_that_follows_the_step_protocol_streams_on_torch_and_onnx():
         StreamingEstimator(toy, PAPER_FEATURES[:3], xs, ys)
     with pytest.raises(StreamingError, match="Linear lacks kind, window, n_features"):
         StreamingEstimator(torch.nn.Linear(21, 3), PAPER_FEATURES, xs, ys)
+
+
+def test_building_the_step_graph_leaves_the_model_in_eval_mode():
+    # the ONNX exporter restores its wrapper's mode on the whole tree: it once switched dropout
+    # on in the model a torch stepper built before the export was running
+    model, _, _ = model_and_scalers()
+    step_onnx_bytes(model)
+    assert not model.training
 
 
 def test_bad_samples_flagged_state_untouched_and_recovery():
