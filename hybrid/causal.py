@@ -1,22 +1,25 @@
 """The hybrid's network: a small causal transformer with sliding-window attention.
 
 :class:`CausalTransformer` (``CausalTransformer(n_features, d_model=32, n_heads=4, n_layers=2,
-d_ff=64, attention_window=50, dropout=0.1)``) maps a sequence of standard-scaled input samples to
-a standard-scaled 3-vector per sample (the residual force, see :mod:`hybrid.inputs`):
+d_ff=64, attention_window=50, dropout=0.1, uncertainty=False)``) maps a sequence of
+standard-scaled input samples to a standard-scaled 3-vector per sample (the residual force, see
+:mod:`hybrid.inputs`); with ``uncertainty=True`` to 6 channels per sample, C = 6 below: that
+mean, then its log-variance per axis, soft-clamped (:mod:`hybrid.uncertainty`;
+``predicts_variance`` says which). C = 3 otherwise:
 
-* ``forward(x: (B, T, F)) -> (B, T, 3)``: chunk training and offline prediction (blocked
+* ``forward(x: (B, T, F)) -> (B, T, C)``: chunk training and offline prediction (blocked
   sliding-window attention: O(T W) per layer, not the O(T^2) of a masked dense attention);
   output ``t`` depends on inputs ``t - window + 1 .. t`` only (causal), so every sample of a
   chunk can be supervised; the first ``window - 1`` outputs of a chunk see a truncated history (the training
   loop skips them: ``kind = "chunk"``, warm-up ``window``).
 * ``stream_state(batch=1) -> (keys, values, n_valid)`` and ``stream_step(x: (B, F), keys,
-  values, n_valid) -> (y: (B, 3), keys, values, n_valid)``: the step protocol of
+  values, n_valid) -> (y: (B, C), keys, values, n_valid)``: the step protocol of
   :mod:`hybrid.steppers`, one new sample per call. ``keys``/``values`` are the per-layer caches
   (n_layers, B, attention_window, d_model), oldest sample first; ``n_valid`` (int64, shape (1,))
   counts the samples in the cache, ``min(samples seen, attention_window)``, and the step advances
   it, so a caller only feeds the state back. Pure function of its inputs (ONNX friendly). Equal
   to ``forward`` over the whole history up to floating-point rounding (tests/test_causal.py).
-* ``predict_sequence(x: (N, F) array) -> (N, 3)``: whole recordings, layer by layer with banded
+* ``predict_sequence(x: (N, F) array) -> (N, C)``: whole recordings, layer by layer with banded
   attention (offline), equal to stepping from an empty state.
 
 A hand-vectorised numpy step of this network lives with the other step backends
@@ -28,11 +31,12 @@ for query t depends on t - s only, never on absolute time), so keys and values c
 exactly and a new sample costs one token per layer. Stacking ``n_layers`` such layers gives a
 receptive field ``window = n_layers * (W - 1) + 1`` samples (99 = 0.99 s at 100 Hz with the
 defaults, inside the paper's 100-sample window). Pre-norm residual blocks; the decoder is the
-paper's Linear d - ReLU - Linear 3 (``finetune_modules``: the decoder, as for the paper's model).
+paper's Linear d - ReLU - Linear 3 (Linear 6 with the log-variance; ``finetune_modules``: the
+decoder, as for the paper's model, so finetuning adapts the variance too).
 
 Attributes the training loop reads: ``kind = "chunk"``, ``output_space = "scaled"``,
-``window`` (receptive field, samples), ``finetune_modules()``; streaming also reads
-``n_features`` and ``state_names``.
+``window`` (receptive field, samples), ``finetune_modules()``, ``predicts_variance``; streaming
+also reads ``n_features`` and ``state_names``.
 """
 
 from __future__ import annotations
@@ -43,6 +47,8 @@ import numpy as np
 import torch
 from torch import nn
 from torch.nn import functional as F
+
+from hybrid.uncertainty import output_width, soft_clamp_logvar
 
 _LN_EPS = 1e-5
 
@@ -153,29 +159,34 @@ class _Block(nn.Module):
 
 
 class CausalTransformer(nn.Module):
-    """Causal sliding-window transformer, (B, T, F) -> (B, T, 3); see the module docstring."""
+    """Causal sliding-window transformer, (B, T, F) -> (B, T, 3), or (B, T, 6) with
+    ``uncertainty``; see the module docstring."""
 
     kind = "chunk"
     output_space = "scaled"
     state_names = ("keys", "values", "n_valid")
 
     def __init__(self, n_features: int, d_model: int = 32, n_heads: int = 4, n_layers: int = 2,
-                 d_ff: int = 64, attention_window: int = 50, dropout: float = 0.1):
+                 d_ff: int = 64, attention_window: int = 50, dropout: float = 0.1,
+                 uncertainty: bool = False):
         super().__init__()
         if d_model % n_heads:
             raise ValueError(f"d_model ({d_model}) must be a multiple of n_heads ({n_heads})")
+        if not isinstance(uncertainty, bool):  # a JSON "false" string would read as true
+            raise ValueError(f"uncertainty must be true or false, got {uncertainty!r}")
         if attention_window < 1 or n_layers < 1 or n_features < 1:
             raise ValueError(f"attention_window, n_layers and n_features must be >= 1, got "
                              f"{attention_window}, {n_layers}, {n_features}")
         self.n_features, self.d_model, self.n_layers = n_features, d_model, n_layers
         self.attention_window = attention_window
+        self.predicts_variance = uncertainty
         self.window = n_layers * (attention_window - 1) + 1
         self.embed = nn.Linear(n_features, d_model)
         self.blocks = nn.ModuleList(_Block(d_model, n_heads, d_ff, attention_window, dropout)
                                     for _ in range(n_layers))
         self.norm = nn.LayerNorm(d_model, eps=_LN_EPS)
         self.decoder = nn.Sequential(nn.Linear(d_model, d_model), nn.ReLU(),
-                                     nn.Linear(d_model, 3))
+                                     nn.Linear(d_model, output_width(self)))
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
         if x.dim() != 3 or x.shape[-1] != self.n_features:
@@ -183,7 +194,14 @@ class CausalTransformer(nn.Module):
         h = self.embed(x)
         for block in self.blocks:
             h = block(h)
-        return self.decoder(self.norm(h))
+        return self._decode(h)
+
+    def _decode(self, h: torch.Tensor) -> torch.Tensor:
+        """(..., d) -> (..., C): the decoder, its log-variance channels soft-clamped."""
+        y = self.decoder(self.norm(h))
+        if not self.predicts_variance:
+            return y
+        return torch.cat([y[..., :3], soft_clamp_logvar(y[..., 3:])], dim=-1)
 
     def stream_state(self, batch: int = 1) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
         """Empty (keys, values, n_valid) for :meth:`stream_step`: zeros, nothing seen."""
@@ -196,7 +214,7 @@ class CausalTransformer(nn.Module):
     def stream_step(self, x: torch.Tensor, keys: torch.Tensor, values: torch.Tensor,
                     n_valid: torch.Tensor
                     ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor]:
-        """One sample per batch row: (x (B, F), caches, n_valid) -> (y (B, 3), new keys, new
+        """One sample per batch row: (x (B, F), caches, n_valid) -> (y (B, C), new keys, new
         values, new n_valid). See the module docstring."""
         n_valid = torch.clamp(n_valid + 1, max=self.attention_window)  # this sample is cached
         h = self.embed(x)
@@ -205,10 +223,10 @@ class CausalTransformer(nn.Module):
             h, k, v = block.step(h, keys[i], values[i], n_valid)
             new_keys.append(k)
             new_values.append(v)
-        return self.decoder(self.norm(h)), torch.stack(new_keys), torch.stack(new_values), n_valid
+        return self._decode(h), torch.stack(new_keys), torch.stack(new_values), n_valid
 
     def predict_sequence(self, x: np.ndarray, *, block: int = 2048) -> np.ndarray:
-        """Offline batch path: outputs for every sample of one long sequence x (N, F) -> (N, 3),
+        """Offline batch path: outputs for every sample of one long sequence x (N, F) -> (N, C),
         equal to running :meth:`stream_step` from :meth:`stream_state` (up to float rounding).
 
         Layer by layer over the whole sequence with banded attention (:meth:`_Block.banded`):
@@ -218,7 +236,7 @@ class CausalTransformer(nn.Module):
             h = self.embed(torch.from_numpy(np.ascontiguousarray(x, dtype=np.float32)))
             for blk in self.blocks:
                 h = blk.banded(h, block)
-            return self.decoder(self.norm(h)).numpy()
+            return self._decode(h).numpy()
 
     def finetune_modules(self) -> list[nn.Module]:
         return [self.decoder]

@@ -11,6 +11,12 @@ free space then. It is skipped for models whose recipe says so (the LSTM, as in 
 :attr:`hybrid.recipes.Recipe.bias_correction`) and for trials that do not start in
 free space: traction trials (:data:`NO_FREE_START`), where the hook is attached and the spring
 loaded from the first sample, so the "bias" would remove real force.
+
+A model that predicts its variance (:mod:`hybrid.uncertainty`) is scored the same way on its
+mean; ``evaluate`` adds an ``uncertainty`` block (:func:`hybrid.uncertainty.uncertainty_metrics`:
+mean predicted std, RMSE, 1- and 2-std coverage, Gaussian NLL per axis), overall and per
+condition, over the same samples from :data:`EVAL_START` on, on the raw per-sample mean (no bias
+step, no filter): the std describes one raw estimate, not a post-processed one.
 """
 
 from __future__ import annotations
@@ -25,7 +31,8 @@ import torch
 from hybrid.checkpoint import TrainedModel, load_checkpoint
 from hybrid.data import Trial, base_matrix, load_dataset, sliding_windows
 from hybrid.metrics import POSTPROCESSING, axis_metrics, postprocess
-from hybrid.tables import automated_table, modes_table
+from hybrid.tables import automated_table, modes_table, uncertainty_table
+from hybrid.uncertainty import output_width, predicts_variance, std_newton, uncertainty_metrics
 from psm_model.files import write_text_atomic
 from psm_model.recording import TARGETS
 
@@ -38,17 +45,25 @@ PREDICT_CHUNK = 1024
 
 
 def predict_trial(setup: TrainedModel, trial: Trial, *, batch: int = 8192,
-                  device: str = "cpu") -> np.ndarray:
+                  device: str = "cpu", with_std: bool = False
+                  ) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
     """(N, 3) force estimates in N (HEX10 frame) of ``setup.model`` for one trial (derived
     columns added, :meth:`hybrid.checkpoint.TrainedModel.derive`); NaN where the model has no
     estimate (the first ``window - 1`` samples for window models). Chunk models run over chunks
     of up to :data:`PREDICT_CHUNK` samples overlapping by ``model.window``: exact for a causal
     model whose receptive field is ``window``; for the LSTM a state reset every chunk, after a
-    ``window``-sample warm-up, as in its training."""
+    ``window``-sample warm-up, as in its training.
+
+    ``with_std``: (estimates, (N, 3) standard deviation per axis in N), for a model that
+    predicts its variance (:func:`hybrid.uncertainty.std_newton`); refused for one that does
+    not."""
     model = setup.model
+    if with_std and not predicts_variance(model):
+        raise ValueError(f"the '{setup.model_name}' model predicts no variance (it was not "
+                         f"trained with uncertainty), so it has no std")
     x = setup.input_scaler.transform(trial.matrix(setup.features))
     n = len(x)
-    out = np.full((n, 3), np.nan, dtype=np.float64)
+    out = np.full((n, output_width(model)), np.nan, dtype=np.float64)
     if model.kind == "rocket":   # closed-form window model (hybrid.rocket), numpy in and out
         if n >= model.window:
             out[model.window - 1:] = model.predict(np.ascontiguousarray(
@@ -76,11 +91,14 @@ def predict_trial(setup: TrainedModel, trial: Trial, *, batch: int = 8192,
             for k in range(1, n_chunks):
                 lo, hi = k * step + warm, min(n, k * step + chunk)
                 out[lo:hi] = pred[k][warm:warm + hi - lo]
+    mean = out[:, :3]
     if model.output_space == "scaled":
-        out = setup.target_scaler.inverse(out)
+        mean = setup.target_scaler.inverse(mean)
     if setup.base_columns:
-        out = out + base_matrix(trial, setup.base_columns)
-    return out
+        mean = mean + base_matrix(trial, setup.base_columns)
+    if with_std:
+        return mean, std_newton(out[:, 3:], setup.target_scaler.std)
+    return mean
 
 
 def scored_segment(pred: np.ndarray, trial: Trial, *, bias: bool, rate_hz: float = 100.0,
@@ -119,6 +137,17 @@ def score_modes(predictions: Mapping[str, np.ndarray], trials: Sequence[Trial], 
     return {m: score(predictions, trials, bias=bias, mode=m) for m in POSTPROCESSING}
 
 
+def score_uncertainty(predictions: Mapping[str, tuple[np.ndarray, np.ndarray]],
+                      trials: Sequence[Trial]) -> dict:
+    """Per-axis :func:`hybrid.uncertainty.uncertainty_metrics` over the concatenation of the
+    trials' raw (mean, std) from :data:`EVAL_START` on; see the module docstring."""
+    parts = [(scored_segment(predictions[t.path][0], t, bias=False, mode="causal"),
+              predictions[t.path][1][EVAL_START:]) for t in _scored_trials(trials)]
+    return uncertainty_metrics(np.concatenate([p for (p, _), _ in parts]),
+                               np.concatenate([s for _, s in parts]),
+                               np.concatenate([y for (_, y), _ in parts]))
+
+
 def floor_metrics(trials: Sequence[Trial]) -> dict:
     """{mode: metrics of the ground truth itself through that post-processing}: what a perfect
     estimator would score; no estimator scored that way can do much better (zero error for the
@@ -142,7 +171,9 @@ def evaluate(checkpoint: str | Path, data_dir: str | Path, out_dir: str | Path, 
     if short:  # scored from EVAL_START on: refused by name, not dropped from the tables
         raise ValueError(f"{data_dir}: recordings of at most {EVAL_START} samples (the evaluation "
                          f"start) cannot be scored: {short}")
-    preds = {t.path: predict_trial(ckpt, t, device=device) for t in trials}
+    variance = predicts_variance(ckpt.model)
+    outputs = {t.path: predict_trial(ckpt, t, device=device, with_std=variance) for t in trials}
+    preds = {path: out[0] for path, out in outputs.items()} if variance else outputs
     bias = ckpt.recipe.bias_correction
     conditions = sorted({t.condition for t in trials})
     result = {"checkpoint": str(checkpoint), "model": ckpt.model_name, "data_dir": str(data_dir),
@@ -152,6 +183,12 @@ def evaluate(checkpoint: str | Path, data_dir: str | Path, out_dir: str | Path, 
                                for c in conditions},
               "postprocessing": {"overall": score_modes(preds, trials, bias=bias),
                                  "floor": floor_metrics(trials)}}
+    if variance:
+        result["uncertainty"] = {
+            "overall": score_uncertainty(outputs, trials),
+            "by_condition": {c: score_uncertainty(outputs, [t for t in trials
+                                                            if t.condition == c])
+                             for c in conditions}}
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     write_text_atomic(out / "metrics.json", json.dumps(result, indent=2) + "\n")
@@ -160,6 +197,8 @@ def evaluate(checkpoint: str | Path, data_dir: str | Path, out_dir: str | Path, 
                              result["postprocessing"]["floor"])
     for c, r in result["by_condition"].items():
         md += "\n" + automated_table({ckpt.model_name: r}, c)
+    if variance:
+        md += "\n" + uncertainty_table(result["uncertainty"])
     write_text_atomic(out / "metrics.md", md)
     if plots:
         from hybrid.plots import plot_scatter, plot_time_series

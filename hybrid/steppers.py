@@ -2,7 +2,9 @@
 
 The step protocol. A streamable model is a ``torch.nn.Module`` with
 
-* ``kind = "chunk"``: causal, ``forward(x: (B, T, F)) -> (B, T, 3)``;
+* ``kind = "chunk"``: causal, ``forward(x: (B, T, F)) -> (B, T, C)``, C = 3 channels (the
+  scaled mean) or, where ``predicts_variance`` is true, 6 (then the log-variance of each axis,
+  :mod:`hybrid.uncertainty`; ``predicts_variance`` may be absent, meaning false);
 * ``window``: its receptive field, samples (the streaming warm-up);
 * ``n_features``: F;
 * ``state_names``: one name per state tensor (the step graph's input names; its outputs are
@@ -10,14 +12,14 @@ The step protocol. A streamable model is a ``torch.nn.Module`` with
 * ``stream_state(batch=1) -> tuple[torch.Tensor, ...]``: the state before the first sample,
   all zeros (caches, sample counters), so that an exported graph's user can build it from the
   names, shapes and dtypes alone;
-* ``stream_step(x: (B, F), *state) -> (y: (B, 3), *new_state)``: one sample, a pure tensor
+* ``stream_step(x: (B, F), *state) -> (y: (B, C), *new_state)``: one sample, a pure tensor
   function that ONNX can export; any counter lives in the state and is advanced inside, so a
   caller only feeds the new state back;
-* ``predict_sequence(x: np.ndarray (T, F)) -> (T, 3)``: offline, the same function as stepping
+* ``predict_sequence(x: np.ndarray (T, F)) -> (T, C)``: offline, the same function as stepping
   from ``stream_state()``.
 
 :func:`not_streamable` checks it (:class:`hybrid.causal.CausalTransformer` follows it). The
-backends, each a batch-1 runner with ``reset()``, ``step(x (F,) float32) -> (3,)`` (an internal
+backends, each a batch-1 runner with ``reset()``, ``step(x (F,) float32) -> (C,)`` (an internal
 buffer: copy to keep) and ``backend`` (its name), agree within float32 rounding
 (tests/test_streaming.py); their speed is in ``benchmarks/streaming.py``
 (``results/benchmarks/streaming.json``):
@@ -45,6 +47,7 @@ import numpy as np
 import torch
 
 from hybrid.causal import CausalTransformer
+from hybrid.uncertainty import LOGVAR_HALF, LOGVAR_MID
 
 BACKENDS = ("numpy", "onnx", "torch")
 OPSET = 17
@@ -115,7 +118,7 @@ class _StepGraph(torch.nn.Module):
 
 def step_onnx_bytes(model: torch.nn.Module) -> bytes:
     """The ONNX step graph of a streamable ``model``, opset :data:`OPSET`, batch 1: inputs ``x``
-    (1, F) float32 and the state tensors under ``model.state_names``; outputs ``y`` (1, 3) and
+    (1, F) float32 and the state tensors under ``model.state_names``; outputs ``y`` (1, C) and
     ``<name>_out`` per state tensor (the next step's state)."""
     model = model.eval()
     names = list(model.state_names)
@@ -126,8 +129,8 @@ def step_onnx_bytes(model: torch.nn.Module) -> bytes:
     # afterwards, and a fresh module is in training mode (it left ``model`` with dropout on).
     with torch.no_grad(), warnings.catch_warnings():
         warnings.simplefilter("ignore", DeprecationWarning)
-        torch.onnx.export(_StepGraph(model).eval(), example, buffer, dynamo=False, opset_version=OPSET,
-                          input_names=["x", *names],
+        torch.onnx.export(_StepGraph(model).eval(), example, buffer, dynamo=False,
+                          opset_version=OPSET, input_names=["x", *names],
                           output_names=["y", *(f"{n}_out" for n in names)])
     return buffer.getvalue()
 
@@ -151,7 +154,8 @@ class OnnxStepper:
         self._session = ort.InferenceSession(source, options, providers=["CPUExecutionProvider"])
         inputs = {i.name: i for i in self._session.get_inputs()}
         self._x = np.zeros((1, inputs["x"].shape[1]), np.float32)
-        self._y = np.zeros((1, 3), np.float32)
+        outputs = {o.name: o for o in self._session.get_outputs()}
+        self._y = np.zeros(outputs["y"].shape, np.float32)  # (1, C): 3 or 6 channels
         self._states = [[np.zeros(s["shape"], s["dtype"]) for s in state] for _ in range(2)]
         self._bindings = []
         for phase in range(2):
@@ -186,7 +190,9 @@ class NumpyStepper:
     here, written with ``out=``. Keys and values sit in a ring of length 2W where each token is
     written twice (slots ``p`` and ``p + W``), so the last W tokens are always the contiguous,
     oldest-first slice ``[p + 1, p + 1 + W)``: no shifting and no gather per step. The lag bias
-    with the not-yet-filled slots masked is precomputed for every fill level.
+    with the not-yet-filled slots masked is precomputed for every fill level. A model with
+    ``predicts_variance`` gets its log-variance channels soft-clamped as
+    :func:`hybrid.uncertainty.soft_clamp_logvar` does, in place.
     """
 
     backend = "numpy"
@@ -238,7 +244,9 @@ class NumpyStepper:
         self._mix = np.zeros((n_heads, d), f32)
         self._ff = np.zeros(d_ff, f32)
         self._dec_h = np.zeros(d, f32)
-        self._y = np.zeros(3, f32)
+        self._y = np.zeros(dec[2].out_features, f32)
+        # the log-variance channels (a view; empty without them), clamped in place
+        self._logvar = self._y[3:]
         self.reset()
 
     def reset(self) -> None:
@@ -255,7 +263,7 @@ class NumpyStepper:
         return out
 
     def step(self, x: np.ndarray) -> np.ndarray:
-        """x (F,) scaled inputs -> (3,) scaled output. Returns an internal buffer: copy to keep."""
+        """x (F,) scaled inputs -> (C,) scaled output. Returns an internal buffer: copy to keep."""
         d, span = self._d, self._span
         h, a = self._h, self._a
         np.matmul(self._embed[0], x, out=h)
@@ -302,6 +310,13 @@ class NumpyStepper:
         np.maximum(self._dec_h, 0, out=self._dec_h)
         np.matmul(self._dec[2], self._dec_h, out=self._y)
         np.add(self._y, self._dec[3], out=self._y)
+        if self._logvar.size:
+            v, mid, half = self._logvar, np.float32(LOGVAR_MID), np.float32(LOGVAR_HALF)
+            np.subtract(v, mid, out=v)
+            np.divide(v, half, out=v)
+            np.tanh(v, out=v)
+            np.multiply(v, half, out=v)
+            np.add(v, mid, out=v)
         return self._y
 
 

@@ -53,6 +53,17 @@ numpy path, else torch: their order of speed in ``benchmarks/streaming.py``
 Post-filters (the paper's bidirectional median, k = 71, cannot run online): ``"none"``,
 ``"median"`` (trailing), ``"lowpass"`` (Butterworth); :mod:`hybrid.postfilter` holds them.
 
+Uncertainty: a network that predicts its variance (:mod:`hybrid.uncertainty`, the hybrid trained
+with ``{"uncertainty": true}``) gives each :class:`Estimate` a ``std_hex10``, the standard
+deviation of the force estimate per axis in N, ``exp(logvar / 2) * target_scaler.std``: the
+spread the network expects of the true force around its raw estimate, learned with the beta-NLL
+on the training data. It belongs to the raw per-sample estimate: the post-filter smooths the
+force only, not the std, and a HELD estimate keeps the std of the estimate it holds. It is
+given in the HEX10 frame only (``force_base`` is a rotation of the force; the per-axis std of a
+rotated vector is not a rotation of the per-axis std, which would need the covariance). During
+warm-up it is as little trained as the force (training never scored a truncated history).
+``std_hex10`` is None for a network without variance.
+
 :meth:`StreamingEstimator.predict_recording` is the offline batch path (whole recordings,
 same weights, same filter, vectorised): it equals stepping through the recording sample by
 sample within float32 rounding.
@@ -75,6 +86,7 @@ from hybrid.checkpoint import load_checkpoint
 from hybrid.inputs import HexRotation, HybridInputs
 from hybrid.postfilter import CausalFilter
 from hybrid.steppers import StreamingError, make_backend, not_streamable
+from hybrid.uncertainty import predicts_variance, std_newton
 from psm_model.recording import JOINT_POSITIONS, OVERLOAD
 
 CHAIN_POSITIONS = JOINT_POSITIONS
@@ -103,6 +115,9 @@ class Estimate(NamedTuple):
     """:class:`Flags` bits as an int (``Flags(flags)`` names them)."""
     force_base: np.ndarray | None = None
     """(3,) the same force in the PSM base frame, when asked for."""
+    std_hex10: np.ndarray | None = None
+    """(3,) standard deviation of the raw (unfiltered) force estimate per axis, N, HEX10 frame
+    (a copy), for a network that predicts its variance; None otherwise (module docstring)."""
 
 
 class StreamingEstimator:
@@ -172,6 +187,9 @@ class StreamingEstimator:
         self._raw = np.zeros(len(self.columns))
         self._force = np.zeros(3)
         self._held = np.full(3, np.nan)
+        self._variance = predicts_variance(model)
+        self._std = np.zeros(3)
+        self._held_std = np.full(3, np.nan)
         self._outside = np.zeros(n_feat, bool)
         self._in_bounds = np.zeros(len(self.columns), bool)
         self.reset()
@@ -193,6 +211,7 @@ class StreamingEstimator:
         self._last_time: float | None = None
         self._behind = 0
         self._held[:] = np.nan
+        self._held_std[:] = np.nan
 
     def _restart(self) -> None:
         self._net.reset()
@@ -207,7 +226,8 @@ class StreamingEstimator:
         base = np.full(3, np.nan) if base_frame else None
         if base_frame and not np.isnan(self._held).any():
             base = self._rotation() @ self._held
-        return Estimate(self._held.copy(), int(flags), base)
+        return Estimate(self._held.copy(), int(flags), base,
+                        self._held_std.copy() if self._variance else None)
 
     def _rotation(self) -> np.ndarray:
         return self._hex_rotation(self._raw[self._q_index])
@@ -286,12 +306,14 @@ class StreamingEstimator:
             np.greater(inputs.x, self._hi, out=self._outside)
             extrapolating = self._outside.any()
         y = self._net.step(inputs.x)
-        force = self._force
-        np.multiply(y, self._y_std, out=force)
+        force, std = self._force, self._std
+        np.multiply(y[:3], self._y_std, out=force)
         np.add(force, self._y_mean, out=force)
         if len(inputs.base):
             np.add(force, inputs.base, out=force)
-        if not np.isfinite(force).all():
+        if self._variance:
+            std_newton(y[3:], self._y_std, out=std)
+        if not (np.isfinite(force).all() and np.isfinite(std).all()):
             self._restart()
             return self._held_estimate(flags | Flags.RESET, base_frame)
         filtered = self.filter.step(force)
@@ -309,19 +331,26 @@ class StreamingEstimator:
         if (np.abs(filtered) > MAX_FORCE_N).any():
             flags |= Flags.IMPLAUSIBLE
         self._held[:] = filtered
+        self._held_std[:] = std
         base = self._rotation() @ filtered if base_frame else None
-        return Estimate(filtered.copy(), int(flags), base)
+        return Estimate(filtered.copy(), int(flags), base, std.copy() if self._variance else None)
 
-    def predict_recording(self, frame: pd.DataFrame) -> np.ndarray:
+    def predict_recording(self, frame: pd.DataFrame, *, with_std: bool = False
+                          ) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
         """Offline batch path: (N, 3) force estimates (N, HEX10 frame) for a whole recording,
         as if streamed from its first sample (same weights and post-filter), without flags.
-        The recording must be valid (:func:`psm_model.recording.read_recording` checks it)."""
+        The recording must be valid (:func:`psm_model.recording.read_recording` checks it).
+        ``with_std``: (estimates, (N, 3) std per axis in N, unfiltered) for a network that
+        predicts its variance; refused for one that does not."""
+        if with_std and not self._variance:
+            raise StreamingError("this network predicts no variance, so it has no std")
         x, base = self.inputs.frame(frame)
         y = self.model.predict_sequence(x).astype(np.float64)
-        force = y * self._y_std + self._y_mean
+        force = y[:, :3] * self._y_std + self._y_mean
         if base.shape[1]:
             force = force + base
-        return CausalFilter(self.filter.kind, rate_hz=self.rate_hz,
-                            median_kernel=self.filter.median_kernel,
-                            lowpass_hz=self.filter.lowpass_hz,
-                            lowpass_order=self.filter.lowpass_order).offline(force)
+        force = CausalFilter(self.filter.kind, rate_hz=self.rate_hz,
+                             median_kernel=self.filter.median_kernel,
+                             lowpass_hz=self.filter.lowpass_hz,
+                             lowpass_order=self.filter.lowpass_order).offline(force)
+        return (force, std_newton(y[:, 3:], self._y_std)) if with_std else force

@@ -51,6 +51,22 @@ def modes_table(results: Mapping[str, Mapping[str, Mapping]], floor: Mapping[str
     return "\n".join(rows) + "\n"
 
 
+def uncertainty_table(block: Mapping[str, Mapping]) -> str:
+    """The predicted uncertainty against the errors, per axis, overall then per condition:
+    mean predicted std and RMSE (N), the fraction of samples within 1 and 2 std (0.683 / 0.954
+    when calibrated), the Gaussian NLL (nats). ``block``: evaluate's ``uncertainty`` entry."""
+    rows = ["**Predicted uncertainty** (raw per-sample estimate from the evaluation start; a "
+            "calibrated Gaussian has 0.683 within 1 std, 0.954 within 2)", "",
+            "| Trials | Axis | mean std (N) | RMSE (N) | within 1 std | within 2 std | NLL |",
+            "|---|---|---|---|---|---|---|"]
+    for label, by_axis in {"all": block["overall"], **block["by_condition"]}.items():
+        for axis in AXES:
+            r = by_axis[axis]
+            rows.append(f"| {label} | {axis} | {r['mean_std_n']:.3f} | {r['rmse_n']:.3f} | "
+                        f"{r['within_1std']:.3f} | {r['within_2std']:.3f} | {r['nll']:.3f} |")
+    return "\n".join(rows) + "\n"
+
+
 def teleop_table(results: Mapping[str, Mapping[str, Sequence[Mapping]]]) -> str:
     """The paper's finetuning table: rows (condition, seen/unseen, axis), mean ± std over the
     cross-validation folds. ``results``: {model label: {"Rigid/Seen": [axis_metrics per fold]}}."""

@@ -9,6 +9,13 @@ sample; chunk models see (B, T, F) chunks and are scored on every sample after a
 (``output_space = "newton"``) are scored after the same target scaling, so every axis weighs the
 same in every loss.
 
+A model that predicts its variance (``predicts_variance``, :mod:`hybrid.uncertainty`: 6 output
+channels, mean and log-variance of the scaled target) is trained and early-stopped on the
+beta-NLL of Seitzer et al. 2022 (beta 0.5) over the same supervised samples, not the MSE: the
+plain Gaussian NLL would let the mean under-fit where the predicted variance is high (each
+sample's error weighs 1 / variance), which beta = 0.5 partly undoes. Its losses in the history
+are that NLL (it can be negative). Finetuning trains the decoder, mean and variance together.
+
 A "base" (three columns added to the network output, e.g. the HEX10 force minus the prior's
 internal force for the hybrid) turns the target into the residual ``ATI - base``; the network
 learns that residual and :func:`predict_trial` adds the base back.
@@ -40,6 +47,7 @@ from hybrid.data import (DatasetError, Scaler, Trial, WindowSet, fit_scalers, lo
 from hybrid.inputs import prior_to_json, select_base
 from hybrid.models import count_parameters, freeze_for_finetuning
 from hybrid.recipes import DERIVATIONS, Features, Inputs, build_model, recipe
+from hybrid.uncertainty import beta_nll, predicts_variance
 
 DEFAULT_CHUNK = 400
 """Chunk length (samples) for chunk models: 4 s at 100 Hz, 3 s of it supervised with window 100."""
@@ -92,6 +100,8 @@ def _loss(model: nn.Module, x: torch.Tensor, y: torch.Tensor,
             target_scaler.std, device=pred.device)
     if model.kind == "chunk":
         pred, y = pred[:, model.window:], y[:, model.window:]
+    if predicts_variance(model):
+        return beta_nll(pred[..., :3], pred[..., 3:], y)
     return torch.mean((pred - y) ** 2)
 
 
@@ -386,6 +396,23 @@ def _epochs(epochs) -> None:
         raise TrainingError(f"epochs must be an integer >= 1, got {epochs!r}")
 
 
+def check_config(model: str, config: dict | None, features: Features = None,
+                 use_prior: bool = True) -> None:
+    """Refuse, before any data is read, a constructor ``config`` that does not build ``model``
+    (unknown or ill-typed arguments): the model is built once, untrained, on the recipe's
+    input count."""
+    if config is None:
+        return
+    if not isinstance(config, dict):
+        raise TrainingError(f"config must be a dict of the '{model}' model's constructor "
+                            f"arguments, got {type(config).__name__}")
+    n_features = len(recipe(model).inputs(features, use_prior).features)
+    try:
+        build_model(model, n_features, config)
+    except (TypeError, ValueError) as err:
+        raise TrainingError(f"config {config} does not build a '{model}' model: {err}") from None
+
+
 def train(data_dir: str | Path, model: str, out_checkpoint: str | Path, *,
           features: Features = None, epochs: int = 100, seed: int = 0, device: str = "cpu",
           prior=None, use_prior: bool = True, config: dict | None = None,
@@ -395,11 +422,14 @@ def train(data_dir: str | Path, model: str, out_checkpoint: str | Path, *,
     and write a checkpoint. ``features``: a name of :data:`hybrid.data.FEATURE_SETS` or a column
     list (the LSTM's inputs are fixed). Models whose recipe uses the prior: ``prior`` is an
     InternalForcePrior or the path of its JSON, fitted on the training trials when None;
-    ``use_prior=False`` trains the "without the prior" ablation. ``train_config`` defaults to
-    the recipe's optimiser settings. Returns a summary (losses, epochs, windows, seconds,
-    checkpoint path)."""
+    ``use_prior=False`` trains the "without the prior" ablation. ``config``: the model
+    constructor's keyword arguments (e.g. ``{"uncertainty": True}`` for a hybrid that predicts
+    its variance, :mod:`hybrid.uncertainty`), checked before the data is read
+    (:func:`check_config`). ``train_config`` defaults to the recipe's optimiser settings.
+    Returns a summary (losses, epochs, windows, seconds, checkpoint path)."""
     spec = recipe(model)
     _epochs(epochs)
+    check_config(model, config, features, use_prior)
     if prior is not None and not (spec.uses_prior and use_prior):
         raise TrainingError(f"a prior was given, but the '{model}' model "
                             f"{'is trained without one' if spec.uses_prior else 'uses none'}")

@@ -166,6 +166,11 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--features", help="feature set name (default: the model's own inputs, the "
                                        "paper's for most)")
     p.add_argument("--prior", help="prior JSON (hybrid; default: fit one on the data's free space)")
+    p.add_argument("--config", metavar="JSON",
+                   help="the model constructor's keyword arguments as a JSON object, inline or "
+                        "a file holding one, e.g. '{\"uncertainty\": true}' for a hybrid that "
+                        "also predicts the std of its estimate (hybrid/uncertainty.py); checked "
+                        "before any data is read (default: the model's defaults)")
     training_arguments(p, "training statistics")
 
     p = add("finetune", commands.finetune_command, "finetune an estimator on new recordings",

@@ -66,6 +66,23 @@ def _training_options(args) -> None:
     output_file(args.out, "--out")
 
 
+def json_object(value: str | None, option: str) -> dict | None:
+    """An option holding a JSON object, as the path of a file holding one or inline; None when
+    the option is not given."""
+    if value is None:
+        return None
+    is_file = Path(value).is_file()
+    try:
+        parsed = json.loads(Path(value).read_text() if is_file else value)
+    except json.JSONDecodeError as err:
+        what = f"file {value} holds no valid JSON" if is_file else \
+            f"{value!r} is neither valid JSON nor an existing file"
+        raise ValueError(f"{option}: {what} ({err})") from None
+    if not isinstance(parsed, dict):
+        raise ValueError(f"{option}: expected a JSON object, got {type(parsed).__name__}")
+    return parsed
+
+
 def write_json(path: str | None, payload: dict) -> None:
     if path is None:
         return
@@ -196,9 +213,10 @@ def fit_prior_command(args) -> dict:
 
 def train_command(args) -> dict:
     _training_options(args)
-    from hybrid.train import train
+    config = json_object(args.config, "--config")
+    from hybrid.train import train  # checks the config builds the model before reading data
     return train(args.data, args.model, args.out, features=args.features, epochs=args.epochs,
-                 seed=args.seed, device=args.device, prior=args.prior)
+                 seed=args.seed, device=args.device, prior=args.prior, config=config)
 
 
 def finetune_command(args) -> dict:

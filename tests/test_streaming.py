@@ -79,9 +79,12 @@ def recording(n: int = 400, seed: int = 0) -> pd.DataFrame:
     return pd.DataFrame(cols)
 
 
-def model_and_scalers(n_features: int = 21, seed: int = 0):
+def model_and_scalers(n_features: int = 21, seed: int = 0, **config):
+    """A small causal transformer (``config``: more constructor arguments) with non-zero lag
+    biases, and input / target scalers."""
     torch.manual_seed(seed)
-    model = CausalTransformer(n_features, d_model=16, n_heads=2, d_ff=32, attention_window=8)
+    model = CausalTransformer(n_features, d_model=16, n_heads=2, d_ff=32, attention_window=8,
+                              **config)
     with torch.no_grad():
         for block in model.blocks:
             block.lag_bias.normal_()
