@@ -23,7 +23,7 @@ from hybrid.train import (TrainConfig, TrainingError, _loss, finetune_model, mak
                           train, train_model)
 from hybrid.uncertainty import LOGVAR_MAX, LOGVAR_MIN, beta_nll, soft_clamp_logvar
 from psmforce.cli import main
-from test_hybrid_pipeline import _write_dataset
+from test_recipes import data  # noqa: F401  (the small bench, a module fixture)
 from test_streaming import StandInPrior, model_and_scalers, one_thread, recording  # noqa: F401
 
 SMALL = {"d_model": 16, "n_heads": 2, "d_ff": 32, "attention_window": 8}
@@ -186,14 +186,6 @@ def test_the_export_carries_the_log_variance_and_says_how_to_read_it(tmp_path):
     assert json.loads((tmp_path / "plain" / "hybrid.json").read_text())["uncertainty"] is None
     with pytest.raises(ExportError, match="predicts no variance"):
         run_export(tmp_path / "plain", frame, with_std=True)
-
-
-@pytest.fixture(scope="module")
-def data(tmp_path_factory):
-    root = tmp_path_factory.mktemp("bench")
-    return _write_dataset(root / "data", ((split, cond, k) for k, (split, cond) in enumerate(
-        [("train", "Traction")] * 2 + [("train", "Free")] * 2
-        + [("test", "Traction"), ("test", "Free")])))
 
 
 def test_the_cli_trains_a_hybrid_with_uncertainty_and_evaluate_scores_it(data, tmp_path):
