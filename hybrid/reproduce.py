@@ -405,8 +405,9 @@ def _curves(specs, results) -> dict:
 def _timing(checkpoints: dict, reps: int = 300) -> dict:
     """Batch-1 latency of one force estimate per model on one CPU thread (ms; mean, std, p99).
     Window models recompute their window; a streaming model runs one step of its numpy backend
-    (the hybrid: key / value cache); the LSTM one recurrent step (state carried). Network only."""
-    from hybrid.steppers import NumpyStepper
+    where it has one (the hybrid: key / value cache), else of the torch one; the LSTM one
+    recurrent step (state carried). Network only."""
+    from hybrid.steppers import has_numpy_path, make_backend
     threads = torch.get_num_threads()
     torch.set_num_threads(1)
     out = {}
@@ -419,9 +420,9 @@ def _timing(checkpoints: dict, reps: int = 300) -> dict:
                     x = torch.randn(1, model.window, n_f)
                     call, mode = (lambda: model(x)), "full window"
                 elif ckpt.recipe.streams:
-                    stepper = NumpyStepper(model)
+                    stepper = make_backend(model, "numpy" if has_numpy_path(model) else "torch")
                     x1 = np.random.default_rng(0).normal(size=n_f).astype(np.float32)
-                    call, mode = (lambda: stepper.step(x1)), "streaming step (numpy, KV cache)"
+                    call, mode = (lambda: stepper.step(x1)), f"streaming step ({stepper.backend})"
                 else:
                     x1 = torch.randn(1, n_f)
                     state = [model.step(x1)[1]]

@@ -328,16 +328,21 @@ def _onnxruntime_installed() -> bool:
     return True
 
 
+def has_numpy_path(model) -> bool:
+    """Whether :class:`NumpyStepper` runs ``model`` (it is written for the hybrid's network)."""
+    return isinstance(model, CausalTransformer)
+
+
 def make_backend(model: torch.nn.Module, backend: str = "auto"):
     """A batch-1 step runner for a streamable ``model`` (see the module docstring); raises
     :class:`StreamingError` for an unknown backend or one the model has no path for."""
     if backend not in ("auto", *BACKENDS):
         raise StreamingError(f"unknown backend {backend!r}; known: {['auto', *BACKENDS]}")
-    numpy_path = isinstance(model, CausalTransformer)  # the only network NumpyStepper runs
     if backend == "auto":
-        backend = "onnx" if _onnxruntime_installed() else "numpy" if numpy_path else "torch"
+        backend = ("onnx" if _onnxruntime_installed() else "numpy" if has_numpy_path(model)
+                   else "torch")
     if backend == "numpy":
-        if not numpy_path:
+        if not has_numpy_path(model):
             raise StreamingError(f"backend 'numpy' runs hybrid.causal.CausalTransformer only, "
                                  f"not {type(model).__name__}; use 'onnx' or 'torch'")
         return NumpyStepper(model)
