@@ -13,7 +13,7 @@ chunk). The paper transformer is timed three ways, all the same function
 
 * ``before``: the stock ``nn.TransformerEncoder`` forward (the implementation this replaced);
 * ``after``: :class:`hybrid.models.PaperTransformer`'s forward (last layer for the last sample
-  only, scaled-dot-product attention);
+  only; attention with its dropout in cache-sized chunks, :mod:`hybrid.attention`);
 * ``after, compiled``: the same through ``torch.compile`` (``TrainConfig.compile``; the first
   two steps, which include compiling, are printed apart).
 

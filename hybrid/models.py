@@ -27,6 +27,8 @@ import torch
 from torch import nn
 from torch.nn import functional as F
 
+from hybrid.attention import attention
+
 LSTM_MAX_TORQUE = (10.0, 10.0, 10.0, 0.2, 0.2, 0.2)
 """Yang et al.'s output bound per chain joint (tanh x bound): Nm (revolute), N (insertion)."""
 
@@ -62,8 +64,9 @@ class PaperTransformer(nn.Module):
     * only the last sample's estimate is read, so the last layer computes its query, residual,
       norms and feed-forward for the last position only (its keys and values still span the
       window): one third of the work, and the same output as the full layer's last row;
-    * attention goes through :func:`torch.nn.functional.scaled_dot_product_attention`, with the
-      layer's dropout on the attention weights while training (as the stock layer does).
+    * attention goes through :func:`hybrid.attention.attention`: torch's kernel in evaluation,
+      and while training (dropout on the attention weights, as the stock layer does) a chunked
+      path that keeps each chunk's weights in cache, the same function.
 
     ``tests/test_hybrid_pipeline.py`` checks it against the stock ``nn.TransformerEncoder``.
     """
@@ -93,8 +96,7 @@ class PaperTransformer(nn.Module):
             2, 0, 3, 1, 4)
         hq = h[:, -1:] if last_only else h
         q = F.linear(hq, w[:d], b[:d]).unflatten(-1, (heads, d // heads)).transpose(1, 2)
-        attn = F.scaled_dot_product_attention(q, k, v,
-                                              dropout_p=mha.dropout if layer.training else 0.0)
+        attn = attention(q, k, v, dropout_p=mha.dropout if layer.training else 0.0)
         h = layer.norm1(hq + layer.dropout1(mha.out_proj(attn.transpose(1, 2).flatten(-2))))
         ff = layer.linear2(layer.dropout(layer.activation(layer.linear1(h))))
         return layer.norm2(h + layer.dropout2(ff))
