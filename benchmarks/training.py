@@ -8,12 +8,15 @@ Throughput: optimiser steps (forward, backward, Adam) on batches of the training
 (window models: 256 windows; chunk models: 16 chunks, the LSTM's of 1000 samples, the hybrid's of
 400), timed after warm-up steps, best of ``--steps``. Printed and written per model as windows/s
 (chunks/s for chunk models) and supervised samples/s (one per window; ``chunk - window`` per
-chunk). The paper transformer is timed three ways, all the same function
-(``tests/test_hybrid_pipeline.py`` checks the first two equal):
+chunk). The paper transformer is timed four ways, all the same function
+(``tests/test_hybrid_pipeline.py`` checks the own forward against the stock encoder,
+``tests/test_attention.py`` the chunked attention against plain autograd with the same mask):
 
 * ``before``: the stock ``nn.TransformerEncoder`` forward (the implementation this replaced);
-* ``after``: :class:`hybrid.models.PaperTransformer`'s forward (last layer for the last sample
-  only; attention with its dropout in cache-sized chunks, :mod:`hybrid.attention`);
+* ``own forward, torch attention``: :class:`hybrid.models.PaperTransformer`'s forward (last
+  layer for the last sample only) with torch's attention kernel and its dropout;
+* ``after``: the same with the attention and its dropout in cache-sized chunks
+  (:mod:`hybrid.attention`), the model as trained;
 * ``after, compiled``: the same through ``torch.compile`` (``TrainConfig.compile``; the first
   two steps, which include compiling, are printed apart).
 
@@ -36,11 +39,20 @@ import time
 from pathlib import Path
 
 import torch
+from torch.nn import functional as F
 
 from hybrid.models import PaperTransformer
 from hybrid.recipes import build_model, recipe
 from hybrid.train import DEFAULT_CHUNK
 from _report import write_json
+
+
+class _TorchAttentionTransformer(PaperTransformer):
+    """The model's own forward with torch's attention kernel, dropout included (torch's math
+    path on a CPU): the implementation :mod:`hybrid.attention` replaced."""
+
+    attend = staticmethod(lambda q, k, v, dropout_p: F.scaled_dot_product_attention(
+        q, k, v, dropout_p=dropout_p))
 
 
 class _StockTransformer(PaperTransformer):
@@ -82,6 +94,8 @@ def _throughput(steps: int) -> dict:
     lstm_chunk = recipe("lstm").optimiser["chunk"]
     cases = {  # name: (model, input columns, batch, samples per window or chunk, compiled)
         "transformer (before: stock encoder)": (_StockTransformer(21), 21, 256, 100, False),
+        "transformer (own forward, torch attention)": (_TorchAttentionTransformer(21), 21, 256,
+                                                       100, False),
         "transformer (after)": (PaperTransformer(21), 21, 256, 100, False),
         "transformer (after, compiled)": (PaperTransformer(21), 21, 256, 100, True),
         "fcn": (build_model("fcn", 21), 21, 256, 1, False),
@@ -99,7 +113,8 @@ def _throughput(steps: int) -> dict:
         print(f"  {name:38s} {batch / sec:9.1f} {unit}/s {supervised / sec:10.0f} supervised "
               f"samples/s ({sec:.3f} s/step; first two steps {warm:.1f} s)", flush=True)
     before = out["transformer (before: stock encoder)"]["seconds_per_step"]
-    for k in ("transformer (after)", "transformer (after, compiled)"):
+    for k in ("transformer (own forward, torch attention)", "transformer (after)",
+              "transformer (after, compiled)"):
         out[k]["speedup_vs_before"] = before / out[k]["seconds_per_step"]
     return out
 

@@ -108,7 +108,8 @@ def _simulate_task(p: dict) -> dict:
     out = _data_dir(p["run_dir"], p["protocol"], p["seed"])
     if out.exists():
         shutil.rmtree(out)
-    summary = simulate(p["protocol"], scale=p["scale"], seed=p["seed"], out=out)
+    summary = simulate(p["protocol"], scale=p["scale"], seed=p["seed"], out=out,
+                       port=p.get("port", "none"))
     if p["protocol"] == "automated":
         train, _ = _automated_split(load_dataset(out), p["seed"])
         prior = fit_prior(train)
@@ -241,13 +242,16 @@ def _floor_task(p: dict) -> dict:
 def reproduce(out: str | Path, scale: float = 0.1, seeds: Sequence[int] = (1, 2, 3),
               device: str = "cpu", *, budget: str = "full", threads: int = 2,
               models: Sequence[str] | None = None, ablations: bool = True, efficiency: bool = True,
-              teleop: bool = True, ray_address: str | None = None,
+              teleop: bool = True, port: str = "none", ray_address: str | None = None,
               log: Callable[[str], None] | None = None) -> dict:
     """Run (or resume) the grid into ``out`` and write ``results.md``, ``results.json``,
     ``learning_curves.json`` and figures there. ``out`` must be new, empty, or hold a previous
     run at the same scale: its finished tasks are reused, so a run resumes, and a later call
     with more seeds, models or parts adds only what is missing. ``models``: names of
-    :data:`hybrid.recipes.RECIPES` (default: all, in the table's order)."""
+    :data:`hybrid.recipes.RECIPES` (default: all, in the table's order). ``port``: the cannula
+    the shaft passes through on every bench of the run (:data:`psm_model.sim.port.PORT_NAMES`;
+    ``"none"``, the paper's benchtop), like the scale a property of the run: one ``out`` per
+    port."""
     say = log or (lambda s: print(s, flush=True))
     if budget not in BUDGETS:
         raise ValueError(f"unknown budget '{budget}'; known: {sorted(BUDGETS)}")
@@ -257,27 +261,32 @@ def reproduce(out: str | Path, scale: float = 0.1, seeds: Sequence[int] = (1, 2,
     if not seeds:
         raise ValueError("at least one seed")
     from psm_model.sim.dataset import check_scale_and_seed
+    from psm_model.sim.port import port_by_name
+    port_by_name(port)
     for s in seeds:  # before anything is written: a bad value must leave no OUT/work behind
         check_scale_and_seed(scale, s, "seeds")
     out = Path(out)
     call = {"scale": scale, "seeds": list(seeds), "device": device, "budget": budget,
             "models": list(models), "ablations": ablations, "efficiency": efficiency,
-            "teleop": teleop}
-    # Every task is cached by all it depends on; only the benches (scale) are shared by name.
+            "teleop": teleop, "port": port}
+    # Every task is cached by all it depends on; only the benches (scale, port) are shared by
+    # name. Without a port the file and the task parameters are those of runs made before the
+    # port existed, so their caches stay valid.
+    bench = {"scale": scale} | ({} if port == "none" else {"port": port})
     call_file = out / "work" / "scale.json"
     if out.exists() and any(out.iterdir()):
-        if not call_file.exists() or json.loads(call_file.read_text()) != {"scale": scale}:
-            raise ValueError(f"{out} holds another run or a run at another scale (refusing to "
-                             f"mix benches; see {call_file})")
+        if not call_file.exists() or json.loads(call_file.read_text()) != bench:
+            raise ValueError(f"{out} holds another run or a run on another bench (scale, port) "
+                             f"(refusing to mix benches; see {call_file})")
     call_file.parent.mkdir(parents=True, exist_ok=True)
-    write_text_atomic(call_file, json.dumps({"scale": scale}))
+    write_text_atomic(call_file, json.dumps(bench))
     run_dir, cache = str((out / "work").resolve()), out / "work" / "cache"
     common = {"run_dir": run_dir, "budget": budget, "budget_settings": BUDGETS[budget],
               "device": device, "threads": threads}
     started = time.time()
 
-    run_grid([(_simulate_task, {"run_dir": run_dir, "protocol": proto, "scale": scale,
-                                "seed": s}) for s in seeds
+    run_grid([(_simulate_task, {"run_dir": run_dir, "protocol": proto, "seed": s, **bench})
+              for s in seeds
               for proto in ("automated",) + (("teleop",) if teleop else ())],
              cache, ray_address=ray_address, log=say)
     floors = run_grid([(_floor_task, {"run_dir": run_dir, "seed": s, "teleop": teleop})

@@ -227,6 +227,10 @@ def _parser() -> argparse.ArgumentParser:
                    help="skip the ablations (the hybrid's variants)")
     p.add_argument("--no-efficiency", action="store_true", help="skip the data-efficiency runs")
     p.add_argument("--no-teleop", action="store_true", help="skip teleoperation finetuning")
+    p.add_argument("--port", choices=["none", "cannula", "abdominal-wall"], default="none",
+                   help="the cannula every bench of the run passes the shaft through, as "
+                        "`simulate --port` (default none: the paper's benchtop); one --out per "
+                        "port")
     p.add_argument("--ray", metavar="ADDRESS",
                    help="run the tasks on Ray: 'auto', 'local' or a cluster address "
                         "(pip install 'psmforce[cluster]')")

@@ -260,7 +260,7 @@ def reproduce_command(args) -> dict:
     return reproduce(args.out, scale=args.scale, seeds=args.seeds, device=args.device,
                      budget=args.budget, models=args.models, ablations=not args.no_ablations,
                      efficiency=not args.no_efficiency, teleop=not args.no_teleop,
-                     ray_address=args.ray)
+                     port=args.port, ray_address=args.ray)
 
 
 def export_command(args) -> dict:

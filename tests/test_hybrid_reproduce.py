@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import importlib.util
+import json
 
 import pandas as pd
 import pytest
@@ -124,5 +125,22 @@ def test_reproduce_resumes_and_reports_convergence(tmp_path):
     again = reproduce(tmp_path / "run", log=logs.append, **kw)
     assert not any("to run" in line and not line.endswith("0 to run") for line in logs)
     assert again["automated"] == r["automated"]
-    with pytest.raises(ValueError, match="another scale"):
+    with pytest.raises(ValueError, match="another bench"):
         reproduce(tmp_path / "run", **{**kw, "scale": 0.02})
+    with pytest.raises(ValueError, match="another bench"):
+        reproduce(tmp_path / "run", **{**kw, "port": "cannula"})
+
+
+def test_reproduce_on_a_bench_with_a_port(tmp_path):
+    """``port`` simulates every bench of the run through that cannula, is recorded in the call,
+    and an unknown port is refused before anything is written."""
+    with pytest.raises(ValueError, match="port"):
+        reproduce(tmp_path / "bad", scale=0.01, seeds=(1,), port="trocar")
+    assert not (tmp_path / "bad").exists()
+    r = reproduce(tmp_path / "run", scale=0.01, seeds=(1,), budget="quick", models=("fcn",),
+                  ablations=False, efficiency=False, teleop=False, port="cannula",
+                  log=lambda _: None)
+    assert r["call"]["port"] == "cannula"
+    meta = json.loads((tmp_path / "run" / "work" / "data" / "automated_seed1" /
+                       "metadata.json").read_text())
+    assert meta["port"]["name"] == "cannula"
