@@ -39,6 +39,16 @@ changes between regimes, so the Fz residual ``ati_fz - comp_fz`` is not a functi
 alone; without ``prior_fz`` the network must re-derive the prior's nonlinear internal force from
 the joint states to learn it.
 
+**The insertion joint's state** (:data:`INSERTION_STATE`, velocity and position) is an input,
+though the paper left the first three joints' positions and velocities out so that its model
+would not learn the arm's gross pose. ``insertion_fz`` is the insertion effort minus an
+identified model of the stage; what that model leaves (friction that varies along the stroke,
+its stiction and Stribeck regime, a port's seal friction, which depends on the sliding velocity
+and the depth) is a function of the insertion velocity and position, so without them the
+network can only average it out. Chosen on the validation trials of the design bench (seed 0)
+with and without a port: ``benchmarks/hybrid_port_design.py``, docs/results.md. The other
+joints' positions and velocities stay out, as in the paper.
+
 ``use_prior=False`` (the "hybrid without the prior" ablation, :func:`hybrid_columns`): the same
 network on the paper's raw 21 inputs with the raw HEX10 force as the base, i.e. the prior
 replaced by zero.
@@ -67,8 +77,8 @@ import pandas as pd
 
 from hybrid.data import FEATURE_SETS, NO_BASE, resolve_features, target_matrix
 from psm_model.conventions import INSERTION_JOINT, JOINTS, WRIST_JOINTS
-from psm_model.recording import (HEX10, HEX10_FORCE, JOINT_POSITIONS, PAPER_FEATURES,
-                                 joint_column)
+from psm_model.recording import (HEX10, HEX10_FORCE, JOINT_EFFORTS, JOINT_POSITIONS,
+                                 JOINT_VELOCITIES, PAPER_FEATURES, joint_column)
 
 COMPENSATED_HEX10 = tuple(f"comp_{c}" for c in HEX10)
 """HEX10 reading minus the prior's internal wrench: comp_fx .. comp_tz (N, Nm, HEX10 frame)."""
@@ -87,7 +97,17 @@ HYBRID_FEATURES = tuple(f"comp_{c}" if c in HEX10 else c for c in PAPER_FEATURES
 HYBRID_FEATURES_PRIOR_FZ = HYBRID_FEATURES + (PRIOR_FZ,)
 """:data:`HYBRID_FEATURES` plus the prior's internal fz (see the module docstring)."""
 HYBRID_FEATURES_INSERTION = HYBRID_FEATURES_PRIOR_FZ + (INSERTION_FZ,)
-"""The hybrid's default inputs: :data:`HYBRID_FEATURES_PRIOR_FZ` plus :data:`INSERTION_FZ`."""
+""":data:`HYBRID_FEATURES_PRIOR_FZ` plus :data:`INSERTION_FZ`."""
+INSERTION_STATE = (joint_column(INSERTION_JOINT, "velocity"),
+                   joint_column(INSERTION_JOINT, "position"))
+"""The insertion joint's velocity (m/s) and position (m): what the residual of ``insertion_fz``
+depends on (module docstring)."""
+HYBRID_INPUTS = HYBRID_FEATURES_INSERTION + INSERTION_STATE
+"""The hybrid's default inputs: :data:`HYBRID_FEATURES_INSERTION` plus :data:`INSERTION_STATE`."""
+
+
+_SIGNAL_GROUPS = (HEX10, JOINT_POSITIONS, JOINT_VELOCITIES, JOINT_EFFORTS)
+"""The signal groups the paper's input ablations remove (:data:`hybrid.data.FEATURE_SETS`)."""
 
 
 class HybridInputError(ValueError):
@@ -97,7 +117,7 @@ class HybridInputError(ValueError):
 def hybrid_columns(use_prior: bool = True) -> tuple[tuple[str, ...], tuple[str, ...]]:
     """(input features, base columns) of the hybrid, or of its no-prior ablation."""
     if use_prior:
-        return HYBRID_FEATURES_INSERTION, BASE_COLUMNS
+        return HYBRID_INPUTS, BASE_COLUMNS
     return PAPER_FEATURES, HEX10_FORCE
 
 
@@ -108,7 +128,8 @@ def hybrid_feature_set(features: str | Sequence[str] | None = None,
 
     With the prior, a named set is the hybrid's inputs (:func:`hybrid_columns`)
     minus the columns whose recorded source that ablation removes (a compensated HEX10 column's
-    source is its HEX10 column); the base (compensated lateral HEX10 force, ``insertion_fz``),
+    source is its HEX10 column; an ablation removes a whole signal group, so "no_positions"
+    removes :data:`INSERTION_STATE`'s position too); the base (compensated lateral HEX10 force, ``insertion_fz``),
     ``prior_fz`` and ``insertion_fz`` stay, since they are the prior's output, not a recorded
     input. The trainers then drop the base on axes
     where it does not help (:func:`select_base`). Without the prior (the ablation of
@@ -119,7 +140,9 @@ def hybrid_feature_set(features: str | Sequence[str] | None = None,
         return tuple(all_inputs), tuple(base)
     if not isinstance(features, str):
         return resolve_features(features), tuple(base)
-    removed = set(FEATURE_SETS["paper"]) - set(resolve_features(features))
+    kept = set(resolve_features(features))
+    removed = {c for group in _SIGNAL_GROUPS if set(group) & set(PAPER_FEATURES) - kept
+               for c in group}
     source = dict(zip(COMPENSATED_HEX10, HEX10))
     return tuple(c for c in all_inputs if source.get(c, c) not in removed), tuple(base)
 

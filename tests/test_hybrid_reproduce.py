@@ -38,14 +38,18 @@ def test_teleop_table_mean_and_std_over_folds():
 
 def test_ablations_drop_the_compensated_columns_of_the_removed_sources():
     feats, base = hybrid_feature_set(None)
-    assert feats == hybrid_mod.HYBRID_FEATURES_INSERTION and base == hybrid_mod.BASE_COLUMNS
+    assert feats == hybrid_mod.HYBRID_INPUTS and base == hybrid_mod.BASE_COLUMNS
     no_hex10, base = hybrid_feature_set("no_hex10")
-    assert len(no_hex10) == 17 and base == hybrid_mod.BASE_COLUMNS
+    assert len(no_hex10) == 19 and base == hybrid_mod.BASE_COLUMNS
     assert not set(no_hex10) & set(hybrid_mod.COMPENSATED_HEX10)
     assert {hybrid_mod.PRIOR_FZ, hybrid_mod.INSERTION_FZ} <= set(no_hex10)  # the prior's outputs
-    assert len(hybrid_feature_set("no_efforts")[0]) == 16
-    assert set(hybrid_feature_set("no_positions_velocities")[0]) == (
-        set(feats) - (set(FEATURE_SETS["paper"]) - set(FEATURE_SETS["no_positions_velocities"])))
+    assert len(hybrid_feature_set("no_efforts")[0]) == 18
+    # an ablation removes its whole signal group: the insertion state's position or velocity too
+    velocity, position = hybrid_mod.INSERTION_STATE
+    for name, insertion in (("no_positions_velocities", {velocity, position}),
+                            ("no_positions", {position}), ("no_velocities", {velocity})):
+        assert set(hybrid_feature_set(name)[0]) == (
+            set(feats) - (set(FEATURE_SETS["paper"]) - set(FEATURE_SETS[name])) - insertion)
     raw, raw_base = hybrid_feature_set(None, use_prior=False)
     assert raw == FEATURE_SETS["paper"] and raw_base == ("fx", "fy", "fz")
 
