@@ -25,15 +25,17 @@ def _reference(q, k, v, p, chunk, seed):
 @pytest.mark.parametrize("chunk, l_q", [(3, 7), (10, 7), (3, 1)])
 def test_dropped_attention_equals_autograd_with_the_same_mask(chunk, l_q):
     torch.manual_seed(0)
-    q = torch.randn(10, 2, l_q, 4, dtype=torch.float64, requires_grad=True)
-    k, v = (torch.randn(10, 2, 7, 4, dtype=torch.float64, requires_grad=True) for _ in "kv")
+    # (B, L, H, d) transposed to (B, H, L, d): strided like the model's heads
+    leaves = [torch.randn(10, n, 2, 4, dtype=torch.float64, requires_grad=True)
+              for n in (l_q, 7, 7)]
+    q, k, v = (t.transpose(1, 2) for t in leaves)
     torch.manual_seed(5)
     out = attention(q, k, v, dropout_p=0.3, chunk=chunk)
     ref, keep = _reference(q, k, v, 0.3, chunk, seed=5)
     torch.testing.assert_close(out, ref)
     assert 0.15 < 1 - keep.double().mean() < 0.45   # some weights dropped, not all
     g = torch.randn_like(out)
-    for a, b in zip(torch.autograd.grad(out, (q, k, v), g), torch.autograd.grad(ref, (q, k, v), g)):
+    for a, b in zip(torch.autograd.grad(out, leaves, g), torch.autograd.grad(ref, leaves, g)):
         torch.testing.assert_close(a, b)
 
 
