@@ -86,8 +86,8 @@ def _config(budget: str, stage: str, seed: int, device: str, model: str) -> Trai
     hparams = dict(recipe(model).optimiser)
     if stage == "finetune":
         hparams = {k: v for k, v in hparams.items() if k not in ("lr", "weight_decay")}
-    caps = BUDGETS[budget][stage]
-    return TrainConfig(**{**caps.get(model, caps["default"]), **hparams, "seed": seed,
+    caps = BUDGETS[budget][stage]   # after the model's settings: a smoke run's caps win
+    return TrainConfig(**{**hparams, **caps.get(model, caps["default"]), "seed": seed,
                           "device": device, "progress": False})
 
 

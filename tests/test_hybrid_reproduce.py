@@ -83,6 +83,9 @@ def test_budgets_keep_the_papers_optimiser_settings():
     assert (lstm.lr, lstm.weight_decay, lstm.chunk) == (5e-3, 1e-6, 1000)
     tele_lstm = _config("full", "finetune", 0, "cpu", "lstm")
     assert (tele_lstm.lr, tele_lstm.weight_decay, tele_lstm.chunk) == (1e-3, 1e-4, 1000)
+    hybrid = _config("full", "pretrain", 0, "cpu", "hybrid")
+    assert hybrid.max_epochs == 300 and hybrid.max_batches_per_epoch is None
+    assert _config("quick", "pretrain", 0, "cpu", "hybrid").max_epochs == 2   # caps win
     assert set(BUDGETS) == {"full", "cpu", "quick"}
     for stage in BUDGETS["full"].values():   # the published budget caps nothing
         assert not any(k.startswith("max_") for caps in stage.values() for k in caps)
