@@ -14,8 +14,10 @@ and reused), fits the prior on its training trials, trains each variant below to
 (the 10 % of training trials ``reproduce`` holds out): causal NRMSE % (the raw estimate a
 haptic loop gets) and the paper's. The test trials are not opened.
 
-Variants: the recipe's inputs (the default); + insertion velocity; + insertion velocity and
-position; and the default inputs without the ``insertion_fz`` base on z (the network then
+Variants: "default", the recipe's inputs when the study was made (the paper's 21 with the
+compensated HEX10, ``prior_fz`` and ``insertion_fz``); + insertion velocity; + insertion velocity
+and position (the winner, since then the recipe's default, :data:`hybrid.inputs.HYBRID_INPUTS`);
+and "default" without the ``insertion_fz`` base on z (the network then
 predicts Fz, with ``insertion_fz`` still an input, so it can weigh it against the HEX10).
 """
 
