@@ -24,6 +24,7 @@ predicts Fz, with ``insertion_fz`` still an input, so it can weigh it against th
 from __future__ import annotations
 
 import argparse
+import shutil
 from pathlib import Path
 
 import numpy as np
@@ -55,7 +56,6 @@ def _bench(work: Path, port: str, scale: float, seed: int) -> Path:
     out = work / f"automated_{port}_scale{scale}_seed{seed}"
     if not (out / "metadata.json").exists():   # metadata is written last: absent = unfinished
         if out.exists():
-            import shutil
             shutil.rmtree(out)
         simulate("automated", scale=scale, seed=seed, out=out, port=port)
     return out

@@ -129,8 +129,8 @@ def hybrid_feature_set(features: str | Sequence[str] | None = None,
     With the prior, a named set is the hybrid's inputs (:func:`hybrid_columns`)
     minus the columns whose recorded source that ablation removes (a compensated HEX10 column's
     source is its HEX10 column; an ablation removes a whole signal group, so "no_positions"
-    removes :data:`INSERTION_STATE`'s position too); the base (compensated lateral HEX10 force, ``insertion_fz``),
-    ``prior_fz`` and ``insertion_fz`` stay, since they are the prior's output, not a recorded
+    removes :data:`INSERTION_STATE`'s position too); the base (compensated lateral HEX10
+    force, ``insertion_fz``), ``prior_fz`` and ``insertion_fz`` stay, since they are the prior's output, not a recorded
     input. The trainers then drop the base on axes
     where it does not help (:func:`select_base`). Without the prior (the ablation of
     :func:`hybrid_columns`), the named set itself with the raw HEX10 force as base.
