@@ -19,6 +19,11 @@ nominal row separates that from adapting to the tool. NRMSE % per axis by the
 causal metric (raw per-sample estimate, no look-ahead) and the paper's (bias + centred median),
 ``hybrid.evaluate``; mean +- std over bench seeds x tool seeds.
 
+``--pair-tools`` gives the k-th bench seed only the k-th tool seed: one drawn instrument per
+bench seed, so a row's spread is over as many (bench, tool) pairs as seeds, for a third of the
+cost of every pairing. The run is resumable: every training, calibration and score is kept under
+``--work`` (a score as ``records/*.json``) and reused by the same command.
+
 ``--smoke`` trains and calibrates with capped batches and one epoch (``hybrid.train.TrainConfig``
 caps): it shows the mechanics run end to end and its JSON says "smoke run, not converged"; its
 figures compare nothing.
@@ -27,6 +32,7 @@ figures compare nothing.
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 import time
 from pathlib import Path
@@ -40,6 +46,7 @@ from hybrid.metrics import AXES
 from hybrid.recipes import RECIPES, recipe
 from hybrid.train import TrainConfig, train
 from psm_model.sim import simulate
+from psm_model.files import write_json_atomic
 from _report import write_json
 
 MODES = ("causal", "paper")
@@ -62,6 +69,16 @@ def _scores(ckpt: Path, data: Path, out: Path) -> dict:
                           for m in MODES},
             "floor_nrmse_pct": {m: {a: modes["floor"][m][a]["nrmse_pct"] for a in AXES}
                                 for m in MODES}}
+
+
+def _kept(path: Path, compute) -> dict:
+    """The JSON at ``path``, or ``compute()`` written there first: a rerun resumes."""
+    if path.is_file():
+        return json.loads(path.read_text())
+    path.parent.mkdir(parents=True, exist_ok=True)
+    result = compute()
+    write_json_atomic(path, result)
+    return result
 
 
 def _bench(path: Path, scale: float, seed: int, **tool) -> Path:
@@ -109,14 +126,16 @@ def main() -> dict:
     ap.add_argument("--checkpoints", type=Path,
                     help="take DIR/{model}_seed{seed}.pt (trained on the nominal bench of that "
                          "scale and seed) instead of training")
-    ap.add_argument("--epochs", type=int, default=100,
-                    help="epoch limit of training and calibration (default 100, the published "
-                         "one; early stopping ends a run before it, and a run that reaches it "
-                         "is reported not converged)")
+    ap.add_argument("--epochs", type=int,
+                    help="epoch limit of training (default: each recipe's, as `psmforce "
+                         "reproduce`; early stopping ends a run before it, and a run that "
+                         "reaches it is reported not converged)")
     ap.add_argument("--calibration-epochs", type=int, default=500,
                     help="epoch limit of each calibration (default 500: a few minutes of trials "
                          "make one or two batches per epoch, and a scale-0.02 trial still "
                          "improved its validation loss at epoch 100)")
+    ap.add_argument("--pair-tools", action="store_true",
+                    help="the k-th bench seed meets only the k-th tool seed (module docstring)")
     ap.add_argument("--smoke", action="store_true",
                     help="one capped epoch per training and calibration: mechanics only")
     ap.add_argument("--work", type=Path, default=Path("runs/another_tool"),
@@ -127,19 +146,26 @@ def main() -> dict:
     torch.set_num_threads(args.threads)
     if args.smoke:   # recorded in the JSON's settings as run
         args.epochs = args.calibration_epochs = 1
+    if args.pair_tools and len(args.tool_seeds) != len(args.seeds):
+        sys.exit(f"--pair-tools: {len(args.seeds)} seeds but {len(args.tool_seeds)} tool seeds")
     rows = [f"{label} {k}" for label in ["nominal"] + [f"{s:g}x" for s in args.spreads]
             for k in ("as is", "calibrated")]
     runs, started = [], time.perf_counter()
-    for seed in args.seeds:
+    benches = {}
+    for k, seed in enumerate(args.seeds):
         work = args.work / f"seed{seed}"
-        nominal = _bench(work / "nominal_train", args.scale, seed)
         tests = {"nominal": (_bench(work / "nominal_test", args.test_scale, seed), None)}
         for spread in args.spreads:
-            for tool in args.tool_seeds:
+            for tool in [args.tool_seeds[k]] if args.pair_tools else args.tool_seeds:
                 tests[f"{spread:g}x tool{tool}"] = (
                     _bench(work / f"tool{tool}_x{spread:g}", args.test_scale, seed,
                            tool_seed=tool, tool_spread=spread), (tool, spread))
-        for model in args.models:
+        benches[seed] = (_bench(work / "nominal_train", args.scale, seed), tests)
+    # models outermost, the cheap ones first on the command line: a run stopped part-way has
+    # whole models done, and the same command resumes it
+    for model in args.models:
+        for seed, (nominal, tests) in benches.items():
+            work = args.work / f"seed{seed}"
             if args.checkpoints:
                 ckpt = args.checkpoints / f"{model}_seed{seed}.pt"
                 if not ckpt.is_file():
@@ -147,8 +173,11 @@ def main() -> dict:
                 trained = {"checkpoint": str(ckpt), "converged": None}
             else:
                 ckpt = work / f"{model}.pt"
-                report = train(nominal, model, ckpt, epochs=args.epochs, seed=seed,
-                               train_config=_config(model, args.smoke))
+                epochs = args.epochs or _config(model, False).max_epochs
+                report = _kept(work / f"{model}.train.json", lambda: {
+                    k: v for k, v in train(nominal, model, ckpt, epochs=epochs, seed=seed,
+                                           train_config=_config(model, args.smoke)).items()
+                    if k in ("converged", "epochs_run")})
                 trained = {"checkpoint": str(ckpt), "converged": report["converged"],
                            "epochs_run": report["epochs_run"]}
             for name, (data, tool) in tests.items():
@@ -156,18 +185,21 @@ def main() -> dict:
                         "tool_seed": None if tool is None else tool[0],
                         "tool_spread": None if tool is None else tool[1]}
                 label = "nominal" if tool is None else f"{tool[1]:g}x"
-                runs.append(base | {"row": f"{label} as is", **_scores(
-                    ckpt, data, work / "eval" / f"{model}_{name.replace(' ', '_')}")})
-                cal = work / f"{model}_{name.replace(' ', '_')}_cal.pt"
-                cal_report = calibrate(ckpt, data, cal, minutes=args.minutes,
-                                       epochs=args.calibration_epochs,
-                                       seed=seed, train_config=_config(None, args.smoke))
-                record = cal_report["calibration"]
-                runs.append(base | {
-                    "row": f"{label} calibrated",
-                    "calibration": {k: record[k] for k in ("minutes_used", "minutes_by_condition",
-                                                           "epochs_run", "converged")},
-                    **_scores(cal, data, work / "eval" / f"{model}_{name.replace(' ', '_')}_cal")})
+                key = f"{model}_{name.replace(' ', '_')}"
+                runs.append(base | {"row": f"{label} as is", **_kept(
+                    work / "records" / f"{key}.json",
+                    lambda: _scores(ckpt, data, work / "eval" / key))})
+                cal = work / f"{key}_cal.pt"
+
+                def calibrated():
+                    record = calibrate(ckpt, data, cal, minutes=args.minutes,
+                                       epochs=args.calibration_epochs, seed=seed,
+                                       train_config=_config(None, args.smoke))["calibration"]
+                    return {"calibration": {k: record[k] for k in (
+                        "minutes_used", "minutes_by_condition", "epochs_run", "converged")},
+                        **_scores(cal, data, work / "eval" / f"{key}_cal")}
+                runs.append(base | {"row": f"{label} calibrated",
+                                    **_kept(work / "records" / f"{key}_cal.json", calibrated)})
                 print(f"seed {seed} {model} {name}: as is / calibrated causal NRMSE % "
                       + " / ".join(f"{runs[-2]['nrmse_pct']['causal'][a]:.2f}->"
                                    f"{runs[-1]['nrmse_pct']['causal'][a]:.2f}" for a in AXES),
