@@ -31,6 +31,7 @@ cached result of a run in progress; the tables they feed live in :mod:`hybrid.ta
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
 import platform
@@ -130,12 +131,27 @@ def _load(run_dir: str, protocol: str, seed: int) -> Dataset:
     return ds
 
 
-def _setup(name: str, trials: Sequence[Trial], prior_json: str, variant: str) -> TrainedModel:
-    """Variant "full" or one of the recipe's ablations: "no_prior" or an input group of
+def _request(variant: str) -> tuple[str | None, bool]:
+    """(features, use_prior) of a variant: "full", "no_prior" or an input group of
     :data:`hybrid.data.FEATURE_SETS`."""
-    use_prior = recipe(name).uses_prior and variant != "no_prior"
-    return make_setup(name, trials, features=None if variant in ("full", "no_prior") else variant,
-                      use_prior=variant != "no_prior", prior_json=prior_json if use_prior else None)
+    return None if variant in ("full", "no_prior") else variant, variant != "no_prior"
+
+
+def _setup(name: str, trials: Sequence[Trial], prior_json: str, variant: str) -> TrainedModel:
+    features, use_prior = _request(variant)
+    return make_setup(name, trials, features=features, use_prior=use_prior,
+                      prior_json=prior_json if recipe(name).uses_prior and use_prior else None)
+
+
+def _recipe_params(name: str, variant: str) -> dict:
+    """The part of a model's recipe a training task's result depends on: the variant's inputs
+    and the optimiser settings. They go into the task's parameters, so a recipe change reruns
+    the tasks it reaches instead of reading back what the previous recipe trained (a change of
+    the model's code is not seen: rerun into a new ``out``)."""
+    spec = recipe(name)
+    features, use_prior = _request(variant)
+    return {"inputs": dataclasses.asdict(spec.inputs(features, use_prior)),
+            "optimiser": spec.optimiser}
 
 
 def _checkpoint(run_dir: str, p: dict) -> Path:
@@ -298,15 +314,17 @@ def reproduce(out: str | Path, scale: float = 0.1, seeds: Sequence[int] = (1, 2,
         variants += [(m, "full", f) for f in DATA_FRACTIONS for m in models
                      if recipe(m).data_efficiency]
     # Main models over every seed first: an interrupted run has the headline comparison soonest.
-    pre_specs = [(_pretrain_task, {**common, "seed": s, "model": m, "variant": v,
-                                   "fraction": f}) for m, v, f in variants for s in seeds]
+    pre_specs = [(_pretrain_task, {**common, "seed": s, "model": m, "variant": v, "fraction": f,
+                                   "recipe": _recipe_params(m, v)})
+                 for m, v, f in variants for s in seeds]
     pre = run_grid(pre_specs, cache, ray_address=ray_address, log=say)
     pre_by = {(p["model"], p["variant"], p["fraction"], p["seed"]): r
               for (_, p), r in zip(pre_specs, pre)}
     ft_specs = []
     if teleop:
         folds = [f"config_{k}" for k in range(3)]
-        ft_specs = [(_finetune_task, {**common, "seed": s, "model": m, "fold": f})
+        ft_specs = [(_finetune_task, {**common, "seed": s, "model": m, "fold": f,
+                                      "recipe": _recipe_params(m, "full")})
                     for s in seeds for m in models for f in folds]
     ft = run_grid(ft_specs, cache, ray_address=ray_address, log=say)
 

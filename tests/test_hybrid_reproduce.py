@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import importlib.util
 import json
 
@@ -9,6 +10,7 @@ import pandas as pd
 import pytest
 
 from hybrid.data import FEATURE_SETS, Trial
+from hybrid.recipes import RECIPES
 from hybrid.tables import automated_table, teleop_table, verdicts
 from hybrid.reproduce import BUDGETS, _config, _teleop_folds, reproduce
 from hybrid.inputs import hybrid_feature_set
@@ -103,9 +105,10 @@ def test_a_win_needs_to_clear_the_spread():
     assert v["Fx"] == {"best": "A", "win": False, "tied_with": ["B"]}
 
 
-def test_reproduce_resumes_and_reports_convergence(tmp_path):
+def test_reproduce_resumes_and_reports_convergence(tmp_path, monkeypatch):
     """A tiny grid end to end: two seeds, spread and floors, convergence recorded per run; a
-    rerun reuses every task (no training), and a run at another scale is refused."""
+    rerun reuses every task (no training), a changed recipe reruns its model's tasks only, and
+    a run at another scale is refused."""
     logs: list[str] = []
     rocket = ("rocket",) if importlib.util.find_spec("aeon") else ()
     kw = dict(scale=0.01, seeds=(1, 2), budget="quick", models=("fcn", "hybrid") + rocket,
@@ -132,6 +135,11 @@ def test_reproduce_resumes_and_reports_convergence(tmp_path):
     again = reproduce(tmp_path / "run", log=logs.append, **kw)
     assert not any("to run" in line and not line.endswith("0 to run") for line in logs)
     assert again["automated"] == r["automated"]
+    logs.clear()   # another optimiser for the FCN: its two trainings are stale, the rest is not
+    monkeypatch.setitem(RECIPES, "fcn", dataclasses.replace(RECIPES["fcn"], optimiser={"lr": 2e-3}))
+    reproduce(tmp_path / "run", log=logs.append, **kw)
+    assert [line for line in logs if "to run" in line and not line.endswith("0 to run")] == [
+        f"grid: {2 * len(kw['models'])} tasks, {2 * len(kw['models']) - 2} cached, 2 to run"]
     with pytest.raises(ValueError, match="another bench"):
         reproduce(tmp_path / "run", **{**kw, "scale": 0.02})
     with pytest.raises(ValueError, match="another bench"):
