@@ -353,18 +353,28 @@ class RocketRegressor:
         return windows, targets, val_windows, val_targets
 
     def _fit_ridge(self, features, targets, used, val_windows, val_targets,
-                   transforms: tuple) -> dict:
+                   transforms: tuple, head: tuple[np.ndarray, np.ndarray] | None = None) -> dict:
         """Ridge on standardised ``features`` (the ``used`` training windows), its penalty chosen
-        on the validation windows' features when given; sets ``self._fitted``."""
+        on the validation windows' features when given; sets ``self._fitted``. ``head`` = (coef,
+        intercept) of a fitted ridge: the penalty then pulls towards it, not towards zero (the
+        ridge learns the residual of that head), so a large penalty keeps it."""
         n_channels, multirocket, hydra, n_hydra, offset, scale = transforms
+        targets = np.asarray(targets[used], dtype=np.float64)
         validation = None
         if val_windows is not None:
             val_used = self.subsample_indices(len(val_windows), 1)
             val_features = _feature_matrix(multirocket, hydra, self._aeon_layout(
                 val_windows[val_used], val_used, "validation"))
             _standardise(val_features, offset, scale, n_hydra)
-            validation = (val_features, val_targets[val_used])
-        coef, intercept, best, mse = _ridge(features, targets[used], ALPHAS, validation)
+            validation = (val_features, np.asarray(val_targets[val_used], dtype=np.float64))
+        if head is not None:
+            targets = targets - (features @ head[0] + head[1])
+            if validation is not None:
+                validation = (validation[0],
+                              validation[1] - (validation[0] @ head[0] + head[1]))
+        coef, intercept, best, mse = _ridge(features, targets, ALPHAS, validation)
+        if head is not None:
+            coef, intercept = coef + head[0], intercept + head[1]
         self._fitted = _Fitted(n_channels, multirocket, hydra, n_hydra, offset, scale,
                                coef.astype(np.float32), intercept, float(ALPHAS[best]))
         return {"n_windows_used": len(used), "n_features": features.shape[1],
@@ -402,8 +412,12 @@ class RocketRegressor:
                    val_windows: np.ndarray | None = None,
                    val_targets: np.ndarray | None = None) -> dict:
         """Finetuning's analogue: the fitted transforms and feature scaling stay (the frozen
-        trunk), the ridge (the head) is fitted again on new windows, its penalty chosen on
-        ``val_windows`` when given. Same arguments and report as :meth:`fit`."""
+        trunk), the ridge (the head) is fitted again on new windows, its penalty, chosen on
+        ``val_windows`` when given, pulling towards the fitted head rather than towards zero.
+        Why: finetuning starts from the pretrained weights and stops early, so a few minutes of
+        new trials move a network's head only as far as they justify; a ridge refitted from
+        zero on them forgets every condition they lack (on a new tool's free-space and traction
+        trials, the palpation it was trained on). Same arguments and report as :meth:`fit`."""
         if self._fitted is None:
             raise RuntimeError("RocketRegressor.refit_head called before fit (or "
                                "load_state_dict)")
@@ -418,7 +432,8 @@ class RocketRegressor:
             _standardise(features, f.offset, f.scale, f.n_hydra)
             report = self._fit_ridge(features, targets, used, val_windows, val_targets,
                                      (f.n_channels, f.multirocket, f.hydra, f.n_hydra,
-                                      f.offset, f.scale))
+                                      f.offset, f.scale),
+                                     head=(f.coef.astype(np.float64), f.intercept))
         return report | {"seconds": round(time.perf_counter() - start, 2)}
 
     def predict(self, windows: np.ndarray, batch: int = 4096) -> np.ndarray:

@@ -108,6 +108,21 @@ def test_refit_head_keeps_the_transforms_and_learns_the_new_targets(data, fitted
     assert (_r2(model.predict(w[1250:]), flipped[1250:]) < 0).all()  # the old head is wrong
 
 
+def test_refit_head_pulls_towards_the_fitted_head(data, fitted):
+    """A few windows whose targets the fitted head already predicts leave it where it is (the
+    penalty pulls towards it, not towards zero: a ridge refitted from zero on 60 windows would
+    not reproduce the head fitted on 1,000)."""
+    w, _ = data
+    model, _ = fitted
+    copy = RocketRegressor(**model.config())
+    copy.load_state_dict(model.state_dict())
+    own = model.predict(w[:60])
+    copy.refit_head(w[:40], own[:40], w[40:60], own[40:60])
+    held_out = model.predict(w[1250:])
+    np.testing.assert_allclose(copy.predict(w[1250:]), held_out,
+                               atol=1e-4 * np.abs(held_out).max())
+
+
 def test_bad_inputs_raise_naming_the_problem(data, fitted):
     w, y = data
     model, _ = fitted
