@@ -167,6 +167,43 @@ def test_regressor_matches_rnea_of_constrained_model():
     assert np.allclose(R_coupler, R_yaw @ R_pitch_rest, atol=1e-12)
 
 
+def test_counterweight_columns_are_a_weightless_point_mass_on_the_insertion_axis():
+    """The counterweight's columns times (m, m z, m z^2) are the torques of a point mass m at z
+    on the insertion axis without its weight: G^T rnea of the identification model holding only
+    that mass, gravity off; and in closed form, from rest, m * ddq3 on the insertion and
+    m |p|^2 * ddq2 on the pitch (the insertion axis crosses the pitch axis at the RCM, p the
+    point's position from the RCM). Its weight is absent: no torque at rest with gravity on."""
+    import pinocchio as pin
+
+    m, z = 0.4, -0.1
+    model, _ = reg.identification_model()
+    for jid in range(1, model.njoints):  # only the point mass on the insertion body
+        model.inertias[jid] = pin.Inertia.Zero()
+    ins = model.getJointId("insertion")
+    model.inertias[ins] = pin.Inertia(m, np.array([0.0, 0.0, z]), np.zeros((3, 3)))
+    model.gravity = pin.Motion.Zero()
+    data = model.createData()
+    rng = np.random.default_rng(1)
+    q6, v6, a6 = rng.normal(size=(3, 5, 6))
+    q6[:, 2] = rng.uniform(0.05, 0.2, 5)
+    tau = reg.counterweight_columns(q6, v6, a6) @ np.array([m, m * z, m * z * z])
+    for i in range(5):
+        ext = [reg.extended_joints(x[i:i + 1])[0] for x in (q6, v6, a6)]
+        np.testing.assert_allclose(reg.CONSTRAINT_JACOBIAN.T @ pin.rnea(model, data, *ext),
+                                   tau[i], atol=1e-10)
+    # closed form from rest: accelerate insertion only, then pitch only
+    q = q6[:1]
+    still = np.zeros((1, 6))
+    a_ins, a_pitch = still.copy(), still.copy()
+    a_ins[0, 2], a_pitch[0, 1] = 2.0, 3.0
+    cols = lambda a: reg.counterweight_columns(q, still, a)[0] @ np.array([m, m * z, m * z * z])
+    assert np.isclose(cols(a_ins)[2], m * 2.0)
+    pin.forwardKinematics(model, data, reg.extended_joints(q)[0])
+    p = data.oMi[ins].act(np.array([0.0, 0.0, z]))
+    assert np.isclose(cols(a_pitch)[1], m * (p @ p) * 3.0)
+    assert np.allclose(cols(still), 0.0)  # at rest: no weight, whatever the pose
+
+
 def test_excitation_period_and_phase_cross_validation_input():
     from psm_model.identification.dynamics_validation import phase_cross_validation
 
@@ -214,7 +251,7 @@ def test_hysteresis_columns_states_and_row_subsets():
 
 
 _EVERY_TERM = DynamicsFitOptions(stribeck=True, cross_springs=((0, 1), (2, 3)),
-                                 spring_polynomial=((3, 3), (0, 2)))
+                                 spring_polynomial=((3, 3), (0, 2)), insertion_counterweight=True)
 
 
 @pytest.mark.parametrize("opts", [*SELECTION_CANDIDATES.values(), _EVERY_TERM],
@@ -239,6 +276,12 @@ def test_linear_term_names_match_their_columns(opts):
             f = (np.tanh(dq[:, j] / opts.friction_shape.smooth_sign_velocity)
                  if kind == "friction.coulomb" else dq[:, j])
             np.testing.assert_array_equal(column, np.outer(f, T[j]))
+            continue
+        if owner == "insertion_counterweight":  # chain-joint torques, in c through T^T
+            q6, v6, a6 = ((x @ T.T)[:, :6] for x in (c, dc, ddc))
+            p = [n for n, _, _ in reg.COUNTERWEIGHT_PARAMETERS].index(kind)
+            np.testing.assert_allclose(column, np.einsum(
+                "nj,jk->nk", reg.counterweight_columns(q6, v6, a6)[:, :, p], T[:6]), atol=1e-12)
             continue
         k = coords.index(owner)
         np.testing.assert_array_equal(np.delete(column, k, axis=1), 0.0)  # on its own row only

@@ -7,6 +7,7 @@ Model (joint space of the PSM's six chain joints + jaw; frames and units as in `
             + T_w^T (Fc_w s(dq_w) + Fv_w dq_w)                  wrist-joint (pulley) friction
             + Ia * ddc + K * c                                  armature, cable/torsion springs
             + sum_i F_ki z_ki(c_k history)                      pre-sliding hysteresis (Maxwell-slip)
+            + T^T [ Y_cw(q, dq, ddq) (m, m z, m z^2)_cw ; 0 ]   insertion counterweight (no weight)
 
 * ``q = T c``: dVRK joints q (7) from the actuated ("recorder") coordinates c. For the WPI data T
   is identity on yaw .. roll and ``wpi.WRIST_MOTOR_TO_DVRK`` on the wrist; for library recordings
@@ -15,6 +16,9 @@ Model (joint space of the PSM's six chain joints + jaw; frames and units as in `
   :mod:`.dynamics_regressor`), pi their inertial parameters. Gravity g (m/s^2, base = RCM frame)
   is identified (|g| = ``psm_model.conventions.GRAVITY_MPS2``) because the arm's mounting
   relative to gravity is not recorded with the data.
+* Insertion counterweight (``DynamicsFitOptions.insertion_counterweight``, default): a point
+  mass on the insertion axis with inertia and no weight (its weight balanced along the stroke),
+  ``dynamics_regressor.counterweight_columns``.
 * Optional terms (``DynamicsFitOptions``, :mod:`.dynamics_options`): polynomial springs,
   direction-dependent Coulomb levels (Fc + a, Fc - a, both >= 0), cross springs, Maxwell-slip
   pre-sliding hysteresis (``friction.maxwell_slip_states`` on the grids

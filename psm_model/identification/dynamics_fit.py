@@ -198,6 +198,10 @@ def fit_conditioned(cf, dcf, ddcf, tauf, T, names, options, sample_rate_hz, prov
         i_c = term_names.index(f"{names[k]}.friction.coulomb")
         i_a = term_names.index(f"{names[k]}.friction.coulomb_asymmetry")
         inequality_g += [phi[i_c] + phi[i_a], phi[i_c] - phi[i_a]]
+    # the counterweight is a point mass: m * (m z^2) >= (m z)^2 (with m, m z^2 >= 0 as bounds)
+    if options.insertion_counterweight:
+        i_m = term_names.index("insertion_counterweight.mass")
+        inequality_g.append(phi[i_m] * phi[i_m + 2] - phi[i_m + 1] ** 2)
     nlp = {"x": x, "f": cost + reg, "g": ca.vertcat(ca.sumsqr(gsym), *inequality_g)}
     solver = ca.nlpsol("arm", "ipopt", nlp, {
         "ipopt.print_level": 0, "print_time": False, "ipopt.max_iter": options.max_iter,

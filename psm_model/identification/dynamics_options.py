@@ -71,6 +71,18 @@ class DynamicsFitOptions:
     reversal (cable stretch, pulley and carriage pre-sliding) rather than over a velocity band.
     Default: every coordinate (lowest mean error of the phase cross-validation,
     :data:`SELECTION_CANDIDATES`)."""
+    insertion_counterweight: bool = True
+    """Moving mass of the insertion stage whose weight is balanced (a counterweight riding the
+    insertion axis the other way, or any balancing of the carriage along its stroke): it adds
+    inertia, Coriolis and centrifugal torques (yaw and pitch inertia growing with the insertion,
+    the carriage's inertia along the stroke) without the weight that a rigid body of that mass
+    would put on yaw, pitch and insertion. Without it the insertion body's one mass has to be
+    both its weight and its inertia, and the fit keeps a 49 g body 1.24 m behind its frame.
+    Modelled as a weightless point mass on the insertion axis: three linear parameters, mass
+    (kg) >= 0, first and second moments along the axis (kg m, kg m^2) with m * mzz >= mz^2
+    (``dynamics_regressor.counterweight_columns``). Default: it won the phase cross-validation
+    (:data:`SELECTION_CANDIDATES`; WPI training file: 0.40 kg, 96 mm behind the insertion frame,
+    the insertion body's own weight then 6 g)."""
     wrist_joint_friction: bool = True
     """Extra Coulomb + viscous friction on the dVRK wrist joints (pulleys), mapped to c by T^T."""
     prior_weight: float = 1e-4
@@ -86,13 +98,17 @@ class DynamicsFitOptions:
 
 
 _ALL = tuple(range(N_COORD))
+_NO_COUNTERWEIGHT = dict(insertion_counterweight=False)
+"""The candidates the counterweight was scored against keep the model they were chosen in."""
 _GRADUAL_COULOMB = dict(
+    **_NO_COUNTERWEIGHT,
     friction_shape=FrictionShape(smooth_sign_velocity=0.1, stribeck_velocity=0.2),
     friction_shape_prismatic=FrictionShape(smooth_sign_velocity=0.05, stribeck_velocity=0.1))
 """The previous default's Coulomb transition (0.1 rad/s, 0.05 m/s): ten (insertion 25) times
 more gradual than the default's."""
 SELECTION_CANDIDATES = {
     "default": DynamicsFitOptions(),
+    "no insertion counterweight (previous default)": DynamicsFitOptions(**_NO_COUNTERWEIGHT),
     "gradual Coulomb": DynamicsFitOptions(**_GRADUAL_COULOMB),
     "gradual Coulomb, springs on all coordinates": DynamicsFitOptions(
         **_GRADUAL_COULOMB, spring_coordinates=_ALL),
@@ -110,6 +126,8 @@ SELECTION_CANDIDATES = {
 (``dynamics_validation.select_by_phase_cross_validation``, ``psmforce fit-dynamics --format wpi
 --select``, benchmark ``--selection``) and ``recordings.select_options`` (our layout,
 ``--select``). The default (Maxwell-slip hysteresis on every coordinate, springs on roll + wrist,
-sharp Coulomb transition) is the WPI study's winner; the others are the choices it was made
-against: the gradual Coulomb transition, springs on yaw/pitch/insertion, hysteresis on fewer
-coordinates or none (the previous default), symmetric Coulomb."""
+sharp Coulomb transition, the insertion counterweight) is the WPI study's winner; the others are
+the choices it was made against: the same without the counterweight (the previous default; the
+rest of the list is without it too, as it was scored when those choices were made), the
+gradual Coulomb transition, springs on yaw/pitch/insertion, hysteresis on fewer coordinates or
+none, symmetric Coulomb."""

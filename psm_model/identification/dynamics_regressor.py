@@ -13,7 +13,8 @@ identification model has 8 joints mapped to the chain by q_ext = G q, tau = G^T 
 (docs/identification.md).
 
 Linear terms. :func:`linear_terms` is the one list of the linear parameters phi (friction,
-armature, springs, wrist-joint friction, Coulomb asymmetry, Maxwell-slip hysteresis, chosen by
+armature, springs, wrist-joint friction, Coulomb asymmetry, Maxwell-slip hysteresis, the
+insertion counterweight's weightless mass (:func:`counterweight_columns`), chosen by
 ``DynamicsFitOptions``): each term carries its name, unit, lower bound and the function giving its
 torque column, so that the parameters' names and the regressor's columns cannot part.
 """
@@ -21,6 +22,7 @@ torque column, so that the parameters' names and the regressor's columns cannot 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 from typing import Callable
 
 import numpy as np
@@ -116,6 +118,38 @@ def rigid_regressors(model, q6, dq6, ddq6):
     return Y0, Yg, mass_cols
 
 
+COUNTERWEIGHT_PARAMETERS = (("mass", "kg", 0.0), ("first_moment", "kg m", -np.inf),
+                            ("second_moment", "kg m^2", 0.0))
+"""(name, unit, lower bound) of the insertion counterweight's weightless point mass on the
+insertion axis: m, m z and m z^2, z along the insertion body's z axis (the axis of travel)."""
+
+
+@lru_cache(maxsize=1)
+def _weightless_model():
+    """The identification model without gravity (cached: building it parses the URDF)."""
+    model, _ = identification_model()
+    model.gravity = pin.Motion.Zero()
+    return model
+
+
+def counterweight_columns(q6, dq6, ddq6) -> np.ndarray:
+    """(N, 6, 3) chain-joint torques per unit m, m z and m z^2 of a point mass on the insertion
+    axis that moves with the insertion and has no weight (``DynamicsFitOptions.
+    insertion_counterweight``). They are the insertion body's inertial columns without gravity:
+    m, m c_z and I_xx + I_yy (= m z^2 for a point on the z axis) of its regressor; their weight
+    columns are left out because a counterweight riding the axis the other way cancels them."""
+    model = _weightless_model()
+    data = model.createData()
+    q, dq, ddq = extended_joints(q6), extended_joints(dq6), extended_joints(ddq6)
+    first = 10 * (model.getJointId("insertion") - 1)  # the insertion body's 10 columns
+    out = np.empty((len(q), 6, 3))
+    for i in range(len(q)):
+        Y = CONSTRAINT_JACOBIAN.T @ pin.computeJointTorqueRegressor(
+            model, data, q[i], dq[i], ddq[i])[:, first:first + 10]
+        out[i] = np.column_stack([Y[:, 0], Y[:, 3], Y[:, 4] + Y[:, 6]])
+    return out
+
+
 # ------------------------------------------------------------------ linear terms
 @dataclass(frozen=True)
 class TermSignals:
@@ -135,6 +169,8 @@ class TermSignals:
     """T (7,7): q = T c."""
     states: np.ndarray | None
     """(N,7,4) Maxwell-slip states; None when the options have no hysteresis terms."""
+    counterweight: np.ndarray | None = None
+    """(N,7,3) coordinate torques of :func:`counterweight_columns`; None without the option."""
 
 
 @dataclass(frozen=True)
@@ -225,6 +261,10 @@ def linear_terms(opts: DynamicsFitOptions, coord_names) -> tuple[LinearTerm, ...
     for r, k in opts.cross_springs:
         add(f"{coord_names[r]}.spring_from_{coord_names[k]}", "(N or Nm)/(m or rad)", -np.inf,
             _on_coordinate(r, _position_of(k)))
+    if opts.insertion_counterweight:
+        for p, (pname, unit, lower) in enumerate(COUNTERWEIGHT_PARAMETERS):
+            add(f"insertion_counterweight.{pname}", unit, lower,
+                lambda s, p=p: s.counterweight[:, :, p])
     for k in opts.hysteresis_coordinates:
         for e, d in enumerate(_breakaways(k)):
             add(f"{coord_names[k]}.friction.maxwell_slip_{d:g}{'m' if k == INSERTION else 'rad'}",
@@ -255,9 +295,13 @@ def term_signals(opts: DynamicsFitOptions, T, c, dc, ddc, states=None) -> TermSi
         if z.shape != (n, N_COORD, len(HYSTERESIS_BREAKAWAY_RAD)):
             raise IdentificationInputError(f"hysteresis states must be ({n}, {N_COORD}, "
                                            f"{len(HYSTERESIS_BREAKAWAY_RAD)}); got {z.shape}")
+    counterweight = None
+    if opts.insertion_counterweight:  # chain-joint torques to coordinates: tau_c = T[:6]^T tau
+        counterweight = np.einsum("njp,jk->nkp", counterweight_columns(
+            (c @ T.T)[:, :6], dq[:, :6], (ddc @ T.T)[:, :6]), T[:6])
     return TermSignals(c=c, ddc=ddc, friction=fr, dq=dq,
                        wrist_sign=np.tanh(dq / opts.friction_shape.smooth_sign_velocity),
-                       coupling=T, states=z)
+                       coupling=T, states=z, counterweight=counterweight)
 
 
 def linear_columns(opts: DynamicsFitOptions, T, c, dc, ddc, states=None) -> np.ndarray:
