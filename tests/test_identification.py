@@ -121,6 +121,15 @@ def test_wpi_fit_published_protocol(wpi_fit, tmp_path):
     with pytest.raises(NotConvergedError):
         model.save(tmp_path / "never.json")
     assert not (tmp_path / "never.json").exists()
+    # a file from before the counterweight option: no such key, no such parameters
+    d = json.loads(model_path.read_text())
+    del d["options"]["insertion_counterweight"]
+    d["linear_parameters"] = {k: v for k, v in d["linear_parameters"].items()
+                              if not k.startswith("insertion_counterweight.")}
+    (tmp_path / "old.json").write_text(json.dumps(d))
+    old = ArmDynamicsModel.load(tmp_path / "old.json")
+    assert not old.options.insertion_counterweight
+    assert old.predict(q[:5], dq[:5], ddq[:5]).shape == (5, 7)
 
 
 @needs_wpi

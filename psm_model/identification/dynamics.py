@@ -188,6 +188,7 @@ class ArmDynamicsModel:
     def _from_dict(cls, d: dict) -> ArmDynamicsModel:
         o = dict(d["options"])
         o.pop("hysteresis_breakaway", None)  # module constants; written for the reader
+        o.setdefault("insertion_counterweight", False)  # files from before the option had none
         o["friction_shape"] = FrictionShape(**o["friction_shape"])
         o["friction_shape_prismatic"] = FrictionShape(**o["friction_shape_prismatic"])
         for key in ("spring_coordinates", "asymmetric_coulomb", "hysteresis_coordinates"):
