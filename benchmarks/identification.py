@@ -92,6 +92,11 @@ def main() -> dict:
             print("  bodies (mass kg, COM m in the joint frame): " + "; ".join(
                 f"{n} {v['mass_kg']:.4f} {np.round(v['com_m'], 3).tolist()}"
                 for n, v in rep["bodies"].items()))
+            if "insertion_counterweight" in rep:
+                cw = rep["insertion_counterweight"]
+                where = ("" if cw["position_m"] is None
+                         else f" at {cw['position_m']:.3f} m along the insertion axis")
+                print(f"  insertion counterweight: {cw['mass_kg']:.3f} kg{where}")
             print("WPI test (two_results.csv, first 1111 samples after 200-sample trim, 5.4 Hz):")
             print(f"{'joint':>14} {'ours %':>8} {'Wang 2019 %':>12} {'beat':>5} {'train %':>8}")
             for name, o, p, b, t in zip(rep["coordinates"], rep["test_relative_error_percent"],

@@ -128,8 +128,20 @@ class ArmDynamicsModel:
                 "physically_consistent": all(r["physically_consistent"]
                                              for r in bodies.values()),
                 "bodies": {n: {k: r[k] for k in ("mass_kg", "com_m")} for n, r in bodies.items()},
+                **self._counterweight_summary(),
                 "train_relative_error_percent": [100 * e for e in
                                                  self.info["train_relative_error"]]}
+
+    def _counterweight_summary(self) -> dict:
+        """The insertion counterweight's mass (kg), position along the insertion axis (m, from
+        the insertion frame) and second moment (kg m^2), when the model has one."""
+        if not self.options.insertion_counterweight:
+            return {}
+        names = self.linear_parameter_names
+        m, mz, mzz = (float(self.linear_parameters[names.index(f"insertion_counterweight.{p}")])
+                      for p in ("mass", "first_moment", "second_moment"))
+        return {"insertion_counterweight": {"mass_kg": m, "position_m": mz / m if m > 0 else None,
+                                            "second_moment_kg_m2": mzz}}
 
     # -------------------------------------------------------------- persistence
     def to_dict(self) -> dict:
