@@ -367,7 +367,7 @@ class RocketRegressor:
                 val_windows[val_used], val_used, "validation"))
             _standardise(val_features, offset, scale, n_hydra)
             validation = (val_features, np.asarray(val_targets[val_used], dtype=np.float64))
-        if head is not None:
+        if head is not None:  # head[0] float32 like the features: no float64 copy of them
             targets = targets - (features @ head[0] + head[1])
             if validation is not None:
                 validation = (validation[0],
@@ -433,7 +433,7 @@ class RocketRegressor:
             report = self._fit_ridge(features, targets, used, val_windows, val_targets,
                                      (f.n_channels, f.multirocket, f.hydra, f.n_hydra,
                                       f.offset, f.scale),
-                                     head=(f.coef.astype(np.float64), f.intercept))
+                                     head=(f.coef, f.intercept))
         return report | {"seconds": round(time.perf_counter() - start, 2)}
 
     def predict(self, windows: np.ndarray, batch: int = 4096) -> np.ndarray:

@@ -198,7 +198,8 @@ def test_counterweight_columns_are_a_weightless_point_mass_on_the_insertion_axis
     rng = np.random.default_rng(1)
     q6, v6, a6 = rng.normal(size=(3, 5, 6))
     q6[:, 2] = rng.uniform(0.05, 0.2, 5)
-    tau = reg.counterweight_columns(q6, v6, a6) @ np.array([m, m * z, m * z * z])
+    y0 = lambda *x: reg.rigid_regressors(reg.identification_model()[0], *x)[0]
+    tau = reg.counterweight_columns(y0(q6, v6, a6)) @ np.array([m, m * z, m * z * z])
     for i in range(5):
         ext = [reg.extended_joints(x[i:i + 1])[0] for x in (q6, v6, a6)]
         np.testing.assert_allclose(reg.CONSTRAINT_JACOBIAN.T @ pin.rnea(model, data, *ext),
@@ -208,7 +209,7 @@ def test_counterweight_columns_are_a_weightless_point_mass_on_the_insertion_axis
     still = np.zeros((1, 6))
     a_ins, a_pitch = still.copy(), still.copy()
     a_ins[0, 2], a_pitch[0, 1] = 2.0, 3.0
-    cols = lambda a: reg.counterweight_columns(q, still, a)[0] @ np.array([m, m * z, m * z * z])
+    cols = lambda a: reg.counterweight_columns(y0(q, still, a))[0] @ np.array([m, m * z, m * z * z])
     assert np.isclose(cols(a_ins)[2], m * 2.0)
     pin.forwardKinematics(model, data, reg.extended_joints(q)[0])
     p = data.oMi[ins].act(np.array([0.0, 0.0, z]))
@@ -293,7 +294,8 @@ def test_linear_term_names_match_their_columns(opts):
             q6, v6, a6 = ((x @ T.T)[:, :6] for x in (c, dc, ddc))
             p = [n for n, _, _ in reg.COUNTERWEIGHT_PARAMETERS].index(kind)
             np.testing.assert_allclose(column, np.einsum(
-                "nj,jk->nk", reg.counterweight_columns(q6, v6, a6)[:, :, p], T[:6]), atol=1e-12)
+                "nj,jk->nk", reg.counterweight_columns(reg.rigid_regressors(
+                    reg.identification_model()[0], q6, v6, a6)[0])[:, :, p], T[:6]), atol=1e-12)
             continue
         k = coords.index(owner)
         np.testing.assert_array_equal(np.delete(column, k, axis=1), 0.0)  # on its own row only

@@ -104,7 +104,7 @@ class ArmDynamicsModel:
         pi = self.body_parameters.ravel()
         tau_q6 = Y0 @ pi + np.einsum("k,knjp,p->nj", self.gravity, Yg, pi[mass_cols])
         tau_c = np.concatenate([tau_q6, np.zeros((len(q), 1))], axis=1) @ T
-        lin = linear_columns(self.options, T, c, dc, ddc, states) @ self.linear_parameters
+        lin = linear_columns(self.options, T, c, dc, ddc, states, Y0) @ self.linear_parameters
         return tau_c + lin
 
     def predict(self, q, dq, ddq) -> np.ndarray:

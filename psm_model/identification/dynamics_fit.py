@@ -143,7 +143,7 @@ def fit_conditioned(cf, dcf, ddcf, tauf, T, names, options, sample_rate_hz, prov
     T6 = T[:6]
     A0 = np.einsum("njp,jk->nkp", Y0, T6)
     Ag = np.einsum("xnjp,jk->xnkp", Yg, T6)
-    L = linear_columns(options, T, cf, dcf, ddcf, states)
+    L = linear_columns(options, T, cf, dcf, ddcf, states, Y0)
     terms = linear_terms(options, names)
     term_names = [t.name for t in terms]
     lower = np.array([t.lower for t in terms])

@@ -22,7 +22,6 @@ torque column, so that the parameters' names and the regressor's columns cannot 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import lru_cache
 from typing import Callable
 
 import numpy as np
@@ -124,30 +123,16 @@ COUNTERWEIGHT_PARAMETERS = (("mass", "kg", 0.0), ("first_moment", "kg m", -np.in
 insertion axis: m, m z and m z^2, z along the insertion body's z axis (the axis of travel)."""
 
 
-@lru_cache(maxsize=1)
-def _weightless_model():
-    """The identification model without gravity (cached: building it parses the URDF)."""
-    model, _ = identification_model()
-    model.gravity = pin.Motion.Zero()
-    return model
-
-
-def counterweight_columns(q6, dq6, ddq6) -> np.ndarray:
+def counterweight_columns(y0: np.ndarray) -> np.ndarray:
     """(N, 6, 3) chain-joint torques per unit m, m z and m z^2 of a point mass on the insertion
     axis that moves with the insertion and has no weight (``DynamicsFitOptions.
-    insertion_counterweight``). They are the insertion body's inertial columns without gravity:
-    m, m c_z and I_xx + I_yy (= m z^2 for a point on the z axis) of its regressor; their weight
-    columns are left out because a counterweight riding the axis the other way cancels them."""
-    model = _weightless_model()
-    data = model.createData()
-    q, dq, ddq = extended_joints(q6), extended_joints(dq6), extended_joints(ddq6)
-    first = 10 * (model.getJointId("insertion") - 1)  # the insertion body's 10 columns
-    out = np.empty((len(q), 6, 3))
-    for i in range(len(q)):
-        Y = CONSTRAINT_JACOBIAN.T @ pin.computeJointTorqueRegressor(
-            model, data, q[i], dq[i], ddq[i])[:, first:first + 10]
-        out[i] = np.column_stack([Y[:, 0], Y[:, 3], Y[:, 4] + Y[:, 6]])
-    return out
+    insertion_counterweight``), from ``y0``, the regressor without gravity of
+    :func:`rigid_regressors`: the insertion body's m, m c_z and I_xx + I_yy (= m z^2 for a point
+    on the z axis) columns; its weight columns are left out because a counterweight riding the
+    axis the other way cancels them."""
+    first = 10 * BODIES.index("insertion")
+    return np.stack([y0[..., first], y0[..., first + 3], y0[..., first + 4] + y0[..., first + 6]],
+                    axis=-1)
 
 
 # ------------------------------------------------------------------ linear terms
@@ -280,9 +265,12 @@ def hysteresis_states(c) -> np.ndarray:
                     axis=1)
 
 
-def term_signals(opts: DynamicsFitOptions, T, c, dc, ddc, states=None) -> TermSignals:
+def term_signals(opts: DynamicsFitOptions, T, c, dc, ddc, states=None,
+                 rigid_y0=None) -> TermSignals:
     """:class:`TermSignals` of samples c, dc, ddc (N,7) with coupling T; ``states``: hysteresis
-    states (N, 7, 4) of these rows (default: from c as one contiguous sequence)."""
+    states (N, 7, 4) of these rows (default: from c as one contiguous sequence); ``rigid_y0``:
+    their regressor without gravity (:func:`rigid_regressors`), which the fit and the prediction
+    have already computed (default: computed here when the counterweight needs it)."""
     n = c.shape[0]
     terms = [i for i, t in enumerate(TERMS) if t in _friction_terms(opts)]
     fr = friction_regressor(dc, opts.friction_shape)[:, :, terms]  # (N,7,nt)
@@ -297,15 +285,18 @@ def term_signals(opts: DynamicsFitOptions, T, c, dc, ddc, states=None) -> TermSi
                                            f"{len(HYSTERESIS_BREAKAWAY_RAD)}); got {z.shape}")
     counterweight = None
     if opts.insertion_counterweight:  # chain-joint torques to coordinates: tau_c = T[:6]^T tau
-        counterweight = np.einsum("njp,jk->nkp", counterweight_columns(
-            (c @ T.T)[:, :6], dq[:, :6], (ddc @ T.T)[:, :6]), T[:6])
+        if rigid_y0 is None:
+            rigid_y0 = rigid_regressors(identification_model()[0], (c @ T.T)[:, :6], dq[:, :6],
+                                        (ddc @ T.T)[:, :6])[0]
+        counterweight = np.einsum("njp,jk->nkp", counterweight_columns(rigid_y0), T[:6])
     return TermSignals(c=c, ddc=ddc, friction=fr, dq=dq,
                        wrist_sign=np.tanh(dq / opts.friction_shape.smooth_sign_velocity),
                        coupling=T, states=z, counterweight=counterweight)
 
 
-def linear_columns(opts: DynamicsFitOptions, T, c, dc, ddc, states=None) -> np.ndarray:
+def linear_columns(opts: DynamicsFitOptions, T, c, dc, ddc, states=None,
+                   rigid_y0=None) -> np.ndarray:
     """(N, 7, n_phi) columns of the linear terms (:func:`linear_terms`, same order) in
-    coordinate space c; ``states`` as in :func:`term_signals`."""
-    signals = term_signals(opts, T, c, dc, ddc, states)
+    coordinate space c; ``states`` and ``rigid_y0`` as in :func:`term_signals`."""
+    signals = term_signals(opts, T, c, dc, ddc, states, rigid_y0)
     return np.stack([term.torque(signals) for term in linear_terms(opts, JOINTS)], axis=2)
