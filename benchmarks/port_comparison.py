@@ -14,6 +14,19 @@ seeds) and its ratio to the same model's no-port value, then checks the targets:
   torque-only estimator (the LSTM) degrades by more.
 
 A target whose models are missing from a run is reported as not measured, never as met.
+
+``--channels``: also score, per port, the axial channels a model can build Fz from, without any
+network (same benches, the run's own prior, causal metric, mean ± std over seeds). They bound
+what an estimator built on one of them can reach:
+
+* ``insertion_fz``: the insertion effort minus the identified stage model (the hybrid's z base);
+* ``comp_fz``: the HEX10 axial force minus the prior's internal force;
+* ``complementary``: ``insertion_fz`` below a crossover plus ``comp_fz`` above it (first-order
+  pair), the crossover picked on the validation trials from :data:`CROSSOVERS_HZ`;
+* ``perfect stage model``: the ATI truth plus the insertion effort's disturbance as the bench
+  draws it (white + coloured, ``psm_model.sim.drive``; parameters from the run's metadata, a
+  fresh draw seeded by the bench seed): what the insertion channel gives when everything else
+  in it (stage dynamics, friction, a port) is modelled exactly.
 """
 
 from __future__ import annotations
@@ -22,8 +35,18 @@ import argparse
 import json
 from pathlib import Path
 
+import numpy as np
+from scipy import signal
+
+from hybrid.data import load_dataset, split_validation
+from hybrid.evaluate import score
+from hybrid.inputs import add_prior_columns
 from hybrid.metrics import AXES
 from hybrid.recipes import recipe
+from psm_model.identification import InternalForcePrior
+from psm_model.recording import TARGETS
+from psm_model.sim import drive
+from psm_model.sim.params import InstrumentParams
 from _report import write_json
 
 HYBRID, TRANSFORMER, TORQUE_ONLY = (recipe(m).label for m in ("hybrid", "transformer", "lstm"))
@@ -35,6 +58,60 @@ def _table(run: Path) -> dict[str, dict[str, tuple[float, float]]]:
     return {label: {a: (m[a]["nrmse_pct"]["mean"], m[a]["nrmse_pct"]["std"]) for a in AXES}
             for label, m in results["automated"]["causal"].items()} | {
         "_call": results["call"], "_converged": results["all_converged"]}
+
+
+CROSSOVERS_HZ = (0.3, 1.0, 2.0, 4.0, 8.0)
+"""Candidate crossovers of the complementary channel (picked on validation)."""
+
+
+def _complementary(trial, crossover_hz: float, rate_hz: float) -> np.ndarray:
+    """``insertion_fz`` low-passed plus ``comp_fz`` high-passed, causal, started at rest."""
+    b, a = signal.butter(1, crossover_hz, fs=rate_hz)
+    low = [signal.lfilter(b, a, x, zi=signal.lfilter_zi(b, a) * x[0])[0]
+           for x in (trial.frame["insertion_fz"].to_numpy(), trial.frame["comp_fz"].to_numpy())]
+    return low[0] + trial.frame["comp_fz"].to_numpy() - low[1]
+
+
+def _fz_nrmse(trials, fz) -> float:
+    """Causal Fz NRMSE % of the per-trial axial estimates ``fz(trial)``."""
+    def with_fz(t):
+        est = t.matrix(TARGETS, np.float64)
+        est[:, 2] = fz(t)
+        return est
+    return score({t.path: with_fz(t) for t in trials}, trials, mode="causal")["Fz"]["nrmse_pct"]
+
+
+def _channels_of_bench(data_dir: Path, prior_json: Path, seed: int) -> dict[str, float]:
+    ds = load_dataset(data_dir)
+    add_prior_columns(ds, InternalForcePrior.load(prior_json))
+    _, val = split_validation(ds.select(split="train"), 0.1, seed)   # reproduce's split
+    test = ds.select(split="test")
+    rate_hz = ds.metadata["sample_rate_hz"]
+    crossover = min(CROSSOVERS_HZ,
+                    key=lambda f: _fz_nrmse(val, lambda t: _complementary(t, f, rate_hz)))
+    out = {"insertion_fz": _fz_nrmse(test, lambda t: t.frame["insertion_fz"].to_numpy()),
+           "comp_fz": _fz_nrmse(test, lambda t: t.frame["comp_fz"].to_numpy()),
+           "complementary": _fz_nrmse(test, lambda t: _complementary(t, crossover, rate_hz)),
+           "complementary_crossover_hz": crossover}
+    if ds.metadata["effects"].get("coloured_effort_noise"):
+        params = InstrumentParams.from_dict(ds.metadata["instrument"])
+        rng = np.random.default_rng(seed)
+        dt = 1.0 / rate_hz
+
+        def perfect(t):
+            n = len(t)
+            return (t.matrix(TARGETS, np.float64)[:, 2] + params.effort_noise[2]
+                    * rng.standard_normal(n) + drive.coloured_disturbance(n, dt, params, rng)[:, 2])
+        out["perfect stage model"] = _fz_nrmse(test, perfect)
+    return out
+
+
+def _channels(run: Path, seeds) -> dict[str, dict[str, float]]:
+    """{channel: {mean, std}} over the run's bench seeds (module docstring, ``--channels``)."""
+    per_seed = [_channels_of_bench(run / "work" / "data" / f"automated_seed{s}",
+                                   run / "work" / "data" / f"prior_seed{s}.json", s) for s in seeds]
+    return {k: {"mean": float(np.mean([p[k] for p in per_seed])),
+                "std": float(np.std([p[k] for p in per_seed]))} for k in per_seed[0]}
 
 
 def _targets(tables: dict) -> dict:
@@ -60,6 +137,8 @@ def _targets(tables: dict) -> dict:
 def main() -> dict:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--runs", nargs="+", required=True, metavar="PORT=DIR")
+    ap.add_argument("--channels", action="store_true",
+                    help="also score the axial channels without a network (module docstring)")
     ap.add_argument("--json", type=Path)
     args = ap.parse_args()
     runs = dict(item.split("=", 1) for item in args.runs)
@@ -93,6 +172,14 @@ def main() -> dict:
     result = {"runs": runs, "call": calls["none"],
               "all_converged": {p: t["_converged"] for p, t in tables.items()},
               "causal_nrmse_pct": rows, "targets": targets}
+    if args.channels:
+        print("axial channels without a network, causal Fz NRMSE % (mean ± std over seeds)")
+        result["axial_channels_fz_nrmse_pct"] = {}
+        for port, d in runs.items():
+            ch = _channels(Path(d), calls[port]["seeds"])
+            result["axial_channels_fz_nrmse_pct"][port] = ch
+            print(f"  port {port:15s} " + "  ".join(f"{k} {v['mean']:.2f} ± {v['std']:.2f}"
+                                                      for k, v in ch.items()))
     if args.json:
         write_json(args.json, result)
     return result

@@ -33,7 +33,10 @@ self CPU time. Shares, not seconds: they hold on a busy machine where timings do
 from __future__ import annotations
 
 import argparse
+import ctypes
 import platform
+import subprocess
+import sys
 import tempfile
 import time
 from pathlib import Path
@@ -135,7 +138,43 @@ def _profile(top: int = 10) -> dict:
             "top_ops": [{"op": n, "self_cpu_share": sh, "calls": c} for n, sh, c in shares]}
 
 
+_FRESH_PREDICT = """
+import sys, time
+import torch
+from hybrid.checkpoint import load_checkpoint
+from hybrid.data import load_dataset
+from hybrid.evaluate import predict_trial
+torch.set_num_threads(int(sys.argv[3]))
+setup = load_checkpoint(sys.argv[1])
+ds = load_dataset(sys.argv[2])
+setup.derive(ds)
+t0 = time.perf_counter()
+for t in ds.select(split="test"):
+    predict_trial(setup, t)
+print(time.perf_counter() - t0)
+"""
+
+
+def _predict_seconds(setup, trials) -> float:
+    from hybrid.evaluate import predict_trial
+    t0 = time.perf_counter()
+    for t in trials:
+        predict_trial(setup, t)
+    return time.perf_counter() - t0
+
+
+def _malloc_trim() -> bool:
+    """glibc's ``malloc_trim(0)``: give the freed heap back to the system (False off glibc)."""
+    try:
+        ctypes.CDLL("libc.so.6").malloc_trim(0)
+    except (OSError, AttributeError):
+        return False
+    return True
+
+
 def _converge(scale: float) -> dict:
+    """Train to convergence, then time the test trials' prediction twice: in the process that
+    trained (what ``reproduce`` and ``another_tool`` do) and in a fresh one from the checkpoint."""
     from hybrid.data import load_dataset, split_validation
     from hybrid.reproduce import _config
     from hybrid.train import make_setup, train_model
@@ -148,13 +187,26 @@ def _converge(scale: float) -> dict:
         cfg = _config("full", "pretrain", 1, "cpu", "transformer")
         cfg.progress = True   # a run of tens of minutes: show its epochs
         rep = train_model(setup, train, val, cfg)
+        test = ds.select(split="test")
+        setup.derive(ds)
+        in_process = _predict_seconds(setup, test)
+        trimmed = _predict_seconds(setup, test) if _malloc_trim() else None
+        setup.save(Path(tmp) / "transformer.pt")
+        fresh = float(subprocess.run(
+            [sys.executable, "-c", _FRESH_PREDICT, str(Path(tmp) / "transformer.pt"),
+             str(Path(tmp) / "bench"), str(torch.get_num_threads())],
+            check=True, capture_output=True, text=True).stdout.split()[-1])
     result = {"scale": scale, "epochs_run": rep["epochs_run"], "stopped_by": rep["stopped_by"],
               "converged": rep["converged"], "seconds": rep["seconds"],
               "train_windows": rep["train_windows"], "best_val_loss": rep["best_val_loss"],
-              "compiled": cfg.compile}
+              "compiled": cfg.compile, "test_predict_s_in_training_process": in_process,
+              "test_predict_s_fresh_process": fresh,
+              "test_predict_s_after_malloc_trim": trimmed}
     print(f"  paper transformer at scale {scale}: {rep['epochs_run']} epochs, stopped by "
           f"{rep['stopped_by']}, converged {rep['converged']}, {rep['seconds'] / 60:.1f} min, "
-          f"{rep['train_windows']} training windows per epoch", flush=True)
+          f"{rep['train_windows']} training windows per epoch; test prediction {in_process:.1f} s "
+          f"in the training process, {fresh:.1f} s in a fresh one, "
+          f"{trimmed} s after malloc_trim", flush=True)
     return result
 
 

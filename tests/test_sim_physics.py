@@ -223,6 +223,16 @@ def test_sampled_instrument_is_seeded_and_differs_from_nominal():
         NOMINAL.sample(0, spread=-1)
 
 
+def test_instrument_params_survive_their_json_round_trip():
+    import json
+    tool = NOMINAL.sample(3, spread=2.0)
+    back = type(NOMINAL).from_dict(json.loads(json.dumps(tool.to_dict())))
+    assert back == tool and back != NOMINAL
+    assert isinstance(back.hex10_crosstalk[0], tuple)   # nested tuples, not lists
+    older = {k: v for k, v in tool.to_dict().items() if k != "effort_band_noise"}
+    assert type(NOMINAL).from_dict(older).effort_band_noise == NOMINAL.effort_band_noise
+
+
 def test_arm_ik_puts_the_jaw_tip_on_target():
     rng = np.random.default_rng(4)
     wrist = rng.uniform(-1, 1, (30, 4))

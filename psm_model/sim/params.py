@@ -177,6 +177,12 @@ class InstrumentParams:
     def to_dict(self) -> dict:
         return {f.name: _jsonable(getattr(self, f.name)) for f in fields(self)}
 
+    @classmethod
+    def from_dict(cls, d: dict) -> "InstrumentParams":
+        """Inverse of :meth:`to_dict` (a dataset's ``metadata["instrument"]``); a field the
+        dict lacks (written by an older simulator) keeps its nominal value."""
+        return cls(**{f.name: _tupled(d[f.name]) for f in fields(cls) if f.name in d})
+
     def sample(self, seed: int, spread: float = 1.0) -> "InstrumentParams":
         """Another modified tool: each parameter drawn around this one (seeded, lognormal or
         normal spreads from docs/simulator.md, scaled by ``spread``)."""
@@ -278,6 +284,12 @@ class Effects:
 
     def to_dict(self) -> dict:
         return {f.name: getattr(self, f.name) for f in fields(self)}
+
+
+def _tupled(v):
+    if isinstance(v, list):
+        return tuple(_tupled(x) for x in v)
+    return v
 
 
 def _jsonable(v):
