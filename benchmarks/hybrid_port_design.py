@@ -17,8 +17,12 @@ haptic loop gets) and the paper's. The test trials are not opened.
 Variants: "default", the recipe's inputs when the study was made (the paper's 21 with the
 compensated HEX10, ``prior_fz`` and ``insertion_fz``); + insertion velocity; + insertion velocity
 and position (the winner, since then the recipe's default, :data:`hybrid.inputs.HYBRID_INPUTS`);
-and "default" without the ``insertion_fz`` base on z (the network then
-predicts Fz, with ``insertion_fz`` still an input, so it can weigh it against the HEX10).
+"default" without the ``insertion_fz`` base on z (the network then
+predicts Fz, with ``insertion_fz`` still an input, so it can weigh it against the HEX10); and
+today's inputs with a notched base on z: ``insertion_fz`` through a causal notch at the insertion
+stage's 12 Hz resonance (:data:`NOTCH_HZ`, Q :data:`NOTCH_Q`), which carries the largest share
+of the real arm's insertion residual (docs/simulator.md, section 8). ``--variants`` runs a
+subset.
 """
 
 from __future__ import annotations
@@ -29,9 +33,11 @@ from pathlib import Path
 
 import numpy as np
 import torch
+from scipy import signal
 
 from hybrid.data import NO_BASE, load_dataset, split_validation
-from hybrid.inputs import BASE_COLUMNS, HYBRID_FEATURES_INSERTION, add_prior_columns, prior_to_json
+from hybrid.inputs import (BASE_COLUMNS, HYBRID_FEATURES_INSERTION, HYBRID_INPUTS, INSERTION_FZ,
+                           add_prior_columns, prior_to_json)
 from hybrid.metrics import AXES
 from hybrid.recipes import Inputs
 from hybrid.reproduce import _config, _scores
@@ -49,7 +55,17 @@ VARIANTS = {
     "+ insertion velocity, position": (HYBRID_FEATURES_INSERTION + _VELOCITY + _POSITION,
                                        BASE_COLUMNS),
     "no base on z": (HYBRID_FEATURES_INSERTION, BASE_COLUMNS[:2] + (NO_BASE,)),
+    "today's inputs, notched base on z": (HYBRID_INPUTS, BASE_COLUMNS[:2] + ("insertion_fz_notched",)),
 }
+NOTCH_HZ, NOTCH_Q = 12.0, 0.7
+"""The notch of the last variant: the stage mode's frequency (WPI), wide (Q 0.7) since the mode's
+damping (0.14) spreads it over about 12 ± 2 Hz."""
+
+
+def _notched(trial, rate_hz: float) -> dict:
+    x = trial.frame[INSERTION_FZ].to_numpy()
+    sos = signal.tf2sos(*signal.iirnotch(NOTCH_HZ, NOTCH_Q, fs=rate_hz))
+    return {"insertion_fz_notched": signal.sosfilt(sos, x, zi=signal.sosfilt_zi(sos) * x[0])[0]}
 
 
 def _bench(work: Path, port: str, scale: float, seed: int) -> Path:
@@ -68,6 +84,7 @@ def main() -> dict:
     ap.add_argument("--seed", type=int, default=0, help="bench and validation-split seed")
     ap.add_argument("--init-seeds", type=int, nargs="+", default=[0, 1])
     ap.add_argument("--ports", nargs="+", default=list(PORT_NAMES), choices=PORT_NAMES)
+    ap.add_argument("--variants", nargs="+", default=list(VARIANTS), choices=list(VARIANTS))
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--json", type=Path)
     args = ap.parse_args()
@@ -79,10 +96,12 @@ def main() -> dict:
         train, val = split_validation(ds.select(split="train"), 0.1, args.seed)
         prior = fit_prior(train)
         add_prior_columns(ds, prior)
+        ds.add_columns(lambda t: _notched(t, ds.metadata["sample_rate_hz"]))
         print(f"port {port}: validation NRMSE % Fx / Fy / Fz, causal | paper, mean over "
               f"initialisations {args.init_seeds}", flush=True)
         rows = result["ports"][port] = {}
-        for name, (features, base) in VARIANTS.items():
+        for name in args.variants:
+            features, base = VARIANTS[name]
             runs = []
             for init in args.init_seeds:
                 setup = make_setup("hybrid", train, prior_json=prior_to_json(prior),

@@ -81,8 +81,17 @@ _ROW_BLOCK = 4096
 @contextlib.contextmanager
 def _threads(n: int):
     """BLAS, torch and OpenMP limited to ``n`` threads (MultiRocket's numba threads follow its
-    ``n_jobs``); the caller's torch thread count is restored (Hydra's fit sets it globally)."""
+    ``n_jobs``); the caller's torch thread count is restored (Hydra's fit sets it globally).
+
+    numba's parallel kernels run on its ``workqueue`` layer unless the user chose one
+    (``NUMBA_THREADING_LAYER``): its default here is OpenMP through a second libgomp beside
+    torch's, and once that pool had run, torch's attention in the same process was 50-100x
+    slower for the rest of its life (``benchmarks/process_interference.py``), which stalled every
+    run that scores a paper transformer after MultiRocket-Hydra."""
+    import numba
     from threadpoolctl import threadpool_limits  # comes with aeon, imported lazily like it
+    if numba.config.THREADING_LAYER == "default":
+        numba.config.THREADING_LAYER = "workqueue"
     before = torch.get_num_threads()
     torch.set_num_threads(n)
     try:
