@@ -26,7 +26,10 @@ what an estimator built on one of them can reach:
 * ``perfect stage model``: the ATI truth plus the insertion effort's disturbance as the bench
   draws it (white + coloured, ``psm_model.sim.drive``; parameters from the run's metadata, a
   fresh draw seeded by the bench seed): what the insertion channel gives when everything else
-  in it (stage dynamics, friction, a port) is modelled exactly.
+  in it (stage dynamics, friction, a port) is modelled exactly;
+* ``..., best fixed filter``: ``insertion_fz`` and the perfect stage model through the causal
+  filter (:func:`_fixed_filters`: notches at the stage mode, low-passes) that scores best on the
+  validation trials.
 """
 
 from __future__ import annotations
@@ -60,7 +63,7 @@ def _table(run: Path) -> dict[str, dict[str, tuple[float, float]]]:
         "_call": results["call"], "_converged": results["all_converged"]}
 
 
-CROSSOVERS_HZ = (0.3, 1.0, 2.0, 4.0, 8.0)
+CROSSOVERS_HZ = (0.3, 1.0, 2.0, 4.0, 8.0, 16.0, 32.0)
 """Candidate crossovers of the complementary channel (picked on validation)."""
 
 
@@ -70,6 +73,26 @@ def _complementary(trial, crossover_hz: float, rate_hz: float) -> np.ndarray:
     low = [signal.lfilter(b, a, x, zi=signal.lfilter_zi(b, a) * x[0])[0]
            for x in (trial.frame["insertion_fz"].to_numpy(), trial.frame["comp_fz"].to_numpy())]
     return low[0] + trial.frame["comp_fz"].to_numpy() - low[1]
+
+
+def _fixed_filters(params: InstrumentParams, rate_hz: float) -> dict[str, np.ndarray]:
+    """Candidate causal filters (second-order sections) of an axial channel: notches at the
+    insertion stage's mode (``insertion_resonance_hz``, 12 Hz from WPI) and low-passes."""
+    f0 = params.insertion_resonance_hz
+    out = {f"notch {f0:g} Hz, Q {q:g}": signal.tf2sos(*signal.iirnotch(f0, q, fs=rate_hz))
+           for q in (0.7, 1.0, 2.0)}
+    return out | {f"low-pass {fc:g} Hz": signal.butter(2, fc, fs=rate_hz, output="sos")
+                  for fc in (2.0, 4.0, 6.0, 8.0, 12.0)}
+
+
+def _filtered(x: np.ndarray, sos: np.ndarray) -> np.ndarray:
+    return signal.sosfilt(sos, x, zi=signal.sosfilt_zi(sos) * x[0])[0]
+
+
+def _best_filtered(val, test, fz, filters: dict) -> tuple[float, str]:
+    """(test NRMSE, name) of ``fz`` through the filter that scores best on ``val``."""
+    name = min(filters, key=lambda k: _fz_nrmse(val, lambda t: _filtered(fz(t), filters[k])))
+    return _fz_nrmse(test, lambda t: _filtered(fz(t), filters[name])), name
 
 
 def _fz_nrmse(trials, fz) -> float:
@@ -93,16 +116,19 @@ def _channels_of_bench(data_dir: Path, prior_json: Path, seed: int) -> dict[str,
            "comp_fz": _fz_nrmse(test, lambda t: t.frame["comp_fz"].to_numpy()),
            "complementary": _fz_nrmse(test, lambda t: _complementary(t, crossover, rate_hz)),
            "complementary_crossover_hz": crossover}
+    params = InstrumentParams.from_dict(ds.metadata["instrument"])
+    filters = _fixed_filters(params, rate_hz)
+    out["insertion_fz, best fixed filter"], out["insertion_fz filter"] = _best_filtered(
+        val, test, lambda t: t.frame["insertion_fz"].to_numpy(), filters)
     if ds.metadata["effects"].get("coloured_effort_noise"):
-        params = InstrumentParams.from_dict(ds.metadata["instrument"])
         rng = np.random.default_rng(seed)
-        dt = 1.0 / rate_hz
-
-        def perfect(t):
-            n = len(t)
-            return (t.matrix(TARGETS, np.float64)[:, 2] + params.effort_noise[2]
-                    * rng.standard_normal(n) + drive.coloured_disturbance(n, dt, params, rng)[:, 2])
-        out["perfect stage model"] = _fz_nrmse(test, perfect)
+        perfect = {t.path: t.matrix(TARGETS, np.float64)[:, 2]
+                   + params.effort_noise[2] * rng.standard_normal(len(t))
+                   + drive.coloured_disturbance(len(t), 1.0 / rate_hz, params, rng)[:, 2]
+                   for t in val + test}
+        out["perfect stage model"] = _fz_nrmse(test, lambda t: perfect[t.path])
+        out["perfect stage model, best fixed filter"], out["perfect stage model filter"] = \
+            _best_filtered(val, test, lambda t: perfect[t.path], filters)
     return out
 
 
@@ -110,8 +136,9 @@ def _channels(run: Path, seeds) -> dict[str, dict[str, float]]:
     """{channel: {mean, std}} over the run's bench seeds (module docstring, ``--channels``)."""
     per_seed = [_channels_of_bench(run / "work" / "data" / f"automated_seed{s}",
                                    run / "work" / "data" / f"prior_seed{s}.json", s) for s in seeds]
-    return {k: {"mean": float(np.mean([p[k] for p in per_seed])),
-                "std": float(np.std([p[k] for p in per_seed]))} for k in per_seed[0]}
+    return {k: [p[k] for p in per_seed] if isinstance(per_seed[0][k], str) else
+            {"mean": float(np.mean([p[k] for p in per_seed])),
+             "std": float(np.std([p[k] for p in per_seed]))} for k in per_seed[0]}
 
 
 def _targets(tables: dict) -> dict:
@@ -178,8 +205,10 @@ def main() -> dict:
         for port, d in runs.items():
             ch = _channels(Path(d), calls[port]["seeds"])
             result["axial_channels_fz_nrmse_pct"][port] = ch
-            print(f"  port {port:15s} " + "  ".join(f"{k} {v['mean']:.2f} ± {v['std']:.2f}"
-                                                      for k, v in ch.items()))
+            print(f"  port {port}")
+            for k, v in ch.items():
+                print(f"    {k:40s} " + (", ".join(v) if isinstance(v, list)
+                                          else f"{v['mean']:.2f} ± {v['std']:.2f}"))
     if args.json:
         write_json(args.json, result)
     return result
