@@ -22,7 +22,9 @@ chunk). The paper transformer is timed four ways, all the same function
 
 ``--converge-scale S``: simulate an automated bench at scale ``S`` (seed 1), fit the prior, and
 train the paper transformer with the published budget (early stopping, no caps) on it;
-prints epochs, why it stopped and the wall-clock. Target: converged in under 30 minutes at
+prints epochs, why it stopped and the wall-clock, and the test trials' prediction time in the
+training process against a fresh one (a slowdown after training would show here; the one seen
+in long runs came from numba's OpenMP pool, ``benchmarks/process_interference.py``). Target: converged in under 30 minutes at
 S >= 0.1 on 2 cores.
 
 ``--profile`` (instead of the above): where the paper transformer's training step spends its
@@ -33,7 +35,6 @@ self CPU time. Shares, not seconds: they hold on a busy machine where timings do
 from __future__ import annotations
 
 import argparse
-import ctypes
 import platform
 import subprocess
 import sys
@@ -163,15 +164,6 @@ def _predict_seconds(setup, trials) -> float:
     return time.perf_counter() - t0
 
 
-def _malloc_trim() -> bool:
-    """glibc's ``malloc_trim(0)``: give the freed heap back to the system (False off glibc)."""
-    try:
-        ctypes.CDLL("libc.so.6").malloc_trim(0)
-    except (OSError, AttributeError):
-        return False
-    return True
-
-
 def _converge(scale: float) -> dict:
     """Train to convergence, then time the test trials' prediction twice: in the process that
     trained (what ``reproduce`` and ``another_tool`` do) and in a fresh one from the checkpoint."""
@@ -190,7 +182,6 @@ def _converge(scale: float) -> dict:
         test = ds.select(split="test")
         setup.derive(ds)
         in_process = _predict_seconds(setup, test)
-        trimmed = _predict_seconds(setup, test) if _malloc_trim() else None
         setup.save(Path(tmp) / "transformer.pt")
         fresh = float(subprocess.run(
             [sys.executable, "-c", _FRESH_PREDICT, str(Path(tmp) / "transformer.pt"),
@@ -200,13 +191,11 @@ def _converge(scale: float) -> dict:
               "converged": rep["converged"], "seconds": rep["seconds"],
               "train_windows": rep["train_windows"], "best_val_loss": rep["best_val_loss"],
               "compiled": cfg.compile, "test_predict_s_in_training_process": in_process,
-              "test_predict_s_fresh_process": fresh,
-              "test_predict_s_after_malloc_trim": trimmed}
+              "test_predict_s_fresh_process": fresh}
     print(f"  paper transformer at scale {scale}: {rep['epochs_run']} epochs, stopped by "
           f"{rep['stopped_by']}, converged {rep['converged']}, {rep['seconds'] / 60:.1f} min, "
           f"{rep['train_windows']} training windows per epoch; test prediction {in_process:.1f} s "
-          f"in the training process, {fresh:.1f} s in a fresh one, "
-          f"{trimmed} s after malloc_trim", flush=True)
+          f"in the training process, {fresh:.1f} s in a fresh one", flush=True)
     return result
 
 
