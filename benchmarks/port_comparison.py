@@ -67,12 +67,16 @@ CROSSOVERS_HZ = (0.3, 1.0, 2.0, 4.0, 8.0, 16.0, 32.0)
 """Candidate crossovers of the complementary channel (picked on validation)."""
 
 
+def _filtered(x: np.ndarray, sos: np.ndarray) -> np.ndarray:
+    """``x`` through ``sos``, causal, started at steady state on its first sample."""
+    return signal.sosfilt(sos, x, zi=signal.sosfilt_zi(sos) * x[0])[0]
+
+
 def _complementary(trial, crossover_hz: float, rate_hz: float) -> np.ndarray:
-    """``insertion_fz`` low-passed plus ``comp_fz`` high-passed, causal, started at rest."""
-    b, a = signal.butter(1, crossover_hz, fs=rate_hz)
-    low = [signal.lfilter(b, a, x, zi=signal.lfilter_zi(b, a) * x[0])[0]
-           for x in (trial.frame["insertion_fz"].to_numpy(), trial.frame["comp_fz"].to_numpy())]
-    return low[0] + trial.frame["comp_fz"].to_numpy() - low[1]
+    """``insertion_fz`` low-passed plus ``comp_fz`` high-passed (first order), causal."""
+    sos = signal.butter(1, crossover_hz, fs=rate_hz, output="sos")
+    insertion, hex10 = (trial.frame[c].to_numpy() for c in ("insertion_fz", "comp_fz"))
+    return _filtered(insertion, sos) + hex10 - _filtered(hex10, sos)
 
 
 def _fixed_filters(params: InstrumentParams, rate_hz: float) -> dict[str, np.ndarray]:
@@ -83,10 +87,6 @@ def _fixed_filters(params: InstrumentParams, rate_hz: float) -> dict[str, np.nda
            for q in (0.7, 1.0, 2.0)}
     return out | {f"low-pass {fc:g} Hz": signal.butter(2, fc, fs=rate_hz, output="sos")
                   for fc in (2.0, 4.0, 6.0, 8.0, 12.0)}
-
-
-def _filtered(x: np.ndarray, sos: np.ndarray) -> np.ndarray:
-    return signal.sosfilt(sos, x, zi=signal.sosfilt_zi(sos) * x[0])[0]
 
 
 def _best_filtered(val, test, fz, filters: dict) -> tuple[float, str]:
