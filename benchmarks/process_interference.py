@@ -6,8 +6,9 @@ before and after MultiRocket-Hydra's, per numba threading layer.
 ``psmforce reproduce`` and ``benchmarks/another_tool.py`` train and score several models in one
 process. MultiRocket-Hydra's kernels run on numba's parallel threads; with numba's OpenMP layer
 (its default where TBB is absent) a second libgomp pool lives beside torch's, and torch's
-attention afterwards ran 50-100x slower. :mod:`hybrid.rocket` therefore picks numba's
-``workqueue`` layer unless the user set ``NUMBA_THREADING_LAYER``.
+attention afterwards ran about 85x slower (one test trial: 1.07 s -> 90.5 s).
+:mod:`hybrid.rocket` therefore picks numba's ``workqueue`` layer unless the user set
+``NUMBA_THREADING_LAYER``.
 
 This simulates a small automated bench, trains a paper transformer (1 epoch: only its inference
 time matters here) and a MultiRocket-Hydra (2,000 training windows), then, for each layer

@@ -85,7 +85,7 @@ def _threads(n: int):
 
     numba's parallel kernels run on its ``workqueue`` layer unless the user chose one
     (``NUMBA_THREADING_LAYER``): its default here is OpenMP through a second libgomp beside
-    torch's, and once that pool had run, torch's attention in the same process was 50-100x
+    torch's, and once that pool had run, torch's attention in the same process was about 85x
     slower for the rest of its life (``benchmarks/process_interference.py``), which stalled every
     run that scores a paper transformer after MultiRocket-Hydra."""
     import numba
