@@ -55,7 +55,8 @@ VARIANTS = {
     "+ insertion velocity, position": (HYBRID_FEATURES_INSERTION + _VELOCITY + _POSITION,
                                        BASE_COLUMNS),
     "no base on z": (HYBRID_FEATURES_INSERTION, BASE_COLUMNS[:2] + (NO_BASE,)),
-    "today's inputs, notched base on z": (HYBRID_INPUTS, BASE_COLUMNS[:2] + ("insertion_fz_notched",)),
+    "today's inputs, notched base on z": (HYBRID_INPUTS,
+                                          BASE_COLUMNS[:2] + ("insertion_fz_notched",)),
 }
 NOTCH_HZ, NOTCH_Q = 12.0, 0.7
 """The notch of the last variant: the stage mode's frequency (WPI), wide (Q 0.7) since the mode's

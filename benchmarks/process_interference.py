@@ -13,7 +13,8 @@ attention afterwards ran about 85x slower (one test trial: 1.07 s -> 90.5 s).
 This simulates a small automated bench, trains a paper transformer (1 epoch: only its inference
 time matters here) and a MultiRocket-Hydra (2,000 training windows), then, for each layer
 (the library's choice, and ``omp``), in a fresh process: times the transformer's prediction of the
-first ``--trials`` test trials (best of two), predicts them with MultiRocket-Hydra, and times the transformer again.
+first ``--trials`` test trials (best of two), predicts them with MultiRocket-Hydra, and times the
+transformer again.
 Prints and writes (JSON) the seconds and the slowdown ``after / before``.
 """
 

@@ -24,8 +24,8 @@ chunk). The paper transformer is timed four ways, all the same function
 train the paper transformer with the published budget (early stopping, no caps) on it;
 prints epochs, why it stopped and the wall-clock, and the test trials' prediction time in the
 training process against a fresh one (a slowdown after training would show here; the one seen
-in long runs came from numba's OpenMP pool, ``benchmarks/process_interference.py``). Target: converged in under 30 minutes at
-S >= 0.1 on 2 cores.
+in long runs came from numba's OpenMP pool, ``benchmarks/process_interference.py``). Target:
+converged in under 30 minutes at S >= 0.1 on 2 cores.
 
 ``--profile`` (instead of the above): where the paper transformer's training step spends its
 time, torch's profiler over two steps after warm-up, the operators with the largest share of

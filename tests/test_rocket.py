@@ -77,7 +77,7 @@ def test_deterministic_given_seed_and_leaves_global_state(data):
 
 
 def test_numba_runs_on_its_workqueue_not_a_second_openmp(fitted):
-    # numba's OpenMP pool beside torch's left torch's attention 50-100x slower in the process
+    # numba's OpenMP pool beside torch's left torch's attention about 85x slower in the process
     import numba
     if numba.config.THREADING_LAYER not in ("default", "workqueue"):
         pytest.skip(f"the user chose numba's {numba.config.THREADING_LAYER} layer")
