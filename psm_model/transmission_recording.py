@@ -1,0 +1,162 @@
+"""A cable-transmission recording: one EndoWrist spindle driven by a motor, its jaw loaded, both
+ends measured (the MRD Lab bench of O'Neill et al., RA-L 2018; ``../shared/data/mrdlab``).
+
+Read one file with :func:`read_transmission_file`, a session folder with
+:func:`read_transmission_session`. Each file is resampled to ``rate_hz`` (default 100 Hz) for the
+estimators:
+
+* the proximal signals a robot has (motor current, motor command, motor encoder) pass through a
+  causal low-pass (2nd-order Butterworth at 0.4 ``rate_hz``, run forward only) before they are
+  taken every ``1000 / rate_hz``-th sample, so nothing from the future leaks in;
+* the distal truth (jaw torque, jaw angle) and the input-spindle torque sensor are taken at the
+  same instants unfiltered: the target is the measurement, not a smoothed version of it.
+
+Frames, units and signs (one place; :func:`read_transmission_file` applies them):
+
+``motor_angle_rad``
+    input-spindle angle from the motor encoder through the 35:1 gearbox (rad at the spindle,
+    4196 x 35 counts per revolution, the dataset's figure). Positive: the encoder's own direction,
+    which on this bench moves the jaw in its positive direction (towards closing, against the load).
+``motor_velocity_rad_s``
+    backward difference of the filtered motor angle (causal).
+``motor_current_a``
+    motor current (A), as stored: a positive current drives the positive motor angle.
+``motor_command``
+    the drive's command (-1..1), sign flipped from the stored column so that it agrees with the
+    current (on this bench the stored command is negative while the current drives forwards).
+``jaw_torque_nm``
+    front-end torque sensor (Nm, 0.000039811 Nm per count): the loader's torque on the jaw, as
+    stored. Negative: resisting the positive (closing) motion.
+``jaw_angle_rad``
+    front-end encoder (rad, 4000 counts per revolution), positive with the motor angle.
+``spindle_torque_nm``, ``spindle_angle_rad``
+    input-spindle torque sensor and encoder (a robot has neither; kept for the physics checks).
+
+The encoders are incremental: each session has its own zero on both ends.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from scipy import signal as _signal
+
+FUTEK_NM_PER_COUNT = 0.000039811
+MOTOR_COUNTS_PER_REV = 4196 * 35
+SPINDLE_COUNTS_PER_REV = 8192
+JAW_COUNTS_PER_REV = 4000
+FILE_RATE_HZ = 1000.0
+_N_COLUMNS = 10
+_NAME = re.compile(r"^(\d)(\d)\.TXT$", re.IGNORECASE)
+
+
+class TransmissionDataError(ValueError):
+    """A transmission file or folder that cannot be read; the message names it and the problem."""
+
+
+@dataclass(frozen=True)
+class TransmissionRecording:
+    """One file at ``rate_hz``; every array is (N,) on the same clock (see the module docstring)."""
+
+    name: str
+    session: str
+    frequency_index: int
+    load_index: int
+    rate_hz: float
+    time_s: np.ndarray
+    motor_angle_rad: np.ndarray
+    motor_velocity_rad_s: np.ndarray
+    motor_current_a: np.ndarray
+    motor_command: np.ndarray
+    jaw_torque_nm: np.ndarray
+    jaw_angle_rad: np.ndarray
+    spindle_torque_nm: np.ndarray
+    spindle_angle_rad: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.time_s)
+
+    @property
+    def closing(self) -> np.ndarray:
+        """(N,) bool: the closing portions of the grasp, the jaw driven against the load (motor
+        moving in the positive direction), as the 2018 paper scored them. From the motor
+        encoder only, so an estimator may use it."""
+        return self.motor_velocity_rad_s > 0.02
+
+    def slice(self, start: int, stop: int) -> "TransmissionRecording":
+        """The samples ``[start, stop)`` as a recording of their own (few-shot calibration)."""
+        arrays = {k: v[start:stop] for k, v in self.__dict__.items() if isinstance(v, np.ndarray)}
+        return TransmissionRecording(name=f"{self.name}[{start}:{stop}]", session=self.session,
+                                     frequency_index=self.frequency_index,
+                                     load_index=self.load_index, rate_hz=self.rate_hz, **arrays)
+
+
+def _parse(path: Path) -> np.ndarray:
+    try:
+        text = path.read_text(errors="strict")
+    except (OSError, UnicodeDecodeError) as err:
+        raise TransmissionDataError(f"{path}: cannot read ({err})") from None
+    rows = [line for line in text.splitlines() if line.strip() and not line.startswith("%")]
+    try:
+        data = np.array([[float(x) for x in line.split(",")] for line in rows])
+    except ValueError as err:
+        raise TransmissionDataError(f"{path}: a data line is not comma-separated numbers "
+                                    f"({err})") from None
+    if data.ndim != 2 or data.shape[1] != _N_COLUMNS:
+        raise TransmissionDataError(f"{path}: expected {_N_COLUMNS} columns per line, got "
+                                    f"{data.shape[1:] or 'none'}")
+    if len(data) < 2000:
+        raise TransmissionDataError(f"{path}: {len(data)} samples; at least 2 s at 1 kHz needed")
+    if not np.isfinite(data).all():
+        raise TransmissionDataError(f"{path}: non-finite values in the data")
+    dt = np.diff(data[:, 0])
+    if np.abs(dt - 1.0 / FILE_RATE_HZ).max() > 1e-4:
+        raise TransmissionDataError(f"{path}: the time column does not step by 1 ms "
+                                    f"(steps {dt.min():.4g}..{dt.max():.4g} s)")
+    return data
+
+
+def read_transmission_file(path, rate_hz: float = 100.0) -> TransmissionRecording:
+    """Read one ``XY.TXT`` file (X: drive frequency index, Y: load index) at ``rate_hz``."""
+    path = Path(path)
+    m = _NAME.match(path.name)
+    if m is None:
+        raise TransmissionDataError(f"{path}: expected a file named XY.TXT (frequency index, load "
+                                    "index)")
+    step = FILE_RATE_HZ / rate_hz
+    if not (rate_hz > 0 and abs(step - round(step)) < 1e-9 and round(step) >= 1):
+        raise TransmissionDataError(f"rate_hz must divide {FILE_RATE_HZ:g} Hz, got {rate_hz}")
+    step = int(round(step))
+    d = _parse(path)
+    motor = d[:, 8] * 2 * np.pi / MOTOR_COUNTS_PER_REV
+    proximal = np.stack([motor, d[:, 3], -d[:, 7]], axis=1)
+    if step > 1:
+        sos = _signal.butter(2, 0.4 * rate_hz, fs=FILE_RATE_HZ, output="sos")
+        zi = _signal.sosfilt_zi(sos)[:, :, None] * proximal[0][None, None, :]
+        proximal, _ = _signal.sosfilt(sos, proximal, axis=0, zi=zi)
+    take = slice(0, len(d), step)
+    motor_f = proximal[take, 0]
+    velocity = np.diff(motor_f, prepend=motor_f[0]) * rate_hz
+    return TransmissionRecording(
+        name=f"{path.parent.name}/{path.stem}", session=path.parent.name,
+        frequency_index=int(m.group(1)), load_index=int(m.group(2)), rate_hz=float(rate_hz),
+        time_s=d[take, 0] - d[0, 0], motor_angle_rad=motor_f, motor_velocity_rad_s=velocity,
+        motor_current_a=proximal[take, 1], motor_command=proximal[take, 2],
+        jaw_torque_nm=d[take, 5] * FUTEK_NM_PER_COUNT,
+        jaw_angle_rad=d[take, 4] * 2 * np.pi / JAW_COUNTS_PER_REV,
+        spindle_torque_nm=d[take, 2] * FUTEK_NM_PER_COUNT,
+        spindle_angle_rad=d[take, 1] * 2 * np.pi / SPINDLE_COUNTS_PER_REV)
+
+
+def read_transmission_session(folder, rate_hz: float = 100.0) -> list[TransmissionRecording]:
+    """Every ``XY.TXT`` file of a session folder, in name order."""
+    folder = Path(folder)
+    if not folder.is_dir():
+        raise TransmissionDataError(f"{folder}: not a folder")
+    files = sorted(p for p in folder.iterdir() if _NAME.match(p.name))
+    if not files:
+        raise TransmissionDataError(f"{folder}: no XY.TXT transmission files")
+    return [read_transmission_file(p, rate_hz) for p in files]
