@@ -38,7 +38,7 @@ The encoders are incremental: each session has its own zero on both ends.
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -160,3 +160,18 @@ def read_transmission_session(folder, rate_hz: float = 100.0) -> list[Transmissi
     if not files:
         raise TransmissionDataError(f"{folder}: no XY.TXT transmission files")
     return [read_transmission_file(p, rate_hz) for p in files]
+
+
+def home_session(recordings: list[TransmissionRecording]) -> list[TransmissionRecording]:
+    """The session's recordings with both encoders zeroed at one instant: the first sample of its
+    first file (name order), as a robot homes an instrument once when it is engaged.
+
+    The encoders are incremental, so each session starts from its own zero; a model carried
+    from one session or instrument to another sees angles relative to that one homing pose.
+    Torques are untouched."""
+    if not recordings:
+        raise TransmissionDataError("no recordings to home")
+    first = min(recordings, key=lambda r: r.name)
+    offsets = {"motor_angle_rad": first.motor_angle_rad[0], "jaw_angle_rad": first.jaw_angle_rad[0],
+               "spindle_angle_rad": first.spindle_angle_rad[0]}
+    return [replace(r, **{k: getattr(r, k) - v for k, v in offsets.items()}) for r in recordings]
