@@ -163,15 +163,21 @@ def read_transmission_session(folder, rate_hz: float = 100.0) -> list[Transmissi
 
 
 def home_session(recordings: list[TransmissionRecording]) -> list[TransmissionRecording]:
-    """The session's recordings with both encoders zeroed at one instant: the first sample of its
-    first file (name order), as a robot homes an instrument once when it is engaged.
+    """The session's recordings with the motor and jaw encoders zeroed at one homing pose, as a
+    robot homes an instrument once when it is engaged.
 
-    The encoders are incremental, so each session starts from its own zero; a model carried
-    from one session or instrument to another sees angles relative to that one homing pose.
-    Torques are untouched."""
+    The motor and jaw encoders are incremental: each session starts from its own zero, and the
+    sessions start at different ends of the stroke. The input-spindle encoder reads the same
+    stroke in every session (0 to about 1370 counts), so the homing pose is the first sample of
+    the session's first file (name order) where the spindle sits at its zero (the end of its
+    stroke): both encoders read 0 there. A model carried to another session or instrument sees
+    angles relative to that pose. Torques are untouched."""
     if not recordings:
         raise TransmissionDataError("no recordings to home")
     first = min(recordings, key=lambda r: r.name)
-    offsets = {"motor_angle_rad": first.motor_angle_rad[0], "jaw_angle_rad": first.jaw_angle_rad[0],
-               "spindle_angle_rad": first.spindle_angle_rad[0]}
-    return [replace(r, **{k: getattr(r, k) - v for k, v in offsets.items()}) for r in recordings]
+    at_zero = first.spindle_angle_rad <= first.spindle_angle_rad.min() + 2 * np.pi / SPINDLE_COUNTS_PER_REV
+    k = int(np.argmax(at_zero))
+    offsets = {"motor_angle_rad": first.motor_angle_rad[k], "jaw_angle_rad": first.jaw_angle_rad[k],
+               "spindle_angle_rad": first.spindle_angle_rad[k]}
+    return [replace(r, **{name: getattr(r, name) - v for name, v in offsets.items()})
+            for r in recordings]
