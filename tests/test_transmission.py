@@ -19,7 +19,7 @@ from psm_model.transmission_recording import (TransmissionDataError, Transmissio
 MRDLAB = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "mrdlab"
 TRUTH = dict(current_gain=0.65, viscous=0.01, inertia=4e-4, position_stiffness=-0.006,
              motor_coulomb=0.0, capstan_mu=0.8, capstan_mu_per_rad=-0.3, pretension_torque=0.11,
-             torque_bias=-0.02)
+             pair_asymmetry=0.5, torque_bias=-0.02)
 ANGLE_TRUTH = dict(ratio=0.92, compliance_current=0.86, windup=0.063, angle_offset=0.01)
 
 
@@ -42,7 +42,7 @@ def test_play_operator_lags_by_its_half_width_after_reversal():
 
 def test_capstan_law_closed_form_in_slack():
     # slack (|tau_s| >> P): jaw torque = -tau_s exp(-mu z) / n, the capstan efficiency
-    p = np.array([1.0, 0, 0, 0, 0, 0.5, 0, 1e-6, 0])
+    p = np.array([1.0, 0, 0, 0, 0, 0.5, 0, 1e-6, 0, 0])
     s = _signals(_synthetic(np.linspace(0, 1, 300), np.full(300, 0.2), "slack"), 0.01)
     law = _torque_law(p, s, 0.9, np)
     z = s.z[-1]

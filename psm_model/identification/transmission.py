@@ -11,14 +11,18 @@ Torque path (per sample; ``z`` in [-1, 1] the Dahl friction-direction state, rat
 driven by the motor displacement with pre-sliding angle ``phi_c``)::
 
     tau_s  = G i - b omega - J alpha - k_theta theta - f_m z          spindle torque into the cables
-    P_s    = smoothmax(P, |tau_s|)                                    pair tension sum x spindle radius:
-                                                                      taut (pretension) or slack
+    P_s    = smoothmax(P + a tau_s, |tau_s|)                          pair tension sum x spindle radius:
+                                                                      taut (pretension, asymmetric
+                                                                      pair a) or slack
     m      = mu (1 + mu_theta theta) z                                capstan exponent, wrap grows with angle
     tau_c  = (tau_s cosh m - P_s sinh m) / n                          cable torque on the jaw (capstan)
     jaw_torque_model = -tau_c + c_0
 
 The capstan step is the pair law of the bench (``psm_model/sim/cables.py``, ``_capstan_pair``)
-with the tension sum times the spindle radius as the pretension torque ``P = 2 T_0 r_s``.
+with the tension sum times the spindle radius as the pretension torque ``P = 2 T_0 r_s`` and the
+pair asymmetry ``a`` of the bench's loop closure (``S = 2 T_0 + a D``): the friction grows with the
+load even while the pair is taut, at a different rate closing (``cosh mu - a sinh mu``) and
+opening (``cosh mu + a sinh mu``).
 
 Stick. While the motor does not move, neither end of the transmission slides: the current
 relaxes (the drive's position loop is satisfied) while the gearbox and the cables hold the last
@@ -81,6 +85,7 @@ TORQUE_PARAMETERS = (
     ("capstan_mu", "1", 0.0, 2.0, 0.4),
     ("capstan_mu_per_rad", "1/rad", -1.0, 1.0, 0.0),
     ("pretension_torque", "Nm", 0.0, 1.0, 0.1),
+    ("pair_asymmetry", "1", -0.95, 0.95, 0.0),
     ("torque_bias", "Nm", -0.3, 0.3, 0.0),
 )
 TORQUE_NAMES = tuple(p[0] for p in TORQUE_PARAMETERS)
@@ -144,10 +149,11 @@ def _concat(sigs: Sequence[_Signals]) -> _Signals:
 
 def _torque_law(p, s, ratio, xp):
     """Jaw torque (Nm) before the stick hold; ``p`` in TORQUE_NAMES order; ``xp`` numpy or casadi."""
-    G, b, J, k_th, f_m, mu, mu_th, P, c0 = p
+    G, b, J, k_th, f_m, mu, mu_th, P, a, c0 = p
     tau_s = G * s.current - b * s.omega - J * s.alpha - k_th * s.theta - f_m * s.z
     mag = xp.sqrt(tau_s * tau_s + 1e-12)
-    p_s = 0.5 * (P + mag + xp.sqrt((P - mag) * (P - mag) + SMOOTH_MAX_NM ** 2))
+    taut = P + a * tau_s
+    p_s = 0.5 * (taut + mag + xp.sqrt((taut - mag) * (taut - mag) + SMOOTH_MAX_NM ** 2))
     m = mu * (1.0 + mu_th * s.theta) * s.z
     return -(tau_s * xp.cosh(m) - p_s * xp.sinh(m)) / ratio + c0
 
