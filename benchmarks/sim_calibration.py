@@ -8,10 +8,17 @@ recordings and on the simulator replaying the same trajectories, its std raw / a
 5 Hz low-pass / after the paper's centred median, its spectrum and autocorrelation, and the
 ratio sim / real (rule: every std ratio within [0.67, 1.5]); skipped when the WPI folder is
 absent. ``--derive`` also prints the coloured disturbance derived from the WPI residual (the
-numbers written into psm_model/sim/params.py). ``--json PATH`` writes everything. Usage::
+numbers written into psm_model/sim/params.py). Then the cable law against a real EndoWrist
+(the MRD Lab bench): hysteresis loop width, friction against load and against frequency and
+the static compliance, computed the same way on the real recordings and on the bench's cable law
+replaying their grid (psm_model/sim/transmission_figures.py), with the ratio sim / real (rule:
+every checked ratio within [0.67, 1.5] on Tool_4_Maryland_L_4; the other sessions are a spread),
+also for the defaults before the calibration; skipped when the MRD Lab folder is absent.
+``--cable-law`` runs only these rows (seconds). ``--json PATH`` writes everything. Usage::
 
     python benchmarks/sim_calibration.py [--scale 1.0] [--seed 0] [--out DIR] [--json PATH]
                                          [--wpi ../shared/data/wpi_psm] [--derive]
+                                         [--mrdlab ../shared/data/mrdlab] [--cable-law]
 """
 
 from __future__ import annotations
@@ -29,9 +36,18 @@ import pandas as pd
 
 from psm_model.conventions import JOINTS
 from psm_model.sim import Contact, Effects, InstrumentParams, calibration, motion, protocols, run_trajectory, simulate
+from psm_model.sim import transmission_figures
 from _report import write_json
 
 WPI_DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data" / "wpi_psm"
+MRDLAB_DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data" / "mrdlab"
+CABLE_LAW_SESSION = "Tool_4_Maryland_L_4"
+"""The session the cable-law rule is checked on (the 2018 paper's; ten load levels)."""
+PREVIOUS_CABLE_DEFAULTS = {"cable_stiffness_n_per_m": 6.0e5, "pitch_path_mismatch_m": 1.5e-6}
+"""The ``InstrumentParams`` defaults before the calibration against the real EndoWrist (the
+"sim before" column)."""
+LOAD_SCALE_SENSITIVITY = (0.8, 1.25)
+"""Factors on the sim / real load scale (the equal-input-drum assumption): the sensitivity rows."""
 EFFORT_RATIO_RANGE = (0.67, 1.5)
 EFFORT_CHECKED = ("std_raw", "std_lowpass5", "std_median71")
 DERIVE_SEEDS = (0, 1, 2)
@@ -176,6 +192,63 @@ def _print_effort(e: dict) -> None:
             print(f"  {k:28s} {np.round(v, 5).tolist()}")
 
 
+def _without_runs(figures: dict) -> dict:
+    return {k: v for k, v in figures.items() if k != "runs"}
+
+
+def cable_law(mrdlab_dir: Path) -> dict:
+    """The cable law against the real EndoWrist: per MRD Lab session the real figures, the
+    simulated ones with the current and with the previous defaults, their comparison, and the
+    figures per load level; on :data:`CABLE_LAW_SESSION` the rule and a load-scale sensitivity."""
+    start = time.perf_counter()
+    before = dataclasses.replace(InstrumentParams(), **PREVIOUS_CABLE_DEFAULTS)
+    out = {"mrdlab": str(mrdlab_dir), "checked_session": CABLE_LAW_SESSION,
+           "checked_figures": list(transmission_figures.CHECKED),
+           "previous_defaults": PREVIOUS_CABLE_DEFAULTS,
+           "current_defaults": {k: getattr(InstrumentParams(), k) for k in PREVIOUS_CABLE_DEFAULTS},
+           "sessions": {}}
+    for folder in transmission_figures.sessions(mrdlab_dir):
+        now = transmission_figures.real_vs_sim(folder)
+        old = transmission_figures.real_vs_sim(folder, before)
+        rows = {k: {"real": v["real"], "sim_before": old["comparison"][k]["sim"],
+                    "ratio_before": old["comparison"][k]["ratio"], "sim": v["sim"],
+                    "ratio": v["ratio"], "ok": v["ok"]} for k, v in now["comparison"].items()}
+        out["sessions"][folder.name] = {
+            "load_scale_sim_per_real": now["load_scale_sim_per_real"], "table": rows,
+            "real": _without_runs(now["real"]), "sim": _without_runs(now["sim"]),
+            "sim_before": _without_runs(old["sim"]),
+            "by_load_level": {"real": transmission_figures.by_load_level(now["real"]),
+                              "sim": transmission_figures.by_load_level(now["sim"])}}
+    if CABLE_LAW_SESSION not in out["sessions"]:
+        raise FileNotFoundError(f"{mrdlab_dir}: no {CABLE_LAW_SESSION} session")
+    checked = out["sessions"][CABLE_LAW_SESSION]["table"]
+    out["rule"] = (f"every {', '.join(transmission_figures.CHECKED)} ratio sim/real within "
+                   f"{list(transmission_figures.RATIO_RANGE)} on {CABLE_LAW_SESSION}")
+    out["cable_law_ok"] = bool(all(r["ok"] for r in checked.values()))
+    out["load_scale_sensitivity"] = {
+        str(f): {k: v["ratio"] for k, v in transmission_figures.real_vs_sim(
+            Path(mrdlab_dir) / CABLE_LAW_SESSION, load_scale_factor=f)["comparison"].items()}
+        for f in LOAD_SCALE_SENSITIVITY}
+    out["seconds"] = round(time.perf_counter() - start, 1)
+    return out
+
+
+def _print_cable_law(c: dict) -> None:
+    print(f"\ncable law vs the real EndoWrist (MRD Lab; rule on {c['checked_session']})")
+    print(f"{'session / figure':44s}{'real':>10s}{'sim before':>12s}{'ratio':>8s}{'sim':>10s}"
+          f"{'ratio':>8s}")
+    for name, sess in c["sessions"].items():
+        print(f"{name} (sim load per real load {sess['load_scale_sim_per_real']:.3f})")
+        for k, r in sess["table"].items():
+            print(f"  {k:42s}{r['real']:10.4g}{r['sim_before']:12.4g}{r['ratio_before']:8.3f}"
+                  f"{r['sim']:10.4g}{r['ratio']:8.3f}{'' if r['ok'] else '  outside'}")
+        for k in ("zero_load_friction_fraction", "friction_fraction_at_full_load"):
+            print(f"  {k + ' (not checked)':42s}{sess['real'][k]:10.4g}"
+                  f"{sess['sim_before'][k]:12.4g}{'':8s}{sess['sim'][k]:10.4g}")
+    print(f"load-scale sensitivity (ratios): {c['load_scale_sensitivity']}")
+    print(f"{'rule':22s}{c['rule']}: {'ok' if c['cable_law_ok'] else 'NOT MET'}")
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--scale", type=float, default=1.0)
@@ -185,7 +258,21 @@ def main(argv=None) -> int:
     ap.add_argument("--wpi", type=Path, default=WPI_DEFAULT, help="folder of the WPI recordings")
     ap.add_argument("--derive", action="store_true",
                     help="also derive the coloured effort disturbance from the WPI residual")
+    ap.add_argument("--mrdlab", type=Path, default=MRDLAB_DEFAULT,
+                    help="folder of the MRD Lab EndoWrist transmission sessions")
+    ap.add_argument("--cable-law", action="store_true",
+                    help="only the cable law against the real EndoWrist (no protocol, no WPI)")
     args = ap.parse_args(argv)
+    if args.cable_law:
+        if not (args.mrdlab / CABLE_LAW_SESSION).is_dir():
+            print(f"sim_calibration: error: no {CABLE_LAW_SESSION} in {args.mrdlab}",
+                  file=sys.stderr)
+            return 2
+        c = cable_law(args.mrdlab)
+        _print_cable_law(c)
+        if args.json:
+            write_json(args.json, {"cable_law": c})
+        return 0
     with tempfile.TemporaryDirectory() as tmp:
         out = args.out or Path(tmp) / "sim"
         r = calibrate(args.scale, args.seed, out)
@@ -199,6 +286,12 @@ def main(argv=None) -> int:
     else:
         r["effort_channels"] = f"skipped: no WPI recordings in {args.wpi}"
         print(r["effort_channels"])
+    if (args.mrdlab / CABLE_LAW_SESSION).is_dir():
+        r["cable_law"] = cable_law(args.mrdlab)
+        _print_cable_law(r["cable_law"])
+    else:
+        r["cable_law"] = f"skipped: no {CABLE_LAW_SESSION} in {args.mrdlab}"
+        print(r["cable_law"])
     if args.json:
         write_json(args.json, r)
     return 0

@@ -21,8 +21,8 @@ spindle current gain ``G n``)::
     tau_c  = tau_s cosh m - P_s sinh m                                cable torque on the jaw (capstan)
     jaw_torque_model = -tau_c + c_0
 
-The capstan step is the pair law of the bench (``psm_model/sim/cables.py``, ``_capstan_pair``)
-with the tension sum times the pulley radius as the pretension torque ``P = 2 T_0 r`` and the
+The pair law is the one the internal-force prior uses for every pair of the Cadiere wrist
+(:mod:`psm_model.identification.cable_pair`), here in torques: the tension sum times the pulley radius as the pretension torque ``P = 2 T_0 r`` and the
 pair asymmetry ``a`` of the bench's loop closure (``S = 2 T_0 + a D``): the friction grows with the
 load even while the pair is taut, at a different rate closing (``cosh mu - a sinh mu``) and
 opening (``cosh mu + a sinh mu``).
@@ -69,6 +69,7 @@ from typing import Sequence
 
 import numpy as np
 
+from psm_model.identification import cable_pair
 from psm_model.identification.errors import IdentificationInputError, NotConvergedError
 from psm_model.transmission_recording import TransmissionRecording
 
@@ -160,11 +161,8 @@ def _torque_law(p, s, xp):
     """Jaw torque (Nm) before the stick hold; ``p`` in TORQUE_NAMES order; ``xp`` numpy or casadi."""
     G, b, J, k_th, f_m, mu, mu_th, P, a, c0 = p
     tau_s = G * s.current - b * s.omega - J * s.alpha - k_th * s.theta - f_m * s.z
-    mag = xp.sqrt(tau_s * tau_s + 1e-12)
-    taut = P + a * tau_s
-    p_s = 0.5 * (taut + mag + xp.sqrt((taut - mag) * (taut - mag) + SMOOTH_MAX_NM ** 2))
-    m = mu * (1.0 + mu_th * s.theta) * s.z
-    return -(tau_s * xp.cosh(m) - p_s * xp.sinh(m)) + c0
+    p_s = cable_pair.tension_sum(P + a * tau_s, tau_s, SMOOTH_MAX_NM, xp)
+    return -cable_pair.capstan(tau_s, p_s, mu * (1.0 + mu_th * s.theta) * s.z, xp) + c0
 
 
 @dataclass(frozen=True)

@@ -185,13 +185,23 @@ def transmission(q: np.ndarray, tau_load_distal: np.ndarray, params: InstrumentP
 
 def section_wrench(tensions: np.ndarray, params: InstrumentParams) -> np.ndarray:
     """(N, 6) wrench [f; m] the cables apply on the distal body across the HEX10 section, in the
-    HEX10 frame: each cable pulls with -T along z at radius rho, angle from CABLE_ANGLES_RAD."""
-    rho = params.cable_radius_in_section_m
+    HEX10 frame. Cable (pair i, side s) crosses at r = rho (cos phi, sin phi, 0), phi from
+    CABLE_ANGLES_RAD, and pulls with T along u = (sin b t, -cos b), t = (-sin phi, cos phi, 0)
+    the tangent, b = ``cable_crossing_angle_rad`` (0: straight along -z). Force T u; moment
+    r x T u = (-ry, rx, 0) T cos b + (0, 0, rho) T sin b. So a pair adds sin b (T+ - T-) t
+    laterally and every cable rho T sin b about the shaft."""
+    rho, b = params.cable_radius_in_section_m, params.cable_crossing_angle_rad
     cx, cy = rho * np.cos(CABLE_ANGLES_RAD), rho * np.sin(CABLE_ANGLES_RAD)
     n = tensions.shape[0]
     w = np.zeros((n, 6))
-    w[:, 2] = -tensions.sum(axis=(1, 2))
+    axial = tensions * np.cos(b)
+    w[:, 2] = -axial.sum(axis=(1, 2))
     # m = r x (0, 0, -T) = (-ry T, rx T, 0)
-    w[:, 3] = -(tensions * cy).sum(axis=(1, 2))
-    w[:, 4] = (tensions * cx).sum(axis=(1, 2))
+    w[:, 3] = -(axial * cy).sum(axis=(1, 2))
+    w[:, 4] = (axial * cx).sum(axis=(1, 2))
+    if b != 0.0:
+        lateral = tensions * np.sin(b)
+        w[:, 0] = -(lateral * np.sin(CABLE_ANGLES_RAD)).sum(axis=(1, 2))
+        w[:, 1] = (lateral * np.cos(CABLE_ANGLES_RAD)).sum(axis=(1, 2))
+        w[:, 5] = rho * lateral.sum(axis=(1, 2))
     return w

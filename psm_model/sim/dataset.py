@@ -33,7 +33,9 @@ from .bench import run_trajectory
 from .params import Effects, InstrumentParams
 from .port import PORT_NAMES, port_by_name
 
-SIM_VERSION = "2.0"
+SIM_VERSION = "2.1"
+"""2.1: cable stiffness calibrated on a real EndoWrist (6.0e5 -> 2.8e5 N/m; pitch path mismatch
+1.5 -> 3.2 um to keep its tension); docs/simulator.md, "Cable law against a real EndoWrist"."""
 PROTOCOLS = ("automated", "teleop")
 FORMATS = ("csv", "mcap")
 BAG_SESSION_START_NS = 1_748_854_800 * 10**9

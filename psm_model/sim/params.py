@@ -40,8 +40,12 @@ class InstrumentParams:
     (paper: retensioned to ~8 N, 6 N observed on the HEX10)."""
     pulley_radius_pitch_m: float = 2.0e-3
     pulley_radius_blade_m: float = 1.5e-3
-    cable_stiffness_n_per_m: float = 6.0e5
-    """Axial stiffness of one cable run (cable + rod) between spool and wrist."""
+    cable_stiffness_n_per_m: float = 2.8e5
+    """Axial stiffness of one cable run (cable + rod) between spool and wrist. Calibrated on a
+    real EndoWrist (MRD Lab bench, Tool_4_Maryland_L_4): was 6.0e5 (assumed), which gave 0.47x
+    the real transmission's static compliance and 0.49x its loop width; 2.8e5 = 6.0e5 x 0.469
+    matches the compliance (psm_model/sim/transmission_figures.py; docs/simulator.md, "Cable
+    law against a real EndoWrist")."""
     cable_asymmetry: tuple[float, float, float] = (0.30, 0.25, 0.30)
     """(k+ - k-) / (k+ + k-) of each pair: how much the pair's tension sum follows its differential."""
     capstan_mu_wrap_distal: float = 0.30
@@ -58,8 +62,11 @@ class InstrumentParams:
     """Relative pretension increase per rad^2 of roll (cables twisted around each other)."""
     twist_friction_gain_per_rad: float = 0.15
     """Relative capstan friction increase per rad of |roll|."""
-    pitch_path_mismatch_m: float = 1.5e-6
-    """Blade-cable path length left uncompensated by the coupling: dL = e * (1 - cos pitch)."""
+    pitch_path_mismatch_m: float = 3.2e-6
+    """Blade-cable path length left uncompensated by the coupling: dL = e * (1 - cos pitch).
+    Was 1.5e-6; raised with the cable stiffness's calibration (6.0e5 -> 2.8e5) so that the
+    assumed extra tension it stands for, k_cable x e x (1 - cos pitch) = +0.4 N per blade cable
+    at 1 rad pitch, stays what it was (not itself calibrated on the real EndoWrist)."""
     roll_torsion_nm_per_rad: float = 0.004
     roll_friction_nm: float = 0.0023
     """Roll Coulomb level (Nm): our identification's value on the real WPI arm."""
@@ -173,6 +180,12 @@ class InstrumentParams:
     # --- ATI Nano17 ---
     ati_force_noise_n: float = 0.004
     ati_moment_noise_nm: float = 3.0e-5
+    # --- added after the fields above (keep new fields at the end) ---
+    cable_crossing_angle_rad: float = 0.0
+    """Angle between each cable and the shaft axis where it crosses the HEX10 section, tilted
+    tangentially (a helical lay, every cable the same hand): each cable then also pulls the
+    distal body sideways by T sin(angle) along (-sin phi, cos phi, 0) at its angle phi. 0: the
+    cables run along the shaft (the nominal bench; the prior does not model this force)."""
 
     def to_dict(self) -> dict:
         return {f.name: _jsonable(getattr(self, f.name)) for f in fields(self)}
