@@ -57,7 +57,7 @@ import numpy as np
 
 from psm_model.conventions import GRAVITY_UPRIGHT_MPS2, INSERTION_JOINT, WRIST_JOINTS
 from psm_model.files import write_json_atomic
-from psm_model.identification import cable_pair
+from psm_model.identification.cable_pair import tension_sum
 from psm_model.identification.errors import IdentificationInputError, NotConvergedError
 from psm_model.identification.insertion import InsertionEffortModel
 from psm_model.identification.signals import check_finite_2d
@@ -126,7 +126,7 @@ def _model(p, pos, e, v, g_hex, xp):
     tx = 0.0
     ty = 0.0
     for i in range(3):
-        S_sum = S_sum + cable_pair.tension_sum(two_t0 + asym[i] * D[i], D[i], SMOOTH_MAX_N, xp)
+        S_sum = S_sum + tension_sum(two_t0 + asym[i] * D[i], D[i], SMOOTH_MAX_N, xp)
         S_sum = S_sum + c_dir * xp.tanh(dx[i] / DIRECTION_VELOCITY)
         tx = tx - rho * math.sin(CABLE_ANGLES_RAD[i]) * D[i]
         ty = ty + rho * math.cos(CABLE_ANGLES_RAD[i]) * D[i]

@@ -13,26 +13,26 @@ referred to the jaw (Nm at the jaw): a cable drive's torque ratio is the inverse
 ratio ``n``, so the spindle-side figures are the jaw-side ones times ``n`` (the fit reports the
 spindle current gain ``G n``)::
 
-    tau_s  = G i - b omega - J alpha - k_theta theta - f_m z          motor torque into the cables
-    P_s    = smoothmax(P + a tau_s, |tau_s|)                          pair tension sum x pulley radius:
-                                                                      taut (pretension, asymmetric
-                                                                      pair a) or slack
-    m      = mu (1 + mu_theta theta) z                                capstan exponent, wrap grows with angle
-    tau_c  = tau_s cosh m - P_s sinh m                                cable torque on the jaw (capstan)
+    tau_s = G i - b omega - J alpha - k_theta theta - f_m z   motor torque into the cables
+    P_s   = smoothmax(P + a tau_s, |tau_s|)                   pair tension sum x pulley radius:
+                                                              taut (asymmetric pair a) or slack
+    m     = mu (1 + mu_theta theta) z                         capstan exponent (wrap grows)
+    tau_c = tau_s cosh m - P_s sinh m                         cable torque on the jaw (capstan)
     jaw_torque_model = -tau_c + c_0
 
 The pair law is the one the internal-force prior uses for every pair of the Cadiere wrist
-(:mod:`psm_model.identification.cable_pair`), here in torques: the tension sum times the pulley radius as the pretension torque ``P = 2 T_0 r`` and the
-pair asymmetry ``a`` of the bench's loop closure (``S = 2 T_0 + a D``): the friction grows with the
-load even while the pair is taut, at a different rate closing (``cosh mu - a sinh mu``) and
-opening (``cosh mu + a sinh mu``).
+(:mod:`psm_model.identification.cable_pair`), here in torques: the tension sum times the pulley
+radius as the pretension torque ``P = 2 T_0 r`` and the pair asymmetry ``a`` of the bench's loop
+closure (``S = 2 T_0 + a D``): the friction grows with the load even while the pair is taut, at
+a different rate closing (``cosh mu - a sinh mu``) and opening (``cosh mu + a sinh mu``).
 
 Stick. While the motor does not move, neither end of the transmission slides: the current
 relaxes (the drive's position loop is satisfied) while the gearbox and the cables hold the last
 torque. The estimate therefore follows the law only as fast as the motor moves (a displacement-
 driven first-order hold, a Maxwell-slip element with one slip angle ``phi_h``)::
 
-    jaw_torque_k = a_k jaw_torque_{k-1} + (1 - a_k) jaw_torque_model_k,   a_k = exp(-|dtheta_k| / phi_h)
+    jaw_torque_k = a_k jaw_torque_{k-1} + (1 - a_k) jaw_torque_model_k
+    a_k = exp(-|dtheta_k| / phi_h)
 
 The law is fitted through the hold on every sample (what is fitted is what is predicted): the
 hold is linear in the law's output, ``M y = (1 - a) law`` with ``M`` lower bidiagonal, one sparse
@@ -69,7 +69,7 @@ from typing import Sequence
 
 import numpy as np
 
-from psm_model.identification import cable_pair
+from psm_model.identification.cable_pair import capstan, tension_sum
 from psm_model.identification.errors import IdentificationInputError, NotConvergedError
 from psm_model.transmission_recording import TransmissionRecording
 
@@ -82,7 +82,7 @@ FORMAT = "psm_model.identification.CableTransmission/1"
 
 # name, unit, lower, upper, initial: the torque path's parameters (physical bounds)
 TORQUE_PARAMETERS = (
-    ("current_gain", "Nm/A", 0.05, 3.0, 0.7),          # Maxon k_t ~0.02-0.04 Nm/A x 35 x efficiency / n
+    ("current_gain", "Nm/A", 0.05, 3.0, 0.7),   # Maxon k_t 0.02-0.04 Nm/A x 35 x efficiency / n
     ("viscous", "Nm s/rad", 0.0, 0.5, 0.0),
     ("inertia", "kg m^2", 0.0, 0.01, 0.0),
     ("position_stiffness", "Nm/rad", -0.5, 0.5, 0.0),
@@ -154,15 +154,17 @@ def _signals(rec: TransmissionRecording, presliding_rad: float) -> _Signals:
 
 
 def _concat(sigs: Sequence[_Signals]) -> _Signals:
-    return _Signals(*(np.concatenate([getattr(s, f) for s in sigs]) for f in _Signals.__dataclass_fields__))
+    return _Signals(*(np.concatenate([getattr(s, f) for s in sigs])
+                      for f in _Signals.__dataclass_fields__))
 
 
 def _torque_law(p, s, xp):
-    """Jaw torque (Nm) before the stick hold; ``p`` in TORQUE_NAMES order; ``xp`` numpy or casadi."""
+    """Jaw torque (Nm) before the stick hold; ``p`` in TORQUE_NAMES order; ``xp`` numpy or
+    casadi."""
     G, b, J, k_th, f_m, mu, mu_th, P, a, c0 = p
     tau_s = G * s.current - b * s.omega - J * s.alpha - k_th * s.theta - f_m * s.z
-    p_s = cable_pair.tension_sum(P + a * tau_s, tau_s, SMOOTH_MAX_NM, xp)
-    return -cable_pair.capstan(tau_s, p_s, mu * (1.0 + mu_th * s.theta) * s.z, xp) + c0
+    p_s = tension_sum(P + a * tau_s, tau_s, SMOOTH_MAX_NM, xp)
+    return -capstan(tau_s, p_s, mu * (1.0 + mu_th * s.theta) * s.z, xp) + c0
 
 
 @dataclass(frozen=True)
@@ -188,7 +190,8 @@ class CableTransmission:
 
     # ------------------------------------------------------------ prediction
     def predict(self, rec: TransmissionRecording) -> TransmissionPrediction:
-        """Jaw torque and angle from the motor signals of ``rec`` (past and present samples only)."""
+        """Jaw torque and angle from the motor signals of ``rec`` (past and present samples
+        only)."""
         s = _signals(rec, self.presliding_rad)
         torque = self._held_torque(s)
         return TransmissionPrediction(torque, self._angle_columns(s, torque) @ self.angle)
@@ -207,9 +210,10 @@ class CableTransmission:
             initial: "CableTransmission | None" = None, max_iter: int = 300) -> "CableTransmission":
         """Identify on ``recordings``: for each pre-sliding and hold width the torque law
         (IPOPT through the hold, every sample), then for each backlash width the angle path
-        (exact least squares, driven by the held torque estimate). The widths are chosen on ``validation`` when given
-        (else on the fit data). With ``initial`` (few-shot recalibration on another
-        instrument), its widths are kept and its parameters start the solver."""
+        (exact least squares, driven by the held torque estimate). The widths are chosen on
+        ``validation`` when given (else on the fit data). With ``initial`` (few-shot
+        recalibration on another instrument), its widths are kept and its parameters start the
+        solver."""
         t0 = time.perf_counter()
         recordings = list(recordings)
         if not recordings:
