@@ -15,7 +15,8 @@ import dataclasses
 import json
 from pathlib import Path
 
-from psm_model.identification.prior import NAMES, RECOVERY_TOLERANCE, InternalForcePrior
+from psm_model.identification.prior import NAMES, InternalForcePrior
+from psm_model.identification.prior_identifiability import RECOVERY_TOLERANCE
 from psm_model.kinematics import PSM
 from psm_model.sim.params import Effects, InstrumentParams
 
