@@ -11,7 +11,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from psm_model.identification.prior import _MIN_SAMPLES, KAPPA, NAMES, PARAMETERS, _model
+from psm_model.identification.prior_law import KAPPA, NAMES, PARAMETERS, _model
+from psm_model.identification.prior_law import MIN_SAMPLES as _MIN_SAMPLES
 
 RECOVERY_TOLERANCE = 0.10
 """The relative accuracy :func:`identifiability` asks of a parameter: three standard errors, and
