@@ -156,6 +156,22 @@ def _parser() -> argparse.ArgumentParser:
                         "poor-fit threshold (psm_model.identification.prior.POOR_FIT_RMS_N)")
     p.add_argument("--json", help="write the fit statistics here")
 
+    p = add("fit-transmission", commands.fit_transmission_command,
+            "identify one instrument's cable transmission, motor to jaw (CasADi)",
+            "Fit the cable-transmission model (psm_model/identification/transmission.py: "
+            "capstan pair law, Dahl friction memory, stick hold, backlash, compliance) on a "
+            "session folder of XY.TXT recordings in the MRD Lab layout (motor current and "
+            "encoder in, jaw torque and angle as truth; psm_model/transmission_recording.py). "
+            "Writes the model as JSON with the fit's identifiability report.")
+    p.add_argument("session", metavar="DIR", help="folder of XY.TXT files of one session")
+    p.add_argument("--out", required=True, help="model JSON to write")
+    p.add_argument("--validation", nargs="*", default=[], metavar="XY",
+                   help="files (by name, e.g. 02 12) held out to choose the hysteresis widths "
+                        "(default: none, the widths are chosen on the fit data)")
+    p.add_argument("--rate-hz", type=float, default=100.0,
+                   help="sample rate the files are resampled to (must divide 1000; default 100)")
+    p.add_argument("--json", help="write the parameters and scores here")
+
     p = add("train", commands.train_command, "train an estimator",
             "Train one estimator (a model of hybrid/recipes.py) on a dataset folder; writes a "
             "checkpoint holding weights, features, scalers, prior and provenance.")

@@ -211,6 +211,41 @@ def fit_prior_command(args) -> dict:
     return report
 
 
+def fit_transmission_command(args) -> dict:
+    output_file(args.out, "--out")
+    import math
+
+    from psm_model.identification.transmission import CableTransmission
+    from psm_model.transmission_recording import home_session, read_transmission_session
+    session = home_session(read_transmission_session(args.session, args.rate_hz))
+    names = {r.name.rsplit("/", 1)[-1]: r for r in session}
+    unknown = sorted(set(args.validation) - set(names))
+    if unknown:
+        raise ValueError(f"--validation: no file {unknown[0]}.TXT in {args.session}")
+    validation = [names[n] for n in args.validation]
+    fit_on = [r for n, r in names.items() if n not in args.validation]
+    if not fit_on:
+        raise ValueError("--validation holds every file: nothing left to fit on")
+    model = CableTransmission.fit(fit_on, validation=validation)
+    model.save(args.out)
+    report = {"model": args.out, "fit_files": [r.name for r in fit_on],
+              "validation_files": [r.name for r in validation], **model.to_dict(),
+              "fit_scores": model.score(fit_on),
+              "validation_scores": model.score(validation) if validation else None}
+    ident = model.info["identifiability"]
+    print(f"fit: {model.info['solver_status']} in {model.info['fit_time_s']:.1f} s on "
+          f"{len(fit_on)} files; Fisher condition number "
+          f"{ident['fisher_condition_number']:.3g}"
+          + (f"; {model.info['tied']}" if model.info.get("tied") else ""))
+    for label in ("fit", "validation"):
+        score = report[f"{label}_scores"]
+        if score:
+            print(f"{label}: jaw torque RMSE {1e3 * score['jaw_torque_rmse_nm']:.2f} mNm, jaw "
+                  f"angle RMSE {math.degrees(score['jaw_angle_rmse_rad']):.2f} deg")
+    print(f"wrote {args.out}")
+    return report
+
+
 def train_command(args) -> dict:
     _training_options(args)
     config = json_object(args.config, "--config")

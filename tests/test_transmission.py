@@ -10,8 +10,9 @@ import numpy as np
 import pytest
 
 from psm_model.identification.errors import IdentificationInputError
+from psm_model.identification.hysteresis import dahl_state, hold, play
 from psm_model.identification.transmission import (ANGLE_NAMES, TORQUE_NAMES, CableTransmission,
-                                                   _hold, _signals, _torque_law, dahl_state, play)
+                                                   _signals, _torque_law)
 from psm_model.transmission_recording import (TransmissionDataError, TransmissionRecording,
                                               home_session, read_transmission_file,
                                               read_transmission_session)
@@ -53,7 +54,7 @@ def test_capstan_law_closed_form_in_slack():
 def test_hold_follows_only_with_motion():
     theta = np.concatenate([np.linspace(0, 1, 100), np.full(100, 1.0)])
     model = np.concatenate([np.zeros(100), np.ones(100)])
-    held = _hold(model, theta, 0.05)
+    held = hold(model, theta, 0.05)
     assert np.allclose(held[100:], held[99])                 # no motion: the estimate holds
 
 
@@ -121,6 +122,84 @@ def test_another_truth_is_told_apart():
     recs = _in_family_bench(1, mu=0.4)
     fit = CableTransmission.fit(recs[:5], validation=recs[5:])
     assert fit.torque[TORQUE_NAMES.index("capstan_mu")] == pytest.approx(0.4, rel=0.1)
+
+
+@pytest.fixture(scope="module")
+def fitted() -> CableTransmission:
+    recs = _in_family_bench(2)
+    return CableTransmission.fit(recs[:5], validation=recs[5:])
+
+
+def test_save_load_round_trip(fitted, tmp_path):
+    fitted.save(tmp_path / "t.json")
+    back = CableTransmission.load(tmp_path / "t.json")
+    rec = _in_family_bench(3)[0]
+    a, b = fitted.predict(rec), back.predict(rec)
+    assert np.array_equal(a.jaw_torque_nm, b.jaw_torque_nm)
+    assert np.array_equal(a.jaw_angle_rad, b.jaw_angle_rad)
+    assert back.fixed == fitted.fixed
+
+
+@pytest.mark.parametrize("edit, message", [
+    (lambda d: d["torque"]["capstan_mu"].update(value=float("nan")), "capstan_mu"),
+    (lambda d: d["torque"]["current_gain"].update(value=9.0), "current_gain"),
+    (lambda d: d["torque"].pop("viscous"), "exactly"),
+    (lambda d: d["angle"].update(ratio=0.0), "ratio"),
+    (lambda d: d.update(hold_rad=-1.0), "hold_rad"),
+    (lambda d: d.update(fixed=["no_such_parameter"]), "fixed"),
+    (lambda d: d.update(format="something else"), "not a CableTransmission"),
+])
+def test_load_refuses_a_tampered_file(fitted, tmp_path, edit, message):
+    import json
+    d = json.loads(json.dumps(fitted.to_dict(), default=float))
+    edit(d)
+    (tmp_path / "t.json").write_text(json.dumps(d))
+    with pytest.raises(IdentificationInputError, match=message):
+        CableTransmission.load(tmp_path / "t.json")
+
+
+def test_load_refuses_unreadable_files(tmp_path):
+    (tmp_path / "t.json").write_text("{not json")
+    with pytest.raises(IdentificationInputError, match="cannot read"):
+        CableTransmission.load(tmp_path / "t.json")
+    with pytest.raises(IdentificationInputError, match="cannot read"):
+        CableTransmission.load(tmp_path / "missing.json")
+
+
+def _write_session(folder: Path, recs) -> None:
+    """Recordings back in the MRD Lab file layout (1 kHz rows, the stored units and signs)."""
+    from psm_model import transmission_recording as tr
+    folder.mkdir()
+    for k, rec in enumerate(recs):
+        t = np.arange(len(rec) * 10) / 1000.0
+        up = lambda x: np.interp(t, rec.time_s, x)  # noqa: E731
+        cols = [t, up(rec.spindle_angle_rad) / (2 * np.pi) * tr.SPINDLE_COUNTS_PER_REV,
+                np.zeros_like(t), up(rec.motor_current_a),
+                up(rec.jaw_angle_rad) / (2 * np.pi) * tr.JAW_COUNTS_PER_REV,
+                up(rec.jaw_torque_nm) / tr.FUTEK_NM_PER_COUNT, np.full_like(t, 0.1),
+                -up(rec.motor_current_a), up(rec.motor_angle_rad) / (2 * np.pi)
+                * tr.MOTOR_COUNTS_PER_REV, np.zeros_like(t)]
+        rows = "\n".join(",".join(f"{v:.6f}" for v in row) for row in np.stack(cols, 1))
+        (folder / f"{k}{k}.TXT").write_text("% synthetic\n" + rows + "\n")
+
+
+def test_cli_fits_saves_and_refuses_bad_input(tmp_path, capsys):
+    from psmforce.cli import main
+    recs = [replace(r, spindle_angle_rad=-r.motor_angle_rad) for r in _in_family_bench(4)]
+    _write_session(tmp_path / "session", recs)
+    out = tmp_path / "model.json"
+    assert main(["fit-transmission", str(tmp_path / "session"), "--out", str(out),
+                 "--validation", "55"]) == 0
+    assert "jaw torque RMSE" in capsys.readouterr().out
+    CableTransmission.load(out)
+    assert main(["fit-transmission", str(tmp_path / "nowhere"), "--out",
+                 str(tmp_path / "m2.json")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "not a folder" in err[0]
+    assert not (tmp_path / "m2.json").exists()
+    assert main(["fit-transmission", str(tmp_path / "session"), "--out", str(tmp_path / "m3.json"),
+                 "--validation", "99"]) == 2
+    assert "no file 99.TXT" in capsys.readouterr().err
 
 
 def test_fit_refuses_data_that_cannot_identify():

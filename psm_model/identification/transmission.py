@@ -62,15 +62,19 @@ Identifiability (stated, and checked from the fit's Fisher information in :attr:
 
 from __future__ import annotations
 
+import json
 import math
 import time
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Sequence
 
 import numpy as np
 
+from psm_model.files import write_json_atomic
 from psm_model.identification.cable_pair import capstan, tension_sum
 from psm_model.identification.errors import IdentificationInputError, NotConvergedError
+from psm_model.identification.hysteresis import dahl_state, hold, hold_coefficients, play
 from psm_model.transmission_recording import TransmissionRecording
 
 OMEGA_MOVING = 0.05
@@ -98,43 +102,6 @@ ANGLE_NAMES = ("ratio", "compliance_torque", "compliance_current", "windup", "an
 PRESLIDING_GRID_RAD = (0.01, 0.02, 0.04, 0.08)
 HOLD_GRID_RAD = (0.005, 0.02, 0.05, 0.1, 0.2, 0.4)
 BACKLASH_GRID_RAD = (0.0, 0.005, 0.01, 0.02)
-
-
-def dahl_state(theta: np.ndarray, presliding_rad: float) -> np.ndarray:
-    """z_k = a_k z_{k-1} + (1 - a_k) sgn(dtheta_k), a_k = exp(-|dtheta_k| / phi): the exact
-    rate-independent Dahl solution for piecewise-linear motion (z_0 = 0)."""
-    dx = np.diff(theta, prepend=theta[:1])
-    a = np.exp(-np.abs(dx) / presliding_rad)
-    return _recurrence(a, (1.0 - a) * np.sign(dx), 0.0)
-
-
-def play(theta: np.ndarray, half_width_rad: float) -> np.ndarray:
-    """Backlash (play) operator: the output follows the input only when pushed from one side."""
-    out = np.empty_like(theta)
-    y = float(theta[0])
-    for k, x in enumerate(theta.tolist()):
-        y = min(max(y, x - half_width_rad), x + half_width_rad)
-        out[k] = y
-    return out
-
-
-def _recurrence(a: np.ndarray, b: np.ndarray, y0: float) -> np.ndarray:
-    out = [0.0] * len(a)
-    y = y0
-    for k, (ak, bk) in enumerate(zip(a.tolist(), b.tolist())):
-        y = ak * y + bk
-        out[k] = y
-    return np.asarray(out)
-
-
-def _hold_coefficients(theta: np.ndarray, hold_rad: float) -> np.ndarray:
-    """a_k of the stick hold; a_0 = 0: the first estimate is the law's."""
-    return np.concatenate([[0.0], np.exp(-np.abs(np.diff(theta)) / hold_rad)])
-
-
-def _hold(model: np.ndarray, theta: np.ndarray, hold_rad: float) -> np.ndarray:
-    a = _hold_coefficients(theta, hold_rad)
-    return _recurrence(a, (1.0 - a) * model, 0.0)
 
 
 @dataclass(frozen=True)
@@ -197,7 +164,7 @@ class CableTransmission:
         return TransmissionPrediction(torque, self._angle_columns(s, torque) @ self.angle)
 
     def _held_torque(self, s: _Signals) -> np.ndarray:
-        return _hold(_torque_law(self.torque, s, np), s.theta, self.hold_rad)
+        return hold(_torque_law(self.torque, s, np), s.theta, self.hold_rad)
 
     def _angle_columns(self, s: _Signals, torque: np.ndarray) -> np.ndarray:
         return np.stack([play(s.theta, self.backlash_rad), torque, -s.current, s.z,
@@ -227,22 +194,22 @@ class CableTransmission:
             widths = [(initial.presliding_rad, initial.hold_rad)]
             backlashes = (initial.backlash_rad,)
         else:
-            widths = [(phi, hold) for phi in PRESLIDING_GRID_RAD for hold in HOLD_GRID_RAD]
+            widths = [(phi, w) for phi in PRESLIDING_GRID_RAD for w in HOLD_GRID_RAD]
             backlashes = BACKLASH_GRID_RAD
         y = np.concatenate([r.jaw_torque_nm for r in recordings])
         y_angle = np.concatenate([r.jaw_angle_rad for r in recordings])
         best, scores = None, []
-        for phi, hold in widths:
+        for phi, hold_rad in widths:
             sigs = [_signals(r, phi) for r in recordings]
             s = _concat(sigs)
             if np.sum(np.abs(s.omega) > OMEGA_MOVING) < 200:
                 raise IdentificationInputError("the motor hardly moves: fewer than 200 samples "
                                                f"faster than {OMEGA_MOVING} rad/s")
-            hold_a = np.concatenate([_hold_coefficients(x.theta, hold) for x in sigs])
+            hold_a = np.concatenate([hold_coefficients(x.theta, hold_rad) for x in sigs])
             start = initial.torque if initial is not None else None
             torque, fixed, info = _solve_torque(s, y, hold_a, start, max_iter)
             for h in backlashes:
-                model = cls(torque, np.zeros(len(ANGLE_NAMES)), phi, hold, h, fixed, dict(info))
+                model = cls(torque, np.zeros(len(ANGLE_NAMES)), phi, hold_rad, h, fixed, dict(info))
                 cols = np.concatenate([model._angle_columns(x, model._held_torque(x))
                                        for x in sigs])
                 model.angle, *_ = np.linalg.lstsq(cols, y_angle, rcond=None)
@@ -250,7 +217,7 @@ class CableTransmission:
                     raise IdentificationInputError("the jaw angle does not follow the motor angle "
                                                    f"(fitted ratio {model.angle[0]:.3g})")
                 score = model.score(select_on)
-                scores.append({"presliding_rad": phi, "backlash_rad": h, "hold_rad": hold,
+                scores.append({"presliding_rad": phi, "backlash_rad": h, "hold_rad": hold_rad,
                                **score})
                 key = (score["jaw_torque_rmse_nm"] / 0.005
                        + score["jaw_angle_rmse_rad"] / math.radians(0.5))
@@ -277,13 +244,69 @@ class CableTransmission:
 
     # ------------------------------------------------------------ persistence
     def to_dict(self) -> dict:
+        """Human-readable JSON content: every parameter with its unit and bounds."""
         return {"format": FORMAT,
+                "frames_and_units": "inputs: motor current A (positive drives the jaw closed), "
+                                    "motor angle rad at the input spindle; outputs: jaw torque Nm "
+                                    "(the load's torque on the jaw), jaw angle rad; "
+                                    "psm_model/transmission_recording.py",
                 "torque": {n: {"value": float(v), "unit": u, "lower": lo, "upper": hi}
                            for (n, u, lo, hi, _), v in zip(TORQUE_PARAMETERS, self.torque)},
                 "angle": dict(zip(ANGLE_NAMES, map(float, self.angle))),
                 "presliding_rad": self.presliding_rad, "hold_rad": self.hold_rad,
                 "backlash_rad": self.backlash_rad, "fixed": list(self.fixed),
                 "info": {k: v for k, v in self.info.items() if k != "width_scores"}}
+
+    def save(self, path) -> None:
+        """Write the JSON atomically; refuses a fit whose solver did not converge."""
+        if not self.info.get("converged", False):
+            raise NotConvergedError("refusing to save a transmission whose fit did not converge "
+                                    f"({self.info.get('solver_status', 'no fit')})")
+        write_json_atomic(path, self.to_dict())
+
+    @classmethod
+    def load(cls, path) -> "CableTransmission":
+        """Read a file :meth:`save` wrote. Refuses, naming the file and the entry: unreadable
+        JSON, another format, a missing or unknown parameter, a torque parameter that is not a
+        finite number inside its bounds, an angle parameter that is not finite (the ratio
+        within (0.3, 3)), a width that is not a finite number in its range."""
+        try:
+            d = json.loads(Path(path).read_text())
+        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as err:
+            raise IdentificationInputError(f"{path}: cannot read a transmission JSON "
+                                           f"({err})") from None
+        if not isinstance(d, dict) or d.get("format") != FORMAT:
+            raise IdentificationInputError(f"{path}: not a CableTransmission file ({FORMAT})")
+
+        def number(value, name, lo=-math.inf, hi=math.inf) -> float:
+            if (isinstance(value, bool) or not isinstance(value, (int, float))
+                    or not math.isfinite(value) or not lo <= value <= hi):
+                raise IdentificationInputError(f"{path}: '{name}' must be a finite number in "
+                                               f"[{lo:g}, {hi:g}], got {value!r}")
+            return float(value)
+
+        torque, angle = d.get("torque"), d.get("angle")
+        if not isinstance(torque, dict) or set(torque) != set(TORQUE_NAMES):
+            raise IdentificationInputError(f"{path}: 'torque' must hold exactly {TORQUE_NAMES}")
+        if not isinstance(angle, dict) or set(angle) != set(ANGLE_NAMES):
+            raise IdentificationInputError(f"{path}: 'angle' must hold exactly {ANGLE_NAMES}")
+        params = []
+        for name, _, lo, hi, _ in TORQUE_PARAMETERS:
+            entry = torque[name]
+            slack = 1e-6 * (hi - lo)  # the solver may sit on a bound within its tolerance
+            params.append(number(entry.get("value") if isinstance(entry, dict) else None,
+                                 name, lo - slack, hi + slack))
+        angles = [number(angle[n], n) for n in ANGLE_NAMES]
+        number(angles[0], "ratio", 0.3, 3.0)
+        fixed = d.get("fixed", [])
+        if not isinstance(fixed, list) or not set(fixed) <= set(TORQUE_NAMES):
+            raise IdentificationInputError(f"{path}: 'fixed' must list torque parameters")
+        info = d.get("info", {})
+        return cls(np.array(params), np.array(angles),
+                   number(d.get("presliding_rad"), "presliding_rad", 1e-6, 1.0),
+                   number(d.get("hold_rad"), "hold_rad", 1e-6, 10.0),
+                   number(d.get("backlash_rad"), "backlash_rad", 0.0, 1.0), tuple(fixed),
+                   info if isinstance(info, dict) else {})
 
 
 def _solve_torque(s: _Signals, y: np.ndarray, hold_a: np.ndarray, start, max_iter: int,

@@ -1,13 +1,12 @@
-"""Render the real-EndoWrist transmission tables of docs/identification.md from the committed
-``results/benchmarks/transmission.json`` (written by ``benchmarks/transmission.py``).
+"""Blocks of the docs and the README rendered from committed result JSONs, so that no figure a
+reader sees there is typed by hand.
 
-    python benchmarks/transmission_report.py            # rewrite the blocks in the docs
-    python benchmarks/transmission_report.py --check    # exit 1 if a page differs from the JSON
+    python benchmarks/rendered_docs.py            # rewrite every block from its JSON
+    python benchmarks/rendered_docs.py --check    # exit 1 if a page differs from its JSON
 
-Two blocks, each between its markers: the tables in docs/identification.md section 4
-(:func:`render`) and the summary in the README (:func:`render_summary`). Nothing outside them is
-touched, and no figure inside them is typed by hand (``tests/test_transmission_report.py``
-holds each page equal to what the committed JSON renders).
+Each block sits between ``<!-- NAME: rendered by benchmarks/rendered_docs.py -->`` and
+``<!-- end NAME -->`` (:data:`BLOCKS`: page, JSON, render function); nothing outside the markers
+is touched. ``tests/test_rendered_docs.py`` holds every page equal to what its JSON renders.
 """
 
 from __future__ import annotations
@@ -22,13 +21,10 @@ sys.path.insert(0, str(ROOT))
 
 from psm_model.files import write_text_atomic  # noqa: E402
 
-RESULT = ROOT / "results" / "benchmarks" / "transmission.json"
-DOC = ROOT / "docs" / "identification.md"
+TRANSMISSION = ROOT / "results" / "benchmarks" / "transmission.json"
+PRIOR_RECOVERY = ROOT / "results" / "benchmarks" / "prior_recovery.json"
+IDENTIFICATION = ROOT / "docs" / "identification.md"
 README = ROOT / "README.md"
-BEGIN = "<!-- transmission-tables: rendered by benchmarks/transmission_report.py -->"
-END = "<!-- end transmission-tables -->"
-SUMMARY_BEGIN = "<!-- transmission-summary: rendered by benchmarks/transmission_report.py -->"
-SUMMARY_END = "<!-- end transmission-summary -->"
 MODEL_NAMES = {"physics": "physics alone (`CableTransmission`)", "fcn": "FCN",
                "lstm": "LSTM", "transformer": "paper transformer",
                "rocket": "MultiRocket-Hydra", "hybrid": "hybrid (physics + causal residual)",
@@ -41,11 +37,11 @@ def _cell(d: dict, digits: int = 2) -> str:
     return f"{d['mean']:.{digits}f} ± {d['std']:.{digits}f}"
 
 
-def render(result: dict) -> str:
-    """The Markdown block for ``result`` (a transmission.json)."""
+def transmission_tables(result: dict) -> str:
+    """docs/identification.md section 4: per protocol, every model; the physics' parameters."""
     pub = result["published"]
-    lines = [BEGIN, "",
-             f"Command: `{result['run']['command']}` ({result['run']['seconds'] / 60:.0f} min); "
+    lines = ["",
+             f"Command: `{result['run']['command']}` (resumable; each model and seed cached); "
              f"seeds {result['seeds']} for the learned models (the physics fit is "
              f"deterministic); {result['rate_hz']:g} Hz; causal estimates, no post-filter. "
              "RMSE mean ± std over seeds, pooled over the protocol's test files; *closing*: the "
@@ -67,8 +63,8 @@ def render(result: dict) -> str:
             for k, label in (("torque_rmse_mNm", "torque"), ("angle_rmse_deg", "angle")):
                 v = result["verdicts"][protocol][part][k]
                 verdicts.append(f"{label} ({part}): {MODEL_NAMES.get(v['best'], v['best'])}"
-                                + (f", a {v['verdict']} with {MODEL_NAMES.get(v['runner_up'])}"
-                                   if "verdict" in v else ""))
+                                + (f", {'a win over' if v['verdict'] == 'win' else 'a tie with'} "
+                                   f"{MODEL_NAMES.get(v['runner_up'])}" if "verdict" in v else ""))
         lines += ["", "Best by the spread rule: " + "; ".join(verdicts) + ".", ""]
     lines += [f"Published on this data ({pub['source']}; {pub['model']}): jaw torque "
               f"{pub['jaw_torque_rmse_mNm']} mNm, jaw angle {pub['jaw_angle_rmse_deg']} deg, on a "
@@ -81,7 +77,8 @@ def render(result: dict) -> str:
         lines += ["The physics model fitted on protocol (a)'s training files (jaw-referred "
                   "torque parameters; relative standard deviation from the Fisher information; "
                   f"condition number {ident.get('fisher_condition_number', float('nan')):.3g}):",
-                  "", "| parameter | value | unit | bounds | relative sd |", "|---|---|---|---|---|"]
+                  "", "| parameter | value | unit | bounds | relative sd |",
+                  "|---|---|---|---|---|"]
         for name, p in t["torque"].items():
             rel = "fixed" if name in t["fixed"] else (f"{sd[name]:.2g}" if name in sd else "")
             lines.append(f"| {name} | {p['value']:.4g} | {p['unit']} | "
@@ -91,11 +88,10 @@ def render(result: dict) -> str:
         lines += ["", f"Widths chosen on validation: pre-sliding {t['presliding_rad']:g} rad, "
                   f"hold {t['hold_rad']:g} rad, backlash {t['backlash_rad']:g} rad."
                   + (f" Tied: {t['info']['tied']}." if t["info"].get("tied") else ""), ""]
-    lines.append(END)
     return "\n".join(lines)
 
 
-def render_summary(result: dict) -> str:
+def transmission_summary(result: dict) -> str:
     """The README's paragraph: held-out files, what the physics gives, what the residual network
     adds, against the best learned baseline and the published figures."""
     held = result["summary"]["a_held_out_files"]
@@ -119,35 +115,78 @@ def render_summary(result: dict) -> str:
              f"{pub['jaw_torque_rmse_mNm']} mNm / {pub['jaw_angle_rmse_deg']} deg on a random "
              "sample split). Other sessions and instruments, as is and calibrated: the tables "
              "there.")
-    return "\n".join([SUMMARY_BEGIN, text, SUMMARY_END])
+    return "\n" + text + "\n"
 
 
-def splice(doc: str, block: str, begin: str = BEGIN, end: str = END) -> str:
-    """``doc`` with its block between ``begin`` and ``end`` replaced by ``block`` (which carries
-    the markers)."""
+def prior_recovery_table(result: dict) -> str:
+    """docs/identification.md section 2.1: truth against the fit per seed ("loaded" variant)."""
+    from psm_model.identification.prior_law import PARAMETERS
+    unit = {p[0]: p[1] for p in PARAMETERS}
+    runs = [r for r in result["runs"] if r["variant"] == "loaded"]
+    first = runs[0]["parameters"]
+    lines = ["", f"`python benchmarks/prior_recovery.py --scale {result['scale']:g} --seeds "
+             + " ".join(str(r["seed"]) for r in runs) + "`; `*` = listed not identifiable, with "
+             "the relative error where the truth is not zero:", "",
+             "| parameter | unit | truth | " + " | ".join(f"seed {r['seed']}" for r in runs)
+             + " | SE (seed " + str(runs[0]["seed"]) + ") |",
+             "|---|---|---|" + "---|" * len(runs) + "---|"]
+    for name, p0 in first.items():
+        cells = []
+        for r in runs:
+            p = r["parameters"][name]
+            mark = "" if p["status"] == "identifiable" else " *"
+            rel = (f" ({100 * p['relative_error']:.1f} %)" if p["truth"] != 0
+                   and p.get("relative_error") is not None else "")
+            cells.append(f"{p['fitted']:.4g}{rel}{mark}")
+        se = p0.get("standard_error")
+        lines.append(f"| {name} | {unit.get(name, '')} | {p0['truth']:.4g} | " + " | ".join(cells)
+                     + f" | {'' if se is None else f'{se:.2g}'} |")
+    conds = " / ".join(f"{r['identifiability']['condition_number']:.3g}" for r in runs)
+    lines += ["", f"Fisher condition number {conds}; {sum(len(r['failures']) for r in runs)} "
+              "identifiable parameters off by more than 10 %.", ""]
+    return "\n".join(lines)
+
+
+BLOCKS = (
+    (IDENTIFICATION, "transmission-tables", TRANSMISSION, transmission_tables),
+    (README, "transmission-summary", TRANSMISSION, transmission_summary),
+    (IDENTIFICATION, "prior-recovery-table", PRIOR_RECOVERY, prior_recovery_table),
+)
+
+
+def markers(name: str) -> tuple[str, str]:
+    return f"<!-- {name}: rendered by benchmarks/rendered_docs.py -->", f"<!-- end {name} -->"
+
+
+def splice(doc: str, name: str, body: str) -> str:
+    """``doc`` with block ``name``'s content replaced by ``body``."""
+    begin, end = markers(name)
     if doc.count(begin) != 1 or doc.count(end) != 1:
         raise SystemExit(f"expected one '{begin}' and one '{end}' marker")
     head, rest = doc.split(begin)
-    return head + block + rest.split(end, 1)[1]
+    return head + begin + body + end + rest.split(end, 1)[1]
 
 
-def pages(result: dict) -> dict[Path, str]:
-    """Each page as the JSON renders it."""
-    return {DOC: splice(DOC.read_text(), render(result)),
-            README: splice(README.read_text(), render_summary(result), SUMMARY_BEGIN,
-                           SUMMARY_END)}
+def pages(results: dict[Path, dict] | None = None) -> dict[Path, str]:
+    """Each page with every block rendered from its JSON (``results`` overrides a JSON's
+    content, for tests)."""
+    out: dict[Path, str] = {}
+    for page, name, json_path, render in BLOCKS:
+        result = (results or {}).get(json_path) or json.loads(json_path.read_text())
+        out[page] = splice(out.get(page, page.read_text()), name, render(result))
+    return out
 
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--check", action="store_true", help="compare, write nothing")
     args = ap.parse_args(argv)
-    rendered = pages(json.loads(RESULT.read_text()))
+    rendered = pages()
     stale = [p for p, text in rendered.items() if text != p.read_text()]
     if args.check:
         for p in stale:
-            print(f"{p.relative_to(ROOT)} differs from {RESULT.relative_to(ROOT)}: rerun "
-                  "benchmarks/transmission_report.py")
+            print(f"{p.relative_to(ROOT)} differs from what its JSON renders: rerun "
+                  "benchmarks/rendered_docs.py")
         return 1 if stale else 0
     for p in stale:
         write_text_atomic(p, rendered[p])

@@ -1,0 +1,45 @@
+"""The figures a reader sees in the rendered blocks (docs/identification.md, the README) are
+their committed JSONs', rendered; the JSONs name no machine's absolute path."""
+
+from __future__ import annotations
+
+import copy
+import importlib.util
+import json
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+_spec = importlib.util.spec_from_file_location("rendered_docs",
+                                               ROOT / "benchmarks" / "rendered_docs.py")
+rendered = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(rendered)
+
+
+def test_pages_are_what_their_jsons_render():
+    for page, text in rendered.pages().items():
+        assert page.read_text() == text, (f"{page.relative_to(ROOT)} differs from its JSON: run "
+                                          "python benchmarks/rendered_docs.py")
+
+
+def test_a_changed_figure_shows_in_the_page():
+    result = json.loads(rendered.TRANSMISSION.read_text())
+    before = rendered.pages({rendered.TRANSMISSION: result})
+    changed = copy.deepcopy(result)
+    changed["summary"]["a_held_out_files"]["physics"]["whole"]["torque_rmse_mNm"]["mean"] += 1.0
+    after = rendered.pages({rendered.TRANSMISSION: changed})
+    assert after[rendered.IDENTIFICATION] != before[rendered.IDENTIFICATION]
+    assert after[rendered.README] != before[rendered.README]
+
+
+@pytest.mark.parametrize("path", sorted({b[2] for b in rendered.BLOCKS}))
+def test_rendered_jsons_name_no_absolute_path(path):
+    text = path.read_text()
+    for marker in ('"/work/', '"/home/', '"/tmp/', '"/root/'):
+        assert marker not in text, f"{path.name} names an absolute path ({marker})"
+
+
+def test_missing_markers_are_refused():
+    with pytest.raises(SystemExit, match="marker"):
+        rendered.splice("no markers here", "transmission-tables", "body")
