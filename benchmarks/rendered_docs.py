@@ -91,6 +91,20 @@ def transmission_tables(result: dict) -> str:
     return "\n".join(lines)
 
 
+def _ratio(models: dict, metric: str, a: str = "hybrid", b: str = "transformer") -> str:
+    return f"{models[a]['whole'][metric]['mean'] / models[b]['whole'][metric]['mean']:.2f}"
+
+
+def _verdict(models: dict, metric: str, a: str = "hybrid", b: str = "transformer") -> str:
+    """The spread rule between ``a`` and ``b`` on whole files."""
+    x, y = models[a]["whole"][metric], models[b]["whole"][metric]
+    if x["mean"] + x["std"] < y["mean"] - y["std"]:
+        return "a win by the spread rule"
+    if y["mean"] + y["std"] < x["mean"] - x["std"]:
+        return "a loss by the spread rule"
+    return "a tie by the spread rule"
+
+
 def transmission_summary(result: dict) -> str:
     """The README's paragraph: held-out files, what the physics gives, what the residual network
     adds, against the best learned baseline and the published figures."""
@@ -105,16 +119,18 @@ def transmission_summary(result: dict) -> str:
     pub = result["published"]
     text = (f"On a real EndoWrist's cable transmission (jaw torque and angle from the motor's "
             f"current and encoder, files held out by frequency and load; docs/identification.md "
-            f"section 4) the identified physics model alone gives {fig('physics')}, the best "
-            f"learned baseline ({MODEL_NAMES[best]}) {fig(best)}, and the hybrid, a causal "
-            f"residual network on the physics, {fig('hybrid')}")
-    if "hybrid_no_physics" in held:
-        text += (f"; the same network without the physics gives {fig('hybrid_no_physics')}, "
-                 "which is what the physics adds to the learning")
-    text += (f" (mean over seeds {result['seeds']}; published on this data, "
+            f"section 4) the identified physics model alone gives {fig('physics')}, the paper's "
+            f"transformer {fig('transformer')}, and the hybrid, the same transformer learning the "
+            f"physics' residual, {fig('hybrid')}")
+    if best != "transformer":
+        text += f"; the best other learned baseline ({MODEL_NAMES[best]}) {fig(best)}"
+    text += (f" (whole files, mean over seeds {result['seeds']}; published on this data, "
              f"{pub['jaw_torque_rmse_mNm']} mNm / {pub['jaw_angle_rmse_deg']} deg on a random "
-             "sample split). Other sessions and instruments, as is and calibrated: the tables "
-             "there.")
+             f"sample split). What the physics adds to the learning: the angle error "
+             f"x{_ratio(held, 'angle_rmse_deg')} ({_verdict(held, 'angle_rmse_deg')}), the "
+             f"torque error x{_ratio(held, 'torque_rmse_mNm')} "
+             f"({_verdict(held, 'torque_rmse_mNm')}). Another session or instrument, as is "
+             "and after 60 s of calibration: the tables there.")
     return "\n" + text + "\n"
 
 
