@@ -1,10 +1,11 @@
-"""What benchmarks share: the options of one on a dataset folder, and writing its figures as
-JSON, whole or not at all."""
+"""What benchmarks share: the options of one on a dataset folder, writing its figures as JSON,
+whole or not at all, and naming paths in them without a machine's absolute path."""
 
 from __future__ import annotations
 
 import argparse
 import json
+import os
 from pathlib import Path
 
 from psm_model.files import write_text_atomic
@@ -17,6 +18,15 @@ def write_json(path: str | Path, figures: dict) -> None:
     path.parent.mkdir(parents=True, exist_ok=True)
     write_text_atomic(path, json.dumps(figures, indent=2, default=float) + "\n")
     print(f"wrote {path}")
+
+
+def shown_path(path: str | Path, under: str | Path | None = None) -> str:
+    """``path`` as a committed JSON names it: relative to ``under`` (a run's work folder) when
+    it lies there, else to the repository."""
+    path = Path(path).resolve()
+    if under is not None and path.is_relative_to(Path(under).resolve()):
+        return str(path.relative_to(Path(under).resolve()))
+    return os.path.relpath(path, Path(__file__).resolve().parents[1])
 
 
 def dataset_arguments(doc: str) -> argparse.Namespace:

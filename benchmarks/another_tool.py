@@ -47,7 +47,7 @@ from hybrid.recipes import RECIPES, recipe
 from hybrid.train import TrainConfig, train
 from psm_model.sim import simulate
 from psm_model.files import write_json_atomic
-from _report import write_json
+from _report import shown_path, write_json
 
 MODES = ("causal", "paper")
 SMOKE = {"max_batches_per_epoch": 2, "max_val_batches": 2}
@@ -170,7 +170,7 @@ def main() -> dict:
                 ckpt = args.checkpoints / f"{model}_seed{seed}.pt"
                 if not ckpt.is_file():
                     sys.exit(f"--checkpoints: {ckpt} does not exist")
-                trained = {"checkpoint": str(ckpt), "converged": None}
+                trained = {"checkpoint": shown_path(ckpt), "converged": None}
             else:
                 ckpt = work / f"{model}.pt"
                 epochs = args.epochs or _config(model, False).max_epochs
@@ -178,7 +178,7 @@ def main() -> dict:
                     k: v for k, v in train(nominal, model, ckpt, epochs=epochs, seed=seed,
                                            train_config=_config(model, args.smoke)).items()
                     if k in ("converged", "epochs_run")})
-                trained = {"checkpoint": str(ckpt), "converged": report["converged"],
+                trained = {"checkpoint": shown_path(ckpt, args.work), "converged": report["converged"],
                            "epochs_run": report["epochs_run"]}
             for name, (data, tool) in tests.items():
                 base = {"model": model, "seed": seed, "trained": trained,
@@ -217,7 +217,7 @@ def main() -> dict:
                                                              "NOT converged: some run did not "
                                                              "early-stop")),
         "smoke": args.smoke, "converged": converged,
-        "settings": {k: (str(v) if isinstance(v, Path) else v) for k, v in vars(args).items()},
+        "settings": {k: (shown_path(v) if isinstance(v, Path) else v) for k, v in vars(args).items()},
         "metrics": "NRMSE % per axis on each bench's test split; causal = raw per-sample "
                    "estimate; paper = bias + centred median k = 71 (hybrid.evaluate)",
         "calibration": "hybrid/calibrate.py: the first --minutes of the bench's train Free + "

@@ -26,7 +26,6 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
-import os
 import sys
 import tempfile
 import time
@@ -38,7 +37,7 @@ import pandas as pd
 from psm_model.conventions import JOINTS
 from psm_model.sim import Contact, Effects, InstrumentParams, calibration, motion, protocols, run_trajectory, simulate
 from psm_model.sim import transmission_figures
-from _report import write_json
+from _report import shown_path, write_json
 
 WPI_DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data" / "wpi_psm"
 MRDLAB_DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data" / "mrdlab"
@@ -152,12 +151,6 @@ def calibrate(scale: float, seed: int, out: Path) -> dict:
     return r
 
 
-def _shown(path: Path) -> str:
-    """A data folder as the committed JSON names it: relative to the repository, no machine's
-    absolute path."""
-    return os.path.relpath(Path(path).resolve(), Path(__file__).resolve().parents[1])
-
-
 def effort_channels(wpi_dir: Path, derive: bool) -> dict:
     """Per-joint residual statistics, real vs simulated (mean over CHECK_SEEDS), their ratios and
     the check; with ``derive`` the disturbance parameters derived on DERIVE_SEEDS."""
@@ -171,7 +164,7 @@ def effort_channels(wpi_dir: Path, derive: bool) -> dict:
                                "ratio": float(sim[stat][j] / real[stat][j])}
                         for stat in calibration.STATISTICS}
     ratios = [table[j][s]["ratio"] for j in table for s in EFFORT_CHECKED]
-    out = {"wpi": _shown(wpi_dir), "rate_hz": calibration.RATE_HZ, "check_seeds": list(CHECK_SEEDS),
+    out = {"wpi": shown_path(wpi_dir), "rate_hz": calibration.RATE_HZ, "check_seeds": list(CHECK_SEEDS),
            "units": "Nm (insertion: N)", "table": table,
            "rule": f"every {', '.join(EFFORT_CHECKED)} ratio sim/real within {list(EFFORT_RATIO_RANGE)}",
            "effort_ok": bool(all(EFFORT_RATIO_RANGE[0] <= r <= EFFORT_RATIO_RANGE[1] for r in ratios))}
@@ -209,7 +202,7 @@ def cable_law(mrdlab_dir: Path) -> dict:
     figures per load level; on :data:`CABLE_LAW_SESSION` the rule and a load-scale sensitivity."""
     start = time.perf_counter()
     before = dataclasses.replace(InstrumentParams(), **PREVIOUS_CABLE_DEFAULTS)
-    out = {"mrdlab": _shown(mrdlab_dir), "checked_session": CABLE_LAW_SESSION,
+    out = {"mrdlab": shown_path(mrdlab_dir), "checked_session": CABLE_LAW_SESSION,
            "checked_figures": list(transmission_figures.CHECKED),
            "previous_defaults": PREVIOUS_CABLE_DEFAULTS,
            "current_defaults": {k: getattr(InstrumentParams(), k) for k in PREVIOUS_CABLE_DEFAULTS},

@@ -58,6 +58,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+from _report import shown_path  # noqa: E402
 from psm_model.files import atomic_path, write_json_atomic, write_text_atomic
 from psm_model.identification.transmission import CableTransmission
 from psm_model.transmission_recording import (
@@ -476,7 +477,7 @@ def main(argv=None) -> int:
         "benchmark": "transmission", "quick": args.quick,
         "note": "smoke run, not converged, compares nothing" if args.quick else
                 "held-out files; causal estimates, no post-filter",
-        "data": os.path.relpath(args.data.resolve(), ROOT), "rate_hz": 100.0,
+        "data": shown_path(args.data), "rate_hz": 100.0,
         "sessions": SESSIONS, "splits": sp,
         "inputs": ["motor_current_a", "motor_angle_rad", "motor_velocity_rad_s"],
         "targets": ["jaw_torque_nm", "jaw_angle_rad"], "protocols": PROTOCOLS,

@@ -43,3 +43,18 @@ def test_rendered_jsons_name_no_absolute_path(path):
 def test_missing_markers_are_refused():
     with pytest.raises(SystemExit, match="marker"):
         rendered.splice("no markers here", "transmission-tables", "body")
+
+
+def _committed_text_files():
+    for folder in ("results", "docs"):
+        for path in sorted((ROOT / folder).rglob("*")):
+            if path.suffix in (".json", ".md", ".txt"):
+                yield path
+    yield ROOT / "README.md"
+
+
+@pytest.mark.parametrize("path", list(_committed_text_files()), ids=lambda p: p.name)
+def test_committed_results_and_docs_name_no_machine_path(path):
+    text = path.read_text()
+    for marker in ("/work/", "/tmp/", "/home/", "/root/"):
+        assert marker not in text, f"{path.relative_to(ROOT)} names a machine path ({marker})"

@@ -36,7 +36,6 @@ fit-dynamics`` runs: :mod:`.dynamics_report`.
 from __future__ import annotations
 
 import hashlib
-import json
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -53,6 +52,7 @@ from psm_model.identification.errors import IdentificationInputError, NotConverg
 from psm_model.identification.friction import FrictionShape
 from psm_model.identification.inertia import (PARAMETER_NAMES, PARAMETER_UNITS,
                                               consistency_report)
+from psm_model.identification.model_file import read_model_json
 from psm_model.identification.signals import check_finite_2d
 from psm_model.kinematics import PSM
 
@@ -179,13 +179,7 @@ class ArmDynamicsModel:
     def load(cls, path: str | Path) -> ArmDynamicsModel:
         """Read a model written by :meth:`save`. Refuses, naming the file: unreadable or invalid
         JSON, another format, missing or malformed fields, non-finite parameters."""
-        try:
-            d = json.loads(Path(path).read_text())
-        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as err:
-            raise IdentificationInputError(f"{path}: cannot read an arm model JSON "
-                                           f"({err})") from None
-        if not isinstance(d, dict) or d.get("format") != MODEL_FORMAT:
-            raise IdentificationInputError(f"{path}: not an ArmDynamicsModel file")
+        d = read_model_json(path, MODEL_FORMAT, "an ArmDynamicsModel")
         try:
             model = cls._from_dict(d)
         except (KeyError, TypeError, ValueError, AttributeError) as err:

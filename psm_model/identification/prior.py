@@ -50,7 +50,6 @@ what the fit reports about identifiability, :mod:`psm_model.identification.prior
 
 from __future__ import annotations
 
-import json
 import math
 import time
 from dataclasses import dataclass, field
@@ -62,6 +61,7 @@ from psm_model.conventions import GRAVITY_UPRIGHT_MPS2, INSERTION_JOINT, WRIST_J
 from psm_model.files import write_json_atomic
 from psm_model.identification.errors import IdentificationInputError, NotConvergedError
 from psm_model.identification.insertion import InsertionEffortModel
+from psm_model.identification.model_file import read_model_json
 from psm_model.identification.prior_identifiability import identifiability
 from psm_model.identification.prior_law import (CABLE_ANGLES_RAD, KAPPA, NAMES,  # noqa: F401
                                                 MIN_SAMPLES, PARAMETERS, _CasadiOps, _model)
@@ -293,12 +293,7 @@ class InternalForcePrior:
         finite number inside its physical bounds (:data:`PARAMETERS`; the same bounds the fit
         uses, so a prior the fit wrote always loads): a NaN predicts NaN everywhere, a negative
         pulley radius trains a model on nonsense."""
-        try:
-            d = json.loads(Path(path).read_text())
-        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as err:
-            raise IdentificationInputError(f"{path}: cannot read a prior JSON ({err})") from None
-        if not isinstance(d, dict) or d.get("format") != FORMAT:
-            raise IdentificationInputError(f"{path}: not an InternalForcePrior file")
+        d = read_model_json(path, FORMAT, "an InternalForcePrior")
         entries = d.get("parameters")
         if not isinstance(entries, dict):
             raise IdentificationInputError(f"{path}: no 'parameters' object")

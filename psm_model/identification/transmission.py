@@ -62,11 +62,9 @@ Identifiability (stated, and checked from the fit's Fisher information in :attr:
 
 from __future__ import annotations
 
-import json
 import math
 import time
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Sequence
 
 import numpy as np
@@ -75,6 +73,7 @@ from psm_model.files import write_json_atomic
 from psm_model.identification.cable_pair import capstan, tension_sum
 from psm_model.identification.errors import IdentificationInputError, NotConvergedError
 from psm_model.identification.hysteresis import dahl_state, hold, hold_coefficients, play
+from psm_model.identification.model_file import read_model_json
 from psm_model.transmission_recording import TransmissionRecording
 
 OMEGA_MOVING = 0.05
@@ -270,13 +269,7 @@ class CableTransmission:
         JSON, another format, a missing or unknown parameter, a torque parameter that is not a
         finite number inside its bounds, an angle parameter that is not finite (the ratio
         within (0.3, 3)), a width that is not a finite number in its range."""
-        try:
-            d = json.loads(Path(path).read_text())
-        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as err:
-            raise IdentificationInputError(f"{path}: cannot read a transmission JSON "
-                                           f"({err})") from None
-        if not isinstance(d, dict) or d.get("format") != FORMAT:
-            raise IdentificationInputError(f"{path}: not a CableTransmission file ({FORMAT})")
+        d = read_model_json(path, FORMAT, "a CableTransmission")
 
         def number(value, name, lo=-math.inf, hi=math.inf) -> float:
             if (isinstance(value, bool) or not isinstance(value, (int, float))
