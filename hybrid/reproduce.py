@@ -104,7 +104,8 @@ def _prior_path(run_dir: str, seed: int) -> Path:
 
 def _simulate_task(p: dict) -> dict:
     """Simulate one bench (a half-written folder from an interrupted run is removed first) and,
-    for the automated one, fit the prior on its training trials (validation held out)."""
+    for the automated one, fit the prior on its training trials and weigh it on the validation
+    trials (:func:`hybrid.train.fit_prior`)."""
     from psm_model.sim import simulate
     out = _data_dir(p["run_dir"], p["protocol"], p["seed"])
     if out.exists():
@@ -112,8 +113,8 @@ def _simulate_task(p: dict) -> dict:
     summary = simulate(p["protocol"], scale=p["scale"], seed=p["seed"], out=out,
                        port=p.get("port", "none"))
     if p["protocol"] == "automated":
-        train, _ = _automated_split(load_dataset(out), p["seed"])
-        prior = fit_prior(train)
+        train, val = _automated_split(load_dataset(out), p["seed"])
+        prior = fit_prior(train, val)
         prior.save(_prior_path(p["run_dir"], p["seed"]))
     return {k: v for k, v in summary.items() if k in ("rows", "minutes", "seconds", "trials")}
 

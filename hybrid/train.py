@@ -376,12 +376,19 @@ def finetune_model(setup: TrainedModel, train_trials: Sequence[Trial],
 
 # --------------------------------------------------------------------------- file-level API
 
-def fit_prior(train_trials: Sequence[Trial], psm=None):
+def fit_prior(train_trials: Sequence[Trial], validation_trials: Sequence[Trial] = (), psm=None):
     """The internal-force prior fitted on training trials (all conditions: the fit removes the
-    known ATI force from the HEX10 reading), :mod:`psm_model.identification.prior`."""
+    known ATI force from the HEX10 reading), :mod:`psm_model.identification.prior`; with
+    ``validation_trials``, weighted per component by what they support
+    (:mod:`psm_model.identification.prior_support`: the prior stays out of a component whose
+    held-out internal wrench its law does not explain)."""
     from psm_model.identification import InternalForcePrior
-    return InternalForcePrior.fit([t.frame for t in train_trials], psm=psm,
-                                  provenance={"trials": [t.path for t in train_trials]})
+    from psm_model.identification.prior_support import weigh_prior
+    prior = InternalForcePrior.fit([t.frame for t in train_trials], psm=psm,
+                                   provenance={"trials": [t.path for t in train_trials]})
+    if validation_trials:
+        prior = weigh_prior(prior, [t.frame for t in validation_trials], psm)
+    return prior
 
 
 def _load_prior(prior):
@@ -442,7 +449,7 @@ def train(data_dir: str | Path, model: str, out_checkpoint: str | Path, *,
     train_trials, val_trials = split_validation(trials, 0.1, seed)
     prior_json = None
     if spec.uses_prior and use_prior:
-        prior_json = prior_to_json(_load_prior(prior) or fit_prior(train_trials))
+        prior_json = prior_to_json(_load_prior(prior) or fit_prior(train_trials, val_trials))
     DERIVATIONS[spec.inputs(features, use_prior).derivation](dataset, prior_json)
     setup = make_setup(model, train_trials, features=features, use_prior=use_prior,
                        prior_json=prior_json, config=config)

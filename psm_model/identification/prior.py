@@ -44,8 +44,18 @@ the slack regime is 5 N of axial force: the fit then trades the effort-dependent
 the rest level, and T_tot and bias_fz stop being physical (their difference, the rest level, is).
 What that leaves on the bench: docs/identification.md section 2.
 
+**Axis weights.** A prediction is ``w * law`` per component, ``w`` (:attr:`InternalForcePrior.axis_weights`,
+ones as fitted) set on recordings the fit did not see by
+:func:`psm_model.identification.prior_support.supported_weights`: where the law's variation does
+not explain the held-out internal wrench (a lateral internal force outside its family, a
+component it predicts as a constant) the weight goes to 0 and the prior stays out of that
+component; the hybrid then reads the raw HEX10 there.
+
 The law (parameters, bounds, the vectorised model) is :mod:`psm_model.identification.prior_law`;
 what the fit reports about identifiability, :mod:`psm_model.identification.prior_identifiability`.
+
+Size: the prior as one record (law, weights, fit, persistence, strict loading), each part
+short; the law and the identifiability report already live in their own modules.
 """
 
 from __future__ import annotations
@@ -102,6 +112,23 @@ def arrays_from_frame(frame, psm=None) -> dict:
             "d_shaft": r[:, :, 2]}
 
 
+def internal_wrench_target(frame) -> tuple[np.ndarray, np.ndarray]:
+    """(y, mask), (N, 6) each: what the prior should predict in a recording, the HEX10 reading
+    with the known external force (``ati_fx..ati_fz``, HEX10 frame, where the recording has
+    them) subtracted from its force channels, and a 0/1 mask of the samples that count: not
+    the moments of samples with an external force above 0.05 N (they would need the contact
+    point), nothing of an overloaded sample."""
+    y = frame[list(HEX10)].to_numpy(dtype=float)
+    mask = np.ones_like(y)
+    if all(t in frame.columns for t in TARGETS):
+        ext = frame[list(TARGETS)].to_numpy(dtype=float)
+        y[:, :3] -= ext
+        mask[np.linalg.norm(ext, axis=1) > 0.05, 3:] = 0.0
+    if OVERLOAD in frame.columns:
+        mask[frame[OVERLOAD].to_numpy() > 0] = 0.0
+    return y, mask
+
+
 def _check_arrays(positions, efforts, velocities, g_hex):
     pos = check_finite_2d(positions, "positions (roll, wrist_pitch)", width=2)
     n = len(pos)
@@ -124,6 +151,10 @@ class InternalForcePrior:
     insertion: InsertionEffortModel | None = None
     """The insertion joint's internal effort (:mod:`psm_model.identification.insertion`), fitted
     alongside when the recordings carry the external force; None otherwise."""
+    axis_weights: np.ndarray = field(default_factory=lambda: np.ones(6))
+    """(6,) in [0, 1]: the share of each output component [fx .. tz] that predictions carry, as
+    held-out recordings support it (:mod:`psm_model.identification.prior_support`); ones (the
+    law as fitted) until :meth:`with_axis_weights` sets them."""
 
     def insertion_axial_force(self, frame, psm=None) -> np.ndarray:
         """(N,) external force along the shaft (N, HEX10 z) from the insertion effort."""
@@ -139,8 +170,12 @@ class InternalForcePrior:
     def predict_arrays(self, positions, efforts, velocities, g_hex) -> np.ndarray:
         """(N,6) HEX10 wrench [fx, fy, fz, tx, ty, tz] (N, Nm) from (N,2) and (N,3) arrays."""
         pos, e, v, g = _check_arrays(positions, efforts, velocities, g_hex)
-        out = _model(self.params, pos.T, e.T, v.T, g.T, np)
-        return np.stack([np.broadcast_to(c, (len(pos),)) for c in out], axis=1)
+        return self.law_arrays(pos, e, v, g) * self.axis_weights
+
+    def law_arrays(self, positions, efforts, velocities, g_hex) -> np.ndarray:
+        """(N,6) the fitted law's output before :attr:`axis_weights` (checked arrays)."""
+        out = _model(self.params, positions.T, efforts.T, velocities.T, g_hex.T, np)
+        return np.stack([np.broadcast_to(c, (len(positions),)) for c in out], axis=1)
 
     def predict(self, frame_or_arrays, psm=None) -> np.ndarray:
         """(N,6) prediction for a recording DataFrame or a dict of :func:`arrays_from_frame`."""
@@ -151,7 +186,26 @@ class InternalForcePrior:
 
     def predict_one(self, positions, efforts, velocities, g_hex) -> tuple:
         """Per-sample fast path (pure Python floats): 6-tuple wrench from 2-, 3-, 3-, 3-sequences."""
-        return _model(self._plist, positions, efforts, velocities, g_hex, math)
+        out = _model(self._plist, positions, efforts, velocities, g_hex, math)
+        if self._unweighted:
+            return out
+        return tuple(w * x for w, x in zip(self._wlist, out))
+
+    def with_axis_weights(self, weights, report: dict | None = None) -> InternalForcePrior:
+        """A copy predicting ``weights * law`` per component (:attr:`axis_weights`);
+        ``report`` goes to ``info["axis_weights"]``."""
+        w = _check_weights(weights, "axis weights")
+        info = {**self.info, **({"axis_weights": report} if report is not None else {})}
+        return InternalForcePrior(params=self.params.copy(), converged=self.converged,
+                                  info=info, insertion=self.insertion, axis_weights=w)
+
+    @property
+    def _unweighted(self) -> bool:
+        return bool(np.all(self.axis_weights == 1.0))
+
+    @property
+    def _wlist(self):
+        return [float(x) for x in self.axis_weights]
 
     @property
     def _plist(self):
@@ -191,14 +245,7 @@ class InternalForcePrior:
             else:
                 sources.append("<DataFrame>")
             a = arrays_from_frame(rec, psm)
-            y = rec[list(HEX10)].to_numpy(dtype=float)
-            mask = np.ones_like(y)
-            if all(t in rec.columns for t in TARGETS):
-                ext = rec[list(TARGETS)].to_numpy(dtype=float)
-                y[:, :3] -= ext
-                mask[np.linalg.norm(ext, axis=1) > 0.05, 3:] = 0.0
-            if OVERLOAD in rec.columns:
-                mask[rec[OVERLOAD].to_numpy() > 0] = 0.0
+            y, mask = internal_wrench_target(rec)
             parts.append((a, y, mask))
             if all(t in rec.columns for t in TARGETS) and \
                     {_INSERTION_VELOCITY, _INSERTION_EFFORT} <= set(rec.columns):
@@ -276,6 +323,7 @@ class InternalForcePrior:
                 "model": "see psm_model/identification/prior.py module docstring",
                 "parameters": {n: {"value": float(x), "unit": u, "lower": lo, "upper": hi}
                                for (n, u, lo, hi, _), x in zip(PARAMETERS, self.params)},
+                "axis_weights": [float(x) for x in self.axis_weights],
                 "info": self.info,
                 **({"insertion": self.insertion.to_dict()} if self.insertion is not None else {})}
 
@@ -317,9 +365,14 @@ class InternalForcePrior:
                          else None)
         except IdentificationInputError as err:
             raise IdentificationInputError(f"{path}: {err}") from None
+        try:  # priors written before the weights predict the law as fitted
+            weights = _check_weights(d.get("axis_weights", [1.0] * 6), "'axis_weights'")
+        except IdentificationInputError as err:
+            raise IdentificationInputError(f"{path}: {err}") from None
         info = d.get("info", {})
         return cls(params=np.array(params), converged=bool(d.get("converged")),
-                   info=info if isinstance(info, dict) else {}, insertion=insertion)
+                   info=info if isinstance(info, dict) else {}, insertion=insertion,
+                   axis_weights=weights)
 
 
 DATASHEET = {"cable_radius": 1.2e-3, "pulley_radius_pitch": 2.0e-3, "pulley_radius_blade": 1.5e-3}
@@ -329,6 +382,19 @@ when the data cannot pin it down. The cable radius, for one, is fitted from mome
 external force acts, and there the pair differentials are the wrist efforts' noise alone (nothing
 loads the wrist): least squares then shrinks it towards zero (``input_reliability`` of
 :func:`identifiability`). The pulley radii are pinned only by slack samples."""
+def _check_weights(weights, name: str) -> np.ndarray:
+    """Six finite numbers in [0, 1], or a one-line refusal naming ``name``."""
+    if (not isinstance(weights, (list, tuple, np.ndarray)) or len(weights) != 6
+            or any(isinstance(w, bool) or not isinstance(w, (int, float, np.floating))
+                   for w in weights)):
+        raise IdentificationInputError(f"{name} must be a list of 6 numbers (fx .. tz), "
+                                       f"got {weights!r}")
+    w = np.asarray(weights, dtype=float)
+    if not (np.isfinite(w).all() and (w >= 0).all() and (w <= 1).all()):
+        raise IdentificationInputError(f"{name} must lie in [0, 1], got {w.tolist()}")
+    return w
+
+
 def _check_fixed(fixed) -> dict[str, float]:
     if fixed is None:
         return {}

@@ -1,0 +1,187 @@
+"""Does the internal-force prior earn its place, axis by axis? The hybrid with and without it.
+
+Two benches, each at three bench seeds (simulator seed = split seed = initialisation seed):
+
+* ``standard``: the nominal instrument (its cable law lies in the prior's family, apart from the
+  effects docs/simulator.md lists);
+* ``crossing``: the same with the cables crossing the HEX10 section at
+  ``--crossing-rad`` (default 0.03 rad, ``InstrumentParams.cable_crossing_angle_rad``): an
+  internal lateral force the prior does not model.
+
+Three hybrids per bench and seed, each trained to early stopping with the recipe's settings
+(the same as ``psmforce reproduce --budget full``), on the same trials:
+
+* ``weighted``: the hybrid as it ships, the prior fitted on the training trials and weighted
+  per component on the validation trials (:mod:`psm_model.identification.prior_support`): the
+  prior stays out of a component its law does not explain there;
+* ``as_fitted``: the prior as fitted (every weight 1), the hybrid before the weights;
+* ``no_prior``: the ``no_prior`` ablation (paper inputs, raw HEX10 force as the base).
+
+Scored on the bench's test trials by the causal metric a haptic loop gets and by the paper's
+offline metric (:mod:`hybrid.metrics`), NRMSE % per axis, mean and std over seeds. Each
+(bench, seed, variant) result is cached under ``--work`` (default ``runs/prior_ablation``) so an
+interrupted run resumes.
+
+    python benchmarks/prior_ablation.py --json results/benchmarks/prior_ablation.json
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import platform
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import torch
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from benchmarks._report import shown_path, write_json  # noqa: E402
+from hybrid.data import load_dataset, split_validation  # noqa: E402
+from hybrid.evaluate import predict_trial, score_modes  # noqa: E402
+from hybrid.inputs import prior_to_json  # noqa: E402
+from hybrid.recipes import DERIVATIONS, recipe  # noqa: E402
+from hybrid.train import TrainConfig, fit_prior, make_setup, train_model  # noqa: E402
+from psm_model.sim import simulate  # noqa: E402
+from psm_model.sim.params import InstrumentParams  # noqa: E402
+
+VARIANTS = ("weighted", "as_fitted", "no_prior")
+AXES = ("Fx", "Fy", "Fz")
+METRICS = ("causal", "paper")
+
+
+def _bench(work: Path, bench: str, seed: int, scale: float, crossing_rad: float) -> Path:
+    out = work / "data" / f"{bench}_seed{seed}_scale{scale}"
+    if not (out / "metadata.json").exists():
+        if out.exists():  # a half-written bench from an interrupted run
+            import shutil
+            shutil.rmtree(out)
+        angle = crossing_rad if bench == "crossing" else 0.0
+        simulate("automated", scale=scale, seed=seed, out=out,
+                 instrument=InstrumentParams(cable_crossing_angle_rad=angle))
+    return out
+
+
+def _task(work: Path, bench: str, seed: int, variant: str, scale: float,
+          crossing_rad: float) -> dict:
+    data = _bench(work, bench, seed, scale, crossing_rad)
+    ds = load_dataset(data)
+    train, val = split_validation(ds.select(split="train"), 0.1, seed)
+    use_prior = variant != "no_prior"
+    prior = fit_prior(train, val if variant == "weighted" else ())
+    prior_json = prior_to_json(prior)
+    spec = recipe("hybrid")
+    DERIVATIONS[spec.inputs(None, use_prior).derivation](ds, prior_json)
+    setup = make_setup("hybrid", train, use_prior=use_prior,
+                       prior_json=prior_json if use_prior else None)
+    cfg = TrainConfig(**{**spec.optimiser, "seed": seed, "progress": False})
+    rep = train_model(setup, train, val, cfg)
+    test = ds.select(split="test")
+    preds = {t.path: predict_trial(setup, t) for t in test}
+    scores = score_modes(preds, test, bias=spec.bias_correction)
+    return {"bench": bench, "seed": seed, "variant": variant,
+            "axis_weights": [float(w) for w in prior.axis_weights] if use_prior else None,
+            "base_columns": list(setup.base_columns),
+            "training": {k: rep.get(k) for k in ("epochs_run", "stopped_by", "converged",
+                                                 "best_val_loss", "seconds")},
+            "test": {m: {a: scores[m][a]["nrmse_pct"] for a in AXES} for m in METRICS}}
+
+
+def _summary(tasks: list[dict]) -> dict:
+    out = {}
+    for bench in sorted({t["bench"] for t in tasks}):
+        out[bench] = {}
+        for variant in VARIANTS:
+            runs = [t for t in tasks if t["bench"] == bench and t["variant"] == variant]
+            if not runs:
+                continue
+            out[bench][variant] = {
+                m: {a: {"mean": float(np.mean([r["test"][m][a] for r in runs])),
+                        "std": float(np.std([r["test"][m][a] for r in runs])),
+                        "seeds": [r["seed"] for r in runs]} for a in AXES} for m in METRICS}
+    return out
+
+
+def _verdicts(summary: dict) -> dict:
+    """Per bench, metric and axis: the weighted hybrid against the no-prior one by the spread
+    rule (a win needs mean + std below the other's mean - std; otherwise a tie)."""
+    out = {}
+    for bench, rows in summary.items():
+        if not {"weighted", "no_prior"} <= set(rows):
+            continue
+        out[bench] = {}
+        for m in METRICS:
+            out[bench][m] = {}
+            for a in AXES:
+                w, n = rows["weighted"][m][a], rows["no_prior"][m][a]
+                if w["mean"] + w["std"] < n["mean"] - n["std"]:
+                    v = "prior helps"
+                elif n["mean"] + n["std"] < w["mean"] - w["std"]:
+                    v = "prior hurts"
+                else:
+                    v = "tie"
+                out[bench][m][a] = {"verdict": v, "ratio": w["mean"] / n["mean"]}
+    return out
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--seeds", type=int, nargs="+", default=[1, 2, 3])
+    ap.add_argument("--benches", nargs="+", default=["standard", "crossing"],
+                    choices=["standard", "crossing"])
+    ap.add_argument("--variants", nargs="+", default=list(VARIANTS), choices=VARIANTS)
+    ap.add_argument("--scale", type=float, default=0.05)
+    ap.add_argument("--crossing-rad", type=float, default=0.03)
+    ap.add_argument("--threads", type=int, default=2)
+    ap.add_argument("--work", type=Path, default=Path("runs/prior_ablation"))
+    ap.add_argument("--json", type=Path)
+    args = ap.parse_args(argv)
+    if len(set(args.seeds)) != len(args.seeds):
+        ap.error(f"--seeds: repeated seeds {args.seeds}")
+    torch.set_num_threads(args.threads)
+    cache = args.work / "cache"
+    cache.mkdir(parents=True, exist_ok=True)
+    started = time.time()
+    tasks = []
+    for bench in args.benches:
+        for seed in args.seeds:
+            for variant in args.variants:
+                key = cache / f"{bench}_seed{seed}_{variant}_scale{args.scale}_x{args.crossing_rad}.json"
+                if key.exists():
+                    result = json.loads(key.read_text())
+                else:
+                    t0 = time.time()
+                    result = _task(args.work, bench, seed, variant, args.scale, args.crossing_rad)
+                    result["wall_s"] = time.time() - t0
+                    key.write_text(json.dumps(result, indent=1))
+                tasks.append(result)
+                c = result["test"]["causal"]
+                print(f"{bench:9s} seed {seed} {variant:10s} causal NRMSE % "
+                      f"{c['Fx']:.2f} / {c['Fy']:.2f} / {c['Fz']:.2f}  "
+                      f"epochs {result['training']['epochs_run']} "
+                      f"({result['training']['stopped_by']})", flush=True)
+    summary = _summary(tasks)
+    figures = {
+        "command": "python benchmarks/prior_ablation.py " + " ".join(argv or sys.argv[1:]),
+        "scale": args.scale, "crossing_rad": args.crossing_rad, "seeds": args.seeds,
+        "work": shown_path(args.work),
+        "machine": {"platform": platform.platform(), "torch_threads": args.threads},
+        "all_converged": all(t["training"]["converged"] for t in tasks),
+        "tasks": tasks, "summary": summary, "verdicts": _verdicts(summary),
+        "seconds": time.time() - started}
+    for bench, rows in summary.items():
+        print(f"\n{bench} bench (NRMSE %, mean +- std over seeds {args.seeds})")
+        for variant, r in rows.items():
+            cells = "  ".join(f"{m} " + " / ".join(f"{r[m][a]['mean']:.2f}+-{r[m][a]['std']:.2f}"
+                                                   for a in AXES) for m in METRICS)
+            print(f"  {variant:10s} {cells}")
+    if args.json:
+        write_json(args.json, figures)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
