@@ -22,7 +22,9 @@ The rules (they hold for every model, the hybrid and the baselines alike):
 The work is a grid of independent tasks (:mod:`hybrid.grid`): simulate a bench, fit the prior,
 pretrain a (model, seed, variant, data fraction), finetune a (model, seed, fold). Each is cached
 by its inputs under ``OUT/work/cache``, so an interrupted run resumes where it stopped, and
-``ray_address`` runs the same tasks on Ray.
+``ray_address`` runs the same tasks on Ray. Inside a training task the loop's state is kept
+after every epoch under ``OUT/work/resume`` (:mod:`hybrid.resume`): a run killed mid-training
+resumes from its last epoch, bit-identical, and the file goes once the checkpoint is written.
 
 Size: the grid's tasks and their assembly into results. A task's module and name are part of
 its cache key (:func:`hybrid.grid.task_key`), so moving the tasks elsewhere would orphan every
@@ -53,6 +55,7 @@ from hybrid.grid import run_grid
 from hybrid.metrics import POSTPROCESSING, axis_metrics, lowpass_lag_samples
 from hybrid.models import count_parameters
 from hybrid.recipes import DERIVATIONS, RECIPES, recipe
+from hybrid.resume import clear_state
 from hybrid.tables import results_markdown, spread, verdicts
 from hybrid.train import TrainConfig, finetune_model, fit_prior, make_setup, train_model
 from psm_model.files import write_text_atomic
@@ -160,6 +163,12 @@ def _checkpoint(run_dir: str, p: dict) -> Path:
                                             f"seed{p['seed']}_{p['budget']}_{p['device']}.pt")
 
 
+def _resume_path(checkpoint: Path) -> Path:
+    """Where a training task keeps its loop's state between epochs (:mod:`hybrid.resume`), so
+    that a killed run resumes inside the task, not only between tasks."""
+    return checkpoint.parent.parent / "resume" / f"{checkpoint.stem}.state"
+
+
 def _scores(setup: TrainedModel, trials: Sequence[Trial], device: str) -> dict:
     """Every post-processing's metrics overall and per condition, and per-trial paper metrics."""
     preds = {t.path: predict_trial(setup, t, device=device) for t in trials}
@@ -190,13 +199,15 @@ def _pretrain_task(p: dict) -> dict:
         train = subsample_trials(train, p["fraction"], p["seed"])
     prior_json = _prior_path(p["run_dir"], p["seed"]).read_text()
     setup = _setup(p["model"], train, prior_json, p["variant"])
+    path = _checkpoint(p["run_dir"], p)
+    resume = _resume_path(path)
     rep = train_model(setup, train, val,
                       _config(p["budget"], "pretrain", p["seed"], p["device"], p["model"]),
-                      desc=f"{p['model']} seed {p['seed']}")
-    path = _checkpoint(p["run_dir"], p)
+                      desc=f"{p['model']} seed {p['seed']}", resume=resume)
     setup.provenance = {"reproduce": p, "train_trials": [t.path for t in train],
                         "val_trials": [t.path for t in val], "history": rep["history"]}
     setup.save(path)
+    clear_state(resume)
     return {"training": _training_summary(rep), "checkpoint": str(path),
             "test": _scores(setup, ds.select(split="test"), p["device"])}
 
@@ -229,14 +240,17 @@ def _finetune_task(p: dict) -> dict:
     tele = _load(p["run_dir"], "teleop", p["seed"])
     fold = next(f for f in _teleop_folds(tele) if f["unseen"] == p["fold"])
     ft_train, ft_val = split_validation(fold["train"], 0.25, p["seed"])
+    resume = Path(p["run_dir"]) / "resume" / (f"finetune_{p['model']}_{p['fold']}_seed{p['seed']}_"
+                                               f"{p['budget']}_{p['device']}.state")
     rep = finetune_model(ckpt, ft_train, ft_val,
                          _config(p["budget"], "finetune", p["seed"], p["device"], p["model"]),
-                         desc=f"finetune {p['model']} {p['fold']}")
+                         desc=f"finetune {p['model']} {p['fold']}", resume=resume)
     scores = {}
     for which in ("seen", "unseen"):
         for cond in TELEOP_CONDITIONS:
             group = [t for t in fold[f"{which}_test"] if t.condition == cond]
             scores[f"{cond}/{which.capitalize()}"] = _scores(ckpt, group, p["device"])["overall"]
+    clear_state(resume)
     return {"training": _training_summary(rep), "scores": scores,
             "parameters": {"trainable": rep["trainable_parameters"], "total": rep["parameters"]}}
 

@@ -47,6 +47,7 @@ from hybrid.data import (DatasetError, Scaler, Trial, WindowSet, fit_scalers, lo
 from hybrid.inputs import prior_to_json, select_base
 from hybrid.models import count_parameters, freeze_for_finetuning
 from hybrid.recipes import DERIVATIONS, Features, Inputs, build_model, recipe
+from hybrid.resume import clear_state, fingerprint, load_state, save_state
 from hybrid.uncertainty import beta_nll, predicts_variance
 
 DEFAULT_CHUNK = 400
@@ -186,8 +187,13 @@ class _Head(nn.Module):
 
 def fit(model: nn.Module, train_trials: Sequence[Trial], val_trials: Sequence[Trial],
         setup: TrainedModel, cfg: TrainConfig, *, desc: str = "train",
-        frozen_in_eval: bool = False) -> dict:
+        frozen_in_eval: bool = False, resume: str | Path | None = None) -> dict:
     """Train ``model`` in place and leave it holding its best-validation weights.
+
+    ``resume``: a file for the loop's state (:mod:`hybrid.resume`), written after every epoch;
+    when it exists the training continues from it and ends bit-identical to an uninterrupted
+    run. The file is left in place (a finished state resumes to the same result at once); the
+    caller removes it once the result is saved (:func:`hybrid.resume.clear_state`).
 
     ``frozen_in_eval``: modules without trainable parameters stay in eval mode (finetuning).
     A window model whose only trainable part is its decoder (``features`` / ``decode``) is then
@@ -227,15 +233,29 @@ def fit(model: nn.Module, train_trials: Sequence[Trial], val_trials: Sequence[Tr
                                                        patience=cfg.lr_patience)
     gen = torch.Generator().manual_seed(cfg.seed)
     best, best_state, stale, history = math.inf, None, 0, []
+    steps, elapsed = 0, 0.0
+    key = _resume_key(model, setup, cfg, len(train_set), len(val_set), frozen_in_eval)
+    state = load_state(resume, key) if resume is not None else None
+    if state is not None:
+        model.load_state_dict(state["model"])
+        opt.load_state_dict(state["optimizer"])
+        sched.load_state_dict(state["scheduler"])
+        gen.set_state(state["generator"])
+        torch.set_rng_state(state["torch_rng"])
+        if "cuda_rng" in state:
+            torch.cuda.set_rng_state_all(state["cuda_rng"])
+        best, best_state, stale = state["best"], state["best_state"], state["stale"]
+        history, steps, elapsed = state["history"], state["steps"], state["elapsed_s"]
     full_batches = math.ceil(len(train_set) / batch)
     n_batches = full_batches
     if cfg.max_batches_per_epoch is not None:
         n_batches = min(n_batches, cfg.max_batches_per_epoch)
     capped = n_batches < full_batches or (
         cfg.max_val_batches is not None and math.ceil(len(val_set) / batch) > cfg.max_val_batches)
-    bar = tqdm(range(cfg.max_epochs), desc=desc, disable=not cfg.progress, mininterval=5.0,
-               leave=False)
-    steps, started = 0, time.perf_counter()
+    first = len(history) if stale < cfg.patience else cfg.max_epochs
+    bar = tqdm(range(first, cfg.max_epochs), desc=desc, disable=not cfg.progress,
+               mininterval=5.0, leave=False)
+    started = time.perf_counter() - elapsed
     for epoch in bar:
         t0 = time.perf_counter()
         net.train()
@@ -262,8 +282,17 @@ def fit(model: nn.Module, train_trials: Sequence[Trial], val_trials: Sequence[Tr
             best, best_state, stale = val, copy.deepcopy(model.state_dict()), 0
         else:
             stale += 1
-            if stale >= cfg.patience:
-                break
+        if resume is not None:
+            save_state(resume, key, {
+                "model": model.state_dict(), "optimizer": opt.state_dict(),
+                "scheduler": sched.state_dict(), "generator": gen.get_state(),
+                "torch_rng": torch.get_rng_state(), "best": best, "best_state": best_state,
+                "stale": stale, "history": history, "steps": steps,
+                "elapsed_s": time.perf_counter() - started,
+                **({"cuda_rng": torch.cuda.get_rng_state_all()}
+                   if str(cfg.device).startswith("cuda") else {})})
+        if stale >= cfg.patience:
+            break
     bar.close()
     model.load_state_dict(best_state)
     model.eval()
@@ -274,6 +303,17 @@ def fit(model: nn.Module, train_trials: Sequence[Trial], val_trials: Sequence[Tr
             "train_windows": len(train_set), "val_windows": len(val_set),
             "batches_per_epoch": n_batches, "chunk": getattr(train_set, "window", None)
             if model.kind == "chunk" else None}
+
+
+def _resume_key(model: nn.Module, setup: TrainedModel, cfg: TrainConfig, n_train: int,
+                n_val: int, finetuning: bool) -> str:
+    """What a saved training state must have been written by (:mod:`hybrid.resume`)."""
+    return fingerprint({
+        "config": {k: v for k, v in cfg.to_dict().items() if k != "progress"},
+        "model": setup.model_name, "model_config": setup.config,
+        "features": list(setup.features), "base": list(setup.base_columns),
+        "windows": [n_train, n_val], "finetuning": finetuning,
+        "parameters": [[k, list(v.shape)] for k, v in model.state_dict().items()]})
 
 
 def make_setup(model_name: str, train_trials: Sequence[Trial], *, features: Features = None,
@@ -339,10 +379,11 @@ def _fit_closed_form(setup: TrainedModel, train_trials: Sequence[Trial],
 
 
 def train_model(setup: TrainedModel, train_trials: Sequence[Trial],
-                val_trials: Sequence[Trial], cfg: TrainConfig, *, desc: str | None = None) -> dict:
+                val_trials: Sequence[Trial], cfg: TrainConfig, *, desc: str | None = None,
+                resume: str | Path | None = None) -> dict:
     """Build the model of ``setup``, train it, leave it with its best weights in
     ``setup.model``; return the fit report. A closed-form recipe is fitted by its own ``fit``
-    (its config gains the seed and thread count)."""
+    (its config gains the seed and thread count; nothing to resume). ``resume``: :func:`fit`'s."""
     if recipe(setup.model_name).closed_form:
         setup.model, report = _fit_closed_form(setup, train_trials, val_trials, cfg)
         return report
@@ -350,7 +391,7 @@ def train_model(setup: TrainedModel, train_trials: Sequence[Trial],
     setup.model = build_model(setup.model_name, len(setup.features), setup.config)
     t0 = time.perf_counter()
     report = fit(setup.model, train_trials, val_trials, setup, cfg,
-                 desc=desc or setup.model_name)
+                 desc=desc or setup.model_name, resume=resume)
     report["seconds"] = time.perf_counter() - t0
     report["parameters"] = count_parameters(setup.model)
     return report
@@ -358,17 +399,18 @@ def train_model(setup: TrainedModel, train_trials: Sequence[Trial],
 
 def finetune_model(setup: TrainedModel, train_trials: Sequence[Trial],
                    val_trials: Sequence[Trial], cfg: TrainConfig, *,
-                   desc: str = "finetune") -> dict:
+                   desc: str = "finetune", resume: str | Path | None = None) -> dict:
     """Freeze all but the last decoder block of ``setup.model``, train that on new data with the
     pretrained scalers (the paper's transfer protocol). Frozen parts run in eval mode (no
     dropout): they act as a fixed feature extractor; a closed-form model keeps its features and
-    refits its head. Returns the fit report with trainable/total parameter counts."""
+    refits its head. Returns the fit report with trainable/total parameter counts. ``resume``:
+    :func:`fit`'s."""
     if recipe(setup.model_name).closed_form:
         return _fit_closed_form(setup, train_trials, val_trials, cfg, head_of=setup.model)[1]
     trainable, total = freeze_for_finetuning(setup.model)
     t0 = time.perf_counter()
     report = fit(setup.model, train_trials, val_trials, setup, cfg, desc=desc,
-                 frozen_in_eval=True)
+                 frozen_in_eval=True, resume=resume)
     report.update(seconds=time.perf_counter() - t0, trainable_parameters=trainable,
                   parameters=total)
     return report
@@ -423,7 +465,7 @@ def check_config(model: str, config: dict | None, features: Features = None,
 def train(data_dir: str | Path, model: str, out_checkpoint: str | Path, *,
           features: Features = None, epochs: int = 100, seed: int = 0, device: str = "cpu",
           prior=None, use_prior: bool = True, config: dict | None = None,
-          train_config: TrainConfig | None = None) -> dict:
+          train_config: TrainConfig | None = None, resume: str | Path | None = None) -> dict:
     """Train ``model`` (a name of :data:`hybrid.recipes.RECIPES`) on the ``train`` split of the
     dataset in ``data_dir`` (10 % of its trials per condition held out for validation, seeded)
     and write a checkpoint. ``features``: a name of :data:`hybrid.data.FEATURE_SETS` or a column
@@ -433,6 +475,7 @@ def train(data_dir: str | Path, model: str, out_checkpoint: str | Path, *,
     constructor's keyword arguments (e.g. ``{"uncertainty": True}`` for a hybrid that predicts
     its variance, :mod:`hybrid.uncertainty`), checked before the data is read
     (:func:`check_config`). ``train_config`` defaults to the recipe's optimiser settings.
+    ``resume``: a file for the loop's state (:func:`fit`), removed once the checkpoint is written.
     Returns a summary (losses, epochs, windows, seconds, checkpoint path)."""
     spec = recipe(model)
     _epochs(epochs)
@@ -453,13 +496,14 @@ def train(data_dir: str | Path, model: str, out_checkpoint: str | Path, *,
     DERIVATIONS[spec.inputs(features, use_prior).derivation](dataset, prior_json)
     setup = make_setup(model, train_trials, features=features, use_prior=use_prior,
                        prior_json=prior_json, config=config)
-    report = train_model(setup, train_trials, val_trials, cfg)
+    report = train_model(setup, train_trials, val_trials, cfg, resume=resume)
     setup.provenance = {
         "data_dir": str(data_dir), "train_trials": [t.path for t in train_trials],
         "val_trials": [t.path for t in val_trials], "train_config": cfg.to_dict(),
         "best_val_loss": report["best_val_loss"], "epochs_run": report["epochs_run"],
         "seconds": report["seconds"], "history": report["history"]}
     setup.save(out_checkpoint)
+    clear_state(resume)
     return {k: v for k, v in report.items() if k != "history"} | {"checkpoint": str(out_checkpoint)}
 
 
