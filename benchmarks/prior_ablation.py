@@ -15,7 +15,13 @@ Three hybrids per bench and seed, each trained to early stopping with the recipe
   per component on the validation trials (:mod:`psm_model.identification.prior_support`): the
   prior stays out of a component its law does not explain there;
 * ``as_fitted``: the prior as fitted (every weight 1), the hybrid before the weights;
-* ``no_prior``: the ``no_prior`` ablation (paper inputs, raw HEX10 force as the base).
+* ``no_prior``: the ``no_prior`` ablation (paper inputs, raw HEX10 force as the base);
+* ``raw_and_prior``: the weighted prior as the base where it helps, but beside the raw HEX10
+  reading among the inputs instead of subtracted from it
+  (:data:`hybrid.inputs.HYBRID_INPUTS_RAW_AND_PRIOR`): what the reading carries is not lost
+  where the prior is wrong.
+
+Every variant is scored on the validation trials too (the design is chosen there, not on test).
 
 Scored on the bench's test trials by the causal metric a haptic loop gets and by the paper's
 offline metric (:mod:`hybrid.metrics`), NRMSE % per axis, mean and std over seeds. Each
@@ -42,13 +48,16 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from benchmarks._report import shown_path, write_json  # noqa: E402
 from hybrid.data import load_dataset, split_validation  # noqa: E402
 from hybrid.evaluate import predict_trial, score_modes  # noqa: E402
-from hybrid.inputs import prior_to_json  # noqa: E402
-from hybrid.recipes import DERIVATIONS, recipe  # noqa: E402
+from hybrid.inputs import (BASE_COLUMNS, HYBRID_INPUTS_RAW_AND_PRIOR, prior_to_json,  # noqa: E402
+                           select_base)
+from hybrid.recipes import DERIVATIONS, Inputs, recipe  # noqa: E402
 from hybrid.train import TrainConfig, fit_prior, make_setup, train_model  # noqa: E402
 from psm_model.sim import simulate  # noqa: E402
 from psm_model.sim.params import InstrumentParams  # noqa: E402
 
-VARIANTS = ("weighted", "as_fitted", "no_prior")
+VARIANTS = ("weighted", "as_fitted", "no_prior", "raw_and_prior")
+CACHE_VERSION = 2
+"""Bumped when a task's result changes shape or meaning (2: validation scores, raw_and_prior)."""
 AXES = ("Fx", "Fy", "Fz")
 METRICS = ("causal", "paper")
 
@@ -71,23 +80,28 @@ def _task(work: Path, bench: str, seed: int, variant: str, scale: float,
     ds = load_dataset(data)
     train, val = split_validation(ds.select(split="train"), 0.1, seed)
     use_prior = variant != "no_prior"
-    prior = fit_prior(train, val if variant == "weighted" else ())
+    prior = fit_prior(train, () if variant == "as_fitted" else val)
     prior_json = prior_to_json(prior)
     spec = recipe("hybrid")
     DERIVATIONS[spec.inputs(None, use_prior).derivation](ds, prior_json)
-    setup = make_setup("hybrid", train, use_prior=use_prior,
+    inputs = None
+    if variant == "raw_and_prior":
+        inputs = Inputs(HYBRID_INPUTS_RAW_AND_PRIOR, select_base(train, BASE_COLUMNS), (),
+                        "prior")
+    setup = make_setup("hybrid", train, use_prior=use_prior, inputs=inputs,
                        prior_json=prior_json if use_prior else None)
     cfg = TrainConfig(**{**spec.optimiser, "seed": seed, "progress": False})
     rep = train_model(setup, train, val, cfg)
-    test = ds.select(split="test")
-    preds = {t.path: predict_trial(setup, t) for t in test}
-    scores = score_modes(preds, test, bias=spec.bias_correction)
+    scores, val_scores = (
+        score_modes({t.path: predict_trial(setup, t) for t in trials}, trials,
+                    bias=spec.bias_correction) for trials in (ds.select(split="test"), val))
     return {"bench": bench, "seed": seed, "variant": variant,
             "axis_weights": [float(w) for w in prior.axis_weights] if use_prior else None,
             "base_columns": list(setup.base_columns),
             "training": {k: rep.get(k) for k in ("epochs_run", "stopped_by", "converged",
                                                  "best_val_loss", "seconds")},
-            "test": {m: {a: scores[m][a]["nrmse_pct"] for a in AXES} for m in METRICS}}
+            "test": {m: {a: scores[m][a]["nrmse_pct"] for a in AXES} for m in METRICS},
+            "validation": {m: {a: val_scores[m][a]["nrmse_pct"] for a in AXES} for m in METRICS}}
 
 
 def _summary(tasks: list[dict]) -> dict:
@@ -102,29 +116,51 @@ def _summary(tasks: list[dict]) -> dict:
                 m: {a: {"mean": float(np.mean([r["test"][m][a] for r in runs])),
                         "std": float(np.std([r["test"][m][a] for r in runs])),
                         "seeds": [r["seed"] for r in runs]} for a in AXES} for m in METRICS}
+            out[bench][variant]["validation_causal"] = {
+                a: {"mean": float(np.mean([r["validation"]["causal"][a] for r in runs])),
+                    "std": float(np.std([r["validation"]["causal"][a] for r in runs]))}
+                for a in AXES}
     return out
 
 
 def _verdicts(summary: dict) -> dict:
-    """Per bench, metric and axis: the weighted hybrid against the no-prior one by the spread
-    rule (a win needs mean + std below the other's mean - std; otherwise a tie)."""
+    """Per bench, prior variant, metric and axis: the variant against the hybrid without the
+    prior by the spread rule (a win needs mean + std below the other's mean - std; otherwise a
+    tie), with the ratio of means."""
     out = {}
     for bench, rows in summary.items():
-        if not {"weighted", "no_prior"} <= set(rows):
+        if "no_prior" not in rows:
             continue
         out[bench] = {}
-        for m in METRICS:
-            out[bench][m] = {}
-            for a in AXES:
-                w, n = rows["weighted"][m][a], rows["no_prior"][m][a]
-                if w["mean"] + w["std"] < n["mean"] - n["std"]:
-                    v = "prior helps"
-                elif n["mean"] + n["std"] < w["mean"] - w["std"]:
-                    v = "prior hurts"
-                else:
-                    v = "tie"
-                out[bench][m][a] = {"verdict": v, "ratio": w["mean"] / n["mean"]}
+        for variant in (v for v in rows if v != "no_prior"):
+            out[bench][variant] = {}
+            for m in METRICS:
+                out[bench][variant][m] = {}
+                for a in AXES:
+                    w, n = rows[variant][m][a], rows["no_prior"][m][a]
+                    if w["mean"] + w["std"] < n["mean"] - n["std"]:
+                        v = "prior helps"
+                    elif n["mean"] + n["std"] < w["mean"] - w["std"]:
+                        v = "prior hurts"
+                    else:
+                        v = "tie"
+                    out[bench][variant][m][a] = {"verdict": v, "ratio": w["mean"] / n["mean"]}
     return out
+
+
+def _chosen(summary: dict) -> dict:
+    """The prior variant with the lowest validation error relative to the hybrid without the
+    prior (causal NRMSE, averaged over axes and benches, so that every axis weighs the same)."""
+    scores = {}
+    for variant in VARIANTS[:1] + VARIANTS[3:] + VARIANTS[1:2]:
+        ratios = [rows[variant]["validation_causal"][a]["mean"]
+                  / rows["no_prior"]["validation_causal"][a]["mean"]
+                  for rows in summary.values() if {variant, "no_prior"} <= set(rows)
+                  for a in AXES]
+        if ratios:
+            scores[variant] = float(np.mean(ratios))
+    best = min(scores, key=scores.get) if scores else None
+    return {"variant": best, "validation_ratio_to_no_prior": scores}
 
 
 def main(argv=None) -> int:
@@ -149,7 +185,8 @@ def main(argv=None) -> int:
     for bench in args.benches:
         for seed in args.seeds:
             for variant in args.variants:
-                key = cache / f"{bench}_seed{seed}_{variant}_scale{args.scale}_x{args.crossing_rad}.json"
+                key = cache / (f"v{CACHE_VERSION}_{bench}_seed{seed}_{variant}_scale{args.scale}_"
+                               f"x{args.crossing_rad}.json")
                 if key.exists():
                     result = json.loads(key.read_text())
                 else:
@@ -171,6 +208,7 @@ def main(argv=None) -> int:
         "machine": {"platform": platform.platform(), "torch_threads": args.threads},
         "all_converged": all(t["training"]["converged"] for t in tasks),
         "tasks": tasks, "summary": summary, "verdicts": _verdicts(summary),
+        "chosen_on_validation": _chosen(summary),
         "seconds": time.time() - started}
     for bench, rows in summary.items():
         print(f"\n{bench} bench (NRMSE %, mean +- std over seeds {args.seeds})")

@@ -66,8 +66,10 @@ class _StockTransformer(PaperTransformer):
         return self.decoder(self.encoder(self.positions(self.embed(x)))[:, -1])
 
 
-def _step_seconds(model, x, steps: int, compile_model: bool = False) -> tuple[float, float]:
-    """(best seconds per optimiser step, compile + warm-up seconds)."""
+def _step_seconds(model, x, steps: int, compile_model: bool = False,
+                  bf16: bool = False) -> tuple[float, float]:
+    """(best seconds per optimiser step, compile + warm-up seconds). ``bf16``: the forward and
+    the loss under CPU autocast to bfloat16 (weights and optimiser stay float32)."""
     torch.manual_seed(0)
     model.train()
     forward = torch.compile(model) if compile_model else model
@@ -75,9 +77,10 @@ def _step_seconds(model, x, steps: int, compile_model: bool = False) -> tuple[fl
 
     def step():
         opt.zero_grad(set_to_none=True)
-        out = forward(x)
-        loss = out[:, model.window:].square().mean() if model.kind == "chunk" else \
-            out.square().mean()
+        with torch.autocast("cpu", dtype=torch.bfloat16, enabled=bf16):
+            out = forward(x)
+            loss = out[:, model.window:].square().mean() if model.kind == "chunk" else \
+                out.square().mean()
         loss.backward()
         opt.step()
     t0 = time.perf_counter()
@@ -120,6 +123,51 @@ def _throughput(steps: int) -> dict:
     for k in ("transformer (own forward, torch attention)", "transformer (after)",
               "transformer (after, compiled)"):
         out[k]["speedup_vs_before"] = before / out[k]["seconds_per_step"]
+    return out
+
+
+SPEED_OPTIONS = {"float32, batch 256 (as trained)": (256, False),
+                 "bf16 autocast, batch 256": (256, True),
+                 "float32, batch 1024": (1024, False),
+                 "bf16 autocast, batch 1024": (1024, True)}
+"""Issue 28's training-speed options for the paper transformer: (batch, bf16 autocast)."""
+
+
+def _speed_options(steps: int) -> dict:
+    """Windows per second of the paper transformer's training step under each of
+    :data:`SPEED_OPTIONS`, and the data path's share: the seconds :class:`hybrid.data.WindowSet`
+    takes to gather a batch, against the step."""
+    import numpy as np
+    import pandas as pd
+    from hybrid.data import Scaler, Trial, WindowSet
+    out = {}
+    for name, (batch, bf16) in SPEED_OPTIONS.items():
+        torch.manual_seed(0)
+        sec, _ = _step_seconds(PaperTransformer(21), torch.randn(batch, 100, 21), steps,
+                               bf16=bf16)
+        out[name] = {"batch": batch, "bf16": bf16, "seconds_per_step": sec,
+                     "windows_per_s": batch / sec}
+    base = out["float32, batch 256 (as trained)"]["windows_per_s"]
+    for name, r in out.items():
+        r["speedup"] = r["windows_per_s"] / base
+        print(f"  {name:34s} {r['windows_per_s']:8.0f} windows/s  x{r['speedup']:.2f}", flush=True)
+    cols = [f"c{k}" for k in range(21)]
+    rng = np.random.default_rng(0)
+    frame = pd.DataFrame(rng.normal(size=(20000, 24)), columns=cols + ["ati_fx", "ati_fy", "ati_fz"])
+    scaler = Scaler(np.zeros(21, np.float32), np.ones(21, np.float32))
+    target = Scaler(np.zeros(3, np.float32), np.ones(3, np.float32))
+    data = WindowSet([Trial("t", "Traction", "train", frame)], cols, scaler, target, 100, 5,
+                     targets="last")
+    order = torch.randperm(len(data))
+    best = float("inf")
+    for b in range(max(steps, 3)):
+        t0 = time.perf_counter()
+        data.batch(order[b * 256:(b + 1) * 256])
+        best = min(best, time.perf_counter() - t0)
+    step = out["float32, batch 256 (as trained)"]["seconds_per_step"]
+    out["data path"] = {"seconds_per_batch_256": best, "share_of_step": best / step}
+    print(f"  data path: {best * 1e3:.2f} ms to gather 256 windows, {100 * best / step:.1f} % of "
+          f"a float32 step", flush=True)
     return out
 
 
@@ -207,18 +255,23 @@ def main() -> dict:
                     help="also train the paper transformer to convergence at this scale")
     ap.add_argument("--profile", action="store_true",
                     help="only profile the paper transformer's training step")
+    ap.add_argument("--speed-options", action="store_true",
+                    help="only time the paper transformer under SPEED_OPTIONS and the data path")
     ap.add_argument("--json", type=Path)
     args = ap.parse_args()
     torch.set_num_threads(args.threads)
     result = {"machine": {"platform": platform.platform(), "threads": args.threads,
                           "torch": torch.__version__}}
-    if args.profile:
+    if args.speed_options:
+        print(f"paper transformer training speed options, {args.threads} threads")
+        result["speed_options"] = _speed_options(args.steps)
+    elif args.profile:
         print(f"paper transformer training step, {args.threads} threads")
         result["profile"] = _profile()
     else:
         print(f"training throughput, {args.threads} threads, torch {torch.__version__}")
         result["throughput"] = _throughput(args.steps)
-    if args.converge_scale and not args.profile:
+    if args.converge_scale and not (args.profile or args.speed_options):
         result["convergence"] = _converge(args.converge_scale)
     if args.json:
         write_json(args.json, result)

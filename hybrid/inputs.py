@@ -87,7 +87,11 @@ PRIOR_FZ = "prior_fz"
 INSERTION_FZ = "insertion_fz"
 """The external force along the shaft from the insertion joint's effort, by the prior's insertion
 model (N, HEX10 z, a press on the tip negative; :mod:`psm_model.identification.insertion`)."""
-PRIOR_COLUMNS = COMPENSATED_HEX10 + (PRIOR_FZ, INSERTION_FZ)
+PRIOR_WRENCH = tuple(f"prior_{c}" for c in HEX10)
+"""The prior's internal wrench itself, prior_fx .. prior_tz (N, Nm, HEX10 frame; ``prior_fz`` is
+:data:`PRIOR_FZ`): inputs beside the raw HEX10 reading (:data:`HYBRID_INPUTS_RAW_AND_PRIOR`)."""
+PRIOR_COLUMNS = COMPENSATED_HEX10 + (PRIOR_FZ, INSERTION_FZ) + tuple(
+    c for c in PRIOR_WRENCH if c != PRIOR_FZ)
 """Every column derived from the prior (:func:`compensated_hex10`)."""
 BASE_COLUMNS = COMPENSATED_HEX10[:2] + (INSERTION_FZ,)
 """Added to the network's un-scaled output: the prior-compensated HEX10 lateral force, and along
@@ -104,6 +108,12 @@ INSERTION_STATE = (joint_column(INSERTION_JOINT, "velocity"),
 depends on (module docstring)."""
 HYBRID_INPUTS = HYBRID_FEATURES_INSERTION + INSERTION_STATE
 """The hybrid's default inputs: :data:`HYBRID_FEATURES_INSERTION` plus :data:`INSERTION_STATE`."""
+HYBRID_INPUTS_RAW_AND_PRIOR = (PAPER_FEATURES + PRIOR_WRENCH + (INSERTION_FZ,)
+                               + INSERTION_STATE)
+"""The paper's 21 inputs with the raw HEX10 reading, the prior's internal wrench beside it
+(not subtracted from it: nothing the reading carries is lost where the prior is wrong), the
+axial force from the insertion effort and the insertion state (docs/results.md, "The prior,
+axis by axis")."""
 
 
 _SIGNAL_GROUPS = (HEX10, JOINT_POSITIONS, JOINT_VELOCITIES, JOINT_EFFORTS)
@@ -162,16 +172,16 @@ def select_base(trials, base_columns: Sequence[str]) -> tuple[str, ...]:
 
 
 def compensated_hex10(frame: pd.DataFrame, prior) -> dict[str, np.ndarray]:
-    """{comp_fx .. comp_tz, prior_fz[, insertion_fz]: (N,)} for a whole recording: HEX10
-    reading minus ``prior.predict``, the prior's internal fz, and where the prior has an
-    insertion model, the axial force from the insertion effort (:data:`PRIOR_COLUMNS`)."""
+    """{comp_fx .. comp_tz, prior_fx .. prior_tz[, insertion_fz]: (N,)} for a whole recording:
+    HEX10 reading minus ``prior.predict``, the prior's internal wrench, and where the prior has
+    an insertion model, the axial force from the insertion effort (:data:`PRIOR_COLUMNS`)."""
     internal = np.asarray(prior.predict(frame), dtype=np.float64)
     if internal.shape != (len(frame), 6):
         raise HybridInputError(f"prior.predict returned shape {internal.shape}, expected "
                                f"({len(frame)}, 6)")
     hex10 = frame[list(HEX10)].to_numpy(dtype=np.float64)
     comp = {name: hex10[:, k] - internal[:, k] for k, name in enumerate(COMPENSATED_HEX10)}
-    comp[PRIOR_FZ] = internal[:, 2]
+    comp.update({name: internal[:, k] for k, name in enumerate(PRIOR_WRENCH)})
     if getattr(prior, "insertion", None) is not None:
         comp[INSERTION_FZ] = prior.insertion_axial_force(frame)
     return comp
@@ -325,6 +335,7 @@ class HybridInputs:
         self._comp_view = self._source[n_raw:n_raw + 6]
         self._prior_fz_index = n_raw + 6
         self._insertion_fz_index = n_raw + 7
+        self._other_prior_index = n_raw + 8 + np.arange(5)  # PRIOR_COLUMNS' tail
         self._x64 = np.zeros(len(self.features))
         self.x = np.zeros(len(self.features), np.float32)
         self.base = np.zeros(len(self.base_columns))
@@ -353,6 +364,7 @@ class HybridInputs:
             np.take(self._raw_view, self._hex10_index, out=self._comp_view)
             np.subtract(self._comp_view, internal[:6], out=self._comp_view)
             self._source[self._prior_fz_index] = internal[2]
+            self._source[self._other_prior_index] = internal[[0, 1, 3, 4, 5]]
             if self._has_insertion:
                 self._source[self._insertion_fz_index] = internal[6]
         np.take(self._source, self._feature_index, out=self._x64)

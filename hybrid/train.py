@@ -81,6 +81,10 @@ class TrainConfig:
     """Train window models through :func:`torch.compile` (the same function). Off by default:
     on a 2-core CPU the compiled paper transformer's steps were slower than its eager path
     (``benchmarks/training.py``); it may pay on other hardware."""
+    bf16: bool = False
+    """Training forward passes and losses under autocast to bfloat16 (weights, optimiser and
+    validation stay float32). Off by default: ``benchmarks/training.py --speed-options``
+    measures what it buys per step; converged accuracy with it has not been shown yet."""
     seed: int = 0
     device: str = "cpu"
     progress: bool = True
@@ -266,7 +270,10 @@ def fit(model: nn.Module, train_trials: Sequence[Trial], val_trials: Sequence[Tr
         for b in range(n_batches):
             x, y = train_set.batch(order[b * batch:(b + 1) * batch])
             opt.zero_grad(set_to_none=True)
-            loss = _loss(net, x.to(cfg.device), y.to(cfg.device), setup.target_scaler, forward)
+            with torch.autocast(torch.device(cfg.device).type, dtype=torch.bfloat16,
+                                enabled=cfg.bf16):
+                loss = _loss(net, x.to(cfg.device), y.to(cfg.device), setup.target_scaler,
+                             forward)
             loss.backward()
             opt.step()
             running += loss.item()
