@@ -16,7 +16,18 @@ HANDLED   accepted, and the case's own check of the output holds (output correct
 UNCLEAR   rejected, but the message is not one line naming the file or option;
 SILENT    accepted with wrong, NaN or misleading output, or rejected leaving files behind;
 CRASH     a traceback: an exception the CLI does not catch, or from the API one that is not a
-          library error (TypeError, IndexError, AttributeError, ...), or an exit code not 0 / 2.
+          library error (TypeError, IndexError, AttributeError, ...), or an exit code not 0 / 2
+          (3 is the CLI's "internal error": a bug its error boundary caught);
+ESCAPE    the case reached outside its folder: a file changed in the shared inputs or in the
+          ``outside`` folder beside the cases, or a case that points a file outside its folder
+          (an export's graph) was accepted.
+
+Issue 26 added the classes of :func:`integrity_cases`: checkpoints with one metadata field
+edited, a non-integer format version or a config out of range (some resealed, as a careless tool
+would); model configs; timestamps that overflow the stream's gap arithmetic; the export runner
+(edited or foreign folders, a graph outside its folder, bad recordings); outputs naming an
+input; repeated seeds; degenerate targets and train/test overlap; edited cached task results;
+fits that must print their verdict.
 
 Each case also states the verdict it should get (REJECTED or HANDLED). Cases whose acceptance
 would start expensive work (a simulation at scale 1e6, a reproduce run) patch that work to raise
@@ -60,7 +71,7 @@ RECOVERED_N = 1e-3
 within a millinewton (far below any sensor's resolution): a refused sample never entered the
 network or the filter, and the 5 Hz filter has long forgotten a one-sample shift."""
 EXPECTED = ("REJECTED", "HANDLED")
-FAILING = ("SILENT", "UNCLEAR", "CRASH")
+FAILING = ("SILENT", "UNCLEAR", "CRASH", "ESCAPE")
 
 
 class Reached(Exception):
@@ -75,6 +86,7 @@ class Attempt:
     names: tuple[str, ...] = ()                # a rejection must name one of these
     check: Callable | None = None              # acceptance: result -> (ok, note)
     guard: str | None = None                   # dotted attribute that acceptance would reach
+    escape: bool = False                       # acceptance means a file outside was used
 
 
 @dataclass
@@ -118,6 +130,9 @@ class Shared:
             self.fcn = Path(train(self.bench, "fcn", root / "fcn.pt", epochs=1)["checkpoint"])
             self.hybrid = Path(train(self.bench, "hybrid", root / "hybrid.pt", epochs=1,
                                      prior=self.prior)["checkpoint"])
+        from hybrid.export import export
+        self.export = root / "export"
+        export(self.hybrid, self.export)
 
     def copy(self, folder: Path) -> Path:
         data = folder / "bench"
@@ -208,8 +223,11 @@ def _guarded(target: str | None):
 
 def run_case(case: Case, shared: Shared, folder: Path) -> Outcome:
     folder.mkdir(parents=True)
+    outside = folder.parent.parent / "outside"  # beside the cases: nothing may change it
+    outside.mkdir(exist_ok=True)
     attempt = case.prepare(shared, folder)
-    before = _tree(folder, shared.root)
+    before = _tree(folder, shared.root, outside)
+    around = _tree(shared.root, outside)
     out, err = io.StringIO(), io.StringIO()
     result, error, rc = None, None, None
     start = time.perf_counter()
@@ -228,12 +246,16 @@ def run_case(case: Case, shared: Shared, folder: Path) -> Outcome:
             error = exc
             trace = traceback.format_exc()
     seconds = time.perf_counter() - start
-    left = _changes(before, _tree(folder, shared.root))
+    left = _changes(before, _tree(folder, shared.root, outside))
+    escaped = _changes(around, _tree(shared.root, outside))
     stderr = err.getvalue()
 
     def outcome(verdict, detail):
         return Outcome(verdict, detail, seconds)
 
+    if escaped:
+        return outcome("ESCAPE", "changed outside its folder: "
+                                 + ", ".join(Path(p).name for p in escaped[:5]))
     if isinstance(error, Reached):
         return outcome("SILENT", f"accepted: reached {error} with the bad input" + (
             "; wrote " + ", ".join(Path(p).name for p in left[:5]) if left else ""))
@@ -243,7 +265,7 @@ def run_case(case: Case, shared: Shared, folder: Path) -> Outcome:
                                 f"{trace.strip().splitlines()[-3].strip()}")
     if attempt.argv is not None:
         if rc not in (0, 2):
-            return outcome("CRASH", f"exit {rc}: {stderr.strip()[-300:]}")
+            return outcome("CRASH", f"exit {rc}: {stderr.strip()[-300:]}")  # 3: a caught bug
         if "Traceback" in stderr:
             return outcome("CRASH", f"traceback on stderr: {stderr.strip()[-300:]}")
         if rc == 2:
@@ -253,6 +275,9 @@ def run_case(case: Case, shared: Shared, folder: Path) -> Outcome:
     elif error is not None:
         message = str(error)
         return _rejected(message, "\n" not in message.strip(), attempt, left, outcome)
+    if attempt.escape:
+        return outcome("ESCAPE", "accepted, using a file outside its folder: "
+                                 + (stderr.strip() or out.getvalue().strip())[-200:])
     if attempt.check is None:
         return outcome("SILENT", "accepted: " + (stderr.strip() or out.getvalue().strip())[-200:])
     ok, note = attempt.check(result if attempt.argv is None else out.getvalue())
@@ -1102,7 +1127,7 @@ def cases() -> list[Case]:
 
     @case("api fit_prior_cli", "a poor fit is saved marked poor_fit", "HANDLED")
     def _(s, d):
-        from psm_model.identification.prior import fit_prior_cli
+        from psm_model.identification import fit_prior_cli
         data = s.copy(d)
         edit_csv(trial(data), lambda f: f.assign(fz=1e6))
 
@@ -1135,7 +1160,493 @@ def cases() -> list[Case]:
         return Attempt(call=lambda: PSM().wrench_from_torques(q, np.full(6, np.nan)),
                        names=("tau", "torque", "NaN", "finite"))
 
+    return found + integrity_cases()
+
+
+# ---------------------------------------------------------------------------- issue 26
+
+def edit_checkpoint(src: Path, out: Path, edit: Callable[[dict, dict], None],
+                    reseal: bool = False) -> Path:
+    """``src`` rewritten to ``out`` with ``edit(meta, payload)`` applied; ``reseal``: the
+    envelope recomputed afterwards, as a careless tool would, so only the content checks
+    remain."""
+    from hybrid.integrity import seal
+    payload = torch.load(src, weights_only=True)
+    meta = json.loads(payload["meta"])
+    edit(meta, payload)
+    payload["meta"] = json.dumps(seal(meta) if reseal else meta)
+    torch.save(payload, out)
+    return out
+
+
+def _meta(**changes):
+    def edit(meta, payload):
+        for key, value in changes.items():
+            if value is _DROP:
+                meta.pop(key, None)
+            else:
+                meta[key] = value(meta) if callable(value) else value
+    return edit
+
+
+_DROP = object()
+
+
+def _swap_features(meta):
+    f = list(meta["features"])
+    f[0], f[1] = f[1], f[0]
+    return f
+
+
+def _scaler(which, **fields):
+    def value(meta):
+        n = len(meta[which]["mean"])
+        return {**meta[which], **{k: (v(n) if callable(v) else v) for k, v in fields.items()}}
+    return value
+
+
+CHECKPOINT_EDITS: dict[str, tuple[Callable, bool]] = {
+    "features: two names swapped": (_meta(features=_swap_features), False),
+    "input_scaler collapsed (mean 0, std 1)": (_meta(input_scaler=_scaler(
+        "input_scaler", mean=lambda n: [0.0] * n, std=lambda n: [1.0] * n)), False),
+    "target_scaler mean shifted": (_meta(target_scaler=_scaler(
+        "target_scaler", mean=[5.0, 0.0, 0.0])), False),
+    "base_columns emptied": (_meta(base_columns=[]), False),
+    "derivation prior -> none": (_meta(derivation="none"), False),
+    "config: uncertainty true": (_meta(config=lambda m: {**m["config"], "uncertainty": True}),
+                                 False),
+    "provenance: data_dir edited": (_meta(provenance=lambda m: {**m["provenance"],
+                                                                "data_dir": "/elsewhere"}), False),
+    "versions edited": (_meta(versions={"psmforce": "9.9"}), False),
+    "sample_rate_hz 1000": (_meta(sample_rate_hz=1000.0), False),
+    "prior JSON edited": (lambda meta, payload: payload.update(
+        prior_json=payload["prior_json"].replace('"converged": true', '"converged": false')),
+        False),
+    "weights_sha256 edited": (_meta(weights_sha256="0" * 64), False),
+    "envelope removed": (_meta(sha256=_DROP), False),
+    "a field added": (_meta(note="trust me"), False),
+    "format_version '3' (text)": (_meta(format_version="3"), False),
+    "format_version 3.0 (float)": (_meta(format_version=3.0), False),
+    "format_version true": (_meta(format_version=True), False),
+    "format_version null": (_meta(format_version=None), False),
+    "format_version 99": (_meta(format_version=99), False),
+    "format_version 1 (no checksum)": (_meta(format_version=1, weights_sha256=_DROP), True),
+    "resealed: config n_heads 0": (_meta(config=lambda m: {**m["config"], "n_heads": 0}), True),
+    "resealed: config attention_window 1e7": (_meta(config=lambda m: {
+        **m["config"], "attention_window": 10 ** 7}), True),
+    "resealed: config d_model 0": (_meta(config=lambda m: {**m["config"], "d_model": 0}), True),
+    "resealed: config unknown key": (_meta(config=lambda m: {**m["config"], "depth": 9}), True),
+    "resealed: model 'svm'": (_meta(model="svm"), True),
+    "resealed: input_scaler std 0": (_meta(input_scaler=_scaler(
+        "input_scaler", std=lambda n: [0.0] * n)), True),
+    "resealed: target_scaler NaN mean": (_meta(target_scaler=_scaler(
+        "target_scaler", mean=[float("nan"), 0.0, 0.0])), True),
+    "resealed: target_scaler of 2 values": (_meta(target_scaler=_scaler(
+        "target_scaler", mean=[0.0, 0.0], std=[1.0, 1.0])), True),
+    "resealed: features repeated": (_meta(features=lambda m: [m["features"][0]]
+                                          + m["features"][:-1]), True),
+    "resealed: base_columns of 2": (_meta(base_columns=lambda m: m["base_columns"][:2]), True),
+}
+"""What a checkpoint's metadata can be made to say: every one refused, naming the file."""
+
+
+TIMESTAMPS = {
+    "time 1e307 (the gap overflows)": (1e307, "GAP"),
+    "time 1.7e308": (1.7e308, "GAP"),
+    "time -1e307": (-1e307, "TIME_BACKWARDS"),
+    "time 10**400 (an int beyond float)": (10 ** 400, "INVALID_INPUT"),
+    "time 1e15 jump": (1e15, "GAP"),
+    "time True (a bool)": (True, "TIME_BACKWARDS"),
+}
+
+
+def integrity_cases() -> list[Case]:
+    """The classes of issue 26 (module docstring)."""
+    found: list[Case] = []
+
+    def case(kind: str, name: str, expect: str = "REJECTED"):
+        def register(prepare):
+            found.append(Case(kind, name, expect, prepare))
+            return prepare
+        return register
+
+    # --- checkpoints: one field edited, a version that is not an integer, resealed nonsense --
+    for damage, (edit, reseal) in CHECKPOINT_EDITS.items():
+        def edited(s, d, edit=edit, reseal=reseal):
+            return edit_checkpoint(s.hybrid, d / "model.pt", edit, reseal)
+
+        def evaluate_with(s, d, edited=edited):
+            path = edited(s, d)
+            return Attempt(argv=["evaluate", str(path), "--data", str(s.bench),
+                                 "--out", str(d / "eval")], names=(str(path),))
+
+        def export_with(s, d, edited=edited):
+            path = edited(s, d)
+            return Attempt(argv=["export", str(path), "--out", str(d / "onnx")],
+                           names=(str(path),))
+
+        def finetune_with(s, d, edited=edited):
+            path = edited(s, d)
+            return Attempt(argv=["finetune", str(path), "--data", str(s.bench), "--epochs", "1",
+                                 "--out", str(d / "t.pt")], names=(str(path),))
+
+        def stream_with(s, d, edited=edited):
+            from hybrid.streaming import StreamingEstimator
+            path = edited(s, d)
+            return Attempt(call=lambda: StreamingEstimator.from_checkpoint(path),
+                           names=(str(path),))
+        found.append(Case("cli evaluate: checkpoint metadata", damage, "REJECTED",
+                          evaluate_with))
+        found.append(Case("cli export: checkpoint metadata", damage, "REJECTED", export_with))
+        found.append(Case("cli finetune: checkpoint metadata", damage, "REJECTED",
+                          finetune_with))
+        found.append(Case("api StreamingEstimator.from_checkpoint: metadata", damage,
+                          "REJECTED", stream_with))
+
+    @case("api load_checkpoint", "a version 2 file (previous format) loads", "HANDLED")
+    def _(s, d):
+        from hybrid.checkpoint import load_checkpoint
+
+        def to_v2(meta, payload):
+            meta.pop("sha256")
+            meta.pop("prior_sha256")
+            meta["format_version"] = 2
+        path = edit_checkpoint(s.hybrid, d / "v2.pt", to_v2)
+
+        def check(record):
+            same = record.features == load_checkpoint(s.hybrid).features
+            return same, f"loaded, features as written: {same}"
+        return Attempt(call=lambda: load_checkpoint(path), check=check)
+
+    # --- model configs: refused before any data is read, naming the key ------------------------
+    for model, config, key in (
+            ("hybrid", {"n_heads": 0}, "n_heads"), ("hybrid", {"d_model": 0}, "d_model"),
+            ("hybrid", {"n_heads": 3}, "n_heads"), ("hybrid", {"d_ff": 0}, "d_ff"),
+            ("hybrid", {"attention_window": 10 ** 9}, "attention_window"),
+            ("hybrid", {"attention_window": 4096, "n_layers": 16, "d_model": 512},
+             "attention_window"),
+            ("hybrid", {"n_layers": -1}, "n_layers"), ("hybrid", {"n_layers": 2.5}, "n_layers"),
+            ("hybrid", {"dropout": 1.5}, "dropout"), ("hybrid", {"dropout": "NaN"}, "dropout"),
+            ("hybrid", {"uncertainty": 1}, "uncertainty"), ("hybrid", {"width": 8}, "width"),
+            ("transformer", {"n_heads": 7}, "n_heads"), ("transformer", {"window": 0}, "window"),
+            ("fcn", {"hidden": 0}, "hidden"), ("lstm", {"max_torque": [1, 2]}, "max_torque"),
+            ("rocket", {"window": 5}, "window"),
+            ("rocket", {"n_kernels_hydra": 10 ** 9}, "n_kernels_hydra")):
+        def train_config(s, d, model=model, config=config, key=key):
+            return Attempt(argv=["train", "--data", str(s.bench), "--model", model, "--config",
+                                 json.dumps(config), "--out", str(d / "m.pt")], names=(key,),
+                           guard="hybrid.train.load_dataset")
+        found.append(Case("cli train --config", f"{model} {json.dumps(config)}", "REJECTED",
+                          train_config))
+
+    # --- the stream: timestamps that overflow its arithmetic are flagged, never raised --------
+    for name, (value, flag) in TIMESTAMPS.items():
+        def timestamp(s, d, value=value, flag=flag):
+            from hybrid.streaming import Flags, StreamingEstimator
+            rows = pd.read_csv(trial(s.bench, "test", "Palpation")).to_dict("records")
+
+            def run():
+                est = StreamingEstimator.from_checkpoint(s.hybrid, post_filter="lowpass")
+                return [est.step({**r, "time": value} if k == 300 else r)
+                        for k, r in enumerate(rows)]
+
+            def check(estimates):
+                odd = estimates[300]
+                finite = all(np.isfinite(e.force_hex10).all()
+                             for e in estimates[warmed_up(estimates):])
+                last = estimates[-1]
+                ok = (bool(odd.flags & Flags[flag]) and finite
+                      and not last.flags & Flags.INVALID_INPUT)
+                return ok, (f"flags at the odd sample {Flags(odd.flags)!r}, estimates finite "
+                            f"{finite}, last flags {Flags(last.flags)!r}")
+            return Attempt(call=run, check=check)
+        found.append(Case("api StreamingEstimator.step: timestamp", name, "HANDLED", timestamp))
+
+    # --- the export runner: as strict as the stream, confined to its folder -------------------
+    def export_copy(s, d, edit=None, reseal=False):
+        from hybrid.integrity import seal
+        out = d / "exp"
+        shutil.copytree(s.export, out)
+        if edit is not None:
+            spec = json.loads((out / "hybrid.json").read_text())
+            edit(spec)
+            (out / "hybrid.json").write_text(json.dumps(seal(spec) if reseal else spec))
+        return out
+
+    def runner(name, edit=None, reseal=False, frame=None, names=None, escape=False,
+               prepare_more=None):
+        def prepare(s, d):
+            from hybrid.export import run_export
+            out = export_copy(s, d, edit, reseal)
+            if prepare_more is not None:
+                prepare_more(s, d, out)
+            rec = pd.read_csv(trial(s.bench, "test", "Palpation"))
+            if frame is not None:
+                rec = frame(rec)
+            return Attempt(call=lambda: run_export(out, rec),
+                           names=names or (str(out / "hybrid.json"),), escape=escape)
+        found.append(Case("api run_export", name, "REJECTED", prepare))
+
+    @case("api run_export", "JSON names an absolute path to a matching graph outside")
+    def _(s, d):
+        from hybrid.export import run_export
+        from hybrid.integrity import seal
+        out = export_copy(s, d)
+        target = d.parent.parent / "outside" / f"{d.name}.onnx"
+        target.write_bytes((s.export / "hybrid_step.onnx").read_bytes())
+        spec = json.loads((out / "hybrid.json").read_text())
+        (out / "hybrid.json").write_text(json.dumps(seal({**spec, "onnx": str(target)})))
+        rec = pd.read_csv(trial(s.bench, "test", "Palpation"))
+        return Attempt(call=lambda: run_export(out, rec), names=(str(out / "hybrid.json"),),
+                       escape=True)
+    for label, rel in (("'../' path", "../exp2/hybrid_step.onnx"),
+                       ("'sub/../..' path", "sub/../../x.onnx"), ("'.'", "."), ("''", ""),
+                       ("a number", 3)):
+        runner(f"JSON names the graph as {label}", lambda sp, rel=rel: sp.update(onnx=rel),
+               reseal=True, escape=True)
+
+    @case("api run_export", "the graph is a link to a file outside the folder")
+    def _(s, d):
+        from hybrid.export import run_export
+        out = export_copy(s, d)
+        target = d.parent.parent / "outside" / f"{d.name}.onnx"
+        target.write_bytes((s.export / "hybrid_step.onnx").read_bytes())
+        (out / "hybrid_step.onnx").unlink()
+        (out / "hybrid_step.onnx").symlink_to(target)
+        rec = pd.read_csv(trial(s.bench, "test", "Palpation"))
+        return Attempt(call=lambda: run_export(out, rec), names=(str(out / "hybrid.json"),),
+                       escape=True)
+
+    runner("JSON target_scaler edited", lambda sp: sp["target_scaler"]["mean"].__setitem__(
+        0, 9.0))
+    runner("JSON features swapped", lambda sp: sp.update(
+        features=[sp["features"][1], sp["features"][0], *sp["features"][2:]]))
+    runner("JSON raw_columns edited", lambda sp: sp.update(raw_columns=sp["raw_columns"][1:]))
+    runner("JSON envelope removed", lambda sp: sp.pop("sha256"))
+    runner("JSON format_version '3'", lambda sp: sp.update(format_version="3"))
+    runner("JSON format_version 2 (before the envelope)", lambda sp: (
+        sp.pop("sha256"), sp.update(format_version=2)))
+    runner("resealed: a state tensor of 1e12 values", lambda sp: sp["graph"]["state"][0].update(
+        shape=[10 ** 6, 10 ** 6]), reseal=True)
+    runner("resealed: input_scaler std 0", lambda sp: sp["input_scaler"].update(
+        std=[0.0] * len(sp["features"])), reseal=True)
+    runner("resealed: graph.y of 4 columns", lambda sp: sp["graph"]["y"].update(shape=[1, 4]),
+           reseal=True)
+    runner("JSON not JSON", prepare_more=lambda s, d, out: (out / "hybrid.json").write_text(
+        "{graph: "))
+    runner("JSON a list", prepare_more=lambda s, d, out: (out / "hybrid.json").write_text(
+        "[1, 2]"))
+
+    def flip_graph(s, d, out):
+        raw = bytearray((out / "hybrid_step.onnx").read_bytes())
+        raw[-32] ^= 0xFF
+        (out / "hybrid_step.onnx").write_bytes(bytes(raw))
+    runner("graph bytes flipped", prepare_more=flip_graph,
+           names=(str(Path("exp") / "hybrid_step.onnx"),))
+    runner("graph missing", prepare_more=lambda s, d, out: (out / "hybrid_step.onnx").unlink(),
+           names=("hybrid_step.onnx",))
+    for label, column, value, in (("NaN", "fx", np.nan), ("1e30", "roll_position", 1e30),
+                                  ("inf", "insertion_effort", np.inf),
+                                  ("-1e39", "fz", -1e39)):
+        runner(f"recording: {column} {label}", frame=lambda f, c=column, v=value: f.assign(
+            **{c: f[c].where(f.index != 7, v)}), names=(f"column {column} row 7",))
+    runner("recording: a text cell", frame=lambda f: f.astype({"fy": object}).assign(
+        fy=lambda g: g["fy"].where(g.index != 4, "abc")), names=("column fy",))
+    runner("recording: a column missing", frame=lambda f: f.drop(columns=["tz"]),
+           names=("['tz']",))
+    runner("recording: a numpy array, not a table", frame=lambda f: f.to_numpy(),
+           names=("DataFrame",))
+
+    # --- no command writes over one of its inputs ---------------------------------------------
+    def over_input(command, build, option):
+        def prepare(s, d):
+            argv, names = build(s, d)
+            return Attempt(argv=argv, names=(option,))
+        found.append(Case("cli outputs vs inputs", command, "REJECTED", prepare))
+
+    def own_copy(s, d, name="model.pt", src=None):
+        path = d / name
+        shutil.copy(src or s.fcn, path)
+        return path
+
+    over_input("calibrate CKPT --out CKPT", lambda s, d: (lambda c: (
+        ["calibrate", str(c), "--data", str(s.bench), "--out", str(c), "--epochs", "1"],
+        None))(own_copy(s, d)), "--out")
+    over_input("calibrate --out a link to CKPT", lambda s, d: _link_case(s, d, own_copy),
+               "--out")
+    over_input("finetune CKPT --out CKPT", lambda s, d: (lambda c: (
+        ["finetune", str(c), "--data", str(s.bench), "--out", str(c), "--epochs", "1"],
+        None))(own_copy(s, d)), "--out")
+    over_input("train --out a recording of --data", lambda s, d: (lambda data: (
+        ["train", "--data", str(data), "--model", "fcn", "--out", str(trial(data))],
+        None))(s.copy(d)), "--out")
+    over_input("train --json = --out", lambda s, d: (
+        ["train", "--data", str(s.bench), "--model", "fcn", "--out", str(d / "m.pt"),
+         "--json", str(d / "m.pt")], None), "--json")
+    over_input("train --out = --prior", lambda s, d: (lambda p: (
+        ["train", "--data", str(s.bench), "--model", "hybrid", "--prior", str(p),
+         "--out", str(p)], None))(own_copy(s, d, "prior.json", s.prior)), "--out")
+    over_input("fit-prior --out DATA/metadata.json", lambda s, d: (lambda data: (
+        ["fit-prior", "--data", str(data), "--out", str(data / "metadata.json")],
+        None))(s.copy(d)), "--out")
+    over_input("fit-dynamics --model-out a recording of --data", lambda s, d: (lambda data: (
+        ["fit-dynamics", "--data", str(data), "--model-out", str(trial(data))],
+        None))(s.copy(d)), "--model-out")
+    over_input("wrench --out = the recording", lambda s, d: (lambda r: (
+        ["wrench", str(r), "--dynamics", str(s.arm), "--out", str(r)], None))(
+        own_copy(s, d, "rec.csv", trial(s.bench))), "--out")
+    over_input("wrench --out = --dynamics", lambda s, d: (lambda a: (
+        ["wrench", str(trial(s.bench)), "--dynamics", str(a), "--out", str(a)], None))(
+        own_copy(s, d, "arm.json", s.arm)), "--out")
+    over_input("convert --out = its CSV input", lambda s, d: (lambda r: (
+        ["convert", str(r), "--out", str(r)], None))(
+        own_copy(s, d, "rec.csv", trial(s.bench))), "--out")
+    over_input("evaluate --out = --data", lambda s, d: (lambda data: (
+        ["evaluate", str(s.fcn), "--data", str(data), "--out", str(data)], None))(s.copy(d)),
+        "--out")
+    over_input("train --json = a recording of --data", lambda s, d: (lambda data: (
+        ["train", "--data", str(data), "--model", "fcn", "--out", str(d / "m.pt"),
+         "--json", str(trial(data))], None))(s.copy(d)), "--json")
+
+    # --- runs refuse repeated seeds -------------------------------------------------------------
+    for seeds in (["0", "0"], ["1", "2", "1"], ["3", "3", "3"]):
+        @case("cli reproduce: seeds", f"--seeds {' '.join(seeds)}")
+        def _(s, d, seeds=seeds):
+            return Attempt(argv=["reproduce", "--out", str(d / "run"), "--seeds", *seeds],
+                           names=("--seeds",), guard="hybrid.reproduce.run_grid")
+
+    # --- data sanity before learning ------------------------------------------------------------
+    def zero_targets(f):
+        return f.assign(ati_fx=0.0, ati_fy=0.0, ati_fz=0.0)
+
+    for label, condition, change in (
+            ("all-zero ATI in a Traction recording", "Traction", zero_targets),
+            ("all-zero ATI in a Free recording", "Free", zero_targets),
+            ("constant ATI fz = 5 N", "Palpation", lambda f: f.assign(ati_fz=5.0))):
+        def degenerate(s, d, condition=condition, change=change):
+            data = s.copy(d)
+            bad = trial(data, "train", condition)
+            edit_csv(bad, change)
+            return Attempt(argv=["train", "--data", str(data), "--model", "fcn", "--epochs", "1",
+                                 "--out", str(d / "m.pt")], names=(str(bad),))
+        found.append(Case("cli train: targets", label, "REJECTED", degenerate))
+
+        def degenerate_eval(s, d, condition=condition, change=change):
+            data = s.copy(d)
+            bad = trial(data, "test", condition)
+            edit_csv(bad, change)
+            return Attempt(argv=["evaluate", str(s.fcn), "--data", str(data),
+                                 "--out", str(d / "eval")], names=(str(bad),))
+        found.append(Case("cli evaluate: targets", label, "REJECTED", degenerate_eval))
+
+    @case("cli finetune: targets", "every ATI column zero in every recording")
+    def _(s, d):
+        data = s.copy(d)
+        for path in sorted(data.rglob("*.csv")):
+            edit_csv(path, zero_targets)
+        return Attempt(argv=["finetune", str(s.fcn), "--data", str(data), "--epochs", "1",
+                             "--out", str(d / "t.pt")], names=("ati_fx is constant",))
+
+    def leaked(s, d):
+        data = s.copy(d)
+        train_rel = sorted(data.glob("train/Traction/*.csv"))[0]
+        test = trial(data, "test", "Traction")
+        shutil.copy(train_rel, test)
+        return data, test
+
+    @case("cli evaluate: overlap", "a test recording is a training recording of the checkpoint")
+    def _(s, d):
+        data, test = leaked(s, d)
+        return Attempt(argv=["evaluate", str(s.fcn), "--data", str(data),
+                             "--out", str(d / "eval")], names=(str(test),))
+
+    @case("cli evaluate: overlap", "the same with --allow-train-overlap: flagged per file",
+          "HANDLED")
+    def _(s, d):
+        data, test = leaked(s, d)
+        out = d / "eval"
+        argv = ["evaluate", str(s.fcn), "--data", str(data), "--out", str(out),
+                "--allow-train-overlap", "--json", str(d / "e.json")]
+
+        def check(stdout):
+            report = json.loads((d / "e.json").read_text())
+            rel = test.relative_to(data).as_posix()
+            return (report.get("train_overlap", [{}])[0].get("test") == rel,
+                    f"scored, overlap recorded: {report.get('train_overlap')}")
+        return Attempt(argv=argv, check=check)
+
+    # --- cached task results: an edited one is recomputed, never returned ---------------------
+    def cache_case(name, damage):
+        def prepare(s, d):
+            from hybrid.grid import cache_path, run_grid
+            cache = d / "cache"
+            tasks = [(_grid_task, {"x": x}) for x in (1, 2)]
+            with contextlib.redirect_stdout(io.StringIO()):
+                run_grid(tasks, cache, log=lambda text: None)
+            path = cache_path(cache, _grid_task, {"x": 2})
+            damage(path)
+
+            def run():
+                logged = []
+                return run_grid(tasks, cache, log=logged.append), logged
+
+            def check(result):
+                results, logged = result
+                redone = any("recomputing" in line for line in logged)
+                return (results == [{"y": 2}, {"y": 4}] and redone,
+                        f"results {results}, recomputed {redone}")
+            return Attempt(call=run, check=check)
+        found.append(Case("api run_grid: cache", name, "HANDLED", prepare))
+
+    def edit_record(change):
+        def damage(path):
+            record = json.loads(path.read_text())
+            change(record)
+            path.write_text(json.dumps(record))
+        return damage
+
+    cache_case("a result number edited", edit_record(lambda r: r["result"].update(y=400)))
+    cache_case("parameters edited", edit_record(lambda r: r["params"].update(x=7)))
+    cache_case("written before the envelope", edit_record(lambda r: [
+        r.pop(k) for k in ("sha256", "format", "format_version")]))
+    cache_case("format_version '1'", edit_record(lambda r: r.update(format_version="1")))
+    cache_case("truncated", lambda path: path.write_text(path.read_text()[:40]))
+    cache_case("edited and resealed for another task", lambda path: path.write_text(json.dumps(
+        _resealed(json.loads(path.read_text()), task="fuzz:_other")) + "\n"))
+
+    # --- gates that speak ----------------------------------------------------------------------
+    @case("cli fit-prior: gate", "the verdict is printed on the console", "HANDLED")
+    def _(s, d):
+        out = d / "p.json"
+
+        def check(stdout):
+            verdict = [ln for ln in stdout.splitlines() if ln.startswith("verdict: ")]
+            return bool(verdict) and out.exists(), f"{verdict}"
+        return Attempt(argv=["fit-prior", "--data", str(s.bench), "--out", str(out),
+                             "--accept-poor-fit"], check=check)
+
     return found
+
+
+def _link_case(s, d, own_copy):
+    ckpt = own_copy(s, d)
+    (d / "link.pt").symlink_to(ckpt)
+    return (["calibrate", str(ckpt), "--data", str(s.bench), "--out", str(d / "link.pt"),
+             "--epochs", "1"], None)
+
+
+def _grid_task(params: dict) -> dict:
+    return {"y": 2 * params["x"]}
+
+
+def _resealed(record: dict, **changes) -> dict:
+    from hybrid.integrity import seal
+    return seal({**record, **changes})
+
+
+def warmed_up(estimates) -> int:
+    """Index of the first estimate after the warm-up (held NaN until then)."""
+    return next(k for k, e in enumerate(estimates) if np.isfinite(e.force_hex10).all())
 
 
 # ---------------------------------------------------------------------------- main

@@ -160,6 +160,9 @@ def calibrate(checkpoint: str | Path, data_dir: str | Path, out: str | Path, *,
     from psm_model.identification.prior import NAMES
     if isinstance(epochs, bool) or not isinstance(epochs, int) or epochs < 1:
         raise TrainingError(f"epochs must be an integer >= 1, got {epochs!r}")
+    if Path(out).resolve() == Path(checkpoint).resolve():
+        raise TrainingError(f"out {out} is the checkpoint being calibrated: refusing to write "
+                            f"over its input (give another file)")
     ckpt = load_checkpoint(checkpoint, device)
     dataset = load_dataset(data_dir)
     chosen = calibration_trials(dataset, minutes)

@@ -12,6 +12,10 @@ validation is ~10 % of the training trials, drawn per condition with a seed; fre
 and validation data are down-sampled to 25 % by taking their windows 4x sparser
 (:data:`FREE_STRIDE_FACTOR`; the paper's stride 20 instead of 5 for free-space files).
 
+With ``require_targets`` (training, scoring) a recording whose ATI target column is constant
+(all zeros: an unplugged sensor; a real one always reads noise) is refused by file and column;
+train/test overlap by content: :mod:`hybrid.sanity`.
+
 Windows are views, never per-window copies: :func:`sliding_windows` over one array, and
 :class:`WindowSet` over all trials of a split concatenated once; a batch gathers its windows from
 the view in one indexing call. Scalers are fitted on training data only.
@@ -161,6 +165,8 @@ def load_dataset(root: str | Path, *, require_targets: bool = True, threads: int
         rel, condition, split, extra = item
         frame = read_recording(root / rel, require_targets=require_targets)
         _check_physical(frame, root / rel, bounds)
+        if require_targets:
+            _check_targets(frame, root / rel)
         params = {k: v for k, v in extra.items() if k not in ("path", "condition", "split")}
         return Trial(str(rel), str(condition), str(split), frame, params)
 
@@ -181,6 +187,17 @@ def _check_physical(frame: pd.DataFrame, path: Path, bounds: dict) -> None:
             raise DatasetError(f"{path}: {column} = {values[row]:.6g} at row {row} is outside its "
                                f"physical range [{low:.4g}, {high:.4g}] "
                                f"(hybrid.bounds.physical_bounds)")
+
+
+def _check_targets(frame: pd.DataFrame, path: Path) -> None:
+    """Refuse a recording whose target column never changes: nothing to learn from or score
+    against (the ATI of a real or simulated bench always reads some noise)."""
+    for column in TARGETS:
+        values = frame[column].to_numpy(dtype=float)
+        if len(values) and values.min() == values.max():
+            raise DatasetError(f"{path}: target {column} is constant ({values[0]:g} in all "
+                               f"{len(values)} rows): the force sensor recorded nothing "
+                               f"(unplugged or not written)")
 
 
 def index_recordings(root: str | Path) -> Path:

@@ -16,7 +16,9 @@ that follows the step protocol of :mod:`hybrid.steppers` (the hybrid's causal tr
     ``raw_columns``, ``features`` (network input order), ``base_columns``, ``input_scaler`` and
     ``target_scaler`` (mean, std per column), the ``prior`` (its own JSON, from its ``save``),
     the graph's ``x``, ``y`` and ``state`` tensors (name, shape, dtype), the receptive field
-    ``window`` (warm-up, samples), ``uncertainty`` (null, or what ``y``'s log-variance columns
+    ``window`` (warm-up, samples), ``sample_rate_hz`` (the rate the model was trained at and
+    must be stepped at, Hz; 100 for a checkpoint that does not record it, :mod:`hybrid.rates`),
+    ``uncertainty`` (null, or what ``y``'s log-variance columns
     are and how they become a std in N), software versions and the checkpoint's provenance.
 
 Per sample a node computes ``comp = HEX10 - prior(sample)`` (when features use ``comp_*``),
@@ -26,10 +28,20 @@ Per sample a node computes ``comp = HEX10 - prior(sample)`` (when features use `
 ONNX Runtime from the written files; tests/test_export.py checks it against the Python
 :class:`hybrid.streaming.StreamingEstimator`.
 
-Format version 2 (version 1 was the causal transformer's graph only, whose caller advanced
-``n_valid`` before each step and fed no counter back). The ``uncertainty`` entry came within
-version 2: it is null for every network without variance, whose files are otherwise unchanged,
-and ``graph.y`` has always given ``y``'s width.
+Format version 3: the JSON carries ``onnx_sha256`` (the graph file's SHA-256) and the integrity
+envelope ``sha256`` over every entry (:mod:`hybrid.integrity`); the version must be an ``int``.
+Version 2 exports (no envelope) are refused with a message to export again: an export is
+rewritten from its checkpoint in seconds. (Version 1 was the causal transformer's graph only,
+whose caller advanced ``n_valid`` before each step and fed no counter back.)
+
+:func:`run_export` trusts the folder no more than the stream trusts its samples: it refuses, in
+one line naming the file, an export whose JSON or graph does not match its envelope, whose
+``onnx`` entry names anything but a file inside the export folder (a path, ``..``, a link
+leading out), whose scalers are not finite with std > 0 of the features' width, whose state
+tensors are not those the graph takes; and a recording lacking a raw column, with a column that
+is not numeric, or with a value that is NaN, infinite or beyond its physical bound
+(:func:`hybrid.bounds.physical_bounds`, the stream's ``INVALID_INPUT``), naming the column and
+row. An output that is not finite is refused too.
 """
 
 from __future__ import annotations
@@ -41,8 +53,11 @@ import numpy as np
 import pandas as pd
 import torch
 
+from hybrid.bounds import physical_bounds
 from hybrid.checkpoint import load_checkpoint
 from hybrid.data import Scaler
+from hybrid.integrity import check_version, seal, sha256_bytes, verify
+from hybrid.recipes import MAX_STATE_FLOATS
 from hybrid.inputs import HybridInputs, prior_from_json
 from hybrid.steppers import (OPSET, OnnxStepper, TorchStepper, not_streamable, state_spec,
                              step_onnx_bytes)
@@ -51,7 +66,7 @@ from hybrid.uncertainty import (LOGVAR_MAX, LOGVAR_MIN, output_width, predicts_v
 from psm_model.files import write_bytes_atomic
 
 FORMAT = "psmforce-hybrid-export"
-FORMAT_VERSION = 2
+FORMAT_VERSION = 3
 ONNX_NAME = "hybrid_step.onnx"
 JSON_NAME = "hybrid.json"
 _STD_FORMULA = "exp(0.5 * y[3:6]) * target_scaler.std"
@@ -101,9 +116,12 @@ def export(checkpoint: str | Path, out_dir: str | Path) -> dict:
             "axis; an empty base entry adds nothing on that axis)",
             *([f"std_hex10_N = {_STD_FORMULA}  (only if uncertainty is not null)"]
               if predicts_variance(model) else []),
-            "warming up while samples since start < window"],
+            "warming up while samples since start < window",
+            "step at sample_rate_hz; a faster stream (a whole multiple D of it) is low-passed "
+            "causally and every D-th sample stepped (hybrid/rates.py)"],
         "units": "force in N, external force on the tool, HEX10 frame",
     }
+    spec = seal({**spec, "onnx_sha256": sha256_bytes(onnx_bytes)})
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     write_bytes_atomic(out / ONNX_NAME, onnx_bytes)
@@ -144,28 +162,139 @@ def run_export(out_dir: str | Path, frame: pd.DataFrame, *, with_std: bool = Fal
     sample by sample as a C++ node would (the prior through its JSON). ``with_std``: (forces,
     (N, 3) std in N) from the graph's log-variance, for an export that has one."""
     out = Path(out_dir)
+    spec, onnx_bytes = read_export(out)
+    where = out / JSON_NAME
     try:
-        spec = json.loads((out / JSON_NAME).read_text())
-    except (OSError, json.JSONDecodeError) as err:
-        raise ExportError(f"{out}: no readable {JSON_NAME} ({err})") from None
-    if spec.get("format") != FORMAT or spec.get("format_version") != FORMAT_VERSION:
-        raise ExportError(f"{out / JSON_NAME}: not a {FORMAT} v{FORMAT_VERSION} file")
-    prior = None
-    if spec["prior"] is not None:
-        prior = prior_from_json(json.dumps(spec["prior"]))
-    inputs = HybridInputs(spec["features"], spec["base_columns"],
-                          Scaler.from_dict(spec["input_scaler"]), prior)
+        prior = None
+        if spec["prior"] is not None:
+            prior = prior_from_json(json.dumps(spec["prior"]))
+        inputs = HybridInputs(spec["features"], spec["base_columns"],
+                              Scaler.from_dict(spec["input_scaler"]), prior)
+    except (TypeError, KeyError, ValueError) as err:
+        raise ExportError(f"{where}: cannot set up its inputs ({type(err).__name__}: "
+                          f"{str(err)[:200]})") from None
     if with_std and spec.get("uncertainty") is None:
-        raise ExportError(f"{out / JSON_NAME}: the exported network predicts no variance")
+        raise ExportError(f"{where}: the exported network predicts no variance")
     target = Scaler.from_dict(spec["target_scaler"])
-    stepper = OnnxStepper(out / spec["onnx"], spec["graph"]["state"])
-    raw = frame[spec["raw_columns"]].to_numpy(np.float64)
+    try:
+        stepper = OnnxStepper(onnx_bytes, spec["graph"]["state"])
+    except Exception as err:  # noqa: BLE001 - ONNX Runtime raises its own types
+        raise ExportError(f"{out / spec['onnx']}: ONNX Runtime cannot run it with the JSON's "
+                          f"state ({type(err).__name__}: {str(err).strip()[:160]})") from None
+    raw = _raw_matrix(frame, spec["raw_columns"], where)
     y = np.empty((len(raw), spec["graph"]["y"]["shape"][1]), np.float32)  # as the graph gives it
     base = np.zeros((len(raw), 3))
     for i, row in enumerate(raw):
         inputs.sample(row)
+        if not np.isfinite(inputs.x).all():
+            raise ExportError(f"row {i}: the inputs are not finite after the prior and scaling "
+                              f"of {where}")
         y[i] = stepper.step(inputs.x)
         if len(inputs.base):
             base[i] = inputs.base
     forces = y[:, :3] * target.std + target.mean + base
+    if not np.isfinite(forces).all():
+        row = int(np.argmax(~np.isfinite(forces).all(axis=1)))
+        raise ExportError(f"row {row}: the graph of {where} gave a force that is not finite")
     return (forces, std_newton(y[:, 3:], target.std)) if with_std else forces
+
+
+def read_export(out_dir: str | Path) -> tuple[dict, bytes]:
+    """(the JSON, the ONNX graph's bytes) of an export folder, both checked: format, integer
+    version, envelope, the graph file confined to the folder and matching its digest, scalers
+    and state of sense (module docstring). Raises :class:`ExportError` naming the file."""
+    out = Path(out_dir)
+    where = out / JSON_NAME
+    try:
+        spec = json.loads(where.read_text())
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as err:
+        raise ExportError(f"{where}: no readable {JSON_NAME} ({err})") from None
+    if not isinstance(spec, dict) or spec.get("format") != FORMAT:
+        raise ExportError(f"{where}: not a {FORMAT} file")
+    if spec.get("format_version") == 2 and type(spec.get("format_version")) is int:  # noqa: E721
+        raise ExportError(f"{where}: export format version 2 carries no integrity envelope; "
+                          f"export the checkpoint again (psmforce export)")
+    check_version(spec.get("format_version"), (FORMAT_VERSION,), str(where), "export",
+                  ExportError)
+    verify(spec, str(where), "export", ExportError)
+    name = spec.get("onnx")
+    if not isinstance(name, str) or not name or Path(name).name != name or name in (".", ".."):
+        raise ExportError(f"{where}: 'onnx' must name a file inside the export folder, got "
+                          f"{name!r:.120}")
+    graph = out / name
+    try:
+        inside = graph.resolve().parent == out.resolve()
+    except (OSError, RuntimeError):  # a link loop
+        inside = False
+    if not inside:
+        raise ExportError(f"{where}: 'onnx' {name!r} leads outside the export folder")
+    try:
+        onnx_bytes = graph.read_bytes()
+    except OSError as err:
+        raise ExportError(f"{graph}: cannot read the export's graph ({err.strerror})") from None
+    if sha256_bytes(onnx_bytes) != spec.get("onnx_sha256"):
+        raise ExportError(f"{graph}: the graph does not match the SHA-256 its JSON records "
+                          f"(edited or corrupted)")
+    _check_spec(spec, where)
+    return spec, onnx_bytes
+
+
+def _check_spec(spec: dict, where: Path) -> None:
+    def bad(text: str) -> ExportError:
+        return ExportError(f"{where}: {text}")
+    try:
+        features, raw = list(spec["features"]), list(spec["raw_columns"])
+        width = spec["graph"]["y"]["shape"][1]
+        state = spec["graph"]["state"]
+        scalers = [(np.asarray(spec[k]["mean"], np.float64), np.asarray(spec[k]["std"],
+                                                                        np.float64), n)
+                   for k, n in (("input_scaler", len(features)), ("target_scaler", 3))]
+    except (TypeError, KeyError, IndexError, ValueError) as err:
+        raise bad(f"malformed ({type(err).__name__}: {str(err)[:120]})") from None
+    if not all(isinstance(c, str) for c in features + raw) or not features:
+        raise bad("features and raw_columns must be column names")
+    if width not in (3, 6):
+        raise bad(f"graph.y must have 3 or 6 columns, got {width!r}")
+    for mean, std, n in scalers:
+        if mean.shape != (n,) or std.shape != (n,) or not (
+                np.isfinite(mean).all() and np.isfinite(std).all() and (std > 0).all()):
+            raise bad(f"a scaler is not {n} finite means and stds > 0")
+    if not isinstance(state, list):
+        raise bad("graph.state must be a list")
+    for entry in state:
+        try:
+            shape, size = entry["shape"], 1
+            ok = isinstance(entry["name"], str) and entry["dtype"] in ("float32", "int64") \
+                and isinstance(shape, list) and all(
+                    isinstance(d, int) and not isinstance(d, bool) and d >= 1 for d in shape)
+            for d in shape:
+                size *= d
+        except (TypeError, KeyError):
+            ok = False
+        if not ok or size > MAX_STATE_FLOATS:
+            raise bad(f"graph.state entry {entry!r:.100} is not a name, a dtype (float32, "
+                      f"int64) and a shape of at most {MAX_STATE_FLOATS} values")
+
+
+def _raw_matrix(frame: pd.DataFrame, columns: list[str], where: Path) -> np.ndarray:
+    """The recording's raw columns as float64, every value finite and inside its physical
+    bound (the stream's INVALID_INPUT), else :class:`ExportError` naming the column and row."""
+    if not isinstance(frame, pd.DataFrame):
+        raise ExportError(f"the recording must be a pandas DataFrame, got "
+                          f"{type(frame).__name__}")
+    missing = [c for c in columns if c not in frame.columns]
+    if missing:
+        raise ExportError(f"the recording lacks the columns {missing} that {where} reads")
+    for c in columns:
+        if not pd.api.types.is_numeric_dtype(frame[c]) or pd.api.types.is_bool_dtype(frame[c]):
+            raise ExportError(f"column {c}: not numeric ({frame[c].dtype}), as {where} reads it")
+    raw = frame[columns].to_numpy(np.float64)
+    bounds = physical_bounds()
+    for k, c in enumerate(columns):
+        low, high = bounds.get(c, (-np.inf, np.inf))
+        ok = np.isfinite(raw[:, k]) & (raw[:, k] >= low) & (raw[:, k] <= high)
+        if not ok.all():
+            row = int(np.argmin(ok))
+            raise ExportError(f"column {c} row {row}: {raw[row, k]!r} is not finite or outside "
+                              f"its physical range [{low:.4g}, {high:.4g}]")
+    return raw

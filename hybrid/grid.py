@@ -8,6 +8,13 @@ interruption and every finished task is read back, not recomputed; change a para
 the tasks it reaches run again. A result is written atomically (temporary file, then rename), so
 an interrupted task leaves nothing that reads as done.
 
+A cached result is trusted only if it verifies (:func:`read_result`): its ``format`` and integer
+``format_version`` (:data:`RESULT_VERSION`), the integrity envelope over the task, parameters,
+seconds and result (:mod:`hybrid.integrity`), and the task and parameters it was computed for
+equal to the ones asked. Anything else (an edited number, a file from an older version without
+the envelope, a truncated or foreign file) is logged by name and recomputed, never returned, so
+no table is rendered from it.
+
 Executors: in-process, one task after another (the default; no extra dependency), or Ray
 (``ray_address``: ``"auto"``, ``"local"`` for a fresh local instance, or a cluster address; the
 optional extra ``psmforce[cluster]``), which runs the same functions on the same parameters and
@@ -26,7 +33,12 @@ import time
 from pathlib import Path
 from typing import Callable, Sequence
 
+from hybrid.integrity import check_version, seal, verify
 from psm_model.files import atomic_path
+
+RESULT_FORMAT = "psmforce-task-result"
+RESULT_VERSION = 1
+"""1: the first cached results with the integrity envelope (older files carry none: recomputed)."""
 
 TaskSpec = tuple[Callable[[dict], dict], dict]
 
@@ -52,20 +64,53 @@ def cache_path(cache: Path, fn: Callable, params: dict) -> Path:
     return Path(cache) / f"{fn.__name__.lstrip('_')}-{task_key(fn, params)}.json"
 
 
+def read_result(path: Path, qualname: str, params: dict) -> dict:
+    """The verified result cached at ``path`` for the task ``qualname`` with ``params``, else
+    :class:`GridError` naming the file and why (module docstring)."""
+    try:
+        record = json.loads(Path(path).read_text())
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as err:
+        raise GridError(f"{path}: unreadable cached result ({type(err).__name__})") from None
+    if not isinstance(record, dict) or record.get("format") != RESULT_FORMAT:
+        raise GridError(f"{path}: not a {RESULT_FORMAT} file (written before results were "
+                        f"sealed, or foreign)")
+    check_version(record.get("format_version"), (RESULT_VERSION,), str(path), "cached result",
+                  GridError)
+    verify(record, str(path), "cached result", GridError)
+    if record.get("task") != qualname or record.get("params") != json.loads(json.dumps(params)):
+        raise GridError(f"{path}: cached for another task or other parameters")
+    return record["result"]
+
+
+def _cached(path: Path, qualname: str, params: dict, log: Callable[[str], None] | None = None
+            ) -> dict | None:
+    """The verified cached result, or None (a file that fails is logged and will be redone)."""
+    if not path.exists():
+        return None
+    try:
+        return read_result(path, qualname, params)
+    except GridError as err:
+        (log or (lambda text: print(text, file=sys.stderr)))(
+            f"grid: recomputing, the cached result fails its check: {err}")
+        return None
+
+
 def run_task(qualname: str, params: dict, cache: str) -> dict:
-    """Run one task by its function's qualified name and cache its result (what a worker runs)."""
+    """Run one task by its function's qualified name and cache its result (what a worker runs);
+    a cached result is returned only if it verifies (:func:`read_result`)."""
     module, name = qualname.split(":")
     fn = getattr(importlib.import_module(module), name)
     path = cache_path(Path(cache), fn, params)
-    if path.exists():
-        return json.loads(path.read_text())["result"]
+    cached = _cached(path, qualname, params)
+    if cached is not None:
+        return cached
     t0 = time.perf_counter()
     result = fn(params)
-    record = {"task": qualname, "params": params, "seconds": time.perf_counter() - t0,
-              "result": result}
+    record = seal({"format": RESULT_FORMAT, "format_version": RESULT_VERSION, "task": qualname,
+                   "params": params, "seconds": time.perf_counter() - t0, "result": result})
     with atomic_path(path, per_process=True) as tmp:  # Ray workers may race on one key
         tmp.write_text(json.dumps(record, indent=1) + "\n")
-    return result
+    return record["result"]
 
 
 def run_grid(tasks: Sequence[TaskSpec], cache: str | Path, *, ray_address: str | None = None,
@@ -74,7 +119,8 @@ def run_grid(tasks: Sequence[TaskSpec], cache: str | Path, *, ray_address: str |
     (in-process, or on Ray when ``ray_address`` is given) and cached."""
     cache = Path(cache)
     cache.mkdir(parents=True, exist_ok=True)
-    todo = [(i, fn, p) for i, (fn, p) in enumerate(tasks) if not cache_path(cache, fn, p).exists()]
+    todo = [(i, fn, p) for i, (fn, p) in enumerate(tasks)
+            if _cached(cache_path(cache, fn, p), _qualname(fn), p, log) is None]
     log(f"grid: {len(tasks)} tasks, {len(tasks) - len(todo)} cached, {len(todo)} to run"
         + (f" on Ray ({ray_address})" if ray_address and todo else ""))
     if todo and ray_address:
@@ -85,7 +131,7 @@ def run_grid(tasks: Sequence[TaskSpec], cache: str | Path, *, ray_address: str |
             run_task(_qualname(fn), p, str(cache))
             log(f"  [{n + 1}/{len(todo)}] {fn.__name__.lstrip('_')} {_short(p)}: "
                 f"{time.perf_counter() - t0:.0f} s")
-    return [json.loads(cache_path(cache, fn, p).read_text())["result"] for fn, p in tasks]
+    return [read_result(cache_path(cache, fn, p), _qualname(fn), p) for fn, p in tasks]
 
 
 def _short(params: dict) -> str:

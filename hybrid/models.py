@@ -14,6 +14,11 @@ Two model families share the training loop (:mod:`hybrid.train`):
 un-scales with the training target statistics), ``"newton"`` = force in N in the HEX10 frame
 (the LSTM, whose output comes out of the Jacobian transpose).
 
+Valid constructor arguments (sizes, windows) are stated in the recipe table
+(:data:`hybrid.recipes.TRANSFORMER_RANGES`, ``FCN_RANGES``, ``LSTM_RANGES``) and checked by
+:func:`hybrid.recipes.build_model` before anything is allocated; built directly, a transformer
+still refuses heads that do not divide its width.
+
 Every model has ``finetune_modules()``: the modules left trainable when finetuning ("the last
 decoder block" of the paper: the transformer's two-layer decoder, 4.4K parameters; the FCN's last
 layer, 0.2K; each joint LSTM's two-layer head, 49.9K in all).
@@ -77,6 +82,8 @@ class PaperTransformer(nn.Module):
     def __init__(self, n_features: int, window: int = 100, d_model: int = 64, n_heads: int = 8,
                  n_layers: int = 3, d_ff: int = 256, dropout: float = 0.1):
         super().__init__()
+        if n_heads < 1 or d_model % n_heads:
+            raise ValueError(f"n_heads must divide d_model ({d_model}), got {n_heads}")
         self.window = window
         self.embed = nn.Linear(n_features, d_model)
         self.positions = _SinusoidalPositions(d_model, max_len=max(window, 1))

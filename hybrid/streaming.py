@@ -52,6 +52,20 @@ numpy path, else torch: their order of speed in ``benchmarks/streaming.py``
 
 Post-filters (the paper's bidirectional median, k = 71, cannot run online): ``"none"``,
 ``"median"`` (trailing), ``"lowpass"`` (Butterworth); :mod:`hybrid.postfilter` holds them.
+They run at the input rate, on every answer.
+
+Rates (:mod:`hybrid.rates`). The network runs at ``rate_hz``, the rate it was trained at (the
+checkpoint's ``sample_rate_hz``). Samples may arrive faster, at ``input_rate_hz`` = ``D`` x
+``rate_hz`` (an integer ``D``, e.g. a 1 kHz robot and a 100 Hz model: ``D`` = 10); any other
+input rate is refused at construction with one line. Every accepted sample passes the causal
+anti-alias low-pass (:class:`hybrid.rates.AntiAlias`); the network steps on the first accepted
+sample after a (re)start and then on every ``D``-th, on the filtered sample. Every sample is
+answered: force = the latest network residual + the physics base (prior-compensated HEX10,
+insertion force) of the current filtered sample. Lag of an answer at ``D`` > 1: the
+anti-alias filter's group delay (:meth:`StreamingEstimator.lag_s`, 5.6 ms for a 100 Hz model)
+for the base, plus up to ``D - 1`` input periods for the residual (9 ms at 1 kHz / 100 Hz);
+``D`` = 1 adds none. ``max_gap_samples``, the gap check and the post-filter count input samples;
+``window`` and ``WARMING_UP`` count network steps.
 
 Uncertainty: a network that predicts its variance (:mod:`hybrid.uncertainty`, the hybrid trained
 with ``{"uncertainty": true}``) gives each :class:`Estimate` a ``std_hex10``, the standard
@@ -63,6 +77,9 @@ given in the HEX10 frame only (``force_base`` is a rotation of the force; the pe
 rotated vector is not a rotation of the per-axis std, which would need the covariance). During
 warm-up it is as little trained as the force (training never scored a truncated history).
 ``std_hex10`` is None for a network without variance.
+
+Size: one class, because :meth:`StreamingEstimator.step` is the whole per-sample pipeline
+(validation, clocks, decimation, network, filter, flags) and reads best in one place.
 
 :meth:`StreamingEstimator.predict_recording` is the offline batch path (whole recordings,
 same weights, same filter, vectorised): it equals stepping through the recording sample by
@@ -85,6 +102,7 @@ from hybrid.bounds import MAX_FORCE_N, physical_bounds
 from hybrid.checkpoint import load_checkpoint
 from hybrid.inputs import HexRotation, HybridInputs
 from hybrid.postfilter import CausalFilter
+from hybrid.rates import AntiAlias, RateError, check_rate, decimation_factor
 from hybrid.steppers import StreamingError, make_backend, not_streamable
 from hybrid.uncertainty import predicts_variance, std_newton
 from psm_model.recording import JOINT_POSITIONS, OVERLOAD
@@ -126,13 +144,16 @@ class StreamingEstimator:
     ``model``: a streamable network (:mod:`hybrid.steppers`; the hybrid's is a
     :class:`hybrid.causal.CausalTransformer`); ``features``, ``input_scaler``,
     ``target_scaler``, ``base_columns``, ``prior``: as stored in the checkpoint
-    (:meth:`from_checkpoint`). ``rate_hz``: the recordings' sample rate. ``psm``: a
-    ``psm_model.PSM`` for base-frame output (``step(..., base_frame=True)``).
+    (:meth:`from_checkpoint`). ``rate_hz``: the rate the network was trained at (Hz).
+    ``input_rate_hz``: the rate samples arrive at, a whole multiple of ``rate_hz`` (default:
+    ``rate_hz``; module docstring, Rates). ``psm``: a ``psm_model.PSM`` for base-frame output
+    (``step(..., base_frame=True)``).
     """
 
     def __init__(self, model: torch.nn.Module, features: Sequence[str], input_scaler,
                  target_scaler, base_columns: Sequence[str] = (), prior=None, *,
-                 rate_hz: float = 100.0, max_gap_samples: int = 5, backend: str = "auto",
+                 rate_hz: float = 100.0, input_rate_hz: float | None = None,
+                 max_gap_samples: int = 5, backend: str = "auto",
                  post_filter: str = "none", median_kernel: int = 11, lowpass_hz: float = 5.0,
                  lowpass_order: int = 2, extrapolation_z: float = 5.0,
                  input_range: tuple[Sequence[float], Sequence[float]] | None = None, psm=None):
@@ -144,8 +165,13 @@ class StreamingEstimator:
                                  f"{len(features)} given")
         if len(base_columns) not in (0, 3):
             raise StreamingError(f"base needs 0 or 3 columns, got {list(base_columns)}")
-        if not (isinstance(rate_hz, (int, float)) and math.isfinite(rate_hz) and rate_hz > 0):
-            raise StreamingError(f"rate_hz must be a finite number > 0 (Hz), got {rate_hz!r}")
+        try:
+            rate_hz = check_rate(rate_hz)
+            input_rate_hz = rate_hz if input_rate_hz is None else check_rate(input_rate_hz,
+                                                                            "input_rate_hz")
+            decimation = decimation_factor(input_rate_hz, rate_hz)
+        except RateError as err:
+            raise StreamingError(str(err)) from None
         if isinstance(max_gap_samples, bool) or not isinstance(max_gap_samples, int) \
                 or max_gap_samples < 0:
             raise StreamingError(f"max_gap_samples must be an integer >= 0, got "
@@ -157,11 +183,18 @@ class StreamingEstimator:
         self.columns = self.inputs.raw_columns
         """The recorded signals :meth:`step` reads, in the order an array sample must follow."""
         self.rate_hz = rate_hz
+        """The rate the network runs at (Hz): the rate it was trained at."""
+        self.input_rate_hz = input_rate_hz
+        """The rate samples arrive and are answered at (Hz)."""
+        self.decimation = decimation
+        """Input samples per network step."""
+        self.anti_alias = AntiAlias(len(self.columns), decimation, rate_hz)
         self.max_gap_samples = max_gap_samples
         self.window = model.window
         self._net = make_backend(model, backend)
         self.backend_name = self._net.backend
-        self.filter = CausalFilter(post_filter, rate_hz=rate_hz, median_kernel=median_kernel,
+        self.filter = CausalFilter(post_filter, rate_hz=input_rate_hz,
+                                   median_kernel=median_kernel,
                                    lowpass_hz=lowpass_hz, lowpass_order=lowpass_order)
         self._y_mean = np.asarray(target_scaler.mean, np.float64)
         self._y_std = np.asarray(target_scaler.std, np.float64)
@@ -180,12 +213,13 @@ class StreamingEstimator:
         finite = np.finfo(np.float64).max  # a column without a physical bound: finite is enough
         self._raw_lo = np.array([bounds.get(c, (-finite, finite))[0] for c in self.columns])
         self._raw_hi = np.array([bounds.get(c, (-finite, finite))[1] for c in self.columns])
-        self._memory = self.window + self.filter.memory_samples() - 1
+        self._memory = self.window * decimation + self.filter.memory_samples() - 1
         if psm is not None:
             self._hex_rotation = HexRotation(psm)
             self._q_index = np.array([self.columns.index(c) for c in CHAIN_POSITIONS])
         self._raw = np.zeros(len(self.columns))
         self._force = np.zeros(3)
+        self._residual = np.zeros(3)
         self._held = np.full(3, np.nan)
         self._variance = predicts_variance(model)
         self._std = np.zeros(3)
@@ -196,14 +230,28 @@ class StreamingEstimator:
 
     @classmethod
     def from_checkpoint(cls, path: str | Path, **options) -> "StreamingEstimator":
-        """An estimator for a hybrid checkpoint written by :mod:`hybrid.train`
-        (``options``: the keyword arguments of the constructor)."""
+        """An estimator for a hybrid checkpoint written by :mod:`hybrid.train`, its network
+        run at the checkpoint's ``sample_rate_hz`` (``options``: the keyword arguments of the
+        constructor; ``input_rate_hz`` for a faster stream; a ``rate_hz`` other than the
+        checkpoint's is refused)."""
         ckpt = load_checkpoint(path)
         if not ckpt.recipe.streams:
             raise StreamingError(f"{path}: holds a '{ckpt.model_name}' model, which does not "
                                  f"stream (hybrid.recipes: streams=False)")
+        rate = options.pop("rate_hz", ckpt.sample_rate_hz)
+        if rate != ckpt.sample_rate_hz:
+            raise StreamingError(f"{path}: the model was trained at {ckpt.sample_rate_hz:g} Hz "
+                                 f"and runs at that rate, not {rate!r}; give the stream's rate "
+                                 f"as input_rate_hz")
         return cls(ckpt.model, ckpt.features, ckpt.input_scaler, ckpt.target_scaler,
-                   ckpt.base_columns, ckpt.prior(), **options)
+                   ckpt.base_columns, ckpt.prior(), rate_hz=ckpt.sample_rate_hz, **options)
+
+    def lag_s(self) -> float:
+        """Lag (s) the decimation adds to an answer: the anti-alias filter's group delay at
+        0 Hz, plus the mean hold of the network's residual, ``(D - 1) / 2`` input periods
+        (at most ``D - 1``); 0 when the input rate is the model's. The post-filter's own lag
+        is :meth:`hybrid.postfilter.CausalFilter.lag_samples`."""
+        return self.anti_alias.lag_s() + (self.decimation - 1) / 2 / self.input_rate_hz
 
     def reset(self) -> None:
         """Forget all history (network cache, filter, timestamps): the next sample starts over."""
@@ -216,6 +264,8 @@ class StreamingEstimator:
     def _restart(self) -> None:
         self._net.reset()
         self.filter.reset()
+        self.anti_alias.reset()
+        self._phase = 0  # input samples since the last network step, modulo the decimation
         self._seen = 0
         self._tainted = 0  # outputs left that remember an extrapolating input
 
@@ -231,6 +281,14 @@ class StreamingEstimator:
 
     def _rotation(self) -> np.ndarray:
         return self._hex_rotation(self._raw[self._q_index])
+
+    def base_rotation(self) -> np.ndarray:
+        """R_base_hex10 (3x3) of the last sample stepped: the rotation its ``force_base`` used
+        (``force_base = R @ force_hex10``). Needs the PSM model, as ``base_frame`` does."""
+        if not hasattr(self, "_hex_rotation"):
+            raise StreamingError("the base rotation needs the PSM model: construct the "
+                                 "estimator with psm=psm_model.PSM()")
+        return self._rotation().copy()
 
     def _read(self, sample, time, overload) -> tuple[float, bool] | None:
         """Sample -> :attr:`_raw`, (time s, overload); None for a sample that cannot be used
@@ -290,29 +348,37 @@ class StreamingEstimator:
                     return self._held_estimate(flags | Flags.TIME_BACKWARDS, base_frame)
                 flags |= Flags.TIME_BACKWARDS | Flags.GAP  # the clock restarted: so do we
                 self._restart()
-            elif round((time - last) * self.rate_hz) - 1 > self.max_gap_samples:
+            elif not math.isfinite(gap := (time - last) * self.input_rate_hz) \
+                    or round(gap) - 1 > self.max_gap_samples:  # a 1e307 s gap: inf samples
                 flags |= Flags.GAP
                 self._restart()
 
         inputs = self.inputs
-        inputs.sample(self._raw)
+        # at D > 1 the anti-alias filter (restarted with the network) sees every accepted sample
+        inputs.sample(self._raw if self.decimation == 1 else self.anti_alias.step(self._raw))
         if not (np.isfinite(inputs.x).all() and np.isfinite(inputs.base).all()):
             return self._held_estimate(flags | Flags.INVALID_INPUT, base_frame)
         self._last_time = time
         self._behind = 0
-        np.less(inputs.x, self._lo, out=self._outside)
-        extrapolating = self._outside.any()
-        if not extrapolating:
-            np.greater(inputs.x, self._hi, out=self._outside)
+        tick = self._phase == 0
+        self._phase = (self._phase + 1) % self.decimation
+        extrapolating = False
+        residual, std = self._residual, self._std
+        if tick:
+            np.less(inputs.x, self._lo, out=self._outside)
             extrapolating = self._outside.any()
-        y = self._net.step(inputs.x)
-        force, std = self._force, self._std
-        np.multiply(y[:3], self._y_std, out=force)
-        np.add(force, self._y_mean, out=force)
+            if not extrapolating:
+                np.greater(inputs.x, self._hi, out=self._outside)
+                extrapolating = self._outside.any()
+            y = self._net.step(inputs.x)
+            np.multiply(y[:3], self._y_std, out=residual)
+            np.add(residual, self._y_mean, out=residual)
+            if self._variance:
+                std_newton(y[3:], self._y_std, out=std)
+        force = self._force
+        force[:] = residual
         if len(inputs.base):
             np.add(force, inputs.base, out=force)
-        if self._variance:
-            std_newton(y[3:], self._y_std, out=std)
         if not (np.isfinite(force).all() and np.isfinite(std).all()):
             self._restart()
             return self._held_estimate(flags | Flags.RESET, base_frame)
@@ -320,7 +386,7 @@ class StreamingEstimator:
         if not np.isfinite(filtered).all():
             self._restart()
             return self._held_estimate(flags | Flags.RESET, base_frame)
-        self._seen += 1
+        self._seen += tick
         if extrapolating:
             self._tainted = self._memory
         if self._tainted > 0:
@@ -337,19 +403,25 @@ class StreamingEstimator:
 
     def predict_recording(self, frame: pd.DataFrame, *, with_std: bool = False
                           ) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
-        """Offline batch path: (N, 3) force estimates (N, HEX10 frame) for a whole recording,
-        as if streamed from its first sample (same weights and post-filter), without flags.
+        """Offline batch path: (N, 3) force estimates (N, HEX10 frame) for a whole recording
+        at the input rate, as if streamed from its first sample (same weights, decimation and
+        post-filter), without flags.
         The recording must be valid (:func:`psm_model.recording.read_recording` checks it).
         ``with_std``: (estimates, (N, 3) std per axis in N, unfiltered) for a network that
         predicts its variance; refused for one that does not."""
         if with_std and not self._variance:
             raise StreamingError("this network predicts no variance, so it has no std")
+        if self.decimation > 1:
+            frame = frame.copy()
+            columns = list(self.columns)
+            frame[columns] = self.anti_alias.offline(frame[columns].to_numpy(np.float64))
         x, base = self.inputs.frame(frame)
-        y = self.model.predict_sequence(x).astype(np.float64)
+        y = self.model.predict_sequence(x[::self.decimation]).astype(np.float64)
+        y = np.repeat(y, self.decimation, axis=0)[:len(x)]  # each answer: the latest step
         force = y[:, :3] * self._y_std + self._y_mean
         if base.shape[1]:
             force = force + base
-        force = CausalFilter(self.filter.kind, rate_hz=self.rate_hz,
+        force = CausalFilter(self.filter.kind, rate_hz=self.input_rate_hz,
                              median_kernel=self.filter.median_kernel,
                              lowpass_hz=self.filter.lowpass_hz,
                              lowpass_order=self.filter.lowpass_order).offline(force)

@@ -4,15 +4,23 @@ Every subcommand explains its inputs and outputs in ``--help``, exits 0 on succe
 failure prints one line ``psmforce <command>: error: <reason>`` to stderr and exits 2, leaving
 no partial output files (each library call writes atomically or into a fresh folder).
 Where a command produces figures, ``--json PATH`` writes them machine-readably.
+
+One error boundary (:func:`main`): a refused input (the library's errors, all ValueError,
+OSError, RuntimeError or KeyError) exits 2; any other exception is a bug and still ends in one
+line, ``psmforce <command>: internal error: <type>: <reason>``, exit 3; ``psmforce --debug
+<command> ...`` prints the traceback as well. Ctrl-C exits 130. Before any work, no output may
+be one of the command's inputs or a file inside an input folder, and no two outputs may be the
+same file (:func:`psmforce.guards.outputs_spare_inputs`).
 """
 
 from __future__ import annotations
 
 import argparse
 import sys
+import traceback
 
 from psmforce import __version__
-from psmforce import commands
+from psmforce import commands, guards
 
 
 
@@ -31,11 +39,15 @@ def _parser() -> argparse.ArgumentParser:
         prog="psmforce",
         description="Tool-tip force estimation for the dVRK PSM with a shaft-integrated HEX10 sensor.")
     parser.add_argument("--version", action="version", version=f"psmforce {__version__}")
+    parser.add_argument("--debug", action="store_true",
+                        help="on failure, print the traceback as well as the one-line reason")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
     def add(name, func, help_, description):
         p = sub.add_parser(name, help=help_, description=description)
         p.set_defaults(func=func)
+        p.add_argument("--debug", action="store_true", default=argparse.SUPPRESS,
+                       help="on failure, print the traceback as well as the one-line reason")
         return p
 
     p = add("simulate", commands.simulate_command, "generate a simulated bench dataset",
@@ -222,6 +234,10 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("checkpoint")
     p.add_argument("--data", required=True)
     p.add_argument("--out", required=True, help="folder for tables and plots")
+    p.add_argument("--allow-train-overlap", action="store_true",
+                   help="score even test recordings whose content equals a trial the checkpoint "
+                        "was trained or validated on (each is named on stderr); by default such "
+                        "a test set is refused, its scores would be leaked")
     p.add_argument("--json", help="write the metrics here")
 
     p = add("reproduce", commands.reproduce_command, "reproduce the paper's tables on the simulated bench",
@@ -234,7 +250,8 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--scale", type=float, default=0.1,
                    help="protocol scale (1.0 = the paper's amount of data; default 0.1)")
     p.add_argument("--seeds", type=int, nargs="+", default=[1, 2, 3],
-                   help="bench and initialisation seeds (default 1 2 3; 0 was used in design)")
+                   help="bench and initialisation seeds, distinct (default 1 2 3; 0 was used in "
+                        "design)")
     p.add_argument("--budget", default="full", choices=["full", "cpu", "quick"],
                    help="full: train to early stopping (published); cpu/quick: capped smoke runs")
     p.add_argument("--models", nargs="+",
@@ -264,12 +281,16 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--out", default="out/demo")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--json", help="write the table here")
+
+    from psmforce.live.commands import add_live_commands  # replay, serve (docs/live.md)
+    add_live_commands(sub)
     return parser
 
 
 def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     try:
+        guards.outputs_spare_inputs(args)
         if getattr(args, "json", None):
             commands.output_file(args.json, "--json", parents=False)  # before the work, not after it
         result = args.func(args)
@@ -277,10 +298,17 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print(f"psmforce {args.command}: interrupted", file=sys.stderr)
         return 130
-    except (ValueError, OSError, RuntimeError, KeyError) as err:
-        reason = str(err).strip().splitlines()[0] if str(err).strip() else type(err).__name__
-        print(f"psmforce {args.command}: error: {reason}", file=sys.stderr)
-        return 2
+    except Exception as err:  # noqa: BLE001 - the one error boundary (module docstring)
+        if args.debug:
+            traceback.print_exc()
+        text = str(err).strip()
+        reason = text.splitlines()[0][:500] if text else type(err).__name__
+        if isinstance(err, (ValueError, OSError, RuntimeError, KeyError)):
+            print(f"psmforce {args.command}: error: {reason}", file=sys.stderr)
+            return 2
+        print(f"psmforce {args.command}: internal error: {type(err).__name__}: {reason} (a bug; "
+              f"--debug shows the traceback)", file=sys.stderr)
+        return 3
     return 0
 
 

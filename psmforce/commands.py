@@ -8,7 +8,10 @@ from __future__ import annotations
 
 import json
 import os
+import sys
 from pathlib import Path
+
+from psmforce.guards import progress
 
 
 def _writable_ancestor(target: Path, option: str) -> None:
@@ -148,9 +151,13 @@ def fit_dynamics_command(args) -> dict:
     if args.model_out:
         output_file(args.model_out, "--model-out")
     from psm_model.identification import fit_dynamics_cli
-    report = fit_dynamics_cli(train=args.train, test=args.test, fmt=args.format, json_out=None,
-                              model_out=args.model_out, data=args.data, select=args.select,
-                              gravity=args.gravity, accept_poor_fit=args.accept_poor_fit)
+    print("fitting the arm's dynamics (CasADi / IPOPT; minutes on a large dataset)",
+          flush=True)
+    with progress("fit-dynamics"):
+        report = fit_dynamics_cli(train=args.train, test=args.test, fmt=args.format,
+                                  json_out=None, model_out=args.model_out, data=args.data,
+                                  select=args.select, gravity=args.gravity,
+                                  accept_poor_fit=args.accept_poor_fit)
     if "selection" in report:
         print(f"selected: {report['selection']['selected']} ({report['selection']['method']})")
     print(f"fit: {report['solver_status']} in {report['fit_time_s']:.1f} s, "
@@ -160,6 +167,16 @@ def fit_dynamics_command(args) -> dict:
         if key in report:
             print(f"{key.split('_')[0]} relative torque error %: " + ", ".join(
                 f"{n} {e:.1f}" for n, e in zip(report["coordinates"], report[key])))
+    threshold = report["poor_fit_threshold_relative_error_percent"]
+    scored = report.get("test_relative_error_percent") or report.get(
+        "train_relative_error_percent", [])
+    above = [f"{n} {e:.0f} %" for n, e in zip(report["coordinates"], scored)
+             if not e <= threshold]
+    print("verdict: " + ("POOR FIT, every coordinate" if report["poor_fit"] else "passes the gate")
+          + f" (relative torque error above {threshold:g} %: "
+          + (", ".join(above) if above else "none") + ")"
+          + ("; those coordinates' torques are not explained" if above and not report["poor_fit"]
+             else ""))
     if report["poor_fit"] and not args.accept_poor_fit:
         raise ValueError(("" if args.model_out is None else f"{args.model_out} not written: ")
                          + f"poor fit: relative torque error above "
@@ -198,12 +215,19 @@ def fit_prior_command(args) -> dict:
     output_file(args.out, "--out")
     from psm_model.identification import fit_prior_cli
     from psm_model.recording import HEX10_FORCE
-    report = fit_prior_cli(args.data, args.out, use_loaded=args.use_loaded,
-                           accept_poor_fit=args.accept_poor_fit)
+    print("fitting the internal-force prior (CasADi / IPOPT)", flush=True)
+    with progress("fit-prior"):
+        report = fit_prior_cli(args.data, args.out, use_loaded=args.use_loaded,
+                               accept_poor_fit=args.accept_poor_fit)
     metrics = report.get("test_free_metrics")
     print(f"fit: {report['solver_status']} in {report['fit_time_s']:.1f} s; test Free "
           + (", ".join(f"{c} RMS {metrics[c]['rms']:.3g}" for c in HEX10_FORCE)
              + " N" if metrics else "not scored (no test/Free recordings)"))
+    missed = report.get("targets_not_met") or []
+    print("verdict: " + ("not scored, no gate applied" if metrics is None else
+                         "POOR FIT" if report.get("poor_fit") else
+                         "passes the gate" + ("" if missed else ", meets its targets"))
+          + (f"; targets NOT met: {'; '.join(missed)}" if missed else ""))
     if report["model"] is None:
         raise ValueError(f"{args.out} not written: {report['model_not_saved_reason']}"
                          + (" (--accept-poor-fit saves it anyway)" if report.get("poor_fit")
@@ -226,7 +250,8 @@ def fit_transmission_command(args) -> dict:
     fit_on = [r for n, r in names.items() if n not in args.validation]
     if not fit_on:
         raise ValueError("--validation holds every file: nothing left to fit on")
-    model = CableTransmission.fit(fit_on, validation=validation)
+    with progress("fit-transmission"):
+        model = CableTransmission.fit(fit_on, validation=validation)
     model.save(args.out)
     report = {"model": args.out, "fit_files": [r.name for r in fit_on],
               "validation_files": [r.name for r in validation], **model.to_dict(),
@@ -246,8 +271,19 @@ def fit_transmission_command(args) -> dict:
     return report
 
 
+def _models(names, option: str) -> None:
+    """Every name a model of the recipe table, none twice."""
+    from hybrid.recipes import RECIPES
+    for k, name in enumerate(names):
+        if name not in RECIPES:
+            raise ValueError(f"{option}: unknown model '{name}'; known: {list(RECIPES)}")
+        if name in names[:k]:
+            raise ValueError(f"{option}: '{name}' given more than once")
+
+
 def train_command(args) -> dict:
     _training_options(args)
+    _models([args.model], "--model")
     config = json_object(args.config, "--config")
     from hybrid.train import train  # checks the config builds the model before reading data
     return train(args.data, args.model, args.out, features=args.features, epochs=args.epochs,
@@ -277,8 +313,25 @@ def calibrate_command(args) -> dict:
 
 def evaluate_command(args) -> dict:
     _fresh_folder(args.out, "--out")
+    from hybrid.checkpoint import load_checkpoint, trial_hashes
+    from hybrid.sanity import repeated_recordings
     from hybrid.evaluate import evaluate
-    return evaluate(args.checkpoint, args.data, args.out)
+    known = trial_hashes(load_checkpoint(args.checkpoint).provenance)
+    repeats = repeated_recordings(args.data, "test", known)
+    if repeats and not args.allow_train_overlap:
+        rel, match = repeats[0]
+        raise ValueError(f"{Path(args.data) / rel}: same content as {match}, a trial "
+                         f"{args.checkpoint} was trained on"
+                         + (f" ({len(repeats)} test recordings repeat training ones)"
+                            if len(repeats) > 1 else "")
+                         + ": its scores would be leaked (--allow-train-overlap scores anyway)")
+    for rel, match in repeats:
+        print(f"psmforce evaluate: warning: test recording {rel} has the content of training "
+              f"trial {match}: its scores are not held-out", file=sys.stderr)
+    result = evaluate(args.checkpoint, args.data, args.out)
+    if repeats and isinstance(result, dict):
+        result["train_overlap"] = [{"test": rel, "train": match} for rel, match in repeats]
+    return result
 
 
 def reproduce_command(args) -> dict:
@@ -286,6 +339,12 @@ def reproduce_command(args) -> dict:
     _scale(args.scale)
     for seed in args.seeds:
         _seed(seed, "--seeds")
+    repeated = sorted({s for s in args.seeds if args.seeds.count(s) > 1})
+    if repeated:
+        raise ValueError(f"--seeds: {repeated[0]} given more than once; each seed is one "
+                         f"independent run, a repeat would report a spread of 0")
+    if args.models is not None:
+        _models(args.models, "--models")
     _device(args)
     target = Path(args.out)
     if target.exists() and not target.is_dir():

@@ -38,7 +38,7 @@ def test_export_round_trip_matches_python_estimator(tmp_path, use_prior):
     assert spec["features"] == list(hybrid_columns(use_prior)[0])
     assert spec["provenance"] == {"seed": 3} and spec["window"] == 2 * 7 + 1
     assert (spec["prior"] is not None) == use_prior
-    assert spec["format_version"] == 2 and spec["graph"]["state"] == [  # the model's own state
+    assert spec["format_version"] == 3 and spec["graph"]["state"] == [  # the model's own state
         {"name": "keys", "shape": [2, 1, 8, 16], "dtype": "float32"},
         {"name": "values", "shape": [2, 1, 8, 16], "dtype": "float32"},
         {"name": "n_valid", "shape": [1], "dtype": "int64"}]

@@ -12,11 +12,24 @@ import torch
 from torch import nn
 
 from hybrid import checkpoint as ck
-from hybrid.data import (FEATURE_SETS, FREE_STRIDE_FACTOR, DatasetError, Scaler, Trial, WindowSet,
-                         fit_scalers, index_recordings, load_dataset, resolve_features,
-                         sliding_windows, split_validation, subsample_trials)
-from hybrid.metrics import MetricError, axis_metrics, nrmse, postprocess, r2, rmse
 from hybrid.bounds import physical_bounds
+from hybrid.data import (
+    FEATURE_SETS,
+    FREE_STRIDE_FACTOR,
+    DatasetError,
+    Scaler,
+    Trial,
+    WindowSet,
+    fit_scalers,
+    index_recordings,
+    load_dataset,
+    resolve_features,
+    sliding_windows,
+    split_validation,
+    subsample_trials,
+)
+from hybrid.integrity import seal
+from hybrid.metrics import MetricError, axis_metrics, nrmse, postprocess, r2, rmse
 from hybrid.models import FCN, PaperTransformer, count_parameters, freeze_for_finetuning
 from hybrid.recipes import build_model
 from hybrid.train import TrainConfig, fit, make_setup
@@ -377,7 +390,13 @@ def test_mismatched_or_corrupt_checkpoint_refused(tmp_path):
     payload = torch.load(path, weights_only=True)
     meta = json.loads(payload["meta"])
     payload["meta"] = json.dumps({**meta, "features": meta["features"][:5]})
-    torch.save(payload, tmp_path / "shrunk.pt")
+    torch.save(payload, tmp_path / "edited.pt")
+    with pytest.raises(ck.CheckpointError, match=r"does not match its SHA-256 envelope \(changed: features\)"):
+        ck.load_checkpoint(tmp_path / "edited.pt")
+    scaler = {k: v[:5] if isinstance(v, list) else v for k, v in meta["input_scaler"].items()}
+    payload["meta"] = json.dumps(seal({**meta, "features": meta["features"][:5],
+                                       "input_scaler": scaler}))
+    torch.save(payload, tmp_path / "shrunk.pt")  # resealed, as a careless tool would
     with pytest.raises(ck.CheckpointError, match="weights do not fit"):
         ck.load_checkpoint(tmp_path / "shrunk.pt")
     payload["meta"] = json.dumps({**meta, "format_version": 99})

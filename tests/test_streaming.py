@@ -312,7 +312,8 @@ def test_from_checkpoint_uses_the_training_checkpoint(tmp_path):
     loaded = StreamingEstimator.from_checkpoint(path)
     direct = StreamingEstimator(model, features, xs, ys, base)
     np.testing.assert_allclose(stream(loaded, frame)[0], stream(direct, frame)[0], atol=1e-6)
-    fcn = ck.TrainedModel("fcn", {}, ("fx",), xs, ys, model=build_model("fcn", 1)).save(
+    _, xs_1, _ = model_and_scalers(1)
+    fcn = ck.TrainedModel("fcn", {}, ("fx",), xs_1, ys, model=build_model("fcn", 1)).save(
         tmp_path / "f.pt")
     with pytest.raises(StreamingError, match="does not stream"):
         StreamingEstimator.from_checkpoint(fcn)

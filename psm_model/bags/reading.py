@@ -20,7 +20,8 @@ Joints are matched by NAME, never by position in the message: the dVRK >= 2024 n
 ``outer_pitch``, ``outer_insertion``, ``outer_roll``, ``outer_wrist_pitch``, ``outer_wrist_yaw``).
 A ``jaw`` entry in the arm topic (dVRK 1.x published seven joints there) is ignored: the jaw comes
 from the jaw topic. Any other name is an error. Values are taken as the dVRK publishes them (rad,
-rad/s, Nm; m, m/s, N for the insertion; N and Nm for wrenches).
+rad/s, Nm; m, m/s, N for the insertion; N and Nm for wrenches). The decoding is
+:mod:`.messages`', shared with ``replay`` and ``serve``.
 
 Time of a message: its header stamp. A stream whose messages carry no header (Float64MultiArray,
 Wrench) or where any header stamp is zero uses the bag's receive time for ALL its messages, so
@@ -34,46 +35,14 @@ from pathlib import Path
 
 import numpy as np
 from rosbags.highlevel import AnyReader
-from rosbags.typesys import Stores, get_typestore
 
-from psm_model.conventions import CHAIN_JOINTS, JAW_JOINT
-from psm_model.recording import ATI_RAW, HEX10, RecordingError, joint_column
-
-STREAMS = ("js", "jaw", "hex10", "ati", "jacobian")
-"""Stream names, the keys of the ``topics`` override of :func:`psm_model.bags.convert_bag`."""
+from psm_model.bags.messages import (ACCEPTED_TYPES, JACOBIAN_COLUMNS, JOINT_STATE,  # noqa: F401
+                                     MULTI_ARRAY, ROS2_TYPESTORE, STREAMS, WRENCH,
+                                     WRENCH_STAMPED, JointStateDecoder, MessageError,
+                                     jacobian_values, stamp_ns, stream_columns, wrench_values)
+from psm_model.recording import RecordingError
 
 REQUIRED_STREAMS = ("js", "jaw", "hex10")
-
-_ARM_NAMES = {**{j: j for j in CHAIN_JOINTS}, **{f"outer_{j}": j for j in CHAIN_JOINTS}}
-_IGNORED_ARM_NAMES = {JAW_JOINT}
-_JAW_NAMES = {JAW_JOINT: JAW_JOINT}
-
-JOINT_STATE = "sensor_msgs/msg/JointState"
-WRENCH_STAMPED = "geometry_msgs/msg/WrenchStamped"
-WRENCH = "geometry_msgs/msg/Wrench"
-MULTI_ARRAY = "std_msgs/msg/Float64MultiArray"
-_ACCEPTED_TYPES = {
-    "js": (JOINT_STATE,), "jaw": (JOINT_STATE,),
-    "hex10": (WRENCH_STAMPED, WRENCH), "ati": (WRENCH_STAMPED, WRENCH),
-    "jacobian": (MULTI_ARRAY,),
-}
-JACOBIAN_COLUMNS = tuple(f"spatial_jacobian_{r}{c}" for r in range(6) for c in range(6))
-"""Row-major 6x6 spatial Jacobian as the dVRK publishes it (row r, column c)."""
-
-ROS2_TYPESTORE = get_typestore(Stores.ROS2_HUMBLE)
-"""ROS 2 Humble message definitions: the fallback for old rosbag2 files that carry none (these
-types have not changed since) and the definitions :mod:`.writing` stores in the bags it writes."""
-
-_JOINT_FIELDS = ("position", "velocity", "effort")
-"""The sensor_msgs/JointState arrays read, each giving the recording column of that quantity."""
-
-
-def stream_columns(name: str) -> tuple[str, ...]:
-    """The recording columns stream ``name`` (:data:`STREAMS`) carries, in message order."""
-    if name in ("js", "jaw"):
-        joints = CHAIN_JOINTS if name == "js" else (JAW_JOINT,)
-        return tuple(joint_column(j, field) for field in _JOINT_FIELDS for j in joints)
-    return {"hex10": HEX10, "ati": ATI_RAW, "jacobian": JACOBIAN_COLUMNS}[name]
 
 
 class BagError(RecordingError):
@@ -171,9 +140,9 @@ def read_streams(bag_path: Path, topics: dict[str, str], required: set[str]
                 raise BagError(f"{bag_path}: topic '{topic}' ({name} stream) {problem}; "
                                f"topics present: {sorted(present)}")
             msgtype = present[topic]
-            if msgtype not in _ACCEPTED_TYPES[name]:
+            if msgtype not in ACCEPTED_TYPES[name]:
                 raise BagError(f"{bag_path}: topic '{topic}' ({name} stream) has type {msgtype}; "
-                               f"expected {' or '.join(_ACCEPTED_TYPES[name])}")
+                               f"expected {' or '.join(ACCEPTED_TYPES[name])}")
             collectors[topic] = _Collector(name, topic, msgtype, bag_path)
         connections = [c for c in reader.connections if c.topic in collectors]
         messages = reader.messages(connections=connections)
@@ -210,70 +179,27 @@ class _Collector:
         self.header_ns: list[int] = []
         self.log_ns: list[int] = []
         self.rows: list[np.ndarray] = []
-        self._index_by_names: dict[tuple[str, ...], np.ndarray] = {}
         self.columns = stream_columns(name)
         if msgtype == JOINT_STATE:
-            self._joints = CHAIN_JOINTS if name == "js" else (JAW_JOINT,)
-            self._decode = self._joint_state
+            self._decode = JointStateDecoder(name)
         elif msgtype in (WRENCH_STAMPED, WRENCH):
-            self._decode = self._wrench
+            self._decode = wrench_values
         else:
-            self._decode = self._jacobian
+            self._decode = jacobian_values
 
     def _fail(self, problem: str) -> BagError:
         return BagError(f"{self.bag_path}: topic '{self.topic}' message {len(self.log_ns)}: "
                         f"{problem}")
 
     def add(self, message, log_ns: int) -> None:
-        header = getattr(message, "header", None)
-        if header is not None:
-            self.header_ns.append(int(header.stamp.sec) * 1_000_000_000 + int(header.stamp.nanosec))
-        self.rows.append(self._decode(message))
+        stamp = stamp_ns(message)
+        if stamp is not None:
+            self.header_ns.append(stamp)
+        try:
+            self.rows.append(self._decode(message))
+        except MessageError as err:
+            raise self._fail(str(err)) from None
         self.log_ns.append(int(log_ns))
-
-    def _joint_state(self, message) -> np.ndarray:
-        names = tuple(message.name)
-        index = self._index_by_names.get(names)
-        if index is None:
-            index = self._joint_index(names)
-            self._index_by_names[names] = index
-        parts = []
-        for field in _JOINT_FIELDS:
-            values = np.asarray(getattr(message, field), dtype=float)
-            if len(values) != len(names):
-                raise self._fail(f"{field} has {len(values)} values for {len(names)} joint names "
-                                 f"{list(names)}")
-            parts.append(values[index])
-        return np.concatenate(parts)
-
-    def _joint_index(self, names: tuple[str, ...]) -> np.ndarray:
-        aliases = _ARM_NAMES if self.name == "js" else _JAW_NAMES
-        ignored = _IGNORED_ARM_NAMES if self.name == "js" else set()
-        unknown = [n for n in names if n not in aliases and n not in ignored]
-        if unknown:
-            raise self._fail(f"unknown joint names {unknown}; expected {sorted(aliases)}")
-        ours = [aliases.get(n) for n in names]
-        missing = [j for j in self._joints if j not in ours]
-        if missing:
-            raise self._fail(f"joints {missing} missing (names in message: {list(names)})")
-        repeated = sorted({j for j in ours if j is not None and ours.count(j) > 1})
-        if repeated:
-            raise self._fail(f"joints {repeated} appear more than once in {list(names)}")
-        return np.array([ours.index(j) for j in self._joints])
-
-    def _wrench(self, message) -> np.ndarray:
-        wrench = message.wrench if self.msgtype == WRENCH_STAMPED else message
-        f, t = wrench.force, wrench.torque
-        return np.array([f.x, f.y, f.z, t.x, t.y, t.z], dtype=float)
-
-    def _jacobian(self, message) -> np.ndarray:
-        sizes = [int(d.size) for d in message.layout.dim]
-        if sizes and sizes != [6, 6]:
-            raise self._fail(f"Jacobian layout is {sizes}; expected 6x6")
-        data = np.asarray(message.data, dtype=float)[int(message.layout.data_offset):]
-        if len(data) != 36:
-            raise self._fail(f"Jacobian has {len(data)} values; expected 36 (6x6)")
-        return data
 
     def finish(self) -> RawStream:
         values = np.vstack(self.rows)

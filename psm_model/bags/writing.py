@@ -33,8 +33,9 @@ import numpy as np
 import pandas as pd
 from rosbags.rosbag2 import StoragePlugin, Writer
 
-from psm_model.bags.reading import (JOINT_STATE, ROS2_TYPESTORE, WRENCH, WRENCH_STAMPED, BagError,
-                                    resolve_topics, stream_columns)
+from psm_model.bags.messages import (JOINT_STATE, ROS2_TYPESTORE, WRENCH, WRENCH_STAMPED,
+                                     stream_columns)
+from psm_model.bags.reading import BagError, resolve_topics
 from psm_model.conventions import CHAIN_JOINTS, JAW_JOINT
 from psm_model.recording import ATI_RAW, TIME
 

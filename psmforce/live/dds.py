@@ -1,0 +1,126 @@
+"""ROS 2 over plain DDS (``cyclonedds``, the optional extra ``psmforce[ros]``): topic and type
+names, the message types as DDS structures, and the quality of service.
+
+ROS 2 maps a topic ``/PSM1/measured_js`` onto the DDS topic ``rt/PSM1/measured_js``
+(:func:`dds_topic`) and a type ``sensor_msgs/msg/JointState`` onto the DDS type
+``sensor_msgs::msg::dds_::JointState_`` (:func:`dds_type_name`), serialised as CDR. The
+structures below carry those names and the ROS 2 fields in order, so a node built on them is
+seen by ``ros2 topic echo`` on a machine running ROS 2 on a DDS middleware in the same
+``ROS_DOMAIN_ID``; their bytes equal ``rosbags``' and :mod:`psmforce.live.cdr`'s
+(``tests/test_live_cdr.py``). They decode with :mod:`psm_model.bags.messages` like the
+``rosbags`` classes (same attribute names).
+
+QoS (:func:`qos`): reliable, volatile, keep last :data:`DEPTH`: what the dVRK's ROS 2 publishers
+use (rclcpp's default profile, reliable and volatile), with a deeper history so a reader that
+falls a few milliseconds behind at 1 kHz loses nothing. ``best_effort=True`` gives a best-effort
+reader, which also matches best-effort (sensor-data QoS) publishers.
+
+No ``from __future__ import annotations`` here: ``cyclonedds`` reads the field types at run time.
+"""
+
+from dataclasses import dataclass, field
+
+import cyclonedds.idl.types as t
+from cyclonedds.core import Policy, Qos
+from cyclonedds.idl import IdlStruct
+from cyclonedds.util import duration
+
+DEPTH = 1000
+"""History kept per topic (messages): one second at 1 kHz."""
+
+
+def dds_topic(ros_topic: str) -> str:
+    """The DDS topic of a ROS 2 topic: ``/PSM1/measured_js`` -> ``rt/PSM1/measured_js``."""
+    return "rt/" + ros_topic.lstrip("/")
+
+
+def dds_type_name(ros_type: str) -> str:
+    """The DDS type of a ROS 2 message type: ``sensor_msgs/msg/JointState`` ->
+    ``sensor_msgs::msg::dds_::JointState_``."""
+    package, kind, name = ros_type.split("/")
+    return f"{package}::{kind}::dds_::{name}_"
+
+
+def qos(best_effort: bool = False) -> Qos:
+    """Reader and writer QoS (module docstring)."""
+    reliability = (Policy.Reliability.BestEffort if best_effort
+                   else Policy.Reliability.Reliable(max_blocking_time=duration(milliseconds=100)))
+    return Qos(reliability, Policy.Durability.Volatile, Policy.History.KeepLast(DEPTH))
+
+
+@dataclass
+class Time(IdlStruct, typename=dds_type_name("builtin_interfaces/msg/Time")):
+    sec: t.int32 = 0
+    nanosec: t.uint32 = 0
+
+
+@dataclass
+class Header(IdlStruct, typename=dds_type_name("std_msgs/msg/Header")):
+    stamp: Time = field(default_factory=Time)
+    frame_id: str = ""
+
+
+@dataclass
+class Vector3(IdlStruct, typename=dds_type_name("geometry_msgs/msg/Vector3")):
+    x: t.float64 = 0.0
+    y: t.float64 = 0.0
+    z: t.float64 = 0.0
+
+
+@dataclass
+class Wrench(IdlStruct, typename=dds_type_name("geometry_msgs/msg/Wrench")):
+    force: Vector3 = field(default_factory=Vector3)
+    torque: Vector3 = field(default_factory=Vector3)
+
+
+@dataclass
+class WrenchStamped(IdlStruct, typename=dds_type_name("geometry_msgs/msg/WrenchStamped")):
+    header: Header = field(default_factory=Header)
+    wrench: Wrench = field(default_factory=Wrench)
+
+
+@dataclass
+class Vector3Stamped(IdlStruct, typename=dds_type_name("geometry_msgs/msg/Vector3Stamped")):
+    header: Header = field(default_factory=Header)
+    vector: Vector3 = field(default_factory=Vector3)
+
+
+@dataclass
+class UInt32(IdlStruct, typename=dds_type_name("std_msgs/msg/UInt32")):
+    data: t.uint32 = 0
+
+
+@dataclass
+class Empty(IdlStruct, typename=dds_type_name("std_msgs/msg/Empty")):
+    structure_needs_at_least_one_field: t.uint8 = 0
+
+
+@dataclass
+class JointState(IdlStruct, typename=dds_type_name("sensor_msgs/msg/JointState")):
+    header: Header = field(default_factory=Header)
+    name: t.sequence[str] = field(default_factory=list)
+    position: t.sequence[t.float64] = field(default_factory=list)
+    velocity: t.sequence[t.float64] = field(default_factory=list)
+    effort: t.sequence[t.float64] = field(default_factory=list)
+
+
+TYPES = {"builtin_interfaces/msg/Time": Time, "std_msgs/msg/Header": Header,
+         "geometry_msgs/msg/Vector3": Vector3, "geometry_msgs/msg/Wrench": Wrench,
+         "geometry_msgs/msg/WrenchStamped": WrenchStamped,
+         "geometry_msgs/msg/Vector3Stamped": Vector3Stamped, "std_msgs/msg/UInt32": UInt32,
+         "std_msgs/msg/Empty": Empty, "sensor_msgs/msg/JointState": JointState}
+"""The DDS structure of each ROS 2 message type used."""
+
+
+def write_raw(writer, data: bytes) -> None:
+    """Write CDR bytes (:mod:`psmforce.live.cdr`, encapsulation header included) as one sample
+    of ``writer``'s type, as ``DataWriter.write`` writes a serialised structure."""
+    from cyclonedds._clayer import ddspy_write
+    if ddspy_write(writer._ref, data.ljust((len(data) + 3) & ~3, b"\0")) < 0:
+        raise RuntimeError("a DDS write failed (the participant was closed?)")
+
+
+def header(stamp_ns: int, frame_id: str) -> Header:
+    """A header for a stamp in ns since the epoch."""
+    sec, nanosec = divmod(int(stamp_ns), 1_000_000_000)
+    return Header(Time(sec, nanosec), frame_id)

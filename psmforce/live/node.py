@@ -1,0 +1,201 @@
+"""The live force node's logic, without a transport: ``psmforce serve`` (DDS) and
+``psmforce replay`` (a bag) feed it the same messages and publish what it answers.
+
+:class:`ForceNode` holds the latest message of each input stream (``js``: the arm's
+sensor_msgs/JointState, ``jaw``: the jaw's, ``hex10``: the HEX10 geometry_msgs/WrenchStamped;
+:mod:`psm_model.bags.messages`) and, on each new message of its ``trigger`` stream (default the
+HEX10), builds the estimator's sample from the three with
+:func:`psm_model.bags.messages.sample_from_messages` (time: the trigger's header stamp) and steps
+the :class:`hybrid.streaming.StreamingEstimator` once: one answer per trigger message, at the
+input rate, whatever rate the network runs at (the estimator decimates, :mod:`hybrid.rates`).
+Nothing is answered until each stream has delivered a message.
+
+Pairing. By default each trigger message meets the latest message of the other streams that
+has arrived: what a subscriber sees, right for streams stamped by different clocks (the dVRK's
+joint states and the HEX10 come from different processes). ``sync=True`` pairs by stamp, for
+streams stamped on one clock (a simulated robot, a bench that samples every channel at the same
+instant): a trigger waits until each other stream has delivered a message stamped at or after
+its own, then meets, of each, the latest stamped at or before it, so a message that arrives
+late (a lost datagram resent, a busy transport) still meets its own trigger. A trigger waits
+for at most ``max_pending`` later triggers (10 ms at 1 kHz), then is answered with what there is.
+
+Outputs per answer (:func:`output_topics`, under ``/{arm}/tool_force/``; header stamp = the
+stamp of the trigger message answered):
+
+``base``   geometry_msgs/WrenchStamped, the external force ON the tool in the PSM base frame
+           (``frame_id`` ``{arm}_base``), N; torque zero (not estimated).
+``hex10``  the same force in the HEX10 frame (``frame_id`` ``hex10``).
+``std``    geometry_msgs/Vector3Stamped, per-axis std of the raw estimate, N, HEX10 frame (only
+           for a network that predicts its variance, :mod:`hybrid.uncertainty`).
+``flags``  std_msgs/UInt32: the bits of :class:`hybrid.streaming.Flags` (bits 0-8), and the
+           node's own :data:`TARING` (bit 16) and :data:`STALE` (bit 17).
+
+Tare. The estimate's offset in free space is removed by a tare: :meth:`ForceNode.request_tare`
+(``serve``: any message on ``/{arm}/tool_force/tare``, std_msgs/Empty, or ``--tare-on-start``)
+averages the next ``tare_s`` seconds of answers that are neither warming up nor held (flagged
+``TARING`` meanwhile; the arm must be still and touch nothing), then subtracts that mean (HEX10
+frame) from every later force, rotated into the base frame for ``base``. ``STALE``: a
+non-trigger stream's latest stamp is more than ``stale_periods`` input periods older than the
+trigger's (a stream stalled; the estimate uses its last values).
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from dataclasses import dataclass
+
+import numpy as np
+
+from hybrid.streaming import Flags, StreamingEstimator
+from psm_model.bags.messages import MessageError, sample_from_messages, stamp_ns
+from psmforce.live import cdr
+
+TARING = 1 << 16
+"""Node flag: a tare is being collected; the force still carries the previous offset."""
+STALE = 1 << 17
+"""Node flag: an input stream's latest message is older than ``stale_periods``."""
+
+INPUT_STREAMS = ("js", "jaw", "hex10")
+OUTPUT_TYPES = {"base": "geometry_msgs/msg/WrenchStamped",
+                "hex10": "geometry_msgs/msg/WrenchStamped",
+                "std": "geometry_msgs/msg/Vector3Stamped", "flags": "std_msgs/msg/UInt32"}
+"""The ROS 2 message type of each output (module docstring)."""
+TARE_TYPE = "std_msgs/msg/Empty"
+
+
+def output_topics(arm: str = "PSM1") -> dict[str, str]:
+    """The topic of each output, and ``tare`` (the tare request, std_msgs/Empty)."""
+    root = f"/{arm.strip('/')}/tool_force"
+    return {name: f"{root}/{name}" for name in (*OUTPUT_TYPES, "tare")}
+
+
+@dataclass(frozen=True)
+class Answer:
+    """One answer: the force for the trigger message stamped ``stamp_ns`` (module docstring)."""
+
+    stamp_ns: int
+    force_hex10: np.ndarray
+    """(3,) N, HEX10 frame, tared."""
+    force_base: np.ndarray
+    """(3,) N, PSM base frame, tared."""
+    std_hex10: np.ndarray | None
+    flags: int
+
+
+class ForceNode:
+    """Latest of each stream -> one estimator step per trigger message (module docstring).
+
+    ``estimator``: built with a PSM model (``psm=psm_model.PSM()``) for the base frame.
+    ``arm``: namespace of the output topics and of the base frame's id. ``sync``: pair by
+    stamp (module docstring, Pairing).
+    """
+
+    def __init__(self, estimator: StreamingEstimator, *, arm: str = "PSM1",
+                 trigger: str = "hex10", tare_s: float = 0.5, stale_periods: float = 10.0,
+                 sync: bool = False, max_pending: int = 10):
+        if trigger not in INPUT_STREAMS:
+            raise ValueError(f"trigger must be one of {INPUT_STREAMS}, got {trigger!r}")
+        if not tare_s > 0:
+            raise ValueError(f"tare_s must be > 0 s, got {tare_s!r}")
+        self.estimator = estimator
+        self.trigger = trigger
+        self.topics = output_topics(arm)
+        self.base_frame_id = f"{arm.strip('/')}_base"
+        self.latest: dict[str, object] = dict.fromkeys(INPUT_STREAMS)
+        self._stale_ns = stale_periods / estimator.input_rate_hz * 1e9
+        self._tare_n = max(1, round(tare_s * estimator.input_rate_hz))
+        self.offset = np.zeros(3)
+        """The tare subtracted from every force (N, HEX10 frame)."""
+        self._tare_left = 0
+        self._tare_sum = np.zeros(3)
+        self.answers = 0
+        self.sync = sync
+        self._max_pending = max_pending
+        self._pending: deque = deque()
+        self._history = {s: deque(maxlen=4 * max_pending) for s in INPUT_STREAMS
+                         if s != trigger}
+
+    def request_tare(self) -> None:
+        """Start a tare: average the next usable answers (module docstring)."""
+        self._tare_left = self._tare_n
+        self._tare_sum[:] = 0.0
+
+    @property
+    def taring(self) -> bool:
+        return self._tare_left > 0
+
+    def update(self, stream: str, message) -> list[Answer]:
+        """Take the newest ``message`` of ``stream`` (:data:`INPUT_STREAMS`); the answers it
+        releases: the trigger's once every stream has delivered (with ``sync``: the triggers
+        whose partners are known, module docstring), else none."""
+        if stream != self.trigger:
+            self.latest[stream] = message
+            if self.sync:
+                self._history[stream].append((stamp_ns(message) or 0, message))
+                return self._release(False)
+            return []
+        if any(m is None for s, m in self.latest.items() if s != stream):
+            return []
+        if not self.sync:
+            self.latest[stream] = message
+            return [self._answer(message)]
+        self._pending.append(message)
+        return self._release(False)
+
+    def flush(self) -> list[Answer]:
+        """With ``sync``: answer every trigger still waiting, with the partners there are."""
+        return self._release(True) if self.sync else []
+
+    def _release(self, force: bool) -> list[Answer]:
+        answers = []
+        while self._pending:
+            stamp = stamp_ns(self._pending[0]) or 0
+            ready = all(h and h[-1][0] >= stamp for h in self._history.values())
+            if not (ready or force or len(self._pending) > self._max_pending):
+                break
+            for name, history in self._history.items():  # the latest at or before the stamp
+                at = [m for s, m in history if s <= stamp]
+                self.latest[name] = at[-1] if at else history[0][1]
+            answers.append(self._answer(self._pending.popleft()))
+        return answers
+
+    def _answer(self, message) -> Answer:
+        self.latest[self.trigger] = message
+        stamp = stamp_ns(message)
+        flags = 0
+        for name, other in self.latest.items():
+            other_stamp = stamp_ns(other)
+            if name != self.trigger and stamp and other_stamp \
+                    and stamp - other_stamp > self._stale_ns:
+                flags |= STALE
+        try:
+            sample = sample_from_messages(self.latest["js"], self.latest["jaw"],
+                                          self.latest["hex10"],
+                                          time_s=stamp * 1e-9 if stamp else None)
+        except (MessageError, AttributeError, TypeError, ValueError):
+            sample = {}  # refused by the estimator: INVALID_INPUT, the last estimate held
+        out = self.estimator.step(sample, base_frame=True)
+        flags |= out.flags
+        raw = out.force_hex10
+        if self._tare_left and not out.flags & (Flags.WARMING_UP | Flags.HELD):
+            self._tare_sum += raw
+            self._tare_left -= 1
+            if not self._tare_left:
+                self.offset = self._tare_sum / self._tare_n
+        if self._tare_left:
+            flags |= TARING
+        force = raw - self.offset
+        base = out.force_base - self.estimator.base_rotation() @ self.offset
+        self.answers += 1
+        return Answer(int(stamp or 0), force, base, out.std_hex10, int(flags))
+
+    def encode(self, answer: Answer) -> dict[str, bytes]:
+        """The CDR bytes of each output of ``answer`` (:mod:`psmforce.live.cdr`), by output
+        name (``std`` only with a std)."""
+        stamp = answer.stamp_ns
+        out = {"base": cdr.wrench_stamped(stamp, self.base_frame_id, answer.force_base),
+               "hex10": cdr.wrench_stamped(stamp, "hex10", answer.force_hex10),
+               "flags": cdr.uint32(answer.flags)}
+        if answer.std_hex10 is not None:
+            out["std"] = cdr.vector3_stamped(stamp, "hex10", answer.std_hex10)
+        return out

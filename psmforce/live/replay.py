@@ -1,0 +1,172 @@
+"""``psmforce replay``: a recorded session played through the live node's code path, the
+estimates written as a ROS 2 MCAP beside the inputs.
+
+:func:`replay` reads a bag (ROS 2 MCAP / sqlite3 or ROS 1, :mod:`psm_model.bags`) in receive
+order, hands each arm, jaw and HEX10 message to a :class:`psmforce.live.node.ForceNode` exactly
+as ``psmforce serve`` hands it the messages it receives over DDS, and writes one MCAP file
+(:class:`psmforce.live.view.McapOut`, profile ``ros2``): every input topic the typestore knows,
+copied, and the node's outputs (:func:`psmforce.live.node.output_topics`), each logged at the
+receive time of the message it answers. A layout for Foxglove is written beside it
+(``OUT.layout.json``, :func:`psmforce.live.view.layout`).
+
+The input rate is the HEX10 stream's, measured from its header stamps (or given); a rate the
+model cannot serve is refused in one line before anything is written (:mod:`hybrid.rates`).
+``realtime``: paced by the receive times. ``view_port``: the same messages served live by a
+Foxglove WebSocket server on that port while they are played.
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+import numpy as np
+from rosbags.highlevel import AnyReader
+
+from hybrid.rates import RateError, recording_rate_hz
+from hybrid.streaming import StreamingEstimator
+from psm_model.bags.messages import ACCEPTED_TYPES, ROS2_TYPESTORE, stamp_ns
+from psm_model.bags.reading import BagError, resolve_topics
+from psmforce.live.node import OUTPUT_TYPES, ForceNode
+
+_RATE_MESSAGES = 2000
+"""HEX10 messages whose stamps measure the input rate."""
+
+
+def _open(bag: Path) -> AnyReader:
+    try:
+        reader = AnyReader([bag], default_typestore=ROS2_TYPESTORE)
+        reader.open()
+    except Exception as err:  # rosbags raises many types for unreadable input
+        raise BagError(f"{bag}: cannot read as a ROS 1 or ROS 2 bag ({type(err).__name__})"
+                       ) from None
+    return reader
+
+
+def measure_rate(reader: AnyReader, topic: str) -> float:
+    """The HEX10 stream's rate (Hz) from the header stamps of its first messages."""
+    connections = [c for c in reader.connections if c.topic == topic]
+    stamps = []
+    for connection, _, raw in reader.messages(connections=connections):
+        stamps.append(stamp_ns(reader.deserialize(raw, connection.msgtype)))
+        if len(stamps) >= _RATE_MESSAGES:
+            break
+    stamps = np.sort(np.array([s for s in stamps if s], dtype=np.int64))
+    return recording_rate_hz((stamps - stamps[:1]) * 1e-9, f"topic {topic}")
+
+
+def replay(bag: str | Path, checkpoint: str | Path, out: str | Path, *, arm: str = "PSM1",
+           topics: dict[str, str] | None = None, input_rate_hz: float | None = None,
+           post_filter: str = "none", backend: str = "auto", tare_on_start: bool = False,
+           tare_s: float = 0.5, sync: bool = False, realtime: bool = False, view_port: int | None = None,
+           view_hold_s: float | None = 0.0) -> dict:
+    """Play ``bag`` through the node for ``checkpoint``; write ``out`` (``.mcap``) and its
+    layout; return a summary (messages, answers, rate, decimation, flag counts, topics).
+    ``topics``: stream -> topic overrides as ``convert`` takes them (js, jaw, hex10, ati).
+    ``sync``: pair the streams by stamp (:class:`psmforce.live.node.ForceNode`).
+    ``view_hold_s``: with ``view_port``, how long the server stays up after the last message
+    (None: until interrupted)."""
+    from psm_model import PSM
+    from psmforce.live.view import LiveView, McapOut, write_layout
+    bag, out = Path(bag), Path(out)
+    if out.suffix != ".mcap":
+        raise ValueError(f"--out {out}: must name a .mcap file")
+    if out.exists():
+        raise ValueError(f"--out {out}: exists already")
+    resolved, required = resolve_topics(arm, {k: v for k, v in (topics or {}).items()
+                                              if k in ("js", "jaw", "hex10", "ati")})
+    reader = _open(bag)
+    try:
+        present = {c.topic: c.msgtype for c in reader.connections}
+        for name in ("js", "jaw", "hex10"):
+            topic = resolved[name]
+            if topic not in present:
+                raise BagError(f"{bag}: topic '{topic}' ({name} stream) not in the bag; topics "
+                               f"present: {sorted(present)}")
+            if present[topic] not in ACCEPTED_TYPES[name]:
+                raise BagError(f"{bag}: topic '{topic}' ({name} stream) has type "
+                               f"{present[topic]}; expected {' or '.join(ACCEPTED_TYPES[name])}")
+        if input_rate_hz is None:
+            try:
+                input_rate_hz = measure_rate(reader, resolved["hex10"])
+            except RateError as err:
+                raise BagError(f"{bag}: {err}") from None
+        estimator = StreamingEstimator.from_checkpoint(
+            checkpoint, input_rate_hz=input_rate_hz, psm=PSM(), post_filter=post_filter,
+            backend=backend)
+        node = ForceNode(estimator, arm=arm, tare_s=tare_s, sync=sync)
+        if tare_on_start:
+            node.request_tare()
+        stream_of = {resolved[s]: s for s in ("js", "jaw", "hex10")}
+        view = LiveView(view_port) if view_port is not None else None
+        partial = out.with_name(out.name + ".part")
+        sink = McapOut(partial)
+        flags = np.zeros(32, np.int64)
+        try:
+            summary = _play(reader, node, stream_of, sink, view, realtime, flags)
+            sink.close()
+            partial.rename(out)
+            if view is not None:
+                view.hold(view_hold_s)
+        finally:
+            if view is not None:
+                view.close()
+            if partial.exists():
+                sink.close()
+                partial.unlink()
+    finally:
+        reader.close()
+    layout = write_layout(out.with_suffix(".layout.json"), node.topics["hex10"],
+                          resolved["hex10"], resolved.get("ati") if resolved.get("ati")
+                          in present else None)
+    return {"bag": str(bag), "out": str(out), "layout": str(layout),
+            "input_rate_hz": estimator.input_rate_hz, "model_rate_hz": estimator.rate_hz,
+            "decimation": estimator.decimation, "lag_s": estimator.lag_s(),
+            "answers": node.answers, "tare_offset_N": node.offset.tolist(),
+            "flag_counts": {bit: int(n) for bit, n in enumerate(flags) if n},
+            "topics": dict(sorted(sink.counts.items())), **summary}
+
+
+def _play(reader, node: ForceNode, stream_of: dict, sink, view, realtime: bool,
+          flags: np.ndarray) -> dict:
+    start_wall = start_log = None
+    last_ns = 0
+    copied = skipped = 0
+    for connection, log_ns, raw in reader.messages():
+        if realtime:
+            if start_wall is None:
+                start_wall, start_log = time.monotonic(), log_ns
+            delay = start_wall + (log_ns - start_log) * 1e-9 - time.monotonic()
+            if delay > 0:
+                time.sleep(delay)
+        msgtype = connection.msgtype
+        if msgtype not in ROS2_TYPESTORE.types:
+            skipped += 1
+            continue
+        message = None
+        if not reader.is2:  # ROS 1: re-serialised as ROS 2 CDR
+            message = reader.deserialize(raw, msgtype)
+            raw = ROS2_TYPESTORE.serialize_cdr(message, msgtype)
+        _emit(sink, view, connection.topic, msgtype, bytes(raw), log_ns)
+        copied += 1
+        stream = stream_of.get(connection.topic)
+        if stream is None:
+            continue
+        _answer(node, node.update(stream, message or reader.deserialize(raw, msgtype)), sink,
+                view, log_ns, flags)
+        last_ns = log_ns
+    _answer(node, node.flush(), sink, view, last_ns, flags)
+    return {"inputs_copied": copied, "inputs_skipped": skipped}
+
+
+def _answer(node: ForceNode, answers, sink, view, log_ns: int, flags: np.ndarray) -> None:
+    for answer in answers:
+        for name, data in node.encode(answer).items():
+            _emit(sink, view, node.topics[name], OUTPUT_TYPES[name], data, log_ns)
+        flags += (answer.flags >> np.arange(32)) & 1
+
+
+def _emit(sink, view, topic: str, msgtype: str, data: bytes, log_ns: int) -> None:
+    sink.write(topic, msgtype, data, log_ns)
+    if view is not None:
+        view.write(topic, msgtype, data, log_ns)

@@ -1,0 +1,178 @@
+"""``psmforce serve``: the live force node over DDS (``cyclonedds``, extra ``psmforce[ros]``).
+
+:class:`DdsNode` subscribes (:mod:`psmforce.live.dds`: ROS 2 topic and type names, QoS) to the
+arm's joint states, the jaw's and the HEX10 wrench (CRTK names by default, each overridable as
+in ``convert``) and to the tare topic, and hands every message to a
+:class:`psmforce.live.node.ForceNode`, which answers each HEX10 message; the answers are
+published on the node's output topics (:func:`psmforce.live.node.output_topics`) as the
+:mod:`psmforce.live.cdr` bytes.
+
+Order. On each wake-up every reader is emptied, the HEX10's first, and the messages are
+handled in the order they were written (their DDS source timestamps), so each HEX10 message
+meets the joint states published before it (from one publisher, which delivers in order, as
+the simulated robot; separate publishers, as on the dVRK, race as any subscriber does);
+none is dropped (the readers keep :data:`psmforce.live.dds.DEPTH`).
+
+Rate. Unless ``input_rate_hz`` is given, the first :data:`RATE_MESSAGES` HEX10 messages are held
+back while their header stamps measure the input rate; the estimator is then built (a rate the
+model cannot serve stops the node with one line) and the held messages are handled in order,
+so nothing is lost, the first answers only come later.
+
+The domain: ``domain_id``, else ``ROS_DOMAIN_ID``, else 0, as ROS 2 does.
+"""
+
+from __future__ import annotations
+
+import os
+import threading
+import time
+
+import numpy as np
+
+from hybrid.rates import recording_rate_hz
+from hybrid.streaming import StreamingEstimator
+from psm_model.bags.messages import stamp_ns
+from psm_model.bags.reading import resolve_topics
+from psmforce.live.node import OUTPUT_TYPES, ForceNode, output_topics
+
+RATE_MESSAGES = 100
+"""HEX10 messages held back to measure the input rate (0.1 s at 1 kHz)."""
+
+
+def domain(domain_id: int | None = None) -> int:
+    """``domain_id``, else the ``ROS_DOMAIN_ID`` environment variable, else 0."""
+    if domain_id is not None:
+        return int(domain_id)
+    value = os.environ.get("ROS_DOMAIN_ID", "").strip()
+    if value and not value.isdigit():
+        raise ValueError(f"ROS_DOMAIN_ID must be an integer, got {value!r}")
+    return int(value or 0)
+
+
+class DdsNode:
+    """The live node (module docstring). ``topics``: stream -> topic overrides (js, jaw,
+    hex10); ``sync``: pair the streams by stamp (:class:`psmforce.live.node.ForceNode`);
+    ``options``: more keyword arguments of
+    :meth:`hybrid.streaming.StreamingEstimator.from_checkpoint` (post_filter, backend)."""
+
+    def __init__(self, checkpoint, participant, *, arm: str = "PSM1",
+                 topics: dict | None = None, input_rate_hz: float | None = None,
+                 tare_on_start: bool = False, tare_s: float = 0.5, best_effort: bool = False,
+                 sync: bool = False, **options):
+        from cyclonedds.core import ReadCondition, SampleState, ViewState, InstanceState
+        from cyclonedds.core import WaitSet
+        from cyclonedds.pub import DataWriter
+        from cyclonedds.sub import DataReader
+        from cyclonedds.topic import Topic
+
+        from psmforce.live import dds
+        self.checkpoint, self.arm, self.options = checkpoint, arm, options
+        self.input_rate_hz, self.tare_on_start, self.tare_s = input_rate_hz, tare_on_start, tare_s
+        self.sync = sync
+        resolved, _ = resolve_topics(arm, {k: v for k, v in (topics or {}).items()
+                                           if k in ("js", "jaw", "hex10")})
+        self.input_topics = {s: resolved[s] for s in ("js", "jaw", "hex10")}
+        self.output_topics = output_topics(arm)
+        qos = dds.qos(best_effort)
+        kinds = {"js": dds.JointState, "jaw": dds.JointState, "hex10": dds.WrenchStamped,
+                 "tare": dds.Empty}
+        sources = {**self.input_topics, "tare": self.output_topics["tare"]}
+        self.readers = {s: DataReader(participant, Topic(participant, dds.dds_topic(t),
+                                                         kinds[s]), qos=qos)
+                        for s, t in sources.items()}
+        self.writers = {name: DataWriter(participant, Topic(
+            participant, dds.dds_topic(self.output_topics[name]), dds.TYPES[msgtype]), qos=qos)
+            for name, msgtype in OUTPUT_TYPES.items()}
+        self._waitset = WaitSet(participant)
+        mask = SampleState.Any | ViewState.Any | InstanceState.Any
+        for reader in self.readers.values():
+            self._waitset.attach(ReadCondition(reader, mask))
+        self._write = dds.write_raw
+        self._take_order = ("hex10", "tare", "jaw", "js")
+        self.node: ForceNode | None = None
+        self._held: list[tuple[str, object]] = []
+        self.received = {s: 0 for s in sources}
+        self.published = 0
+        self.flag_counts = np.zeros(32, np.int64)
+
+    def _start(self, rate_hz: float) -> None:
+        from psm_model import PSM
+        estimator = StreamingEstimator.from_checkpoint(self.checkpoint, input_rate_hz=rate_hz,
+                                                       psm=PSM(), **self.options)
+        self.node = ForceNode(estimator, arm=self.arm, tare_s=self.tare_s, sync=self.sync)
+        if self.tare_on_start:
+            self.node.request_tare()
+
+    def _handle(self, stream: str, message) -> None:
+        if stream == "tare":
+            self.node.request_tare()
+            return
+        for answer in self.node.update(stream, message):
+            for name, data in self.node.encode(answer).items():
+                self._write(self.writers[name], data)
+            self.published += 1
+            self.flag_counts += (answer.flags >> np.arange(32)) & 1
+
+    def spin_once(self, timeout_s: float = 0.1) -> int:
+        """Wait up to ``timeout_s`` for messages and handle all there are; returns how many."""
+        from cyclonedds.util import duration
+        self._waitset.wait(duration(microseconds=int(timeout_s * 1e6)))
+        batch = []
+        # the trigger's reader first: the messages published before a HEX10 message arrive
+        # before it, so they are in the other readers by the time those are emptied
+        for order, stream in enumerate(self._take_order):
+            for message in self.readers[stream].take(N=4096):
+                info = message.sample_info
+                if info.valid_data:
+                    batch.append((info.source_timestamp, order, stream, message))
+        batch.sort(key=lambda item: item[:2])
+        for _, _, stream, message in batch:
+            self.received[stream] += 1
+            if self.node is None:
+                self._hold(stream, message)
+            else:
+                self._handle(stream, message)
+        return len(batch)
+
+    def _hold(self, stream: str, message) -> None:
+        self._held.append((stream, message))
+        if self.input_rate_hz is not None:
+            rate = self.input_rate_hz
+        else:
+            stamps = [stamp_ns(m) for s, m in self._held if s == "hex10"]
+            if len(stamps) < RATE_MESSAGES:
+                return
+            stamps = np.sort(np.array(stamps, np.int64))
+            rate = recording_rate_hz((stamps - stamps[0]) * 1e-9, "the HEX10 stream")
+        self._start(rate)
+        held, self._held = self._held, []
+        for item in held:
+            self._handle(*item)
+
+    def spin(self, duration_s: float | None = None, stop: threading.Event | None = None,
+             idle_stop_s: float | None = None) -> dict:
+        """Handle messages until ``duration_s`` has passed, ``stop`` is set, or nothing came
+        for ``idle_stop_s`` after the first message; returns :meth:`report`."""
+        end = None if duration_s is None else time.monotonic() + duration_s
+        last = None
+        while not (stop is not None and stop.is_set()):
+            now = time.monotonic()
+            if end is not None and now >= end:
+                break
+            if self.spin_once(0.05):
+                last = now
+            elif idle_stop_s is not None and last is not None and now - last > idle_stop_s:
+                break
+        return self.report()
+
+    def report(self) -> dict:
+        node = self.node
+        out = {"received": dict(self.received), "answers_published": self.published,
+               "input_topics": self.input_topics, "output_topics": self.output_topics,
+               "flag_counts": {bit: int(n) for bit, n in enumerate(self.flag_counts) if n}}
+        if node is not None:
+            est = node.estimator
+            out.update(input_rate_hz=est.input_rate_hz, model_rate_hz=est.rate_hz,
+                       decimation=est.decimation, lag_s=est.lag_s(),
+                       tare_offset_N=node.offset.tolist())
+        return out

@@ -1,0 +1,176 @@
+"""Issue 26: exports and cached task results carry the integrity envelope and are refused (or
+recomputed) when edited; the export runner is as strict as the stream and confined to its
+folder; the stream never raises on a timestamp; model configs are checked before allocation."""
+
+from __future__ import annotations
+
+import json
+import os
+
+import numpy as np
+import pytest
+
+from hybrid.export import ExportError, export, run_export
+from hybrid.grid import GridError, cache_path, read_result, run_grid
+from hybrid.integrity import IntegrityError, check_version, seal, verify
+from hybrid.recipes import RecipeError, build_model, check_config
+from hybrid.streaming import Flags
+from test_export import _checkpoint
+from test_streaming import estimator, one_thread, recording  # noqa: F401
+
+
+@pytest.fixture(scope="module")
+def exported(tmp_path_factory):
+    root = tmp_path_factory.mktemp("export")
+    export(_checkpoint(root, use_prior=False), root / "out")
+    return root / "out"
+
+
+def _copy(exported, tmp_path, edit=None):
+    out = tmp_path / "copy"
+    out.mkdir()
+    for name in ("hybrid.json", "hybrid_step.onnx"):
+        (out / name).write_bytes((exported / name).read_bytes())
+    if edit is not None:
+        spec = json.loads((out / "hybrid.json").read_text())
+        edit(spec)
+        (out / "hybrid.json").write_text(json.dumps(spec))
+    return out
+
+
+def test_an_intact_export_runs_and_an_edited_one_is_refused_naming_the_field(exported, tmp_path):
+    frame = recording(40)
+    assert np.isfinite(run_export(exported, frame)).all()
+    out = _copy(exported, tmp_path, lambda s: s["target_scaler"]["mean"].__setitem__(0, 9.0))
+    with pytest.raises(ExportError, match="changed: target_scaler") as err:
+        run_export(out, frame)
+    assert str(out / "hybrid.json") in str(err.value) and "\n" not in str(err.value)
+
+
+def test_an_export_pointing_outside_its_folder_is_refused(exported, tmp_path):
+    """The JSON may not name a graph elsewhere, even one that would match its digest."""
+    outside = tmp_path / "elsewhere.onnx"
+    outside.write_bytes((exported / "hybrid_step.onnx").read_bytes())
+    for k, target in enumerate((str(outside), "../elsewhere.onnx", "sub/../../elsewhere.onnx")):
+        folder = tmp_path / f"case{k}"
+        folder.mkdir()
+        out = _copy(exported, folder, lambda s: s.update(onnx=target))
+        spec = json.loads((out / "hybrid.json").read_text())
+        (out / "hybrid.json").write_text(json.dumps(seal(spec)))  # even with a fresh envelope
+        with pytest.raises(ExportError, match="inside the export folder") as err:
+            run_export(out, recording(10))
+        assert str(out / "hybrid.json") in str(err.value)
+    link_dir = tmp_path / "linked"
+    link_dir.mkdir()
+    out = _copy(exported, link_dir)
+    os.remove(out / "hybrid_step.onnx")
+    os.symlink(outside, out / "hybrid_step.onnx")
+    with pytest.raises(ExportError, match="leads outside the export folder"):
+        run_export(out, recording(10))
+
+
+def test_an_edited_graph_and_an_older_version_are_refused(exported, tmp_path):
+    out = _copy(exported, tmp_path)
+    raw = bytearray((out / "hybrid_step.onnx").read_bytes())
+    raw[-20] ^= 0xFF
+    (out / "hybrid_step.onnx").write_bytes(bytes(raw))
+    with pytest.raises(ExportError, match="does not match the SHA-256"):
+        run_export(out, recording(10))
+    old = tmp_path / "v2"
+    old.mkdir()
+    out = _copy(exported, old, lambda s: (s.pop("sha256"), s.update(format_version=2)))
+    with pytest.raises(ExportError, match="export the checkpoint again"):
+        run_export(out, recording(10))
+    text = tmp_path / "text"
+    text.mkdir()
+    out = _copy(exported, text, lambda s: s.update(format_version="3"))
+    with pytest.raises(ExportError, match="is not an integer"):
+        run_export(out, recording(10))
+
+
+@pytest.mark.parametrize("column, value, reason", [
+    ("fx", np.nan, "column fx row 7"), ("roll_position", 1e30, "column roll_position row 7"),
+    ("insertion_effort", np.inf, "column insertion_effort row 7")])
+def test_the_runner_refuses_what_the_stream_refuses(exported, column, value, reason):
+    frame = recording(20)
+    frame.loc[7, column] = value
+    with pytest.raises(ExportError, match=reason):
+        run_export(exported, frame)
+
+
+def test_the_runner_refuses_missing_and_text_columns(exported):
+    with pytest.raises(ExportError, match="lacks the columns"):
+        run_export(exported, recording(20).drop(columns=["fy"]))
+    frame = recording(20)
+    frame["fz"] = frame["fz"].astype(object)
+    frame.loc[3, "fz"] = "abc"
+    with pytest.raises(ExportError, match="column fz: not numeric"):
+        run_export(exported, frame)
+    with pytest.raises(ExportError, match="must be a pandas DataFrame"):
+        run_export(exported, recording(20).to_numpy())
+
+
+@pytest.mark.parametrize("jump", [1e307, 1.7e308, -1e307])
+def test_step_with_a_huge_timestamp_flags_and_carries_on(jump):
+    """A finite timestamp whose gap overflows to infinitely many samples is a GAP (or, going
+    back, TIME_BACKWARDS), never an exception; the stream goes on estimating afterwards."""
+    est = estimator(use_prior=False)
+    rows = recording(200).to_dict("records")
+    out = [est.step(r) for r in rows[:100]]
+    odd = est.step({**rows[100], "time": jump})
+    assert odd.flags & (Flags.GAP | Flags.TIME_BACKWARDS)
+    after = [est.step(r) for r in rows[101:]]
+    assert all(np.isfinite(e.force_hex10).all() for e in out[-5:] + after[-5:])
+    assert not after[-1].flags & Flags.INVALID_INPUT
+
+
+def _double(params: dict) -> dict:
+    return {"x": 2 * params["x"]}
+
+
+def test_an_edited_cached_result_is_recomputed_never_returned(tmp_path):
+    cache = tmp_path / "cache"
+    logged = []
+    assert run_grid([(_double, {"x": 3})], cache, log=logged.append) == [{"x": 6}]
+    path = cache_path(cache, _double, {"x": 3})
+    record = json.loads(path.read_text())
+    assert record["format_version"] == 1 and "sha256" in record
+    record["result"]["x"] = 1000  # an edited number
+    path.write_text(json.dumps(record))
+    with pytest.raises(GridError, match="changed: result"):
+        read_result(path, "test_integrity_artefacts:_double", {"x": 3})
+    assert run_grid([(_double, {"x": 3})], cache, log=logged.append) == [{"x": 6}]
+    assert any("recomputing" in line and str(path) in line for line in logged)
+    legacy = {k: record[k] for k in ("task", "params", "seconds")} | {"result": {"x": 7}}
+    path.write_text(json.dumps(legacy))  # written before results were sealed
+    assert run_grid([(_double, {"x": 3})], cache, log=logged.append) == [{"x": 6}]
+
+
+def test_envelope_and_version_helpers():
+    record = seal({"a": 1, "b": [1.5, float("nan")], "c": (1, 2)})
+    verify(record, "f.json", "thing")
+    with pytest.raises(IntegrityError, match="f.json: thing does not match .*changed: a"):
+        verify({**record, "a": 2}, "f.json", "thing")
+    with pytest.raises(IntegrityError, match="removed: c"):
+        verify({k: v for k, v in record.items() if k != "c"}, "f.json", "thing")
+    for bad in ("1", 1.0, True, None):
+        with pytest.raises(IntegrityError, match="not an integer"):
+            check_version(bad, (1,), "f.json", "thing")
+    assert check_version(1, (1,), "f.json", "thing") == 1
+
+
+@pytest.mark.parametrize("model, config, key", [
+    ("hybrid", {"n_heads": 0}, "n_heads"), ("hybrid", {"d_model": 0}, "d_model"),
+    ("hybrid", {"n_heads": 5}, "n_heads must divide d_model"),
+    ("hybrid", {"attention_window": 100_000}, "attention_window"),
+    ("hybrid", {"dropout": 1.0}, "dropout"), ("hybrid", {"n_layers": 2.0}, "n_layers"),
+    ("transformer", {"n_heads": 0}, "n_heads"), ("transformer", {"n_heads": 7}, "n_heads"),
+    ("transformer", {"window": 0}, "window"), ("fcn", {"hidden": -1}, "hidden"),
+    ("lstm", {"max_torque": [1, 1]}, "max_torque"), ("rocket", {"window": 10 ** 9}, "window"),
+    ("fcn", {"width": 3}, "'width' is not an argument")])
+def test_configs_are_checked_before_any_allocation_naming_the_key(model, config, key):
+    with pytest.raises(RecipeError, match=key) as err:
+        check_config(model, 36 if model == "lstm" else 21, config)
+    assert "\n" not in str(err.value)
+    with pytest.raises(RecipeError, match=key):
+        build_model(model, 36 if model == "lstm" else 21, config)
