@@ -1,0 +1,190 @@
+"""The learning curve: each model's error against the amount of training data, up to the paper's.
+
+Each point is one ``psmforce reproduce`` run of the automated protocol at a scale (1.0 = the
+paper's amount of data) with the main models only (no ablations, data efficiency or
+teleoperation), every model trained to early stopping over the bench seeds, cached per task and
+resumable inside a task (:mod:`hybrid.resume`): rerunning the same command goes on where a killed
+run stopped. A scale is a point of the curve once its run has finished (its ``results.json``).
+
+    python benchmarks/learning_curve.py --scales 0.05 0.1 --json results/learning_curve/learning_curve.json
+    python benchmarks/learning_curve.py --render-only --json results/learning_curve/learning_curve.json
+
+The JSON holds, per scale, the minutes of training recordings (the automated training split,
+validation included, at the bench's rate), each model's causal and paper NRMSE per axis (mean,
+std and number of seeds), whether every model converged, and, per axis, the verdict of the hybrid
+against the paper's transformer by the spread rule (a win needs mean + std below the other's
+mean - std). ``--render-only`` assembles the JSON, the table (``README.md``) and one figure per
+axis (``<axis>.png``: error against minutes of data, log-log, the spread as error bars) beside it
+from the finished runs under ``--work``, training nothing.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from benchmarks._report import shown_path, write_json  # noqa: E402
+from psm_model.files import write_text_atomic  # noqa: E402
+
+SCALES = (0.05, 0.1, 0.25, 0.5, 1.0)
+MODELS = ("hybrid", "transformer", "fcn", "rocket")
+AXES = ("Fx", "Fy", "Fz")
+METRICS = ("causal", "paper")
+HYBRID, TRANSFORMER = "Hybrid (ours)", "Transformer (paper)"
+
+
+def run_dir(work: Path, scale: float) -> Path:
+    return work / f"scale_{scale:g}"
+
+
+def run_scale(work: Path, scale: float, seeds, models, threads: int) -> None:
+    """Run (or resume) the reproduction at ``scale``."""
+    from hybrid.reproduce import reproduce
+    reproduce(run_dir(work, scale), scale=scale, seeds=seeds, threads=threads, models=models,
+              ablations=False, efficiency=False, teleop=False)
+
+
+def _training_minutes(out: Path, seeds) -> float:
+    """Minutes of recordings in the automated training split (validation included), mean over
+    the seeds' benches."""
+    minutes = []
+    for seed in seeds:
+        meta = json.loads((out / "work" / "data" / f"automated_seed{seed}" / "metadata.json")
+                          .read_text())
+        rows = sum(t["rows"] for t in meta["trials"] if t["split"] == "train")
+        minutes.append(rows / meta["sample_rate_hz"] / 60.0)
+    return sum(minutes) / len(minutes)
+
+
+def point(out: Path) -> dict:
+    """One finished run's point of the curve."""
+    results = json.loads((out / "results.json").read_text())
+    seeds = results["call"]["seeds"]
+    automated = results["automated"]
+    models = {label: {m: {a: automated[m][label][a]["nrmse_pct"] for a in AXES}
+                      for m in METRICS}
+              for label in automated["causal"]}
+    return {"scale": results["call"]["scale"], "seeds": seeds,
+            "training_minutes": _training_minutes(out, seeds),
+            "simulator_versions": sorted(set(results["benches"].values())),
+            "all_converged": results["all_converged"], "models": models,
+            "hybrid_vs_transformer": _verdicts(models), "run": shown_path(out)}
+
+
+def _verdicts(models: dict) -> dict:
+    if HYBRID not in models or TRANSFORMER not in models:
+        return {}
+    out = {}
+    for m in METRICS:
+        out[m] = {}
+        for a in AXES:
+            h, t = models[HYBRID][m][a], models[TRANSFORMER][m][a]
+            verdict = ("hybrid ahead" if h["mean"] + h["std"] < t["mean"] - t["std"] else
+                       "transformer ahead" if t["mean"] + t["std"] < h["mean"] - h["std"] else
+                       "tie")
+            out[m][a] = {"verdict": verdict, "ratio": h["mean"] / t["mean"]}
+    return out
+
+
+def table(curve: dict) -> str:
+    """The Markdown table of the curve (``README.md`` beside the JSON)."""
+    lines = ["# The learning curve", "",
+             f"Rendered by `python benchmarks/learning_curve.py --render-only --json "
+             f"{curve['json']}` from the JSON beside it; the runs' commands are there. The "
+             "automated protocol of the simulated bench at each scale (1.0 = the paper's amount "
+             "of data); NRMSE % on the test trials, mean ± std over bench seeds; causal = the "
+             "raw per-sample estimate a haptic loop gets, paper = the paper's offline "
+             "post-processing. Figures: one per axis, causal metric, beside this page.", ""]
+    if not curve["points"]:
+        return "\n".join(lines + ["No scale has finished yet.", ""])
+    for m in METRICS:
+        lines += [f"**{m}**", "", "| scale | minutes of training data | seeds | converged | model "
+                  "| Fx | Fy | Fz |", "|---|---|---|---|---|---|---|---|"]
+        for p in curve["points"]:
+            for label, r in p["models"].items():
+                cells = " | ".join(f"{r[m][a]['mean']:.2f} ± {r[m][a]['std']:.2f}"
+                                   for a in AXES)
+                lines.append(f"| {p['scale']:g} | {p['training_minutes']:.1f} | "
+                             f"{len(p['seeds'])} | {'yes' if p['all_converged'] else 'NO'} | "
+                             f"{label} | {cells} |")
+            if p["hybrid_vs_transformer"]:
+                v = p["hybrid_vs_transformer"][m]
+                lines.append(f"| {p['scale']:g} | | | | hybrid / transformer | " + " | ".join(
+                    f"{v[a]['ratio']:.2f}x ({v[a]['verdict']})" for a in AXES) + " |")
+        lines.append("")
+    lines += ["Scales not yet measured: "
+              + (", ".join(f"{s:g}" for s in curve["missing_scales"]) or "none") + ".", ""]
+    return "\n".join(lines)
+
+
+def figures(curve: dict, folder: Path) -> list[str]:
+    """One log-log figure per axis: causal NRMSE against minutes of training data."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    written = []
+    for a in AXES:
+        fig, ax = plt.subplots(figsize=(5.5, 4), layout="constrained")
+        labels = sorted({label for p in curve["points"] for label in p["models"]})
+        for label in labels:
+            pts = [p for p in curve["points"] if label in p["models"]]
+            x = [p["training_minutes"] for p in pts]
+            y = [p["models"][label]["causal"][a]["mean"] for p in pts]
+            e = [p["models"][label]["causal"][a]["std"] for p in pts]
+            ax.errorbar(x, y, yerr=e, marker="o", capsize=3, label=label)
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlabel("training data [minutes of recordings]")
+        ax.set_ylabel(f"{a} (force on the tool, HEX10 frame): causal NRMSE [%]")
+        ax.legend(fontsize=8)
+        path = folder / f"{a}.png"
+        fig.savefig(path, dpi=120)
+        plt.close(fig)
+        written.append(path.name)
+    return written
+
+
+def assemble(work: Path, scales, json_path: Path) -> dict:
+    points = [point(run_dir(work, s)) for s in sorted(scales)
+              if (run_dir(work, s) / "results.json").exists()]
+    done = {p["scale"] for p in points}
+    curve = {"command": "python benchmarks/learning_curve.py " + " ".join(sys.argv[1:]),
+             "json": shown_path(json_path), "scales": sorted(scales),
+             "missing_scales": [s for s in sorted(scales) if s not in done],
+             "points": points}
+    json_path.parent.mkdir(parents=True, exist_ok=True)
+    curve["figures"] = figures(curve, json_path.parent) if points else []
+    write_json(json_path, curve)
+    write_text_atomic(json_path.parent / "README.md", table(curve))
+    return curve
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--scales", type=float, nargs="+", default=list(SCALES))
+    ap.add_argument("--seeds", type=int, nargs="+", default=[1, 2, 3])
+    ap.add_argument("--models", nargs="+", default=list(MODELS))
+    ap.add_argument("--threads", type=int, default=2)
+    ap.add_argument("--work", type=Path, default=Path("runs/learning_curve"))
+    ap.add_argument("--json", type=Path, default=ROOT / "results" / "learning_curve"
+                    / "learning_curve.json")
+    ap.add_argument("--render-only", action="store_true",
+                    help="assemble the finished scales, train nothing")
+    args = ap.parse_args(argv)
+    if len(set(args.seeds)) != len(args.seeds):
+        ap.error(f"--seeds: repeated seeds {args.seeds}")
+    if not args.render_only:
+        for scale in sorted(args.scales):
+            run_scale(args.work, scale, args.seeds, args.models, args.threads)
+            assemble(args.work, args.scales, args.json)  # a finished point is kept at once
+    assemble(args.work, args.scales, args.json)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
