@@ -27,7 +27,11 @@ edited, a non-integer format version or a config out of range (some resealed, as
 would); model configs; timestamps that overflow the stream's gap arithmetic; the export runner
 (edited or foreign folders, a graph outside its folder, bad recordings); outputs naming an
 input; repeated seeds; degenerate targets and train/test overlap; edited cached task results;
-fits that must print their verdict.
+fits that must print their verdict. :func:`prior_envelope_cases` and
+:func:`more_integrity_cases` go beyond the issue's report: prior files with one field edited or a
+version that is not the integer, timestamps on a decimating stream and on a clock past float
+resolution, array samples of a non-real dtype, tables the export runner cannot read as the
+stream would (a column twice, complex, no rows), repeated seeds from Python.
 
 Each case also states the verdict it should get (REJECTED or HANDLED). Cases whose acceptance
 would start expensive work (a simulation at scale 1e6, a reproduce run) patch that work to raise
@@ -560,10 +564,13 @@ def cases() -> list[Case]:
 
     # --- priors ------------------------------------------------------------------------------
     def prior_file(s, d, edit):
+        """The shared prior with ``edit`` applied: text as given, an edited document resealed
+        (a careless tool), so that its parameter bounds, not its envelope, must refuse it."""
+        from hybrid.integrity import seal
         path = d / "prior.json"
         doc = json.loads(s.prior.read_text())
         text = edit(doc)
-        path.write_text(text if isinstance(text, str) else json.dumps(doc))
+        path.write_text(text if isinstance(text, str) else json.dumps(seal(doc)))
         return path
 
     def set_param(name, value):
@@ -925,7 +932,7 @@ def cases() -> list[Case]:
         doc = json.loads(s.arm.read_text())
         doc["gravity_mps2"][0] = float("nan")
         path = d / "arm.json"
-        path.write_text(json.dumps(doc))
+        path.write_text(json.dumps(_resealed(doc)))  # resealed: the NaN check must refuse it
         return Attempt(argv=["wrench", str(trial(s.bench)), "--dynamics", str(path),
                              "--out", str(d / "w.csv")], names=(str(path),))
 
@@ -1625,6 +1632,197 @@ def integrity_cases() -> list[Case]:
         return Attempt(argv=["fit-prior", "--data", str(s.bench), "--out", str(out),
                              "--accept-poor-fit"], check=check)
 
+    found.extend(prior_envelope_cases() + more_integrity_cases())
+    return found
+
+
+def prior_envelope_cases() -> list[Case]:
+    """Prior files carry the envelope too: one field edited (inside every bound, so only the
+    envelope can tell), a version that is not the integer, a file from before the envelope."""
+    found: list[Case] = []
+
+    def edited_prior(s, d, edit, reseal=False):
+        from hybrid.integrity import seal
+        doc = json.loads(s.prior.read_text())
+        edit(doc)
+        path = d / "prior.json"
+        path.write_text(json.dumps(seal(doc) if reseal else doc))
+        return path
+
+    def in_bounds(doc):
+        entry = doc["parameters"]["bias_fz"]
+        entry["value"] = entry["lower"] + 0.37 * (entry["upper"] - entry["lower"])
+
+    edits = {
+        "a parameter edited inside its bounds": (in_bounds, False),
+        "axis_weights edited": (lambda doc: doc.update(axis_weights=[0.5] * 6), False),
+        "insertion model edited": (lambda doc: doc["insertion"].update(note="edited"), False),
+        "converged flipped": (lambda doc: doc.update(converged=False), False),
+        "a field added": (lambda doc: doc.update(note="trust me"), False),
+        "envelope removed, version kept": (lambda doc: doc.pop("sha256"), False),
+        "version removed, envelope kept": (lambda doc: doc.pop("format_version"), False),
+        "format_version '2' (text)": (lambda doc: doc.update(format_version="2"), True),
+        "format_version 2.0 (float)": (lambda doc: doc.update(format_version=2.0), True),
+        "format_version true": (lambda doc: doc.update(format_version=True), True),
+        "format_version 3": (lambda doc: doc.update(format_version=3), True),
+    }
+    for damage, (edit, reseal) in edits.items():
+        def load(s, d, edit=edit, reseal=reseal):
+            from psm_model.identification.prior import InternalForcePrior
+            path = edited_prior(s, d, edit, reseal)
+            return Attempt(call=lambda: InternalForcePrior.load(path), names=(str(path),))
+        found.append(Case("api InternalForcePrior.load: envelope", damage, "REJECTED", load))
+
+        def train_with(s, d, edit=edit, reseal=reseal):
+            path = edited_prior(s, d, edit, reseal)
+            return Attempt(argv=["train", "--data", str(s.bench), "--model", "hybrid",
+                                 "--prior", str(path), "--epochs", "1", "--out", str(d / "h.pt")],
+                           names=(str(path),), guard="hybrid.train.train_model")
+        found.append(Case("cli train --prior: envelope", damage, "REJECTED", train_with))
+
+    def legacy(doc):
+        doc.pop("sha256")
+        doc.pop("format_version")
+
+    @_register(found, "api InternalForcePrior.load: envelope",
+               "a file written before the envelope loads", "HANDLED")
+    def _(s, d):
+        from psm_model.identification.prior import InternalForcePrior
+        path = edited_prior(s, d, legacy)
+
+        def check(prior):
+            same = np.array_equal(prior.params, InternalForcePrior.load(s.prior).params)
+            return same, f"loaded, parameters as written: {same}"
+        return Attempt(call=lambda: InternalForcePrior.load(path), check=check)
+    return found
+
+
+def _register(found: list[Case], kind: str, name: str, expect: str = "REJECTED"):
+    def register(prepare):
+        found.append(Case(kind, name, expect, prepare))
+        return prepare
+    return register
+
+
+def more_integrity_cases() -> list[Case]:
+    """Cases of issue 26's classes beyond its report: more timestamps (a decimating stream, a
+    clock past float resolution), the runner's tables, repeated seeds from Python."""
+    found: list[Case] = []
+
+    # --- the stream's timestamps: flagged, never raised -----------------------------------
+    def stream_case(name, times, flag, at=300, input_rate_hz=None, expect_finite=True):
+        def prepare(s, d):
+            from hybrid.streaming import Flags, StreamingEstimator
+            rows = pd.read_csv(trial(s.bench, "test", "Palpation")).to_dict("records")
+            period = 1.0 / (input_rate_hz or 100.0)
+            clean = [r["time"] if input_rate_hz is None else k * period
+                     for k, r in enumerate(rows)]
+            stamps = times(clean)
+
+            def run():
+                options = {} if input_rate_hz is None else {"input_rate_hz": input_rate_hz}
+                est = StreamingEstimator.from_checkpoint(s.hybrid, post_filter="lowpass",
+                                                         **options)
+                return [est.step(r, time=t) for r, t in zip(rows, stamps)]
+
+            def check(estimates):
+                odd = estimates[at]
+                flagged = bool(odd.flags & Flags[flag])
+                if not expect_finite:  # every later sample flagged, none raised
+                    rest = all(e.flags & (Flags.TIME_BACKWARDS | Flags.GAP)
+                               for e in estimates[at:])
+                    return flagged and rest, (f"flags at sample {at} {Flags(odd.flags)!r}, "
+                                              f"every later one flagged {rest}")
+                finite = all(np.isfinite(e.force_hex10).all()
+                             for e in estimates[warmed_up(estimates):])
+                last = estimates[-1]
+                ok = flagged and finite and not last.flags & Flags.INVALID_INPUT
+                return ok, (f"flags at sample {at} {Flags(odd.flags)!r}, estimates finite "
+                            f"{finite}, last flags {Flags(last.flags)!r}")
+            return Attempt(call=run, check=check)
+        found.append(Case("api StreamingEstimator.step: timestamp", name, "HANDLED", prepare))
+
+    def one(value):
+        def times(clean):
+            return [value if k == 300 else t for k, t in enumerate(clean)]
+        return times
+
+    stream_case("time NaN", one(float("nan")), "INVALID_INPUT")
+    stream_case("time -inf", one(float("-inf")), "INVALID_INPUT")
+    stream_case("time numpy 1e307", one(np.float64(1e307)), "GAP")
+    stream_case("time a numpy array of one value", one(np.array([1e307])), "GAP")
+    stream_case("time 'abc' (text)", one("abc"), "INVALID_INPUT")
+    stream_case("time 1e307 at 1 kHz in (decimated x10)", one(1e307), "GAP",
+                input_rate_hz=1000.0)
+    stream_case("time NaN at 1 kHz in (decimated x10)", one(float("nan")), "INVALID_INPUT",
+                input_rate_hz=1000.0)
+    stream_case("clock past float resolution from sample 300 (1e300 + k dt)",
+                lambda clean: [t if k < 300 else 1e300 + t for k, t in enumerate(clean)],
+                "GAP", expect_finite=False)
+
+    def array_case(name, corrupt):
+        def prepare(s, d):
+            from hybrid.streaming import Flags, StreamingEstimator
+            frame = pd.read_csv(trial(s.bench, "test", "Palpation"))
+
+            def run():
+                est = StreamingEstimator.from_checkpoint(s.hybrid, post_filter="lowpass")
+                values = frame[list(est.columns)].to_numpy(np.float64)
+                return [est.step(corrupt(x) if k == 300 else x, time=t)
+                        for k, (x, t) in enumerate(zip(values, frame["time"]))]
+
+            def check(estimates):
+                odd, last = estimates[300], estimates[-1]
+                finite = all(np.isfinite(e.force_hex10).all()
+                             for e in estimates[warmed_up(estimates):])
+                ok = (bool(odd.flags & Flags.INVALID_INPUT) and finite
+                      and not last.flags & Flags.INVALID_INPUT)
+                return ok, (f"flags at sample 300 {Flags(odd.flags)!r}, estimates finite "
+                            f"{finite}, last flags {Flags(last.flags)!r}")
+            return Attempt(call=run, check=check)
+        found.append(Case("api StreamingEstimator.step: array sample", name, "HANDLED",
+                          prepare))
+
+    array_case("complex dtype (numpy would drop the imaginary part)", lambda x: x + 0j)
+    array_case("text dtype", lambda x: x.astype(str))
+    array_case("bool dtype", lambda x: x > 0)
+    array_case("one value short", lambda x: x[:-1])
+    array_case("two-dimensional", lambda x: x[None, :])
+
+    # --- the export runner: tables it cannot read as the stream would --------------------
+    def runner_frame(name, frame, names):
+        def prepare(s, d):
+            from hybrid.export import run_export
+            rec = frame(pd.read_csv(trial(s.bench, "test", "Palpation")))
+            return Attempt(call=lambda: run_export(s.export, rec), names=names)
+        found.append(Case("api run_export", name, "REJECTED", prepare))
+
+    runner_frame("recording: a column twice", lambda f: pd.concat([f, f[["fx"]]], axis=1),
+                 ("fx",))
+    runner_frame("recording: a bool column", lambda f: f.assign(fy=f["fy"] > 0), ("fy",))
+    runner_frame("recording: a complex column", lambda f: f.assign(fz=f["fz"] + 1j),
+                 ("fz",))
+    runner_frame("recording: no rows", lambda f: f.iloc[:0], ("no rows", "empty"))
+
+    # --- gates that speak: every fit's verdict on the console -----------------------------
+    @_register(found, "cli fit-dynamics: gate", "the verdict is printed on the console",
+               "HANDLED")
+    def _(s, d):
+        out = d / "arm.json"
+
+        def check(stdout):
+            verdict = [ln for ln in stdout.splitlines() if ln.startswith("verdict: ")]
+            return bool(verdict) and out.exists(), f"{verdict}"
+        return Attempt(argv=["fit-dynamics", "--data", str(s.bench), "--model-out", str(out),
+                             "--accept-poor-fit"], check=check)
+
+    # --- repeated seeds from Python, before any work ----------------------------------------
+    for seeds in ((1, 1), (2, 3, 2)):
+        @_register(found, "api reproduce: seeds", f"seeds={seeds}")
+        def _(s, d, seeds=seeds):
+            from hybrid.reproduce import reproduce
+            return Attempt(call=lambda: reproduce(d / "run", seeds=seeds), names=("seeds",),
+                           guard="hybrid.reproduce.run_grid")
     return found
 
 

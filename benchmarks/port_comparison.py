@@ -45,14 +45,14 @@ from hybrid.data import load_dataset, split_validation
 from hybrid.evaluate import score
 from hybrid.inputs import add_prior_columns
 from hybrid.metrics import AXES
-from hybrid.recipes import recipe
+from hybrid.plan import plan
 from psm_model.identification import InternalForcePrior
 from psm_model.recording import TARGETS
 from psm_model.sim import drive
 from psm_model.sim.params import InstrumentParams
 from _report import write_json
 
-HYBRID, TRANSFORMER, TORQUE_ONLY = (recipe(m).label for m in ("hybrid", "transformer", "lstm"))
+HYBRID, TRANSFORMER, TORQUE_ONLY = (plan(m).label for m in ("hybrid", "transformer", "lstm"))
 
 
 def _table(run: Path) -> dict[str, dict[str, tuple[float, float]]]:

@@ -217,7 +217,7 @@ def prior_ablation_tables(result: dict) -> str:
 
 def prior_ablation_summary(result: dict) -> str:
     """README: what the physics prior adds to the hybrid, per axis, as the ablation measures it."""
-    shipped, chosen = result["shipped"], result["chosen_on_validation"]["variant"]
+    shipped = result["shipped"]
     parts = []
     for bench, variants in result["verdicts"].items():
         v = variants[shipped]["causal"]
@@ -235,9 +235,21 @@ def prior_ablation_summary(result: dict) -> str:
             "axis\"): " + "; ".join(parts) + ". The crossing bench adds an internal lateral "
             "force the prior does not model. Each component of the prior is weighed on "
             "validation trials (0: it explains nothing held out); "
-            + _lateral_weights(result) + ". The variant the validation trials choose: "
-            + PRIOR_VARIANTS[chosen] + (" (the shipped one)." if chosen == shipped else
-                                        " (not the shipped one).") + "\n")
+            + _lateral_weights(result) + ". " + _validation_choice(result) + "\n")
+
+
+def _validation_choice(result: dict) -> str:
+    """Which variant the validation trials prefer, and by how much."""
+    shipped = result["shipped"]
+    chosen = result["chosen_on_validation"]
+    ratios = chosen["validation_ratio_to_no_prior"]
+    prior_ratios = [r for v, r in ratios.items() if v != "no_prior"]
+    return (f"On the validation trials the variants with a prior score "
+            f"{min(prior_ratios):.3f}-{max(prior_ratios):.3f}x the error without it (mean over "
+            f"axes and benches); the lowest is {PRIOR_VARIANTS[chosen['variant']]}"
+            + ("" if chosen["variant"] == shipped else
+               f"; the shipped hybrid is {PRIOR_VARIANTS[shipped]}, "
+               f"{ratios[shipped] / ratios[chosen['variant']] - 1:.1%} above it") + ".")
 
 
 def _lateral_weights(result: dict) -> str:

@@ -34,9 +34,10 @@ defaults, inside the paper's 100-sample window). Pre-norm residual blocks; the d
 paper's Linear d - ReLU - Linear 3 (Linear 6 with the log-variance; ``finetune_modules``: the
 decoder, as for the paper's model, so finetuning adapts the variance too).
 
-Attributes the training loop reads: ``kind = "chunk"``, ``output_space = "scaled"``,
-``window`` (receptive field, samples), ``finetune_modules()``, ``predicts_variance``; streaming
-also reads ``n_features`` and ``state_names``.
+It is a :class:`hybrid.contract.StreamableModel` (the contract says what each member means):
+``kind = "chunk"``, ``output_space = "scaled"``, ``window`` (receptive field, samples),
+``finetune_modules()``, ``n_features``, ``state_names`` and the step methods above; plus
+``predicts_variance``.
 """
 
 from __future__ import annotations

@@ -13,7 +13,9 @@ columns in order; the input and target scalers; the base columns added to the ou
 models); the inputs derivation (``"none"``, ``"lstm"``
 for the Jacobian-map columns, ``"prior"`` for the prior-compensated columns) with the prior as the
 JSON its ``save`` writes; software versions; training provenance (data folder, split, seed, epochs,
-losses, wall time). Writes are atomic (temporary file, then rename).
+losses, wall time); for a model registered outside :mod:`hybrid.recipes`, the ``recipe``'s import
+path (``"module:attribute"``, :func:`hybrid.recipes.origin`), which loading imports first
+(:func:`hybrid.recipes.import_recipe`). Writes are atomic (temporary file, then rename).
 
 Integrity (format version 3, :mod:`hybrid.integrity`): the metadata carries ``weights_sha256``,
 a SHA-256 over the weights (:func:`weights_sha256`: each tensor's name, dtype, shape and bytes,
@@ -67,7 +69,7 @@ from hybrid.sanity import file_sha256
 from hybrid.inputs import prior_from_json
 from hybrid.integrity import check_version, seal, sha256_bytes, verify
 from hybrid.rates import DEFAULT_SAMPLE_RATE_HZ
-from hybrid.recipes import DERIVATIONS, build_model, recipe
+from hybrid.recipes import DERIVATIONS, build_model, import_recipe, origin, recipe
 from psm_model.files import atomic_path
 
 FORMAT = "psmforce-checkpoint"
@@ -132,7 +134,8 @@ class TrainedModel:
                 "target_scaler": self.target_scaler.to_dict(),
                 "base_columns": list(self.base_columns), "derivation": self.derivation,
                 "sample_rate_hz": self.sample_rate_hz,
-                "versions": self.versions, "provenance": self.provenance}
+                "versions": self.versions, "provenance": self.provenance,
+                **({"recipe": home} if (home := origin(self.model_name)) else {})}
 
     def save(self, path: str | Path) -> Path:
         """Write the record (trained ``model`` required) to ``path`` atomically."""
@@ -262,6 +265,7 @@ def load_checkpoint(path: str | Path, device: str = "cpu") -> TrainedModel:
                               f"rate in Hz)")
     features = tuple(meta["features"])
     try:  # the config is checked against its recipe's ranges before anything is allocated
+        import_recipe(meta["model"], meta.get("recipe"))  # a model registered at run time
         model = build_model(meta["model"], len(features), meta["config"])
     except (TypeError, ValueError) as err:  # an unknown name (RecipeError) is a ValueError
         raise CheckpointError(f"{path}: cannot build model '{meta['model']}' with config "

@@ -29,6 +29,7 @@ import numpy as np
 import torch
 
 from hybrid.checkpoint import TrainedModel, load_checkpoint
+from hybrid.contract import ClosedFormModel, TrainableNetwork, is_chunk
 from hybrid.data import Trial, base_matrix, load_dataset, sliding_windows
 from hybrid.metrics import POSTPROCESSING, axis_metrics, postprocess
 from hybrid.tables import automated_table, modes_table, uncertainty_table
@@ -52,7 +53,10 @@ def predict_trial(setup: TrainedModel, trial: Trial, *, batch: int = 8192,
     estimate (the first ``window - 1`` samples for window models). Chunk models run over chunks
     of up to :data:`PREDICT_CHUNK` samples overlapping by ``model.window``: exact for a causal
     model whose receptive field is ``window``; for the LSTM a state reset every chunk, after a
-    ``window``-sample warm-up, as in its training.
+    ``window``-sample warm-up, as in its training. A closed-form model
+    (:class:`hybrid.contract.ClosedFormModel`) predicts all full windows at once, in numpy.
+    Every model's output then goes the same way: un-scaled where its ``output_space`` is
+    ``"scaled"``, its base columns added.
 
     ``with_std``: (estimates, (N, 3) standard deviation per axis in N), for a model that
     predicts its variance (:func:`hybrid.uncertainty.std_newton`); refused for one that does
@@ -62,35 +66,11 @@ def predict_trial(setup: TrainedModel, trial: Trial, *, batch: int = 8192,
         raise ValueError(f"the '{setup.model_name}' model predicts no variance (it was not "
                          f"trained with uncertainty), so it has no std")
     x = setup.input_scaler.transform(trial.matrix(setup.features))
-    n = len(x)
-    out = np.full((n, output_width(model)), np.nan, dtype=np.float64)
-    if model.kind == "rocket":   # closed-form window model (hybrid.rocket), numpy in and out
-        if n >= model.window:
-            out[model.window - 1:] = model.predict(np.ascontiguousarray(
-                sliding_windows(x, model.window, 1)))
-        return setup.target_scaler.inverse(out)
-    model.eval()
-    with torch.no_grad():
-        if model.kind == "window":
-            views = sliding_windows(x, model.window, 1)
-            preds = [model(torch.from_numpy(np.array(views[i:i + batch])).to(device))
-                     for i in range(0, len(views), batch)]
-            if preds:
-                out[model.window - 1:] = torch.cat(preds).cpu().numpy()
-        else:
-            warm = model.window
-            chunk = min(PREDICT_CHUNK, n)
-            step = max(1, chunk - warm)
-            n_chunks = 1 if n <= chunk else int(np.ceil((n - chunk) / step)) + 1
-            padded = np.concatenate([x, np.repeat(x[-1:], (n_chunks - 1) * step + chunk - n, 0)])
-            chunks = torch.from_numpy(np.array(sliding_windows(padded, chunk, step)[:n_chunks]))
-            per_call = max(1, batch // chunk)
-            pred = torch.cat([model(chunks[i:i + per_call].to(device))
-                              for i in range(0, n_chunks, per_call)]).cpu().numpy()
-            out[:chunk] = pred[0]
-            for k in range(1, n_chunks):
-                lo, hi = k * step + warm, min(n, k * step + chunk)
-                out[lo:hi] = pred[k][warm:warm + hi - lo]
+    out = np.full((len(x), output_width(model)), np.nan, dtype=np.float64)
+    if isinstance(model, ClosedFormModel):  # numpy windows in, numpy estimates out
+        _predict_closed_form(model, x, out)
+    else:
+        _predict_network(model, x, out, batch, device)
     mean = out[:, :3]
     if model.output_space == "scaled":
         mean = setup.target_scaler.inverse(mean)
@@ -99,6 +79,42 @@ def predict_trial(setup: TrainedModel, trial: Trial, *, batch: int = 8192,
     if with_std:
         return mean, std_newton(out[:, 3:], setup.target_scaler.std)
     return mean
+
+
+def _predict_closed_form(model: ClosedFormModel, x: np.ndarray, out: np.ndarray) -> None:
+    """``out[window - 1:]`` = a closed-form window model's estimates of scaled inputs ``x``."""
+    if len(x) >= model.window:
+        out[model.window - 1:] = model.predict(np.ascontiguousarray(
+            sliding_windows(x, model.window, 1)))
+
+
+def _predict_network(model: TrainableNetwork, x: np.ndarray, out: np.ndarray, batch: int,
+                     device: str) -> None:
+    """A network's outputs for scaled inputs ``x`` into ``out``: per window (``kind``
+    ``"window"``) or over overlapping chunks (``"chunk"``); see :func:`predict_trial`."""
+    n = len(x)
+    model.eval()
+    with torch.no_grad():
+        if not is_chunk(model):
+            views = sliding_windows(x, model.window, 1)
+            preds = [model(torch.from_numpy(np.array(views[i:i + batch])).to(device))
+                     for i in range(0, len(views), batch)]
+            if preds:
+                out[model.window - 1:] = torch.cat(preds).cpu().numpy()
+            return
+        warm = model.window
+        chunk = min(PREDICT_CHUNK, n)
+        step = max(1, chunk - warm)
+        n_chunks = 1 if n <= chunk else int(np.ceil((n - chunk) / step)) + 1
+        padded = np.concatenate([x, np.repeat(x[-1:], (n_chunks - 1) * step + chunk - n, 0)])
+        chunks = torch.from_numpy(np.array(sliding_windows(padded, chunk, step)[:n_chunks]))
+        per_call = max(1, batch // chunk)
+        pred = torch.cat([model(chunks[i:i + per_call].to(device))
+                          for i in range(0, n_chunks, per_call)]).cpu().numpy()
+        out[:chunk] = pred[0]
+        for k in range(1, n_chunks):
+            lo, hi = k * step + warm, min(n, k * step + chunk)
+            out[lo:hi] = pred[k][warm:warm + hi - lo]
 
 
 def scored_segment(pred: np.ndarray, trial: Trial, *, bias: bool, rate_hz: float = 100.0,
@@ -156,11 +172,22 @@ def floor_metrics(trials: Sequence[Trial]) -> dict:
     return {m: score(truth, trials, bias=False, mode=m) for m in POSTPROCESSING}
 
 
+def causal_table(result: Mapping) -> str:
+    """The causal metric of an :func:`evaluate` result as a Markdown table (per axis: range,
+    RMSE, NRMSE, R^2 over every scored trial): the raw per-sample estimate after the model's
+    first-0.5 s tare, no filter, no look-ahead, which is what a haptic loop gets (the paper's
+    metric looks 0.35 s ahead). ``psmforce evaluate`` prints it."""
+    return automated_table({result["model"]: result["postprocessing"]["overall"]["causal"]},
+                           f"Causal metric, {result['split'] or 'all'} trials (raw per-sample "
+                           f"estimate, no look-ahead; forces in N, HEX10 frame)")
+
+
 def evaluate(checkpoint: str | Path, data_dir: str | Path, out_dir: str | Path, *,
              split: str | None = "test", device: str = "cpu", plots: bool = True) -> dict:
     """Score a checkpoint on the ``split`` trials of ``data_dir`` (all trials when None), overall
-    and per condition; writes metrics.json, metrics.md and (``plots``) PNG figures into
-    ``out_dir``. Returns the metrics dict."""
+    and per condition; writes metrics.json, metrics.md (the paper's metric, then the causal
+    one, :func:`causal_table`) and (``plots``) PNG figures into ``out_dir``. Returns the
+    metrics dict."""
     ckpt = load_checkpoint(checkpoint, device)
     dataset = load_dataset(data_dir)
     ckpt.derive(dataset)
@@ -193,6 +220,7 @@ def evaluate(checkpoint: str | Path, data_dir: str | Path, out_dir: str | Path, 
     out.mkdir(parents=True, exist_ok=True)
     write_text_atomic(out / "metrics.json", json.dumps(result, indent=2) + "\n")
     md = automated_table({ckpt.model_name: result["overall"]}, f"{split or 'all'} trials")
+    md += "\n" + causal_table(result)
     md += "\n" + modes_table({ckpt.model_name: result["postprocessing"]["overall"]},
                              result["postprocessing"]["floor"])
     for c, r in result["by_condition"].items():

@@ -38,8 +38,9 @@ whose caller advanced ``n_valid`` before each step and fed no counter back.)
 one line naming the file, an export whose JSON or graph does not match its envelope, whose
 ``onnx`` entry names anything but a file inside the export folder (a path, ``..``, a link
 leading out), whose scalers are not finite with std > 0 of the features' width, whose state
-tensors are not those the graph takes; and a recording lacking a raw column, with a column that
-is not numeric, or with a value that is NaN, infinite or beyond its physical bound
+tensors are not those the graph takes; and a recording with no rows, lacking a raw column or
+holding one twice, with a column that is not real numbers (text, bool, complex, which numpy
+would cast without a word), or with a value that is NaN, infinite or beyond its physical bound
 (:func:`hybrid.bounds.physical_bounds`, the stream's ``INVALID_INPUT``), naming the column and
 row. An output that is not finite is refused too.
 """
@@ -285,9 +286,17 @@ def _raw_matrix(frame: pd.DataFrame, columns: list[str], where: Path) -> np.ndar
     missing = [c for c in columns if c not in frame.columns]
     if missing:
         raise ExportError(f"the recording lacks the columns {missing} that {where} reads")
+    twice = sorted({c for c in frame.columns[frame.columns.duplicated()] if c in columns})
+    if twice:  # which of the two would be the signal?
+        raise ExportError(f"column {twice[0]}: appears more than once in the recording")
+    if len(frame) == 0:
+        raise ExportError(f"the recording has no rows (the columns {where} reads are empty)")
     for c in columns:
-        if not pd.api.types.is_numeric_dtype(frame[c]) or pd.api.types.is_bool_dtype(frame[c]):
-            raise ExportError(f"column {c}: not numeric ({frame[c].dtype}), as {where} reads it")
+        kind = frame[c].dtype
+        if (not pd.api.types.is_numeric_dtype(kind) or pd.api.types.is_bool_dtype(kind)
+                or pd.api.types.is_complex_dtype(kind)):
+            raise ExportError(f"column {c}: not numeric ({kind}; real numbers only), as "
+                              f"{where} reads it")
     raw = frame[columns].to_numpy(np.float64)
     bounds = physical_bounds()
     for k, c in enumerate(columns):

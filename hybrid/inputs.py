@@ -55,8 +55,9 @@ replaced by zero.
 
 Prior interface used here: ``predict(frame: DataFrame) -> (N, 6)`` for whole recordings,
 ``input_columns`` (the recording columns it reads), ``predict_sample(values) -> (6,)`` for one
-sample given as a 1-D array in ``input_columns`` order (the streaming path), ``save(path)`` /
-``load(path)`` (JSON); optionally ``insertion`` (not None: an insertion model), with
+sample given as a 1-D array in ``input_columns`` order (the streaming path), ``to_json()`` (the
+JSON its ``save(path)`` writes, kept in checkpoints; read back by ``InternalForcePrior.from_json``,
+in memory); optionally ``insertion`` (not None: an insertion model), with
 ``insertion_axial_force(frame) -> (N,)`` and :data:`INSERTION_FZ` as a 7th ``predict_sample``
 entry. :class:`SamplePrior` gives an ``InternalForcePrior`` (whose per-sample
 path is ``predict_one(positions, efforts, velocities, g_hex)``) that interface; the gravity
@@ -68,8 +69,6 @@ base, for a whole recording (vectorised) or one sample (preallocated buffers).
 
 from __future__ import annotations
 
-import tempfile
-from pathlib import Path
 from typing import Sequence
 
 import numpy as np
@@ -194,22 +193,18 @@ def add_prior_columns(dataset, prior) -> None:
 
 
 def prior_to_json(prior) -> str:
-    """The prior as the JSON text its ``save`` writes (stored in checkpoints and exports)."""
-    with tempfile.TemporaryDirectory() as tmp:
-        path = Path(tmp) / "prior.json"
-        prior.save(path)
-        return path.read_text()
+    """The prior as the JSON text its ``save`` writes (stored in checkpoints and exports),
+    made in memory (``InternalForcePrior.to_json``)."""
+    return prior.to_json()
 
 
 def prior_from_json(text: str):
-    """An ``InternalForcePrior`` from the JSON text of :func:`prior_to_json`."""
+    """An ``InternalForcePrior`` from the JSON text of :func:`prior_to_json`, read in memory
+    with the checks of its ``load``."""
     from psm_model.identification.prior import InternalForcePrior
     if not text:
         raise HybridInputError("no prior JSON (the checkpoint was not trained with a prior)")
-    with tempfile.TemporaryDirectory() as tmp:
-        path = Path(tmp) / "prior.json"
-        path.write_text(text)
-        return InternalForcePrior.load(path)
+    return InternalForcePrior.from_json(text)
 
 
 class HexRotation:

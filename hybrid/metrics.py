@@ -14,6 +14,9 @@ Post-processing of one trial's predictions, three ways (:data:`POSTPROCESSING`):
   Butterworth low-pass at 5 Hz (:data:`CAUSAL_LOWPASS_HZ`; group delay at DC
   :func:`lowpass_lag_samples`, 4.5 samples = 45 ms at 100 Hz), started at steady state.
 
+The two filters live in :mod:`psm_model.filters` (the simulator's calibration uses them too) and
+are re-exported here with their constants.
+
 Metrics per axis over the samples given (N, 3 arrays in N):
 RMSE = sqrt(mean((pred - truth)^2)); NRMSE = RMSE / (max(truth) - min(truth)) x 100 (%);
 R^2 = 1 - SS_res / SS_tot (as a fraction; tables print it in %).
@@ -22,14 +25,18 @@ R^2 = 1 - SS_res / SS_tot (as a fraction; tables print it in %).
 from __future__ import annotations
 
 import numpy as np
-from scipy import signal
-from scipy.ndimage import median_filter
+
+from psm_model.filters import (  # noqa: F401
+    CAUSAL_LOWPASS_HZ,
+    CAUSAL_LOWPASS_ORDER,
+    MEDIAN_KERNEL,
+    centred_median,
+    lowpass_causal,
+    lowpass_lag_samples,
+)
 
 AXES = ("Fx", "Fy", "Fz")
-MEDIAN_KERNEL = 71
 BIAS_SECONDS = 0.5
-CAUSAL_LOWPASS_HZ = 5.0
-CAUSAL_LOWPASS_ORDER = 2
 POSTPROCESSING = ("paper", "causal", "causal_lowpass")
 
 
@@ -77,23 +84,6 @@ def axis_metrics(pred: np.ndarray, truth: np.ndarray) -> dict[str, dict[str, flo
                 "r2_pct": float(r[i] * 100.0)} for i, a in enumerate(AXES)}
 
 
-def lowpass_causal(x: np.ndarray, rate_hz: float = 100.0, cutoff_hz: float = CAUSAL_LOWPASS_HZ,
-                   order: int = CAUSAL_LOWPASS_ORDER) -> np.ndarray:
-    """Butterworth low-pass of (N, k) samples along time, causal, started at steady state on the
-    first sample (no start-up transient): what a loop filtering sample by sample outputs."""
-    x = np.asarray(x, dtype=float)
-    sos = signal.butter(order, cutoff_hz, fs=rate_hz, output="sos")
-    zi = signal.sosfilt_zi(sos)[:, :, None] * x[0]
-    return signal.sosfilt(sos, x, axis=0, zi=zi)[0]
-
-
-def lowpass_lag_samples(rate_hz: float = 100.0, cutoff_hz: float = CAUSAL_LOWPASS_HZ,
-                        order: int = CAUSAL_LOWPASS_ORDER) -> float:
-    """Delay of :func:`lowpass_causal` for slow signals: its group delay at 0 Hz, samples."""
-    b, a = signal.butter(order, cutoff_hz, fs=rate_hz)
-    return float(signal.group_delay((b, a), w=[1e-6], fs=rate_hz)[1][0])
-
-
 def postprocess(pred: np.ndarray, rate_hz: float = 100.0, *, bias: bool = True,
                 kernel: int = MEDIAN_KERNEL, bias_seconds: float = BIAS_SECONDS,
                 mode: str = "paper") -> np.ndarray:
@@ -114,4 +104,4 @@ def postprocess(pred: np.ndarray, rate_hz: float = 100.0, *, bias: bool = True,
         return out
     if mode == "causal_lowpass":
         return lowpass_causal(out, rate_hz)
-    return median_filter(out, size=(kernel, 1), mode="nearest")
+    return centred_median(out, kernel)

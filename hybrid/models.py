@@ -1,6 +1,7 @@
 """The paper's estimators and their baselines as PyTorch modules.
 
-Two model families share the training loop (:mod:`hybrid.train`):
+Two model families share the training loop (:mod:`hybrid.train`), both
+:class:`hybrid.contract.TrainableNetwork` (the contract, written once there):
 
 * window models, ``kind = "window"``: ``forward(x: (B, L, F)) -> (B, 3)``, one estimate for the
   last sample of each window (the paper's transformer, ``L = 100``; the FCN, ``L = 1``);

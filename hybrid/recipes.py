@@ -1,26 +1,42 @@
-"""One recipe per model: the table every part of ``hybrid/`` reads to treat models differently.
+"""One recipe per model: how to build it and feed it, the table ``hybrid/`` reads to build models.
 
 A :class:`Recipe` says, for one model name, how to build the model, which columns it reads and how
 they are derived from a recording (:class:`Inputs`, :data:`DERIVATIONS`), which columns are added
 back to its output (the base of a residual model), whether the paper's first-0.5 s bias
-correction applies, its optimiser settings, whether it is fitted by :mod:`hybrid.train`'s loop or
-in closed form, whether it streams (the step protocol of :mod:`hybrid.steppers`), and which
-variants ``psmforce reproduce`` runs of it, and the valid values of its constructor's arguments
+correction applies, its optimiser settings, and the valid values of its constructor's arguments
 (:attr:`Recipe.config_ranges`, :attr:`Recipe.config_rules`: positive sizes, heads dividing the
 width, bounded windows and streaming memory), which :func:`build_model` checks before anything
 is allocated, for a config typed on the command line or read from a checkpoint alike
-(:func:`check_config`: one line naming the key). Training, evaluation, finetuning, calibration,
-reproduce, streaming, export and the CLI read :data:`RECIPES`; no other module compares model
-names. A new model is one :func:`register` call (``tests/test_recipes.py`` registers a toy model
-and trains, evaluates, streams and exports it).
+(:func:`check_config`: one line naming the key). What the model is (a trainable network, a
+closed-form model, one that streams) the model says itself through the protocols of
+:mod:`hybrid.contract`, checked on every model :func:`build_model` makes; the recipe's
+:attr:`Recipe.closed_form`, :attr:`Recipe.streams` and :attr:`Recipe.uses_prior` are derived from
+the model and its inputs, never stated twice. What ``psmforce reproduce`` runs of a model (its
+label, ablations, data efficiency, published figures) is the experiment plan,
+:data:`hybrid.plan.PLAN`, not the model's recipe.
+
+Training, evaluation, finetuning, calibration, reproduce, streaming, export and the CLI read
+:data:`RECIPES`; no other module compares model names. A new model is one :func:`register` call
+(``tests/test_recipes.py`` registers a toy model and trains, evaluates, streams and exports it).
+:func:`register` notes the module that called it; a checkpoint of a model registered outside
+this module records it as ``"module:attribute"`` (:func:`origin`), and loading such a checkpoint
+in a new process imports that module first (:func:`import_recipe`), so a model of one's own,
+registered at the top level of an importable module, survives into ``psmforce evaluate``.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+import importlib
+import re
+import sys
+from dataclasses import dataclass, field, replace
+from functools import cached_property
 from typing import Callable, Sequence
 
+import torch
+
 from hybrid.causal import CausalTransformer
+from hybrid.contract import ClosedFormModel, check_model, is_streamable
 from hybrid.data import Dataset, resolve_features
 from hybrid.lstm_inputs import LSTM_FEATURES, LSTM_RAW_COLUMNS, lstm_columns
 from hybrid.inputs import add_prior_columns, hybrid_feature_set, prior_from_json
@@ -105,6 +121,11 @@ class Inputs:
     raw: tuple[str, ...] = ()
     derivation: str = "none"
 
+    @property
+    def uses_prior(self) -> bool:
+        """Derived with the internal-force prior (derivation ``"prior"``): training needs one."""
+        return self.derivation == "prior"
+
 
 def recorded_inputs(features: Features = None, use_prior: bool = True) -> Inputs:
     """Recorded columns only: a named set or a list (default: the paper's 21 inputs)."""
@@ -144,13 +165,12 @@ prior-compensated columns (:func:`hybrid.inputs.add_prior_columns`, the prior fr
 
 @dataclass(frozen=True)
 class Recipe:
-    """Everything that differs between models; see the module docstring."""
+    """How to build and feed one model; see the module docstring."""
 
     name: str
-    label: str
-    """The name in tables and figures."""
     build: Callable[[int, dict], object]
-    """(number of input columns, constructor keyword arguments) -> an untrained model."""
+    """(number of input columns, constructor keyword arguments) -> an untrained model, one of
+    the protocols of :mod:`hybrid.contract`; it must build from an empty config."""
     inputs: Callable[..., Inputs] = recorded_inputs
     """(features, use_prior) -> :class:`Inputs`."""
     bias_correction: bool = True
@@ -158,25 +178,47 @@ class Recipe:
     the paper)."""
     optimiser: dict = field(default_factory=dict)
     """:class:`hybrid.train.TrainConfig` overrides for pretraining (the paper's Table S1)."""
-    closed_form: bool = False
-    """Fitted in closed form (its ``fit`` / ``refit_head``), not by the training loop."""
-    uses_prior: bool = False
-    """Trained with the internal-force prior (fitted when none is given)."""
-    streams: bool = False
-    """Runs in :class:`hybrid.streaming.StreamingEstimator` and exports to a step graph."""
-    ablations: tuple[str, ...] = ()
-    """``psmforce reproduce``'s extra variants of this model: ``"no_prior"`` or input groups of
-    :data:`hybrid.data.FEATURE_SETS`."""
-    data_efficiency: bool = False
-    """``psmforce reproduce`` trains it on fractions of the training trials too."""
-    published_nrmse_pct: dict | None = None
-    """The seed paper's NRMSE (%) per axis on its automated test set, where it reports one."""
     config_ranges: dict = field(default_factory=dict)
     """Constructor argument -> :class:`Param`, its valid values; empty: the constructor alone
     checks (a test's toy model). With ranges, an unknown argument is refused by name."""
     config_rules: Callable[[str, dict, dict], None] | None = None
     """(model name, config, ranges) -> None or :class:`RecipeError`: rules across arguments
     (heads divide the width, bounded streaming memory)."""
+    home: str | None = None
+    """The module that registered the recipe (:func:`register` fills it in); see
+    :func:`origin`."""
+
+    def make(self, n_features: int, config: dict) -> object:
+        """The model ``build`` gives, checked against :mod:`hybrid.contract`
+        (:class:`hybrid.contract.ContractError` naming what it lacks)."""
+        model = self.build(n_features, dict(config))
+        check_model(model, self.name)
+        return model
+
+    @cached_property
+    def _probe(self) -> object:
+        """The model of the default inputs and config, what the derived flags read; built once,
+        the global torch generator left as it was (a seeded training must not see it)."""
+        with torch.random.fork_rng(devices=[]):
+            return self.make(len(self.inputs().features), {})
+
+    @property
+    def closed_form(self) -> bool:
+        """Fitted in closed form (a :class:`hybrid.contract.ClosedFormModel`), not by the
+        training loop."""
+        return isinstance(self._probe, ClosedFormModel)
+
+    @property
+    def streams(self) -> bool:
+        """Runs in :class:`hybrid.streaming.StreamingEstimator` and exports to a step graph (a
+        :class:`hybrid.contract.StreamableModel`)."""
+        return is_streamable(self._probe)
+
+    @property
+    def uses_prior(self) -> bool:
+        """Its default inputs are derived with the internal-force prior (fitted when none is
+        given); ``use_prior=False`` trains it without."""
+        return self.inputs().uses_prior
 
 
 def _transformer(n_features: int, config: dict):
@@ -202,17 +244,20 @@ def _rocket(n_features: int, config: dict):
     return RocketRegressor(**config)  # reads its input count when fitted
 
 
-ABLATION_GROUPS = ("no_hex10", "no_efforts", "no_positions", "no_velocities",
-                   "no_positions_velocities")
-
 RECIPES: dict[str, Recipe] = {}
 """Model name -> recipe, in the order tables list them."""
 
+_IMPORT_PATH = re.compile(r"[A-Za-z_]\w*(\.[A-Za-z_]\w*)*(:[A-Za-z_]\w*)?")
+
 
 def register(recipe: Recipe) -> Recipe:
-    """Add a model to the table (a name already taken is refused)."""
+    """Add a model to the table (a name already taken is refused); returns the recipe as
+    registered, its :attr:`Recipe.home` the calling module unless given."""
     if recipe.name in RECIPES:
         raise RecipeError(f"a model named '{recipe.name}' is already registered")
+    if recipe.home is None:
+        # the module whose import performs the registration is what a new process must import
+        recipe = replace(recipe, home=sys._getframe(1).f_globals.get("__name__"))
     RECIPES[recipe.name] = recipe
     return recipe
 
@@ -228,6 +273,52 @@ def recipe(name: str) -> Recipe:
         return RECIPES[name]
     except KeyError:
         raise RecipeError(f"unknown model '{name}'; known: {list(RECIPES)}") from None
+
+
+def origin(name: str) -> str | None:
+    """Where a new process finds the recipe of model ``name``: ``"module:attribute"`` (the
+    module-level name bound to a recipe of that name in the module that registered it), or
+    ``"module"`` when none is bound (importing the module registers it); None for the models
+    shipped here."""
+    home = recipe(name).home
+    if home is None or home == __name__:
+        return None
+    bound = sorted(k for k, v in vars(sys.modules.get(home, object())).items()
+                   if isinstance(v, Recipe) and v.name == name)
+    return f"{home}:{bound[0]}" if bound else home
+
+
+def import_recipe(name: str, path: str | None) -> Recipe:
+    """The recipe of model ``name``, importing ``path`` (:func:`origin`'s ``"module"`` or
+    ``"module:attribute"``, as a checkpoint records it) first when ``name`` is not registered;
+    a ``"module:attribute"`` bound to an unregistered recipe of that name is registered. Refused
+    with :class:`RecipeError` saying why: the module cannot be imported (it must be on the
+    path), it is a script, or it does not register ``name``.
+
+    Importing runs that module's code, as a plugin's entry point would: load checkpoints from
+    sources you would run code from."""
+    if name in RECIPES or path is None:
+        return recipe(name)
+    if not isinstance(path, str) or not _IMPORT_PATH.fullmatch(path):
+        raise RecipeError(f"model '{name}': its recipe's import path {path!r:.80} is not "
+                          f"'module' or 'module:attribute'")
+    module, _, attribute = path.partition(":")
+    if module == "__main__":
+        raise RecipeError(f"model '{name}' was registered by a script (__main__), which another "
+                          f"process cannot import: register it in an importable module")
+    try:
+        found = importlib.import_module(module)
+    except ImportError as err:
+        raise RecipeError(f"model '{name}' is registered by module '{module}' (recipe "
+                          f"'{path}'), which cannot be imported ({err}): put it on the Python "
+                          f"path") from None
+    bound = getattr(found, attribute, None) if attribute else None
+    if name not in RECIPES and isinstance(bound, Recipe) and bound.name == name:
+        register(replace(bound, home=bound.home or module))
+    if name not in RECIPES:
+        raise RecipeError(f"unknown model '{name}'; known: {list(RECIPES)}; importing "
+                          f"'{path}', where it was registered, did not register it")
+    return RECIPES[name]
 
 
 def check_config(name: str, n_features: int, config: dict | None = None) -> None:
@@ -259,9 +350,10 @@ def check_config(name: str, n_features: int, config: dict | None = None) -> None
 
 def build_model(name: str, n_features: int, config: dict | None = None):
     """A fresh model by name; ``config`` holds its constructor's keyword arguments (saved in
-    checkpoints), checked first (:func:`check_config`)."""
+    checkpoints), checked first (:func:`check_config`); the model is checked against
+    :mod:`hybrid.contract` (:meth:`Recipe.make`)."""
     check_config(name, n_features, config)
-    return recipe(name).build(n_features, dict(config or {}))
+    return recipe(name).make(n_features, config or {})
 
 
 _WIDTH = {"d_model": Param(int, 1, 1024, 64), "n_heads": Param(int, 1, 64, 8),
@@ -282,19 +374,16 @@ ROCKET_RANGES = {"window": Param(int, 9, 4096, 100),
 """The constructors' valid arguments (their defaults as in the constructors)."""
 
 
-register(Recipe("transformer", "Transformer (paper)", _transformer, data_efficiency=True,
-                published_nrmse_pct={"Fx": 1.45, "Fy": 1.31, "Fz": 2.26},  # its Table III
-                config_ranges=TRANSFORMER_RANGES, config_rules=_heads_divide_width))
-register(Recipe("fcn", "FCN", _fcn, config_ranges=FCN_RANGES))
-register(Recipe("lstm", "LSTM (Yang et al.)", _lstm, _lstm_inputs, bias_correction=False,
+register(Recipe("transformer", _transformer, config_ranges=TRANSFORMER_RANGES,
+                config_rules=_heads_divide_width))
+register(Recipe("fcn", _fcn, config_ranges=FCN_RANGES))
+register(Recipe("lstm", _lstm, _lstm_inputs, bias_correction=False,
                 # Table S1 (automated data); the 1000-sample sequences are Yang et al.'s
                 optimiser={"lr": 5e-3, "weight_decay": 1e-6, "chunk": 1000},
                 config_ranges=LSTM_RANGES))
-register(Recipe("hybrid", "Hybrid (ours)", _hybrid, _hybrid_inputs, uses_prior=True,
-                streams=True, ablations=("no_prior",) + ABLATION_GROUPS, data_efficiency=True,
+register(Recipe("hybrid", _hybrid, _hybrid_inputs,
                 # an epoch is ~7 batches of 16 chunks, so 100 epochs (the paper's limit for
                 # window models) stopped runs still improving; the limit must not bind
                 optimiser={"max_epochs": 300}, config_ranges=HYBRID_RANGES,
                 config_rules=_hybrid_rules))
-register(Recipe("rocket", "MultiRocket-Hydra", _rocket, closed_form=True,
-                config_ranges=ROCKET_RANGES))
+register(Recipe("rocket", _rocket, config_ranges=ROCKET_RANGES))

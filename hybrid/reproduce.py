@@ -19,6 +19,9 @@ The rules (they hold for every model, the hybrid and the baselines alike):
   std; otherwise the table says tie. The published run uses bench seeds never used while the
   hybrid was designed (the design used seed 0).
 
+What it runs of each model (the label in its tables, the ablations, the data-efficiency
+fractions, the published figures beside it) is the experiment plan, :data:`hybrid.plan.PLAN`.
+
 The work is a grid of independent tasks (:mod:`hybrid.grid`): simulate a bench, fit the prior,
 pretrain a (model, seed, variant, data fraction), finetune a (model, seed, fold). Each is cached
 by its inputs under ``OUT/work/cache``, so an interrupted run resumes where it stopped, and
@@ -48,12 +51,14 @@ import numpy as np
 import torch
 
 from hybrid.checkpoint import TrainedModel, load_checkpoint
+from hybrid.contract import is_chunk
 from hybrid.data import Dataset, Trial, load_dataset, split_validation, subsample_trials
 from hybrid.evaluate import (EVAL_START, floor_metrics, predict_trial, score_modes,
                              scored_segment)
 from hybrid.grid import run_grid
 from hybrid.metrics import POSTPROCESSING, axis_metrics, lowpass_lag_samples
 from hybrid.models import count_parameters
+from hybrid.plan import plan
 from hybrid.recipes import DERIVATIONS, RECIPES, recipe
 from hybrid.resume import clear_state
 from hybrid.tables import results_markdown, spread, verdicts
@@ -143,8 +148,9 @@ def _request(variant: str) -> tuple[str | None, bool]:
 
 def _setup(name: str, trials: Sequence[Trial], prior_json: str, variant: str) -> TrainedModel:
     features, use_prior = _request(variant)
+    inputs = recipe(name).inputs(features, use_prior)
     return make_setup(name, trials, features=features, use_prior=use_prior,
-                      prior_json=prior_json if recipe(name).uses_prior and use_prior else None)
+                      prior_json=prior_json if inputs.uses_prior else None)
 
 
 def _recipe_params(name: str, variant: str) -> dict:
@@ -291,6 +297,10 @@ def reproduce(out: str | Path, scale: float = 0.1, seeds: Sequence[int] = (1, 2,
         raise ValueError(f"models must be among {list(RECIPES)}, got {list(models)}")
     if not seeds:
         raise ValueError("at least one seed")
+    repeated = sorted({s for s in seeds if list(seeds).count(s) > 1})
+    if repeated:  # one seed twice would be averaged as two and show a spread of 0
+        raise ValueError(f"seeds: {repeated[0]} given more than once; each seed is one "
+                         f"independent bench and initialisation")
     from psm_model.sim.dataset import check_scale_and_seed
     from psm_model.sim.port import port_by_name
     port_by_name(port)
@@ -324,10 +334,10 @@ def reproduce(out: str | Path, scale: float = 0.1, seeds: Sequence[int] = (1, 2,
                        for s in seeds], cache, log=say)
     variants = [(m, "full", 1.0) for m in models]
     if ablations:
-        variants += [(m, v, 1.0) for m in models for v in recipe(m).ablations]
+        variants += [(m, v, 1.0) for m in models for v in plan(m).ablations]
     if efficiency:
         variants += [(m, "full", f) for f in DATA_FRACTIONS for m in models
-                     if recipe(m).data_efficiency]
+                     if plan(m).data_efficiency]
     # Main models over every seed first: an interrupted run has the headline comparison soonest.
     pre_specs = [(_pretrain_task, {**common, "seed": s, "model": m, "variant": v, "fraction": f,
                                    "recipe": _recipe_params(m, v)})
@@ -348,7 +358,7 @@ def reproduce(out: str | Path, scale: float = 0.1, seeds: Sequence[int] = (1, 2,
     # a closed-form model (MultiRocket-Hydra) is left out of the timing and the figures of
     # trained networks: it has no learning curve, and its batch-1 latency is not a network's
     torch_models = [m for m in models if not recipe(m).closed_form]
-    results["timing"] = _timing({recipe(m).label: pre_by[(m, "full", 1.0, seeds[0])]["checkpoint"]
+    results["timing"] = _timing({plan(m).label: pre_by[(m, "full", 1.0, seeds[0])]["checkpoint"]
                                  for m in torch_models})
     results["figures"] = _figures(out, run_dir, seeds[0], torch_models, pre_by)
     write_text_atomic(out / "results.json", json.dumps(results, indent=1) + "\n")
@@ -385,7 +395,7 @@ def _bench_versions(run_dir: Path, seeds: Sequence[int], teleop: bool) -> dict:
 
 def _collect(call, seeds, models, variants, pre_by, ft_specs, ft, floors, started, out,
              ray_address) -> dict:
-    main = {recipe(m).label: [pre_by[(m, "full", 1.0, s)] for s in seeds] for m in models}
+    main = {plan(m).label: [pre_by[(m, "full", 1.0, s)] for s in seeds] for m in models}
     automated = {mode: {lab: spread([r["test"]["overall"][mode] for r in rs])
                         for lab, rs in main.items()} for mode in POSTPROCESSING}
     conditions = sorted(next(iter(main.values()))[0]["test"]["by_condition"])
@@ -401,13 +411,13 @@ def _collect(call, seeds, models, variants, pre_by, ft_specs, ft, floors, starte
     for m, v, f in variants:
         if f < 1:
             for frac in (f, 1.0):
-                efficiency.setdefault(recipe(m).label, {})[str(frac)] = {
+                efficiency.setdefault(plan(m).label, {})[str(frac)] = {
                     mode: spread([pre_by[(m, v, frac, s)]["test"]["overall"][mode]
                                    for s in seeds]) for mode in POSTPROCESSING}
     teleop, ft_training = {}, {}
     for (_, p), r in zip(ft_specs, ft):
         for group, by_mode in r["scores"].items():
-            teleop.setdefault(group, {}).setdefault(recipe(p["model"]).label, []).append(by_mode)
+            teleop.setdefault(group, {}).setdefault(plan(p["model"]).label, []).append(by_mode)
         ft_training[f"{p['model']} {p['fold']} seed {p['seed']}"] = {
             k: v for k, v in r["training"].items() if k != "history"}
     teleop = {g: {mode: {lab: spread([x[mode] for x in runs]) for lab, runs in labs.items()}
@@ -431,8 +441,8 @@ def _collect(call, seeds, models, variants, pre_by, ft_specs, ft, floors, starte
         "training": training, "finetune_training": ft_training,
         "causal_lowpass_lag_ms": lowpass_lag_samples() * 10.0,
         "automated": automated, "automated_by_condition": by_condition, "floor": floor,
-        "published_nrmse_pct": {recipe(m).label: recipe(m).published_nrmse_pct for m in models
-                                if recipe(m).published_nrmse_pct},
+        "published_nrmse_pct": {plan(m).label: plan(m).published_nrmse_pct for m in models
+                                if plan(m).published_nrmse_pct},
         "ablation": ablation,
         "data_efficiency": efficiency, "teleop": teleop,
         "verdicts": {mode: verdicts(automated[mode]) for mode in POSTPROCESSING},
@@ -458,7 +468,7 @@ def _timing(checkpoints: dict, reps: int = 300) -> dict:
             ckpt = load_checkpoint(path)
             model, n_f = ckpt.model.eval(), len(ckpt.features)
             with torch.no_grad():
-                if model.kind == "window":
+                if not is_chunk(model):
                     x = torch.randn(1, model.window, n_f)
                     call, mode = (lambda: model(x)), "full window"
                 elif ckpt.recipe.streams:
@@ -499,12 +509,12 @@ def _figures(out: Path, run_dir: str, seed: int, models, pre_by) -> list[str]:
     for m in models:
         ckpt = load_checkpoint(pre_by[(m, "full", 1.0, seed)]["checkpoint"])
         bias = ckpt.recipe.bias_correction
-        segments[ckpt.recipe.label] = {t.path: scored_segment(predict_trial(ckpt, t), t,
-                                                              bias=bias) for t in test}
+        segments[plan(m).label] = {t.path: scored_segment(predict_trial(ckpt, t), t, bias=bias)
+                                   for t in test}
     plot_time_series(segments, test, fig_dir / "automated_time_series.png")
     plot_scatter(segments, fig_dir / "automated_scatter.png")
     plot_hex10_vs_ati(test, fig_dir / "hex10_vs_ati_histograms.png")
-    curves = {recipe(m).label: [pre_by[k]["training"]["history"] for k in pre_by
+    curves = {plan(m).label: [pre_by[k]["training"]["history"] for k in pre_by
                           if k[0] == m and k[1] == "full" and k[2] == 1.0] for m in models}
     plot_learning_curves(curves, fig_dir / "learning_curves.png")
     for m in models:  # one box plot per model with ablations: its variants side by side

@@ -16,8 +16,9 @@ synthetic AR(1) trials with stride-1 windows it chose 10 where held-out trials s
 Why: a standard non-deep time-series regressor, fitted in closed form (one transform, one
 eigendecomposition), so it needs no learning rate, epochs or early stopping, and is
 deterministic given its seed and thread count. It is a window model like the paper's transformer:
-standard-scaled (B, L, F) windows -> (B, 3) standard-scaled targets; it is not a torch module
-(``kind = "rocket"``), so :mod:`hybrid.train`'s loop does not apply to it.
+standard-scaled (B, L, F) windows -> (B, 3) standard-scaled targets (``kind = "window"``); it is
+not a torch module but a :class:`hybrid.contract.ClosedFormModel`, so :mod:`hybrid.train`'s loop
+does not apply to it.
 
 Bounded cost: training windows are subsampled with the seed to ``max_train_windows``; features
 are computed, standardised and multiplied in batches; the ridge keeps the feature matrix in
@@ -259,7 +260,7 @@ class RocketRegressor:
     cost ~10x as much per window and exceed :data:`MAX_FEATURES`.
     """
 
-    kind = "rocket"  # not a torch module: fitted in closed form
+    kind = "window"  # not a torch module: fitted in closed form (hybrid.contract)
     output_space = "scaled"
 
     def __init__(self, window: int = 100, n_kernels_multirocket: int = 504,

@@ -1,6 +1,8 @@
 """Running a streamable network one sample at a time: the step protocol and its backends.
 
-The step protocol. A streamable model is a ``torch.nn.Module`` with
+The step protocol (:class:`hybrid.contract.StepModel`; a model the recipe table builds that
+follows it is a :class:`hybrid.contract.StreamableModel`). A streamable model is a
+``torch.nn.Module`` with
 
 * ``kind = "chunk"``: causal, ``forward(x: (B, T, F)) -> (B, T, C)``, C = 3 channels (the
   scaled mean) or, where ``predicts_variance`` is true, 6 (then the log-variance of each axis,
@@ -47,13 +49,14 @@ import numpy as np
 import torch
 
 from hybrid.causal import CausalTransformer
+from hybrid.contract import StepModel, is_chunk, members, missing
 from hybrid.uncertainty import LOGVAR_HALF, LOGVAR_MID
 
 BACKENDS = ("numpy", "onnx", "torch")
 OPSET = 17
-PROTOCOL = ("kind", "window", "n_features", "state_names", "stream_state", "stream_step",
-            "predict_sequence")
-"""The members a streamable model has (see the module docstring)."""
+PROTOCOL = members(StepModel)
+"""The members a streamable model has (see the module docstring), those of
+:class:`hybrid.contract.StepModel`."""
 
 
 class StreamingError(ValueError):
@@ -65,10 +68,10 @@ def not_streamable(model) -> str | None:
     name = type(model).__name__
     if not isinstance(model, torch.nn.Module):
         return f"{name} is not a torch module"
-    missing = [m for m in PROTOCOL if not hasattr(model, m)]
-    if missing:
-        return f"{name} lacks {', '.join(missing)}"
-    if model.kind != "chunk":
+    lacks = missing(model, StepModel)
+    if lacks:
+        return f"{name} lacks {', '.join(lacks)}"
+    if not is_chunk(model):
         return f"{name} is a '{model.kind}' model, not a causal 'chunk' model"
     state = model.stream_state(1)
     if len(state) != len(model.state_names):

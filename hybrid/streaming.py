@@ -295,7 +295,9 @@ class StreamingEstimator:
         (malformed, non-finite, beyond its physical bounds)."""
         try:
             if isinstance(sample, np.ndarray):
-                if sample.shape != self._raw.shape:
+                # real numbers only: numpy would cast complex (dropping the imaginary part),
+                # text and bools into the float buffer without a word
+                if sample.shape != self._raw.shape or sample.dtype.kind not in "iuf":
                     return None
                 self._raw[:] = sample
             else:

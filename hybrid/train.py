@@ -1,5 +1,9 @@
 """Training and finetuning for every estimator, on one loop (seed paper, training section).
 
+The models are read through their protocols (:mod:`hybrid.contract`): a
+:class:`hybrid.contract.TrainableNetwork` is fitted by the loop below, a
+:class:`hybrid.contract.ClosedFormModel` by its own ``fit`` on the same windows.
+
 Adam with L2 weight decay, MSE on standard-scaled targets, validation every epoch, learning rate
 x0.1 after ``lr_patience`` (3) epochs without improvement, early stop after ``patience`` (10),
 the best-validation weights kept. Window models see (B, L, F) windows and predict their last
@@ -42,6 +46,7 @@ from torch import nn
 from tqdm import tqdm
 
 from hybrid.checkpoint import TrainedModel, load_checkpoint
+from hybrid.contract import ClosedFormModel, is_chunk
 from hybrid.data import (DatasetError, Scaler, Trial, WindowSet, fit_scalers, load_dataset,
                          split_validation)
 from hybrid.inputs import prior_to_json, select_base
@@ -103,7 +108,7 @@ def _loss(model: nn.Module, x: torch.Tensor, y: torch.Tensor,
     if model.output_space == "newton":
         pred = (pred - torch.as_tensor(target_scaler.mean, device=pred.device)) / torch.as_tensor(
             target_scaler.std, device=pred.device)
-    if model.kind == "chunk":
+    if is_chunk(model):
         pred, y = pred[:, model.window:], y[:, model.window:]
     if predicts_variance(model):
         return beta_nll(pred[..., :3], pred[..., 3:], y)
@@ -125,7 +130,7 @@ def _chunk_length(model: nn.Module, trials: Sequence[Trial], cfg: TrainConfig) -
 
 def _window_set(model: nn.Module, trials: Sequence[Trial], setup: TrainedModel, cfg: TrainConfig,
                 stride: int | None = None) -> WindowSet:
-    if model.kind == "chunk":
+    if is_chunk(model):
         chunk = _chunk_length(model, trials, cfg)
         return WindowSet(trials, setup.features, setup.input_scaler, setup.target_scaler,
                          chunk, stride or chunk - model.window, targets="all",
@@ -215,14 +220,14 @@ def fit(model: nn.Module, train_trials: Sequence[Trial], val_trials: Sequence[Tr
     model.to(cfg.device)
     train_set = _window_set(model, train_trials, setup, cfg)
     val_set = _window_set(model, val_trials, setup, cfg)
-    batch = cfg.chunk_batch_size if model.kind == "chunk" else cfg.batch_size
+    batch = cfg.chunk_batch_size if is_chunk(model) else cfg.batch_size
     params = [p for p in model.parameters() if p.requires_grad]
     if not params:
         raise TrainingError("the model has no trainable parameters")
     net, frozen = model, []
     if frozen_in_eval:
         head = {id(p) for m in model.finetune_modules() for p in m.parameters()}
-        if (model.kind == "window" and hasattr(model, "features")
+        if (not is_chunk(model) and hasattr(model, "features")
                 and {id(p) for p in params} <= head):
             net = _Head(model)
             train_set = _Features(model, train_set, cfg.device)
@@ -230,7 +235,7 @@ def fit(model: nn.Module, train_trials: Sequence[Trial], val_trials: Sequence[Tr
         else:
             frozen = [m for m in model.modules()
                       if not any(p.requires_grad for p in m.parameters())]
-    forward = torch.compile(net) if cfg.compile and net is model and model.kind == "window" \
+    forward = torch.compile(net) if cfg.compile and net is model and not is_chunk(model) \
         else None
     opt = torch.optim.Adam(params, lr=cfg.lr, weight_decay=cfg.weight_decay)
     sched = torch.optim.lr_scheduler.ReduceLROnPlateau(opt, mode="min", factor=cfg.lr_factor,
@@ -309,7 +314,7 @@ def fit(model: nn.Module, train_trials: Sequence[Trial], val_trials: Sequence[Tr
             "converged": stopped_by == "patience" and not capped,
             "train_windows": len(train_set), "val_windows": len(val_set),
             "batches_per_epoch": n_batches, "chunk": getattr(train_set, "window", None)
-            if model.kind == "chunk" else None}
+            if is_chunk(model) else None}
 
 
 def _resume_key(model: nn.Module, setup: TrainedModel, cfg: TrainConfig, n_train: int,
@@ -335,7 +340,7 @@ def make_setup(model_name: str, train_trials: Sequence[Trial], *, features: Feat
         inputs = recipe(model_name).inputs(features, use_prior)
         if inputs.base:
             inputs = replace(inputs, base=select_base(train_trials, inputs.base))
-    if (inputs.derivation == "prior") != (prior_json is not None):
+    if inputs.uses_prior != (prior_json is not None):
         raise TrainingError(f"derivation '{inputs.derivation}' and "
                             f"{'a' if prior_json else 'no'} prior do not go together")
     x_scaler, y_scaler = fit_scalers(train_trials, inputs.features, raw_columns=inputs.raw,
@@ -391,7 +396,7 @@ def train_model(setup: TrainedModel, train_trials: Sequence[Trial],
     """Build the model of ``setup``, train it, leave it with its best weights in
     ``setup.model``; return the fit report. A closed-form recipe is fitted by its own ``fit``
     (its config gains the seed and thread count; nothing to resume). ``resume``: :func:`fit`'s."""
-    if recipe(setup.model_name).closed_form:
+    if recipe(setup.model_name).closed_form:  # derived from its model (hybrid.contract)
         setup.model, report = _fit_closed_form(setup, train_trials, val_trials, cfg)
         return report
     torch.manual_seed(cfg.seed)
@@ -412,7 +417,7 @@ def finetune_model(setup: TrainedModel, train_trials: Sequence[Trial],
     dropout): they act as a fixed feature extractor; a closed-form model keeps its features and
     refits its head. Returns the fit report with trainable/total parameter counts. ``resume``:
     :func:`fit`'s."""
-    if recipe(setup.model_name).closed_form:
+    if isinstance(setup.model, ClosedFormModel):
         return _fit_closed_form(setup, train_trials, val_trials, cfg, head_of=setup.model)[1]
     trainable, total = freeze_for_finetuning(setup.model)
     t0 = time.perf_counter()
@@ -487,7 +492,8 @@ def train(data_dir: str | Path, model: str, out_checkpoint: str | Path, *,
     spec = recipe(model)
     _epochs(epochs)
     check_config(model, config, features, use_prior)
-    if prior is not None and not (spec.uses_prior and use_prior):
+    inputs = spec.inputs(features, use_prior)
+    if prior is not None and not inputs.uses_prior:
         raise TrainingError(f"a prior was given, but the '{model}' model "
                             f"{'is trained without one' if spec.uses_prior else 'uses none'}")
     cfg = train_config or TrainConfig(**spec.optimiser)
@@ -498,9 +504,9 @@ def train(data_dir: str | Path, model: str, out_checkpoint: str | Path, *,
         raise DatasetError(f"{data_dir}: no trials in a 'train' split")
     train_trials, val_trials = split_validation(trials, 0.1, seed)
     prior_json = None
-    if spec.uses_prior and use_prior:
+    if inputs.uses_prior:
         prior_json = prior_to_json(_load_prior(prior) or fit_prior(train_trials, val_trials))
-    DERIVATIONS[spec.inputs(features, use_prior).derivation](dataset, prior_json)
+    DERIVATIONS[inputs.derivation](dataset, prior_json)
     setup = make_setup(model, train_trials, features=features, use_prior=use_prior,
                        prior_json=prior_json, config=config)
     report = train_model(setup, train_trials, val_trials, cfg, resume=resume)

@@ -267,6 +267,11 @@ def fit_transmission_command(args) -> dict:
         if score:
             print(f"{label}: jaw torque RMSE {1e3 * score['jaw_torque_rmse_nm']:.2f} mNm, jaw "
                   f"angle RMSE {math.degrees(score['jaw_angle_rmse_rad']):.2f} deg")
+    # the one gate this fit has is convergence (a fit that does not converge raises and writes
+    # nothing); the verdict says so on the console, as every fit's does
+    print(f"verdict: converged ({model.info['solver_status']}), the only gate of this fit; "
+          + ("judge it by the validation RMSE above" if validation else
+             "no held-out files (--validation), so scored on its own fit data only"))
     print(f"wrote {args.out}")
     return report
 
@@ -315,7 +320,7 @@ def evaluate_command(args) -> dict:
     _fresh_folder(args.out, "--out")
     from hybrid.checkpoint import load_checkpoint, trial_hashes
     from hybrid.sanity import repeated_recordings
-    from hybrid.evaluate import evaluate
+    from hybrid.evaluate import causal_table, evaluate
     known = trial_hashes(load_checkpoint(args.checkpoint).provenance)
     repeats = repeated_recordings(args.data, "test", known)
     if repeats and not args.allow_train_overlap:
@@ -331,6 +336,9 @@ def evaluate_command(args) -> dict:
     result = evaluate(args.checkpoint, args.data, args.out)
     if repeats and isinstance(result, dict):
         result["train_overlap"] = [{"test": rel, "train": match} for rel, match in repeats]
+    # the console's headline is what a haptic loop gets; every metric is in OUT/metrics.md
+    print(causal_table(result) + f"\nAll metrics (paper's, by condition): "
+          f"{Path(args.out) / 'metrics.md'}", flush=True)
     return result
 
 

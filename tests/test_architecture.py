@@ -15,6 +15,8 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 PACKAGES = ("psm_model", "hybrid", "psmforce")
+"""The layers, bottom first: a module imports its own package and those below it, never one
+above (the physics does not know the estimators, the estimators do not know the CLI)."""
 MAX_LINES = 400
 SIZE_REASON = "Size:"
 """A module over :data:`MAX_LINES` lines says why in a docstring paragraph starting with this."""
@@ -99,6 +101,34 @@ def test_the_cycle_finder_finds_a_planted_cycle(tmp_path, monkeypatch):
 
 def test_no_import_cycle():
     assert import_cycles() == []
+
+
+def upward_imports() -> list[tuple[str, str]]:
+    """Every (module, imported module) pair whose import points up the layers of
+    :data:`PACKAGES`, sorted."""
+    modules = _modules()
+    layer = {package: i for i, package in enumerate(PACKAGES)}
+    return sorted((name, target) for name, path in modules.items()
+                  for target in _imported(name, path, modules)
+                  if layer[target.split(".")[0]] > layer[name.split(".")[0]])
+
+
+def test_the_layer_check_finds_a_planted_upward_import(tmp_path, monkeypatch):
+    """The check can fail: a lazy import of the estimators from the physics is reported."""
+    for package in ("psm_model", "hybrid"):
+        (tmp_path / package).mkdir()
+        (tmp_path / package / "__init__.py").write_text("")
+    (tmp_path / "hybrid" / "metrics.py").write_text("from psm_model import filters\n")
+    (tmp_path / "psm_model" / "filters.py").write_text("")
+    (tmp_path / "psm_model" / "calibration.py").write_text(
+        "def f():\n    from hybrid.metrics import postprocess\n")
+    monkeypatch.setattr(sys.modules[__name__], "ROOT", tmp_path)
+    monkeypatch.setattr(sys.modules[__name__], "PACKAGES", ("psm_model", "hybrid"))
+    assert upward_imports() == [("psm_model.calibration", "hybrid.metrics")]
+
+
+def test_layers_point_one_way():
+    assert upward_imports() == []
 
 
 @pytest.mark.parametrize("name", sorted(_modules()))

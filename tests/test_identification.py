@@ -124,8 +124,10 @@ def test_wpi_fit_published_protocol(wpi_fit, tmp_path):
     with pytest.raises(NotConvergedError):
         model.save(tmp_path / "never.json")
     assert not (tmp_path / "never.json").exists()
-    # a file from before the counterweight option: no such key, no such parameters
+    # a file from before the counterweight option: no such key, no such parameters (and, older
+    # than the integrity envelope, neither its digest nor its format version)
     d = json.loads(model_path.read_text())
+    assert d.pop("format_version") == 2 and "all" in d.pop("sha256")
     del d["options"]["insertion_counterweight"]
     d["linear_parameters"] = {k: v for k, v in d["linear_parameters"].items()
                               if not k.startswith("insertion_counterweight.")}

@@ -110,6 +110,32 @@ def test_the_runner_refuses_missing_and_text_columns(exported):
         run_export(exported, recording(20).to_numpy())
 
 
+@pytest.mark.parametrize("change, reason", [
+    (lambda f: f.assign(fz=f["fz"] + 1j), "column fz: not numeric"),  # not cast to real
+    (lambda f: f.assign(fy=f["fy"] > 0), "column fy: not numeric"),
+    (lambda f: f.join(f[["fx"]], rsuffix="_").rename(columns={"fx_": "fx"}),
+     "column fx: appears more than once"),
+    (lambda f: f.iloc[:0], "no rows")])
+def test_the_runner_refuses_tables_the_stream_could_not_read(exported, change, reason):
+    with pytest.raises(ExportError, match=reason):
+        run_export(exported, change(recording(20)))
+
+
+@pytest.mark.parametrize("change", [lambda x: x + 0j, lambda x: x.astype(str)])
+def test_an_array_sample_of_complex_or_text_is_invalid_not_cast(change):
+    """numpy would cast such an array into the float buffer (the imaginary part dropped, the
+    text parsed) without a word: the stream flags it as it does any malformed sample."""
+    est = estimator(use_prior=False)
+    frame = recording(200)
+    values = frame[list(est.columns)].to_numpy(np.float64)
+    out = [est.step(x, time=t) for x, t in zip(values[:150], frame["time"])]
+    bad = est.step(change(values[150]), time=frame["time"][150])
+    assert bad.flags & Flags.INVALID_INPUT
+    good = est.step(values[151], time=frame["time"][151])
+    assert not good.flags & Flags.INVALID_INPUT and np.isfinite(good.force_hex10).all()
+    assert np.isfinite(out[-1].force_hex10).all()
+
+
 @pytest.mark.parametrize("jump", [1e307, 1.7e308, -1e307])
 def test_step_with_a_huge_timestamp_flags_and_carries_on(jump):
     """A finite timestamp whose gap overflows to infinitely many samples is a GAP (or, going
@@ -174,3 +200,56 @@ def test_configs_are_checked_before_any_allocation_naming_the_key(model, config,
     assert "\n" not in str(err.value)
     with pytest.raises(RecipeError, match=key):
         build_model(model, 36 if model == "lstm" else 21, config)
+
+
+def _prior_file(tmp_path):
+    from psm_model.identification.prior import InternalForcePrior
+    path = tmp_path / "prior.json"
+    InternalForcePrior(converged=True).save(path)
+    return path, json.loads(path.read_text())
+
+
+@pytest.mark.parametrize("field, edit", [
+    ("parameters", lambda d: d["parameters"]["bias_fz"].update(value=0.25)),  # in bounds
+    ("axis_weights", lambda d: d["axis_weights"].__setitem__(0, 0.5)),
+    ("info", lambda d: d.update(info={"note": "edited"})),
+    ("note", lambda d: d.update(note="a field added"))])
+def test_a_prior_with_one_field_edited_is_refused_naming_it(tmp_path, field, edit):
+    from psm_model.identification.errors import IdentificationInputError
+    from psm_model.identification.prior import FORMAT_VERSION, InternalForcePrior
+    path, d = _prior_file(tmp_path)
+    assert d["format_version"] == FORMAT_VERSION and "sha256" in d
+    InternalForcePrior.load(path)  # as saved: loads
+    edit(d)
+    path.write_text(json.dumps(d))
+    with pytest.raises(IdentificationInputError, match=f"SHA-256 envelope .*{field}") as err:
+        InternalForcePrior.load(path)
+    assert str(path) in str(err.value)
+
+
+@pytest.mark.parametrize("version", ["2", 2.0, True, None, 3])
+def test_a_prior_whose_format_version_is_not_the_integer_is_refused(tmp_path, version):
+    from psm_model.identification.errors import IdentificationInputError
+    from psm_model.identification.prior import InternalForcePrior
+    path, d = _prior_file(tmp_path)
+    path.write_text(json.dumps(seal({**d, "format_version": version})))  # even resealed
+    with pytest.raises(IdentificationInputError, match="prior format version") as err:
+        InternalForcePrior.load(path)
+    assert str(path) in str(err.value)
+    legacy = {k: v for k, v in d.items() if k not in ("sha256", "format_version")}
+    path.write_text(json.dumps(legacy))  # written before the envelope: loads, bounds checked
+    assert InternalForcePrior.load(path).converged
+
+
+@pytest.mark.parametrize("seeds", [[1, 1], [2, 3, 2]])
+def test_reproduce_from_python_refuses_repeated_seeds_before_writing(tmp_path, seeds,
+                                                                    monkeypatch):
+    import hybrid.reproduce
+    from hybrid.reproduce import reproduce
+
+    def reached(*args, **kwargs):
+        raise AssertionError("the run started with repeated seeds")
+    monkeypatch.setattr(hybrid.reproduce, "run_grid", reached)
+    with pytest.raises(ValueError, match="^seeds: .* more than once"):
+        reproduce(tmp_path / "run", seeds=seeds)
+    assert not (tmp_path / "run").exists()

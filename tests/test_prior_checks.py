@@ -8,6 +8,7 @@ import json
 import pandas as pd
 import pytest
 
+from hybrid.integrity import seal
 from psm_model.identification.errors import IdentificationInputError
 from psm_model.identification.prior import InternalForcePrior
 from psm_model.identification.prior_report import POOR_FIT_RMS_N, fit_prior_cli
@@ -28,7 +29,9 @@ def test_a_parameter_outside_its_bounds_or_not_a_number_is_refused(tmp_path, nam
     path, d = _saved(tmp_path)
     InternalForcePrior.load(path)  # as saved: loads
     d["parameters"][name]["value"] = value
-    path.write_text(json.dumps(d))  # json writes NaN as the literal NaN, which it reads back
+    # resealed, as a careless tool would: the envelope then holds and the bounds must refuse it
+    # (json writes NaN as the literal NaN, which it reads back)
+    path.write_text(json.dumps(seal(d)))
     with pytest.raises(IdentificationInputError, match=f"parameter '{name}'") as err:
         InternalForcePrior.load(path)
     assert str(path) in str(err.value) and shown in str(err.value)

@@ -8,6 +8,7 @@ import pandas as pd
 import pytest
 
 from hybrid.inputs import compensated_hex10
+from hybrid.integrity import seal
 from psm_model.identification.errors import IdentificationInputError
 from psm_model.identification.prior import InternalForcePrior, arrays_from_frame
 from psm_model.identification.prior_support import MIN_EXPLAINED, supported_weights, weigh_prior
@@ -82,10 +83,12 @@ def test_bad_weights_in_a_prior_file_are_refused(tmp_path, weights, match):
     InternalForcePrior(converged=True).save(tmp_path / "p.json")
     d = json.loads((tmp_path / "p.json").read_text())
     d["axis_weights"] = weights
-    (tmp_path / "p.json").write_text(json.dumps(d))
+    (tmp_path / "p.json").write_text(json.dumps(seal(d)))  # resealed: the range check refuses
     with pytest.raises(IdentificationInputError, match=match):
         InternalForcePrior.load(tmp_path / "p.json")
-    del d["axis_weights"]  # a prior written before the weights: the law as fitted
+    # a prior written before the weights (and before the envelope): the law as fitted
+    for key in ("axis_weights", "sha256", "format_version"):
+        del d[key]
     (tmp_path / "p.json").write_text(json.dumps(d))
     assert np.all(InternalForcePrior.load(tmp_path / "p.json").axis_weights == 1.0)
     with pytest.raises(IdentificationInputError, match="held-out"):

@@ -35,8 +35,7 @@ class Toy(TwoTapToy):
 
 @pytest.fixture
 def toy():
-    register(Recipe("toy", "Toy (test)", lambda n_features, config: Toy(n_features, **config),
-                    streams=True))
+    register(Recipe("toy", lambda n_features, config: Toy(n_features, **config)))
     yield recipe("toy")
     unregister("toy")
 
@@ -50,6 +49,7 @@ def data(tmp_path_factory):
 
 
 def test_a_registered_model_runs_the_whole_path(toy, data, tmp_path):
+    assert toy.streams and not toy.closed_form and not toy.uses_prior  # what Toy says itself
     summary = train(data, "toy", tmp_path / "toy.pt", epochs=3, seed=0,
                     train_config=TrainConfig(progress=False, lr=1e-2))
     assert summary["epochs_run"] == 3 and summary["parameters"] == 2 * 3 * len(PAPER_FEATURES) + 3
@@ -93,7 +93,7 @@ def test_an_unregistered_model_is_refused_by_name(data, tmp_path):
         train(data, "toy", tmp_path / "toy.pt", epochs=1)
     assert not (tmp_path / "toy.pt").exists()
     with pytest.raises(RecipeError, match="already registered"):
-        register(Recipe("fcn", "FCN again", RECIPES["fcn"].build))
+        register(Recipe("fcn", RECIPES["fcn"].build))
 
 
 def test_a_checkpoint_of_an_unregistered_model_is_refused(toy, data, tmp_path):

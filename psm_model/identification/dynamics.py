@@ -52,11 +52,16 @@ from psm_model.identification.errors import IdentificationInputError, NotConverg
 from psm_model.identification.friction import FrictionShape
 from psm_model.identification.inertia import (PARAMETER_NAMES, PARAMETER_UNITS,
                                               consistency_report)
-from psm_model.identification.model_file import read_model_json
+from psm_model.identification.model_file import check_sealed, read_model_json
 from psm_model.identification.signals import check_finite_2d
+from psm_model.integrity import seal
 from psm_model.kinematics import PSM
 
 MODEL_FORMAT = "psm_model.identification.ArmDynamicsModel/1"
+FORMAT_VERSION = 2
+"""2: the integrity envelope (:mod:`psm_model.integrity`: a SHA-256 over every field) and this
+integer; a file with neither was written before them and still loads (its fields checked as
+every model's are); one with only one of them is refused."""
 
 
 def file_digest(path) -> str:
@@ -170,16 +175,20 @@ class ArmDynamicsModel:
                 "linear_parameters": lin, "options": opts, "info": self.info}
 
     def save(self, path: str | Path) -> None:
-        """Write the model as JSON atomically; refuses a non-converged model."""
+        """Write the model as JSON atomically, sealed (:data:`FORMAT_VERSION`); refuses a
+        non-converged model."""
         if not self.converged:
             raise NotConvergedError("refusing to save a dynamics model whose fit did not converge")
-        write_json_atomic(path, self.to_dict())
+        write_json_atomic(path, seal({**self.to_dict(), "format_version": FORMAT_VERSION}))
 
     @classmethod
     def load(cls, path: str | Path) -> ArmDynamicsModel:
         """Read a model written by :meth:`save`. Refuses, naming the file: unreadable or invalid
-        JSON, another format, missing or malformed fields, non-finite parameters."""
+        JSON, another format, a field that does not match the file's SHA-256 envelope or a
+        format version that is not the integer :data:`FORMAT_VERSION` (files written before the
+        envelope carry neither and load), missing or malformed fields, non-finite parameters."""
         d = read_model_json(path, MODEL_FORMAT, "an ArmDynamicsModel")
+        check_sealed(d, path, "ArmDynamicsModel", FORMAT_VERSION)
         try:
             model = cls._from_dict(d)
         except (KeyError, TypeError, ValueError, AttributeError) as err:

@@ -60,6 +60,7 @@ short; the law and the identifiability report already live in their own modules.
 
 from __future__ import annotations
 
+import json
 import math
 import time
 from dataclasses import dataclass, field
@@ -68,10 +69,10 @@ from pathlib import Path
 import numpy as np
 
 from psm_model.conventions import GRAVITY_UPRIGHT_MPS2, INSERTION_JOINT, WRIST_JOINTS
-from psm_model.files import write_json_atomic
+from psm_model.files import write_text_atomic
 from psm_model.identification.errors import IdentificationInputError, NotConvergedError
 from psm_model.identification.insertion import InsertionEffortModel
-from psm_model.identification.model_file import read_model_json
+from psm_model.identification.model_file import parse_model_json, read_model_json
 from psm_model.identification.prior_identifiability import identifiability
 from psm_model.identification.prior_law import (CABLE_ANGLES_RAD, KAPPA, NAMES,  # noqa: F401
                                                 MIN_SAMPLES, PARAMETERS, _CasadiOps, _model)
@@ -81,6 +82,10 @@ from psm_model.recording import (HEX10, JOINT_POSITIONS, OVERLOAD, TARGETS, join
                                  read_recording)
 
 FORMAT = "psm_model.identification.InternalForcePrior/1"
+FORMAT_VERSION = 2
+"""2: the integrity envelope (:mod:`psm_model.integrity`: a SHA-256 over every field) and this
+integer; a file with neither was written before them and still loads (its parameters checked
+against their bounds, as every prior's are)."""
 
 _MIN_SAMPLES = MIN_SAMPLES
 _WRIST_EFFORTS = tuple(joint_column(j, "effort") for j in WRIST_JOINTS)
@@ -329,19 +334,44 @@ class InternalForcePrior:
 
     def save(self, path) -> None:
         """Write human-readable JSON atomically; refuses a non-converged fit."""
+        write_text_atomic(path, self.to_json())
+
+    def to_json(self) -> str:
+        """The text :meth:`save` writes, in memory (a checkpoint keeps it); refuses a
+        non-converged fit."""
         if not self.converged:
             raise NotConvergedError("refusing to save a prior whose fit did not converge "
                                     f"({self.info.get('solver_status')})")
-        write_json_atomic(path, self.to_dict())
+        from psm_model.integrity import seal
+        return json.dumps(seal({**self.to_dict(), "format_version": FORMAT_VERSION}), indent=2,
+                          allow_nan=False) + "\n"
 
     @classmethod
     def load(cls, path) -> InternalForcePrior:
         """Read a prior JSON written by :meth:`save`. Refuses, naming the file: unreadable or
-        invalid JSON, another format, a missing parameter, and any parameter that is not a
-        finite number inside its physical bounds (:data:`PARAMETERS`; the same bounds the fit
-        uses, so a prior the fit wrote always loads): a NaN predicts NaN everywhere, a negative
-        pulley radius trains a model on nonsense."""
-        d = read_model_json(path, FORMAT, "an InternalForcePrior")
+        invalid JSON, another format, a field that does not match the file's SHA-256 envelope
+        or a format version that is not the integer :data:`FORMAT_VERSION` (files written
+        before the envelope carry neither and load), a missing parameter, and any parameter
+        that is not a finite number inside its physical bounds (:data:`PARAMETERS`; the same
+        bounds the fit uses, so a prior the fit wrote always loads): a NaN predicts NaN
+        everywhere, a negative pulley radius trains a model on nonsense."""
+        return cls.from_dict(read_model_json(path, FORMAT, "an InternalForcePrior"), path)
+
+    @classmethod
+    def from_json(cls, text: str, source: str = "prior JSON") -> InternalForcePrior:
+        """:meth:`load` on the text :meth:`to_json` gives, in memory; ``source`` names it in
+        the refusals."""
+        return cls.from_dict(parse_model_json(text, FORMAT, "an InternalForcePrior", source),
+                             source)
+
+    @classmethod
+    def from_dict(cls, d: dict, path) -> InternalForcePrior:
+        """The checks of :meth:`load` on the parsed JSON ``d``; ``path`` names its source."""
+        if "format_version" in d or "sha256" in d:  # a file without both predates them
+            from psm_model.integrity import check_version, verify
+            check_version(d.get("format_version"), (FORMAT_VERSION,), str(path), "prior",
+                          IdentificationInputError)
+            verify(d, str(path), "prior", IdentificationInputError)
         entries = d.get("parameters")
         if not isinstance(entries, dict):
             raise IdentificationInputError(f"{path}: no 'parameters' object")

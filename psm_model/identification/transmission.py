@@ -73,7 +73,8 @@ from psm_model.files import write_json_atomic
 from psm_model.identification.cable_pair import capstan, tension_sum
 from psm_model.identification.errors import IdentificationInputError, NotConvergedError
 from psm_model.identification.hysteresis import dahl_state, hold, hold_coefficients, play
-from psm_model.identification.model_file import read_model_json
+from psm_model.identification.model_file import check_sealed, read_model_json
+from psm_model.integrity import seal
 from psm_model.transmission_recording import TransmissionRecording
 
 OMEGA_MOVING = 0.05
@@ -82,6 +83,9 @@ SMOOTH_MAX_NM = 1e-3
 """Nm: width of the smooth max between the pretension torque and |tau_s|."""
 TIE_CORRELATION = 0.95
 FORMAT = "psm_model.identification.CableTransmission/1"
+FORMAT_VERSION = 2
+"""2: the integrity envelope (:mod:`psm_model.integrity`) and this integer; a file with neither
+predates them and loads, its bounds checked; one with only one of them is refused."""
 
 # name, unit, lower, upper, initial: the torque path's parameters (physical bounds)
 TORQUE_PARAMETERS = (
@@ -257,19 +261,23 @@ class CableTransmission:
                 "info": {k: v for k, v in self.info.items() if k != "width_scores"}}
 
     def save(self, path) -> None:
-        """Write the JSON atomically; refuses a fit whose solver did not converge."""
+        """Write the JSON atomically, sealed (:data:`FORMAT_VERSION`); refuses a fit whose
+        solver did not converge."""
         if not self.info.get("converged", False):
             raise NotConvergedError("refusing to save a transmission whose fit did not converge "
                                     f"({self.info.get('solver_status', 'no fit')})")
-        write_json_atomic(path, self.to_dict())
+        write_json_atomic(path, seal({**self.to_dict(), "format_version": FORMAT_VERSION}))
 
     @classmethod
     def load(cls, path) -> "CableTransmission":
         """Read a file :meth:`save` wrote. Refuses, naming the file and the entry: unreadable
-        JSON, another format, a missing or unknown parameter, a torque parameter that is not a
-        finite number inside its bounds, an angle parameter that is not finite (the ratio
-        within (0.3, 3)), a width that is not a finite number in its range."""
+        JSON, another format, an edited field or a format version that is not the integer
+        :data:`FORMAT_VERSION` (:func:`.model_file.check_sealed`), a missing or unknown
+        parameter, a torque parameter that is not a finite number inside its bounds, an angle
+        parameter that is not finite (the ratio within (0.3, 3)), a width that is not a finite
+        number in its range."""
         d = read_model_json(path, FORMAT, "a CableTransmission")
+        check_sealed(d, path, "CableTransmission", FORMAT_VERSION)
 
         def number(value, name, lo=-math.inf, hi=math.inf) -> float:
             if (isinstance(value, bool) or not isinstance(value, (int, float))

@@ -11,7 +11,8 @@ never stored). Both sides use the same coordinates (WPI's recorder coordinates f
 joints for the residual), filters and trims.
 
 :func:`residual_statistics` summarises a residual (std raw, after the evaluation's causal 5 Hz
-low-pass and after the paper's centred median of 71 samples - both from :mod:`hybrid.metrics` -
+low-pass and after the paper's centred median of 71 samples - both from :mod:`psm_model.filters`,
+the filters the evaluation scores with -
 the fraction of its variance below 1 Hz and its lag-1 / lag-10 autocorrelation).
 """
 
@@ -22,6 +23,7 @@ from pathlib import Path
 import numpy as np
 from scipy.signal import freqz, lfilter, welch
 
+from ..filters import centred_median, lowpass_causal
 from ..recording import JOINT_EFFORTS, JOINT_POSITIONS, JOINT_VELOCITIES
 from .bench import Contact, run_trajectory
 from .drive import resonator
@@ -36,12 +38,11 @@ STATISTICS = ("std_raw", "std_lowpass5", "std_median71", "fraction_below_1hz", "
 def residual_statistics(residual: np.ndarray, rate_hz: float = RATE_HZ) -> dict[str, np.ndarray]:
     """Per column of ``residual`` (N, k), mean removed: :data:`STATISTICS` as (k,) arrays.
 
-    ``std_lowpass5`` / ``std_median71``: the std after :func:`hybrid.metrics.postprocess` with
-    ``mode="causal_lowpass"`` / ``"paper"`` (no bias step); ``fraction_below_1hz``: periodogram
+    ``std_lowpass5`` / ``std_median71``: the std after :func:`psm_model.filters.lowpass_causal` /
+    :func:`psm_model.filters.centred_median` (the evaluation's ``"causal_lowpass"`` / ``"paper"``
+    post-processing without its bias step); ``fraction_below_1hz``: periodogram
     power at 0 < f < 1 Hz over all power at f > 0; ``autocorr_lagK``:
     ``sum(x[K:] x[:-K]) / sum(x^2)``."""
-    from hybrid.metrics import postprocess  # the evaluation's own filters (imports torch: late)
-
     x = np.asarray(residual, dtype=float)
     x = x - x.mean(axis=0)
     freq = np.fft.rfftfreq(len(x), 1.0 / rate_hz)
@@ -52,8 +53,8 @@ def residual_statistics(residual: np.ndarray, rate_hz: float = RATE_HZ) -> dict[
         return (x[k:] * x[:-k]).sum(axis=0) / (x * x).sum(axis=0)
 
     return {"std_raw": x.std(axis=0),
-            "std_lowpass5": postprocess(x, rate_hz, bias=False, mode="causal_lowpass").std(axis=0),
-            "std_median71": postprocess(x, rate_hz, bias=False, mode="paper").std(axis=0),
+            "std_lowpass5": lowpass_causal(x, rate_hz).std(axis=0),
+            "std_median71": centred_median(x).std(axis=0),
             "fraction_below_1hz": power[positive & (freq < 1.0)].sum(axis=0) / power[positive].sum(axis=0),
             "autocorr_lag1": autocorr(1), "autocorr_lag10": autocorr(10)}
 
