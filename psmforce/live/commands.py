@@ -30,11 +30,16 @@ def replay_command(args) -> dict:
         _needs("foxglove", "replay --view")
     from psmforce.live.replay import replay
     topics = _topics(args) | ({"ati": args.topic_ati} if args.topic_ati else {})
+    if args.view:
+        print(f"replay --view: Foxglove WebSocket on ws://127.0.0.1:{args.port}; playing once a "
+              f"client subscribes to /{args.arm.strip('/')}/tool_force/hex10 (at most "
+              f"{args.view_wait:g} s from now), serving until interrupted", flush=True)
     report = replay(args.bag, args.checkpoint, args.out, arm=args.arm, topics=topics,
                     input_rate_hz=args.input_rate, post_filter=args.post_filter,
                     tare_on_start=args.tare_on_start, sync=args.sync_stamps,
                     realtime=args.realtime,
-                    view_port=args.port if args.view else None, view_hold_s=None)
+                    view_port=args.port if args.view else None, view_wait_s=args.view_wait,
+                    view_hold_s=None)
     print(f"wrote {report['out']} ({report['answers']} estimates at "
           f"{report['input_rate_hz']:.4g} Hz, model at {report['model_rate_hz']:g} Hz) and "
           f"{report['layout']}")
@@ -66,7 +71,9 @@ def serve_command(args) -> dict:
         stop.set()
         if player is not None:
             player.join(5)
-    print(json.dumps({k: report[k] for k in ("received", "answers_published")}))
+    print(json.dumps({k: report[k] for k in ("received", "answers_published", "unpaired",
+                                             "input_rate_hz", "model_rate_hz", "decimation",
+                                             "lag_s") if k in report}))
     return report
 
 
@@ -118,6 +125,9 @@ def add_live_commands(sub) -> None:
                    help="serve the messages live to Foxglove (WebSocket, --port) while playing, "
                         "and until interrupted")
     p.add_argument("--port", type=int, default=8765, help="--view's port (default 8765)")
+    p.add_argument("--view-wait", type=float, default=60.0, metavar="S",
+                   help="with --view: wait up to S s for a client to subscribe to the estimate "
+                        "before playing (default 60; 0: play at once)")
     p.set_defaults(func=replay_command)
 
     p = sub.add_parser(

@@ -8,7 +8,10 @@ HEX10), builds the estimator's sample from the three with
 :func:`psm_model.bags.messages.sample_from_messages` (time: the trigger's header stamp) and steps
 the :class:`hybrid.streaming.StreamingEstimator` once: one answer per trigger message, at the
 input rate, whatever rate the network runs at (the estimator decimates, :mod:`hybrid.rates`).
-Nothing is answered until each stream has delivered a message.
+Nothing is answered until each stream has delivered a message. With ``sync``, the triggers
+that arrive before the first message of another stream wait for it (up to 2 s of them: a
+DDS reader that matched its writer a moment late receives that writer's first messages
+resent, tens of ms after the others), then meet their partners as below.
 
 Pairing. By default each trigger message meets the latest message of the other streams that
 has arrived: what a subscriber sees, right for streams stamped by different clocks (the dVRK's
@@ -17,7 +20,9 @@ streams stamped on one clock (a simulated robot, a bench that samples every chan
 instant): a trigger waits until each other stream has delivered a message stamped at or after
 its own, then meets, of each, the latest stamped at or before it, so a message that arrives
 late (a lost datagram resent, a busy transport) still meets its own trigger. A trigger waits
-for at most ``max_pending`` later triggers (10 ms at 1 kHz), then is answered with what there is.
+for at most ``max_wait_s`` of later triggers (0.1 s: 100 at 1 kHz; a partner resent or held up
+by a busy transport is late by tens of ms), then is answered with what there is
+(counted in :attr:`ForceNode.unpaired`).
 
 Outputs per answer (:func:`output_topics`, under ``/{arm}/tool_force/``; header stamp = the
 stamp of the trigger message answered):
@@ -92,7 +97,7 @@ class ForceNode:
 
     def __init__(self, estimator: StreamingEstimator, *, arm: str = "PSM1",
                  trigger: str = "hex10", tare_s: float = 0.5, stale_periods: float = 10.0,
-                 sync: bool = False, max_pending: int = 10):
+                 sync: bool = False, max_wait_s: float = 0.1):
         if trigger not in INPUT_STREAMS:
             raise ValueError(f"trigger must be one of {INPUT_STREAMS}, got {trigger!r}")
         if not tare_s > 0:
@@ -109,10 +114,16 @@ class ForceNode:
         self._tare_left = 0
         self._tare_sum = np.zeros(3)
         self.answers = 0
+        self.unpaired = 0
+        """With ``sync``: answers given before every partner had arrived (module docstring)."""
         self.sync = sync
-        self._max_pending = max_pending
+        self._max_pending = max(1, round(max_wait_s * estimator.input_rate_hz))
         self._pending: deque = deque()
-        self._history = {s: deque(maxlen=4 * max_pending) for s in INPUT_STREAMS
+        # the partners not yet passed by a released trigger: a few normally; up to 2 s of
+        # messages when the trigger stream lags behind the others (a busy transport)
+        self._startup_pending = max(4 * self._max_pending, round(2 * estimator.input_rate_hz))
+        self._history = {s: deque(maxlen=self._startup_pending)
+                         for s in INPUT_STREAMS
                          if s != trigger}
 
     def request_tare(self) -> None:
@@ -134,9 +145,9 @@ class ForceNode:
                 self._history[stream].append((stamp_ns(message) or 0, message))
                 return self._release(False)
             return []
-        if any(m is None for s, m in self.latest.items() if s != stream):
-            return []
         if not self.sync:
+            if any(m is None for s, m in self.latest.items() if s != stream):
+                return []
             self.latest[stream] = message
             return [self._answer(message)]
         self._pending.append(message)
@@ -150,13 +161,21 @@ class ForceNode:
         answers = []
         while self._pending:
             stamp = stamp_ns(self._pending[0]) or 0
-            ready = all(h and h[-1][0] >= stamp for h in self._history.values())
+            if not all(self._history.values()):  # a stream has delivered nothing yet
+                if not (force or len(self._pending) > self._startup_pending):
+                    break
+                self._pending.popleft()  # no answer without it (module docstring)
+                continue
+            ready = all(h[-1][0] >= stamp for h in self._history.values())
             if not (ready or force or len(self._pending) > self._max_pending):
                 break
+            trigger = self._pending.popleft()
+            self.unpaired += not ready
             for name, history in self._history.items():  # the latest at or before the stamp
-                at = [m for s, m in history if s <= stamp]
-                self.latest[name] = at[-1] if at else history[0][1]
-            answers.append(self._answer(self._pending.popleft()))
+                while len(history) > 1 and history[1][0] <= stamp:
+                    history.popleft()  # passed: later triggers are stamped later
+                self.latest[name] = history[0][1]
+            answers.append(self._answer(trigger))
         return answers
 
     def _answer(self, message) -> Answer:

@@ -12,7 +12,10 @@ receive time of the message it answers. A layout for Foxglove is written beside 
 The input rate is the HEX10 stream's, measured from its header stamps (or given); a rate the
 model cannot serve is refused in one line before anything is written (:mod:`hybrid.rates`).
 ``realtime``: paced by the receive times. ``view_port``: the same messages served live by a
-Foxglove WebSocket server on that port while they are played.
+Foxglove WebSocket server on that port while they are played (:class:`psmforce.live.view.LiveView`:
+every channel advertised before the first message); ``view_wait_s``: the playback first waits up
+to that long for a client to subscribe to the estimate (HEX10 frame), so a viewer that connects
+after the start still sees it from its first answer.
 """
 
 from __future__ import annotations
@@ -25,6 +28,7 @@ from rosbags.highlevel import AnyReader
 
 from hybrid.rates import RateError, recording_rate_hz
 from hybrid.streaming import StreamingEstimator
+from hybrid.uncertainty import predicts_variance
 from psm_model.bags.messages import ACCEPTED_TYPES, ROS2_TYPESTORE, stamp_ns
 from psm_model.bags.reading import BagError, resolve_topics
 from psmforce.live.node import OUTPUT_TYPES, ForceNode
@@ -58,14 +62,16 @@ def measure_rate(reader: AnyReader, topic: str) -> float:
 def replay(bag: str | Path, checkpoint: str | Path, out: str | Path, *, arm: str = "PSM1",
            topics: dict[str, str] | None = None, input_rate_hz: float | None = None,
            post_filter: str = "none", backend: str = "auto", tare_on_start: bool = False,
-           tare_s: float = 0.5, sync: bool = False, realtime: bool = False, view_port: int | None = None,
+           tare_s: float = 0.5, sync: bool = False, realtime: bool = False,
+           view_port: int | None = None, view_wait_s: float = 0.0,
            view_hold_s: float | None = 0.0) -> dict:
     """Play ``bag`` through the node for ``checkpoint``; write ``out`` (``.mcap``) and its
     layout; return a summary (messages, answers, rate, decimation, flag counts, topics).
     ``topics``: stream -> topic overrides as ``convert`` takes them (js, jaw, hex10, ati).
     ``sync``: pair the streams by stamp (:class:`psmforce.live.node.ForceNode`).
-    ``view_hold_s``: with ``view_port``, how long the server stays up after the last message
-    (None: until interrupted)."""
+    ``view_wait_s``: with ``view_port``, how long to wait for a client to subscribe to the
+    estimate before playing (module docstring); ``view_hold_s``: how long the server stays up
+    after the last message (None: until interrupted)."""
     from psm_model import PSM
     from psmforce.live.view import LiveView, McapOut, write_layout
     bag, out = Path(bag), Path(out)
@@ -98,16 +104,27 @@ def replay(bag: str | Path, checkpoint: str | Path, out: str | Path, *, arm: str
         if tare_on_start:
             node.request_tare()
         stream_of = {resolved[s]: s for s in ("js", "jaw", "hex10")}
-        view = LiveView(view_port) if view_port is not None else None
         partial = out.with_name(out.name + ".part")
         sink = McapOut(partial)
         flags = np.zeros(32, np.int64)
+        view, viewer = None, None
         try:
+            if view_port is not None:
+                outputs = {node.topics[n]: t for n, t in OUTPUT_TYPES.items()
+                           if n != "std" or predicts_variance(estimator.model)}
+                inputs = {c.topic: c.msgtype for c in reader.connections
+                          if c.msgtype in ROS2_TYPESTORE.types}
+                view = LiveView(view_port, channels=inputs | outputs)
+                viewer = view_wait_s > 0 and view.wait_for_subscriber(node.topics["hex10"],
+                                                                     view_wait_s)
             summary = _play(reader, node, stream_of, sink, view, realtime, flags)
             sink.close()
             partial.rename(out)
+            layout = write_layout(out.with_suffix(".layout.json"), node.topics["hex10"],
+                                  resolved["hex10"], resolved.get("ati")
+                                  if resolved.get("ati") in present else None)
             if view is not None:
-                view.hold(view_hold_s)
+                view.hold(view_hold_s)  # the files are complete: an interrupt loses nothing
         finally:
             if view is not None:
                 view.close()
@@ -116,15 +133,14 @@ def replay(bag: str | Path, checkpoint: str | Path, out: str | Path, *, arm: str
                 partial.unlink()
     finally:
         reader.close()
-    layout = write_layout(out.with_suffix(".layout.json"), node.topics["hex10"],
-                          resolved["hex10"], resolved.get("ati") if resolved.get("ati")
-                          in present else None)
     return {"bag": str(bag), "out": str(out), "layout": str(layout),
             "input_rate_hz": estimator.input_rate_hz, "model_rate_hz": estimator.rate_hz,
             "decimation": estimator.decimation, "lag_s": estimator.lag_s(),
-            "answers": node.answers, "tare_offset_N": node.offset.tolist(),
+            "answers": node.answers, "unpaired": node.unpaired,
+            "tare_offset_N": node.offset.tolist(),
             "flag_counts": {bit: int(n) for bit, n in enumerate(flags) if n},
-            "topics": dict(sorted(sink.counts.items())), **summary}
+            "topics": dict(sorted(sink.counts.items())),
+            **({"view_port": view.port, "viewer_before_play": viewer} if view else {}), **summary}
 
 
 def _play(reader, node: ForceNode, stream_of: dict, sink, view, realtime: bool,

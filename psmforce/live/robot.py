@@ -117,8 +117,9 @@ def play(frame: pd.DataFrame, participant, *, arm: str = "PSM1", topics: dict | 
 
 
 def main(argv: list[str] | None = None) -> int:
-    """``python -m psmforce.live.robot RECORDING.csv [--domain-id N] [--start-ns NS]``: play a
-    recording once as the robot, in real time, and print how many samples went out."""
+    """``python -m psmforce.live.robot RECORDING.csv [--domain-id N] [--start-ns NS]
+    [--duration S]``: play a recording as the robot, in real time, once (or looped for S
+    seconds), and print how many samples went out."""
     import argparse
     import json
 
@@ -130,11 +131,18 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--domain-id", type=int)
     parser.add_argument("--start-ns", type=int)
     parser.add_argument("--arm", default="PSM1")
+    parser.add_argument("--duration", type=float, metavar="S",
+                        help="loop the recording for S seconds (default: play it once)")
     parser.add_argument("--sent", help="write the stamps and HEX10 write times (ns) here")
     args = parser.parse_args(argv)
     frame = read_recording(args.recording, require_targets=False)
+    stop = None
+    if args.duration is not None:
+        import threading
+        stop = threading.Event()
+        threading.Timer(args.duration, stop.set).start()  # the wait for a node included
     result = play(frame, DomainParticipant(domain(args.domain_id)), arm=args.arm,
-                  start_ns=args.start_ns)
+                  start_ns=args.start_ns, loop=stop is not None, stop=stop)
     if args.sent:
         Path(args.sent).write_text(json.dumps(result))
     print(f"published {len(result['stamps_ns'])} samples")

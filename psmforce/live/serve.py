@@ -13,10 +13,13 @@ meets the joint states published before it (from one publisher, which delivers i
 the simulated robot; separate publishers, as on the dVRK, race as any subscriber does);
 none is dropped (the readers keep :data:`psmforce.live.dds.DEPTH`).
 
-Rate. Unless ``input_rate_hz`` is given, the first :data:`RATE_MESSAGES` HEX10 messages are held
-back while their header stamps measure the input rate; the estimator is then built (a rate the
-model cannot serve stops the node with one line) and the held messages are handled in order,
-so nothing is lost, the first answers only come later.
+Rate. With ``input_rate_hz`` the estimator is built before the node subscribes. Otherwise the
+first :data:`RATE_MESSAGES` HEX10 messages are held back while their header stamps measure the
+input rate; the estimator is then built in a thread (a second or more: the network's backend is
+compiled) while the readers go on being emptied into the held messages, so none falls out of
+their history (:data:`psmforce.live.dds.DEPTH`), and once it is built the held messages are
+handled in order: nothing is lost, the first answers only come later. A rate the model cannot
+serve stops the node with one line.
 
 The domain: ``domain_id``, else ``ROS_DOMAIN_ID``, else 0, as ROS 2 does.
 """
@@ -59,8 +62,13 @@ class DdsNode:
                  topics: dict | None = None, input_rate_hz: float | None = None,
                  tare_on_start: bool = False, tare_s: float = 0.5, best_effort: bool = False,
                  sync: bool = False, **options):
-        from cyclonedds.core import ReadCondition, SampleState, ViewState, InstanceState
-        from cyclonedds.core import WaitSet
+        from cyclonedds.core import (
+            InstanceState,
+            ReadCondition,
+            SampleState,
+            ViewState,
+            WaitSet,
+        )
         from cyclonedds.pub import DataWriter
         from cyclonedds.sub import DataReader
         from cyclonedds.topic import Topic
@@ -69,6 +77,12 @@ class DdsNode:
         self.checkpoint, self.arm, self.options = checkpoint, arm, options
         self.input_rate_hz, self.tare_on_start, self.tare_s = input_rate_hz, tare_on_start, tare_s
         self.sync = sync
+        self.node: ForceNode | None = None
+        self._held: list[tuple[str, object]] = []
+        self._builder: threading.Thread | None = None
+        self._built: list = []
+        if input_rate_hz is not None:
+            self.node = self._build(input_rate_hz)
         resolved, _ = resolve_topics(arm, {k: v for k, v in (topics or {}).items()
                                            if k in ("js", "jaw", "hex10")})
         self.input_topics = {s: resolved[s] for s in ("js", "jaw", "hex10")}
@@ -89,19 +103,24 @@ class DdsNode:
             self._waitset.attach(ReadCondition(reader, mask))
         self._write = dds.write_raw
         self._take_order = ("hex10", "tare", "jaw", "js")
-        self.node: ForceNode | None = None
-        self._held: list[tuple[str, object]] = []
         self.received = {s: 0 for s in sources}
         self.published = 0
         self.flag_counts = np.zeros(32, np.int64)
 
-    def _start(self, rate_hz: float) -> None:
+    def _build(self, rate_hz: float) -> ForceNode:
         from psm_model import PSM
         estimator = StreamingEstimator.from_checkpoint(self.checkpoint, input_rate_hz=rate_hz,
                                                        psm=PSM(), **self.options)
-        self.node = ForceNode(estimator, arm=self.arm, tare_s=self.tare_s, sync=self.sync)
+        node = ForceNode(estimator, arm=self.arm, tare_s=self.tare_s, sync=self.sync)
         if self.tare_on_start:
-            self.node.request_tare()
+            node.request_tare()
+        return node
+
+    def _build_in_thread(self, rate_hz: float) -> None:
+        try:
+            self._built.append(self._build(rate_hz))
+        except Exception as err:  # raised again by spin_once, in the node's thread
+            self._built.append(err)
 
     def _handle(self, stream: str, message) -> None:
         if stream == "tare":
@@ -129,22 +148,30 @@ class DdsNode:
         for _, _, stream, message in batch:
             self.received[stream] += 1
             if self.node is None:
-                self._hold(stream, message)
+                self._held.append((stream, message))
             else:
                 self._handle(stream, message)
+        if self.node is None:
+            self._start()
         return len(batch)
 
-    def _hold(self, stream: str, message) -> None:
-        self._held.append((stream, message))
-        if self.input_rate_hz is not None:
-            rate = self.input_rate_hz
-        else:
+    def _start(self) -> None:
+        """Measure the rate once enough HEX10 messages are held, build the node in a thread,
+        and once built, handle the held messages (module docstring, Rate)."""
+        if self._builder is None:
             stamps = [stamp_ns(m) for s, m in self._held if s == "hex10"]
             if len(stamps) < RATE_MESSAGES:
                 return
             stamps = np.sort(np.array(stamps, np.int64))
             rate = recording_rate_hz((stamps - stamps[0]) * 1e-9, "the HEX10 stream")
-        self._start(rate)
+            self._builder = threading.Thread(target=self._build_in_thread, args=(rate,),
+                                             daemon=True)
+            self._builder.start()
+        if not self._built:
+            return
+        if isinstance(self._built[0], Exception):
+            raise self._built[0]
+        self.node = self._built[0]
         held, self._held = self._held, []
         for item in held:
             self._handle(*item)
@@ -152,7 +179,8 @@ class DdsNode:
     def spin(self, duration_s: float | None = None, stop: threading.Event | None = None,
              idle_stop_s: float | None = None) -> dict:
         """Handle messages until ``duration_s`` has passed, ``stop`` is set, or nothing came
-        for ``idle_stop_s`` after the first message; returns :meth:`report`."""
+        for ``idle_stop_s`` after the first message (and the node is not being built); returns
+        :meth:`report`."""
         end = None if duration_s is None else time.monotonic() + duration_s
         last = None
         while not (stop is not None and stop.is_set()):
@@ -161,7 +189,8 @@ class DdsNode:
                 break
             if self.spin_once(0.05):
                 last = now
-            elif idle_stop_s is not None and last is not None and now - last > idle_stop_s:
+            elif idle_stop_s is not None and last is not None and now - last > idle_stop_s \
+                    and not (self.node is None and self._builder is not None):  # not building
                 break
         return self.report()
 
@@ -174,5 +203,5 @@ class DdsNode:
             est = node.estimator
             out.update(input_rate_hz=est.input_rate_hz, model_rate_hz=est.rate_hz,
                        decimation=est.decimation, lag_s=est.lag_s(),
-                       tare_offset_N=node.offset.tolist())
+                       tare_offset_N=node.offset.tolist(), unpaired=node.unpaired)
         return out

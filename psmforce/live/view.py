@@ -12,6 +12,7 @@ frame: compare shapes, not signs, unless the frames are aligned).
 from __future__ import annotations
 
 import json
+import threading
 import time
 from pathlib import Path
 
@@ -81,24 +82,51 @@ class McapOut:
 
 
 class LiveView:
-    """A Foxglove WebSocket server on ``host:port`` that advertises every topic logged to it."""
+    """A Foxglove WebSocket server on ``host:port`` (0: a free port, :attr:`port` tells which)
+    with a context of its own. ``channels`` (topic -> ROS 2 type) are advertised before the
+    server starts, so a client sees every one of them from its first message, whenever it
+    connects; a topic first logged later is advertised then. :meth:`wait_for_subscriber` lets a
+    player wait for a viewer before it starts."""
 
-    def __init__(self, port: int = 8765, host: str = "127.0.0.1"):
+    def __init__(self, port: int = 8765, host: str = "127.0.0.1",
+                 channels: dict[str, str] | None = None):
         import foxglove
         self._foxglove = foxglove
-        self.server = foxglove.start_server(name="psmforce", host=host, port=port)
-        self.port = self.server.port
+        self._context = foxglove.Context()
         self._channels: dict[str, object] = {}
+        for topic, msgtype in (channels or {}).items():
+            self._channel(topic, msgtype)
+        self._subscribed: set[str] = set()
+        self._changed = threading.Condition()
+        self.server = foxglove.start_server(name="psmforce", host=host, port=port,
+                                            context=self._context,
+                                            server_listener=_Subscriptions(self))
+        self.port = self.server.port
 
-    def write(self, topic: str, msgtype: str, data: bytes, log_ns: int) -> None:
+    def _channel(self, topic: str, msgtype: str):
         channel = self._channels.get(topic)
         if channel is None:
             fox = self._foxglove
             schema = fox.Schema(name=msgtype, encoding="ros2msg",
                                 data=schema_text(msgtype).encode())
             channel = self._channels[topic] = fox.Channel(topic, schema=schema,
-                                                          message_encoding="cdr")
-        channel.log(data, log_time=log_ns)
+                                                          message_encoding="cdr",
+                                                          context=self._context)
+        return channel
+
+    def _on_subscribe(self, topic: str) -> None:
+        with self._changed:
+            self._subscribed.add(topic)
+            self._changed.notify_all()
+
+    def wait_for_subscriber(self, topic: str, timeout_s: float) -> bool:
+        """Wait up to ``timeout_s`` for a client to subscribe to ``topic``; True once one has
+        (at any time since the server started)."""
+        with self._changed:
+            return self._changed.wait_for(lambda: topic in self._subscribed, timeout_s)
+
+    def write(self, topic: str, msgtype: str, data: bytes, log_ns: int) -> None:
+        self._channel(topic, msgtype).log(data, log_time=log_ns)
 
     def hold(self, seconds: float | None) -> None:
         """Keep serving for ``seconds`` (None: until interrupted)."""
@@ -108,3 +136,14 @@ class LiveView:
 
     def close(self) -> None:
         self.server.stop()
+
+
+class _Subscriptions:
+    """The server's listener (``foxglove.ServerListener``): tells the view which topics a
+    client subscribed to."""
+
+    def __init__(self, view: LiveView):
+        self._view = view
+
+    def on_subscribe(self, client, channel) -> None:
+        self._view._on_subscribe(channel.topic)

@@ -1,0 +1,297 @@
+"""The live node's figures: per-message time, end-to-end latency over real DDS, replay speed.
+
+    python benchmarks/live.py [--checkpoint HYBRID.pt] [--seconds 60] [--json OUT.json]
+
+Needs the extra ``psmforce[ros]`` (cyclonedds, mcap). One thread for torch, BLAS and OpenMP
+(set before they load), in every process. ``--checkpoint``: a streamable hybrid (default: one
+trained here for 2 epochs on a 1 %-scale simulated bench, the default architecture at the
+bench's 100 Hz; the figures below do not depend on how well it is trained). The input is a
+simulated palpation session put on a 1 kHz clock (:func:`psmforce.live.robot.bench_recording`):
+the model runs at 100 Hz, every 10th message (decimation 10, :mod:`hybrid.rates`). Prints and
+writes (JSON):
+
+* ``node``: the time one HEX10 message takes in :class:`psmforce.live.node.ForceNode`
+  (``update``: decode the three streams' latest messages, one estimator step in the base and
+  HEX10 frames, tare; then ``encode``: the CDR bytes of every output), median / p99 / max in ms,
+  wall clock and the thread's CPU time, after 500 warm-up messages; split into the messages on
+  which the network steps and the others (physics, anti-alias filter and post-filter only), and
+  compared with the 1 ms period of a 1 kHz loop. Every answer's flags are checked free of
+  GAP / RESET / INVALID_INPUT, so the split is the estimator's own (network on every 10th);
+* ``dds``: three processes on loopback as on the robot: the simulated robot
+  (``python -m psmforce.live.robot --duration S``: arm and jaw JointState and HEX10
+  WrenchStamped at 1 kHz), ``psmforce serve`` (``--input-rate 1000 --sync-stamps``) and this
+  process subscribing to ``/PSM1/tool_force/hex10``: HEX10 messages sent, answers received,
+  lost fraction, end-to-end latency (from the robot's write of a HEX10 message to this
+  process taking the answer stamped with it; one clock, ``time.time_ns``) p50 / p99 / max in
+  ms, and the node's CPU use (user + system time of its process over the playback / the
+  playback's wall time; 1.0 = one core);
+* ``replay``: ``psmforce replay`` of a 1 kHz bag of the same session, as fast as it goes:
+  input messages and answers per second (MCAP written).
+
+Targets (issue 25): p99 end to end at most 1 ms, nothing lost, on this shared 2-core machine;
+``machine.load_average`` records how busy it was.
+"""
+
+import os
+
+for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ[_var] = "1"
+
+import argparse  # noqa: E402
+import json  # noqa: E402
+import platform  # noqa: E402
+import subprocess  # noqa: E402
+import sys  # noqa: E402
+import tempfile  # noqa: E402
+import time  # noqa: E402
+from importlib.metadata import version  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+import numpy as np  # noqa: E402
+import torch  # noqa: E402
+from _report import write_json  # noqa: E402
+
+from hybrid.streaming import Flags, StreamingEstimator  # noqa: E402
+from psm_model import PSM  # noqa: E402
+from psm_model.bags.messages import stream_columns  # noqa: E402
+from psm_model.conventions import CHAIN_JOINTS, JAW_JOINT  # noqa: E402
+
+PERIOD_MS = 1.0
+"""The period of a 1 kHz loop: the budget of one message (ms)."""
+TARGET_P99_MS = 1.0
+WARMUP = 500
+START_NS = 1_700_000_000 * 10**9
+BAD = Flags.GAP | Flags.RESET | Flags.INVALID_INPUT
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _percentiles(values_ms) -> dict:
+    values = np.asarray(values_ms, dtype=float)
+    return {"median_ms": float(np.median(values)), "p99_ms": float(np.percentile(values, 99)),
+            "max_ms": float(values.max()), "n": len(values)}
+
+
+def _checkpoint(tmp: Path) -> tuple[Path, str]:
+    from hybrid.train import train
+    from psm_model.sim import simulate
+    simulate("automated", scale=0.01, seed=0, out=tmp / "bench")
+    summary = train(tmp / "bench", "hybrid", tmp / "hybrid.pt", epochs=2, seed=0)
+    return tmp / "hybrid.pt", (f"hybrid trained here: 1 %-scale simulated bench, seed 0, "
+                               f"{summary['epochs_run']} epochs")
+
+
+def _messages(frame) -> list[tuple[str, object]]:
+    """The robot's messages, per row: arm and jaw JointState, then HEX10 WrenchStamped (the
+    ``cyclonedds`` classes ``serve`` receives)."""
+    from psmforce.live import dds
+    values = {s: frame[list(stream_columns(s))].to_numpy(np.float64) for s in ("js", "jaw",
+                                                                               "hex10")}
+    stamps = START_NS + np.rint(frame["time"].to_numpy() * 1e9).astype(np.int64)
+    out = []
+    for k, stamp in enumerate(stamps):
+        js, jaw, w = values["js"][k], values["jaw"][k], values["hex10"][k]
+        out.append(("js", dds.JointState(dds.header(stamp, ""), list(CHAIN_JOINTS),
+                                         js[0:6].tolist(), js[6:12].tolist(),
+                                         js[12:18].tolist())))
+        out.append(("jaw", dds.JointState(dds.header(stamp, ""), [JAW_JOINT], jaw[0:1].tolist(),
+                                          jaw[1:2].tolist(), jaw[2:3].tolist())))
+        out.append(("hex10", dds.WrenchStamped(dds.header(stamp, "hex10"), dds.Wrench(
+            dds.Vector3(*w[:3]), dds.Vector3(*w[3:])))))
+    return out
+
+
+def node_figures(ckpt: Path, frame) -> dict:
+    from psmforce.live.node import ForceNode
+    est = StreamingEstimator.from_checkpoint(ckpt, input_rate_hz=1000.0, psm=PSM())
+    node = ForceNode(est)
+    wall, cpu, flags = [], [], 0
+    wall_clock, cpu_clock = time.perf_counter_ns, time.thread_time_ns
+    for stream, message in _messages(frame):
+        w0, c0 = wall_clock(), cpu_clock()
+        answers = node.update(stream, message)
+        for answer in answers:
+            node.encode(answer)
+        w1, c1 = wall_clock(), cpu_clock()
+        if stream == "hex10":
+            wall.append(w1 - w0)
+            cpu.append(c1 - c0)
+            flags |= answers[0].flags
+    if flags & BAD:
+        raise RuntimeError(f"the stream was not clean (flags {Flags(flags & BAD)!r}): the "
+                           f"network-step split would not hold")
+    wall, cpu = np.array(wall) * 1e-6, np.array(cpu) * 1e-6
+    k = np.arange(len(wall))
+    network = (k % est.decimation == 0) & (k >= WARMUP)
+    other = (k % est.decimation != 0) & (k >= WARMUP)
+    out = {"messages": int(len(wall) - WARMUP), "backend": est.backend_name,
+           "decimation": est.decimation, "model_rate_hz": est.rate_hz,
+           "input_rate_hz": est.input_rate_hz, "lag_s": est.lag_s(), "budget_ms": PERIOD_MS}
+    for name, mask in (("all", k >= WARMUP), ("network_steps", network),
+                       ("physics_and_filter_only", other)):
+        out[name] = {**_percentiles(wall[mask]),
+                     "cpu": {k2: v for k2, v in _percentiles(cpu[mask]).items() if k2 != "n"},
+                     "over_budget_fraction": float((wall[mask] > PERIOD_MS).mean())}
+    return out
+
+
+def _cpu_s(pid: int) -> float:
+    """User + system CPU time of process ``pid`` so far (s)."""
+    fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+def dds_figures(ckpt: Path, frame, seconds: float, tmp: Path) -> dict:
+    from cyclonedds.core import (
+        InstanceState,
+        Policy,
+        Qos,
+        ReadCondition,
+        SampleState,
+        ViewState,
+        WaitSet,
+    )
+    from cyclonedds.domain import DomainParticipant
+    from cyclonedds.sub import DataReader
+    from cyclonedds.topic import Topic
+    from cyclonedds.util import duration
+
+    from psm_model.recording import write_recording
+    from psmforce.live import dds
+    from psmforce.live.node import output_topics
+    domain_id = 150 + os.getpid() % 80
+    write_recording(frame, tmp / "robot.csv")
+    participant = DomainParticipant(domain_id)
+    qos = Qos(Policy.Reliability.Reliable(duration(milliseconds=100)),
+              Policy.History.KeepLast(dds.DEPTH))
+    reader = DataReader(participant, Topic(participant, dds.dds_topic(output_topics()["hex10"]),
+                                           dds.WrenchStamped), qos=qos)
+    waitset = WaitSet(participant)
+    waitset.attach(ReadCondition(reader, SampleState.Any | ViewState.Any | InstanceState.Any))
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    node = subprocess.Popen(
+        [sys.executable, "-m", "psmforce.cli", "serve", str(ckpt), "--domain-id", str(domain_id),
+         "--input-rate", "1000", "--sync-stamps", "--idle-stop", "3", "--json",
+         str(tmp / "node.json")], env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+        text=True)
+    robot = None
+    received: dict[int, int] = {}
+    try:
+        deadline = time.monotonic() + 180
+        while not reader.get_matched_publications():
+            if node.poll() is not None or time.monotonic() > deadline:
+                raise RuntimeError(f"psmforce serve did not come up: {node.communicate()}")
+            time.sleep(0.05)
+        robot = subprocess.Popen(
+            [sys.executable, "-m", "psmforce.live.robot", str(tmp / "robot.csv"), "--domain-id",
+             str(domain_id), "--start-ns", str(START_NS), "--duration", str(seconds),
+             "--sent", str(tmp / "sent.json")], env=env, stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE, text=True)
+        cpu0, wall0 = _cpu_s(node.pid), time.monotonic()
+        cpu1 = wall1 = None
+        last = time.monotonic()
+        while time.monotonic() - last < 2.0 or robot.poll() is None:
+            waitset.wait(duration(milliseconds=50))
+            now_ns = time.time_ns()
+            for m in reader.take(N=4096):
+                if m.sample_info.valid_data:
+                    received[m.header.stamp.sec * 10**9 + m.header.stamp.nanosec] = now_ns
+                    last = time.monotonic()
+            if cpu1 is None and robot.poll() is not None:
+                cpu1, wall1 = _cpu_s(node.pid), time.monotonic()
+        if robot.returncode != 0:
+            raise RuntimeError(f"the robot failed: {robot.communicate()[1]}")
+        node.communicate(timeout=60)
+    finally:
+        for process in (robot, node):
+            if process is not None and process.poll() is None:
+                process.kill()
+    sent = json.loads((tmp / "sent.json").read_text())
+    report = json.loads((tmp / "node.json").read_text())
+    latency = [(received[s] - w) * 1e-6 for s, w in zip(sent["stamps_ns"], sent["sent_ns"])
+               if s in received]
+    n = len(sent["stamps_ns"])
+    return {"seconds": seconds, "hex10_sent": n, "node_received": report["received"]["hex10"],
+            "answers_published": report["answers_published"], "answers_received": len(latency),
+            "lost_fraction": 1.0 - len(latency) / n, "unpaired": report["unpaired"],
+            "latency": _percentiles(latency),
+            "within_target": bool(np.percentile(latency, 99) <= TARGET_P99_MS
+                                  and len(latency) == n),
+            "node_cpu_fraction": (cpu1 - cpu0) / (wall1 - wall0),
+            "flag_counts": report["flag_counts"]}
+
+
+def replay_figures(ckpt: Path, frame, tmp: Path) -> dict:
+    from psm_model.bags.writing import write_bag
+    from psmforce.live.replay import replay
+    write_bag(frame, tmp / "session", start_ns=START_NS)
+    started = time.perf_counter()
+    report = replay(tmp / "session", ckpt, tmp / "out.mcap")
+    seconds = time.perf_counter() - started
+    return {"session_s": float(frame["time"].iloc[-1] - frame["time"].iloc[0]),
+            "inputs": report["inputs_copied"], "answers": report["answers"],
+            "seconds": seconds, "inputs_per_s": report["inputs_copied"] / seconds,
+            "answers_per_s": report["answers"] / seconds,
+            "realtime_factor": float(frame["time"].iloc[-1]) / seconds}
+
+
+def main() -> tuple[dict, str | None]:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--checkpoint")
+    parser.add_argument("--seconds", type=float, default=60.0,
+                        help="how long the robot publishes over DDS (default 60)")
+    parser.add_argument("--json")
+    args = parser.parse_args()
+    torch.set_num_threads(1)
+    from psmforce.live.robot import bench_recording
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        result = {"machine": {"platform": platform.platform(), "cpus": os.cpu_count(),
+                              "python": platform.python_version(), "torch": torch.__version__,
+                              "cyclonedds": version("cyclonedds"),
+                              "load_average": list(os.getloadavg())}}
+        if args.checkpoint:
+            ckpt, label = Path(args.checkpoint), "given (--checkpoint)"
+        else:
+            ckpt, label = _checkpoint(tmp)
+        est = StreamingEstimator.from_checkpoint(ckpt)
+        result["checkpoint"] = {"what": label, "model_rate_hz": est.rate_hz,
+                                "window": est.window,
+                                "parameters": sum(p.numel() for p in est.model.parameters())}
+        frame = bench_recording(1000.0)
+        result["session"] = {"rate_hz": 1000.0, "samples": len(frame),
+                             "seconds": float(frame["time"].iloc[-1])}
+        result["node"] = node_figures(ckpt, frame)
+        result["dds"] = dds_figures(ckpt, frame, args.seconds, tmp)
+        result["replay"] = replay_figures(ckpt, frame, tmp)
+        result["machine"]["load_average_after"] = list(os.getloadavg())
+    return result, args.json
+
+
+def _print(r: dict) -> None:
+    node, link, rep = r["node"], r["dds"], r["replay"]
+    print(f"checkpoint: {r['checkpoint']['what']}; model at {node['model_rate_hz']:g} Hz, input "
+          f"{node['input_rate_hz']:g} Hz (decimation {node['decimation']}, lag "
+          f"{node['lag_s'] * 1e3:.1f} ms), backend {node['backend']}")
+    for name in ("all", "network_steps", "physics_and_filter_only"):
+        s = node[name]
+        print(f"ForceNode per HEX10 message, {name:24s}: median {s['median_ms']:.3f} ms, p99 "
+              f"{s['p99_ms']:.3f} ms, max {s['max_ms']:.2f} ms (budget {PERIOD_MS:g} ms; over "
+              f"it: {100 * s['over_budget_fraction']:.2f} %)")
+    lat = link["latency"]
+    print(f"serve over DDS, {link['seconds']:g} s at 1 kHz: {link['hex10_sent']} sent, "
+          f"{link['answers_received']} answers received, lost {100 * link['lost_fraction']:.3f} "
+          f"%; latency p50 {lat['median_ms']:.3f} ms, p99 {lat['p99_ms']:.3f} ms, max "
+          f"{lat['max_ms']:.2f} ms; node CPU {100 * link['node_cpu_fraction']:.0f} % of a core; "
+          f"target (p99 <= {TARGET_P99_MS:g} ms, none lost) "
+          f"{'met' if link['within_target'] else 'NOT met'}")
+    print(f"replay: {rep['inputs_per_s']:.0f} input messages/s, {rep['answers_per_s']:.0f} "
+          f"answers/s ({rep['realtime_factor']:.1f}x real time)")
+    print(f"load average before / after: {r['machine']['load_average']} / "
+          f"{r['machine']['load_average_after']}")
+
+
+if __name__ == "__main__":
+    figures, json_path = main()
+    _print(figures)
+    if json_path:
+        write_json(json_path, figures)
