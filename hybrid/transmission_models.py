@@ -93,24 +93,41 @@ def _two_outputs(last: nn.Linear) -> nn.Linear:
     return nn.Linear(last.in_features, 2)
 
 
+def _fcn(n_features: int) -> tuple[nn.Module, dict]:
+    """hybrid/models.py FCN (3 layers, 64 wide), its head made 2-wide."""
+    net = FCN(n_features)
+    net.head = _two_outputs(net.head)
+    return net, {"kind": "window", "window": 1, "windows_per_epoch": None, "batch": 256}
+
+
+def _paper_transformer(n_features: int) -> tuple[nn.Module, dict]:
+    """The paper's transformer on a 64-sample (0.64 s) window, chosen on validation (a) over 16
+    and 32; 8,192 windows drawn afresh each epoch. The hybrid's residual network is the same
+    (chosen on validation (a) over hybrid/causal.py's transformer, an LSTM and an FCN:
+    benchmarks/transmission.py DESIGN), so the paper transformer is also the hybrid without its
+    physics."""
+    net = PaperTransformer(n_features, window=64)
+    net.decoder[-1] = _two_outputs(net.decoder[-1])
+    return net, {"kind": "window", "window": 64, "windows_per_epoch": 8192, "batch": 128}
+
+
+def _lstm(n_features: int) -> tuple[nn.Module, dict]:
+    """Hidden 64 and 4 chunks a batch, chosen on validation (a)."""
+    return SequenceLSTM(n_features), {"kind": "chunk", "warmup": 50, "supervised": 128,
+                                      "windows_per_epoch": None, "batch": 4}
+
+
+NETWORKS = {"fcn": _fcn, "transformer": _paper_transformer, "hybrid": _paper_transformer,
+            "lstm": _lstm}
+"""The transmission benchmark's networks by model name: (n_features) -> (network with two
+outputs, its training settings)."""
+
+
 def build_network(name: str, n_features: int) -> tuple[nn.Module, dict]:
     """The network of model ``name`` with two outputs, and its training settings."""
-    if name == "fcn":  # hybrid/models.py FCN (3 layers, 64 wide), its head made 2-wide
-        net = FCN(n_features)
-        net.head = _two_outputs(net.head)
-        return net, {"kind": "window", "window": 1, "windows_per_epoch": None, "batch": 256}
-    if name in ("transformer", "hybrid"):  # the paper's transformer on a 64-sample (0.64 s)
-        # window, chosen on validation (a) over 16 and 32; 8,192 windows drawn afresh each
-        # epoch. The hybrid's residual network is the same (chosen on validation (a) over
-        # hybrid/causal.py's transformer, an LSTM and an FCN: benchmarks/transmission.py DESIGN),
-        # so the paper transformer is also the hybrid without its physics.
-        net = PaperTransformer(n_features, window=64)
-        net.decoder[-1] = _two_outputs(net.decoder[-1])
-        return net, {"kind": "window", "window": 64, "windows_per_epoch": 8192, "batch": 128}
-    if name == "lstm":  # hidden 64 and 4 chunks a batch chosen on validation (a)
-        return SequenceLSTM(n_features), {"kind": "chunk", "warmup": 50, "supervised": 128,
-                                          "windows_per_epoch": None, "batch": 4}
-    raise ValueError(f"unknown network {name!r}")
+    if name not in NETWORKS:
+        raise ValueError(f"unknown network {name!r}; known: {sorted(NETWORKS)}")
+    return NETWORKS[name](n_features)
 
 
 def _padded(x: np.ndarray, window: int) -> np.ndarray:

@@ -52,8 +52,14 @@ def test_serve_over_dds_equals_the_offline_estimate_loses_nothing_and_tares(tmp_
     participant = DomainParticipant(domain_id)
     topics = output_topics("PSM1")
     qos = dds.qos()
+    # The test's own readers keep everything: in a long pytest process this thread can stall
+    # for more than a second (1,000 messages), and a KeepLast(1000) reader would then drop the
+    # oldest answers, a loss of the test's, not of the node's.
+    from cyclonedds.core import Policy, Qos
+    keep_all = Qos(Policy.Reliability.Reliable(max_blocking_time=0),
+                   Policy.Durability.Volatile, Policy.History.KeepAll)
     readers = {name: DataReader(participant, Topic(participant, dds.dds_topic(topics[name]),
-                                                   kind), qos=qos)
+                                                   kind), qos=keep_all)
                for name, kind in (("hex10", dds.WrenchStamped), ("base", dds.WrenchStamped),
                                   ("flags", dds.UInt32))}
     tare = DataWriter(participant, Topic(participant, dds.dds_topic(topics["tare"]), dds.Empty),
