@@ -6,6 +6,7 @@ from __future__ import annotations
 import copy
 import importlib.util
 import json
+import re
 from pathlib import Path
 
 import pytest
@@ -55,6 +56,17 @@ def _committed_text_files():
 
 @pytest.mark.parametrize("path", list(_committed_text_files()), ids=lambda p: p.name)
 def test_committed_results_and_docs_name_no_machine_path(path):
-    text = path.read_text()
-    for marker in ("/work/", "/tmp/", "/home/", "/root/"):
-        assert marker not in text, f"{path.relative_to(ROOT)} names a machine path ({marker})"
+    found = MACHINE_PATH.search(path.read_text())
+    assert found is None, f"{path.relative_to(ROOT)} names a machine path ({found.group()})"
+
+
+MACHINE_PATH = re.compile(r"(?<![\w.])/(work|tmp|home|root)/")
+"""An absolute path into a machine's folders (not a relative one that has such a folder in it,
+like ``runs/x/work/data``)."""
+
+
+def test_the_machine_path_pattern_tells_absolute_from_relative():
+    assert MACHINE_PATH.search('"data": "/tmp/tmpcanm8kxs/sim"')
+    assert MACHINE_PATH.search("read from `/work/main/results`")
+    assert not MACHINE_PATH.search('"data": "runs/learning_curve/scale_0.05/work/data"')
+    assert not MACHINE_PATH.search("../shared/data/wpi_psm")
