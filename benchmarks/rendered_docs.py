@@ -25,6 +25,7 @@ TRANSMISSION = ROOT / "results" / "benchmarks" / "transmission.json"
 PRIOR_RECOVERY = ROOT / "results" / "benchmarks" / "prior_recovery.json"
 PRIOR_ABLATION = ROOT / "results" / "benchmarks" / "prior_ablation.json"
 COMPARISON = ROOT / "results" / "ports" / "none" / "results.json"
+PORTS = ROOT / "results" / "benchmarks" / "port_comparison.json"
 RESULTS = ROOT / "docs" / "results.md"
 IDENTIFICATION = ROOT / "docs" / "identification.md"
 README = ROOT / "README.md"
@@ -287,7 +288,42 @@ def status_table(result: dict) -> str:
     return "\n".join(lines)
 
 
+def ports_table(result: dict) -> str:
+    """docs/results.md: every model without a port and through each port, causal NRMSE."""
+    by_port = result["causal_nrmse_pct"]
+    names = {"none": "no port", "cannula": "cannula", "abdominal-wall": "abdominal wall"}
+    ports = [p for p in names if p in by_port]
+    lines = ["", "Automated test set, causal NRMSE %, mean ± std over bench seeds "
+             + " ".join(str(s) for s in result["call"]["seeds"])
+             + f" (scale {result['call']['scale']:g}; "
+             + ("every run converged" if all(result["all_converged"].values())
+                else "NOT every run converged")
+             + "); through a port, x: the ratio to the same model without one.", "",
+             "| Model | " + " | ".join(f"{names[p]} Fx / Fy / Fz" for p in ports) + " |",
+             "|---|" + "---|" * len(ports)]
+    for model in by_port["none"]:
+        cells = []
+        for port in ports:
+            axes = by_port[port][model]
+            cell = " / ".join(_cell(axes[a]) for a in ("Fx", "Fy", "Fz"))
+            if port != "none":
+                cell += " (x" + " / x".join(f"{axes[a]['ratio_to_no_port']:.2f}"
+                                             for a in ("Fx", "Fy", "Fz")) + ")"
+            cells.append(cell)
+        lines.append(f"| {model} | " + " | ".join(cells) + " |")
+    lines.append("")
+    for target, t in result["targets"].items():
+        detail = ", ".join(f"{k} {v:.2f}" if isinstance(v, float) else
+                           f"{k} " + " / ".join(f"{a} {x:.2f}" for a, x in v.items())
+                           for k, v in t.items() if k != "met")
+        lines.append(f"- Target \"{target}\": {'met' if t['met'] else '**not met**'} "
+                     f"({detail}).")
+    lines.append("")
+    return "\n".join(lines)
+
+
 BLOCKS = (
+    (RESULTS, "ports-table", PORTS, ports_table),
     (README, "status-table", COMPARISON, status_table),
     (IDENTIFICATION, "transmission-tables", TRANSMISSION, transmission_tables),
     (README, "transmission-summary", TRANSMISSION, transmission_summary),
