@@ -322,7 +322,34 @@ def ports_table(result: dict) -> str:
     return "\n".join(lines)
 
 
+AXIAL_CHANNELS = {
+    "insertion_fz": "`insertion_fz` (insertion effort minus the identified stage model)",
+    "insertion_fz, best fixed filter": "`insertion_fz`, best fixed filter",
+    "comp_fz": "`comp_fz` (HEX10 axial minus the prior's internal force)",
+    "complementary": "`insertion_fz` below a crossover + `comp_fz` above (best crossover)",
+    "perfect stage model": "a perfect stage model: truth + the insertion effort's disturbance "
+                           "only",
+    "perfect stage model, best fixed filter": "a perfect stage model, best fixed filter"}
+
+
+def axial_channels_table(result: dict) -> str:
+    """docs/results.md: the axial channels without a network against the networks' Fz."""
+    channels, models = result["axial_channels_fz_nrmse_pct"], result["causal_nrmse_pct"]
+    ports = [p for p in ("none", "cannula", "abdominal-wall") if p in channels]
+    names = {"none": "no port", "cannula": "cannula", "abdominal-wall": "abdominal wall"}
+    lines = ["", "| axial channel (causal Fz NRMSE %) | " + " | ".join(names[p] for p in ports)
+             + " |", "|---|" + "---|" * len(ports)]
+    for key, label in AXIAL_CHANNELS.items():
+        lines.append(f"| {label} | " + " | ".join(_cell(channels[p][key]) for p in ports) + " |")
+    for model in ("Hybrid (ours)", "Transformer (paper)"):
+        lines.append(f"| {model}, for comparison | "
+                     + " | ".join(_cell(models[p][model]["Fz"]) for p in ports) + " |")
+    lines.append("")
+    return "\n".join(lines)
+
+
 BLOCKS = (
+    (RESULTS, "axial-channels-table", PORTS, axial_channels_table),
     (RESULTS, "ports-table", PORTS, ports_table),
     (README, "status-table", COMPARISON, status_table),
     (IDENTIFICATION, "transmission-tables", TRANSMISSION, transmission_tables),
