@@ -26,6 +26,7 @@ PRIOR_RECOVERY = ROOT / "results" / "benchmarks" / "prior_recovery.json"
 PRIOR_ABLATION = ROOT / "results" / "benchmarks" / "prior_ablation.json"
 COMPARISON = ROOT / "results" / "ports" / "none" / "results.json"
 PORTS = ROOT / "results" / "benchmarks" / "port_comparison.json"
+ANOTHER_TOOL = ROOT / "results" / "benchmarks" / "another_tool.json"
 RESULTS = ROOT / "docs" / "results.md"
 IDENTIFICATION = ROOT / "docs" / "identification.md"
 README = ROOT / "README.md"
@@ -348,7 +349,26 @@ def axial_channels_table(result: dict) -> str:
     return "\n".join(lines)
 
 
+TOOL_ROWS = ("nominal as is", "nominal calibrated", "1x as is", "1x calibrated", "2x as is",
+             "2x calibrated")
+
+
+def another_tool_table(result: dict) -> str:
+    """docs/results.md: every model on another tool, as is and calibrated."""
+    lines = ["", "| model | tool | causal Fx | causal Fy | causal Fz | paper Fx | paper Fy "
+             "| paper Fz |", "|---|---|---|---|---|---|---|---|"]
+    for model, rows in result["table"].items():
+        for tool in (t for t in TOOL_ROWS if t in rows):
+            cells = [f"{rows[tool][m][a][0]:.2f} ± {rows[tool][m][a][1]:.2f}"
+                     for m in ("causal", "paper") for a in ("Fx", "Fy", "Fz")]
+            lines.append(f"| {model} | {tool} | " + " | ".join(cells) + " |")
+    lines += ["", "Every training and calibration "
+              + ("stopped by its patience." if result["converged"] else "did NOT converge."), ""]
+    return "\n".join(lines)
+
+
 BLOCKS = (
+    (RESULTS, "another-tool-table", ANOTHER_TOOL, another_tool_table),
     (RESULTS, "axial-channels-table", PORTS, axial_channels_table),
     (RESULTS, "ports-table", PORTS, ports_table),
     (README, "status-table", COMPARISON, status_table),
