@@ -27,6 +27,7 @@ PRIOR_ABLATION = ROOT / "results" / "benchmarks" / "prior_ablation.json"
 COMPARISON = ROOT / "results" / "ports" / "none" / "results.json"
 PORTS = ROOT / "results" / "benchmarks" / "port_comparison.json"
 ANOTHER_TOOL = ROOT / "results" / "benchmarks" / "another_tool.json"
+PORT_DESIGN = ROOT / "results" / "benchmarks" / "hybrid_port_design.json"
 RESULTS = ROOT / "docs" / "results.md"
 IDENTIFICATION = ROOT / "docs" / "identification.md"
 README = ROOT / "README.md"
@@ -367,7 +368,30 @@ def another_tool_table(result: dict) -> str:
     return "\n".join(lines)
 
 
+DESIGN_VARIANTS = {"default": "previous default", "+ insertion velocity": "+ insertion velocity",
+                   "+ insertion velocity, position": "+ insertion velocity and position "
+                                                     "(new default)",
+                   "no base on z": "no `insertion_fz` base on z"}
+
+
+def port_design_table(result: dict) -> str:
+    """docs/results.md: the hybrid's input variants on the validation trials, per port."""
+    ports = list(result["ports"])
+    names = {"none": "no port", "cannula": "cannula", "abdominal-wall": "abdominal wall"}
+    lines = ["", "| variant | " + " | ".join(f"{names[p]} Fx / Fy / Fz" for p in ports) + " |",
+             "|---|" + "---|" * len(ports)]
+    for key, label in DESIGN_VARIANTS.items():
+        cells = [" / ".join(f"{x:.2f}" for x in result["ports"][p][key]["mean"]["causal"])
+                 for p in ports]
+        lines.append(f"| {label} | " + " | ".join(cells) + " |")
+    runs = [r for p in ports for v in result["ports"][p].values() for r in v["runs"]]
+    lines += ["", f"{sum(r['converged'] for r in runs)} of the {len(runs)} runs stopped by "
+              "their patience.", ""]
+    return "\n".join(lines)
+
+
 BLOCKS = (
+    (RESULTS, "port-design-table", PORT_DESIGN, port_design_table),
     (RESULTS, "another-tool-table", ANOTHER_TOOL, another_tool_table),
     (RESULTS, "axial-channels-table", PORTS, axial_channels_table),
     (RESULTS, "ports-table", PORTS, ports_table),
