@@ -140,7 +140,7 @@ def figures(curve: dict, folder: Path) -> list[str]:
         ax.set_xscale("log")
         ax.set_yscale("log")
         ax.set_xlabel("training data [minutes of recordings]")
-        ax.set_ylabel(f"{a} (force on the tool, HEX10 frame): causal NRMSE [%]")
+        ax.set_ylabel(f"{a}, HEX10 frame: causal NRMSE [%]")
         ax.legend(fontsize=8)
         path = folder / f"{a}.png"
         fig.savefig(path, dpi=120)

@@ -28,6 +28,7 @@ COMPARISON = ROOT / "results" / "ports" / "none" / "results.json"
 PORTS = ROOT / "results" / "benchmarks" / "port_comparison.json"
 ANOTHER_TOOL = ROOT / "results" / "benchmarks" / "another_tool.json"
 PORT_DESIGN = ROOT / "results" / "benchmarks" / "hybrid_port_design.json"
+LEARNING_CURVE = ROOT / "results" / "learning_curve" / "learning_curve.json"
 RESULTS = ROOT / "docs" / "results.md"
 IDENTIFICATION = ROOT / "docs" / "identification.md"
 README = ROOT / "README.md"
@@ -390,7 +391,26 @@ def port_design_table(result: dict) -> str:
     return "\n".join(lines)
 
 
+def current_bench_summary(result: dict) -> str:
+    """README: the hybrid against the paper transformer on today's simulator, from the
+    learning curve's smallest finished scale."""
+    if not result["points"]:
+        return "\nNo point of the learning curve has finished yet (`results/learning_curve/`).\n"
+    p = result["points"][0]
+    v = p["hybrid_vs_transformer"]["causal"]
+    return (f"\nOn today's simulator ({', '.join(p['simulator_versions'])}), same protocol, scale "
+            f"{p['scale']:g} and seeds, hybrid, paper transformer, FCN and MultiRocket-Hydra "
+            "retrained ("
+            + ("every run converged" if p["all_converged"] else "NOT every run converged")
+            + "; `results/learning_curve/`): the hybrid's causal error is "
+            + ", ".join(f"{a} {v[a]['ratio']:.2f}x the transformer's ({v[a]['verdict']})"
+                        for a in ("Fx", "Fy", "Fz"))
+            + ". Scales not yet measured: "
+            + ", ".join(f"{s:g}" for s in result["missing_scales"]) + ".\n")
+
+
 BLOCKS = (
+    (README, "current-bench-summary", LEARNING_CURVE, current_bench_summary),
     (RESULTS, "port-design-table", PORT_DESIGN, port_design_table),
     (RESULTS, "another-tool-table", ANOTHER_TOOL, another_tool_table),
     (RESULTS, "axial-channels-table", PORTS, axial_channels_table),
