@@ -287,7 +287,9 @@ def status_table(result: dict) -> str:
             won = verdicts[axis]["win"] and verdicts[axis]["best"] == model
             cells.append(f"**{cell}**" if won else cell)
         lines.append(f"| {model} | " + " | ".join(cells) + " |")
-    lines.append("")
+    lines += ["", f"That is {100 * call['scale']:g} % of the data the paper trained on"
+              + (", a small-data regime: whether the lead holds at the paper's amount of data "
+                 "is measured by the learning curve below." if call["scale"] < 1 else "."), ""]
     return "\n".join(lines)
 
 

@@ -13,7 +13,7 @@ import textwrap
 import numpy as np
 import pytest
 import torch
-from test_hybrid_pipeline import _write_dataset
+from test_recipes import data  # noqa: F401  (the small bench, a module fixture)
 
 from hybrid.checkpoint import CheckpointError, TrainedModel, load_checkpoint
 from hybrid.contract import (
@@ -42,14 +42,6 @@ from hybrid.train import TrainConfig, train
 from psm_model.recording import HEX10_FORCE, PAPER_FEATURES
 
 torch.set_num_threads(1)
-
-
-@pytest.fixture(scope="module")
-def data(tmp_path_factory):
-    root = tmp_path_factory.mktemp("bench")
-    return _write_dataset(root / "data", ((split, cond, k) for k, (split, cond) in enumerate(
-        [("train", "Traction")] * 2 + [("train", "Free")] * 2
-        + [("test", "Traction"), ("test", "Free")])))
 
 
 @pytest.fixture
