@@ -29,6 +29,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from benchmarks._report import shown_path, write_json  # noqa: E402
+from hybrid.tables import compare  # noqa: E402
 from psm_model.files import write_text_atomic  # noqa: E402
 
 SCALES = (0.05, 0.1, 0.25, 0.5, 1.0)
@@ -84,9 +85,7 @@ def _verdicts(models: dict) -> dict:
         out[m] = {}
         for a in AXES:
             h, t = models[HYBRID][m][a], models[TRANSFORMER][m][a]
-            verdict = ("hybrid ahead" if h["mean"] + h["std"] < t["mean"] - t["std"] else
-                       "transformer ahead" if t["mean"] + t["std"] < h["mean"] - h["std"] else
-                       "tie")
+            verdict = {-1: "hybrid ahead", 0: "tie", 1: "transformer ahead"}[compare(h, t)]
             out[m][a] = {"verdict": verdict, "ratio": h["mean"] / t["mean"]}
     return out
 

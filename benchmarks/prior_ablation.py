@@ -55,6 +55,7 @@ from hybrid.inputs import (  # noqa: E402
     select_base,
 )
 from hybrid.recipes import DERIVATIONS, Inputs, recipe  # noqa: E402
+from hybrid.tables import compare  # noqa: E402
 from hybrid.train import TrainConfig, fit_prior, make_setup, train_model  # noqa: E402
 from psm_model.files import write_text_atomic  # noqa: E402
 from psm_model.sim import simulate  # noqa: E402
@@ -143,12 +144,7 @@ def _verdicts(summary: dict) -> dict:
                 out[bench][variant][m] = {}
                 for a in AXES:
                     w, n = rows[variant][m][a], rows["no_prior"][m][a]
-                    if w["mean"] + w["std"] < n["mean"] - n["std"]:
-                        v = "prior helps"
-                    elif n["mean"] + n["std"] < w["mean"] - w["std"]:
-                        v = "prior hurts"
-                    else:
-                        v = "tie"
+                    v = {-1: "prior helps", 0: "tie", 1: "prior hurts"}[compare(w, n)]
                     out[bench][variant][m][a] = {"verdict": v, "ratio": w["mean"] / n["mean"]}
     return out
 

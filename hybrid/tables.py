@@ -98,6 +98,14 @@ def spread(values: Sequence[dict]) -> dict:
                 for k in ("rmse_n", "nrmse_pct", "r2_pct", "range_n")} for a in AXES}
 
 
+def compare(a: dict, b: dict) -> int:
+    """The spread rule between two ``{mean, std}``: -1 when ``a``'s mean + std lies below
+    ``b``'s mean - std (``a`` wins), 1 when the reverse holds, 0 for a tie."""
+    if a["mean"] + a["std"] < b["mean"] - b["std"]:
+        return -1
+    return 1 if b["mean"] + b["std"] < a["mean"] - a["std"] else 0
+
+
 def verdicts(by_model: dict, key: str = "nrmse_pct") -> dict:
     """{axis: {"best": label, "win": bool, "tied_with": [labels]}} from {label: spread(...)}:
     the lowest mean wins the axis only when its mean + std lies below every other model's
