@@ -13,7 +13,9 @@ The JSON holds, per scale, the minutes of training recordings (the automated tra
 validation included, at the bench's rate), each model's causal and paper NRMSE per axis (mean,
 std and number of seeds), whether every model converged, and, per axis, the verdict of the hybrid
 against the paper's transformer by the spread rule (a win needs mean + std below the other's
-mean - std). ``--render-only`` assembles the JSON, the table (``README.md``) and one figure per
+mean - std); and where each model stands: per axis, the first scale at which the transformer
+matches the hybrid, and the minutes of data the transformer needs to reach the hybrid's error at
+scale 0.1 (:func:`data_efficiency`). ``--render-only`` assembles the JSON, the table (``README.md``) and one figure per
 axis (``<axis>.png``: error against minutes of data, log-log, the spread as error bars) beside it
 from the finished runs under ``--work``, training nothing.
 """
@@ -22,6 +24,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 from pathlib import Path
 
@@ -37,6 +40,8 @@ MODELS = ("hybrid", "transformer", "fcn", "rocket")
 AXES = ("Fx", "Fy", "Fz")
 METRICS = ("causal", "paper")
 HYBRID, TRANSFORMER = "Hybrid (ours)", "Transformer (paper)"
+EFFICIENCY_SCALE = 0.1
+"""The scale whose hybrid error the transformer's data needs are measured against (issue 28)."""
 
 
 def run_dir(work: Path, scale: float) -> Path:
@@ -90,6 +95,72 @@ def _verdicts(models: dict) -> dict:
     return out
 
 
+def crossovers(points: list[dict], metric: str = "causal") -> dict:
+    """Per axis, the first measured scale at which the paper transformer matches the hybrid (the
+    spread rule no longer says "hybrid ahead"), or None while the hybrid leads at every one."""
+    out = {}
+    for a in AXES:
+        matched = [p for p in points if p["hybrid_vs_transformer"]
+                   and p["hybrid_vs_transformer"][metric][a]["verdict"] != "hybrid ahead"]
+        out[a] = ({"scale": matched[0]["scale"], "minutes": matched[0]["training_minutes"],
+                   "verdict": matched[0]["hybrid_vs_transformer"][metric][a]["verdict"]}
+                  if matched else None)
+    return out
+
+
+def data_efficiency(points: list[dict], at_scale: float = 0.1, metric: str = "causal") -> dict:
+    """Per axis, the minutes of training data the paper transformer needs to reach the hybrid's
+    mean error at ``at_scale``: interpolated log-log between the transformer's measured means
+    where its curve crosses that error; otherwise a bound (``"more than"`` the largest measured
+    amount, ``"at most"`` the smallest). ``ratio`` = those minutes / the hybrid's."""
+    ref = [p for p in points if p["scale"] == at_scale and HYBRID in p["models"]]
+    curve = [(p["training_minutes"], p["models"][TRANSFORMER][metric])
+             for p in points if TRANSFORMER in p["models"]]
+    if not ref or not curve:
+        return {}
+    hybrid_minutes = ref[0]["training_minutes"]
+    out = {}
+    for a in AXES:
+        target = ref[0]["models"][HYBRID][metric][a]["mean"]
+        errors = [(m, e[a]["mean"]) for m, e in curve]
+        minutes, bound = None, "more than"
+        if errors[0][1] <= target:
+            minutes, bound = errors[0][0], "at most"
+        for (m0, e0), (m1, e1) in zip(errors, errors[1:]):
+            if minutes is None and e0 > target >= e1:
+                t = math.log(e0 / target) / math.log(e0 / e1)
+                minutes, bound = m0 * (m1 / m0) ** t, "interpolated"
+        if minutes is None:
+            minutes = errors[-1][0]
+        out[a] = {"hybrid_nrmse_pct": target, "hybrid_minutes": hybrid_minutes,
+                  "transformer_minutes": minutes, "bound": bound,
+                  "ratio": minutes / hybrid_minutes}
+    return out
+
+
+def standing(curve: dict) -> list[str]:
+    """Markdown lines: where the transformer first matches the hybrid, and the hybrid's data
+    efficiency, from the curve's JSON."""
+    lines = []
+    measured = ", ".join(f"{p['scale']:g}" for p in curve["points"])
+    for a, c in curve.get("crossover", {}).items():
+        lines.append(f"- {a}: " + (
+            f"the transformer matches the hybrid first at scale {c['scale']:g} "
+            f"({c['minutes']:.1f} min of training data; {c['verdict']})" if c else
+            f"the hybrid is ahead at every measured scale ({measured})") + ".")
+    for a, e in curve.get("data_efficiency", {}).items():
+        amount = {"interpolated": f"about {e['transformer_minutes']:.0f} min",
+                  "more than": f"more than {e['transformer_minutes']:.0f} min (the largest "
+                               "amount measured)",
+                  "at most": f"at most {e['transformer_minutes']:.0f} min"}[e["bound"]]
+        lines.append(f"- {a}: to reach the hybrid's error at scale {curve['efficiency_scale']:g} "
+                     f"({e['hybrid_nrmse_pct']:.2f} %, {e['hybrid_minutes']:.1f} min of data) "
+                     f"the transformer needs {amount}: "
+                     + ("" if e["bound"] == "interpolated" else e["bound"] + " ")
+                     + f"{e['ratio']:.1f}x the data.")
+    return lines
+
+
 def table(curve: dict) -> str:
     """The Markdown table of the curve (``README.md`` beside the JSON)."""
     lines = ["# The learning curve", "",
@@ -116,7 +187,8 @@ def table(curve: dict) -> str:
                 lines.append(f"| {p['scale']:g} | | | | hybrid / transformer | " + " | ".join(
                     f"{v[a]['ratio']:.2f}x ({v[a]['verdict']})" for a in AXES) + " |")
         lines.append("")
-    lines += ["Scales not yet measured: "
+    lines += ["**Where each model stands** (causal metric; spread rule)", ""] + standing(curve)
+    lines += ["", "Scales not yet measured: "
               + (", ".join(f"{s:g}" for s in curve["missing_scales"]) or "none") + ".", ""]
     return "\n".join(lines)
 
@@ -155,7 +227,9 @@ def assemble(work: Path, scales, json_path: Path) -> dict:
     curve = {"command": "python benchmarks/learning_curve.py " + " ".join(sys.argv[1:]),
              "json": shown_path(json_path), "scales": sorted(scales),
              "missing_scales": [s for s in sorted(scales) if s not in done],
-             "points": points}
+             "points": points, "crossover": crossovers(points),
+             "efficiency_scale": EFFICIENCY_SCALE,
+             "data_efficiency": data_efficiency(points, EFFICIENCY_SCALE)}
     json_path.parent.mkdir(parents=True, exist_ok=True)
     curve["figures"] = figures(curve, json_path.parent) if points else []
     write_json(json_path, curve)

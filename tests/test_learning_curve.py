@@ -5,12 +5,21 @@ unfinished scales listed as missing, and a table and one figure per axis beside 
 from __future__ import annotations
 
 import json
+import math
 import sys
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from benchmarks.learning_curve import HYBRID, TRANSFORMER, assemble, run_dir  # noqa: E402
+from benchmarks.learning_curve import (  # noqa: E402
+    HYBRID,
+    TRANSFORMER,
+    assemble,
+    crossovers,
+    data_efficiency,
+    run_dir,
+    standing,
+)
 
 
 def _spread(mean, std):
@@ -51,3 +60,32 @@ def test_the_curve_holds_finished_scales_their_minutes_and_the_spread_rule(tmp_p
     assert "| 0.1 | | | | hybrid / transformer | 0.97x (tie)" in page
     assert "Scales not yet measured: 0.25." in page
     assert sorted(p.name for p in out.parent.glob("*.png")) == ["Fx.png", "Fy.png", "Fz.png"]
+
+
+def _point(scale, minutes, hybrid, transformer, verdict="hybrid ahead"):
+    spread = lambda x: {"mean": x, "std": 0.01}  # noqa: E731
+    models = {label: {"causal": {a: spread(x) for a in ("Fx", "Fy", "Fz")}}
+              for label, x in ((HYBRID, hybrid), (TRANSFORMER, transformer))}
+    v = {"causal": {a: {"verdict": verdict, "ratio": hybrid / transformer}
+                    for a in ("Fx", "Fy", "Fz")}}
+    return {"scale": scale, "training_minutes": minutes, "models": models,
+            "hybrid_vs_transformer": v}
+
+
+def test_where_the_transformer_matches_and_how_much_data_it_needs():
+    points = [_point(0.05, 10.0, 0.5, 1.6), _point(0.1, 20.0, 0.4, 0.8),
+              _point(0.25, 50.0, 0.3, 0.2, verdict="transformer ahead")]
+    cross = crossovers(points)
+    assert cross["Fx"] == {"scale": 0.25, "minutes": 50.0, "verdict": "transformer ahead"}
+    eff = data_efficiency(points, 0.1)["Fx"]
+    # the transformer falls from 0.8 % at 20 min to 0.2 % at 50 min; 0.4 % lies halfway in log
+    assert eff["bound"] == "interpolated"
+    assert math.isclose(eff["transformer_minutes"], 20.0 * 2.5 ** 0.5)
+    assert math.isclose(eff["ratio"], 2.5 ** 0.5)
+    short = data_efficiency(points[:2], 0.1)["Fx"]  # never reaches 0.4 % within 20 min
+    assert short["bound"] == "more than" and short["transformer_minutes"] == 20.0
+    assert crossovers(points[:2])["Fx"] is None
+    lines = standing({"points": points[:2], "crossover": crossovers(points[:2]),
+                      "efficiency_scale": 0.1, "data_efficiency": data_efficiency(points[:2])})
+    assert "- Fx: the hybrid is ahead at every measured scale (0.05, 0.1)." in lines
+    assert any("more than 20 min" in line for line in lines)
