@@ -5,8 +5,10 @@ reader sees there is typed by hand.
     python benchmarks/rendered_docs.py --check    # exit 1 if a page differs from its JSON
 
 Each block sits between ``<!-- NAME: rendered by benchmarks/rendered_docs.py -->`` and
-``<!-- end NAME -->`` (:data:`BLOCKS`: page, JSON, render function); nothing outside the markers
-is touched. ``tests/test_rendered_docs.py`` holds every page equal to what its JSON renders.
+``<!-- end NAME -->`` (:data:`BLOCKS`: page, JSON or tuple of JSONs, render function; the
+findings of ``docs/results.md`` are rendered by :mod:`benchmarks._results_page`); nothing
+outside the markers is touched. ``tests/test_rendered_docs.py`` holds every page equal to what
+its JSON renders.
 """
 
 from __future__ import annotations
@@ -19,6 +21,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+from benchmarks import _results_page as results_page  # noqa: E402
 from psm_model.files import write_text_atomic  # noqa: E402
 
 TRANSMISSION = ROOT / "results" / "benchmarks" / "transmission.json"
@@ -29,6 +32,12 @@ PORTS = ROOT / "results" / "benchmarks" / "port_comparison.json"
 ANOTHER_TOOL = ROOT / "results" / "benchmarks" / "another_tool.json"
 PORT_DESIGN = ROOT / "results" / "benchmarks" / "hybrid_port_design.json"
 LEARNING_CURVE = ROOT / "results" / "learning_curve" / "learning_curve.json"
+PORT_DESIGN_NOTCH = ROOT / "results" / "benchmarks" / "hybrid_port_design_notch.json"
+TRAINING = ROOT / "results" / "benchmarks" / "training.json"
+TRAINING_CONVERGENCE = ROOT / "results" / "benchmarks" / "training_convergence.json"
+TRAINING_OPTIONS = ROOT / "results" / "benchmarks" / "training_speed_options.json"
+STREAMING = ROOT / "results" / "benchmarks" / "streaming.json"
+LIVE = ROOT / "results" / "benchmarks" / "live.json"
 RESULTS = ROOT / "docs" / "results.md"
 IDENTIFICATION = ROOT / "docs" / "identification.md"
 README = ROOT / "README.md"
@@ -412,6 +421,18 @@ def current_bench_summary(result: dict) -> str:
 
 
 BLOCKS = (
+    (RESULTS, "results-status",
+     (LEARNING_CURVE, PRIOR_ABLATION, PORTS, COMPARISON, PORT_DESIGN, ANOTHER_TOOL),
+     results_page.status),
+    (RESULTS, "learning-curve", LEARNING_CURVE, results_page.learning_curve),
+    (RESULTS, "ports-findings", (PORTS, COMPARISON), results_page.ports_findings),
+    (RESULTS, "port-design-findings", (PORT_DESIGN, PORT_DESIGN_NOTCH),
+     results_page.port_design_findings),
+    (RESULTS, "axial-findings", PORTS, results_page.axial_findings),
+    (RESULTS, "another-tool-findings", ANOTHER_TOOL, results_page.another_tool_findings),
+    (RESULTS, "training-speed", (TRAINING, TRAINING_CONVERGENCE, TRAINING_OPTIONS),
+     results_page.training_speed),
+    (RESULTS, "latency", (STREAMING, LIVE), results_page.latency),
     (README, "current-bench-summary", LEARNING_CURVE, current_bench_summary),
     (RESULTS, "port-design-table", PORT_DESIGN, port_design_table),
     (RESULTS, "another-tool-table", ANOTHER_TOOL, another_tool_table),
@@ -443,10 +464,16 @@ def pages(results: dict[Path, dict] | None = None) -> dict[Path, str]:
     """Each page with every block rendered from its JSON (``results`` overrides a JSON's
     content, for tests)."""
     out: dict[Path, str] = {}
-    for page, name, json_path, render in BLOCKS:
-        result = (results or {}).get(json_path) or json.loads(json_path.read_text())
-        out[page] = splice(out.get(page, page.read_text()), name, render(result))
+    for doc, name, json_paths, render in BLOCKS:
+        found = [(results or {}).get(p) or json.loads(p.read_text())
+                 for p in block_jsons(json_paths)]
+        out[doc] = splice(out.get(doc, doc.read_text()), name, render(*found))
     return out
+
+
+def block_jsons(json_paths: Path | tuple[Path, ...]) -> tuple[Path, ...]:
+    """A block's JSONs: one path, or a tuple when it renders from several."""
+    return json_paths if isinstance(json_paths, tuple) else (json_paths,)
 
 
 def main(argv=None) -> int:

@@ -34,7 +34,8 @@ def test_a_changed_figure_shows_in_the_page():
     assert after[rendered.README] != before[rendered.README]
 
 
-@pytest.mark.parametrize("path", sorted({b[2] for b in rendered.BLOCKS}))
+@pytest.mark.parametrize("path", sorted({p for b in rendered.BLOCKS
+                                         for p in rendered.block_jsons(b[2])}))
 def test_rendered_jsons_name_no_absolute_path(path):
     text = path.read_text()
     for marker in ('"/work/', '"/home/', '"/tmp/', '"/root/'):
@@ -70,3 +71,70 @@ def test_the_machine_path_pattern_tells_absolute_from_relative():
     assert MACHINE_PATH.search("read from `/work/main/results`")
     assert not MACHINE_PATH.search('"data": "runs/learning_curve/scale_0.05/work/data"')
     assert not MACHINE_PATH.search("../shared/data/wpi_psm")
+
+
+TYPED_FIGURE = re.compile(r"(?<![\w.])\d+\.\d+|\d+(?:\.\d+)? ?%|\b\d+(?:\.\d+)?x\b")
+"""A measured figure as the pages write one: a decimal, a percentage or a ratio. Integers
+(seeds, sections, patience) are settings, not figures."""
+
+
+def typed_figures(text: str) -> list[str]:
+    """Lines of a page that carry a figure outside its rendered blocks, its code fences and its
+    inline code."""
+    found, in_block, in_fence = [], False, False
+    for line in text.splitlines():
+        if line.startswith("```"):
+            in_fence = not in_fence
+        elif re.match(r"<!-- [\w-]+: rendered by ", line):
+            in_block = True
+        elif line.startswith("<!-- end "):
+            in_block = False
+        elif not (in_block or in_fence) and TYPED_FIGURE.search(re.sub(r"`[^`]*`", "", line)):
+            found.append(line)
+    return found
+
+
+@pytest.mark.parametrize("page", [rendered.RESULTS, rendered.README, ROOT / "results" / "README.md"],
+                         ids=lambda p: str(p.relative_to(ROOT)))
+def test_no_figure_is_typed_outside_a_rendered_block(page):
+    typed = typed_figures(page.read_text())
+    assert not typed, (f"{page.relative_to(ROOT)} types figures outside its rendered blocks; "
+                       "render them from their JSON (benchmarks/_results_page.py):\n"
+                       + "\n".join(typed))
+
+
+def test_a_planted_figure_is_found_and_a_rendered_one_is_not():
+    name = "ports-findings"
+    begin, end = rendered.markers(name)
+    page = f"Prose.\n{begin}\nFz 2.56 ± 0.31 %, 0.84x\n{end}\nSeeds 1 2 3, patience 10.\n"
+    assert typed_figures(page) == []
+    assert typed_figures(page + "The hybrid's Fz is 2.56 %.\n") == ["The hybrid's Fz is 2.56 %."]
+    assert typed_figures(page + "Laterally 0.34x the transformer.\n")
+    assert typed_figures("```bash\npsmforce reproduce --scale 0.05\n```\n`--scale 0.05`\n") == []
+
+
+def test_a_stale_figure_in_a_block_fails_the_render_check():
+    doc = rendered.RESULTS.read_text()
+    begin, _ = rendered.markers("ports-findings")
+    planted = doc.replace(begin, begin + "\n- planted: Fz 9.99 %", 1)
+    assert planted != doc
+    assert rendered.pages()[rendered.RESULTS] == doc != planted
+
+
+@pytest.mark.parametrize("run", ["ports/none", "ports/cannula", "ports/abdominal-wall",
+                                 "history/previous_hybrid"])
+def test_a_committed_run_page_is_what_its_json_renders(run):
+    from hybrid.tables import results_markdown
+    folder = ROOT / "results" / run
+    assert (folder / "results.md").read_text() == results_markdown(
+        json.loads((folder / "results.json").read_text())), f"results/{run}/results.md is stale"
+
+
+def test_the_learning_curve_page_is_what_its_json_renders():
+    from benchmarks.learning_curve import table
+    folder = ROOT / "results" / "learning_curve"
+    curve = json.loads((folder / "learning_curve.json").read_text())
+    assert (folder / "README.md").read_text() == table(curve), (
+        "results/learning_curve/README.md is stale: run benchmarks/learning_curve.py "
+        "--render-only")
+    assert sorted(curve["figures"]) == sorted(p.name for p in folder.glob("*.png"))

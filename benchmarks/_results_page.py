@@ -1,0 +1,259 @@
+"""The findings of ``docs/results.md``, rendered from the committed JSONs that measured them.
+
+Each function takes the JSON(s) named in :data:`benchmarks.rendered_docs.BLOCKS` and returns a
+Markdown block. Every sentence with a figure in it is built here, so the page's prose between the
+blocks names none (``tests/test_rendered_docs.py`` holds it to that). Verdicts between two models
+use the project's one spread rule (:func:`hybrid.tables.compare`: a win needs mean + std below
+the other's mean - std).
+"""
+
+from __future__ import annotations
+
+from benchmarks.learning_curve import HYBRID, TRANSFORMER, standing
+from hybrid.tables import compare
+
+AXES = ("Fx", "Fy", "Fz")
+LATERAL = ("Fx", "Fy")
+PORT_NAMES = {"none": "no port", "cannula": "cannula", "abdominal-wall": "abdominal wall"}
+SIMULATOR_NOT_RECORDED = {"prior_ablation": "2.1", "hybrid_port_design": "2.0",
+                          "another_tool": "2.0"}
+"""The simulator version of runs whose JSON predates the version record, read from the commit
+that wrote each JSON (the prior ablation after 2.1's cable law, the other two before it)."""
+
+
+def _cell(d: dict) -> str:
+    return f"{d['mean']:.2f} ± {d['std']:.2f}"
+
+
+def _pair(pair) -> dict:
+    """``[mean, std]`` (another_tool.json's layout) as ``{mean, std}``."""
+    return {"mean": pair[0], "std": pair[1]}
+
+
+def _standing(by_model: dict, axis: str) -> str:
+    """Who has the lowest mean on ``axis`` and whether it wins by the spread rule."""
+    best = min(by_model, key=lambda m: by_model[m][axis]["mean"])
+    tied = [m for m in by_model if m != best
+            and compare(by_model[best][axis], by_model[m][axis]) == 0]
+    return f"{axis}: {best} " + (f"lowest, tied with {' and '.join(tied)}" if tied else "wins")
+
+
+def _verdict(a: dict, b: dict) -> str:
+    """``a`` against ``b`` by the spread rule, with the ratio of the means."""
+    word = {-1: "ahead", 0: "tie", 1: "behind"}[compare(a, b)]
+    return f"{a['mean'] / b['mean']:.2f}x, {word}"
+
+
+def _yes(flag: bool) -> str:
+    return "yes" if flag else "**no**"
+
+
+def status(curve: dict, ablation: dict, ports: dict, comparison: dict, design: dict,
+           tool: dict) -> str:
+    """What each section of the page measured: bench, data, seeds, convergence, its JSON."""
+    pts = curve["points"]
+    design_runs = [r for p in design["ports"].values() for v in p.values() for r in v["runs"]]
+    rows = [
+        ("1. The learning curve",
+         ", ".join(sorted({v for p in pts for v in p["simulator_versions"]})),
+         "scales " + ", ".join(f"{p['scale']:g}" for p in pts) + "; not yet: "
+         + (", ".join(f"{s:g}" for s in curve["missing_scales"]) or "none"),
+         "; ".join(f"{len(p['seeds'])} at {p['scale']:g}" for p in pts),
+         _yes(all(p["all_converged"] for p in pts)), "results/learning_curve/learning_curve.json"),
+        ("2. The prior, axis by axis",
+         SIMULATOR_NOT_RECORDED["prior_ablation"] + " (not in its JSON)",
+         f"scale {ablation['scale']:g}", " ".join(str(s) for s in ablation["seeds"]),
+         _yes(ablation["all_converged"]), "results/benchmarks/prior_ablation.json"),
+        ("3. Ports; 5. the axial channels",
+         ", ".join(sorted(set(comparison["benches"].values()))),
+         f"scale {ports['call']['scale']:g}", " ".join(str(s) for s in ports["call"]["seeds"]),
+         _yes(all(ports["all_converged"].values())), "results/benchmarks/port_comparison.json"),
+        ("4. The hybrid's inputs",
+         SIMULATOR_NOT_RECORDED["hybrid_port_design"] + " (not in its JSON)",
+         f"scale {design['scale']:g}, validation trials",
+         f"{design['seed']} (the design bench)",
+         f"{sum(r['converged'] for r in design_runs)} of {len(design_runs)}",
+         "results/benchmarks/hybrid_port_design.json"),
+        ("6. Another tool", SIMULATOR_NOT_RECORDED["another_tool"] + " (not in its JSON)",
+         f"trained at scale {tool['settings']['scale']:g}, scored at "
+         f"{tool['settings']['test_scale']:g}",
+         " ".join(str(s) for s in tool["settings"]["seeds"]), _yes(tool["converged"]),
+         "results/benchmarks/another_tool.json"),
+    ]
+    lines = ["", "| section | simulator | data | bench seeds | every run converged | JSON |",
+             "|---|---|---|---|---|---|"]
+    lines += ["| " + " | ".join(r[:5]) + f" | `{r[5]}` |" for r in rows]
+    return "\n".join(lines + [""])
+
+
+def learning_curve(curve: dict) -> str:
+    """Section 1: the hybrid against the paper transformer per scale, both metrics, and where
+    each model stands."""
+    lines = ["", "NRMSE % on the test trials, mean ± std over bench seeds; causal = the raw "
+             "per-sample estimate a haptic loop gets, paper = the paper's offline "
+             "post-processing; every model in `results/learning_curve/README.md`.", "",
+             "| scale | minutes of training data | seeds | converged | metric | Hybrid (ours) "
+             "Fx / Fy / Fz | Transformer (paper) Fx / Fy / Fz | hybrid against transformer |",
+             "|---|---|---|---|---|---|---|---|"]
+    for p in curve["points"]:
+        for m in ("causal", "paper"):
+            h, t = p["models"][HYBRID][m], p["models"][TRANSFORMER][m]
+            v = p["hybrid_vs_transformer"][m]
+            lines.append(
+                f"| {p['scale']:g} | {p['training_minutes']:.1f} | {len(p['seeds'])} | "
+                f"{_yes(p['all_converged'])} | {m} | " + " / ".join(_cell(h[a]) for a in AXES)
+                + " | " + " / ".join(_cell(t[a]) for a in AXES) + " | "
+                + " / ".join(f"{v[a]['ratio']:.2f}x ({v[a]['verdict']})" for a in AXES) + " |")
+    lines += ["", "Where each model stands (causal metric, spread rule):", ""] + standing(curve)
+    largest = max((p["scale"] for p in curve["points"]), default=None)
+    lines += ["", f"Measured up to scale {largest:g} of the paper's data; not yet: "
+              + (", ".join(f"{s:g}" for s in curve["missing_scales"]) or "none")
+              + ". What holds at the paper's own budget (scale 1) is "
+              + ("measured above." if 1.0 not in curve["missing_scales"] else
+                 "not measured yet: no claim is made for it."), ""]
+    return "\n".join(lines)
+
+
+def ports_findings(ports: dict, comparison: dict) -> str:
+    """Section 3: who wins each axis without a port and through each one, and the paper metric."""
+    lines = [""]
+    for port, by_model in ports["causal_nrmse_pct"].items():
+        lines.append(f"- {PORT_NAMES[port]} (causal): "
+                     + "; ".join(_standing(by_model, a) for a in AXES) + ".")
+    paper = comparison["automated"]["paper"]
+    lines.append("- no port, the paper's metric: " + "; ".join(
+        _standing({m: {a: s[a]["nrmse_pct"] for a in AXES} for m, s in paper.items()}, a)
+        for a in AXES) + ".")
+    hyb = {p: ports["causal_nrmse_pct"][p][HYBRID] for p in ports["causal_nrmse_pct"]}
+    lines.append("- The hybrid through a port against itself without one (causal): "
+                 + "; ".join(f"{PORT_NAMES[p]} " + ", ".join(
+                     f"{a} x{hyb[p][a]['ratio_to_no_port']:.2f}" for a in AXES)
+                             for p in hyb if p != "none") + ".")
+    return "\n".join(lines + [""])
+
+
+def port_design_findings(design: dict, notch: dict) -> str:
+    """Section 4: the initialisations' Fz ranges of the chosen inputs against the previous
+    default, per port, and the notched base tried after."""
+    new, old = "+ insertion velocity, position", "default"
+    lines = [""]
+    for port, variants in design["ports"].items():
+        ranges = {k: [r["causal"][2] for r in variants[k]["runs"]] for k in (new, old)}
+        apart = max(ranges[new]) < min(ranges[old])
+        lines.append(f"- {PORT_NAMES[port]}: Fz over the initialisations "
+                     f"{min(ranges[new]):.2f}-{max(ranges[new]):.2f} with the insertion state "
+                     f"against {min(ranges[old]):.2f}-{max(ranges[old]):.2f} without it ("
+                     + ("the ranges do not overlap" if apart else "the ranges overlap") + ").")
+    means = notch["ports"]["none"]
+    (base_name, base), (tried_name, tried) = list(means.items())
+    lines.append(f"- The notched base ({tried_name}), no port, causal Fx / Fy / Fz: "
+                 + " / ".join(f"{x:.2f}" for x in tried["mean"]["causal"]) + " against "
+                 + " / ".join(f"{x:.2f}" for x in base["mean"]["causal"])
+                 + f" for {base_name}: "
+                 + ("worse on every axis" if all(t > b for t, b in zip(
+                     tried["mean"]["causal"], base["mean"]["causal"])) else "not worse everywhere")
+                 + " (`results/benchmarks/hybrid_port_design_notch.json`).")
+    return "\n".join(lines + [""])
+
+
+def axial_findings(ports: dict) -> str:
+    """Section 5: the hybrid's Fz against the best a fixed filter makes of a perfect stage
+    model, the issue's target, and what the HEX10's axial channel leaves."""
+    ch, models = ports["axial_channels_fz_nrmse_pct"], ports["causal_nrmse_pct"]
+    bound = ch["none"]["perfect stage model, best fixed filter"]
+    hybrid = models["none"][HYBRID]["Fz"]
+    target = 0.6 * models["none"][TRANSFORMER]["Fz"]["mean"]
+    return "\n".join([
+        "",
+        f"- No port: the hybrid's Fz {_cell(hybrid)} against a perfect stage model through the "
+        f"best fixed filter {_cell(bound)} ({_verdict(hybrid, bound)}).",
+        f"- The target, 0.6x the paper transformer's Fz without a port, is {target:.2f} %: "
+        f"{target / bound['mean']:.2f}x that bound.",
+        f"- The HEX10's axial reading after the prior (`comp_fz`) misses by "
+        f"{ch['none']['comp_fz']['mean']:.0f} % of the force's range; blended above the best "
+        f"crossover it scores {_cell(ch['none']['complementary'])} against "
+        f"{_cell(ch['none']['insertion_fz'])} for `insertion_fz` alone.", ""])
+
+
+def another_tool_findings(tool: dict) -> str:
+    """Section 6: the hybrid against the FCN and the paper transformer on a drawn tool, as is
+    and calibrated; its Fz across tools."""
+    table = tool["table"]
+    lines = [""]
+    for spread in ("1x", "2x"):
+        for state in ("as is", "calibrated"):
+            row = f"{spread} {state}"
+            hyb = table["hybrid"][row]["causal"]
+            parts = [f"{a} against {other} " + _verdict(_pair(hyb[a]),
+                                                         _pair(table[other][row]["causal"][a]))
+                     for other in ("fcn", "transformer") for a in LATERAL]
+            lines.append(f"- Tool at {spread} the spread, {state} (causal, hybrid's ratio): "
+                         + "; ".join(parts) + ".")
+    nominal = {s: table["hybrid"][f"nominal {s}"]["causal"] for s in ("as is", "calibrated")}
+    lines.append("- Calibrating the nominal tool, the hybrid's lateral error: "
+                 + "; ".join(f"{a} {nominal['as is'][a][0]:.2f} -> "
+                             f"{nominal['calibrated'][a][0]:.2f} %" for a in LATERAL) + ".")
+    for model in ("hybrid", "fcn", "transformer"):
+        fz = [table[model][f"{t} as is"]["causal"]["Fz"][0] for t in ("nominal", "1x", "2x")]
+        lines.append(f"- {model} Fz as is, nominal -> 1x -> 2x: "
+                     + " -> ".join(f"{x:.2f}" for x in fz) + " %.")
+    return "\n".join(lines + [""])
+
+
+def training_speed(training: dict, convergence: dict, options: dict) -> str:
+    """Section 7: one training step per model, the paper transformer's converged run, and the
+    speed options measured."""
+    c = convergence["convergence"]
+    lines = ["", f"Machine: {training['machine']['threads']} threads, torch "
+             f"{training['machine']['torch']}.", "",
+             "| model (training step) | batch x length | seconds per step | speed-up |",
+             "|---|---|---|---|"]
+    for name, t in training["throughput"].items():
+        speedup = t.get("speedup_vs_before")
+        lines.append(f"| {name} | {t['batch']} x {t['length']} | {t['seconds_per_step']:.4g} | "
+                     + (f"{speedup:.2f}x the stock encoder" if speedup else "") + " |")
+    lines += ["", f"The paper transformer at scale {c['scale']:g} ({c['train_windows']:,} training "
+              f"windows per epoch, {convergence['machine']['threads']} threads): stopped by "
+              f"{c['stopped_by']} after {c['epochs_run']} epochs in {c['seconds'] / 60:.1f} min "
+              f"({c['seconds'] / c['epochs_run']:.0f} s per epoch, validation included; "
+              + ("compiled" if c["compiled"] else "eager") + ").", "",
+              f"Speed options ({options['machine']['threads']} thread, "
+              "`benchmarks/training.py --speed-options`):", "",
+              "| option | seconds per step | windows per s | speed-up |", "|---|---|---|---|"]
+    speed = options["speed_options"]
+    for name, o in speed.items():
+        if "seconds_per_step" in o:
+            lines.append(f"| {name} | {o['seconds_per_step']:.2f} | {o['windows_per_s']:.0f} | "
+                         f"{o['speedup']:.2f}x |")
+    if "data path" in speed:
+        lines += ["", f"The data path: {speed['data path']['share_of_step']:.2%} of a step."]
+    return "\n".join(lines + [""])
+
+
+def latency(streaming: dict, live: dict) -> str:
+    """Section 8: the streaming step at batch 1, and the live node over DDS."""
+    def row(name, t):
+        return f"| {name} | {t['median_ms']:.3f} | {t['p99_ms']:.3f} | {t['max_ms']:.3f} |"
+
+    lines = ["", f"`results/benchmarks/streaming.json`: {streaming['estimator']}, "
+             f"{streaming['machine']['threads']} thread, one recorded trial replayed sample by "
+             "sample (`python benchmarks/streaming.py`).", "",
+             "| step | median ms | p99 ms | max ms |", "|---|---|---|---|",
+             row("hybrid pipeline (HEX10 frame)", streaming["hybrid_pipeline"]),
+             row("hybrid pipeline, base frame too", streaming["hybrid_pipeline_base_frame"]),
+             row("paper transformer, full window", streaming["reference_paper_transformer"])]
+    lines += [row(f"hybrid network step, {b}", t)
+              for b, t in streaming["network_step_by_backend"].items()]
+    d, node = live["dds"], live["node"]
+    lines += ["", f"`results/benchmarks/live.json` (`python benchmarks/live.py`, "
+              f"{live['machine']['cpus']} CPUs): the node's own time per HEX10 message at "
+              f"{live['session']['rate_hz']:.0f} Hz, median {node['all']['median_ms']:.3f} ms, "
+              f"p99 {node['all']['p99_ms']:.3f} ms, "
+              f"{node['all']['over_budget_fraction']:.1%} over its {node['budget_ms']:g} ms "
+              f"budget. Over DDS, robot, node and subscriber in three processes for "
+              f"{d['seconds']:.0f} s: {d['hex10_sent']:,} sent, {d['answers_received']:,} "
+              f"answers received ({d['lost_fraction']:.1%} lost); end-to-end latency median "
+              f"{d['latency']['median_ms']:.2f} ms, p99 {d['latency']['p99_ms']:.2f} ms, max "
+              f"{d['latency']['max_ms']:.1f} ms; the p99 target of 1 ms is "
+              + ("met" if d["within_target"] else "**not met**") + ".", ""]
+    return "\n".join(lines)
