@@ -241,8 +241,8 @@ def prior_ablation_summary(result: dict) -> str:
             for a in ("Fx", "Fy", "Fz"))
         parts.append(f"on the {bench} bench {cells}")
     seeds = ", ".join(str(s) for s in result["seeds"])
-    return ("\nWhat the physics prior adds to the hybrid on the simulated bench (simulator 2.1, "
-            f"scale {result['scale']:g}, bench seeds {seeds}, every run trained to early "
+    return ("\nWhat the physics prior adds to the hybrid on the simulated bench (simulator "
+            f"{results_page.SIMULATOR_NOT_RECORDED['prior_ablation']}, scale {result['scale']:g}, bench seeds {seeds}, every run trained to early "
             "stopping; causal NRMSE with the prior as shipped against the same network "
             "without it, verdicts by the spread rule; docs/results.md, \"The prior, axis by "
             "axis\"): " + "; ".join(parts) + ". The crossing bench adds an internal lateral "

@@ -73,9 +73,9 @@ def test_the_machine_path_pattern_tells_absolute_from_relative():
     assert not MACHINE_PATH.search("../shared/data/wpi_psm")
 
 
-TYPED_FIGURE = re.compile(r"(?<![\w.])\d+\.\d+|\d+(?:\.\d+)? ?%|\b\d+(?:\.\d+)?x\b")
+TYPED_FIGURE = re.compile(r"(?<![\w.])(?<!simulator )\d+\.\d+|\d+(?:\.\d+)? ?%|\b\d+(?:\.\d+)?x\b")
 """A measured figure as the pages write one: a decimal, a percentage or a ratio. Integers
-(seeds, sections, patience) are settings, not figures."""
+(seeds, sections, patience) and simulator versions are settings, not figures."""
 
 
 def typed_figures(text: str) -> list[str]:
@@ -94,7 +94,8 @@ def typed_figures(text: str) -> list[str]:
     return found
 
 
-@pytest.mark.parametrize("page", [rendered.RESULTS, rendered.README, ROOT / "results" / "README.md"],
+@pytest.mark.parametrize("page", [rendered.RESULTS, rendered.README, ROOT / "docs" / "history.md",
+                                  ROOT / "results" / "README.md"],
                          ids=lambda p: str(p.relative_to(ROOT)))
 def test_no_figure_is_typed_outside_a_rendered_block(page):
     typed = typed_figures(page.read_text())
@@ -110,6 +111,7 @@ def test_a_planted_figure_is_found_and_a_rendered_one_is_not():
     assert typed_figures(page) == []
     assert typed_figures(page + "The hybrid's Fz is 2.56 %.\n") == ["The hybrid's Fz is 2.56 %."]
     assert typed_figures(page + "Laterally 0.34x the transformer.\n")
+    assert typed_figures(page + "On simulator 2.1 the bench...\n") == []
     assert typed_figures("```bash\npsmforce reproduce --scale 0.05\n```\n`--scale 0.05`\n") == []
 
 
