@@ -220,9 +220,23 @@ def figures(curve: dict, folder: Path) -> list[str]:
     return written
 
 
-def assemble(work: Path, scales, json_path: Path) -> dict:
-    points = [point(run_dir(work, s)) for s in sorted(scales)
-              if (run_dir(work, s) / "results.json").exists()]
+MIN_SEEDS = 2
+"""Bench seeds a point needs (issue 28: three, at least two at the largest scales)."""
+
+
+def finished(out: Path, models=MODELS) -> bool:
+    """Whether the run in ``out`` is a point of the curve: its results cover every model of the
+    curve over at least :data:`MIN_SEEDS` seeds (a partial call, one seed or a subset of the
+    models run beside the main one, writes a ``results.json`` too, and is not a point)."""
+    path = out / "results.json"
+    if not path.exists():
+        return False
+    call = json.loads(path.read_text())["call"]
+    return set(models) <= set(call["models"]) and len(call["seeds"]) >= MIN_SEEDS
+
+
+def assemble(work: Path, scales, json_path: Path, models=MODELS) -> dict:
+    points = [point(run_dir(work, s)) for s in sorted(scales) if finished(run_dir(work, s), models)]
     done = {p["scale"] for p in points}
     curve = {"command": "python benchmarks/learning_curve.py " + " ".join(sys.argv[1:]),
              "json": shown_path(json_path), "scales": sorted(scales),
@@ -254,8 +268,8 @@ def main(argv=None) -> int:
     if not args.render_only:
         for scale in sorted(args.scales):
             run_scale(args.work, scale, args.seeds, args.models, args.threads)
-            assemble(args.work, args.scales, args.json)  # a finished point is kept at once
-    assemble(args.work, args.scales, args.json)
+            assemble(args.work, args.scales, args.json, args.models)  # kept at once
+    assemble(args.work, args.scales, args.json, args.models)
     return 0
 
 

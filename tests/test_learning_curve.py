@@ -13,6 +13,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from benchmarks.learning_curve import (  # noqa: E402
     HYBRID,
+    MODELS,
     TRANSFORMER,
     assemble,
     crossovers,
@@ -26,8 +27,9 @@ def _spread(mean, std):
     return {"nrmse_pct": {"mean": mean, "std": std, "n": 2}}
 
 
-def _finished_run(out: Path, scale: float, hybrid_fx: float, transformer_fx: float) -> None:
-    for seed in (1, 2):
+def _finished_run(out: Path, scale: float, hybrid_fx: float, transformer_fx: float,
+                  seeds=(1, 2), models=MODELS) -> None:
+    for seed in seeds:
         data = out / "work" / "data" / f"automated_seed{seed}"
         data.mkdir(parents=True)
         trials = [{"split": "train", "rows": 6000 * seed}, {"split": "test", "rows": 999}]
@@ -37,7 +39,7 @@ def _finished_run(out: Path, scale: float, hybrid_fx: float, transformer_fx: flo
                        "Fz": _spread(2.0, 0.5)}
     per_metric = {HYBRID: axes(hybrid_fx), TRANSFORMER: axes(transformer_fx)}
     (out / "results.json").write_text(json.dumps({
-        "call": {"scale": scale, "seeds": [1, 2]}, "benches": {"a": "2.1", "b": "2.1"},
+        "call": {"scale": scale, "seeds": list(seeds), "models": list(models)}, "benches": {"a": "2.1", "b": "2.1"},
         "all_converged": True, "automated": {"causal": per_metric, "paper": per_metric,
                                              "causal_lowpass": per_metric}}))
 
@@ -47,10 +49,12 @@ def test_the_curve_holds_finished_scales_their_minutes_and_the_spread_rule(tmp_p
     _finished_run(run_dir(work, 0.05), 0.05, hybrid_fx=0.4, transformer_fx=1.1)
     _finished_run(run_dir(work, 0.1), 0.1, hybrid_fx=0.6, transformer_fx=0.62)
     run_dir(work, 0.25).mkdir(parents=True)  # started, not finished: not a point yet
+    _finished_run(run_dir(work, 0.5), 0.5, 0.3, 0.3, seeds=[3])  # one seed beside the main call
+    _finished_run(run_dir(work, 1.0), 1.0, 0.3, 0.3, models=["hybrid"])  # not every model yet
     out = tmp_path / "curve" / "learning_curve.json"
-    curve = assemble(work, [0.05, 0.1, 0.25], out)
+    curve = assemble(work, [0.05, 0.1, 0.25, 0.5, 1.0], out)
     assert [p["scale"] for p in curve["points"]] == [0.05, 0.1]
-    assert curve["missing_scales"] == [0.25]
+    assert curve["missing_scales"] == [0.25, 0.5, 1.0]
     assert curve["points"][0]["training_minutes"] == 1.5  # 60 s and 120 s of training rows
     fx = [p["hybrid_vs_transformer"]["causal"]["Fx"]["verdict"] for p in curve["points"]]
     assert fx == ["hybrid ahead", "tie"]
@@ -58,7 +62,7 @@ def test_the_curve_holds_finished_scales_their_minutes_and_the_spread_rule(tmp_p
     assert json.loads(out.read_text())["points"] == json.loads(json.dumps(curve["points"]))
     page = (out.parent / "README.md").read_text()
     assert "| 0.1 | | | | hybrid / transformer | 0.97x (tie)" in page
-    assert "Scales not yet measured: 0.25." in page
+    assert "Scales not yet measured: 0.25, 0.5, 1." in page
     assert sorted(p.name for p in out.parent.glob("*.png")) == ["Fx.png", "Fy.png", "Fz.png"]
 
 
