@@ -403,21 +403,26 @@ def port_design_table(result: dict) -> str:
 
 
 def current_bench_summary(result: dict) -> str:
-    """README: the hybrid against the paper transformer on today's simulator, from the
-    learning curve's smallest finished scale."""
+    """README: the hybrid against the paper transformer on today's simulator at every finished
+    scale of the learning curve, and what is not measured yet."""
     if not result["points"]:
         return "\nNo point of the learning curve has finished yet (`results/learning_curve/`).\n"
-    p = result["points"][0]
-    v = p["hybrid_vs_transformer"]["causal"]
-    return (f"\nOn today's simulator ({', '.join(p['simulator_versions'])}), same protocol, scale "
-            f"{p['scale']:g} and seeds, hybrid, paper transformer, FCN and MultiRocket-Hydra "
-            "retrained ("
-            + ("every run converged" if p["all_converged"] else "NOT every run converged")
-            + "; `results/learning_curve/`): the hybrid's causal error is "
-            + ", ".join(f"{a} {v[a]['ratio']:.2f}x the transformer's ({v[a]['verdict']})"
-                        for a in ("Fx", "Fy", "Fz"))
-            + ". Scales not yet measured: "
-            + ", ".join(f"{s:g}" for s in result["missing_scales"]) + ".\n")
+    pts = result["points"]
+    versions = sorted({v for p in pts for v in p["simulator_versions"]})
+    at_scale = "; ".join(
+        f"at scale {p['scale']:g} ({p['training_minutes']:.0f} min of training data, "
+        f"{len(p['seeds'])} seeds"
+        + ("" if p["all_converged"] else ", NOT every run converged") + ") "
+        + ", ".join(f"{a} {v['ratio']:.2f}x ({v['verdict']})"
+                    for a, v in p["hybrid_vs_transformer"]["causal"].items())
+        for p in pts)
+    return (f"\nOn today's simulator ({', '.join(versions)}), the same protocol retrained as a "
+            "learning curve (hybrid, paper transformer, FCN and MultiRocket-Hydra, every run "
+            "to early stopping; `results/learning_curve/`), the hybrid's causal error against "
+            f"the transformer's: {at_scale}. Scales not yet measured: "
+            + (", ".join(f"{s:g}" for s in result["missing_scales"]) or "none")
+            + (" (1 = the paper's amount of data: no claim is made for it yet)."
+               if 1.0 in result["missing_scales"] else ".") + "\n")
 
 
 BLOCKS = (
