@@ -9,6 +9,11 @@ run stopped. A scale is a point of the curve once its run has finished (its ``re
     python benchmarks/learning_curve.py --scales 0.05 0.1 --json results/learning_curve/learning_curve.json
     python benchmarks/learning_curve.py --render-only --json results/learning_curve/learning_curve.json
 
+Several calls may share one ``--work`` to use several cores (``--threads 1`` each): give them
+disjoint ``--seeds`` or ``--models`` and a ``--json`` of their own under ``runs/``. A partial call
+is not a point of the curve (:func:`finished`); once the parts are done, the full call finds every
+task cached, writes the point, and ``--render-only`` renders it.
+
 The JSON holds, per scale, the minutes of training recordings (the automated training split,
 validation included, at the bench's rate), each model's causal and paper NRMSE per axis (mean,
 std and number of seeds), whether every model converged, and, per axis, the verdict of the hybrid
