@@ -4,7 +4,8 @@ Each point is one ``psmforce reproduce`` run of the automated protocol at a scal
 paper's amount of data) with the main models only (no ablations, data efficiency or
 teleoperation), every model trained to early stopping over the bench seeds, cached per task and
 resumable inside a task (:mod:`hybrid.resume`): rerunning the same command goes on where a killed
-run stopped. A scale is a point of the curve once its run has finished (its ``results.json``).
+run stopped. A scale is a point of the curve once a run of every model over at least two seeds
+has finished there (:func:`finished`).
 
     python benchmarks/learning_curve.py --scales 0.05 0.1 --json results/learning_curve/learning_curve.json
     python benchmarks/learning_curve.py --render-only --json results/learning_curve/learning_curve.json
@@ -20,9 +21,9 @@ std and number of seeds), whether every model converged, and, per axis, the verd
 against the paper's transformer by the spread rule (a win needs mean + std below the other's
 mean - std); and where each model stands: per axis, the first scale at which the transformer
 matches the hybrid, and the minutes of data the transformer needs to reach the hybrid's error at
-scale 0.1 (:func:`data_efficiency`). ``--render-only`` assembles the JSON, the table (``README.md``) and one figure per
-axis (``<axis>.png``: error against minutes of data, log-log, the spread as error bars) beside it
-from the finished runs under ``--work``, training nothing.
+scale 0.1 (:func:`data_efficiency`). ``--render-only`` assembles the JSON, the table
+(``README.md``) and one figure per axis (``<axis>.png``: error against minutes of data, log-log,
+the spread as error bars) beside it from the finished runs under ``--work``, training nothing.
 """
 
 from __future__ import annotations

@@ -1,5 +1,5 @@
-"""Blocks of the docs and the README rendered from committed result JSONs, so that no figure a
-reader sees there is typed by hand.
+"""Blocks of the docs and the README, and whole result pages, rendered from committed result
+JSONs, so that no figure a reader sees there is typed by hand.
 
     python benchmarks/rendered_docs.py            # rewrite every block from its JSON
     python benchmarks/rendered_docs.py --check    # exit 1 if a page differs from its JSON
@@ -7,8 +7,8 @@ reader sees there is typed by hand.
 Each block sits between ``<!-- NAME: rendered by benchmarks/rendered_docs.py -->`` and
 ``<!-- end NAME -->`` (:data:`BLOCKS`: page, JSON or tuple of JSONs, render function; the
 findings of ``docs/results.md`` are rendered by :mod:`benchmarks._results_page`); nothing
-outside the markers is touched. ``tests/test_rendered_docs.py`` holds every page equal to what
-its JSON renders.
+outside the markers is touched. :data:`WHOLE_PAGES` are rewritten whole.
+``tests/test_rendered_docs.py`` holds every page equal to what its JSON renders.
 """
 
 from __future__ import annotations
@@ -242,7 +242,8 @@ def prior_ablation_summary(result: dict) -> str:
         parts.append(f"on the {bench} bench {cells}")
     seeds = ", ".join(str(s) for s in result["seeds"])
     return ("\nWhat the physics prior adds to the hybrid on the simulated bench (simulator "
-            f"{results_page.SIMULATOR_NOT_RECORDED['prior_ablation']}, scale {result['scale']:g}, bench seeds {seeds}, every run trained to early "
+            f"{results_page.SIMULATOR_NOT_RECORDED['prior_ablation']}, scale "
+            f"{result['scale']:g}, bench seeds {seeds}, every run trained to early "
             "stopping; causal NRMSE with the prior as shipped against the same network "
             "without it, verdicts by the spread rule; docs/results.md, \"The prior, axis by "
             "axis\"): " + "; ".join(parts) + ". The crossing bench adds an internal lateral "
@@ -452,6 +453,26 @@ BLOCKS = (
 )
 
 
+def _run_page(result: dict) -> str:
+    from hybrid.tables import results_markdown
+    return results_markdown(result)
+
+
+def _learning_curve_page(result: dict) -> str:
+    from benchmarks.learning_curve import table
+    return table(result)
+
+
+WHOLE_PAGES = tuple(
+    [(ROOT / "results" / run / "results.md", ROOT / "results" / run / "results.json", _run_page)
+     for run in ("ports/none", "ports/cannula", "ports/abdominal-wall",
+                 "history/previous_hybrid")]
+    + [(LEARNING_CURVE.parent / "README.md", LEARNING_CURVE, _learning_curve_page)])
+"""Pages rendered whole from one JSON: each committed run's page, and the learning curve's
+table (its figures are drawn by ``benchmarks/learning_curve.py --render-only``). Run D's page
+is not here: its JSON predates today's format, and the page is the run's own output."""
+
+
 def markers(name: str) -> tuple[str, str]:
     return f"<!-- {name}: rendered by benchmarks/rendered_docs.py -->", f"<!-- end {name} -->"
 
@@ -473,6 +494,8 @@ def pages(results: dict[Path, dict] | None = None) -> dict[Path, str]:
         found = [(results or {}).get(p) or json.loads(p.read_text())
                  for p in block_jsons(json_paths)]
         out[doc] = splice(out.get(doc, doc.read_text()), name, render(*found))
+    for doc, json_path, render in WHOLE_PAGES:
+        out[doc] = render((results or {}).get(json_path) or json.loads(json_path.read_text()))
     return out
 
 

@@ -39,7 +39,8 @@ def _finished_run(out: Path, scale: float, hybrid_fx: float, transformer_fx: flo
                        "Fz": _spread(2.0, 0.5)}
     per_metric = {HYBRID: axes(hybrid_fx), TRANSFORMER: axes(transformer_fx)}
     (out / "results.json").write_text(json.dumps({
-        "call": {"scale": scale, "seeds": list(seeds), "models": list(models)}, "benches": {"a": "2.1", "b": "2.1"},
+        "call": {"scale": scale, "seeds": list(seeds), "models": list(models)},
+        "benches": {"a": "2.1", "b": "2.1"},
         "all_converged": True, "automated": {"causal": per_metric, "paper": per_metric,
                                              "causal_lowpass": per_metric}}))
 
