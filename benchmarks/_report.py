@@ -37,3 +37,8 @@ def dataset_arguments(doc: str) -> argparse.Namespace:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--json", type=Path)
     return ap.parse_args()
+
+
+def spread_cell(d: dict, digits: int = 2) -> str:
+    """``{mean, std}`` as a table cell, ``mean ± std``."""
+    return f"{d['mean']:.{digits}f} ± {d['std']:.{digits}f}"

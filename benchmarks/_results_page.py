@@ -9,6 +9,7 @@ the other's mean - std).
 
 from __future__ import annotations
 
+from benchmarks._report import spread_cell
 from benchmarks.learning_curve import HYBRID, TRANSFORMER, standing
 from hybrid.tables import compare
 
@@ -19,10 +20,6 @@ SIMULATOR_NOT_RECORDED = {"prior_ablation": "2.1", "hybrid_port_design": "2.0",
                           "another_tool": "2.0"}
 """The simulator version of runs whose JSON predates the version record, read from the commit
 that wrote each JSON (the prior ablation after 2.1's cable law, the other two before it)."""
-
-
-def _cell(d: dict) -> str:
-    return f"{d['mean']:.2f} ± {d['std']:.2f}"
 
 
 def _pair(pair) -> dict:
@@ -101,8 +98,8 @@ def learning_curve(curve: dict) -> str:
             v = p["hybrid_vs_transformer"][m]
             lines.append(
                 f"| {p['scale']:g} | {p['training_minutes']:.1f} | {len(p['seeds'])} | "
-                f"{_yes(p['all_converged'])} | {m} | " + " / ".join(_cell(h[a]) for a in AXES)
-                + " | " + " / ".join(_cell(t[a]) for a in AXES) + " | "
+                f"{_yes(p['all_converged'])} | {m} | " + " / ".join(spread_cell(h[a]) for a in AXES)
+                + " | " + " / ".join(spread_cell(t[a]) for a in AXES) + " | "
                 + " / ".join(f"{v[a]['ratio']:.2f}x ({v[a]['verdict']})" for a in AXES) + " |")
     lines += ["", "Where each model stands (causal metric, spread rule):", ""] + standing(curve)
     largest = max((p["scale"] for p in curve["points"]), default=None)
@@ -165,14 +162,15 @@ def axial_findings(ports: dict) -> str:
     target = 0.6 * models["none"][TRANSFORMER]["Fz"]["mean"]
     return "\n".join([
         "",
-        f"- No port: the hybrid's Fz {_cell(hybrid)} against a perfect stage model through the "
-        f"best fixed filter {_cell(bound)} ({_verdict(hybrid, bound)}).",
+        f"- No port: the hybrid's Fz {spread_cell(hybrid)} against a perfect stage model through "
+        "the "
+        f"best fixed filter {spread_cell(bound)} ({_verdict(hybrid, bound)}).",
         f"- The target, 0.6x the paper transformer's Fz without a port, is {target:.2f} %: "
         f"{target / bound['mean']:.2f}x that bound.",
         f"- The HEX10's axial reading after the prior (`comp_fz`) misses by "
         f"{ch['none']['comp_fz']['mean']:.0f} % of the force's range; blended above the best "
-        f"crossover it scores {_cell(ch['none']['complementary'])} against "
-        f"{_cell(ch['none']['insertion_fz'])} for `insertion_fz` alone.", ""])
+        f"crossover it scores {spread_cell(ch['none']['complementary'])} against "
+        f"{spread_cell(ch['none']['insertion_fz'])} for `insertion_fz` alone.", ""])
 
 
 def another_tool_findings(tool: dict) -> str:
@@ -256,4 +254,154 @@ def latency(streaming: dict, live: dict) -> str:
               f"{d['latency']['median_ms']:.2f} ms, p99 {d['latency']['p99_ms']:.2f} ms, max "
               f"{d['latency']['max_ms']:.1f} ms; the p99 target of 1 ms is "
               + ("met" if d["within_target"] else "**not met**") + ".", ""]
+    return "\n".join(lines)
+
+
+PRIOR_VARIANTS = {"weighted": "prior weighted on validation, subtracted from the inputs",
+                  "as_fitted": "prior as fitted (every weight 1), subtracted from the inputs",
+                  "raw_and_prior": "prior weighted, beside the raw HEX10 among the inputs",
+                  "no_prior": "no prior (`no_prior`)"}
+
+
+def prior_ablation_tables(result: dict) -> str:
+    """docs/results.md: the hybrid with and without its prior, per bench and axis."""
+    seeds = " ".join(str(s) for s in result["seeds"])
+    chosen = result["chosen_on_validation"]
+    lines = ["", f"`python benchmarks/prior_ablation.py --json "
+             f"results/benchmarks/prior_ablation.json` (scale {result['scale']:g}, bench seeds "
+             f"{seeds}; crossing bench: cables at {result['crossing_rad']:g} rad; every run "
+             f"{'stopped by its patience' if result['all_converged'] else 'NOT all converged'})."
+             " NRMSE % on the test trials, mean ± std over seeds; causal = the raw per-sample "
+             "estimate a haptic loop gets, paper = the paper's offline post-processing; the "
+             "last columns are the validation trials, where the design is chosen.", ""]
+    for bench, rows in result["summary"].items():
+        lines += [f"**{bench} bench**", "",
+                  "| hybrid | causal Fx | causal Fy | causal Fz | paper Fx | paper Fy | paper Fz "
+                  "| validation causal Fx / Fy / Fz |",
+                  "|---|---|---|---|---|---|---|---|"]
+        for variant in PRIOR_VARIANTS:
+            if variant not in rows:
+                continue
+            r = rows[variant]
+            cells = [spread_cell(r[m][a]) for m in ("causal", "paper") for a in ("Fx", "Fy", "Fz")]
+            val = " / ".join(f"{r['validation_causal'][a]['mean']:.2f}" for a in ("Fx", "Fy", "Fz"))
+            shipped = " (shipped)" if variant == result["shipped"] else ""
+            lines.append(f"| {PRIOR_VARIANTS[variant]}{shipped} | " + " | ".join(cells)
+                         + f" | {val} |")
+        for variant, verdict in result["verdicts"].get(bench, {}).items():
+            cells = [f"{verdict[m][a]['verdict']} ({verdict[m][a]['ratio']:.2f}x)"
+                     for m in ("causal", "paper") for a in ("Fx", "Fy", "Fz")]
+            lines.append(f"| {variant} against no prior, spread rule | " + " | ".join(cells)
+                         + " | |")
+        weights = [t["axis_weights"] for t in result["tasks"]
+                   if t["bench"] == bench and t["variant"] == "weighted"]
+        if weights:
+            lines += ["", "Weights the validation trials gave the prior (fx fy fz tx ty tz; "
+                      "one group per seed): " + "; ".join(
+                          " ".join(f"{w:.2f}" for w in ws) for ws in weights) + "."]
+        lines.append("")
+    ratios = ", ".join(f"{v} {x:.3f}" for v, x in chosen["validation_ratio_to_no_prior"].items())
+    lines += [f"Chosen on the validation trials (causal NRMSE relative to no prior, averaged "
+              f"over axes and benches: {ratios}): **{chosen['variant']}**.", ""]
+    return "\n".join(lines)
+
+
+def ports_table(result: dict) -> str:
+    """docs/results.md: every model without a port and through each port, causal NRMSE."""
+    by_port = result["causal_nrmse_pct"]
+    names = {"none": "no port", "cannula": "cannula", "abdominal-wall": "abdominal wall"}
+    ports = [p for p in names if p in by_port]
+    lines = ["", "Automated test set, causal NRMSE %, mean ± std over bench seeds "
+             + " ".join(str(s) for s in result["call"]["seeds"])
+             + f" (scale {result['call']['scale']:g}; "
+             + ("every run converged" if all(result["all_converged"].values())
+                else "NOT every run converged")
+             + "); through a port, x: the ratio to the same model without one.", "",
+             "| Model | " + " | ".join(f"{names[p]} Fx / Fy / Fz" for p in ports) + " |",
+             "|---|" + "---|" * len(ports)]
+    for model in by_port["none"]:
+        cells = []
+        for port in ports:
+            axes = by_port[port][model]
+            cell = " / ".join(spread_cell(axes[a]) for a in ("Fx", "Fy", "Fz"))
+            if port != "none":
+                cell += " (x" + " / x".join(f"{axes[a]['ratio_to_no_port']:.2f}"
+                                             for a in ("Fx", "Fy", "Fz")) + ")"
+            cells.append(cell)
+        lines.append(f"| {model} | " + " | ".join(cells) + " |")
+    lines.append("")
+    for target, t in result["targets"].items():
+        detail = ", ".join(f"{k} {v:.2f}" if isinstance(v, float) else
+                           f"{k} " + " / ".join(f"{a} {x:.2f}" for a, x in v.items())
+                           for k, v in t.items() if k != "met")
+        lines.append(f"- Target \"{target}\": {'met' if t['met'] else '**not met**'} "
+                     f"({detail}).")
+    lines.append("")
+    return "\n".join(lines)
+
+
+AXIAL_CHANNELS = {
+    "insertion_fz": "`insertion_fz` (insertion effort minus the identified stage model)",
+    "insertion_fz, best fixed filter": "`insertion_fz`, best fixed filter",
+    "comp_fz": "`comp_fz` (HEX10 axial minus the prior's internal force)",
+    "complementary": "`insertion_fz` below a crossover + `comp_fz` above (best crossover)",
+    "perfect stage model": "a perfect stage model: truth + the insertion effort's disturbance "
+                           "only",
+    "perfect stage model, best fixed filter": "a perfect stage model, best fixed filter"}
+
+
+def axial_channels_table(result: dict) -> str:
+    """docs/results.md: the axial channels without a network against the networks' Fz."""
+    channels, models = result["axial_channels_fz_nrmse_pct"], result["causal_nrmse_pct"]
+    ports = [p for p in ("none", "cannula", "abdominal-wall") if p in channels]
+    names = {"none": "no port", "cannula": "cannula", "abdominal-wall": "abdominal wall"}
+    lines = ["", "| axial channel (causal Fz NRMSE %) | " + " | ".join(names[p] for p in ports)
+             + " |", "|---|" + "---|" * len(ports)]
+    for key, label in AXIAL_CHANNELS.items():
+        lines.append(f"| {label} | " + " | ".join(spread_cell(channels[p][key]) for p in ports)
+                     + " |")
+    for model in ("Hybrid (ours)", "Transformer (paper)"):
+        lines.append(f"| {model}, for comparison | "
+                     + " | ".join(spread_cell(models[p][model]["Fz"]) for p in ports) + " |")
+    lines.append("")
+    return "\n".join(lines)
+
+
+TOOL_ROWS = ("nominal as is", "nominal calibrated", "1x as is", "1x calibrated", "2x as is",
+             "2x calibrated")
+
+
+def another_tool_table(result: dict) -> str:
+    """docs/results.md: every model on another tool, as is and calibrated."""
+    lines = ["", "| model | tool | causal Fx | causal Fy | causal Fz | paper Fx | paper Fy "
+             "| paper Fz |", "|---|---|---|---|---|---|---|---|"]
+    for model, rows in result["table"].items():
+        for tool in (t for t in TOOL_ROWS if t in rows):
+            cells = [f"{rows[tool][m][a][0]:.2f} ± {rows[tool][m][a][1]:.2f}"
+                     for m in ("causal", "paper") for a in ("Fx", "Fy", "Fz")]
+            lines.append(f"| {model} | {tool} | " + " | ".join(cells) + " |")
+    lines += ["", "Every training and calibration "
+              + ("stopped by its patience." if result["converged"] else "did NOT converge."), ""]
+    return "\n".join(lines)
+
+
+DESIGN_VARIANTS = {"default": "previous default", "+ insertion velocity": "+ insertion velocity",
+                   "+ insertion velocity, position": "+ insertion velocity and position "
+                                                     "(new default)",
+                   "no base on z": "no `insertion_fz` base on z"}
+
+
+def port_design_table(result: dict) -> str:
+    """docs/results.md: the hybrid's input variants on the validation trials, per port."""
+    ports = list(result["ports"])
+    names = {"none": "no port", "cannula": "cannula", "abdominal-wall": "abdominal wall"}
+    lines = ["", "| variant | " + " | ".join(f"{names[p]} Fx / Fy / Fz" for p in ports) + " |",
+             "|---|" + "---|" * len(ports)]
+    for key, label in DESIGN_VARIANTS.items():
+        cells = [" / ".join(f"{x:.2f}" for x in result["ports"][p][key]["mean"]["causal"])
+                 for p in ports]
+        lines.append(f"| {label} | " + " | ".join(cells) + " |")
+    runs = [r for p in ports for v in result["ports"][p].values() for r in v["runs"]]
+    lines += ["", f"{sum(r['converged'] for r in runs)} of the {len(runs)} runs stopped by "
+              "their patience.", ""]
     return "\n".join(lines)
