@@ -1,4 +1,5 @@
-"""The findings of ``docs/results.md``, rendered from the committed JSONs that measured them.
+"""The tables and findings of ``docs/results.md``, rendered from the committed JSONs that measured
+them.
 
 Each function takes the JSON(s) named in :data:`benchmarks.rendered_docs.BLOCKS` and returns a
 Markdown block. Every sentence with a figure in it is built here, so the page's prose between the
