@@ -209,7 +209,7 @@ def training_speed(training: dict, convergence: dict, options: dict) -> str:
              "|---|---|---|---|"]
     for name, t in training["throughput"].items():
         speedup = t.get("speedup_vs_before")
-        lines.append(f"| {name} | {t['batch']} x {t['length']} | {t['seconds_per_step']:.4g} | "
+        lines.append(f"| {name} | {t['batch']} x {t['length']} | {t['seconds_per_step']:.3g} | "
                      + (f"{speedup:.2f}x the stock encoder" if speedup else "") + " |")
     lines += ["", f"The paper transformer at scale {c['scale']:g} ({c['train_windows']:,} training "
               f"windows per epoch, {convergence['machine']['threads']} threads): stopped by "
