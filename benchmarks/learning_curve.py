@@ -85,7 +85,20 @@ def point(out: Path) -> dict:
             "training_minutes": _training_minutes(out, seeds),
             "simulator_versions": sorted(set(results["benches"].values())),
             "all_converged": results["all_converged"], "models": models,
+            "stopped": _stopped(results.get("training", {})),
             "hybrid_vs_transformer": _verdicts(models), "run": shown_path(out)}
+
+
+def _stopped(training: dict) -> dict:
+    """{label: ["46 epochs", ...] or ["closed form", ...]} over the seeds, from the run's
+    training records (keyed ``"<model> <variant> <fraction> seed <n>"``)."""
+    from hybrid.plan import plan
+    out: dict[str, list[str]] = {}
+    for key, t in sorted(training.items(), key=lambda kv: int(kv[0].rsplit(" ", 1)[1])):
+        how = ("closed form" if t["stopped_by"] == "closed form"
+               else f"{t['epochs_run']} epochs" + ("" if t["converged"] else " (NOT converged)"))
+        out.setdefault(plan(key.split(" ", 1)[0]).label, []).append(how)
+    return out
 
 
 def _verdicts(models: dict) -> dict:
@@ -180,17 +193,18 @@ def table(curve: dict) -> str:
         return "\n".join(lines + ["No scale has finished yet.", ""])
     for m in METRICS:
         lines += [f"**{m}**", "", "| scale | minutes of training data | seeds | converged | model "
-                  "| Fx | Fy | Fz |", "|---|---|---|---|---|---|---|---|"]
+                  "| trained to its early stop, per seed | Fx | Fy | Fz |", "|---|---|---|---|---|---|---|---|---|"]
         for p in curve["points"]:
             for label, r in p["models"].items():
                 cells = " | ".join(f"{r[m][a]['mean']:.2f} ± {r[m][a]['std']:.2f}"
                                    for a in AXES)
+                stopped = ", ".join(p.get("stopped", {}).get(label, []))
                 lines.append(f"| {p['scale']:g} | {p['training_minutes']:.1f} | "
                              f"{len(p['seeds'])} | {'yes' if p['all_converged'] else 'NO'} | "
-                             f"{label} | {cells} |")
+                             f"{label} | {stopped} | {cells} |")
             if p["hybrid_vs_transformer"]:
                 v = p["hybrid_vs_transformer"][m]
-                lines.append(f"| {p['scale']:g} | | | | hybrid / transformer | " + " | ".join(
+                lines.append(f"| {p['scale']:g} | | | | hybrid / transformer | | " + " | ".join(
                     f"{v[a]['ratio']:.2f}x ({v[a]['verdict']})" for a in AXES) + " |")
         lines.append("")
     lines += ["**Where each model stands** (causal metric; spread rule)", ""] + standing(curve)

@@ -41,7 +41,11 @@ def _finished_run(out: Path, scale: float, hybrid_fx: float, transformer_fx: flo
     (out / "results.json").write_text(json.dumps({
         "call": {"scale": scale, "seeds": list(seeds), "models": list(models)},
         "benches": {"a": "2.1", "b": "2.1"},
-        "all_converged": True, "automated": {"causal": per_metric, "paper": per_metric,
+        "all_converged": True,
+        "training": {f"{m} full 1.0 seed {s}": {"stopped_by": "patience", "epochs_run": 10 + s,
+                                                "converged": True}
+                     for m in ("hybrid", "transformer") for s in seeds},
+        "automated": {"causal": per_metric, "paper": per_metric,
                                              "causal_lowpass": per_metric}}))
 
 
@@ -62,8 +66,9 @@ def test_the_curve_holds_finished_scales_their_minutes_and_the_spread_rule(tmp_p
     assert curve["points"][0]["hybrid_vs_transformer"]["causal"]["Fz"]["verdict"] == "tie"
     assert json.loads(out.read_text())["points"] == json.loads(json.dumps(curve["points"]))
     page = (out.parent / "README.md").read_text()
-    assert "| 0.1 | | | | hybrid / transformer | 0.97x (tie)" in page
+    assert "| 0.1 | | | | hybrid / transformer | | 0.97x (tie)" in page
     assert "Scales not yet measured: 0.25, 0.5, 1." in page
+    assert curve["points"][0]["stopped"][HYBRID] == ["11 epochs", "12 epochs"]
     assert sorted(p.name for p in out.parent.glob("*.png")) == ["Fx.png", "Fy.png", "Fz.png"]
 
 
