@@ -163,9 +163,12 @@ def standing(curve: dict) -> list[str]:
     lines = []
     measured = ", ".join(f"{p['scale']:g}" for p in curve["points"])
     for a, c in curve.get("crossover", {}).items():
+        per_scale = ", ".join(f"{p['hybrid_vs_transformer']['causal'][a]['verdict']} at "
+                              f"{p['scale']:g}" for p in curve["points"]
+                              if p["hybrid_vs_transformer"])
         lines.append(f"- {a}: " + (
             f"the transformer matches the hybrid first at scale {c['scale']:g} "
-            f"({c['minutes']:.1f} min of training data; {c['verdict']})" if c else
+            f"({c['minutes']:.1f} min of training data); per scale: {per_scale}" if c else
             f"the hybrid is ahead at every measured scale ({measured})") + ".")
     for a, e in curve.get("data_efficiency", {}).items():
         amount = {"interpolated": f"about {e['transformer_minutes']:.0f} min",
@@ -218,9 +221,10 @@ def figures(curve: dict, folder: Path) -> list[str]:
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib.ticker import FuncFormatter
     written = []
     for a in AXES:
-        fig, ax = plt.subplots(figsize=(5.5, 4), layout="constrained")
+        fig, ax = plt.subplots(figsize=(7.5, 4), layout="constrained")
         labels = sorted({label for p in curve["points"] for label in p["models"]})
         for label in labels:
             pts = [p for p in curve["points"] if label in p["models"]]
@@ -228,11 +232,22 @@ def figures(curve: dict, folder: Path) -> list[str]:
             y = [p["models"][label]["causal"][a]["mean"] for p in pts]
             e = [p["models"][label]["causal"][a]["std"] for p in pts]
             ax.errorbar(x, y, yerr=e, marker="o", capsize=3, label=label)
+        first = curve["points"][0]
+        ax.axvline(first["training_minutes"] / first["scale"], color="grey", linestyle="--",
+                   label="the paper's amount of data (scale 1)")
         ax.set_xscale("log")
         ax.set_yscale("log")
+        plain = FuncFormatter(lambda v, _: f"{v:g}")  # 20, not 2 x 10^1
+        for axis in (ax.xaxis, ax.yaxis):
+            axis.set_major_formatter(plain)
+            axis.set_minor_formatter(plain)
+        ax.xaxis.set_minor_formatter(FuncFormatter(  # the minutes span decades: 2, 3, 5 only
+            lambda v, _: f"{v:g}" if round(v / 10 ** math.floor(math.log10(v))) in (2, 3, 5)
+            else ""))
+        ax.grid(True, which="both", alpha=0.3)
         ax.set_xlabel("training data [minutes of recordings]")
         ax.set_ylabel(f"{a}, HEX10 frame: causal NRMSE [%]")
-        ax.legend(fontsize=8)
+        ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1))  # clear of the data
         path = folder / f"{a}.png"
         fig.savefig(path, dpi=120)
         plt.close(fig)
