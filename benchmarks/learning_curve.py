@@ -13,7 +13,8 @@ has finished there (:func:`finished`).
 Several calls may share one ``--work`` to use several cores (``--threads 1`` each): give them
 disjoint ``--seeds`` or ``--models`` and a ``--json`` of their own under ``runs/``. A partial call
 is not a point of the curve (:func:`finished`); once the parts are done, the full call finds every
-task cached, writes the point, and ``--render-only`` renders it.
+task cached, writes the point, and ``--render-only`` renders it. A point already in the JSON is
+kept when its run is not under ``--work`` (``runs/`` is not committed).
 
 The JSON holds, per scale, the minutes of training recordings (the automated training split,
 validation included, at the bench's rate), each model's causal and paper NRMSE per axis (mean,
@@ -271,11 +272,18 @@ def finished(out: Path, models=MODELS) -> bool:
 
 
 def assemble(work: Path, scales, json_path: Path, models=MODELS) -> dict:
-    points = [point(run_dir(work, s)) for s in sorted(scales) if finished(run_dir(work, s), models)]
+    """The curve over every scale of :data:`SCALES` and ``scales``: a point from each finished
+    run under ``work``; a point the JSON at ``json_path`` already holds is kept when its run is
+    not under ``work`` (``runs/`` is not committed, and a new machine starts without it)."""
+    scales = sorted(set(SCALES) | set(scales))
+    kept = ({p["scale"]: p for p in json.loads(json_path.read_text())["points"]}
+            if json_path.exists() else {})
+    points = [point(run_dir(work, s)) if finished(run_dir(work, s), models) else kept[s]
+              for s in scales if finished(run_dir(work, s), models) or s in kept]
     done = {p["scale"] for p in points}
     curve = {"command": "python benchmarks/learning_curve.py " + " ".join(sys.argv[1:]),
-             "json": shown_path(json_path), "scales": sorted(scales),
-             "missing_scales": [s for s in sorted(scales) if s not in done],
+             "json": shown_path(json_path), "scales": scales,
+             "missing_scales": [s for s in scales if s not in done],
              "points": points, "crossover": crossovers(points),
              "efficiency_scale": EFFICIENCY_SCALE,
              "data_efficiency": data_efficiency(points, EFFICIENCY_SCALE)}

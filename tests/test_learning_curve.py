@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import math
+import shutil
 import sys
 from pathlib import Path
 
@@ -70,6 +71,18 @@ def test_the_curve_holds_finished_scales_their_minutes_and_the_spread_rule(tmp_p
     assert "Scales not yet measured: 0.25, 0.5, 1." in page
     assert curve["points"][0]["stopped"][HYBRID] == ["11 epochs", "12 epochs"]
     assert sorted(p.name for p in out.parent.glob("*.png")) == ["Fx.png", "Fy.png", "Fz.png"]
+
+
+def test_a_point_whose_run_is_gone_is_kept_from_the_json(tmp_path):
+    work, out = tmp_path / "work", tmp_path / "curve" / "learning_curve.json"
+    _finished_run(run_dir(work, 0.05), 0.05, hybrid_fx=0.4, transformer_fx=1.1)
+    first = assemble(work, [0.05], out)
+    shutil.rmtree(work)  # a new machine: runs/ is not committed
+    _finished_run(run_dir(work, 0.1), 0.1, hybrid_fx=0.6, transformer_fx=0.62)
+    again = assemble(work, [0.1], out)  # a call for one scale keeps the others
+    assert [p["scale"] for p in again["points"]] == [0.05, 0.1]
+    assert again["points"][0] == first["points"][0]
+    assert again["missing_scales"] == [0.25, 0.5, 1.0]
 
 
 def _point(scale, minutes, hybrid, transformer, verdict="hybrid ahead"):
