@@ -7,6 +7,7 @@ from __future__ import annotations
 from benchmarks._identification_page import LEARNED_BASELINES, MODEL_NAMES
 from benchmarks._report import spread_cell
 from benchmarks._results_page import PRIOR_VARIANTS, SIMULATOR_NOT_RECORDED
+from hybrid.tables import compare
 
 
 def _ratio(models: dict, metric: str, a: str = "hybrid", b: str = "transformer") -> str:
@@ -14,13 +15,10 @@ def _ratio(models: dict, metric: str, a: str = "hybrid", b: str = "transformer")
 
 
 def _verdict(models: dict, metric: str, a: str = "hybrid", b: str = "transformer") -> str:
-    """The spread rule between ``a`` and ``b`` on whole files."""
-    x, y = models[a]["whole"][metric], models[b]["whole"][metric]
-    if x["mean"] + x["std"] < y["mean"] - y["std"]:
-        return "a win by the spread rule"
-    if y["mean"] + y["std"] < x["mean"] - x["std"]:
-        return "a loss by the spread rule"
-    return "a tie by the spread rule"
+    """The spread rule (:func:`hybrid.tables.compare`) between ``a`` and ``b`` on whole files."""
+    word = {-1: "win", 0: "tie", 1: "loss"}[compare(models[a]["whole"][metric],
+                                                    models[b]["whole"][metric])]
+    return f"a {word} by the spread rule"
 
 
 def transmission_summary(result: dict) -> str:

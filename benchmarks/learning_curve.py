@@ -197,7 +197,8 @@ def table(curve: dict) -> str:
         return "\n".join(lines + ["No scale has finished yet.", ""])
     for m in METRICS:
         lines += [f"**{m}**", "", "| scale | minutes of training data | seeds | converged | model "
-                  "| trained to its early stop, per seed | Fx | Fy | Fz |", "|---|---|---|---|---|---|---|---|---|"]
+                  "| trained to its early stop, per seed | Fx | Fy | Fz |",
+                  "|---|---|---|---|---|---|---|---|---|"]
         for p in curve["points"]:
             for label, r in p["models"].items():
                 cells = " | ".join(f"{r[m][a]['mean']:.2f} ± {r[m][a]['std']:.2f}"
@@ -278,8 +279,9 @@ def assemble(work: Path, scales, json_path: Path, models=MODELS) -> dict:
     scales = sorted(set(SCALES) | set(scales))
     kept = ({p["scale"]: p for p in json.loads(json_path.read_text())["points"]}
             if json_path.exists() else {})
-    points = [point(run_dir(work, s)) if finished(run_dir(work, s), models) else kept[s]
-              for s in scales if finished(run_dir(work, s), models) or s in kept]
+    here = {s for s in scales if finished(run_dir(work, s), models)}
+    points = [point(run_dir(work, s)) if s in here else kept[s]
+              for s in scales if s in here or s in kept]
     done = {p["scale"] for p in points}
     curve = {"command": "python benchmarks/learning_curve.py " + " ".join(sys.argv[1:]),
              "json": shown_path(json_path), "scales": scales,
