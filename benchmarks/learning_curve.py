@@ -55,11 +55,12 @@ def run_dir(work: Path, scale: float) -> Path:
     return work / f"scale_{scale:g}"
 
 
-def run_scale(work: Path, scale: float, seeds, models, threads: int) -> None:
-    """Run (or resume) the reproduction at ``scale``."""
+def run_scale(work: Path, scale: float, seeds, models, threads: int, device: str = "cpu") -> None:
+    """Run (or resume) the reproduction at ``scale`` on ``device`` (a torch device; a run is
+    trained on one device, since a task's cache key holds it)."""
     from hybrid.reproduce import reproduce
-    reproduce(run_dir(work, scale), scale=scale, seeds=seeds, threads=threads, models=models,
-              ablations=False, efficiency=False, teleop=False)
+    reproduce(run_dir(work, scale), scale=scale, seeds=seeds, device=device, threads=threads,
+              models=models, ablations=False, efficiency=False, teleop=False)
 
 
 def _training_minutes(out: Path, seeds) -> float:
@@ -83,6 +84,7 @@ def point(out: Path) -> dict:
                       for m in METRICS}
               for label in automated["causal"]}
     return {"scale": results["call"]["scale"], "seeds": seeds,
+            "device": results["call"]["device"],
             "training_minutes": _training_minutes(out, seeds),
             "simulator_versions": sorted(set(results["benches"].values())),
             "all_converged": results["all_converged"], "models": models,
@@ -212,6 +214,8 @@ def table(curve: dict) -> str:
                 lines.append(f"| {p['scale']:g} | | | | hybrid / transformer | | " + " | ".join(
                     f"{v[a]['ratio']:.2f}x ({v[a]['verdict']})" for a in AXES) + " |")
         lines.append("")
+    lines += ["Trained on: " + "; ".join(f"scale {p['scale']:g} {p.get('device', 'not recorded')}"
+                                        for p in curve["points"]) + ".", ""]
     lines += ["**Where each model stands** (causal metric; spread rule)", ""] + standing(curve)
     lines += ["", "Scales not yet measured: "
               + (", ".join(f"{s:g}" for s in curve["missing_scales"]) or "none") + ".", ""]
@@ -302,6 +306,8 @@ def main(argv=None) -> int:
     ap.add_argument("--seeds", type=int, nargs="+", default=[1, 2, 3])
     ap.add_argument("--models", nargs="+", default=list(MODELS))
     ap.add_argument("--threads", type=int, default=2)
+    ap.add_argument("--device", default="cpu",
+                    help="torch device the networks train on (cpu, cuda); one per scale's run")
     ap.add_argument("--work", type=Path, default=Path("runs/learning_curve"))
     ap.add_argument("--json", type=Path, default=ROOT / "results" / "learning_curve"
                     / "learning_curve.json")
@@ -312,7 +318,7 @@ def main(argv=None) -> int:
         ap.error(f"--seeds: repeated seeds {args.seeds}")
     if not args.render_only:
         for scale in sorted(args.scales):
-            run_scale(args.work, scale, args.seeds, args.models, args.threads)
+            run_scale(args.work, scale, args.seeds, args.models, args.threads, args.device)
             assemble(args.work, args.scales, args.json, args.models)  # kept at once
     assemble(args.work, args.scales, args.json, args.models)
     return 0

@@ -60,6 +60,21 @@ def test_dropout_zero_and_bad_rates():
             attention(q, q, q, dropout_p=bad)
 
 
+def test_other_devices_use_torchs_kernel(monkeypatch):
+    """The chunk loop is for a CPU's caches: on another device (here the meta device, which
+    computes shapes only) attention with dropout goes to torch's fused kernel."""
+    import hybrid.attention as mod
+
+    def chunked(*_):
+        raise AssertionError("the CPU's chunked path ran on another device")
+    monkeypatch.setattr(mod._DroppedAttention, "apply", chunked)
+    q = torch.empty(2, 1, 3, 4, device="meta")
+    assert attention(q, q, q, dropout_p=0.1).shape == (2, 1, 3, 4)
+    with pytest.raises(AssertionError, match="chunked"):
+        attention(torch.randn(2, 1, 3, 4), torch.randn(2, 1, 3, 4), torch.randn(2, 1, 3, 4),
+                  dropout_p=0.1)
+
+
 def test_paper_transformer_trains_through_it_deterministically():
     """Train mode with dropout: seeded, so two runs give the same loss and gradients."""
     x = torch.randn(6, 12, 21)

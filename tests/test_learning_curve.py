@@ -40,7 +40,8 @@ def _finished_run(out: Path, scale: float, hybrid_fx: float, transformer_fx: flo
                        "Fz": _spread(2.0, 0.5)}
     per_metric = {HYBRID: axes(hybrid_fx), TRANSFORMER: axes(transformer_fx)}
     (out / "results.json").write_text(json.dumps({
-        "call": {"scale": scale, "seeds": list(seeds), "models": list(models)},
+        "call": {"scale": scale, "seeds": list(seeds), "models": list(models),
+                 "device": "cpu"},
         "benches": {"a": "2.1", "b": "2.1"},
         "all_converged": True,
         "training": {f"{m} full 1.0 seed {s}": {"stopped_by": "patience", "epochs_run": 10 + s,
@@ -69,6 +70,7 @@ def test_the_curve_holds_finished_scales_their_minutes_and_the_spread_rule(tmp_p
     page = (out.parent / "README.md").read_text()
     assert "| 0.1 | | | | hybrid / transformer | | 0.97x (tie)" in page
     assert "Scales not yet measured: 0.25, 0.5, 1." in page
+    assert "Trained on: scale 0.05 cpu; scale 0.1 cpu." in page  # the device each run recorded
     assert curve["points"][0]["stopped"][HYBRID] == ["11 epochs", "12 epochs"]
     assert sorted(p.name for p in out.parent.glob("*.png")) == ["Fx.png", "Fy.png", "Fz.png"]
 
