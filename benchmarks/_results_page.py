@@ -234,6 +234,22 @@ def training_speed(training: dict, convergence: dict, options: dict) -> str:
     return "\n".join(lines + [""])
 
 
+def training_gpu(training: dict) -> str:
+    """Section 7, on a GPU: one training step per model, and what the CPU's chunked attention
+    would cost there."""
+    m, t = training["machine"], training["throughput"]
+    chunked = t["transformer (chunked attention, the CPU's path)"]["seconds_per_step"]
+    fused = t["transformer (after)"]["seconds_per_step"]
+    lines = ["", f"Machine: {m['gpu']}, torch {m['torch']}.", "",
+             "| model (training step) | batch x length | seconds per step |", "|---|---|---|"]
+    lines += [f"| {name} | {r['batch']} x {r['length']} | {r['seconds_per_step']:.3g} |"
+              for name, r in t.items()]
+    lines += ["", f"On this GPU the CPU's chunked attention would make the paper transformer's "
+              f"step {chunked / fused:.0f}x slower than torch's fused kernel, which "
+              "`hybrid.attention.attention` takes off the CPU."]
+    return "\n".join(lines + [""])
+
+
 def latency(streaming: dict, live: dict) -> str:
     """Section 8: the streaming step at batch 1, and the live node over DDS."""
     def row(name, t):

@@ -39,6 +39,7 @@ PORT_DESIGN_NOTCH = ROOT / "results" / "benchmarks" / "hybrid_port_design_notch.
 TRAINING = ROOT / "results" / "benchmarks" / "training.json"
 TRAINING_CONVERGENCE = ROOT / "results" / "benchmarks" / "training_convergence.json"
 TRAINING_OPTIONS = ROOT / "results" / "benchmarks" / "training_speed_options.json"
+TRAINING_GPU = ROOT / "results" / "benchmarks" / "training_gpu.json"
 STREAMING = ROOT / "results" / "benchmarks" / "streaming.json"
 LIVE = ROOT / "results" / "benchmarks" / "live.json"
 RESULTS = ROOT / "docs" / "results.md"
@@ -70,6 +71,7 @@ BLOCKS = (
     (RESULTS, "another-tool-findings", ANOTHER_TOOL, results_page.another_tool_findings),
     (RESULTS, "training-speed", (TRAINING, TRAINING_CONVERGENCE, TRAINING_OPTIONS),
      results_page.training_speed),
+    (RESULTS, "training-gpu", TRAINING_GPU, results_page.training_gpu),
     (RESULTS, "latency", (STREAMING, LIVE), results_page.latency),
 )
 

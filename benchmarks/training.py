@@ -45,6 +45,7 @@ from pathlib import Path
 import torch
 from torch.nn import functional as F
 
+from hybrid.attention import CHUNK_WINDOWS, _DroppedAttention
 from hybrid.models import PaperTransformer
 from hybrid.recipes import build_model, recipe
 from hybrid.train import DEFAULT_CHUNK
@@ -66,12 +67,22 @@ class _StockTransformer(PaperTransformer):
         return self.decoder(self.encoder(self.positions(self.embed(x)))[:, -1])
 
 
+class _ChunkedAttentionTransformer(PaperTransformer):
+    """The model as a CPU trains it (:mod:`hybrid.attention`'s chunk loop), on any device: off the
+    CPU :func:`hybrid.attention.attention` takes torch's kernel, and this times what it avoids."""
+
+    attend = staticmethod(lambda q, k, v, dropout_p: _DroppedAttention.apply(
+        q, k, v, dropout_p, CHUNK_WINDOWS))
+
+
 def _step_seconds(model, x, steps: int, compile_model: bool = False,
                   bf16: bool = False) -> tuple[float, float]:
-    """(best seconds per optimiser step, compile + warm-up seconds). ``bf16``: the forward and
-    the loss under CPU autocast to bfloat16 (weights and optimiser stay float32)."""
+    """(best seconds per optimiser step, compile + warm-up seconds), on ``x``'s device. ``bf16``:
+    the forward and the loss under CPU autocast to bfloat16 (weights and optimiser stay
+    float32)."""
     torch.manual_seed(0)
-    model.train()
+    model.to(x.device).train()
+    sync = torch.cuda.synchronize if x.device.type == "cuda" else (lambda: None)
     forward = torch.compile(model) if compile_model else model
     opt = torch.optim.Adam(model.parameters(), lr=1e-3, weight_decay=1e-4)
 
@@ -83,6 +94,7 @@ def _step_seconds(model, x, steps: int, compile_model: bool = False,
                 out.square().mean()
         loss.backward()
         opt.step()
+        sync()  # a GPU runs the step asynchronously
     t0 = time.perf_counter()
     for _ in range(2):
         step()
@@ -95,7 +107,9 @@ def _step_seconds(model, x, steps: int, compile_model: bool = False,
     return best, warm
 
 
-def _throughput(steps: int) -> dict:
+def _throughput(steps: int, device: str = "cpu") -> dict:
+    """Every case on ``device``; off the CPU the compiled case is left out (its compile time
+    dominates a short call) and the CPU's chunked attention is timed as a case of its own."""
     from hybrid.inputs import hybrid_columns
     n_hybrid = len(hybrid_columns(True)[0])
     lstm_chunk = recipe("lstm").optimiser["chunk"]
@@ -109,9 +123,14 @@ def _throughput(steps: int) -> dict:
         "lstm": (build_model("lstm", 36), 36, 16, lstm_chunk, False),
         "hybrid": (build_model("hybrid", n_hybrid), n_hybrid, 16, DEFAULT_CHUNK, False),
     }
+    if device != "cpu":
+        del cases["transformer (after, compiled)"]
+        cases["transformer (chunked attention, the CPU's path)"] = (
+            _ChunkedAttentionTransformer(21), 21, 256, 100, False)
     out = {}
     for name, (model, n_inputs, batch, length, compiled) in cases.items():
-        sec, warm = _step_seconds(model, torch.randn(batch, length, n_inputs), steps, compiled)
+        sec, warm = _step_seconds(model, torch.randn(batch, length, n_inputs, device=device),
+                                  steps, compiled)
         unit = "windows" if model.kind == "window" else "chunks"
         supervised = batch if model.kind == "window" else batch * (length - model.window)
         out[name] = {"seconds_per_step": sec, "first_two_steps_s": warm, "batch": batch,
@@ -120,8 +139,7 @@ def _throughput(steps: int) -> dict:
         print(f"  {name:38s} {batch / sec:9.1f} {unit}/s {supervised / sec:10.0f} supervised "
               f"samples/s ({sec:.3f} s/step; first two steps {warm:.1f} s)", flush=True)
     before = out["transformer (before: stock encoder)"]["seconds_per_step"]
-    for k in ("transformer (own forward, torch attention)", "transformer (after)",
-              "transformer (after, compiled)"):
+    for k in [k for k in out if k.startswith("transformer (") and "before" not in k]:
         out[k]["speedup_vs_before"] = before / out[k]["seconds_per_step"]
     return out
 
@@ -257,11 +275,14 @@ def main() -> dict:
                     help="only profile the paper transformer's training step")
     ap.add_argument("--speed-options", action="store_true",
                     help="only time the paper transformer under SPEED_OPTIONS and the data path")
+    ap.add_argument("--device", default="cpu", help="torch device of the throughput timings")
     ap.add_argument("--json", type=Path)
     args = ap.parse_args()
     torch.set_num_threads(args.threads)
     result = {"machine": {"platform": platform.platform(), "threads": args.threads,
-                          "torch": torch.__version__}}
+                          "torch": torch.__version__, "device": args.device}
+              | ({"gpu": torch.cuda.get_device_name()} if args.device.startswith("cuda")
+                 else {})}
     if args.speed_options:
         print(f"paper transformer training speed options, {args.threads} threads")
         result["speed_options"] = _speed_options(args.steps)
@@ -269,8 +290,9 @@ def main() -> dict:
         print(f"paper transformer training step, {args.threads} threads")
         result["profile"] = _profile()
     else:
-        print(f"training throughput, {args.threads} threads, torch {torch.__version__}")
-        result["throughput"] = _throughput(args.steps)
+        print(f"training throughput on {args.device}, {args.threads} threads, "
+              f"torch {torch.__version__}")
+        result["throughput"] = _throughput(args.steps, args.device)
     if args.converge_scale and not (args.profile or args.speed_options):
         result["convergence"] = _converge(args.converge_scale)
     if args.json:
