@@ -16,6 +16,10 @@ is not a point of the curve (:func:`finished`); once the parts are done, the ful
 task cached, writes the point, and ``--render-only`` renders it. A point already in the JSON is
 kept when its run is not under ``--work`` (``runs/`` is not committed).
 
+``--device cuda`` trains a scale's run on a GPU. A run is trained on one device (each task's
+cache key holds it, so a CPU call does not reuse a GPU run's tasks); the point records its
+device and the table shows it.
+
 The JSON holds, per scale, the minutes of training recordings (the automated training split,
 validation included, at the bench's rate), each model's causal and paper NRMSE per axis (mean,
 std and number of seeds), whether every model converged, and, per axis, the verdict of the hybrid
