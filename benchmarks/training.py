@@ -278,6 +278,9 @@ def main() -> dict:
     ap.add_argument("--device", default="cpu", help="torch device of the throughput timings")
     ap.add_argument("--json", type=Path)
     args = ap.parse_args()
+    if args.device != "cpu" and (args.speed_options or args.profile or args.converge_scale):
+        ap.error("--device applies to the throughput timings only; --speed-options, --profile "
+                 "and --converge-scale time the CPU")
     torch.set_num_threads(args.threads)
     result = {"machine": {"platform": platform.platform(), "threads": args.threads,
                           "torch": torch.__version__, "device": args.device}
