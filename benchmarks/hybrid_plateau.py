@@ -31,7 +31,14 @@ from benchmarks.learning_curve import AXES, run_dir  # noqa: E402
 from hybrid.checkpoint import load_checkpoint  # noqa: E402
 from hybrid.data import NO_BASE  # noqa: E402
 from hybrid.recipes import recipe  # noqa: E402
-from hybrid.reproduce import _automated_split, _config, _load, _prior_path, _scores  # noqa: E402
+from hybrid.reproduce import (  # noqa: E402
+    _automated_split,
+    _checkpoint,
+    _config,
+    _load,
+    _prior_path,
+    _scores,
+)
 from hybrid.train import make_setup, train_model  # noqa: E402
 
 RAW_HEX10 = ("fx", "fy", "fz", "tx", "ty", "tz")
@@ -73,7 +80,8 @@ def variant(work: Path, scale: float, seed: int, name: str) -> dict:
     result = {"name": name, "scale": scale, "seed": seed}
     if name in EXISTING:
         model = name.removeprefix("existing_")
-        path = Path(run) / "checkpoints" / f"{model}_full_f1.0_seed{seed}_full_cpu.pt"
+        path = _checkpoint(run, {"model": model, "variant": "full", "fraction": 1.0, "seed": seed,
+                                 "budget": "full", "device": "cpu"})
         if not path.is_file():
             raise SystemExit(f"{name}: the run has not trained {model} seed {seed} yet ({path})")
         setup = load_checkpoint(path)
