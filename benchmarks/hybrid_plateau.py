@@ -6,7 +6,9 @@
 Reads a finished learning-curve run (``benchmarks/learning_curve.py``) under ``--work``: its bench
 of ``--seed`` (prior and derived columns included) and its checkpoints. Each variant is a hybrid
 trained with the run's own settings (the full budget, early stopping, one thread) but one change
-(:data:`VARIANTS`: its width, dropout, attention span, batch, inputs or base), or one of the run's
+(:data:`VARIANTS`: its width, dropout, attention span, batch, inputs or base; or the FCN's
+network on the hybrid's inputs, trained on one-sample windows as the FCN is or on chunks as the
+hybrid is, which tells the inputs, the network and the training path apart), or one of the run's
 own checkpoints scored again (``existing_*``). Each is scored by the causal NRMSE % per axis on the
 validation trials (the selection criterion) and, for information only, on the test trials. A
 variant already in ``--json`` is kept, not retrained, so the script resumes variant by variant.
@@ -19,18 +21,22 @@ import dataclasses
 import json
 import sys
 import time
+from dataclasses import dataclass, field
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 import torch  # noqa: E402
+from torch import nn  # noqa: E402
 
 from benchmarks._report import write_json  # noqa: E402
 from benchmarks.learning_curve import AXES, run_dir  # noqa: E402
 from hybrid.checkpoint import load_checkpoint  # noqa: E402
 from hybrid.data import NO_BASE  # noqa: E402
-from hybrid.recipes import recipe  # noqa: E402
+from hybrid.inputs import select_base  # noqa: E402
+from hybrid.models import FCN  # noqa: E402
+from hybrid.recipes import RECIPES, Inputs, Recipe, recipe, register  # noqa: E402
 from hybrid.reproduce import (  # noqa: E402
     _automated_split,
     _checkpoint,
@@ -43,29 +49,86 @@ from hybrid.train import make_setup, train_model  # noqa: E402
 
 RAW_HEX10 = ("fx", "fy", "fz", "tx", "ty", "tz")
 INSERTION_STATE = ("insertion_velocity", "insertion_position")
+LATERAL_BASE_OFF = (NO_BASE, NO_BASE, "insertion_fz")
+
+
+class ChunkFCN(nn.Module):
+    """The FCN's network (F -> 64 -> 64 -> 3, ReLU) on every sample of a chunk: a per-sample
+    network trained through the hybrid's chunk path (16 chunks of 300 consecutive samples per
+    batch), to tell the chunk path from the network."""
+
+    kind = "chunk"
+    output_space = "scaled"
+
+    def __init__(self, n_features: int, hidden: int = 64):
+        super().__init__()
+        self.window = 1  # no warm-up needed; the trainer wants one sample
+        self.fcn = FCN(n_features, hidden)
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        return self.fcn.head(self.fcn.body(x))
+
+    def finetune_modules(self) -> list[nn.Module]:
+        return [self.fcn.head]
+
+
+def _register_chunk_fcn() -> None:
+    """Registered when a variant needs it, not on import: tests that import this module and
+    loop over every registered model must not meet it."""
+    if "chunk_fcn" not in RECIPES:
+        register(Recipe("chunk_fcn", lambda n, config: ChunkFCN(n, **config),
+                        optimiser=recipe("hybrid").optimiser))
+
+
+@dataclass(frozen=True)
+class Variant:
+    """One change from the hybrid the learning curve trains: another model trained on the
+    hybrid's inputs (``model``: the FCN trains on one-sample windows, batches of 256, where the
+    hybrid trains on chunks), its constructor arguments (``config``), training settings
+    (``training``: :class:`hybrid.train.TrainConfig` overrides), or inputs (``drop`` / ``add``
+    columns, ``base`` replaced, or ``paper_inputs``: the paper's 21 recorded columns, no prior and
+    no base, what the FCN and the transformer read)."""
+
+    model: str = "hybrid"
+    config: dict = field(default_factory=dict)
+    training: dict = field(default_factory=dict)
+    drop: tuple[str, ...] = ()
+    add: tuple[str, ...] = ()
+    base: tuple[str, ...] | None = None
+    paper_inputs: bool = False
+
+    def inputs(self, train) -> Inputs:
+        """The inputs it trains on: the hybrid's (base selected on ``train`` as the trainer does)
+        with its changes, or the paper's."""
+        if self.paper_inputs:
+            return recipe("fcn").inputs(None, True)
+        inputs = recipe("hybrid").inputs(None, True)
+        features = tuple(f for f in inputs.features if f not in self.drop) + self.add
+        base = self.base if self.base is not None else select_base(train, inputs.base)
+        return dataclasses.replace(inputs, features=features, base=tuple(base))
+
+    def to_dict(self) -> dict:
+        return {k: list(v) if isinstance(v, tuple) else v
+                for k, v in dataclasses.asdict(self).items()}
+
+
 VARIANTS = {
-    # name: (model config, training overrides, inputs change)
-    "default": ({}, {}, {}),
-    "wide_64": ({"d_model": 64, "d_ff": 128}, {}, {}),
-    "dropout_0": ({"dropout": 0.0}, {}, {}),
-    "attention_window_1": ({"attention_window": 1}, {}, {}),
-    "batch_4_chunks": ({}, {"chunk_batch_size": 4}, {}),
-    "no_lateral_base": ({}, {}, {"base": (NO_BASE, NO_BASE, "insertion_fz")}),
-    "plus_raw_hex10": ({}, {}, {"add": RAW_HEX10}),
-    "no_insertion_state": ({}, {}, {"drop": INSERTION_STATE}),
+    "default": Variant(),
+    "wide_64": Variant(config={"d_model": 64, "d_ff": 128}),
+    "dropout_0": Variant(config={"dropout": 0.0}),
+    "attention_window_1": Variant(config={"attention_window": 1}),
+    "batch_4_chunks": Variant(training={"chunk_batch_size": 4}),
+    "no_lateral_base": Variant(base=LATERAL_BASE_OFF),
+    "plus_raw_hex10": Variant(add=RAW_HEX10),
+    "no_insertion_state": Variant(drop=INSERTION_STATE),
+    "paper_inputs": Variant(paper_inputs=True),
+    "fcn_hybrid_inputs": Variant(model="fcn"),
+    "fcn_hybrid_inputs_no_lateral_base": Variant(model="fcn", base=LATERAL_BASE_OFF),
+    "fcn_hybrid_inputs_chunks": Variant(model="chunk_fcn"),
 }
 """One change each from the hybrid the learning curve trains."""
 EXISTING = ("existing_hybrid", "existing_fcn", "existing_transformer")
 """The run's own checkpoints, scored on the same trials."""
-
-
-def _inputs(change: dict):
-    if not change:
-        return None
-    inputs = recipe("hybrid").inputs(None, True)
-    features = tuple(f for f in inputs.features if f not in change.get("drop", ()))
-    return dataclasses.replace(inputs, features=features + tuple(change.get("add", ())),
-                               base=tuple(change.get("base", inputs.base)))
 
 
 def _causal(setup, trials) -> list[float]:
@@ -86,14 +149,17 @@ def variant(work: Path, scale: float, seed: int, name: str) -> dict:
             raise SystemExit(f"{name}: the run has not trained {model} seed {seed} yet ({path})")
         setup = load_checkpoint(path)
     else:
-        config, overrides, change = VARIANTS[name]
-        setup = make_setup("hybrid", train, prior_json=_prior_path(run, seed).read_text(),
-                           config=config, inputs=_inputs(change))
-        cfg = dataclasses.replace(_config("full", "pretrain", seed, "cpu", "hybrid"), **overrides)
+        change = VARIANTS[name]
+        _register_chunk_fcn()
+        inputs = change.inputs(train)
+        prior = _prior_path(run, seed).read_text() if inputs.uses_prior else None
+        setup = make_setup(change.model, train, prior_json=prior, config=change.config,
+                           inputs=inputs)
+        cfg = dataclasses.replace(_config("full", "pretrain", seed, "cpu", change.model),
+                                  **change.training)
         started = time.time()
         rep = train_model(setup, train, val, cfg, desc=name)
-        result |= {"config": config, "training": overrides,
-                   "inputs": {k: list(v) for k, v in change.items()},
+        result |= {"change": change.to_dict(),
                    **{k: rep.get(k) for k in ("epochs_run", "stopped_by", "converged", "parameters")},
                    "seconds": round(time.time() - started)}
     return result | {"validation": _causal(setup, val), "test": _causal(setup, ds.select(split="test"))}

@@ -6,38 +6,64 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
+import numpy as np
+import pandas as pd
 import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from benchmarks.hybrid_plateau import (  # noqa: E402
     INSERTION_STATE,
+    LATERAL_BASE_OFF,
     RAW_HEX10,
     VARIANTS,
-    _inputs,
+    Variant,
     main,
 )
-from hybrid.data import NO_BASE  # noqa: E402
+from hybrid.data import NO_BASE, Trial  # noqa: E402
 from hybrid.recipes import recipe  # noqa: E402
 
 DEFAULT = recipe("hybrid").inputs(None, True)
 
 
-def test_unchanged_inputs_are_the_recipes():
-    assert _inputs({}) is None
-    for name in ("default", "wide_64", "dropout_0", "attention_window_1", "batch_4_chunks"):
-        assert VARIANTS[name][2] == {}
+@pytest.fixture(scope="module")
+def trials():
+    """A training trial on which the lateral base lowers the target's variance and the axial one
+    does not, so the trainer's selection keeps (comp_fx, comp_fy) and drops insertion_fz."""
+    rng = np.random.default_rng(0)
+    ati = rng.standard_normal((400, 3))
+    frame = pd.DataFrame(ati, columns=["ati_fx", "ati_fy", "ati_fz"])
+    frame[["comp_fx", "comp_fy"]] = ati[:, :2] + 0.1 * rng.standard_normal((400, 2))
+    frame["insertion_fz"] = 3.0 * rng.standard_normal(400)
+    return [Trial("t.csv", "Traction", "train", frame)]
 
 
-def test_input_changes_touch_only_what_they_name():
-    dropped = _inputs(VARIANTS["no_insertion_state"][2])
-    assert set(DEFAULT.features) - set(dropped.features) == set(INSERTION_STATE)
-    assert dropped.base == DEFAULT.base
-    added = _inputs(VARIANTS["plus_raw_hex10"][2])
-    assert added.features == DEFAULT.features + RAW_HEX10 and added.base == DEFAULT.base
-    no_base = _inputs(VARIANTS["no_lateral_base"][2])
-    assert no_base.features == DEFAULT.features
-    assert no_base.base[:2] == (NO_BASE, NO_BASE) and no_base.base[2] == DEFAULT.base[2]
+def test_unchanged_inputs_are_the_recipes_with_the_trainers_base(trials):
+    for name in ("default", "wide_64", "dropout_0", "attention_window_1", "batch_4_chunks",
+                 "fcn_hybrid_inputs", "fcn_hybrid_inputs_chunks"):
+        inputs = VARIANTS[name].inputs(trials)
+        assert inputs.features == DEFAULT.features and inputs.uses_prior
+        assert inputs.base == ("comp_fx", "comp_fy", NO_BASE)
+
+
+def test_input_changes_touch_only_what_they_name(trials):
+    default = Variant().inputs(trials)
+    dropped = VARIANTS["no_insertion_state"].inputs(trials)
+    assert set(default.features) - set(dropped.features) == set(INSERTION_STATE)
+    assert dropped.base == default.base
+    added = VARIANTS["plus_raw_hex10"].inputs(trials)
+    assert added.features == default.features + RAW_HEX10 and added.base == default.base
+    for name in ("no_lateral_base", "fcn_hybrid_inputs_no_lateral_base"):
+        no_base = VARIANTS[name].inputs(trials)
+        assert no_base.features == default.features
+        assert no_base.base == LATERAL_BASE_OFF == (NO_BASE, NO_BASE, DEFAULT.base[2])
+    paper = VARIANTS["paper_inputs"].inputs(trials)
+    assert paper == recipe("fcn").inputs(None, True) and not paper.uses_prior and paper.base == ()
+
+
+def test_only_the_fcn_variants_change_the_model():
+    assert {n for n, v in VARIANTS.items() if v.model != "hybrid"} == {
+        "fcn_hybrid_inputs", "fcn_hybrid_inputs_no_lateral_base", "fcn_hybrid_inputs_chunks"}
 
 
 def test_missing_run_is_refused(tmp_path, capsys):
@@ -46,3 +72,19 @@ def test_missing_run_is_refused(tmp_path, capsys):
     assert exit_.value.code == 2
     assert "no learning-curve run at scale 0.5" in capsys.readouterr().err
     assert not (tmp_path / "out.json").exists()
+
+
+def test_chunk_fcn_is_the_fcns_network_on_every_sample():
+    import torch
+
+    from benchmarks.hybrid_plateau import ChunkFCN
+    from hybrid.contract import check_model, is_chunk
+    from hybrid.models import FCN
+    torch.manual_seed(0)
+    chunked, fcn = ChunkFCN(5), FCN(5)
+    check_model(chunked, "chunk_fcn")
+    assert is_chunk(chunked) and not is_chunk(fcn)
+    fcn.load_state_dict({k.removeprefix("fcn."): v for k, v in chunked.state_dict().items()})
+    x = torch.randn(2, 7, 5)
+    per_sample = torch.stack([fcn(x[:, t:t + 1]) for t in range(7)], dim=1)
+    torch.testing.assert_close(chunked(x), per_sample)
