@@ -27,6 +27,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+import numpy as np  # noqa: E402
 import torch  # noqa: E402
 from torch import nn  # noqa: E402
 
@@ -50,6 +51,8 @@ from hybrid.train import make_setup, train_model  # noqa: E402
 RAW_HEX10 = ("fx", "fy", "fz", "tx", "ty", "tz")
 INSERTION_STATE = ("insertion_velocity", "insertion_position")
 LATERAL_BASE_OFF = (NO_BASE, NO_BASE, "insertion_fz")
+LATERAL = (0, 1)
+"""Fx and Fy: their places in a row of per-axis errors."""
 
 
 class ChunkFCN(nn.Module):
@@ -89,6 +92,8 @@ class Variant:
     columns, ``base`` replaced, or ``paper_inputs``: the paper's 21 recorded columns, no prior and
     no base, what the FCN and the transformer read)."""
 
+    what: str
+    """The change in words (tables)."""
     model: str = "hybrid"
     config: dict = field(default_factory=dict)
     training: dict = field(default_factory=dict)
@@ -109,25 +114,43 @@ class Variant:
 
     def to_dict(self) -> dict:
         return {k: list(v) if isinstance(v, tuple) else v
-                for k, v in dataclasses.asdict(self).items()}
+                for k, v in dataclasses.asdict(self).items() if k != "what"}
 
 
 VARIANTS = {
-    "default": Variant(),
-    "wide_64": Variant(config={"d_model": 64, "d_ff": 128}),
-    "dropout_0": Variant(config={"dropout": 0.0}),
-    "attention_window_1": Variant(config={"attention_window": 1}),
-    "batch_4_chunks": Variant(training={"chunk_batch_size": 4}),
-    "no_lateral_base": Variant(base=LATERAL_BASE_OFF),
-    "plus_raw_hex10": Variant(add=RAW_HEX10),
-    "no_insertion_state": Variant(drop=INSERTION_STATE),
-    "paper_inputs": Variant(paper_inputs=True),
-    "fcn_hybrid_inputs": Variant(model="fcn"),
-    "fcn_hybrid_inputs_no_lateral_base": Variant(model="fcn", base=LATERAL_BASE_OFF),
-    "fcn_hybrid_inputs_chunks": Variant(model="chunk_fcn"),
+    "default": Variant("the hybrid as the curve trains it, trained again"),
+    "wide_64": Variant("width 64, feed-forward 128", config={"d_model": 64, "d_ff": 128}),
+    "dropout_0": Variant("dropout 0", config={"dropout": 0.0}),
+    "attention_window_1": Variant("attention window 1 (no temporal context)",
+                                  config={"attention_window": 1}),
+    "batch_4_chunks": Variant("4 chunks per batch (4x the steps)",
+                              training={"chunk_batch_size": 4}),
+    "no_lateral_base": Variant("no lateral base (the network predicts Fx, Fy)",
+                               base=LATERAL_BASE_OFF),
+    "plus_raw_hex10": Variant("+ the raw HEX10 columns", add=RAW_HEX10),
+    "no_insertion_state": Variant("without the insertion state", drop=INSERTION_STATE),
+    "paper_inputs": Variant("the paper's 21 inputs (no prior, no base)", paper_inputs=True),
+    "fcn_hybrid_inputs": Variant("the FCN's network on the hybrid's inputs and base, "
+                                 "one-sample windows, 256 per batch", model="fcn"),
+    "fcn_hybrid_inputs_no_lateral_base": Variant(
+        "the same without the lateral base", model="fcn", base=LATERAL_BASE_OFF),
+    "fcn_hybrid_inputs_chunks": Variant(
+        "the FCN's network on the hybrid's inputs and base, the hybrid's chunks "
+        "(16 x 300 consecutive samples per batch)", model="chunk_fcn"),
+    "fcn_hybrid_inputs_chunks_of_2": Variant(
+        "the same, chunks of 2 (one supervised sample), 256 per batch", model="chunk_fcn",
+        training={"chunk": 2, "chunk_batch_size": 256}),
+    "short_chunks_64": Variant(
+        "chunks of 124 (25 supervised after the 99-sample warm-up), 64 per batch",
+        training={"chunk": 124, "chunk_batch_size": 64}),
+    "attention_window_1_chunks_of_2": Variant(
+        "attention window 1, chunks of 2 (one supervised sample), 256 per batch",
+        config={"attention_window": 1}, training={"chunk": 2, "chunk_batch_size": 256}),
 }
 """One change each from the hybrid the learning curve trains."""
-EXISTING = ("existing_hybrid", "existing_fcn", "existing_transformer")
+EXISTING = {"existing_hybrid": "the hybrid's own checkpoint (as trained by the curve)",
+            "existing_fcn": "the FCN's own checkpoint (the paper's inputs)",
+            "existing_transformer": "the paper transformer's own checkpoint"}
 """The run's own checkpoints, scored on the same trials."""
 
 
@@ -165,6 +188,55 @@ def variant(work: Path, scale: float, seed: int, name: str) -> dict:
     return result | {"validation": _causal(setup, val), "test": _causal(setup, ds.select(split="test"))}
 
 
+def _cell(values: list[float]) -> str:
+    if len(values) == 1:
+        return f"{values[0]:.2f}"
+    return f"{np.mean(values):.2f} ± {np.std(values):.2f}"
+
+
+def table(result: dict) -> str:
+    """The variants as a Markdown table: per scale (largest first), each variant's causal NRMSE %
+    on the validation and the test trials, mean ± std over the seeds measured (the value where
+    one seed was)."""
+    what = EXISTING | {k: v.what for k, v in VARIANTS.items()}
+    lines = ["| scale | variant | the change | seeds | validation Fx / Fy / Fz | "
+             "test Fx / Fy / Fz |", "|---|---|---|---|---|---|"]
+    rows = result["variants"]
+    for scale in sorted({r["scale"] for r in rows}, reverse=True):
+        for name in what:
+            runs = sorted((r for r in rows if r["scale"] == scale and r["name"] == name),
+                          key=lambda r: r["seed"])
+            if not runs:
+                continue
+            cells = [" / ".join(_cell([r[split][k] for r in runs]) for k in range(len(AXES)))
+                     for split in ("validation", "test")]
+            lines.append(f"| {scale:g} | `{name}` | {what[name]} | "
+                         f"{', '.join(str(r['seed']) for r in runs)} | {cells[0]} | {cells[1]} |")
+    lines += ["", "Seed by seed on the validation trials, against the hybrid's own checkpoint:", ""]
+    lines += [_paired(rows, name, "existing_hybrid") for name in PAIRED]
+    return "\n".join(lines)
+
+
+PAIRED = ("fcn_hybrid_inputs", "short_chunks_64", "attention_window_1_chunks_of_2")
+"""Variants compared seed by seed with the hybrid's own checkpoint under the table."""
+
+
+def _paired(rows: list[dict], name: str, reference: str) -> str:
+    """Per scale, the seeds on which ``name`` has a lower validation error than ``reference``
+    on both lateral axes, out of the seeds where both were measured."""
+    found = []
+    for scale in sorted({r["scale"] for r in rows}, reverse=True):
+        val = {(r["name"], r["seed"]): r["validation"] for r in rows if r["scale"] == scale}
+        seeds = sorted(s for n, s in val if n == name and (reference, s) in val)
+        if seeds:
+            lower = [s for s in seeds if all(val[name, s][k] < val[reference, s][k]
+                                             for k in LATERAL)]
+            found.append(f"at scale {scale:g} on {len(lower)} of {len(seeds)} seeds "
+                         f"({', '.join(map(str, seeds))})")
+    return (f"- `{name}` lower on Fx and Fy " + "; ".join(found) + "." if found
+            else f"- `{name}`: not measured beside it yet.")
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--work", type=Path, default=ROOT / "runs" / "learning_curve")
@@ -173,7 +245,14 @@ def main(argv=None) -> int:
     ap.add_argument("--variants", nargs="+", default=list(EXISTING) + list(VARIANTS),
                     choices=list(EXISTING) + list(VARIANTS))
     ap.add_argument("--json", type=Path, default=ROOT / "results" / "benchmarks" / "hybrid_plateau.json")
+    ap.add_argument("--render-only", action="store_true",
+                    help="print the table of --json and train nothing")
     args = ap.parse_args(argv)
+    if args.render_only:
+        if not args.json.is_file():
+            ap.error(f"no results at {args.json}")
+        print(table(json.loads(args.json.read_text())))
+        return 0
     if not (run_dir(args.work, args.scale) / "work" / "checkpoints").is_dir():
         ap.error(f"no learning-curve run at scale {args.scale:g} under {args.work}")
     torch.set_num_threads(1)

@@ -35,6 +35,7 @@ PORTS = ROOT / "results" / "benchmarks" / "port_comparison.json"
 ANOTHER_TOOL = ROOT / "results" / "benchmarks" / "another_tool.json"
 PORT_DESIGN = ROOT / "results" / "benchmarks" / "hybrid_port_design.json"
 LEARNING_CURVE = ROOT / "results" / "learning_curve" / "learning_curve.json"
+HYBRID_PLATEAU = ROOT / "results" / "benchmarks" / "hybrid_plateau.json"
 PORT_DESIGN_NOTCH = ROOT / "results" / "benchmarks" / "hybrid_port_design_notch.json"
 TRAINING = ROOT / "results" / "benchmarks" / "training.json"
 TRAINING_CONVERGENCE = ROOT / "results" / "benchmarks" / "training_convergence.json"
@@ -45,6 +46,11 @@ LIVE = ROOT / "results" / "benchmarks" / "live.json"
 RESULTS = ROOT / "docs" / "results.md"
 IDENTIFICATION = ROOT / "docs" / "identification.md"
 README = ROOT / "README.md"
+
+
+def _hybrid_plateau_table(result: dict) -> str:
+    from benchmarks.hybrid_plateau import table
+    return "\n" + table(result) + "\n"
 
 
 BLOCKS = (
@@ -59,6 +65,7 @@ BLOCKS = (
      (LEARNING_CURVE, PRIOR_ABLATION, PORTS, COMPARISON, PORT_DESIGN, ANOTHER_TOOL),
      results_page.status),
     (RESULTS, "learning-curve", LEARNING_CURVE, results_page.learning_curve),
+    (RESULTS, "hybrid-plateau", HYBRID_PLATEAU, _hybrid_plateau_table),
     (RESULTS, "prior-ablation-tables", PRIOR_ABLATION, results_page.prior_ablation_tables),
     (RESULTS, "ports-table", PORTS, results_page.ports_table),
     (RESULTS, "ports-findings", (PORTS, COMPARISON), results_page.ports_findings),

@@ -47,7 +47,7 @@ def test_unchanged_inputs_are_the_recipes_with_the_trainers_base(trials):
 
 
 def test_input_changes_touch_only_what_they_name(trials):
-    default = Variant().inputs(trials)
+    default = Variant("unchanged").inputs(trials)
     dropped = VARIANTS["no_insertion_state"].inputs(trials)
     assert set(default.features) - set(dropped.features) == set(INSERTION_STATE)
     assert dropped.base == default.base
@@ -63,7 +63,8 @@ def test_input_changes_touch_only_what_they_name(trials):
 
 def test_only_the_fcn_variants_change_the_model():
     assert {n for n, v in VARIANTS.items() if v.model != "hybrid"} == {
-        "fcn_hybrid_inputs", "fcn_hybrid_inputs_no_lateral_base", "fcn_hybrid_inputs_chunks"}
+        "fcn_hybrid_inputs", "fcn_hybrid_inputs_no_lateral_base", "fcn_hybrid_inputs_chunks",
+        "fcn_hybrid_inputs_chunks_of_2"}
 
 
 def test_missing_run_is_refused(tmp_path, capsys):
@@ -88,3 +89,17 @@ def test_chunk_fcn_is_the_fcns_network_on_every_sample():
     x = torch.randn(2, 7, 5)
     per_sample = torch.stack([fcn(x[:, t:t + 1]) for t in range(7)], dim=1)
     torch.testing.assert_close(chunked(x), per_sample)
+
+
+def test_table_averages_seeds_and_counts_paired_wins():
+    from benchmarks.hybrid_plateau import table
+
+    def row(name, seed, val):
+        return {"name": name, "scale": 0.5, "seed": seed, "validation": val, "test": val}
+    rows = [row("existing_hybrid", 1, [0.4, 0.4, 2.0]), row("existing_hybrid", 2, [0.3, 0.3, 2.0]),
+            row("fcn_hybrid_inputs", 1, [0.2, 0.3, 3.0]),   # lower laterally
+            row("fcn_hybrid_inputs", 2, [0.2, 0.5, 1.0])]   # Fy higher: not counted
+    text = table({"variants": rows})
+    assert "| 0.5 | `existing_hybrid` |" in text and "| 1, 2 | 0.35 ± 0.05 / 0.35 ± 0.05 / 2.00" in text
+    assert "`fcn_hybrid_inputs` lower on Fx and Fy at scale 0.5 on 1 of 2 seeds (1, 2)." in text
+    assert "`short_chunks_64`: not measured beside it yet." in text
