@@ -11,7 +11,9 @@ network on the hybrid's inputs, trained on one-sample windows as the FCN is or o
 hybrid is, which tells the inputs, the network and the training path apart), or one of the run's
 own checkpoints scored again (``existing_*``). Each is scored by the causal NRMSE % per axis on the
 validation trials (the selection criterion) and, for information only, on the test trials. A
-variant already in ``--json`` is kept, not retrained, so the script resumes variant by variant.
+variant already in ``--json`` is kept, not retrained, so the script resumes variant by variant,
+and a training killed midway resumes from its last epoch (its state under
+``--work/plateau_resume/``).
 """
 
 from __future__ import annotations
@@ -20,7 +22,6 @@ import argparse
 import dataclasses
 import json
 import sys
-import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -46,6 +47,7 @@ from hybrid.reproduce import (  # noqa: E402
     _prior_path,
     _scores,
 )
+from hybrid.resume import clear_state  # noqa: E402
 from hybrid.train import make_setup, train_model  # noqa: E402
 
 RAW_HEX10 = ("fx", "fy", "fz", "tx", "ty", "tz")
@@ -159,6 +161,12 @@ def _causal(setup, trials) -> list[float]:
     return [round(c[a]["nrmse_pct"], 3) for a in AXES]
 
 
+def _resume_path(work: Path, scale: float, seed: int, name: str) -> Path:
+    """Where a variant's training keeps its per-epoch state (:mod:`hybrid.resume`) until its
+    result is in the JSON: a killed run goes on from its last epoch."""
+    return work / "plateau_resume" / f"{name}_scale{scale:g}_seed{seed}.state"
+
+
 def variant(work: Path, scale: float, seed: int, name: str) -> dict:
     run = str(run_dir(work, scale) / "work")
     ds = _load(run, "automated", seed)
@@ -180,11 +188,11 @@ def variant(work: Path, scale: float, seed: int, name: str) -> dict:
                            inputs=inputs)
         cfg = dataclasses.replace(_config("full", "pretrain", seed, "cpu", change.model),
                                   **change.training)
-        started = time.time()
-        rep = train_model(setup, train, val, cfg, desc=name)
+        rep = train_model(setup, train, val, cfg, desc=name,
+                          resume=_resume_path(work, scale, seed, name))
         result |= {"change": change.to_dict(),
                    **{k: rep.get(k) for k in ("epochs_run", "stopped_by", "converged", "parameters")},
-                   "seconds": round(time.time() - started)}
+                   "seconds": round(rep["history"][-1]["elapsed_s"])}
     return result | {"validation": _causal(setup, val), "test": _causal(setup, ds.select(split="test"))}
 
 
@@ -264,6 +272,7 @@ def main(argv=None) -> int:
         print(f"{name}: validation {done[-1]['validation']}  test {done[-1]['test']}  (causal NRMSE %, "
               f"{' / '.join(AXES)})")
         write_json(args.json, {"metric": "causal NRMSE %, Fx / Fy / Fz", "variants": done})
+        clear_state(_resume_path(args.work, args.scale, args.seed, name))
     return 0
 
 
