@@ -2,6 +2,7 @@
 
     python benchmarks/hybrid_plateau.py --scale 0.5 --seed 1 --variants default wide_64 \
         --json results/benchmarks/hybrid_plateau.json
+    python benchmarks/hybrid_plateau.py --render-only   # the table of the JSON (docs/results.md)
 
 Reads a finished learning-curve run (``benchmarks/learning_curve.py``) under ``--work``: its bench
 of ``--seed`` (prior and derived columns included) and its checkpoints. Each variant is a hybrid
