@@ -49,13 +49,21 @@ from hybrid.reproduce import (  # noqa: E402
     _scores,
 )
 from hybrid.resume import clear_state  # noqa: E402
-from hybrid.train import make_setup, train_model  # noqa: E402
+from hybrid.train import TrainConfig, make_setup, train_model  # noqa: E402
 
 RAW_HEX10 = ("fx", "fy", "fz", "tx", "ty", "tz")
 INSERTION_STATE = ("insertion_velocity", "insertion_position")
 LATERAL_BASE_OFF = (NO_BASE, NO_BASE, "insertion_fz")
 LATERAL = (0, 1)
 """Fx and Fy: their places in a row of per-axis errors."""
+CURVE_HYBRID_RECIPE = {"max_epochs": 300}
+"""The hybrid recipe's optimiser settings when the curve's hybrid checkpoints compared here were
+trained (the ``existing_hybrid`` rows; checked against each checkpoint's provenance)."""
+CURVE_HYBRID_TRAINING = {**CURVE_HYBRID_RECIPE, "chunk": 400, "chunk_supervised": None,
+                         "chunk_batch_size": 16}
+"""What they trained with in full (the chunk settings were :class:`hybrid.train.TrainConfig`'s
+defaults then). Every hybrid variant is one change from these, not from the recipe's present
+settings, so a row stays one change from the checkpoint it is compared with."""
 
 
 class ChunkFCN(nn.Module):
@@ -83,7 +91,7 @@ def _register_chunk_fcn() -> None:
     loop over every registered model must not meet it."""
     if "chunk_fcn" not in RECIPES:
         register(Recipe("chunk_fcn", lambda n, config: ChunkFCN(n, **config),
-                        optimiser=recipe("hybrid").optimiser))
+                        optimiser=CURVE_HYBRID_TRAINING))
 
 
 @dataclass(frozen=True)
@@ -168,6 +176,16 @@ def _resume_path(work: Path, scale: float, seed: int, name: str) -> Path:
     return work / "plateau_resume" / f"{name}_scale{scale:g}_seed{seed}.state"
 
 
+def training(change: Variant, seed: int) -> TrainConfig:
+    """A variant's training settings: the run's own (the full budget) for the FCN's network on
+    windows; for the hybrid and the FCN's network on chunks, :data:`CURVE_HYBRID_TRAINING`; then
+    the variant's own change."""
+    base = (TrainConfig(**CURVE_HYBRID_TRAINING, seed=seed, progress=False)
+            if change.model in ("hybrid", "chunk_fcn")
+            else _config("full", "pretrain", seed, "cpu", change.model))
+    return dataclasses.replace(base, **change.training)
+
+
 def variant(work: Path, scale: float, seed: int, name: str) -> dict:
     run = str(run_dir(work, scale) / "work")
     ds = _load(run, "automated", seed)
@@ -180,6 +198,10 @@ def variant(work: Path, scale: float, seed: int, name: str) -> dict:
         if not path.is_file():
             raise SystemExit(f"{name}: the run has not trained {model} seed {seed} yet ({path})")
         setup = load_checkpoint(path)
+        trained = setup.provenance.get("reproduce", {}).get("recipe", {}).get("optimiser")
+        if model == "hybrid" and trained != CURVE_HYBRID_RECIPE:
+            raise SystemExit(f"{name}: {path} was trained with the optimiser settings {trained}, "
+                             f"not the ones the variants change ({CURVE_HYBRID_RECIPE})")
     else:
         change = VARIANTS[name]
         _register_chunk_fcn()
@@ -187,9 +209,7 @@ def variant(work: Path, scale: float, seed: int, name: str) -> dict:
         prior = _prior_path(run, seed).read_text() if inputs.uses_prior else None
         setup = make_setup(change.model, train, prior_json=prior, config=change.config,
                            inputs=inputs)
-        cfg = dataclasses.replace(_config("full", "pretrain", seed, "cpu", change.model),
-                                  **change.training)
-        rep = train_model(setup, train, val, cfg, desc=name,
+        rep = train_model(setup, train, val, training(change, seed), desc=name,
                           resume=_resume_path(work, scale, seed, name))
         result |= {"change": change.to_dict(),
                    **{k: rep.get(k) for k in ("epochs_run", "stopped_by", "converged", "parameters")},

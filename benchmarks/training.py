@@ -5,8 +5,8 @@ and its wall-clock to convergence.
     python benchmarks/training.py --profile [--json OUT]
 
 Throughput: optimiser steps (forward, backward, Adam) on batches of the training loop's shape
-(window models: 256 windows; chunk models: 16 chunks, the LSTM's of 1000 samples, the hybrid's of
-400), timed after warm-up steps, best of ``--steps``. Printed and written per model as windows/s
+(window models: 256 windows; chunk models: the batch and chunk of their recipe's training
+settings, the LSTM's 16 of 1000 samples), timed after warm-up steps, best of ``--steps``. Printed and written per model as windows/s
 (chunks/s for chunk models) and supervised samples/s (one per window; ``chunk - window`` per
 chunk). The paper transformer is timed four ways, all the same function
 (``tests/test_hybrid_pipeline.py`` checks the own forward against the stock encoder,
@@ -48,7 +48,7 @@ from torch.nn import functional as F
 from hybrid.attention import CHUNK_WINDOWS, _DroppedAttention
 from hybrid.models import PaperTransformer
 from hybrid.recipes import build_model, recipe
-from hybrid.train import DEFAULT_CHUNK
+from hybrid.train import TrainConfig
 from _report import write_json
 
 
@@ -113,6 +113,9 @@ def _throughput(steps: int, device: str = "cpu") -> dict:
     from hybrid.inputs import hybrid_columns
     n_hybrid = len(hybrid_columns(True)[0])
     lstm_chunk = recipe("lstm").optimiser["chunk"]
+    hybrid, hybrid_cfg = build_model("hybrid", n_hybrid), TrainConfig(**recipe("hybrid").optimiser)
+    hybrid_chunk = (hybrid.window + hybrid_cfg.chunk_supervised
+                    if hybrid_cfg.chunk_supervised is not None else hybrid_cfg.chunk)
     cases = {  # name: (model, input columns, batch, samples per window or chunk, compiled)
         "transformer (before: stock encoder)": (_StockTransformer(21), 21, 256, 100, False),
         "transformer (own forward, torch attention)": (_TorchAttentionTransformer(21), 21, 256,
@@ -121,7 +124,7 @@ def _throughput(steps: int, device: str = "cpu") -> dict:
         "transformer (after, compiled)": (PaperTransformer(21), 21, 256, 100, True),
         "fcn": (build_model("fcn", 21), 21, 256, 1, False),
         "lstm": (build_model("lstm", 36), 36, 16, lstm_chunk, False),
-        "hybrid": (build_model("hybrid", n_hybrid), n_hybrid, 16, DEFAULT_CHUNK, False),
+        "hybrid": (hybrid, n_hybrid, hybrid_cfg.chunk_batch_size, hybrid_chunk, False),
     }
     if device != "cpu":
         del cases["transformer (after, compiled)"]

@@ -77,6 +77,10 @@ class TrainConfig:
     """Samples between consecutive training windows (x4 for free-space trials)."""
     chunk: int = DEFAULT_CHUNK
     """Chunk length of chunk models; shortened to the shortest trial when one is shorter."""
+    chunk_supervised: int | None = None
+    """When set, chunks are the model's warm-up window plus this many supervised samples, whatever
+    the window (``chunk`` is then not read): a setting that holds when the model's receptive
+    field changes."""
     max_batches_per_epoch: int | None = None
     """Smoke-run cap: a seeded random subset of this many batches per epoch (None: all). A run
     with a cap is not converged, whatever its early stopping did."""
@@ -116,16 +120,24 @@ def _loss(model: nn.Module, x: torch.Tensor, y: torch.Tensor,
 
 
 def _chunk_length(model: nn.Module, trials: Sequence[Trial], cfg: TrainConfig) -> int:
-    """The configured chunk, or the shortest trial's length when shorter: every trial is
-    trained on, none dropped for being short. Trials too short to supervise are refused."""
-    if cfg.chunk <= model.window:
+    """The configured chunk (``chunk``, or the warm-up plus ``chunk_supervised``), or the
+    shortest trial's length when shorter: every trial is trained on, none dropped for being short. Trials too short to supervise are refused."""
+    if cfg.chunk_supervised is not None:
+        if isinstance(cfg.chunk_supervised, bool) or not isinstance(cfg.chunk_supervised, int) \
+                or cfg.chunk_supervised < 1:
+            raise TrainingError(f"chunk_supervised must be a positive integer, "
+                                f"got {cfg.chunk_supervised!r}")
+        length = model.window + cfg.chunk_supervised
+    elif cfg.chunk <= model.window:
         raise TrainingError(f"chunk ({cfg.chunk}) must exceed the warm-up window "
                             f"({model.window})")
+    else:
+        length = cfg.chunk
     short = [t.path for t in trials if len(t) <= model.window]
     if short:
         raise TrainingError(f"recordings of at most {model.window} samples (the model's warm-up) "
                             f"cannot be trained on: {short}")
-    return min(cfg.chunk, min(len(t) for t in trials))
+    return min(length, min(len(t) for t in trials))
 
 
 def _window_set(model: nn.Module, trials: Sequence[Trial], setup: TrainedModel, cfg: TrainConfig,

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import copy
+import dataclasses
 import json
 
 import numpy as np
@@ -32,7 +33,7 @@ from hybrid.integrity import seal
 from hybrid.metrics import MetricError, axis_metrics, nrmse, postprocess, r2, rmse
 from hybrid.models import FCN, PaperTransformer, count_parameters, freeze_for_finetuning
 from hybrid.recipes import build_model
-from hybrid.train import TrainConfig, fit, make_setup
+from hybrid.train import TrainConfig, TrainingError, fit, make_setup
 from psm_model.recording import PAPER_FEATURES, REQUIRED, TARGETS, write_recording
 
 torch.set_num_threads(1)
@@ -273,6 +274,25 @@ def test_models_overfit_a_tiny_set(kind):
     report = fit(model, trials, trials, setup, cfg)
     losses = [h["val_loss"] for h in report["history"]]
     assert report["best_val_loss"] < 0.1 * losses[0] and report["best_val_loss"] < 0.1
+
+
+def test_chunk_supervised_follows_the_warm_up_window():
+    """``chunk_supervised`` sets the supervised samples per chunk whatever the receptive field:
+    the chunk is the warm-up plus that many, consecutive chunks step by it (no sample
+    supervised twice), and ``chunk`` is not read."""
+    trials = [_trial(120, 0), _trial(120, 1)]
+    setup = make_setup("fcn", trials, features="paper")
+    cfg = TrainConfig(chunk=5, chunk_supervised=10, chunk_batch_size=4, max_epochs=1,
+                      progress=False)
+    for window in (4, 9):
+        report = fit(_ChunkStandIn(21, window=window), trials, trials, setup, cfg)
+        assert report["chunk"] == window + 10
+        # a chunk starts every 10 samples while a whole one fits in a 120-sample trial; two trials
+        assert report["train_windows"] == 2 * ((120 - (window + 10)) // 10 + 1)
+    for bad in (0, -3, 2.5, True):
+        with pytest.raises(TrainingError, match="chunk_supervised must be a positive integer"):
+            fit(_ChunkStandIn(21), trials, trials, setup, dataclasses.replace(
+                cfg, chunk_supervised=bad))
 
 
 def test_paper_transformer_equals_the_stock_encoder():

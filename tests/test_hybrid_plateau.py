@@ -67,6 +67,24 @@ def test_only_the_fcn_variants_change_the_model():
         "fcn_hybrid_inputs_chunks_of_2"}
 
 
+def test_hybrid_variants_change_the_curves_training_not_the_recipes():
+    """The rows compare with checkpoints trained before short chunks became the recipe's
+    default: a variant's base is those settings, whatever the recipe says now."""
+    from benchmarks.hybrid_plateau import CURVE_HYBRID_TRAINING, training
+    from hybrid.reproduce import _config
+    default = training(VARIANTS["default"], 2)
+    assert (default.chunk, default.chunk_supervised, default.chunk_batch_size,
+            default.max_epochs, default.seed) == (400, None, 16, 300, 2)
+    short = training(VARIANTS["short_chunks_64"], 2)
+    assert (short.chunk, short.chunk_batch_size) == (124, 64)
+    assert {k: v for k, v in vars(short).items() if k not in ("chunk", "chunk_batch_size")} == \
+        {k: v for k, v in vars(default).items() if k not in ("chunk", "chunk_batch_size")}
+    assert training(VARIANTS["fcn_hybrid_inputs_chunks"], 2) == default
+    assert training(VARIANTS["fcn_hybrid_inputs"], 2) == _config("full", "pretrain", 2, "cpu",
+                                                                 "fcn")
+    assert set(CURVE_HYBRID_TRAINING) <= set(vars(default))
+
+
 def test_missing_run_is_refused(tmp_path, capsys):
     with pytest.raises(SystemExit) as exit_:
         main(["--work", str(tmp_path), "--json", str(tmp_path / "out.json")])
