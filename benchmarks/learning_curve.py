@@ -93,6 +93,7 @@ def point(out: Path) -> dict:
             "simulator_versions": sorted(set(results["benches"].values())),
             "all_converged": results["all_converged"], "models": models,
             "stopped": _stopped(results.get("training", {})),
+            "optimiser": _optimiser(out, results),
             "hybrid_vs_transformer": _verdicts(models), "run": shown_path(out)}
 
 
@@ -106,6 +107,48 @@ def _stopped(training: dict) -> dict:
                else f"{t['epochs_run']} epochs" + ("" if t["converged"] else " (NOT converged)"))
         out.setdefault(plan(key.split(" ", 1)[0]).label, []).append(how)
     return out
+
+
+def _optimiser(out: Path, results: dict) -> dict:
+    """{label: the distinct recipe optimiser settings its seeds trained with}: from the run's
+    training records, or, for a task cached before they held them, from its checkpoint's
+    provenance (None where neither says). A change of a model's recipe retrains it, so scales
+    run before and after the change differ here, and the table says so."""
+    from hybrid.checkpoint import load_checkpoint
+    from hybrid.plan import plan
+    from hybrid.reproduce import _checkpoint
+    out_settings: dict[str, list] = {}
+    for key, t in results.get("training", {}).items():
+        model, variant, fraction, _, seed = key.split(" ")
+        settings = t.get("optimiser")
+        if settings is None and "budget" in results["call"]:
+            path = _checkpoint(str(out / "work"), {
+                "model": model, "variant": variant, "fraction": float(fraction),
+                "seed": int(seed), "budget": results["call"]["budget"],
+                "device": results["call"]["device"]})
+            if path.is_file():
+                settings = load_checkpoint(path).provenance.get("reproduce", {}).get(
+                    "recipe", {}).get("optimiser")
+        seen = out_settings.setdefault(plan(model).label, [])
+        if settings not in seen:
+            seen.append(settings)
+    return out_settings
+
+
+def settings_lines(curve: dict) -> list[str]:
+    """Markdown lines: per model whose recipe sets training settings at some point, the settings
+    each scale was trained with ("not recorded" for a point assembled before points held them),
+    so a curve across a recipe change says where it changed."""
+    by_label: dict[str, dict[str, list[str]]] = {}
+    for p in curve["points"]:
+        for label in p["models"]:
+            for settings in p.get("optimiser", {}).get(label, [None]):
+                text = "not recorded" if settings is None else json.dumps(settings,
+                                                                           sort_keys=True)
+                by_label.setdefault(label, {}).setdefault(text, []).append(f"{p['scale']:g}")
+    return [f"- {label}: " + "; ".join(f"`{text}` at scale {', '.join(scales)}"
+                                       for text, scales in by_setting.items())
+            for label, by_setting in sorted(by_label.items()) if set(by_setting) != {"{}"}]
 
 
 def _verdicts(models: dict) -> dict:
@@ -220,6 +263,10 @@ def table(curve: dict) -> str:
         lines.append("")
     lines += ["Trained on: " + "; ".join(f"scale {p['scale']:g} {p.get('device', 'not recorded')}"
                                         for p in curve["points"]) + ".", ""]
+    settings = settings_lines(curve)
+    if settings:
+        lines += ["Training settings of the models' recipes beyond the defaults of "
+                  "`hybrid.train.TrainConfig`, per scale:", ""] + settings + [""]
     lines += ["**Where each model stands** (causal metric; spread rule)", ""] + standing(curve)
     lines += ["", "Scales not yet measured: "
               + (", ".join(f"{s:g}" for s in curve["missing_scales"]) or "none") + ".", ""]

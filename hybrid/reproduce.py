@@ -214,8 +214,8 @@ def _pretrain_task(p: dict) -> dict:
                         "val_trials": [t.path for t in val], "history": rep["history"]}
     setup.save(path)
     clear_state(resume)
-    return {"training": _training_summary(rep), "checkpoint": str(path),
-            "test": _scores(setup, ds.select(split="test"), p["device"])}
+    return {"training": _training_summary(rep) | {"optimiser": p["recipe"]["optimiser"]},
+            "checkpoint": str(path), "test": _scores(setup, ds.select(split="test"), p["device"])}
 
 
 def _teleop_folds(tele: Dataset) -> list[dict]:

@@ -19,8 +19,8 @@ from pathlib import Path
 
 DEMO_SCALE = 0.03
 DEMO_BUDGET = {"max_epochs": 100}
-"""Per model: at most 100 epochs over all training windows / chunks (early stopping as usual);
-under a minute for the hybrid on this 2-core CPU, less for the FCN."""
+"""Per model: at most 100 epochs over all training windows / chunks (early stopping as usual),
+on top of the model's recipe settings (its batches and chunks, as ``psmforce train`` trains)."""
 
 
 def run_demo(out: str | Path, *, seed: int = 0, scale: float = DEMO_SCALE,
@@ -56,7 +56,7 @@ def run_demo(out: str | Path, *, seed: int = 0, scale: float = DEMO_SCALE,
     for model in ("hybrid", "fcn"):
         ckpt = out / f"{model}.pt"
         step(f"training {model} (budget {budget})")
-        config = TrainConfig(**budget, seed=seed)
+        config = TrainConfig(**{**recipe(model).optimiser, **budget}, seed=seed)
         train(data, model, ckpt, epochs=budget["max_epochs"], seed=seed,
               prior=prior_path if recipe(model).uses_prior else None, train_config=config)
         step(f"evaluating {model} on the test trials")

@@ -29,7 +29,7 @@ def _spread(mean, std):
 
 
 def _finished_run(out: Path, scale: float, hybrid_fx: float, transformer_fx: float,
-                  seeds=(1, 2), models=MODELS) -> None:
+                  seeds=(1, 2), models=MODELS, hybrid_optimiser=None) -> None:
     for seed in seeds:
         data = out / "work" / "data" / f"automated_seed{seed}"
         data.mkdir(parents=True)
@@ -44,9 +44,10 @@ def _finished_run(out: Path, scale: float, hybrid_fx: float, transformer_fx: flo
                  "device": "cpu"},
         "benches": {"a": "2.1", "b": "2.1"},
         "all_converged": True,
-        "training": {f"{m} full 1.0 seed {s}": {"stopped_by": "patience", "epochs_run": 10 + s,
-                                                "converged": True}
-                     for m in ("hybrid", "transformer") for s in seeds},
+        "training": {f"{m} full 1.0 seed {s}": {
+            "stopped_by": "patience", "epochs_run": 10 + s, "converged": True,
+            "optimiser": hybrid_optimiser if m == "hybrid" else {}}
+            for m in ("hybrid", "transformer") for s in seeds},
         "automated": {"causal": per_metric, "paper": per_metric,
                                              "causal_lowpass": per_metric}}))
 
@@ -85,6 +86,22 @@ def test_a_point_whose_run_is_gone_is_kept_from_the_json(tmp_path):
     assert [p["scale"] for p in again["points"]] == [0.05, 0.1]
     assert again["points"][0] == first["points"][0]
     assert again["missing_scales"] == [0.25, 0.5, 1.0]
+
+
+def test_the_table_says_which_recipe_settings_each_scale_trained_with(tmp_path):
+    """A recipe change retrains the model at the scales run after it: the page names the
+    settings per scale, so a curve across the change is not read as one recipe's."""
+    work, out = tmp_path / "work", tmp_path / "curve" / "learning_curve.json"
+    _finished_run(run_dir(work, 0.05), 0.05, 0.4, 1.1, hybrid_optimiser={"max_epochs": 300})
+    _finished_run(run_dir(work, 0.1), 0.1, 0.4, 1.1,
+                  hybrid_optimiser={"max_epochs": 300, "chunk_supervised": 25})
+    curve = assemble(work, [0.05, 0.1], out)
+    assert curve["points"][1]["optimiser"] == {
+        HYBRID: [{"max_epochs": 300, "chunk_supervised": 25}], TRANSFORMER: [{}]}
+    page = (out.parent / "README.md").read_text()
+    assert ('- Hybrid (ours): `{"max_epochs": 300}` at scale 0.05; '
+            '`{"chunk_supervised": 25, "max_epochs": 300}` at scale 0.1') in page
+    assert "- Transformer (paper):" not in page  # the defaults everywhere: nothing to say
 
 
 def _point(scale, minutes, hybrid, transformer, verdict="hybrid ahead"):
