@@ -11,7 +11,7 @@ the other's mean - std).
 from __future__ import annotations
 
 from benchmarks._report import spread_cell
-from benchmarks.learning_curve import HYBRID, TRANSFORMER, standing
+from benchmarks.learning_curve import HYBRID, TRANSFORMER, settings_lines, standing
 from hybrid.tables import compare, verdicts
 
 AXES = ("Fx", "Fy", "Fz")
@@ -108,6 +108,10 @@ def learning_curve(curve: dict) -> str:
                 f"{_yes(p['all_converged'])} | {m} | " + " / ".join(spread_cell(h[a]) for a in AXES)
                 + " | " + " / ".join(spread_cell(t[a]) for a in AXES) + " | "
                 + " / ".join(f"{v[a]['ratio']:.2f}x ({v[a]['verdict']})" for a in AXES) + " |")
+    settings = settings_lines(curve)
+    if settings:
+        lines += ["", "Training settings of the recipes beyond `hybrid.train.TrainConfig`'s "
+                  "defaults, per scale:", ""] + settings
     lines += ["", "Where each model stands (causal metric, spread rule):", ""] + standing(curve)
     largest = max((p["scale"] for p in curve["points"]), default=None)
     lines += ["", f"Measured up to scale {largest:g} of the paper's data; not yet: "
