@@ -6,7 +6,8 @@
 
 Reads a finished learning-curve run (``benchmarks/learning_curve.py``) under ``--work``: its bench
 of ``--seed`` (prior and derived columns included) and its checkpoints. Each variant is a hybrid
-trained with the run's own settings (the full budget, early stopping, one thread) but one change
+trained as the curve's hybrid was first trained (:data:`CURVE_HYBRID_TRAINING`: the full budget,
+early stopping, one thread; before short chunks became the recipe's default) but one change
 (:data:`VARIANTS`: its width, dropout, attention span, batch, inputs or base; or the FCN's
 network on the hybrid's inputs, trained on one-sample windows as the FCN is or on chunks as the
 hybrid is, which tells the inputs, the network and the training path apart), or one of the run's
