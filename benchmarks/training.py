@@ -48,7 +48,7 @@ from torch.nn import functional as F
 from hybrid.attention import CHUNK_WINDOWS, _DroppedAttention
 from hybrid.models import PaperTransformer
 from hybrid.recipes import build_model, recipe
-from hybrid.train import TrainConfig
+from hybrid.train import TrainConfig, chunk_length
 from _report import write_json
 
 
@@ -114,8 +114,7 @@ def _throughput(steps: int, device: str = "cpu") -> dict:
     n_hybrid = len(hybrid_columns(True)[0])
     lstm_chunk = recipe("lstm").optimiser["chunk"]
     hybrid, hybrid_cfg = build_model("hybrid", n_hybrid), TrainConfig(**recipe("hybrid").optimiser)
-    hybrid_chunk = (hybrid.window + hybrid_cfg.chunk_supervised
-                    if hybrid_cfg.chunk_supervised is not None else hybrid_cfg.chunk)
+    hybrid_chunk = chunk_length(hybrid, hybrid_cfg)
     cases = {  # name: (model, input columns, batch, samples per window or chunk, compiled)
         "transformer (before: stock encoder)": (_StockTransformer(21), 21, 256, 100, False),
         "transformer (own forward, torch attention)": (_TorchAttentionTransformer(21), 21, 256,

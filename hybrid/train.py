@@ -119,20 +119,25 @@ def _loss(model: nn.Module, x: torch.Tensor, y: torch.Tensor,
     return torch.mean((pred - y) ** 2)
 
 
-def _chunk_length(model: nn.Module, trials: Sequence[Trial], cfg: TrainConfig) -> int:
-    """The configured chunk (``chunk``, or the warm-up plus ``chunk_supervised``), or the
-    shortest trial's length when shorter: every trial is trained on, none dropped for being short. Trials too short to supervise are refused."""
+def chunk_length(model: nn.Module, cfg: TrainConfig) -> int:
+    """Samples per training chunk of chunk model ``model`` under ``cfg``: ``chunk``, or the
+    warm-up window plus ``chunk_supervised`` when that is set."""
     if cfg.chunk_supervised is not None:
         if isinstance(cfg.chunk_supervised, bool) or not isinstance(cfg.chunk_supervised, int) \
                 or cfg.chunk_supervised < 1:
             raise TrainingError(f"chunk_supervised must be a positive integer, "
                                 f"got {cfg.chunk_supervised!r}")
-        length = model.window + cfg.chunk_supervised
-    elif cfg.chunk <= model.window:
+        return model.window + cfg.chunk_supervised
+    if cfg.chunk <= model.window:
         raise TrainingError(f"chunk ({cfg.chunk}) must exceed the warm-up window "
                             f"({model.window})")
-    else:
-        length = cfg.chunk
+    return cfg.chunk
+
+
+def _chunk_length(model: nn.Module, trials: Sequence[Trial], cfg: TrainConfig) -> int:
+    """:func:`chunk_length`, or the shortest trial's length when shorter: every trial is
+    trained on, none dropped for being short. Trials too short to supervise are refused."""
+    length = chunk_length(model, cfg)
     short = [t.path for t in trials if len(t) <= model.window]
     if short:
         raise TrainingError(f"recordings of at most {model.window} samples (the model's warm-up) "
