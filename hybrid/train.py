@@ -421,7 +421,9 @@ def train_model(setup: TrainedModel, train_trials: Sequence[Trial],
     t0 = time.perf_counter()
     report = fit(setup.model, train_trials, val_trials, setup, cfg,
                  desc=desc or setup.model_name, resume=resume)
-    report["seconds"] = time.perf_counter() - t0
+    # a resumed run's earlier processes count: the history's clock runs across resumes
+    report["seconds"] = max(time.perf_counter() - t0, report["history"][-1]["elapsed_s"]
+                            if report["history"] else 0.0)
     report["parameters"] = count_parameters(setup.model)
     return report
 

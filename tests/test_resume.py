@@ -66,6 +66,9 @@ def test_a_killed_training_resumes_to_the_uninterrupted_result(monkeypatch, tmp_
         [h["train_loss"] for h in whole_report["history"]]
     for key in ("best_val_loss", "epochs_run", "stopped_by", "converged"):
         assert report[key] == whole_report[key], key
+    # the reported wall-clock counts the killed process's epochs too, not only the last process's
+    clock = [h["elapsed_s"] for h in report["history"]]
+    assert report["seconds"] >= clock[-1] > clock[1]
     # a finished state resumes to the same result without training again
     again, again_report = _train(state)
     assert again_report["epochs_run"] == whole_report["epochs_run"]
