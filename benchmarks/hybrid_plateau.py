@@ -177,6 +177,16 @@ def _resume_path(work: Path, scale: float, seed: int, name: str) -> Path:
     return work / "plateau_resume" / f"{name}_scale{scale:g}_seed{seed}.state"
 
 
+def check_first_training(provenance: dict, path: Path) -> None:
+    """Refuse a curve hybrid checkpoint trained with other settings than
+    :data:`CURVE_HYBRID_RECIPE` (one retrained after the recipe changed): the variants are one
+    change from those settings, not from whatever the checkpoint had."""
+    trained = provenance.get("reproduce", {}).get("recipe", {}).get("optimiser")
+    if trained != CURVE_HYBRID_RECIPE:
+        raise SystemExit(f"existing_hybrid: {path} was trained with the optimiser settings "
+                         f"{trained}, not the ones the variants change ({CURVE_HYBRID_RECIPE})")
+
+
 def training(change: Variant, seed: int) -> TrainConfig:
     """A variant's training settings: the run's own (the full budget) for the FCN's network on
     windows; for the hybrid and the FCN's network on chunks, :data:`CURVE_HYBRID_TRAINING`; then
@@ -199,10 +209,8 @@ def variant(work: Path, scale: float, seed: int, name: str) -> dict:
         if not path.is_file():
             raise SystemExit(f"{name}: the run has not trained {model} seed {seed} yet ({path})")
         setup = load_checkpoint(path)
-        trained = setup.provenance.get("reproduce", {}).get("recipe", {}).get("optimiser")
-        if model == "hybrid" and trained != CURVE_HYBRID_RECIPE:
-            raise SystemExit(f"{name}: {path} was trained with the optimiser settings {trained}, "
-                             f"not the ones the variants change ({CURVE_HYBRID_RECIPE})")
+        if model == "hybrid":
+            check_first_training(setup.provenance, path)
     else:
         change = VARIANTS[name]
         _register_chunk_fcn()

@@ -85,6 +85,16 @@ def test_hybrid_variants_change_the_curves_training_not_the_recipes():
     assert set(CURVE_HYBRID_TRAINING) <= set(vars(default))
 
 
+def test_a_checkpoint_retrained_with_other_settings_is_refused(tmp_path):
+    from benchmarks.hybrid_plateau import CURVE_HYBRID_RECIPE, check_first_training
+    first = {"reproduce": {"recipe": {"optimiser": dict(CURVE_HYBRID_RECIPE)}}}
+    check_first_training(first, tmp_path / "hybrid.pt")  # the curve's first training: scored
+    retrained = {"reproduce": {"recipe": {"optimiser": recipe("hybrid").optimiser}}}
+    for provenance in (retrained, {}):
+        with pytest.raises(SystemExit, match="not the ones the variants change"):
+            check_first_training(provenance, tmp_path / "hybrid.pt")
+
+
 def test_missing_run_is_refused(tmp_path, capsys):
     with pytest.raises(SystemExit) as exit_:
         main(["--work", str(tmp_path), "--json", str(tmp_path / "out.json")])
