@@ -222,7 +222,7 @@ def variant(work: Path, scale: float, seed: int, name: str) -> dict:
                           resume=_resume_path(work, scale, seed, name))
         result |= {"change": change.to_dict(),
                    **{k: rep.get(k) for k in ("epochs_run", "stopped_by", "converged", "parameters")},
-                   "seconds": round(rep["history"][-1]["elapsed_s"])}
+                   "seconds": round(rep["seconds"])}
     return result | {"validation": _causal(setup, val), "test": _causal(setup, ds.select(split="test"))}
 
 
