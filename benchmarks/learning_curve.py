@@ -16,9 +16,10 @@ is not a point of the curve (:func:`finished`); once the parts are done, the ful
 task cached, writes the point, and ``--render-only`` renders it. A point already in the JSON is
 kept when its run is not under ``--work`` (``runs/`` is not committed).
 
-``--device cuda`` trains a scale's run on a GPU. A run is trained on one device (each task's
-cache key holds it, so a CPU call does not reuse a GPU run's tasks); the point records its
-device and the table shows it.
+``--device cuda`` trains a scale's run on a GPU. A run's networks train on one device (each
+task's cache key holds it, so a CPU call does not reuse a GPU run's tasks); the closed-form
+MultiRocket-Hydra fits on the CPU in either (:func:`hybrid.reproduce.task_device`). The point
+records its device and the table shows it.
 
 The JSON holds, per scale, the minutes of training recordings (the automated training split,
 validation included, at the bench's rate), each model's causal and paper NRMSE per axis (mean,
@@ -60,8 +61,8 @@ def run_dir(work: Path, scale: float) -> Path:
 
 
 def run_scale(work: Path, scale: float, seeds, models, threads: int, device: str = "cpu") -> None:
-    """Run (or resume) the reproduction at ``scale`` on ``device`` (a torch device; a run is
-    trained on one device, since a task's cache key holds it)."""
+    """Run (or resume) the reproduction at ``scale`` with its networks on ``device`` (a torch
+    device; one per run, since a task's cache key holds it)."""
     from hybrid.reproduce import reproduce
     reproduce(run_dir(work, scale), scale=scale, seeds=seeds, device=device, threads=threads,
               models=models, ablations=False, efficiency=False, teleop=False)
@@ -116,7 +117,7 @@ def _optimiser(out: Path, results: dict) -> dict:
     run before and after the change differ here, and the table says so."""
     from hybrid.checkpoint import load_checkpoint
     from hybrid.plan import plan
-    from hybrid.reproduce import _checkpoint
+    from hybrid.reproduce import _checkpoint, task_device
     out_settings: dict[str, list] = {}
     for key, t in results.get("training", {}).items():
         model, variant, fraction, _, seed = key.split(" ")
@@ -125,7 +126,7 @@ def _optimiser(out: Path, results: dict) -> dict:
             path = _checkpoint(str(out / "work"), {
                 "model": model, "variant": variant, "fraction": float(fraction),
                 "seed": int(seed), "budget": results["call"]["budget"],
-                "device": results["call"]["device"]})
+                "device": task_device(model, results["call"]["device"])})
             if path.is_file():
                 settings = load_checkpoint(path).provenance.get("reproduce", {}).get(
                     "recipe", {}).get("optimiser")

@@ -164,6 +164,14 @@ def _recipe_params(name: str, variant: str) -> dict:
             "optimiser": spec.optimiser}
 
 
+def task_device(model: str, device: str) -> str:
+    """The device a model's tasks run on and are keyed by in a run on ``device``: a closed-form
+    model fits and predicts on the CPU whatever it is given (:func:`hybrid.train.train_model`,
+    :func:`hybrid.evaluate.predict_trial`), so its tasks are the CPU's in a GPU run too, and the
+    same fit is not redone under a second key."""
+    return "cpu" if recipe(model).closed_form else device
+
+
 def _checkpoint(run_dir: str, p: dict) -> Path:
     return (Path(run_dir) / "checkpoints" / f"{p['model']}_{p['variant']}_f{p['fraction']}_"
                                             f"seed{p['seed']}_{p['budget']}_{p['device']}.pt")
@@ -339,7 +347,8 @@ def reproduce(out: str | Path, scale: float = 0.1, seeds: Sequence[int] = (1, 2,
         variants += [(m, "full", f) for f in DATA_FRACTIONS for m in models
                      if plan(m).data_efficiency]
     # Main models over every seed first: an interrupted run has the headline comparison soonest.
-    pre_specs = [(_pretrain_task, {**common, "seed": s, "model": m, "variant": v, "fraction": f,
+    pre_specs = [(_pretrain_task, {**common, "device": task_device(m, device), "seed": s,
+                                   "model": m, "variant": v, "fraction": f,
                                    "recipe": _recipe_params(m, v)})
                  for m, v, f in variants for s in seeds]
     pre = run_grid(pre_specs, cache, ray_address=ray_address, log=say)
@@ -348,7 +357,8 @@ def reproduce(out: str | Path, scale: float = 0.1, seeds: Sequence[int] = (1, 2,
     ft_specs = []
     if teleop:
         folds = [f"config_{k}" for k in range(3)]
-        ft_specs = [(_finetune_task, {**common, "seed": s, "model": m, "fold": f,
+        ft_specs = [(_finetune_task, {**common, "device": task_device(m, device), "seed": s,
+                                      "model": m, "fold": f,
                                       "recipe": _recipe_params(m, "full")})
                     for s in seeds for m in models for f in folds]
     ft = run_grid(ft_specs, cache, ray_address=ray_address, log=say)
@@ -500,11 +510,15 @@ def _timing(checkpoints: dict, reps: int = 300) -> dict:
 
 def _figures(out: Path, run_dir: str, seed: int, models, pre_by) -> list[str]:
     """Time series, scatter and histogram of the first seed's models on its automated test set,
-    and the learning curves of every pretraining."""
+    and the learning curves of every pretraining (``models``: the trained networks; a run of
+    closed-form models alone gets the sensor histogram only)."""
     from hybrid.plots import (plot_ablation_boxes, plot_hex10_vs_ati, plot_learning_curves,
                               plot_scatter, plot_time_series)
     fig_dir = out / "figures"
     test = _load(run_dir, "automated", seed).select(split="test")
+    plot_hex10_vs_ati(test, fig_dir / "hex10_vs_ati_histograms.png")
+    if not models:
+        return sorted(str(p.relative_to(out)) for p in fig_dir.glob("*.png"))
     segments = {}
     for m in models:
         ckpt = load_checkpoint(pre_by[(m, "full", 1.0, seed)]["checkpoint"])
@@ -513,7 +527,6 @@ def _figures(out: Path, run_dir: str, seed: int, models, pre_by) -> list[str]:
                                    for t in test}
     plot_time_series(segments, test, fig_dir / "automated_time_series.png")
     plot_scatter(segments, fig_dir / "automated_scatter.png")
-    plot_hex10_vs_ati(test, fig_dir / "hex10_vs_ati_histograms.png")
     curves = {plan(m).label: [pre_by[k]["training"]["history"] for k in pre_by
                           if k[0] == m and k[1] == "full" and k[2] == 1.0] for m in models}
     plot_learning_curves(curves, fig_dir / "learning_curves.png")

@@ -12,7 +12,7 @@ import pytest
 from hybrid.data import FEATURE_SETS, Trial
 from hybrid.recipes import RECIPES
 from hybrid.tables import automated_table, teleop_table, verdicts
-from hybrid.reproduce import BUDGETS, _config, _teleop_folds, reproduce
+from hybrid.reproduce import BUDGETS, _config, _teleop_folds, reproduce, task_device
 from hybrid.inputs import hybrid_feature_set
 
 hybrid_mod = pytest.importorskip("hybrid.inputs")
@@ -140,6 +140,15 @@ def test_reproduce_resumes_and_reports_convergence(tmp_path, monkeypatch):
     reproduce(tmp_path / "run", log=logs.append, **kw)
     assert [line for line in logs if "to run" in line and not line.endswith("0 to run")] == [
         f"grid: {2 * len(kw['models'])} tasks, {2 * len(kw['models']) - 2} cached, 2 to run"]
+    if rocket:   # a closed-form fit never touches the run's device: a GPU run reuses the CPU's
+        logs.clear()
+        on_gpu = reproduce(tmp_path / "run", log=logs.append,
+                           **{**kw, "models": rocket, "device": "cuda"})
+        assert not any("to run" in line and not line.endswith("0 to run") for line in logs)
+        assert "grid: 2 tasks, 2 cached, 0 to run" in logs   # the two rocket fits
+        assert on_gpu["call"]["device"] == "cuda"
+        assert (on_gpu["automated"]["causal"]["MultiRocket-Hydra"]
+                == r["automated"]["causal"]["MultiRocket-Hydra"])
     with pytest.raises(ValueError, match="another bench"):
         reproduce(tmp_path / "run", **{**kw, "scale": 0.02})
     with pytest.raises(ValueError, match="another bench"):
@@ -159,3 +168,8 @@ def test_reproduce_on_a_bench_with_a_port(tmp_path):
     meta = json.loads((tmp_path / "run" / "work" / "data" / "automated_seed1" /
                        "metadata.json").read_text())
     assert meta["port"]["name"] == "cannula"
+
+
+def test_only_the_networks_follow_the_runs_device():
+    assert task_device("hybrid", "cuda") == "cuda" and task_device("fcn", "cpu") == "cpu"
+    assert task_device("rocket", "cuda") == "cpu"   # MultiRocket-Hydra fits in closed form
