@@ -262,8 +262,9 @@ def table(curve: dict) -> str:
                 lines.append(f"| {p['scale']:g} | | | | hybrid / transformer | | " + " | ".join(
                     f"{v[a]['ratio']:.2f}x ({v[a]['verdict']})" for a in AXES) + " |")
         lines.append("")
-    lines += ["Trained on: " + "; ".join(f"scale {p['scale']:g} {p.get('device', 'not recorded')}"
-                                        for p in curve["points"]) + ".", ""]
+    lines += ["Networks trained on: " + "; ".join(
+        f"scale {p['scale']:g} {p.get('device', 'not recorded')}" for p in curve["points"])
+        + ". MultiRocket-Hydra fits in closed form on the CPU at every scale.", ""]
     settings = settings_lines(curve)
     if settings:
         lines += ["Training settings of the models' recipes beyond the defaults of "

@@ -71,7 +71,7 @@ def test_the_curve_holds_finished_scales_their_minutes_and_the_spread_rule(tmp_p
     page = (out.parent / "README.md").read_text()
     assert "| 0.1 | | | | hybrid / transformer | | 0.97x (tie)" in page
     assert "Scales not yet measured: 0.25, 0.5, 1." in page
-    assert "Trained on: scale 0.05 cpu; scale 0.1 cpu." in page  # the device each run recorded
+    assert "Networks trained on: scale 0.05 cpu; scale 0.1 cpu." in page  # the device each run recorded
     assert curve["points"][0]["stopped"][HYBRID] == ["11 epochs", "12 epochs"]
     assert sorted(p.name for p in out.parent.glob("*.png")) == ["Fx.png", "Fy.png", "Fz.png"]
 
