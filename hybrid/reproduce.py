@@ -517,19 +517,18 @@ def _figures(out: Path, run_dir: str, seed: int, models, pre_by) -> list[str]:
     fig_dir = out / "figures"
     test = _load(run_dir, "automated", seed).select(split="test")
     plot_hex10_vs_ati(test, fig_dir / "hex10_vs_ati_histograms.png")
-    if not models:
-        return sorted(str(p.relative_to(out)) for p in fig_dir.glob("*.png"))
-    segments = {}
-    for m in models:
-        ckpt = load_checkpoint(pre_by[(m, "full", 1.0, seed)]["checkpoint"])
-        bias = ckpt.recipe.bias_correction
-        segments[plan(m).label] = {t.path: scored_segment(predict_trial(ckpt, t), t, bias=bias)
-                                   for t in test}
-    plot_time_series(segments, test, fig_dir / "automated_time_series.png")
-    plot_scatter(segments, fig_dir / "automated_scatter.png")
-    curves = {plan(m).label: [pre_by[k]["training"]["history"] for k in pre_by
-                          if k[0] == m and k[1] == "full" and k[2] == 1.0] for m in models}
-    plot_learning_curves(curves, fig_dir / "learning_curves.png")
+    if models:
+        segments = {}
+        for m in models:
+            ckpt = load_checkpoint(pre_by[(m, "full", 1.0, seed)]["checkpoint"])
+            bias = ckpt.recipe.bias_correction
+            segments[plan(m).label] = {t.path: scored_segment(predict_trial(ckpt, t), t,
+                                                              bias=bias) for t in test}
+        plot_time_series(segments, test, fig_dir / "automated_time_series.png")
+        plot_scatter(segments, fig_dir / "automated_scatter.png")
+        curves = {plan(m).label: [pre_by[k]["training"]["history"] for k in pre_by
+                                  if k[0] == m and k[1] == "full" and k[2] == 1.0] for m in models}
+        plot_learning_curves(curves, fig_dir / "learning_curves.png")
     for m in models:  # one box plot per model with ablations: its variants side by side
         boxes = {f"{m} {k[1]}": [] for k in pre_by if k[0] == m and k[2] == 1.0}
         for k, r in pre_by.items():
