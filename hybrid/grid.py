@@ -3,15 +3,16 @@
 A task is a pair (function, parameters): a top-level function ``fn(params: dict) -> dict``
 (importable by name, so another process or machine can run it) and JSON parameters that say
 everything the result depends on. Its result is cached as ``CACHE/<name>-<key>.json``, where
-``key`` hashes the function's qualified name and the parameters: run the grid again after an
-interruption and every finished task is read back, not recomputed; change a parameter and only
-the tasks it reaches run again. A result is written atomically (temporary file, then rename), so
+``key`` hashes the function's qualified name and the parameters but those that only say where a
+run's files live (:data:`LOCATION_PARAMS`): run the grid again after an interruption, or in the
+run folder moved elsewhere or finished on another machine, and every finished task is read back,
+not recomputed; change a parameter and only the tasks it reaches run again. A result is written atomically (temporary file, then rename), so
 an interrupted task leaves nothing that reads as done.
 
 A cached result is trusted only if it verifies (:func:`read_result`): its ``format`` and integer
 ``format_version`` (:data:`RESULT_VERSION`), the integrity envelope over the task, parameters,
 seconds and result (:mod:`hybrid.integrity`), and the task and parameters it was computed for
-equal to the ones asked. Anything else (an edited number, a file from an older version without
+equal to the ones asked (location aside). Anything else (an edited number, a file from an older version without
 the envelope, a truncated or foreign file) is logged by name and recomputed, never returned, so
 no table is rendered from it.
 
@@ -28,6 +29,7 @@ import importlib
 import json
 import logging
 import os
+import shutil
 import sys
 import time
 from pathlib import Path
@@ -40,6 +42,12 @@ RESULT_FORMAT = "psmforce-task-result"
 RESULT_VERSION = 1
 """1: the first cached results with the integrity envelope (older files carry none: recomputed)."""
 
+LOCATION_PARAMS = ("run_dir",)
+"""Parameters that say where a run's files are, not what a task computes: a task's key and its
+cached result's check leave them out. The cache lives in the run folder, so a key that held the
+folder's path tied every result to that path, and a moved run recomputed everything. A task's
+result must not depend on them otherwise (it names files inside the run folder relative to it)."""
+
 TaskSpec = tuple[Callable[[dict], dict], dict]
 
 
@@ -51,13 +59,23 @@ def _qualname(fn: Callable) -> str:
     return f"{fn.__module__}:{fn.__qualname__}"
 
 
-def task_key(fn: Callable, params: dict) -> str:
-    """Stable 16-hex-digit key of a task: its function's qualified name and its parameters."""
+def _identity(params: dict) -> dict:
+    """What a task computes from: its parameters without :data:`LOCATION_PARAMS`."""
+    return {k: v for k, v in params.items() if k not in LOCATION_PARAMS}
+
+
+def _key(qualname: str, params: dict) -> str:
     try:
-        text = json.dumps({"fn": _qualname(fn), "params": params}, sort_keys=True)
+        text = json.dumps({"fn": qualname, "params": _identity(params)}, sort_keys=True)
     except TypeError as err:
         raise GridError(f"task parameters must be JSON: {err}") from None
     return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+def task_key(fn: Callable, params: dict) -> str:
+    """Stable 16-hex-digit key of a task: its function's qualified name and its parameters
+    (:data:`LOCATION_PARAMS` aside)."""
+    return _key(_qualname(fn), params)
 
 
 def cache_path(cache: Path, fn: Callable, params: dict) -> Path:
@@ -77,7 +95,9 @@ def read_result(path: Path, qualname: str, params: dict) -> dict:
     check_version(record.get("format_version"), (RESULT_VERSION,), str(path), "cached result",
                   GridError)
     verify(record, str(path), "cached result", GridError)
-    if record.get("task") != qualname or record.get("params") != json.loads(json.dumps(params)):
+    stored = record.get("params")
+    if (record.get("task") != qualname or not isinstance(stored, dict)
+            or _identity(stored) != _identity(json.loads(json.dumps(params)))):
         raise GridError(f"{path}: cached for another task or other parameters")
     return record["result"]
 
@@ -119,6 +139,7 @@ def run_grid(tasks: Sequence[TaskSpec], cache: str | Path, *, ray_address: str |
     (in-process, or on Ray when ``ray_address`` is given) and cached."""
     cache = Path(cache)
     cache.mkdir(parents=True, exist_ok=True)
+    _adopt_location_keyed(cache, tasks, log)
     todo = [(i, fn, p) for i, (fn, p) in enumerate(tasks)
             if _cached(cache_path(cache, fn, p), _qualname(fn), p, log) is None]
     log(f"grid: {len(tasks)} tasks, {len(tasks) - len(todo)} cached, {len(todo)} to run"
@@ -132,6 +153,38 @@ def run_grid(tasks: Sequence[TaskSpec], cache: str | Path, *, ray_address: str |
             log(f"  [{n + 1}/{len(todo)}] {fn.__name__.lstrip('_')} {_short(p)}: "
                 f"{time.perf_counter() - t0:.0f} s")
     return [read_result(cache_path(cache, fn, p), _qualname(fn), p) for fn, p in tasks]
+
+
+def _adopt_location_keyed(cache: Path, tasks: Sequence[TaskSpec], log) -> None:
+    """Give a current name to the results of ``tasks`` cached when keys still hashed the run
+    folder's path (:data:`LOCATION_PARAMS`), so runs made then resume. Such a file is linked (or
+    copied) under its key, and kept: a process of the earlier code may still read it. Only a file
+    whose result verifies is adopted; the rest are left to be recomputed as before."""
+    wanted = {cache_path(cache, fn, p).name for fn, p in tasks}
+    missing = {name for name in wanted if not (cache / name).exists()}
+    if not missing:
+        return
+    adopted = 0
+    for path in sorted(cache.glob("*.json")):
+        if path.name in wanted:
+            continue
+        try:
+            record = json.loads(path.read_text())
+            name = f"{path.stem.rsplit('-', 1)[0]}-{_key(record['task'], record['params'])}.json"
+            if name not in missing:
+                continue
+            read_result(path, record["task"], record["params"])
+        except (OSError, ValueError, TypeError, KeyError, GridError):
+            continue  # not a result of these tasks, or one that fails its check: not adopted
+        try:
+            os.link(path, cache / name)
+        except OSError:  # a file system without hard links
+            with atomic_path(cache / name, per_process=True) as tmp:
+                shutil.copyfile(path, tmp)
+        missing.discard(name)
+        adopted += 1
+    if adopted:
+        log(f"grid: {adopted} results cached under their run folder's earlier path read back")
 
 
 def _short(params: dict) -> str:

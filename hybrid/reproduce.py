@@ -24,8 +24,9 @@ fractions, the published figures beside it) is the experiment plan, :data:`hybri
 
 The work is a grid of independent tasks (:mod:`hybrid.grid`): simulate a bench, fit the prior,
 pretrain a (model, seed, variant, data fraction), finetune a (model, seed, fold). Each is cached
-by its inputs under ``OUT/work/cache``, so an interrupted run resumes where it stopped, and
-``ray_address`` runs the same tasks on Ray. Inside a training task the loop's state is kept
+by its inputs under ``OUT/work/cache``, so an interrupted run resumes where it stopped, ``OUT``
+may be moved (or finished on another machine) and still resumes, and ``ray_address`` runs the
+same tasks on Ray. Inside a training task the loop's state is kept
 after every epoch under ``OUT/work/resume`` (:mod:`hybrid.resume`): a run killed mid-training
 resumes from its last epoch, bit-identical, and the file goes once the checkpoint is written.
 
@@ -223,7 +224,8 @@ def _pretrain_task(p: dict) -> dict:
     setup.save(path)
     clear_state(resume)
     return {"training": _training_summary(rep) | {"optimiser": p["recipe"]["optimiser"]},
-            "checkpoint": str(path), "test": _scores(setup, ds.select(split="test"), p["device"])}
+            "checkpoint": str(path.relative_to(p["run_dir"])),
+            "test": _scores(setup, ds.select(split="test"), p["device"])}
 
 
 def _teleop_folds(tele: Dataset) -> list[dict]:
@@ -354,6 +356,10 @@ def reproduce(out: str | Path, scale: float = 0.1, seeds: Sequence[int] = (1, 2,
     pre = run_grid(pre_specs, cache, ray_address=ray_address, log=say)
     pre_by = {(p["model"], p["variant"], p["fraction"], p["seed"]): r
               for (_, p), r in zip(pre_specs, pre)}
+    # from the parameters, not the result: a result cached before the run folder moved names
+    # the checkpoint where it was then
+    checkpoints = {(p["model"], p["variant"], p["fraction"], p["seed"]): _checkpoint(run_dir, p)
+                   for _, p in pre_specs}
     ft_specs = []
     if teleop:
         folds = [f"config_{k}" for k in range(3)]
@@ -368,9 +374,9 @@ def reproduce(out: str | Path, scale: float = 0.1, seeds: Sequence[int] = (1, 2,
     # a closed-form model (MultiRocket-Hydra) is left out of the timing and the figures of
     # trained networks: it has no learning curve, and its batch-1 latency is not a network's
     torch_models = [m for m in models if not recipe(m).closed_form]
-    results["timing"] = _timing({plan(m).label: pre_by[(m, "full", 1.0, seeds[0])]["checkpoint"]
+    results["timing"] = _timing({plan(m).label: checkpoints[(m, "full", 1.0, seeds[0])]
                                  for m in torch_models})
-    results["figures"] = _figures(out, run_dir, seeds[0], torch_models, pre_by)
+    results["figures"] = _figures(out, run_dir, seeds[0], torch_models, pre_by, checkpoints)
     write_text_atomic(out / "results.json", json.dumps(results, indent=1) + "\n")
     write_text_atomic(out / "learning_curves.json", json.dumps(_curves(pre_specs, pre), indent=1))
     write_text_atomic(out / "results.md", results_markdown(results))
@@ -508,7 +514,7 @@ def _timing(checkpoints: dict, reps: int = 300) -> dict:
     return out
 
 
-def _figures(out: Path, run_dir: str, seed: int, models, pre_by) -> list[str]:
+def _figures(out: Path, run_dir: str, seed: int, models, pre_by, checkpoints) -> list[str]:
     """Time series, scatter and histogram of the first seed's models on its automated test set,
     and the learning curves of every pretraining (``models``: the trained networks; a run of
     closed-form models alone gets the sensor histogram only)."""
@@ -520,7 +526,7 @@ def _figures(out: Path, run_dir: str, seed: int, models, pre_by) -> list[str]:
     if models:
         segments = {}
         for m in models:
-            ckpt = load_checkpoint(pre_by[(m, "full", 1.0, seed)]["checkpoint"])
+            ckpt = load_checkpoint(checkpoints[(m, "full", 1.0, seed)])
             bias = ckpt.recipe.bias_correction
             segments[plan(m).label] = {t.path: scored_segment(predict_trial(ckpt, t), t,
                                                               bias=bias) for t in test}

@@ -2,14 +2,16 @@
 
 from __future__ import annotations
 
+import hashlib
 import json
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from hybrid.grid import GridError, cache_path, run_grid, run_task, task_key
+from hybrid.grid import GridError, cache_path, read_result, run_grid, run_task, task_key
 
+_QUALNAME = f"{__name__}:_counted_task"   # how the grid names the task below
 CALLS: list[dict] = []  # parameters of every in-process call of the task functions below
 FAIL_AT: set[int] = set()  # values of ``i`` at which ``_counted_task`` raises
 
@@ -144,6 +146,53 @@ def test_interrupted_write_leaves_nothing_that_reads_as_done(tmp_path, monkeypat
     assert lines[0] == "grid: 2 tasks, 0 cached, 2 to run"
     assert [c["i"] for c in CALLS] == [0, 1]
     assert results == [_stats_task(p) for _, p in tasks]
+
+
+def _located(n_tasks: int, run_dir: str) -> list:
+    return [(fn, {**p, "run_dir": run_dir}) for fn, p in _grid(n_tasks)]
+
+
+def test_a_moved_run_reads_its_results_back(tmp_path):
+    """The run folder's path is where the files are, not what a task computes: out of the key."""
+    here, there = _located(3, "/lab/run"), _located(3, "/mnt/moved/run")
+    assert [task_key(fn, p) for fn, p in here] == [task_key(fn, p) for fn, p in there]
+    assert task_key(*here[0]) == task_key(*_grid(1)[0])   # keys of runs without one unchanged
+    first = run_grid(here, tmp_path, log=lambda s: None)
+    CALLS.clear()
+    lines: list[str] = []
+    assert run_grid(there, tmp_path, log=lines.append) == first
+    assert CALLS == [] and lines == ["grid: 3 tasks, 3 cached, 0 to run"]
+    # the check still holds every other parameter to the file's
+    fn, p = there[0]
+    with pytest.raises(GridError, match="other parameters"):
+        read_result(cache_path(tmp_path, fn, p), _QUALNAME, {**p, "n": 258})
+
+
+def test_results_keyed_by_an_earlier_path_are_adopted_when_they_verify(tmp_path):
+    """Keys once hashed the run folder's path: such files are linked under their current name
+    (and kept, for a process of the earlier code); one that fails its check is recomputed."""
+    old = _located(3, "/old/place/run")
+    run_grid(old, tmp_path, log=lambda s: None)
+
+    def path_keyed(fn, p):  # how keys were made when they held the path
+        text = json.dumps({"fn": _QUALNAME, "params": p}, sort_keys=True)
+        return tmp_path / f"counted_task-{hashlib.sha256(text.encode()).hexdigest()[:16]}.json"
+
+    for fn, p in old:
+        cache_path(tmp_path, fn, p).rename(path_keyed(fn, p))
+    tampered = path_keyed(*old[2])
+    tampered.write_text(tampered.read_text().replace('"sum": ', '"sum": 1'))
+    CALLS.clear()
+    lines: list[str] = []
+    moved = _located(3, "/new/place/run")
+    results = run_grid(moved, tmp_path, log=lines.append)
+    assert lines[:2] == ["grid: 2 results cached under their run folder's earlier path read back",
+                         "grid: 3 tasks, 2 cached, 1 to run"]
+    assert [c["i"] for c in CALLS] == [2]
+    assert results == [_stats_task(p) for _, p in moved]
+    assert all(path_keyed(fn, p).exists() for fn, p in old)   # the earlier names are kept
+    CALLS.clear()
+    assert run_grid(moved, tmp_path, log=lambda s: None) == results and CALLS == []
 
 
 def test_ray_local_matches_in_process(tmp_path):

@@ -5,15 +5,16 @@ from __future__ import annotations
 import dataclasses
 import importlib.util
 import json
+import shutil
 
 import pandas as pd
 import pytest
 
 from hybrid.data import FEATURE_SETS, Trial
-from hybrid.recipes import RECIPES
-from hybrid.tables import automated_table, teleop_table, verdicts
-from hybrid.reproduce import BUDGETS, _config, _teleop_folds, reproduce, task_device
 from hybrid.inputs import hybrid_feature_set
+from hybrid.recipes import RECIPES
+from hybrid.reproduce import BUDGETS, _config, _teleop_folds, reproduce, task_device
+from hybrid.tables import automated_table, teleop_table, verdicts
 
 hybrid_mod = pytest.importorskip("hybrid.inputs")
 
@@ -131,18 +132,21 @@ def test_reproduce_resumes_and_reports_convergence(tmp_path, monkeypatch):
     assert "not converged" in md and "floor (truth post-processed)" in md
     assert f"simulator versions of the benches: ['{SIM_VERSION}']" in md
     assert (tmp_path / "run" / "figures" / "learning_curves.png").exists()
-    logs.clear()
-    again = reproduce(tmp_path / "run", log=logs.append, **kw)
+    logs.clear()   # moved elsewhere (another folder, or another machine's): read back as it is
+    run = (tmp_path / "run").rename(tmp_path / "moved")
+    shutil.rmtree(run / "figures")   # redrawn from the checkpoints where they are now
+    again = reproduce(run, log=logs.append, **kw)
     assert not any("to run" in line and not line.endswith("0 to run") for line in logs)
     assert again["automated"] == r["automated"]
+    assert (run / "figures" / "automated_time_series.png").exists()
     logs.clear()   # another optimiser for the FCN: its two trainings are stale, the rest is not
     monkeypatch.setitem(RECIPES, "fcn", dataclasses.replace(RECIPES["fcn"], optimiser={"lr": 2e-3}))
-    reproduce(tmp_path / "run", log=logs.append, **kw)
+    reproduce(run, log=logs.append, **kw)
     assert [line for line in logs if "to run" in line and not line.endswith("0 to run")] == [
         f"grid: {2 * len(kw['models'])} tasks, {2 * len(kw['models']) - 2} cached, 2 to run"]
     if rocket:   # a closed-form fit never touches the run's device: a GPU run reuses the CPU's
         logs.clear()
-        on_gpu = reproduce(tmp_path / "run", log=logs.append,
+        on_gpu = reproduce(run, log=logs.append,
                            **{**kw, "models": rocket, "device": "cuda"})
         assert not any("to run" in line and not line.endswith("0 to run") for line in logs)
         assert "grid: 2 tasks, 2 cached, 0 to run" in logs   # the two rocket fits
@@ -150,9 +154,9 @@ def test_reproduce_resumes_and_reports_convergence(tmp_path, monkeypatch):
         assert (on_gpu["automated"]["causal"]["MultiRocket-Hydra"]
                 == r["automated"]["causal"]["MultiRocket-Hydra"])
     with pytest.raises(ValueError, match="another bench"):
-        reproduce(tmp_path / "run", **{**kw, "scale": 0.02})
+        reproduce(run, **{**kw, "scale": 0.02})
     with pytest.raises(ValueError, match="another bench"):
-        reproduce(tmp_path / "run", **{**kw, "port": "cannula"})
+        reproduce(run, **{**kw, "port": "cannula"})
 
 
 def test_reproduce_on_a_bench_with_a_port(tmp_path):
