@@ -10,8 +10,11 @@ simulated palpation session put on a 1 kHz clock (:func:`psmforce.live.robot.ben
 the model runs at 100 Hz, every 10th message (decimation 10, :mod:`hybrid.rates`). Prints and
 writes (JSON):
 
-* ``node``: the time one HEX10 message takes in :class:`psmforce.live.node.ForceNode`
-  (``update``: decode the three streams' latest messages, one estimator step in the base and
+* ``decode``: the time to decode one sample's three messages (arm and jaw JointState, HEX10
+  WrenchStamped) from the CDR bytes the robot writes, by :mod:`psmforce.live.cdr` (what
+  ``serve`` uses) and by ``cyclonedds``' Python classes, median / p99 in ms;
+* ``node``: the time one HEX10 message takes in :class:`psmforce.live.node.ForceNode`, given the
+  messages as ``serve`` decodes them (``update``: read the three streams' latest messages, one estimator step in the base and
   HEX10 frames, tare; then ``encode``: the CDR bytes of every output), median / p99 / max in ms,
   wall clock and the thread's CPU time, after 500 warm-up messages; split into the messages on
   which the network steps and the others (physics, anti-alias filter and post-filter only), and
@@ -22,7 +25,8 @@ writes (JSON):
   WrenchStamped at 1 kHz), ``psmforce serve`` (``--input-rate 1000 --sync-stamps``) and this
   process subscribing to ``/PSM1/tool_force/hex10``: HEX10 messages sent, answers received,
   lost fraction, end-to-end latency (from the robot's write of a HEX10 message to this
-  process taking the answer stamped with it; one clock, ``time.time_ns``) p50 / p99 / max in
+  process taking the answer stamped with it, decoded as ``serve`` decodes; one clock,
+  ``time.time_ns``) p50 / p99 / max in
   ms, and the node's CPU use (user + system time of its process over the playback / the
   playback's wall time; 1.0 = one core);
 * ``replay``: ``psmforce replay`` of a 1 kHz bag of the same session, as fast as it goes:
@@ -80,23 +84,53 @@ def _checkpoint(tmp: Path) -> tuple[Path, str]:
                                f"{summary['epochs_run']} epochs")
 
 
-def _messages(frame) -> list[tuple[str, object]]:
-    """The robot's messages, per row: arm and jaw JointState, then HEX10 WrenchStamped (the
-    ``cyclonedds`` classes ``serve`` receives)."""
-    from psmforce.live import dds
+def _raw_messages(frame) -> list[tuple[str, bytes]]:
+    """The robot's messages, per row, as the CDR bytes it writes
+    (:meth:`psmforce.live.robot.Robot.publish`): arm and jaw JointState, then HEX10
+    WrenchStamped."""
+    from psmforce.live import cdr
     values = {s: frame[list(stream_columns(s))].to_numpy(np.float64) for s in ("js", "jaw",
                                                                                "hex10")}
     stamps = START_NS + np.rint(frame["time"].to_numpy() * 1e9).astype(np.int64)
     out = []
     for k, stamp in enumerate(stamps):
         js, jaw, w = values["js"][k], values["jaw"][k], values["hex10"][k]
-        out.append(("js", dds.JointState(dds.header(stamp, ""), list(CHAIN_JOINTS),
-                                         js[0:6].tolist(), js[6:12].tolist(),
-                                         js[12:18].tolist())))
-        out.append(("jaw", dds.JointState(dds.header(stamp, ""), [JAW_JOINT], jaw[0:1].tolist(),
-                                          jaw[1:2].tolist(), jaw[2:3].tolist())))
-        out.append(("hex10", dds.WrenchStamped(dds.header(stamp, "hex10"), dds.Wrench(
-            dds.Vector3(*w[:3]), dds.Vector3(*w[3:])))))
+        out += [("js", cdr.joint_state(stamp, "", CHAIN_JOINTS, js[0:6], js[6:12], js[12:18])),
+                ("jaw", cdr.joint_state(stamp, "", (JAW_JOINT,), jaw[0:1], jaw[1:2],
+                                        jaw[2:3])),
+                ("hex10", cdr.wrench_stamped(stamp, "hex10", w[:3], w[3:]))]
+    return out
+
+
+def _decoders() -> dict:
+    """Per decoder, stream -> function of the CDR bytes: the project's (what ``serve`` uses)
+    and ``cyclonedds``' Python classes (what a ``DataReader.take`` gives)."""
+    from psmforce.live import cdr, dds
+    return {"psmforce.live.cdr": {"js": cdr.decode_joint_state, "jaw": cdr.decode_joint_state,
+                                  "hex10": cdr.decode_wrench_stamped},
+            "cyclonedds": {"js": dds.JointState.deserialize, "jaw": dds.JointState.deserialize,
+                           "hex10": dds.WrenchStamped.deserialize}}
+
+
+def _messages(frame) -> list[tuple[str, object]]:
+    """The robot's messages as ``serve`` hands them to the node (decoded from their bytes)."""
+    decode = _decoders()["psmforce.live.cdr"]
+    return [(s, decode[s](data)) for s, data in _raw_messages(frame)]
+
+
+def decode_figures(frame) -> dict:
+    """The time to decode one sample's three messages (arm, jaw, HEX10) from their bytes, per
+    decoder, after :data:`WARMUP` samples (ms)."""
+    raw = _raw_messages(frame)
+    out = {}
+    for name, decode in _decoders().items():
+        times = []
+        for k in range(0, len(raw), 3):
+            t0 = time.perf_counter_ns()
+            for stream, data in raw[k:k + 3]:
+                decode[stream](data)
+            times.append(time.perf_counter_ns() - t0)
+        out[name] = _percentiles(np.array(times[WARMUP:]) * 1e-6)
     return out
 
 
@@ -156,7 +190,7 @@ def dds_figures(ckpt: Path, frame, seconds: float, tmp: Path) -> dict:
     from cyclonedds.util import duration
 
     from psm_model.recording import write_recording
-    from psmforce.live import dds
+    from psmforce.live import cdr, dds
     from psmforce.live.node import output_topics
     domain_id = 150 + os.getpid() % 80
     write_recording(frame, tmp / "robot.csv")
@@ -192,10 +226,10 @@ def dds_figures(ckpt: Path, frame, seconds: float, tmp: Path) -> dict:
         while time.monotonic() - last < 2.0 or robot.poll() is None:
             waitset.wait(duration(milliseconds=50))
             now_ns = time.time_ns()
-            for m in reader.take(N=4096):
-                if m.sample_info.valid_data:
-                    received[m.header.stamp.sec * 10**9 + m.header.stamp.nanosec] = now_ns
-                    last = time.monotonic()
+            for data, _ in dds.take_raw(reader, 4096):  # decoded as the node decodes
+                stamp = cdr.decode_wrench_stamped(data).header.stamp
+                received[stamp.sec * 10**9 + stamp.nanosec] = now_ns
+                last = time.monotonic()
             if cpu1 is None and robot.poll() is not None:
                 cpu1, wall1 = _cpu_s(node.pid), time.monotonic()
         if robot.returncode != 0:
@@ -260,6 +294,7 @@ def main() -> tuple[dict, str | None]:
         frame = bench_recording(1000.0)
         result["session"] = {"rate_hz": 1000.0, "samples": len(frame),
                              "seconds": float(frame["time"].iloc[-1])}
+        result["decode"] = decode_figures(frame)
         result["node"] = node_figures(ckpt, frame)
         result["dds"] = dds_figures(ckpt, frame, args.seconds, tmp)
         result["replay"] = replay_figures(ckpt, frame, tmp)
@@ -277,6 +312,9 @@ def _print(r: dict) -> None:
         print(f"ForceNode per HEX10 message, {name:24s}: median {s['median_ms']:.3f} ms, p99 "
               f"{s['p99_ms']:.3f} ms, max {s['max_ms']:.2f} ms (budget {PERIOD_MS:g} ms; over "
               f"it: {100 * s['over_budget_fraction']:.2f} %)")
+    for name, d in r["decode"].items():
+        print(f"decoding one sample's three messages, {name:17s}: median "
+              f"{1e3 * d['median_ms']:.1f} us, p99 {1e3 * d['p99_ms']:.1f} us")
     lat = link["latency"]
     print(f"serve over DDS, {link['seconds']:g} s at 1 kHz: {link['hex10_sent']} sent, "
           f"{link['answers_received']} answers received, lost {100 * link['lost_fraction']:.3f} "

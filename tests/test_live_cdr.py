@@ -70,3 +70,57 @@ def test_ros2_names_map_onto_dds_names():
     assert dds.dds_type_name("sensor_msgs/msg/JointState") == "sensor_msgs::msg::dds_::JointState_"
     assert dds.JointState.__idl_typename__ == "sensor_msgs::msg::dds_::JointState_"
     assert set(dds.TYPES) <= set(ROS2_TYPESTORE.types)
+
+
+def _fields(msg):
+    """A decoded message's fields as plain Python (either decoder's classes)."""
+    if hasattr(msg, "wrench"):
+        f, t = msg.wrench.force, msg.wrench.torque
+        values = [f.x, f.y, f.z, t.x, t.y, t.z]
+        return msg.header.stamp.sec, msg.header.stamp.nanosec, msg.header.frame_id, values
+    return (msg.header.stamp.sec, msg.header.stamp.nanosec, msg.header.frame_id, list(msg.name),
+            *(np.asarray(getattr(msg, k), float).tolist() for k in ("position", "velocity",
+                                                                    "effort")))
+
+
+DECODERS = {"geometry_msgs/msg/WrenchStamped": cdr.decode_wrench_stamped,
+            "sensor_msgs/msg/JointState": cdr.decode_joint_state}
+DECODED = [c for c in _cases() if c[0] in DECODERS]
+
+
+@pytest.mark.parametrize("case", DECODED, ids=lambda c: f"{c[0].split('/')[-1]}{len(c[1])}")
+def test_decoding_gives_what_rosbags_gives_in_either_byte_order(case):
+    msgtype, ours, _, theirs = case
+    decode = DECODERS[msgtype]
+    assert _fields(decode(ours)) == _fields(ROS2_TYPESTORE.deserialize_cdr(ours, msgtype))
+    big = bytes(ROS2_TYPESTORE.serialize_cdr(theirs, msgtype, little_endian=False))
+    assert big[:2] == b"\x00\x00" and big != ours
+    assert _fields(decode(big)) == _fields(theirs)
+    assert _fields(decode(ours + b"\x00" * 7)) == _fields(theirs)  # padding after: ignored
+
+
+@pytest.mark.parametrize("case", DECODED, ids=lambda c: f"{c[0].split('/')[-1]}{len(c[1])}")
+def test_bytes_that_do_not_hold_the_message_raise_cdr_error_naming_why(case):
+    msgtype, ours, _, _ = case
+    decode = DECODERS[msgtype]
+    for n in range(len(ours)):  # every cut: the last field is needed whole
+        with pytest.raises(cdr.CdrError, match="bytes|encapsulation|string"):
+            decode(ours[:n])
+    with pytest.raises(cdr.CdrError, match="encapsulation 0007"):
+        decode(b"\x00\x07" + ours[2:])
+    # the frame id's length (after the 8-byte stamp) past the end; then its NUL overwritten
+    with pytest.raises(cdr.CdrError, match="runs past the end"):
+        decode(ours[:12] + b"\xff\xff\xff\x7f" + ours[16:])
+    nul = 16 + len(_fields(decode(ours))[2])  # the frame id's NUL
+    with pytest.raises(cdr.CdrError, match="NUL"):
+        decode(ours[:nul] + b"!" + ours[nul + 1:])
+    rng = np.random.default_rng(0)  # any bytes: a message or a CdrError, nothing else
+    for _ in range(300):
+        noisy = bytearray(ours)
+        at = rng.integers(4, len(noisy), size=3)
+        noisy[at[0]] ^= 0xFF
+        noisy[at[1]] = int(rng.integers(256))
+        try:
+            decode(bytes(noisy)[:int(at[2]) + 1 if rng.random() < 0.3 else None])
+        except cdr.CdrError:
+            pass

@@ -16,6 +16,7 @@ import pytest
 from test_live_replay import START_NS, checkpoint, offline
 from test_streaming import one_thread, recording  # noqa: F401
 
+from psm_model.bags.messages import stream_columns
 from psm_model.recording import read_recording, write_recording
 
 pytest.importorskip("cyclonedds")
@@ -167,3 +168,33 @@ def test_serve_measuring_the_rate_loses_nothing_while_the_estimator_is_built(tmp
     stamps = START_NS + np.arange(N) * 10**6
     assert [m.header.stamp.sec * 10**9 + m.header.stamp.nanosec for m in got["hex10"]] \
         == stamps.tolist()
+
+
+def test_serve_skips_and_counts_messages_that_do_not_decode(tmp_path, capsys):
+    """Bytes that DDS delivers but that are not the topic's message are counted and skipped
+    with one line per stream, never fatal: every good HEX10 message is answered. (Cyclone DDS
+    refuses bytes cut short on both ends; a string that is not UTF-8 it passes through.)"""
+    from psmforce.live import cdr
+    from psmforce.live.robot import Robot
+    from psmforce.live.serve import DdsNode
+    participant = DomainParticipant(100 + (os.getpid() + 25) % 100)
+    node = DdsNode(checkpoint(tmp_path / "h.pt", rate_hz=100.0), participant,
+                   input_rate_hz=1000.0)
+    robot = Robot(participant)
+    assert robot.wait_for_readers(30)
+    names = ("yaw", "pitch", "insertion", "roll", "wrist_pitch", "wrist_yaw")
+    good_js = cdr.joint_state(START_NS, "", names, [0.1] * 6, [0.0] * 6, [0.0] * 6)
+    for _ in range(2):
+        dds.write_raw(robot.writers["js"], good_js.replace(b"yaw", b"\xff\xfe\xfd"))
+    dds.write_raw(robot.writers["hex10"], cdr.wrench_stamped(START_NS, "ab", [1, 2, 3])
+                  .replace(b"ab\x00", b"\xff\xfe\x00"))
+    frame = recording(300)
+    values = {s: frame[list(stream_columns(s))].to_numpy(np.float64) for s in robot.writers}
+    for i in range(300):
+        robot.publish(START_NS + (i + 1) * 10**6, {s: v[i] for s, v in values.items()})
+    report = node.spin(duration_s=60, idle_stop_s=1.0)
+    assert report["malformed"] == {"js": 2, "jaw": 0, "hex10": 1, "tare": 0}
+    assert report["received"]["hex10"] == 300 and report["answers_published"] == 300
+    err = capsys.readouterr().err.splitlines()
+    assert [line.split(":")[1].strip() for line in err if line.startswith("serve:")] == [
+        node.input_topics["hex10"], node.input_topics["js"]], err  # one a stream, HEX10 first

@@ -1,11 +1,22 @@
 """The project's CDR encoder for the ROS 2 messages the live node writes and the simulated robot
-publishes: the bytes ROS 2 puts on the wire and in a bag, without building message objects.
+publishes, and decoder for those it reads: the bytes ROS 2 puts on the wire and in a bag, without
+the middleware's message objects (whose Python deserialisation costs more than the estimator's
+step at 1 kHz).
 
 Encoding: a 4-byte encapsulation header ``00 01 00 00`` (CDR, little-endian), then the fields in
 declaration order, each primitive aligned to its own size counted from the end of that header;
 a string is its uint32 length including the NUL, its bytes and the NUL; a sequence its uint32
 count and its elements. ``tests/test_live_cdr.py`` checks every function here byte for byte
 against ``rosbags`` (:data:`psm_model.bags.messages.ROS2_TYPESTORE`) and ``cyclonedds``.
+
+Decoding (:func:`decode_joint_state`, :func:`decode_wrench_stamped`) reads either byte order
+(encapsulation ``00 01``, little-endian, or ``00 00``, big-endian: plain CDR, what ROS 2's
+middlewares write) into light messages with the ROS 2 field names (``msg.name``,
+``msg.header.stamp.sec``, ``msg.wrench.force.x``; a JointState's arrays are float64 numpy
+views of the bytes), which :mod:`psm_model.bags.messages` decodes like any other. Bytes that do
+not hold the message (cut short, a length past the end, another encapsulation, a string without
+its NUL or not UTF-8) raise :class:`CdrError` naming what is wrong. Bytes after the message
+(padding to four bytes, or an appended field) are ignored, as the middlewares' readers do.
 
 Messages (ROS 2 names; what the node means by them: :mod:`psmforce.live.node`):
 ``std_msgs/msg/Header`` (inside the others), ``geometry_msgs/msg/WrenchStamped``,
@@ -16,7 +27,9 @@ Messages (ROS 2 names; what the node means by them: :mod:`psmforce.live.node`):
 from __future__ import annotations
 
 import struct
-from typing import Sequence
+from typing import NamedTuple, Sequence
+
+import numpy as np
 
 _HEADER = b"\x00\x01\x00\x00"
 
@@ -91,3 +104,137 @@ def joint_state(stamp_ns: int, frame_id: str, names: Sequence[str], position: Se
         if len(values):
             buf.float64s([float(v) for v in values])
     return bytes(buf.data)
+
+
+# ------------------------------------------------------------------------------ decoding
+
+class CdrError(ValueError):
+    """Bytes that do not hold the message asked for; the text says why."""
+
+
+class Time(NamedTuple):
+    sec: int
+    nanosec: int
+
+
+class Header(NamedTuple):
+    stamp: Time
+    frame_id: str
+
+
+class Vector3(NamedTuple):
+    x: float
+    y: float
+    z: float
+
+
+class Wrench(NamedTuple):
+    force: Vector3
+    torque: Vector3
+
+
+class WrenchStamped(NamedTuple):
+    """geometry_msgs/msg/WrenchStamped as decoded (N, Nm)."""
+    header: Header
+    wrench: Wrench
+
+
+class JointState(NamedTuple):
+    """sensor_msgs/msg/JointState as decoded (arrays: float64, read-only views of the bytes)."""
+    header: Header
+    name: tuple[str, ...]
+    position: np.ndarray
+    velocity: np.ndarray
+    effort: np.ndarray
+
+
+class _Reader:
+    """A cursor over CDR bytes; every read checks it stays inside them."""
+
+    def __init__(self, data: bytes, what: str):
+        self.data, self.what = memoryview(data), what
+        if len(data) < 4:
+            raise CdrError(f"{what}: {len(data)} bytes, fewer than the 4 of the encapsulation")
+        kind = bytes(self.data[:2])
+        if kind not in (b"\x00\x01", b"\x00\x00"):
+            raise CdrError(f"{what}: encapsulation {kind.hex()} is not plain CDR (0001 little-"
+                           f"endian or 0000 big-endian)")
+        self.order = "<" if kind == b"\x00\x01" else ">"
+        self.pos = 4
+
+    def take(self, size: int, align: int) -> int:
+        """Align to ``align`` (counted from the end of the encapsulation), then claim ``size``
+        bytes; returns where they start."""
+        start = self.pos + (-(self.pos - 4) % align)
+        if start + size > len(self.data):
+            raise CdrError(f"{self.what}: needs {start + size} bytes, has {len(self.data)} "
+                           f"(cut short, or another message type)")
+        self.pos = start + size
+        return start
+
+    def unpack(self, fmt: str, size: int, align: int) -> tuple:
+        return struct.unpack_from(self.order + fmt, self.data, self.take(size, align))
+
+    def count(self, element_size: int) -> int:
+        """A sequence's length, refused where its elements could not fit in what is left."""
+        (n,) = self.unpack("I", 4, 4)
+        if n * element_size > len(self.data) - self.pos:
+            raise CdrError(f"{self.what}: a length of {n} runs past the end of the "
+                           f"{len(self.data)} bytes")
+        return n
+
+    def string(self) -> str:
+        return self.strings(1)[0]
+
+    def strings(self, n: int) -> tuple[str, ...]:
+        """``n`` strings; one loop without the helpers' calls, as a JointState's names are
+        decoded on every message."""
+        data, pos, end, length = self.data, self.pos, len(self.data), self.order + "I"
+        out = []
+        for _ in range(n):
+            pos += -(pos - 4) % 4
+            if pos + 4 > end:
+                raise CdrError(f"{self.what}: cut short inside a string's length")
+            (k,) = struct.unpack_from(length, data, pos)
+            pos += 4
+            if pos + k > end:
+                raise CdrError(f"{self.what}: a string of {k} bytes runs past the end of the "
+                               f"{end} bytes")
+            if k == 0 or data[pos + k - 1] != 0:
+                raise CdrError(f"{self.what}: a string without its terminating NUL")
+            try:
+                out.append(str(data[pos:pos + k - 1], "utf-8"))
+            except UnicodeDecodeError:
+                raise CdrError(f"{self.what}: a string that is not UTF-8") from None
+            pos += k
+        self.pos = pos
+        return tuple(out)
+
+    def header(self) -> Header:
+        sec, nanosec = self.unpack("iI", 8, 4)
+        return Header(Time(sec, nanosec), self.string())
+
+    def float64s(self, n: int) -> np.ndarray:
+        if n == 0:  # an empty sequence has no element to align
+            return np.empty(0)
+        start = self.take(8 * n, 8)
+        return np.frombuffer(self.data, np.dtype(self.order + "f8"), n, start)
+
+
+def decode_wrench_stamped(data: bytes) -> WrenchStamped:
+    """geometry_msgs/msg/WrenchStamped from its CDR bytes (module docstring)."""
+    r = _Reader(data, "WrenchStamped")
+    header = r.header()
+    v = r.unpack("6d", 48, 8)
+    return WrenchStamped(header, Wrench(Vector3(*v[:3]), Vector3(*v[3:])))
+
+
+def decode_joint_state(data: bytes) -> JointState:
+    """sensor_msgs/msg/JointState from its CDR bytes (module docstring). The arrays' lengths are
+    read as sent: whether they match the names is the stream decoder's check
+    (:class:`psm_model.bags.messages.JointStateDecoder`)."""
+    r = _Reader(data, "JointState")
+    header = r.header()
+    names = r.strings(r.count(5))  # a string: its length and its NUL at least
+    arrays = [r.float64s(r.count(8)) for _ in range(3)]
+    return JointState(header, names, *arrays)

@@ -71,9 +71,9 @@ def serve_command(args) -> dict:
         stop.set()
         if player is not None:
             player.join(5)
-    print(json.dumps({k: report[k] for k in ("received", "answers_published", "unpaired",
-                                             "input_rate_hz", "model_rate_hz", "decimation",
-                                             "lag_s") if k in report}))
+    print(json.dumps({k: report[k] for k in ("received", "malformed", "answers_published",
+                                             "unpaired", "input_rate_hz", "model_rate_hz",
+                                             "decimation", "lag_s") if k in report}))
     return report
 
 

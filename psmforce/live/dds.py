@@ -117,7 +117,21 @@ def write_raw(writer, data: bytes) -> None:
     of ``writer``'s type, as ``DataWriter.write`` writes a serialised structure."""
     from cyclonedds._clayer import ddspy_write
     if ddspy_write(writer._ref, data.ljust((len(data) + 3) & ~3, b"\0")) < 0:
-        raise RuntimeError("a DDS write failed (the participant was closed?)")
+        raise RuntimeError("a DDS write failed: the bytes are not a sample of the topic's type, "
+                           "or the participant was closed")
+
+
+def take_raw(reader, n: int) -> list:
+    """Take up to ``n`` samples of ``reader`` as their CDR bytes (encapsulation header
+    included; decoded by :mod:`psmforce.live.cdr`), each with its ``SampleInfo``: what
+    ``DataReader.take`` does short of deserialising. Samples without data (a writer leaving)
+    are dropped."""
+    from cyclonedds._clayer import ddspy_take
+    from cyclonedds.core import DDSException, InstanceState, SampleState, ViewState
+    taken = ddspy_take(reader._ref, SampleState.Any | ViewState.Any | InstanceState.Any, n)
+    if isinstance(taken, int):
+        raise DDSException(taken, f"Occurred while taking data in {reader!r}")
+    return [(data, info) for data, info in taken if info.valid_data]
 
 
 def header(stamp_ns: int, frame_id: str) -> Header:
