@@ -68,6 +68,7 @@ def test_serve_over_dds_equals_the_offline_estimate_loses_nothing_and_tares(tmp_
     node = subprocess.Popen(
         [sys.executable, "-m", "psmforce.cli", "serve", str(ckpt), "--domain-id",
          str(domain_id), "--sync-stamps", "--idle-stop", "1.5", "--tare-s", str(TARE_S),
+         "--sync-wait", "1.0",  # a loaded test machine holds a resent datagram back longer
          "--input-rate", "1000",  # built before it subscribes: the tare lands mid-stream
          "--json", str(tmp_path / "report.json")], env=_env(), stdout=subprocess.PIPE,
         stderr=subprocess.PIPE, text=True)
@@ -198,3 +199,22 @@ def test_serve_skips_and_counts_messages_that_do_not_decode(tmp_path, capsys):
     err = capsys.readouterr().err.splitlines()
     assert [line.split(":")[1].strip() for line in err if line.startswith("serve:")] == [
         node.input_topics["hex10"], node.input_topics["js"]], err  # one a stream, HEX10 first
+
+
+def test_a_wait_for_partners_that_is_not_positive_is_refused(tmp_path):
+    from hybrid.streaming import StreamingEstimator
+    from psm_model import PSM
+    from psmforce.live.node import ForceNode
+    from psmforce.live.serve import DdsNode
+    ckpt = checkpoint(tmp_path / "h.pt", rate_hz=100.0)
+    participant = DomainParticipant(100 + (os.getpid() + 75) % 100)
+    for bad in (0.0, -0.1, float("nan")):
+        with pytest.raises(ValueError, match="partners must be > 0 s"):
+            DdsNode(ckpt, participant, sync=True, sync_wait_s=bad)   # before it subscribes
+        with pytest.raises(ValueError, match="partners must be > 0 s"):
+            ForceNode(StreamingEstimator.from_checkpoint(ckpt, psm=PSM()), max_wait_s=bad)
+    run = subprocess.run([sys.executable, "-m", "psmforce.cli", "serve", str(ckpt),
+                          "--sync-stamps", "--sync-wait", "0", "--duration", "1"],
+                         env=_env(), capture_output=True, text=True, timeout=120)
+    assert run.returncode != 0 and "partners must be > 0 s, got 0.0" in run.stderr
+    assert "Traceback" not in run.stderr

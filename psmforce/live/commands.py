@@ -55,7 +55,7 @@ def serve_command(args) -> dict:
     node = DdsNode(args.checkpoint, participant, arm=args.arm, topics=_topics(args),
                    input_rate_hz=args.input_rate, tare_on_start=args.tare_on_start,
                    tare_s=args.tare_s, best_effort=args.best_effort,
-                   sync=args.sync_stamps or args.sim,
+                   sync=args.sync_stamps or args.sim, sync_wait_s=args.sync_wait,
                    post_filter=args.post_filter)
     print(f"psmforce serve: domain {domain(args.domain_id)}, listening on "
           f"{', '.join(node.input_topics.values())}; publishing "
@@ -137,6 +137,10 @@ def add_live_commands(sub) -> None:
                     "flags (docs/live.md). Needs pip install 'psmforce[ros]'.")
     _common(p)
     p.add_argument("--tare-s", type=float, default=0.5, help="tare duration (default 0.5 s)")
+    p.add_argument("--sync-wait", type=float, default=0.1, metavar="S",
+                   help="with --sync-stamps: how long a HEX10 message waits for the arm's and "
+                        "jaw's messages of its stamp before it is answered without them "
+                        "(counted as unpaired; default 0.1 s)")
     p.add_argument("--domain-id", type=int, help="DDS domain (default: ROS_DOMAIN_ID, else 0)")
     p.add_argument("--best-effort", action="store_true",
                    help="best-effort readers (to match sensor-data QoS publishers)")

@@ -87,6 +87,12 @@ class Answer:
     flags: int
 
 
+def check_sync_wait(max_wait_s: float) -> None:
+    """Refuse a wait for a trigger's partners (module docstring, Pairing) that is not > 0 s."""
+    if not max_wait_s > 0:
+        raise ValueError(f"the wait for a trigger's partners must be > 0 s, got {max_wait_s!r}")
+
+
 class ForceNode:
     """Latest of each stream -> one estimator step per trigger message (module docstring).
 
@@ -102,6 +108,7 @@ class ForceNode:
             raise ValueError(f"trigger must be one of {INPUT_STREAMS}, got {trigger!r}")
         if not tare_s > 0:
             raise ValueError(f"tare_s must be > 0 s, got {tare_s!r}")
+        check_sync_wait(max_wait_s)
         self.estimator = estimator
         self.trigger = trigger
         self.topics = output_topics(arm)

@@ -43,7 +43,7 @@ from hybrid.streaming import StreamingEstimator
 from psm_model.bags.messages import stamp_ns
 from psm_model.bags.reading import resolve_topics
 from psmforce.live import cdr
-from psmforce.live.node import OUTPUT_TYPES, ForceNode, output_topics
+from psmforce.live.node import OUTPUT_TYPES, ForceNode, check_sync_wait, output_topics
 
 RATE_MESSAGES = 100
 """HEX10 messages held back to measure the input rate (0.1 s at 1 kHz)."""
@@ -62,13 +62,14 @@ def domain(domain_id: int | None = None) -> int:
 class DdsNode:
     """The live node (module docstring). ``topics``: stream -> topic overrides (js, jaw,
     hex10); ``sync``: pair the streams by stamp (:class:`psmforce.live.node.ForceNode`);
-    ``options``: more keyword arguments of
+    ``sync_wait_s``: with ``sync``, how long a trigger waits for its partners (``max_wait_s`` of
+    :class:`psmforce.live.node.ForceNode`); ``options``: more keyword arguments of
     :meth:`hybrid.streaming.StreamingEstimator.from_checkpoint` (post_filter, backend)."""
 
     def __init__(self, checkpoint, participant, *, arm: str = "PSM1",
                  topics: dict | None = None, input_rate_hz: float | None = None,
                  tare_on_start: bool = False, tare_s: float = 0.5, best_effort: bool = False,
-                 sync: bool = False, **options):
+                 sync: bool = False, sync_wait_s: float = 0.1, **options):
         from cyclonedds.core import (
             InstanceState,
             ReadCondition,
@@ -83,7 +84,8 @@ class DdsNode:
         from psmforce.live import dds
         self.checkpoint, self.arm, self.options = checkpoint, arm, options
         self.input_rate_hz, self.tare_on_start, self.tare_s = input_rate_hz, tare_on_start, tare_s
-        self.sync = sync
+        check_sync_wait(sync_wait_s)  # before subscribing, not once the node is built
+        self.sync, self.sync_wait_s = sync, sync_wait_s
         self.node: ForceNode | None = None
         self._held: list[tuple[str, object]] = []
         self._builder: threading.Thread | None = None
@@ -121,7 +123,8 @@ class DdsNode:
         from psm_model import PSM
         estimator = StreamingEstimator.from_checkpoint(self.checkpoint, input_rate_hz=rate_hz,
                                                        psm=PSM(), **self.options)
-        node = ForceNode(estimator, arm=self.arm, tare_s=self.tare_s, sync=self.sync)
+        node = ForceNode(estimator, arm=self.arm, tare_s=self.tare_s, sync=self.sync,
+                         max_wait_s=self.sync_wait_s)
         if self.tare_on_start:
             node.request_tare()
         return node
