@@ -14,8 +14,9 @@ writes (JSON):
   WrenchStamped) from the CDR bytes the robot writes, by :mod:`psmforce.live.cdr` (what
   ``serve`` uses) and by ``cyclonedds``' Python classes, median / p99 in ms;
 * ``node``: the time one HEX10 message takes in :class:`psmforce.live.node.ForceNode`, given the
-  messages as ``serve`` decodes them (``update``: read the three streams' latest messages, one estimator step in the base and
-  HEX10 frames, tare; then ``encode``: the CDR bytes of every output), median / p99 / max in ms,
+  messages as ``serve`` decodes them (``update``: read the three streams' latest messages, one
+  estimator step in the base and HEX10 frames, tare; then ``encode``: the CDR bytes of every
+  output), median / p99 / max in ms,
   wall clock and the thread's CPU time, after 500 warm-up messages; split into the messages on
   which the network steps and the others (physics, anti-alias filter and post-filter only), and
   compared with the 1 ms period of a 1 kHz loop. Every answer's flags are checked free of

@@ -6,15 +6,16 @@ everything the result depends on. Its result is cached as ``CACHE/<name>-<key>.j
 ``key`` hashes the function's qualified name and the parameters but those that only say where a
 run's files live (:data:`LOCATION_PARAMS`): run the grid again after an interruption, or in the
 run folder moved elsewhere or finished on another machine, and every finished task is read back,
-not recomputed; change a parameter and only the tasks it reaches run again. A result is written atomically (temporary file, then rename), so
-an interrupted task leaves nothing that reads as done.
+not recomputed; change a parameter and only the tasks it reaches run again. A result is written
+atomically (temporary file, then rename), so an interrupted task leaves nothing that reads as
+done.
 
 A cached result is trusted only if it verifies (:func:`read_result`): its ``format`` and integer
 ``format_version`` (:data:`RESULT_VERSION`), the integrity envelope over the task, parameters,
 seconds and result (:mod:`hybrid.integrity`), and the task and parameters it was computed for
-equal to the ones asked (location aside). Anything else (an edited number, a file from an older version without
-the envelope, a truncated or foreign file) is logged by name and recomputed, never returned, so
-no table is rendered from it.
+equal to the ones asked (location aside). Anything else (an edited number, a file from an older
+version without the envelope, a truncated or foreign file) is logged by name and recomputed, never
+returned, so no table is rendered from it.
 
 Executors: in-process, one task after another (the default; no extra dependency), or Ray
 (``ray_address``: ``"auto"``, ``"local"`` for a fresh local instance, or a cluster address; the
@@ -189,7 +190,7 @@ def _adopt_location_keyed(cache: Path, tasks: Sequence[TaskSpec], log) -> None:
 
 def _short(params: dict) -> str:
     return " ".join(f"{k}={v}" for k, v in params.items()
-                    if isinstance(v, (int, float, str)) and k not in ("run_dir",))
+                    if isinstance(v, (int, float, str)) and k not in LOCATION_PARAMS)
 
 
 def _local_ray() -> dict:
