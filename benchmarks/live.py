@@ -27,7 +27,9 @@ writes (JSON):
   process subscribing to ``/PSM1/tool_force/hex10``: HEX10 messages sent, answers received,
   lost fraction, end-to-end latency (from the robot's write of a HEX10 message to this
   process taking the answer stamped with it, decoded as ``serve`` decodes; one clock,
-  ``time.time_ns``) p50 / p99 / max in
+  ``time.time_ns``) p50 / p99 / max in ms; beside it, taken in the same loop, the robot's HEX10
+  messages themselves (``transport_latency``: the same machine's DDS and process wake-ups without
+  the node, the floor under the end-to-end figure) in
   ms, and the node's CPU use (user + system time of its process over the playback / the
   playback's wall time; 1.0 = one core);
 * ``replay``: ``psmforce replay`` of a 1 kHz bag of the same session, as fast as it goes:
@@ -59,6 +61,7 @@ from _report import write_json  # noqa: E402
 from hybrid.streaming import Flags, StreamingEstimator  # noqa: E402
 from psm_model import PSM  # noqa: E402
 from psm_model.bags.messages import stream_columns  # noqa: E402
+from psm_model.bags.reading import resolve_topics  # noqa: E402
 from psm_model.conventions import CHAIN_JOINTS, JAW_JOINT  # noqa: E402
 
 PERIOD_MS = 1.0
@@ -200,8 +203,13 @@ def dds_figures(ckpt: Path, frame, seconds: float, tmp: Path) -> dict:
               Policy.History.KeepLast(dds.DEPTH))
     reader = DataReader(participant, Topic(participant, dds.dds_topic(output_topics()["hex10"]),
                                            dds.WrenchStamped), qos=qos)
+    # the robot's HEX10 messages themselves, taken in the same loop: the transport without
+    # the node, on the same machine at the same moment
+    direct = DataReader(participant, Topic(participant, dds.dds_topic(
+        resolve_topics("PSM1", {})[0]["hex10"]), dds.WrenchStamped), qos=qos)
     waitset = WaitSet(participant)
-    waitset.attach(ReadCondition(reader, SampleState.Any | ViewState.Any | InstanceState.Any))
+    for r in (reader, direct):
+        waitset.attach(ReadCondition(r, SampleState.Any | ViewState.Any | InstanceState.Any))
     env = dict(os.environ, PYTHONPATH=str(ROOT))
     node = subprocess.Popen(
         [sys.executable, "-m", "psmforce.cli", "serve", str(ckpt), "--domain-id", str(domain_id),
@@ -210,6 +218,7 @@ def dds_figures(ckpt: Path, frame, seconds: float, tmp: Path) -> dict:
         text=True)
     robot = None
     received: dict[int, int] = {}
+    received_direct: dict[int, int] = {}
     try:
         deadline = time.monotonic() + 180
         while not reader.get_matched_publications():
@@ -231,6 +240,9 @@ def dds_figures(ckpt: Path, frame, seconds: float, tmp: Path) -> dict:
                 stamp = cdr.decode_wrench_stamped(data).header.stamp
                 received[stamp.sec * 10**9 + stamp.nanosec] = now_ns
                 last = time.monotonic()
+            for data, _ in dds.take_raw(direct, 4096):
+                stamp = cdr.decode_wrench_stamped(data).header.stamp
+                received_direct[stamp.sec * 10**9 + stamp.nanosec] = now_ns
             if cpu1 is None and robot.poll() is not None:
                 cpu1, wall1 = _cpu_s(node.pid), time.monotonic()
         if robot.returncode != 0:
@@ -244,11 +256,13 @@ def dds_figures(ckpt: Path, frame, seconds: float, tmp: Path) -> dict:
     report = json.loads((tmp / "node.json").read_text())
     latency = [(received[s] - w) * 1e-6 for s, w in zip(sent["stamps_ns"], sent["sent_ns"])
                if s in received]
+    transport = [(received_direct[s] - w) * 1e-6
+                 for s, w in zip(sent["stamps_ns"], sent["sent_ns"]) if s in received_direct]
     n = len(sent["stamps_ns"])
     return {"seconds": seconds, "hex10_sent": n, "node_received": report["received"]["hex10"],
             "answers_published": report["answers_published"], "answers_received": len(latency),
             "lost_fraction": 1.0 - len(latency) / n, "unpaired": report["unpaired"],
-            "latency": _percentiles(latency),
+            "latency": _percentiles(latency), "transport_latency": _percentiles(transport),
             "within_target": bool(np.percentile(latency, 99) <= TARGET_P99_MS
                                   and len(latency) == n),
             "node_cpu_fraction": (cpu1 - cpu0) / (wall1 - wall0),
@@ -320,7 +334,10 @@ def _print(r: dict) -> None:
     print(f"serve over DDS, {link['seconds']:g} s at 1 kHz: {link['hex10_sent']} sent, "
           f"{link['answers_received']} answers received, lost {100 * link['lost_fraction']:.3f} "
           f"%; latency p50 {lat['median_ms']:.3f} ms, p99 {lat['p99_ms']:.3f} ms, max "
-          f"{lat['max_ms']:.2f} ms; node CPU {100 * link['node_cpu_fraction']:.0f} % of a core; "
+          f"{lat['max_ms']:.2f} ms (the robot's own messages to this process, no node: p50 "
+          f"{link['transport_latency']['median_ms']:.3f} ms, p99 "
+          f"{link['transport_latency']['p99_ms']:.3f} ms); node CPU "
+          f"{100 * link['node_cpu_fraction']:.0f} % of a core; "
           f"target (p99 <= {TARGET_P99_MS:g} ms, none lost) "
           f"{'met' if link['within_target'] else 'NOT met'}")
     print(f"replay: {rep['inputs_per_s']:.0f} input messages/s, {rep['answers_per_s']:.0f} "
