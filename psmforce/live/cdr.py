@@ -1,7 +1,7 @@
 """The project's CDR encoder for the ROS 2 messages the live node writes and the simulated robot
 publishes, and decoder for those it reads: the bytes ROS 2 puts on the wire and in a bag, without
-the middleware's message objects (whose Python deserialisation costs more than the estimator's
-step at 1 kHz).
+the middleware's Python message classes, which take longer to decode (``benchmarks/live.py``
+times both).
 
 Encoding: a 4-byte encapsulation header ``00 01 00 00`` (CDR, little-endian), then the fields in
 declaration order, each primitive aligned to its own size counted from the end of that header;

@@ -13,10 +13,10 @@ meets the joint states published before it (from one publisher, which delivers i
 the simulated robot; separate publishers, as on the dVRK, race as any subscriber does);
 none is dropped (the readers keep :data:`psmforce.live.dds.DEPTH`).
 
-Decoding. Messages are taken as their CDR bytes and decoded by :mod:`psmforce.live.cdr`, a few
-times faster than the middleware's Python objects. A message whose bytes do not decode is
-counted (``malformed`` in :meth:`DdsNode.report`, its reason printed once per stream) and
-skipped: the node goes on with the stream's previous message, flagged STALE if none follows.
+Decoding. Messages are taken as their CDR bytes and decoded by :mod:`psmforce.live.cdr`, not by
+the middleware's Python classes (``benchmarks/live.py`` times both). A message whose bytes do not
+decode is counted (``malformed`` in :meth:`DdsNode.report`, its reason printed once per stream)
+and skipped: the node goes on with the stream's previous message, flagged STALE if none follows.
 
 Rate. With ``input_rate_hz`` the estimator is built before the node subscribes. Otherwise the
 first :data:`RATE_MESSAGES` HEX10 messages are held back while their header stamps measure the
