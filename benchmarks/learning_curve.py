@@ -16,6 +16,13 @@ is not a point of the curve (:func:`finished`); once the parts are done, the ful
 task cached, writes the point, and ``--render-only`` renders it. A point already in the JSON is
 kept when its run is not under ``--work`` (``runs/`` is not committed).
 
+``--lanes N`` does that split itself: each seed's bench (simulation, prior, floor) first, one
+process per seed, then every (seed, model) call, the costliest first, over ``N`` processes of
+``--threads`` each, then the full call, which finds every task cached. On a machine with many
+cores (``--threads 1``) or a GPU, one call finishes a scale:
+
+    python benchmarks/learning_curve.py --scales 1 --seeds 1 2 3 --lanes 9 --threads 1 --device cuda
+
 ``--device cuda`` trains a scale's run on a GPU. A run's networks train on one device (each
 task's cache key holds it, so a CPU call does not reuse a GPU run's tasks); the closed-form
 MultiRocket-Hydra fits on the CPU in either (:func:`hybrid.reproduce.task_device`). The point
@@ -37,7 +44,9 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import subprocess
 import sys
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -66,6 +75,50 @@ def run_scale(work: Path, scale: float, seeds, models, threads: int, device: str
     from hybrid.reproduce import reproduce
     reproduce(run_dir(work, scale), scale=scale, seeds=seeds, device=device, threads=threads,
               models=models, ablations=False, efficiency=False, teleop=False)
+
+
+TRAINING_COST = {"transformer": 3, "hybrid": 2, "fcn": 1, "rocket": 0}
+"""Rank of each model's training time on the curve (costliest first in the lanes' queue)."""
+
+
+def lane_jobs(seeds, models) -> list[tuple[int, str]]:
+    """The (seed, model) calls of a scale in the order the lanes take them: the costliest model
+    first, seeds interleaved, so the longest trainings start soonest."""
+    unranked = max(TRAINING_COST.values()) + 1
+    ranked = sorted(models, key=lambda m: -TRAINING_COST.get(m, unranked))
+    return [(s, m) for m in ranked for s in seeds]
+
+
+def run_lanes(work: Path, scale: float, seeds, models, lanes: int, threads: int,
+              device: str) -> None:
+    """Run a scale in ``lanes`` processes of ``threads`` threads each, in the one resumable run
+    folder: first each seed's bench (:func:`hybrid.reproduce.prepare_benches`, one process per
+    seed, since two must not write one bench), then the (seed, model) calls of
+    :func:`lane_jobs`. Each call's log is ``<work>/lanes/scale_<scale>/<name>.log``, beside the
+    run folder, which holds one run and nothing else. Raises naming the logs of the calls that
+    failed once the stage's others have finished (rerun the same command to resume)."""
+    from hybrid.reproduce import prepare_benches
+    logs = work / "lanes" / run_dir(work, scale).name
+    logs.mkdir(parents=True, exist_ok=True)
+    prepare_benches(run_dir(work, scale), scale, (), teleop=False)  # claim it before the lanes
+
+    def call(job: tuple[int, str | None]) -> tuple[str, int, Path]:
+        seed, model = job
+        name = f"{model or 'bench'}_seed{seed}"
+        what = ["--benches-only"] if model is None else ["--models", model]
+        cmd = [sys.executable, str(Path(__file__).resolve()), "--scales", f"{scale:g}",
+               "--seeds", str(seed), *what, "--threads", str(threads), "--device", device,
+               "--work", str(work), "--json", str(logs / f"{name}.json")]
+        with open(logs / f"{name}.log", "a") as f:
+            rc = subprocess.run(cmd, stdout=f, stderr=subprocess.STDOUT).returncode
+        return name, rc, logs / f"{name}.log"
+
+    with ThreadPoolExecutor(max_workers=lanes) as pool:
+        for stage in ([(s, None) for s in seeds], lane_jobs(seeds, models)):
+            failed = [(name, log) for name, rc, log in pool.map(call, stage) if rc != 0]
+            if failed:
+                raise RuntimeError("lane calls failed (rerun the same command to resume): "
+                                   + "; ".join(f"{name}, see {log}" for name, log in failed))
 
 
 def _training_minutes(out: Path, seeds) -> float:
@@ -366,11 +419,33 @@ def main(argv=None) -> int:
                     / "learning_curve.json")
     ap.add_argument("--render-only", action="store_true",
                     help="assemble the finished scales, train nothing")
+    ap.add_argument("--lanes", type=int, default=1,
+                    help="parallel processes per scale, --threads each (1: this process only)")
+    ap.add_argument("--benches-only", action="store_true",
+                    help="simulate each seed's bench and fit its prior, train nothing")
     args = ap.parse_args(argv)
     if len(set(args.seeds)) != len(args.seeds):
         ap.error(f"--seeds: repeated seeds {args.seeds}")
+    from hybrid.recipes import RECIPES
+    unknown = sorted(set(args.models) - set(RECIPES))
+    if unknown:
+        ap.error(f"--models: unknown {unknown}; known: {list(RECIPES)}")
+    if args.lanes < 1 or args.threads < 1:
+        ap.error(f"--lanes and --threads must be at least 1, got {args.lanes} and {args.threads}")
+    if args.benches_only:
+        from hybrid.reproduce import prepare_benches
+        for scale in sorted(args.scales):
+            prepare_benches(run_dir(args.work, scale), scale, args.seeds, teleop=False)
+        return 0
     if not args.render_only:
         for scale in sorted(args.scales):
+            if args.lanes > 1:
+                try:
+                    run_lanes(args.work, scale, args.seeds, args.models, args.lanes,
+                              args.threads, args.device)
+                except RuntimeError as e:
+                    print(f"learning_curve: {e}", file=sys.stderr)
+                    return 1
             run_scale(args.work, scale, args.seeds, args.models, args.threads, args.device)
             assemble(args.work, args.scales, args.json, args.models)  # kept at once
     assemble(args.work, args.scales, args.json, args.models)

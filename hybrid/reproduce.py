@@ -286,6 +286,41 @@ def _floor_task(p: dict) -> dict:
 
 # ------------------------------------------------------------------------------ the run
 
+def prepare_benches(out: str | Path, scale: float, seeds: Sequence[int], *, teleop: bool = True,
+                    port: str = "none", ray_address: str | None = None,
+                    log: Callable[[str], None] | None = None) -> list[dict]:
+    """Simulate (or find cached) each seed's benches of a run in ``out`` (the automated one with
+    its fitted prior, and the teleoperation one when ``teleop``) and score their evaluation
+    floors, the first stage of :func:`reproduce`; returns the floors per seed. With no seeds,
+    only claims ``out`` for the bench (scale, port), so calls for different seeds may then run
+    at once; one seed must not be prepared by two calls at once (both would write its bench)."""
+    from psm_model.sim.dataset import check_scale_and_seed
+    from psm_model.sim.port import port_by_name
+    say = log or (lambda s: print(s, flush=True))
+    port_by_name(port)
+    for s in seeds:  # before anything is written: a bad value must leave no OUT/work behind
+        check_scale_and_seed(scale, s, "seeds")
+    out = Path(out)
+    # Every task is cached by all it depends on; only the benches (scale, port) are shared by
+    # name. Without a port the file and the task parameters are those of runs made before the
+    # port existed, so their caches stay valid.
+    bench = {"scale": scale} | ({} if port == "none" else {"port": port})
+    call_file = out / "work" / "scale.json"
+    if out.exists() and any(out.iterdir()):
+        if not call_file.exists() or json.loads(call_file.read_text()) != bench:
+            raise ValueError(f"{out} holds another run or a run on another bench (scale, port) "
+                             f"(refusing to mix benches; see {call_file})")
+    call_file.parent.mkdir(parents=True, exist_ok=True)
+    write_text_atomic(call_file, json.dumps(bench))
+    run_dir, cache = str((out / "work").resolve()), out / "work" / "cache"
+    run_grid([(_simulate_task, {"run_dir": run_dir, "protocol": proto, "seed": s, **bench})
+              for s in seeds
+              for proto in ("automated",) + (("teleop",) if teleop else ())],
+             cache, ray_address=ray_address, log=say)
+    return run_grid([(_floor_task, {"run_dir": run_dir, "seed": s, "teleop": teleop})
+                     for s in seeds], cache, log=say)
+
+
 def reproduce(out: str | Path, scale: float = 0.1, seeds: Sequence[int] = (1, 2, 3),
               device: str = "cpu", *, budget: str = "full", threads: int = 2,
               models: Sequence[str] | None = None, ablations: bool = True, efficiency: bool = True,
@@ -311,37 +346,17 @@ def reproduce(out: str | Path, scale: float = 0.1, seeds: Sequence[int] = (1, 2,
     if repeated:  # one seed twice would be averaged as two and show a spread of 0
         raise ValueError(f"seeds: {repeated[0]} given more than once; each seed is one "
                          f"independent bench and initialisation")
-    from psm_model.sim.dataset import check_scale_and_seed
-    from psm_model.sim.port import port_by_name
-    port_by_name(port)
-    for s in seeds:  # before anything is written: a bad value must leave no OUT/work behind
-        check_scale_and_seed(scale, s, "seeds")
     out = Path(out)
     call = {"scale": scale, "seeds": list(seeds), "device": device, "budget": budget,
             "models": list(models), "ablations": ablations, "efficiency": efficiency,
             "teleop": teleop, "port": port}
-    # Every task is cached by all it depends on; only the benches (scale, port) are shared by
-    # name. Without a port the file and the task parameters are those of runs made before the
-    # port existed, so their caches stay valid.
-    bench = {"scale": scale} | ({} if port == "none" else {"port": port})
-    call_file = out / "work" / "scale.json"
-    if out.exists() and any(out.iterdir()):
-        if not call_file.exists() or json.loads(call_file.read_text()) != bench:
-            raise ValueError(f"{out} holds another run or a run on another bench (scale, port) "
-                             f"(refusing to mix benches; see {call_file})")
-    call_file.parent.mkdir(parents=True, exist_ok=True)
-    write_text_atomic(call_file, json.dumps(bench))
+    floors = prepare_benches(out, scale, seeds, teleop=teleop, port=port,
+                             ray_address=ray_address, log=say)
     run_dir, cache = str((out / "work").resolve()), out / "work" / "cache"
     common = {"run_dir": run_dir, "budget": budget, "budget_settings": BUDGETS[budget],
               "device": device, "threads": threads}
     started = time.time()
 
-    run_grid([(_simulate_task, {"run_dir": run_dir, "protocol": proto, "seed": s, **bench})
-              for s in seeds
-              for proto in ("automated",) + (("teleop",) if teleop else ())],
-             cache, ray_address=ray_address, log=say)
-    floors = run_grid([(_floor_task, {"run_dir": run_dir, "seed": s, "teleop": teleop})
-                       for s in seeds], cache, log=say)
     variants = [(m, "full", 1.0) for m in models]
     if ablations:
         variants += [(m, v, 1.0) for m in models for v in plan(m).ablations]

@@ -19,7 +19,10 @@ from benchmarks.learning_curve import (  # noqa: E402
     assemble,
     crossovers,
     data_efficiency,
+    lane_jobs,
+    main,
     run_dir,
+    run_lanes,
     standing,
 )
 
@@ -131,3 +134,56 @@ def test_where_the_transformer_matches_and_how_much_data_it_needs():
                       "efficiency_scale": 0.1, "data_efficiency": data_efficiency(points[:2])})
     assert "- Fx: the hybrid is ahead at every measured scale (0.05, 0.1)." in lines
     assert any("more than 20 min" in line for line in lines)
+
+
+def test_lanes_start_the_longest_trainings_first():
+    assert lane_jobs([1, 2], ["hybrid", "transformer", "fcn", "rocket"]) == [
+        (1, "transformer"), (2, "transformer"), (1, "hybrid"), (2, "hybrid"),
+        (1, "fcn"), (2, "fcn"), (1, "rocket"), (2, "rocket")]
+    assert lane_jobs([3], ["lstm", "fcn"]) == [(3, "lstm"), (3, "fcn")]  # unranked: costliest
+
+
+def test_lanes_prepare_each_bench_once_then_train_and_name_the_log_of_a_failed_call(
+        tmp_path, monkeypatch):
+    import subprocess
+    calls = []
+
+    def fake_run(cmd, stdout, stderr):
+        flags = [k for k in range(2, len(cmd)) if cmd[k].startswith("--")]
+        args = {cmd[k]: cmd[k + 1] for k in flags if k + 1 in range(len(cmd))
+                and not cmd[k + 1].startswith("--")}
+        what = "bench" if "--benches-only" in cmd else args["--models"]
+        calls.append((int(args["--seeds"]), what))
+        assert (args["--scales"], args["--threads"], args["--device"], args["--work"]) == (
+            "0.5", "1", "cuda", str(tmp_path))
+        return subprocess.CompletedProcess(cmd, 3 if calls[-1] == (2, "bench") else 0)
+
+    monkeypatch.setattr(subprocess, "run", fake_run)
+    run_lanes(tmp_path, 0.5, [1], ["rocket", "transformer"], 1, 1, "cuda")  # one lane: in order
+    assert calls == [(1, "bench"), (1, "transformer"), (1, "rocket")]
+    run = run_dir(tmp_path, 0.5)  # claimed for the bench, holding nothing else
+    assert [p.relative_to(run).as_posix() for p in run.rglob("*") if p.is_file()] == [
+        "work/scale.json"]
+
+    calls.clear()  # a failed bench stops the scale before any training
+    try:
+        run_lanes(tmp_path, 0.5, [1, 2], ["transformer"], 2, 1, "cuda")
+    except RuntimeError as e:
+        assert "bench_seed2" in str(e) and "bench_seed2.log" in str(e)
+        assert "bench_seed1" not in str(e)
+    else:
+        raise AssertionError("a failed lane call must raise")
+    assert sorted(calls) == [(1, "bench"), (2, "bench")]
+
+
+def test_the_command_refuses_unknown_models_and_lanes_below_one(tmp_path, capsys):
+    for argv in (["--models", "gpt"], ["--lanes", "0"]):
+        try:
+            main(argv + ["--work", str(tmp_path), "--json", str(tmp_path / "c.json")])
+        except SystemExit as e:
+            assert e.code == 2
+        else:
+            raise AssertionError(f"{argv} must be refused")
+    err = capsys.readouterr().err
+    assert "unknown ['gpt']" in err and "at least 1" in err
+    assert list(tmp_path.iterdir()) == []  # refused before anything is written
