@@ -113,6 +113,14 @@ def learning_curve(curve: dict) -> str:
         lines += ["", "Training settings of the recipes beyond `hybrid.train.TrainConfig`'s "
                   "defaults, per scale:", ""] + settings
     lines += ["", "Where each model stands (causal metric, spread rule):", ""] + standing(curve)
+    for p in curve.get("partial", []):
+        lines += ["", f"At scale {p['scale']:g} ({p['training_minutes']:.1f} min of training "
+                  f"data, {len(p['seeds'])} seeds, "
+                  + ("every run converged" if p["all_converged"] else "NOT every run converged")
+                  + "), so far only: " + "; ".join(
+                      f"{label} causal " + " / ".join(spread_cell(r["causal"][a]) for a in AXES)
+                      for label, r in p["models"].items())
+                  + ". The hybrid against the transformer is not measured there yet."]
     largest = max((p["scale"] for p in curve["points"]), default=None)
     lines += ["", f"Measured up to scale {largest:g} of the paper's data; not yet: "
               + (", ".join(f"{s:g}" for s in curve["missing_scales"]) or "none")

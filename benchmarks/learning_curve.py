@@ -4,17 +4,20 @@ Each point is one ``psmforce reproduce`` run of the automated protocol at a scal
 paper's amount of data) with the main models only (no ablations, data efficiency or
 teleoperation), every model trained to early stopping over the bench seeds, cached per task and
 resumable inside a task (:mod:`hybrid.resume`): rerunning the same command goes on where a killed
-run stopped. A scale is a point of the curve once a run of every model over at least two seeds
-has finished there (:func:`finished`).
+run stopped. A scale is a point of the curve once every model has finished there over at least
+two seeds (:func:`complete`); until then the models finished so far are a partial point, shown
+in the table and the figures.
 
     python benchmarks/learning_curve.py --scales 0.05 0.1 --json results/learning_curve/learning_curve.json
     python benchmarks/learning_curve.py --render-only --json results/learning_curve/learning_curve.json
 
 Several calls may share one ``--work`` to use several cores (``--threads 1`` each): give them
-disjoint ``--seeds`` or ``--models`` and a ``--json`` of their own under ``runs/``. A partial call
-is not a point of the curve (:func:`finished`); once the parts are done, the full call finds every
-task cached, writes the point, and ``--render-only`` renders it. A point already in the JSON is
-kept when its run is not under ``--work`` (``runs/`` is not committed).
+disjoint ``--seeds`` or ``--models`` and a ``--json`` of their own under ``runs/``; once the parts
+are done, the full call finds every task cached, writes the point, and ``--render-only`` renders
+it. A call for some of the models over the seeds is a part of the point, and the JSON keeps it:
+a later call for the other models on the same seeds, on another machine too, completes the point
+(:func:`merge`). A point already in the JSON is kept when its run is not under ``--work``
+(``runs/`` is not committed).
 
 ``--lanes N`` does that split itself: each seed's bench (simulation, prior, floor) first, one
 process per seed, then every (seed, model) call, the costliest first, over ``N`` processes of
@@ -134,21 +137,60 @@ def _training_minutes(out: Path, seeds) -> float:
 
 
 def point(out: Path) -> dict:
-    """One finished run's point of the curve."""
+    """One finished run's point of the curve (or its part, when the run holds some models of
+    the curve only: ``model_names``)."""
+    from hybrid.recipes import recipe
     results = json.loads((out / "results.json").read_text())
-    seeds = results["call"]["seeds"]
+    call = results["call"]
+    seeds = call["seeds"]
     automated = results["automated"]
     models = {label: {m: {a: automated[m][label][a]["nrmse_pct"] for a in AXES}
                       for m in METRICS}
               for label in automated["causal"]}
-    return {"scale": results["call"]["scale"], "seeds": seeds,
-            "device": results["call"]["device"],
+    return {"scale": call["scale"], "seeds": seeds, "model_names": sorted(call["models"]),
+            "devices": {_label(m): call["device"] for m in call["models"]
+                        if not recipe(m).closed_form},
             "training_minutes": _training_minutes(out, seeds),
             "simulator_versions": sorted(set(results["benches"].values())),
             "all_converged": results["all_converged"], "models": models,
             "stopped": _stopped(results.get("training", {})),
             "optimiser": _optimiser(out, results),
             "hybrid_vs_transformer": _verdicts(models), "run": shown_path(out)}
+
+
+def _label(model: str) -> str:
+    from hybrid.plan import plan
+    return plan(model).label
+
+
+def devices(p: dict) -> dict:
+    """{label: the device its networks trained on} of a point's trained networks (a point
+    assembled before points held them names one device for the run)."""
+    if "devices" in p:
+        return p["devices"]
+    from hybrid.recipes import recipe
+    closed_form = {_label(m) for m in MODELS if recipe(m).closed_form}
+    return {label: p.get("device", "not recorded") for label in p["models"]
+            if label not in closed_form}
+
+
+def merge(a: dict, b: dict) -> dict | None:
+    """One point from two parts at one scale on the same benches (seeds, simulator), ``b``'s
+    models replacing ``a``'s; None when the benches differ. The models of one bench seed train
+    independently (each task's cache key holds all it depends on), so parts run apart, on
+    other machines too, are one run's results."""
+    if (a["scale"], a["seeds"], a["simulator_versions"]) != (
+            b["scale"], b["seeds"], b["simulator_versions"]):
+        return None
+    models = {**a["models"], **b["models"]}
+    a_kept = set(a["models"]) - set(b["models"])
+    return {**b, "model_names": sorted(set(a.get("model_names", [])) | set(b["model_names"])),
+            "devices": {**{k: v for k, v in devices(a).items() if k in a_kept}, **devices(b)},
+            "all_converged": b["all_converged"] and (a["all_converged"] or not a_kept),
+            "models": models, "stopped": {**a["stopped"], **b["stopped"]},
+            "optimiser": {**a.get("optimiser", {}), **b.get("optimiser", {})},
+            "hybrid_vs_transformer": _verdicts(models),
+            "run": "; ".join(dict.fromkeys(a["run"].split("; ") + [b["run"]]))}
 
 
 def _stopped(training: dict) -> dict:
@@ -296,13 +338,14 @@ def table(curve: dict) -> str:
              "of data); NRMSE % on the test trials, mean ± std over bench seeds; causal = the "
              "raw per-sample estimate a haptic loop gets, paper = the paper's offline "
              "post-processing. Figures: one per axis, causal metric, beside this page.", ""]
-    if not curve["points"]:
+    shown = sorted(curve["points"] + curve.get("partial", []), key=lambda p: p["scale"])
+    if not shown:
         return "\n".join(lines + ["No scale has finished yet.", ""])
     for m in METRICS:
         lines += [f"**{m}**", "", "| scale | minutes of training data | seeds | converged | model "
                   "| trained to its early stop, per seed | Fx | Fy | Fz |",
                   "|---|---|---|---|---|---|---|---|---|"]
-        for p in curve["points"]:
+        for p in shown:
             for label, r in p["models"].items():
                 cells = " | ".join(f"{r[m][a]['mean']:.2f} ± {r[m][a]['std']:.2f}"
                                    for a in AXES)
@@ -316,7 +359,7 @@ def table(curve: dict) -> str:
                     f"{v[a]['ratio']:.2f}x ({v[a]['verdict']})" for a in AXES) + " |")
         lines.append("")
     lines += ["Networks trained on: " + "; ".join(
-        f"scale {p['scale']:g} {p.get('device', 'not recorded')}" for p in curve["points"])
+        f"scale {p['scale']:g} {_devices_text(p)}" for p in shown)
         + ". MultiRocket-Hydra fits in closed form on the CPU at every scale.", ""]
     settings = settings_lines(curve)
     if settings:
@@ -324,8 +367,21 @@ def table(curve: dict) -> str:
                   "`hybrid.train.TrainConfig`, per scale:", ""] + settings + [""]
     lines += ["**Where each model stands** (causal metric; spread rule)", ""] + standing(curve)
     lines += ["", "Scales not yet measured: "
-              + (", ".join(f"{s:g}" for s in curve["missing_scales"]) or "none") + ".", ""]
+              + (", ".join(f"{s:g}" for s in curve["missing_scales"]) or "none") + "."
+              + "".join(f" At scale {p['scale']:g} only {', '.join(p['models'])} so far: the "
+                        "hybrid against the transformer is not measured there."
+                        for p in curve.get("partial", [])), ""]
     return "\n".join(lines)
+
+
+def _devices_text(p: dict) -> str:
+    """"cuda", or per device the networks trained on it where a point's parts differ."""
+    by_device: dict[str, list[str]] = {}
+    for label, device in devices(p).items():
+        by_device.setdefault(device, []).append(label)
+    if len(by_device) == 1:
+        return next(iter(by_device))
+    return ", ".join(f"{d} ({', '.join(labels)})" for d, labels in by_device.items())
 
 
 def figures(curve: dict, folder: Path) -> list[str]:
@@ -337,14 +393,15 @@ def figures(curve: dict, folder: Path) -> list[str]:
     written = []
     for a in AXES:
         fig, ax = plt.subplots(figsize=(7.5, 4), layout="constrained")
-        labels = sorted({label for p in curve["points"] for label in p["models"]})
+        shown = sorted(curve["points"] + curve.get("partial", []), key=lambda p: p["scale"])
+        labels = sorted({label for p in shown for label in p["models"]})
         for label in labels:
-            pts = [p for p in curve["points"] if label in p["models"]]
+            pts = [p for p in shown if label in p["models"]]
             x = [p["training_minutes"] for p in pts]
             y = [p["models"][label]["causal"][a]["mean"] for p in pts]
             e = [p["models"][label]["causal"][a]["std"] for p in pts]
             ax.errorbar(x, y, yerr=e, marker="o", capsize=3, label=label)
-        first = curve["points"][0]
+        first = shown[0]
         ax.axvline(first["training_minutes"] / first["scale"], color="grey", linestyle="--",
                    label="the paper's amount of data (scale 1)")
         ax.set_xscale("log")
@@ -371,36 +428,46 @@ MIN_SEEDS = 2
 """Bench seeds a point needs (issue 28: three, at least two at the largest scales)."""
 
 
-def finished(out: Path, models=MODELS) -> bool:
-    """Whether the run in ``out`` is a point of the curve: its results cover every model of the
-    curve over at least :data:`MIN_SEEDS` seeds (a partial call, one seed or a subset of the
-    models run beside the main one, writes a ``results.json`` too, and is not a point)."""
+def finished(out: Path) -> bool:
+    """Whether the run in ``out`` holds a part of the curve's point: results over at least
+    :data:`MIN_SEEDS` seeds (a call for one seed beside the main one writes a ``results.json``
+    too, and is not a part)."""
     path = out / "results.json"
-    if not path.exists():
-        return False
-    call = json.loads(path.read_text())["call"]
-    return set(models) <= set(call["models"]) and len(call["seeds"]) >= MIN_SEEDS
+    return path.exists() and len(json.loads(path.read_text())["call"]["seeds"]) >= MIN_SEEDS
+
+
+def complete(p: dict, models=MODELS) -> bool:
+    """Whether a point covers every model of the curve (a point assembled before points named
+    their models was complete)."""
+    return set(models) <= set(p.get("model_names", models))
 
 
 def assemble(work: Path, scales, json_path: Path, models=MODELS) -> dict:
     """The curve over every scale of :data:`SCALES` and ``scales``: a point from each finished
-    run under ``work``; a point the JSON at ``json_path`` already holds is kept when its run is
-    not under ``work`` (``runs/`` is not committed, and a new machine starts without it)."""
+    run under ``work``, merged (:func:`merge`) with the part of that scale the JSON at
+    ``json_path`` already holds, which is kept when its run is not under ``work`` (``runs/`` is
+    not committed, and a new machine starts without it). A point covering every model of the
+    curve is in ``points``; one that covers some (``partial``: trained so far) shows in the
+    table and the figures, and its scale stays missing."""
     scales = sorted(set(SCALES) | set(scales))
-    kept = ({p["scale"]: p for p in json.loads(json_path.read_text())["points"]}
-            if json_path.exists() else {})
-    here = {s for s in scales if finished(run_dir(work, s), models)}
-    points = [point(run_dir(work, s)) if s in here else kept[s]
-              for s in scales if s in here or s in kept]
+    old = json.loads(json_path.read_text()) if json_path.exists() else {}
+    kept = {p["scale"]: p for p in old.get("points", []) + old.get("partial", [])}
+    points, partial = [], []
+    for s in scales:
+        here = point(run_dir(work, s)) if finished(run_dir(work, s)) else None
+        p = kept.get(s) if here is None else here if s not in kept else (
+            here if complete(here, models) else merge(kept[s], here) or here)
+        if p is not None:
+            (points if complete(p, models) else partial).append(p)
     done = {p["scale"] for p in points}
     curve = {"command": "python benchmarks/learning_curve.py " + " ".join(sys.argv[1:]),
              "json": shown_path(json_path), "scales": scales,
              "missing_scales": [s for s in scales if s not in done],
-             "points": points, "crossover": crossovers(points),
+             "points": points, "partial": partial, "crossover": crossovers(points),
              "efficiency_scale": EFFICIENCY_SCALE,
              "data_efficiency": data_efficiency(points, EFFICIENCY_SCALE)}
     json_path.parent.mkdir(parents=True, exist_ok=True)
-    curve["figures"] = figures(curve, json_path.parent) if points else []
+    curve["figures"] = figures(curve, json_path.parent) if points or partial else []
     write_json(json_path, curve)
     write_text_atomic(json_path.parent / "README.md", table(curve))
     return curve
@@ -447,8 +514,8 @@ def main(argv=None) -> int:
                     print(f"learning_curve: {e}", file=sys.stderr)
                     return 1
             run_scale(args.work, scale, args.seeds, args.models, args.threads, args.device)
-            assemble(args.work, args.scales, args.json, args.models)  # kept at once
-    assemble(args.work, args.scales, args.json, args.models)
+            assemble(args.work, args.scales, args.json)  # kept at once
+    assemble(args.work, args.scales, args.json)
     return 0
 
 

@@ -25,6 +25,7 @@ from benchmarks.learning_curve import (  # noqa: E402
     run_lanes,
     standing,
 )
+from hybrid.plan import plan  # noqa: E402
 
 
 def _spread(mean, std):
@@ -32,7 +33,8 @@ def _spread(mean, std):
 
 
 def _finished_run(out: Path, scale: float, hybrid_fx: float, transformer_fx: float,
-                  seeds=(1, 2), models=MODELS, hybrid_optimiser=None) -> None:
+                  seeds=(1, 2), models=MODELS, hybrid_optimiser=None,
+                  device="cpu") -> None:
     for seed in seeds:
         data = out / "work" / "data" / f"automated_seed{seed}"
         data.mkdir(parents=True)
@@ -41,16 +43,17 @@ def _finished_run(out: Path, scale: float, hybrid_fx: float, transformer_fx: flo
                                                         "trials": trials}))
     axes = lambda fx: {"Fx": _spread(fx, 0.05), "Fy": _spread(1.0, 0.05),  # noqa: E731
                        "Fz": _spread(2.0, 0.5)}
-    per_metric = {HYBRID: axes(hybrid_fx), TRANSFORMER: axes(transformer_fx)}
+    fx = {"hybrid": hybrid_fx, "transformer": transformer_fx}
+    per_metric = {plan(m).label: axes(fx.get(m, 1.5)) for m in models}
     (out / "results.json").write_text(json.dumps({
         "call": {"scale": scale, "seeds": list(seeds), "models": list(models),
-                 "device": "cpu"},
+                 "device": device},
         "benches": {"a": "2.1", "b": "2.1"},
         "all_converged": True,
         "training": {f"{m} full 1.0 seed {s}": {
             "stopped_by": "patience", "epochs_run": 10 + s, "converged": True,
             "optimiser": hybrid_optimiser if m == "hybrid" else {}}
-            for m in ("hybrid", "transformer") for s in seeds},
+            for m in models if m != "rocket" for s in seeds},
         "automated": {"causal": per_metric, "paper": per_metric,
                                              "causal_lowpass": per_metric}}))
 
@@ -74,7 +77,14 @@ def test_the_curve_holds_finished_scales_their_minutes_and_the_spread_rule(tmp_p
     page = (out.parent / "README.md").read_text()
     assert "| 0.1 | | | | hybrid / transformer | | 0.97x (tie)" in page
     assert "Scales not yet measured: 0.25, 0.5, 1." in page
-    assert "Networks trained on: scale 0.05 cpu; scale 0.1 cpu." in page  # the device each run recorded
+    assert [p["scale"] for p in curve["partial"]] == [1.0]  # the hybrid alone so far
+    assert "At scale 1 only Hybrid (ours) so far" in page
+    from benchmarks._results_page import learning_curve
+    section = learning_curve(curve)  # docs/results.md says what the partial point holds
+    assert ("At scale 1 (1.5 min of training data, 2 seeds, every run converged), so far only: "
+            "Hybrid (ours) causal 0.30 ± 0.05 / 1.00 ± 0.05 / 2.00 ± 0.50.") in section
+    assert "What holds at the paper's own budget (scale 1) is not measured yet" in section
+    assert "Networks trained on: scale 0.05 cpu; scale 0.1 cpu; scale 1 cpu." in page
     assert curve["points"][0]["stopped"][HYBRID] == ["11 epochs", "12 epochs"]
     assert sorted(p.name for p in out.parent.glob("*.png")) == ["Fx.png", "Fy.png", "Fz.png"]
 
@@ -91,6 +101,38 @@ def test_a_point_whose_run_is_gone_is_kept_from_the_json(tmp_path):
     assert again["missing_scales"] == [0.25, 0.5, 1.0]
 
 
+def test_parts_of_a_point_run_apart_on_the_same_benches_make_the_point(tmp_path):
+    out = tmp_path / "curve" / "learning_curve.json"
+    _finished_run(run_dir(tmp_path / "cpu", 1.0), 1.0, 0, 0, seeds=(1, 2),
+                  models=["fcn", "rocket"])
+    first = assemble(tmp_path / "cpu", [1.0], out)
+    assert first["points"] == [] and [p["model_names"] for p in first["partial"]] == [
+        ["fcn", "rocket"]]
+    assert first["missing_scales"] == [0.05, 0.1, 0.25, 0.5, 1.0]
+
+    # another machine, the other models on the same seeds: the JSON's part completes the point
+    _finished_run(run_dir(tmp_path / "gpu", 1.0), 1.0, 0.3, 0.6, seeds=(1, 2),
+                  models=["hybrid", "transformer"], device="cuda")
+    whole = assemble(tmp_path / "gpu", [1.0], out)
+    assert whole["partial"] == [] and whole["missing_scales"] == [0.05, 0.1, 0.25, 0.5]
+    (p,) = whole["points"]
+    assert set(p["models"]) == {HYBRID, TRANSFORMER, "FCN", "MultiRocket-Hydra"}
+    assert p["models"]["FCN"] == first["partial"][0]["models"]["FCN"]
+    assert p["hybrid_vs_transformer"]["causal"]["Fx"]["verdict"] == "hybrid ahead"
+    assert p["devices"] == {"FCN": "cpu", HYBRID: "cuda", TRANSFORMER: "cuda"}
+    page = (out.parent / "README.md").read_text()
+    assert "scale 1 cpu (FCN), cuda (Hybrid (ours), Transformer (paper))" in page
+
+    # a part on other benches (seeds) is not merged: the newer run stands alone
+    out2 = tmp_path / "curve2" / "learning_curve.json"
+    assemble(tmp_path / "cpu", [1.0], out2)
+    _finished_run(run_dir(tmp_path / "other", 1.0), 1.0, 0.3, 0.6, seeds=(3, 4),
+                  models=["hybrid", "transformer"])
+    alone = assemble(tmp_path / "other", [1.0], out2)
+    assert alone["points"] == [] and alone["partial"][0]["seeds"] == [3, 4]
+    assert set(alone["partial"][0]["models"]) == {HYBRID, TRANSFORMER}
+
+
 def test_the_table_says_which_recipe_settings_each_scale_trained_with(tmp_path):
     """A recipe change retrains the model at the scales run after it: the page names the
     settings per scale, so a curve across the change is not read as one recipe's."""
@@ -100,7 +142,7 @@ def test_the_table_says_which_recipe_settings_each_scale_trained_with(tmp_path):
                   hybrid_optimiser={"max_epochs": 300, "chunk_supervised": 25})
     curve = assemble(work, [0.05, 0.1], out)
     assert curve["points"][1]["optimiser"] == {
-        HYBRID: [{"max_epochs": 300, "chunk_supervised": 25}], TRANSFORMER: [{}]}
+        HYBRID: [{"max_epochs": 300, "chunk_supervised": 25}], TRANSFORMER: [{}], "FCN": [{}]}
     page = (out.parent / "README.md").read_text()
     assert ('- Hybrid (ours): `{"max_epochs": 300}` at scale 0.05; '
             '`{"chunk_supervised": 25, "max_epochs": 300}` at scale 0.1') in page
