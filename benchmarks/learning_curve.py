@@ -29,7 +29,7 @@ cores (``--threads 1``) or a GPU, one call finishes a scale:
 ``--device cuda`` trains a scale's run on a GPU. A run's networks train on one device (each
 task's cache key holds it, so a CPU call does not reuse a GPU run's tasks); the closed-form
 MultiRocket-Hydra fits on the CPU in either (:func:`hybrid.reproduce.task_device`). The point
-records its device and the table shows it.
+records the device of each model's networks and the table shows it.
 
 The JSON holds, per scale, the minutes of training recordings (the automated training split,
 validation included, at the bench's rate), each model's causal and paper NRMSE per axis (mean,
@@ -175,12 +175,14 @@ def devices(p: dict) -> dict:
 
 
 def merge(a: dict, b: dict) -> dict | None:
-    """One point from two parts at one scale on the same benches (seeds, simulator), ``b``'s
-    models replacing ``a``'s; None when the benches differ. The models of one bench seed train
-    independently (each task's cache key holds all it depends on), so parts run apart, on
-    other machines too, are one run's results."""
-    if (a["scale"], a["seeds"], a["simulator_versions"]) != (
-            b["scale"], b["seeds"], b["simulator_versions"]):
+    """One point from two parts at one scale on the same benches (seeds, simulator version and
+    amount of training recordings), ``b``'s models replacing ``a``'s; None when the benches
+    differ. The models of one bench seed train independently (each task's cache key holds all
+    it depends on), so parts run apart, on other machines too, are one run's results."""
+    def bench(p: dict) -> tuple:
+        return p["scale"], p["seeds"], p["simulator_versions"], round(p["training_minutes"], 6)
+
+    if bench(a) != bench(b):
         return None
     models = {**a["models"], **b["models"]}
     a_kept = set(a["models"]) - set(b["models"])
