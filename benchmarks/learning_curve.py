@@ -459,7 +459,8 @@ def assemble(work: Path, scales, json_path: Path, models=MODELS) -> dict:
     for s in scales:
         here = point(run_dir(work, s)) if finished(run_dir(work, s)) else None
         p = kept.get(s) if here is None else here if s not in kept else (
-            here if complete(here, models) else merge(kept[s], here) or here)
+            here if complete(here, models) else merge(kept[s], here)
+            or (kept[s] if complete(kept[s], models) else here))  # a part never drops a point
         if p is not None:
             (points if complete(p, models) else partial).append(p)
     done = {p["scale"] for p in points}

@@ -132,6 +132,11 @@ def test_parts_of_a_point_run_apart_on_the_same_benches_make_the_point(tmp_path)
     assert alone["points"] == [] and alone["partial"][0]["seeds"] == [3, 4]
     assert set(alone["partial"][0]["models"]) == {HYBRID, TRANSFORMER}
 
+    # nor does a part on other benches replace a whole point
+    _finished_run(run_dir(tmp_path / "more", 1.0), 1.0, 0, 0, seeds=(5, 6), models=["fcn"])
+    kept = assemble(tmp_path / "more", [1.0], out)
+    assert kept["points"] == whole["points"] and kept["partial"] == []
+
 
 def test_the_table_says_which_recipe_settings_each_scale_trained_with(tmp_path):
     """A recipe change retrains the model at the scales run after it: the page names the
