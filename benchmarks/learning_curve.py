@@ -340,7 +340,7 @@ def table(curve: dict) -> str:
              "of data); NRMSE % on the test trials, mean ± std over bench seeds; causal = the "
              "raw per-sample estimate a haptic loop gets, paper = the paper's offline "
              "post-processing. Figures: one per axis, causal metric, beside this page.", ""]
-    shown = sorted(curve["points"] + curve.get("partial", []), key=lambda p: p["scale"])
+    shown = _shown(curve)
     if not shown:
         return "\n".join(lines + ["No scale has finished yet.", ""])
     for m in METRICS:
@@ -376,6 +376,11 @@ def table(curve: dict) -> str:
     return "\n".join(lines)
 
 
+def _shown(curve: dict) -> list[dict]:
+    """The points and the partial points, by scale: what the table and the figures show."""
+    return sorted(curve["points"] + curve.get("partial", []), key=lambda p: p["scale"])
+
+
 def _devices_text(p: dict) -> str:
     """"cuda", or per device the networks trained on it where a point's parts differ."""
     by_device: dict[str, list[str]] = {}
@@ -393,10 +398,10 @@ def figures(curve: dict, folder: Path) -> list[str]:
     import matplotlib.pyplot as plt
     from matplotlib.ticker import FuncFormatter
     written = []
+    shown = _shown(curve)
+    labels = sorted({label for p in shown for label in p["models"]})
     for a in AXES:
         fig, ax = plt.subplots(figsize=(7.5, 4), layout="constrained")
-        shown = sorted(curve["points"] + curve.get("partial", []), key=lambda p: p["scale"])
-        labels = sorted({label for p in shown for label in p["models"]})
         for label in labels:
             pts = [p for p in shown if label in p["models"]]
             x = [p["training_minutes"] for p in pts]
