@@ -25,7 +25,6 @@ import numpy as np
 
 import psm_model.sim.protocols as protocols
 
-from ..bags.writing import RECEIVE_LATENCY_NS, write_bag
 from ..conventions import GRAVITY_UPRIGHT_MPS2
 from ..files import write_text_atomic
 from ..recording import OVERLOAD, TIME, write_recording
@@ -166,6 +165,7 @@ def simulate(protocol: str = "automated", scale: float = 1.0, seed: int = 0, out
         if fmt == "csv":
             write_recording(frame, target)
         else:
+            from ..bags.writing import write_bag  # the bag stack (rosbags) only for MCAP
             target = target.with_suffix("")
             topics = write_bag(frame, target, start_ns=bag_start_ns)
             bag_start_ns += int(round((frame[TIME].iat[-1] + BAG_TRIAL_PAUSE_S) * 1e9))
@@ -203,6 +203,7 @@ def simulate(protocol: str = "automated", scale: float = 1.0, seed: int = 0, out
 def _bag_session(path: Path, topics: dict[str, str]) -> dict:
     """``fmt="mcap"``: write the ATI fixture calibration a lab would hold (R_ati_PSM, the PSM base
     axes in the ATI frame: the transpose of R_base_ati) and describe the bags for metadata.json."""
+    from ..bags.writing import RECEIVE_LATENCY_NS
     write_text_atomic(path / R_ATI_PSM_FILE, json.dumps(protocols.R_BASE_ATI.T.tolist()) + "\n")
     return {
         "storage": "ROS 2 bag, MCAP (one folder per trial: metadata.yaml + .mcap)",
