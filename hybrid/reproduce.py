@@ -46,7 +46,7 @@ import subprocess
 import sys
 import time
 from pathlib import Path
-from typing import Callable, Sequence
+from typing import Callable, Iterable, Sequence
 
 import numpy as np
 import torch
@@ -56,7 +56,7 @@ from hybrid.contract import is_chunk
 from hybrid.data import Dataset, Trial, load_dataset, split_validation, subsample_trials
 from hybrid.evaluate import (EVAL_START, floor_metrics, predict_trial, score_modes,
                              scored_segment)
-from hybrid.grid import run_grid
+from hybrid.grid import cache_path, run_grid
 from hybrid.metrics import POSTPROCESSING, axis_metrics, lowpass_lag_samples
 from hybrid.models import count_parameters
 from hybrid.plan import plan
@@ -128,17 +128,32 @@ def _simulate_task(p: dict) -> dict:
     return {k: v for k, v in summary.items() if k in ("rows", "minutes", "seconds", "trials")}
 
 
+def _bench_on_disk(p: dict) -> bool:
+    """Whether a simulate task's bench (and, for the automated one, its prior) is on disk."""
+    return ((_data_dir(p["run_dir"], p["protocol"], p["seed"]) / "metadata.json").is_file()
+            and (p["protocol"] != "automated" or _prior_path(p["run_dir"], p["seed"]).is_file()))
+
+
 def _automated_split(ds: Dataset, seed: int) -> tuple[list[Trial], list[Trial]]:
     return split_validation(ds.select(split="train"), 0.1, seed)
 
 
-def _load(run_dir: str, protocol: str, seed: int) -> Dataset:
-    """A bench of the run with every derived column (:data:`hybrid.recipes.DERIVATIONS`)."""
+def _load(run_dir: str, protocol: str, seed: int,
+          derivations: Iterable[str] = tuple(DERIVATIONS)) -> Dataset:
+    """A bench of the run with the derived columns of ``derivations`` (keys of
+    :data:`hybrid.recipes.DERIVATIONS`; default every one). A task asks only for what its models
+    read: the LSTM's Jacobian maps, a wrench solve per sample, cost more than reading the
+    recordings, so deriving them for every model slowed each task's start on a large bench."""
     ds = load_dataset(_data_dir(run_dir, protocol, seed))
     prior_json = _prior_path(run_dir, seed).read_text()
-    for derive in DERIVATIONS.values():
-        derive(ds, prior_json)
+    for name in dict.fromkeys(derivations):
+        DERIVATIONS[name](ds, prior_json)
     return ds
+
+
+def _derivation(model: str, variant: str) -> str:
+    """The derivation (a key of :data:`hybrid.recipes.DERIVATIONS`) a variant of a model reads."""
+    return recipe(model).inputs(*_request(variant)).derivation
 
 
 def _request(variant: str) -> tuple[str | None, bool]:
@@ -208,7 +223,7 @@ def _pretrain_task(p: dict) -> dict:
     """Train one (model, seed, variant, fraction) on the automated bench, save its checkpoint,
     score it on the automated test set."""
     torch.set_num_threads(p["threads"])
-    ds = _load(p["run_dir"], "automated", p["seed"])
+    ds = _load(p["run_dir"], "automated", p["seed"], (_derivation(p["model"], p["variant"]),))
     train, val = _automated_split(ds, p["seed"])
     if p["fraction"] < 1:
         train = subsample_trials(train, p["fraction"], p["seed"])
@@ -222,10 +237,10 @@ def _pretrain_task(p: dict) -> dict:
     setup.provenance = {"reproduce": p, "train_trials": [t.path for t in train],
                         "val_trials": [t.path for t in val], "history": rep["history"]}
     setup.save(path)
-    clear_state(resume)
+    test = _scores(setup, ds.select(split="test"), p["device"])
+    clear_state(resume)  # only now: a task killed while scoring resumes its finished training
     return {"training": _training_summary(rep) | {"optimiser": p["recipe"]["optimiser"]},
-            "checkpoint": str(path.relative_to(p["run_dir"])),
-            "test": _scores(setup, ds.select(split="test"), p["device"])}
+            "checkpoint": str(path.relative_to(p["run_dir"])), "test": test}
 
 
 def _teleop_folds(tele: Dataset) -> list[dict]:
@@ -253,7 +268,7 @@ def _finetune_task(p: dict) -> dict:
     pretrained scalers, trained to early stopping) and score it per condition, seen and unseen."""
     torch.set_num_threads(p["threads"])
     ckpt = load_checkpoint(_checkpoint(p["run_dir"], {**p, "variant": "full", "fraction": 1.0}))
-    tele = _load(p["run_dir"], "teleop", p["seed"])
+    tele = _load(p["run_dir"], "teleop", p["seed"], (ckpt.derivation,))
     fold = next(f for f in _teleop_folds(tele) if f["unseen"] == p["fold"])
     ft_train, ft_val = split_validation(fold["train"], 0.25, p["seed"])
     resume = Path(p["run_dir"]) / "resume" / (f"finetune_{p['model']}_{p['fold']}_seed{p['seed']}_"
@@ -293,7 +308,9 @@ def prepare_benches(out: str | Path, scale: float, seeds: Sequence[int], *, tele
     its fitted prior, and the teleoperation one when ``teleop``) and score their evaluation
     floors, the first stage of :func:`reproduce`; returns the floors per seed. With no seeds,
     only claims ``out`` for the bench (scale, port), so calls for different seeds may then run
-    at once; one seed must not be prepared by two calls at once (both would write its bench)."""
+    at once; one seed must not be prepared by two calls at once (both would write its bench).
+    A run folder moved without its benches (``work/data``, nearly all of its bytes) to another
+    machine gets them simulated again from their seeds, so an unfinished run travels light."""
     from psm_model.sim.dataset import check_scale_and_seed
     from psm_model.sim.port import port_by_name
     say = log or (lambda s: print(s, flush=True))
@@ -313,10 +330,14 @@ def prepare_benches(out: str | Path, scale: float, seeds: Sequence[int], *, tele
     call_file.parent.mkdir(parents=True, exist_ok=True)
     write_text_atomic(call_file, json.dumps(bench))
     run_dir, cache = str((out / "work").resolve()), out / "work" / "cache"
-    run_grid([(_simulate_task, {"run_dir": run_dir, "protocol": proto, "seed": s, **bench})
-              for s in seeds
-              for proto in ("automated",) + (("teleop",) if teleop else ())],
-             cache, ray_address=ray_address, log=say)
+    benches = [(_simulate_task, {"run_dir": run_dir, "protocol": proto, "seed": s, **bench})
+               for s in seeds for proto in ("automated",) + (("teleop",) if teleop else ())]
+    for task, p in benches:  # a run moved without its benches: the seeds simulate them again
+        done = cache_path(cache, task, p)
+        if done.exists() and not _bench_on_disk(p):
+            say(f"bench {p['protocol']} seed {p['seed']} is not in {run_dir}: simulating it again")
+            done.unlink()
+    run_grid(benches, cache, ray_address=ray_address, log=say)
     return run_grid([(_floor_task, {"run_dir": run_dir, "seed": s, "teleop": teleop})
                      for s in seeds], cache, log=say)
 
@@ -536,12 +557,13 @@ def _figures(out: Path, run_dir: str, seed: int, models, pre_by, checkpoints) ->
     from hybrid.plots import (plot_ablation_boxes, plot_hex10_vs_ati, plot_learning_curves,
                               plot_scatter, plot_time_series)
     fig_dir = out / "figures"
-    test = _load(run_dir, "automated", seed).select(split="test")
+    ckpts = {m: load_checkpoint(checkpoints[(m, "full", 1.0, seed)]) for m in models}
+    test = _load(run_dir, "automated", seed,
+                 [c.derivation for c in ckpts.values()]).select(split="test")
     plot_hex10_vs_ati(test, fig_dir / "hex10_vs_ati_histograms.png")
     if models:
         segments = {}
-        for m in models:
-            ckpt = load_checkpoint(checkpoints[(m, "full", 1.0, seed)])
+        for m, ckpt in ckpts.items():
             bias = ckpt.recipe.bias_correction
             segments[plan(m).label] = {t.path: scored_segment(predict_trial(ckpt, t), t,
                                                               bias=bias) for t in test}

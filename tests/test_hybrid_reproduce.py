@@ -6,6 +6,7 @@ import dataclasses
 import importlib.util
 import json
 import shutil
+from pathlib import Path
 
 import pandas as pd
 import pytest
@@ -177,3 +178,84 @@ def test_reproduce_on_a_bench_with_a_port(tmp_path):
 def test_only_the_networks_follow_the_runs_device():
     assert task_device("hybrid", "cuda") == "cuda" and task_device("fcn", "cpu") == "cpu"
     assert task_device("rocket", "cuda") == "cpu"   # MultiRocket-Hydra fits in closed form
+
+
+def test_a_task_derives_only_the_columns_its_model_reads(tmp_path):
+    """``_load`` adds the derived columns asked for and no others (the LSTM's Jacobian maps are
+    the costly ones), and each model's pretraining asks for its recipe's derivation."""
+    from hybrid.reproduce import _derivation, _load, prepare_benches
+    prepare_benches(tmp_path / "run", 0.01, (1,), teleop=False, log=lambda _: None)
+    run = str((tmp_path / "run" / "work").resolve())
+
+    def columns(derivations):
+        return set(_load(run, "automated", 1, derivations).trials[0].frame.columns)
+
+    recorded, every = columns(()), columns(("none", "lstm", "prior"))
+    lstm, prior = columns(("lstm",)) - recorded, columns(("prior",)) - recorded
+    assert lstm and prior and not lstm & prior
+    assert set(_load(run, "automated", 1).trials[0].frame.columns) == every == recorded | lstm | prior
+    assert _derivation("lstm", "full") == "lstm"
+    assert _derivation("hybrid", "full") == "prior" and _derivation("hybrid", "no_prior") == "none"
+    assert _derivation("transformer", "full") == RECIPES["transformer"].inputs().derivation
+
+
+def test_a_task_killed_while_scoring_resumes_its_finished_training(tmp_path, monkeypatch):
+    """The training state is cleared only once the test scores are in: a task that dies while
+    scoring (a session's end) reruns no epoch, and ends as an uninterrupted run does."""
+    import io
+
+    import torch
+
+    import hybrid.reproduce as rep
+    kw = dict(scale=0.01, seeds=(1,), budget="quick", models=("fcn",), ablations=False,
+              efficiency=False, teleop=False, log=lambda _: None)
+    whole = reproduce(tmp_path / "whole", **kw)
+    scores = rep._scores
+
+    def killed(*args, **kwargs):
+        raise KeyboardInterrupt("killed while scoring")
+
+    monkeypatch.setattr(rep, "_scores", killed)
+    with pytest.raises(KeyboardInterrupt):
+        reproduce(tmp_path / "run", **kw)
+    [state] = (tmp_path / "run" / "work" / "resume").glob("*.state")
+    saved = torch.load(io.BytesIO(torch.load(state, weights_only=True)["payload"]),
+                       weights_only=True)["history"]
+    monkeypatch.setattr(rep, "_scores", scores)
+    again = reproduce(tmp_path / "run", **kw)
+    assert not state.exists()
+    assert again["automated"] == whole["automated"]
+
+    def history(run):
+        [task] = (tmp_path / run / "work" / "cache").glob("pretrain_task-*.json")
+        return json.loads(task.read_text())["result"]["training"]["history"]
+
+    resumed = history("run")   # the saved epochs' own wall-clock stamps: none trained again
+    assert [h["elapsed_s"] for h in resumed] == [h["elapsed_s"] for h in saved]
+    assert ([(h["train_loss"], h["val_loss"]) for h in resumed]
+            == [(h["train_loss"], h["val_loss"]) for h in history("whole")])
+
+
+def test_a_run_moved_without_its_benches_simulates_them_again(tmp_path):
+    """Only the benches are large: a run folder copied without ``work/data`` has each seed's
+    bench simulated again (byte for byte here) and its prior fitted again (the same parameters;
+    only the fit's wall time differs), not trusted from the cache."""
+    from hybrid.reproduce import prepare_benches
+    logs: list[str] = []
+    prepare_benches(tmp_path / "run", 0.01, (1,), teleop=False, log=logs.append)
+    data = tmp_path / "run" / "work" / "data"
+
+    def bench():
+        files = {p.relative_to(data): p.read_bytes() for p in data.rglob("*") if p.is_file()}
+        prior = json.loads(files.pop(Path("prior_seed1.json")))
+        return files, {k: v for k, v in prior.items() if k not in ("info", "sha256")}
+
+    before = bench()
+    shutil.rmtree(data)
+    logs.clear()
+    prepare_benches(tmp_path / "run", 0.01, (1,), teleop=False, log=logs.append)
+    assert any("simulating it again" in line for line in logs)
+    assert bench() == before
+    logs.clear()   # with its bench on disk, nothing runs again
+    prepare_benches(tmp_path / "run", 0.01, (1,), teleop=False, log=logs.append)
+    assert not any("simulating" in line or line.endswith(" 1 to run") for line in logs)
