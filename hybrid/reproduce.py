@@ -412,7 +412,8 @@ def reproduce(out: str | Path, scale: float = 0.1, seeds: Sequence[int] = (1, 2,
     torch_models = [m for m in models if not recipe(m).closed_form]
     results["timing"] = _timing({plan(m).label: checkpoints[(m, "full", 1.0, seeds[0])]
                                  for m in torch_models})
-    results["figures"] = _figures(out, run_dir, seeds[0], torch_models, pre_by, checkpoints)
+    results["figures"] = _figures(out, run_dir, seeds[0], torch_models, pre_by, checkpoints,
+                                  device)
     write_text_atomic(out / "results.json", json.dumps(results, indent=1) + "\n")
     write_text_atomic(out / "learning_curves.json", json.dumps(_curves(pre_specs, pre), indent=1))
     write_text_atomic(out / "results.md", results_markdown(results))
@@ -550,14 +551,17 @@ def _timing(checkpoints: dict, reps: int = 300) -> dict:
     return out
 
 
-def _figures(out: Path, run_dir: str, seed: int, models, pre_by, checkpoints) -> list[str]:
+def _figures(out: Path, run_dir: str, seed: int, models, pre_by, checkpoints,
+             device: str = "cpu") -> list[str]:
     """Time series, scatter and histogram of the first seed's models on its automated test set,
     and the learning curves of every pretraining (``models``: the trained networks; a run of
-    closed-form models alone gets the sensor histogram only)."""
+    closed-form models alone gets the sensor histogram only). The networks predict on the run's
+    ``device``: the paper transformer over a paper-scale test set is minutes on a CPU."""
     from hybrid.plots import (plot_ablation_boxes, plot_hex10_vs_ati, plot_learning_curves,
                               plot_scatter, plot_time_series)
     fig_dir = out / "figures"
-    ckpts = {m: load_checkpoint(checkpoints[(m, "full", 1.0, seed)]) for m in models}
+    ckpts = {m: load_checkpoint(checkpoints[(m, "full", 1.0, seed)], task_device(m, device))
+             for m in models}
     test = _load(run_dir, "automated", seed,
                  [c.derivation for c in ckpts.values()]).select(split="test")
     plot_hex10_vs_ati(test, fig_dir / "hex10_vs_ati_histograms.png")
@@ -565,8 +569,9 @@ def _figures(out: Path, run_dir: str, seed: int, models, pre_by, checkpoints) ->
         segments = {}
         for m, ckpt in ckpts.items():
             bias = ckpt.recipe.bias_correction
-            segments[plan(m).label] = {t.path: scored_segment(predict_trial(ckpt, t), t,
-                                                              bias=bias) for t in test}
+            on = task_device(m, device)
+            segments[plan(m).label] = {t.path: scored_segment(predict_trial(ckpt, t, device=on),
+                                                              t, bias=bias) for t in test}
         plot_time_series(segments, test, fig_dir / "automated_time_series.png")
         plot_scatter(segments, fig_dir / "automated_scatter.png")
         curves = {plan(m).label: [pre_by[k]["training"]["history"] for k in pre_by

@@ -180,26 +180,37 @@ def test_only_the_networks_follow_the_runs_device():
     assert task_device("rocket", "cuda") == "cpu"   # MultiRocket-Hydra fits in closed form
 
 
-def test_a_task_derives_only_the_columns_its_model_reads(tmp_path):
+TINY = dict(scale=0.01, seeds=(1,), budget="quick", models=("fcn",), ablations=False,
+            efficiency=False, teleop=False, log=lambda _: None)
+
+
+@pytest.fixture(scope="module")
+def tiny_run(tmp_path_factory):
+    """One FCN seed on a tiny bench, trained uninterrupted: (run folder, results)."""
+    run = tmp_path_factory.mktemp("tiny") / "run"
+    return run, reproduce(run, **TINY)
+
+
+def test_a_task_derives_only_the_columns_its_model_reads(tiny_run):
     """``_load`` adds the derived columns asked for and no others (the LSTM's Jacobian maps are
     the costly ones), and each model's pretraining asks for its recipe's derivation."""
-    from hybrid.reproduce import _derivation, _load, prepare_benches
-    prepare_benches(tmp_path / "run", 0.01, (1,), teleop=False, log=lambda _: None)
-    run = str((tmp_path / "run" / "work").resolve())
+    from hybrid.reproduce import _derivation, _load
+    run = str((tiny_run[0] / "work").resolve())
 
     def columns(derivations):
         return set(_load(run, "automated", 1, derivations).trials[0].frame.columns)
 
-    recorded, every = columns(()), columns(("none", "lstm", "prior"))
+    recorded = columns(())
     lstm, prior = columns(("lstm",)) - recorded, columns(("prior",)) - recorded
     assert lstm and prior and not lstm & prior
-    assert set(_load(run, "automated", 1).trials[0].frame.columns) == every == recorded | lstm | prior
+    assert set(_load(run, "automated", 1).trials[0].frame.columns) == recorded | lstm | prior
     assert _derivation("lstm", "full") == "lstm"
     assert _derivation("hybrid", "full") == "prior" and _derivation("hybrid", "no_prior") == "none"
     assert _derivation("transformer", "full") == RECIPES["transformer"].inputs().derivation
 
 
-def test_a_task_killed_while_scoring_resumes_its_finished_training(tmp_path, monkeypatch):
+def test_a_task_killed_while_scoring_resumes_its_finished_training(tiny_run, tmp_path,
+                                                                    monkeypatch):
     """The training state is cleared only once the test scores are in: a task that dies while
     scoring (a session's end) reruns no epoch, and ends as an uninterrupted run does."""
     import io
@@ -207,9 +218,7 @@ def test_a_task_killed_while_scoring_resumes_its_finished_training(tmp_path, mon
     import torch
 
     import hybrid.reproduce as rep
-    kw = dict(scale=0.01, seeds=(1,), budget="quick", models=("fcn",), ablations=False,
-              efficiency=False, teleop=False, log=lambda _: None)
-    whole = reproduce(tmp_path / "whole", **kw)
+    kw, (whole_run, whole) = TINY, tiny_run
     scores = rep._scores
 
     def killed(*args, **kwargs):
@@ -227,13 +236,13 @@ def test_a_task_killed_while_scoring_resumes_its_finished_training(tmp_path, mon
     assert again["automated"] == whole["automated"]
 
     def history(run):
-        [task] = (tmp_path / run / "work" / "cache").glob("pretrain_task-*.json")
+        [task] = (run / "work" / "cache").glob("pretrain_task-*.json")
         return json.loads(task.read_text())["result"]["training"]["history"]
 
-    resumed = history("run")   # the saved epochs' own wall-clock stamps: none trained again
+    resumed = history(tmp_path / "run")   # the saved epochs' own wall-clock stamps: none again
     assert [h["elapsed_s"] for h in resumed] == [h["elapsed_s"] for h in saved]
     assert ([(h["train_loss"], h["val_loss"]) for h in resumed]
-            == [(h["train_loss"], h["val_loss"]) for h in history("whole")])
+            == [(h["train_loss"], h["val_loss"]) for h in history(whole_run)])
 
 
 def test_a_run_moved_without_its_benches_simulates_them_again(tmp_path):
@@ -259,3 +268,23 @@ def test_a_run_moved_without_its_benches_simulates_them_again(tmp_path):
     logs.clear()   # with its bench on disk, nothing runs again
     prepare_benches(tmp_path / "run", 0.01, (1,), teleop=False, log=logs.append)
     assert not any("simulating" in line or line.endswith(" 1 to run") for line in logs)
+
+
+def test_the_figures_networks_predict_on_the_runs_device(tiny_run, tmp_path, monkeypatch):
+    """The figures' predictions over the first seed's test set run where the networks trained
+    (a transformer over a paper-scale test set is minutes on a CPU): checked with the device
+    recorded and the work done on the CPU, which is all this machine may have."""
+    import hybrid.reproduce as rep
+    asked = []
+    load, predict = rep.load_checkpoint, rep.predict_trial
+    monkeypatch.setattr(rep, "load_checkpoint",
+                        lambda path, device="cpu": asked.append(("load", device)) or load(path))
+    monkeypatch.setattr(rep, "predict_trial", lambda ckpt, trial, device="cpu": asked.append(
+        ("predict", device)) or predict(ckpt, trial))
+    run = tiny_run[0]
+    work = str((run / "work").resolve())
+    checkpoints = {("fcn", "full", 1.0, 1): next((run / "work" / "checkpoints").glob("fcn_*.pt"))}
+    [task] = (run / "work" / "cache").glob("pretrain_task-*.json")
+    pre_by = {("fcn", "full", 1.0, 1): json.loads(task.read_text())["result"]}
+    rep._figures(tmp_path, work, 1, ["fcn"], pre_by, checkpoints, "cuda")
+    assert set(asked) == {("load", "cuda"), ("predict", "cuda")}
