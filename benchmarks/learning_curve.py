@@ -450,6 +450,20 @@ def complete(p: dict, models=MODELS) -> bool:
     return set(models) <= set(p.get("model_names", models))
 
 
+def _combined(kept: dict | None, here: dict | None, models) -> dict | None:
+    """A scale's point from the JSON's (``kept``) and this machine's run (``here``): the run's
+    when it is whole or nothing is kept, both merged when they are parts on the same benches;
+    else the kept one if it is whole (a part never drops a point), else the run's."""
+    if here is None or kept is None:
+        return here or kept
+    if complete(here, models):
+        return here
+    merged = merge(kept, here)
+    if merged is not None:
+        return merged
+    return kept if complete(kept, models) else here
+
+
 def assemble(work: Path, scales, json_path: Path, models=MODELS) -> dict:
     """The curve over every scale of :data:`SCALES` and ``scales``: a point from each finished
     run under ``work``, merged (:func:`merge`) with the part of that scale the JSON at
@@ -463,9 +477,7 @@ def assemble(work: Path, scales, json_path: Path, models=MODELS) -> dict:
     points, partial = [], []
     for s in scales:
         here = point(run_dir(work, s)) if finished(run_dir(work, s)) else None
-        p = kept.get(s) if here is None else here if s not in kept else (
-            here if complete(here, models) else merge(kept[s], here)
-            or (kept[s] if complete(kept[s], models) else here))  # a part never drops a point
+        p = _combined(kept.get(s), here, models)
         if p is not None:
             (points if complete(p, models) else partial).append(p)
     done = {p["scale"] for p in points}
