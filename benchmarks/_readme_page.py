@@ -7,6 +7,7 @@ from __future__ import annotations
 from benchmarks._identification_page import LEARNED_BASELINES, MODEL_NAMES
 from benchmarks._report import spread_cell
 from benchmarks._results_page import PRIOR_VARIANTS, SIMULATOR_NOT_RECORDED
+from benchmarks.learning_curve import paper_budget
 from hybrid.tables import compare
 
 
@@ -144,5 +145,4 @@ def current_bench_summary(result: dict) -> str:
             "to early stopping; `results/learning_curve/`), the hybrid's causal error against "
             f"the transformer's: {at_scale}. Scales not yet measured: "
             + (", ".join(f"{s:g}" for s in result["missing_scales"]) or "none")
-            + (" (1 = the paper's amount of data: no claim is made for it yet)."
-               if 1.0 in result["missing_scales"] else ".") + "\n")
+            + ". " + paper_budget(result) + "\n")

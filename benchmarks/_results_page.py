@@ -11,7 +11,13 @@ the other's mean - std).
 from __future__ import annotations
 
 from benchmarks._report import spread_cell
-from benchmarks.learning_curve import HYBRID, TRANSFORMER, settings_lines, standing
+from benchmarks.learning_curve import (
+    HYBRID,
+    TRANSFORMER,
+    paper_budget,
+    settings_lines,
+    standing,
+)
 from hybrid.tables import compare, verdicts
 
 AXES = ("Fx", "Fy", "Fz")
@@ -124,9 +130,7 @@ def learning_curve(curve: dict) -> str:
     largest = max((p["scale"] for p in curve["points"]), default=None)
     lines += ["", f"Measured up to scale {largest:g} of the paper's data; not yet: "
               + (", ".join(f"{s:g}" for s in curve["missing_scales"]) or "none")
-              + ". What holds at the paper's own budget (scale 1) is "
-              + ("measured above." if 1.0 not in curve["missing_scales"] else
-                 "not measured yet: no claim is made for it."), ""]
+              + ". " + paper_budget(curve), ""]
     return "\n".join(lines)
 
 

@@ -66,6 +66,8 @@ METRICS = ("causal", "paper")
 HYBRID, TRANSFORMER = "Hybrid (ours)", "Transformer (paper)"
 EFFICIENCY_SCALE = 0.1
 """The scale whose hybrid error the transformer's data needs are measured against (issue 28)."""
+PAPER_SCALE = 1.0
+"""The paper's amount of training data: the scale the curve's headline claim is made at."""
 
 
 def run_dir(work: Path, scale: float) -> Path:
@@ -329,6 +331,36 @@ def standing(curve: dict) -> list[str]:
                      + ("" if e["bound"] == "interpolated" else e["bound"] + " ")
                      + f"{e['ratio']:.1f}x the data.")
     return lines
+
+
+def _against(h: dict, other: dict) -> str:
+    """The hybrid's mean error over another model's, with the spread rule's verdict."""
+    verdict = {-1: "hybrid ahead", 0: "tie", 1: "hybrid behind"}[compare(h, other)]
+    return f"{h['mean'] / other['mean']:.2f}x ({verdict})"
+
+
+def paper_budget(curve: dict) -> str:
+    """One sentence: the hybrid against every other model at the paper's amount of data
+    (:data:`PAPER_SCALE`), per axis, causal, and against the transformer on the paper's metric
+    too; or that nothing is claimed there while the point is not whole."""
+    at = [p for p in curve["points"] if p["scale"] == PAPER_SCALE]
+    if not at:
+        return (f"At the paper's own budget (scale {PAPER_SCALE:g}) the hybrid against the "
+                "transformer is not measured yet: no claim is made for it.")
+    p = at[0]
+    hybrid = p["models"][HYBRID]
+
+    def row(label: str, metric: str) -> str:
+        return f"{label} " + ", ".join(
+            f"{a} {_against(hybrid[metric][a], p['models'][label][metric][a])}" for a in AXES)
+
+    others = [TRANSFORMER] + sorted(set(p["models"]) - {HYBRID, TRANSFORMER})
+    return (f"At the paper's own budget (scale {PAPER_SCALE:g}, {p['training_minutes']:.0f} min "
+            f"of training data, {len(p['seeds'])} seeds"
+            + ("" if p["all_converged"] else ", NOT every run converged")
+            + "), the hybrid's causal error over each model's: "
+            + "; ".join(row(label, "causal") for label in others)
+            + f". On the paper's offline metric: {row(TRANSFORMER, 'paper')}.")
 
 
 def table(curve: dict) -> str:
