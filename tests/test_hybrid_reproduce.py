@@ -113,6 +113,12 @@ def test_reproduce_resumes_and_reports_convergence(tmp_path, monkeypatch):
     a run at another scale is refused."""
     logs: list[str] = []
     rocket = ("rocket",) if importlib.util.find_spec("aeon") else ()
+    if rocket:  # the fewest kernels and windows it takes: the grid's path, not the regressor, is
+        # under test here (tests/test_rocket.py tests the regressor at its own sizes)
+        small = dict(n_kernels_multirocket=84, n_kernels_hydra=16, max_train_windows=2000)
+        build = RECIPES["rocket"].build
+        monkeypatch.setitem(RECIPES, "rocket", dataclasses.replace(
+            RECIPES["rocket"], build=lambda n, config: build(n, {**small, **config})))
     kw = dict(scale=0.01, seeds=(1, 2), budget="quick", models=("fcn", "hybrid") + rocket,
               ablations=False, efficiency=False, teleop=False)
     r = reproduce(tmp_path / "run", log=logs.append, **kw)
