@@ -16,7 +16,7 @@ disjoint ``--seeds`` or ``--models`` and a ``--json`` of their own under ``runs/
 are done, the full call finds every task cached, writes the point, and ``--render-only`` renders
 it. A call for some of the models over the seeds is a part of the point, and the JSON keeps it:
 a later call for the other models on the same seeds, on another machine too, completes the point
-(:func:`merge`). A point already in the JSON is kept when its run is not under ``--work``
+(:func:`merge`) when its benches are the same files (their digests are in the point). A point already in the JSON is kept when its run is not under ``--work``
 (``runs/`` is not committed).
 
 ``--lanes N`` does that split itself: each seed's bench (simulation, prior, floor) first, one
@@ -45,6 +45,7 @@ the spread as error bars) beside it from the finished runs under ``--work``, tra
 from __future__ import annotations
 
 import argparse
+import hashlib
 import json
 import math
 import subprocess
@@ -138,6 +139,22 @@ def _training_minutes(out: Path, seeds) -> float:
     return sum(minutes) / len(minutes)
 
 
+def bench_digests(out: Path, seeds) -> dict[str, str]:
+    """Per seed, the SHA-256 of its automated bench's files (relative paths and contents): two
+    parts of a point are one run's results only on identical files, and a bench simulated again
+    from its seed on another machine (other library versions) need not be."""
+    digests = {}
+    for seed in seeds:
+        folder = out / "work" / "data" / f"automated_seed{seed}"
+        total = hashlib.sha256()
+        for f in sorted(q for q in folder.rglob("*") if q.is_file()):
+            with open(f, "rb") as fh:
+                total.update(f.relative_to(folder).as_posix().encode() + b"\0"
+                             + hashlib.file_digest(fh, "sha256").digest())
+        digests[str(seed)] = total.hexdigest()
+    return digests
+
+
 def point(out: Path) -> dict:
     """One finished run's point of the curve (or its part, when the run holds some models of
     the curve only: ``model_names``)."""
@@ -153,6 +170,7 @@ def point(out: Path) -> dict:
             "devices": {_label(m): call["device"] for m in call["models"]
                         if not recipe(m).closed_form},
             "training_minutes": _training_minutes(out, seeds),
+            "bench_sha256": bench_digests(out, seeds),
             "simulator_versions": sorted(set(results["benches"].values())),
             "all_converged": results["all_converged"], "models": models,
             "stopped": _stopped(results.get("training", {})),
@@ -177,18 +195,21 @@ def devices(p: dict) -> dict:
 
 
 def merge(a: dict, b: dict) -> dict | None:
-    """One point from two parts at one scale on the same benches (seeds, simulator version and
-    amount of training recordings), ``b``'s models replacing ``a``'s; None when the benches
+    """One point from two parts at one scale on the same benches (seeds, simulator version,
+    amount of training recordings and, where both parts hold them, the digests of the bench
+    files: :func:`bench_digests`), ``b``'s models replacing ``a``'s; None when the benches
     differ. The models of one bench seed train independently (each task's cache key holds all
     it depends on), so parts run apart, on other machines too, are one run's results."""
     def bench(p: dict) -> tuple:
         return p["scale"], p["seeds"], p["simulator_versions"], round(p["training_minutes"], 6)
 
-    if bench(a) != bench(b):
+    digests = a.get("bench_sha256"), b.get("bench_sha256")
+    if bench(a) != bench(b) or (None not in digests and digests[0] != digests[1]):
         return None
     models = {**a["models"], **b["models"]}
     a_kept = set(a["models"]) - set(b["models"])
-    return {**b, "model_names": sorted(set(a.get("model_names", [])) | set(b["model_names"])),
+    return {**b, "bench_sha256": digests[1] or digests[0],
+            "model_names": sorted(set(a.get("model_names", [])) | set(b["model_names"])),
             "devices": {**{k: v for k, v in devices(a).items() if k in a_kept}, **devices(b)},
             "all_converged": b["all_converged"] and (a["all_converged"] or not a_kept),
             "models": models, "stopped": {**a["stopped"], **b["stopped"]},

@@ -135,6 +135,20 @@ def test_parts_of_a_point_run_apart_on_the_same_benches_make_the_point(tmp_path)
     assert claim in learning_curve(whole) and claim in current_bench_summary(whole)
     assert "not measured yet" not in learning_curve(whole)
 
+    # the same seeds simulated again elsewhere into other bytes: not the same data, not merged
+    _finished_run(run_dir(tmp_path / "resim", 1.0), 1.0, 0.3, 0.6, seeds=(1, 2),
+                  models=["hybrid", "transformer"], device="cuda")
+    (run_dir(tmp_path / "resim", 1.0) / "work" / "data" / "automated_seed2" / "t.csv").write_text(
+        "fx\n0.1000000001\n")
+    out3 = tmp_path / "curve3" / "learning_curve.json"
+    assemble(tmp_path / "cpu", [1.0], out3)
+    (run_dir(tmp_path / "cpu", 1.0) / "work" / "data" / "automated_seed2" / "t.csv").write_text(
+        "fx\n0.1\n")
+    cpu_part = assemble(tmp_path / "cpu", [1.0], out3)["partial"][0]
+    assert cpu_part["bench_sha256"]["1"] == p["bench_sha256"]["1"]   # seed 1: same files
+    resim = assemble(tmp_path / "resim", [1.0], out3)
+    assert resim["points"] == [] and set(resim["partial"][0]["models"]) == {HYBRID, TRANSFORMER}
+
     # a part on other benches (seeds) is not merged: the newer run stands alone
     out2 = tmp_path / "curve2" / "learning_curve.json"
     assemble(tmp_path / "cpu", [1.0], out2)
