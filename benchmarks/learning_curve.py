@@ -45,7 +45,6 @@ the spread as error bars) beside it from the finished runs under ``--work``, tra
 from __future__ import annotations
 
 import argparse
-import hashlib
 import json
 import math
 import subprocess
@@ -58,7 +57,7 @@ sys.path.insert(0, str(ROOT))
 
 from benchmarks._report import shown_path, write_json  # noqa: E402
 from hybrid.tables import compare  # noqa: E402
-from psm_model.files import write_text_atomic  # noqa: E402
+from psm_model.files import folder_sha256, write_text_atomic  # noqa: E402
 
 SCALES = (0.05, 0.1, 0.25, 0.5, 1.0)
 MODELS = ("hybrid", "transformer", "fcn", "rocket")
@@ -140,19 +139,12 @@ def _training_minutes(out: Path, seeds) -> float:
 
 
 def bench_digests(out: Path, seeds) -> dict[str, str]:
-    """Per seed, the SHA-256 of its automated bench's files (relative paths and contents): two
-    parts of a point are one run's results only on identical files, and a bench simulated again
-    from its seed on another machine (other library versions) need not be."""
-    digests = {}
-    for seed in seeds:
-        folder = out / "work" / "data" / f"automated_seed{seed}"
-        total = hashlib.sha256()
-        for f in sorted(q for q in folder.rglob("*") if q.is_file()):
-            with open(f, "rb") as fh:
-                total.update(f.relative_to(folder).as_posix().encode() + b"\0"
-                             + hashlib.file_digest(fh, "sha256").digest())
-        digests[str(seed)] = total.hexdigest()
-    return digests
+    """Per seed, the SHA-256 of its automated bench's files (:func:`psm_model.files.folder_sha256`,
+    as the run's simulate task records it): two parts of a point are one run's results only on
+    identical files, and a bench simulated again from its seed on another machine (other
+    library versions) need not be."""
+    return {str(seed): folder_sha256(out / "work" / "data" / f"automated_seed{seed}")
+            for seed in seeds}
 
 
 def point(out: Path) -> dict:

@@ -116,6 +116,12 @@ def _cached(path: Path, qualname: str, params: dict, log: Callable[[str], None] 
         return None
 
 
+def cached_result(cache: str | Path, fn: Callable, params: dict) -> dict | None:
+    """The verified cached result of the task (``fn``, ``params``) in ``cache``, or None when
+    there is none or it fails its check (:func:`read_result`)."""
+    return _cached(cache_path(Path(cache), fn, params), _qualname(fn), params, lambda _: None)
+
+
 def run_task(qualname: str, params: dict, cache: str) -> dict:
     """Run one task by its function's qualified name and cache its result (what a worker runs);
     a cached result is returned only if it verifies (:func:`read_result`)."""

@@ -56,7 +56,7 @@ from hybrid.contract import is_chunk
 from hybrid.data import Dataset, Trial, load_dataset, split_validation, subsample_trials
 from hybrid.evaluate import (EVAL_START, floor_metrics, predict_trial, score_modes,
                              scored_segment)
-from hybrid.grid import cache_path, run_grid
+from hybrid.grid import cache_path, cached_result, run_grid
 from hybrid.metrics import POSTPROCESSING, axis_metrics, lowpass_lag_samples
 from hybrid.models import count_parameters
 from hybrid.plan import plan
@@ -64,7 +64,7 @@ from hybrid.recipes import DERIVATIONS, RECIPES, recipe
 from hybrid.resume import clear_state
 from hybrid.tables import results_markdown, spread, verdicts
 from hybrid.train import TrainConfig, finetune_model, fit_prior, make_setup, train_model
-from psm_model.files import write_text_atomic
+from psm_model.files import folder_sha256, write_bytes_atomic, write_text_atomic
 
 BUDGETS: dict[str, dict] = {
     "full": {"pretrain": {"default": {}}, "finetune": {"default": {}}},
@@ -125,7 +125,8 @@ def _simulate_task(p: dict) -> dict:
         train, val = _automated_split(load_dataset(out), p["seed"])
         prior = fit_prior(train, val)
         prior.save(_prior_path(p["run_dir"], p["seed"]))
-    return {k: v for k, v in summary.items() if k in ("rows", "minutes", "seconds", "trials")}
+    return {k: v for k, v in summary.items() if k in ("rows", "minutes", "seconds", "trials")
+            } | {"sha256": folder_sha256(out)}
 
 
 def _bench_on_disk(p: dict) -> bool:
@@ -301,6 +302,30 @@ def _floor_task(p: dict) -> dict:
 
 # ------------------------------------------------------------------------------ the run
 
+def _check_simulated_again(p: dict, result: dict, done: Path, record: bytes | None,
+                           sha256: str | None, say: Callable[[str], None]) -> None:
+    """A bench simulated again must be the files the run's cached tasks were computed on
+    (``sha256``, from its first simulation's cached ``record`` at ``done``). When it is not
+    (another machine's library versions can change a bit), the new bench and prior are removed
+    and the first record put back, so every later call refuses the same way."""
+    what = f"bench {p['protocol']} seed {p['seed']}"
+    if record is None:
+        return
+    if sha256 is None:
+        say(f"{what}: not checked against its first simulation (which recorded no digest)")
+        return
+    if result["sha256"] == sha256:
+        return
+    shutil.rmtree(_data_dir(p["run_dir"], p["protocol"], p["seed"]))
+    if p["protocol"] == "automated":   # fitted on the new bench
+        _prior_path(p["run_dir"], p["seed"]).unlink()
+    write_bytes_atomic(done, record)
+    raise ValueError(f"{what} simulated again in {p['run_dir']} differs from the one this run's "
+                     "cached results were computed on (SHA-256 of its files; other library "
+                     "versions?): they do not hold for it. Bring the run's work/data along, or "
+                     "finish it where its benches simulate the same.")
+
+
 def prepare_benches(out: str | Path, scale: float, seeds: Sequence[int], *, teleop: bool = True,
                     port: str = "none", ray_address: str | None = None,
                     log: Callable[[str], None] | None = None) -> list[dict]:
@@ -310,7 +335,9 @@ def prepare_benches(out: str | Path, scale: float, seeds: Sequence[int], *, tele
     only claims ``out`` for the bench (scale, port), so calls for different seeds may then run
     at once; one seed must not be prepared by two calls at once (both would write its bench).
     A run folder moved without its benches (``work/data``, nearly all of its bytes) to another
-    machine gets them simulated again from their seeds, so an unfinished run travels light."""
+    machine gets them simulated again from their seeds, so an unfinished run travels light; a
+    bench that comes back other files than its first simulation's is refused (ValueError), since
+    the run's cached results were computed on those."""
     from psm_model.sim.dataset import check_scale_and_seed
     from psm_model.sim.port import port_by_name
     say = log or (lambda s: print(s, flush=True))
@@ -332,12 +359,17 @@ def prepare_benches(out: str | Path, scale: float, seeds: Sequence[int], *, tele
     run_dir, cache = str((out / "work").resolve()), out / "work" / "cache"
     benches = [(_simulate_task, {"run_dir": run_dir, "protocol": proto, "seed": s, **bench})
                for s in seeds for proto in ("automated",) + (("teleop",) if teleop else ())]
-    for task, p in benches:  # a run moved without its benches: the seeds simulate them again
+    first = {}   # a run moved without its benches: the seeds simulate them again
+    for task, p in benches:
         done = cache_path(cache, task, p)
         if done.exists() and not _bench_on_disk(p):
             say(f"bench {p['protocol']} seed {p['seed']} is not in {run_dir}: simulating it again")
+            first[done] = (done.read_bytes(), (cached_result(cache, task, p) or {}).get("sha256"))
             done.unlink()
-    run_grid(benches, cache, ray_address=ray_address, log=say)
+    results = run_grid(benches, cache, ray_address=ray_address, log=say)
+    for (task, p), result in zip(benches, results, strict=True):
+        done = cache_path(cache, task, p)
+        _check_simulated_again(p, result, done, *first.get(done, (None, None)), say)
     return run_grid([(_floor_task, {"run_dir": run_dir, "seed": s, "teleop": teleop})
                      for s in seeds], cache, log=say)
 

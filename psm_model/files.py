@@ -5,10 +5,12 @@ exports, figures, reports, task caches) goes through :func:`atomic_path`: the co
 to a sibling ``NAME.part`` and renamed onto ``NAME`` only once complete, and the sibling is
 removed if writing fails. A rename within one folder is atomic on POSIX, so a reader, or a writer
 interrupted by a signal or a full disk, sees the previous file or none, never half of one.
+:func:`folder_sha256` tells whether two folders hold the same files, byte for byte.
 """
 
 from __future__ import annotations
 
+import hashlib
 import json
 import os
 from contextlib import contextmanager
@@ -52,3 +54,15 @@ def write_json_atomic(path: str | Path, obj) -> None:
     """``obj`` as indented JSON; NaN and infinity are refused (ValueError), not written as the
     non-standard ``NaN`` / ``Infinity``."""
     write_text_atomic(path, json.dumps(obj, indent=2, allow_nan=False) + "\n")
+
+
+def folder_sha256(folder: str | Path) -> str:
+    """SHA-256 over every file under ``folder``: each one's path relative to it and its
+    contents, in path order; equal for two folders only when they hold the same files."""
+    folder = Path(folder)
+    total = hashlib.sha256()
+    for f in sorted(q for q in folder.rglob("*") if q.is_file()):
+        with open(f, "rb") as fh:
+            total.update(f.relative_to(folder).as_posix().encode() + b"\0"
+                         + hashlib.file_digest(fh, "sha256").digest())
+    return total.hexdigest()

@@ -33,3 +33,17 @@ def test_temporary_names(tmp_path):
         assert tmp.name == f".task.json.{os.getpid()}.part"
         tmp.write_text("{}")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["fig.png", "task.json"]
+
+
+def test_folder_digest_sees_every_byte_and_name_not_the_location(tmp_path):
+    from psm_model.files import folder_sha256
+    for name in ("a", "b"):
+        (tmp_path / name / "train").mkdir(parents=True)
+        (tmp_path / name / "metadata.json").write_text("{}")
+        (tmp_path / name / "train" / "t.csv").write_text("fx\n0.1\n")
+    assert folder_sha256(tmp_path / "a") == folder_sha256(tmp_path / "b")
+    (tmp_path / "b" / "train" / "t.csv").write_text("fx\n0.1000001\n")
+    assert folder_sha256(tmp_path / "a") != folder_sha256(tmp_path / "b")
+    (tmp_path / "b" / "train" / "t.csv").write_text("fx\n0.1\n")
+    (tmp_path / "b" / "train" / "t.csv").rename(tmp_path / "b" / "train" / "u.csv")
+    assert folder_sha256(tmp_path / "a") != folder_sha256(tmp_path / "b")   # same bytes, renamed

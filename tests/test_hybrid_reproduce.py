@@ -251,10 +251,11 @@ def test_a_task_killed_while_scoring_resumes_its_finished_training(tiny_run, tmp
             == [(h["train_loss"], h["val_loss"]) for h in history(whole_run)])
 
 
-def test_a_run_moved_without_its_benches_simulates_them_again(tmp_path):
+def test_a_run_moved_without_its_benches_simulates_them_again(tmp_path, monkeypatch):
     """Only the benches are large: a run folder copied without ``work/data`` has each seed's
     bench simulated again (byte for byte here) and its prior fitted again (the same parameters;
-    only the fit's wall time differs), not trusted from the cache."""
+    only the fit's wall time differs), not trusted from the cache; a bench that comes back other
+    bytes is refused, since the run's cached results were computed on the first."""
     from hybrid.reproduce import prepare_benches
     logs: list[str] = []
     prepare_benches(tmp_path / "run", 0.01, (1,), teleop=False, log=logs.append)
@@ -274,6 +275,30 @@ def test_a_run_moved_without_its_benches_simulates_them_again(tmp_path):
     logs.clear()   # with its bench on disk, nothing runs again
     prepare_benches(tmp_path / "run", 0.01, (1,), teleop=False, log=logs.append)
     assert not any("simulating" in line or line.endswith(" 1 to run") for line in logs)
+
+    # simulated again into other bytes (as other library versions might): refused, every time
+    import psm_model.sim
+    cache = tmp_path / "run" / "work" / "cache"
+    record = next(cache.glob("simulate_task-*.json")).read_bytes()
+    simulate = psm_model.sim.simulate
+
+    def other_bytes(*args, **kwargs):
+        summary = simulate(*args, **kwargs)
+        first = sorted((data / "automated_seed1" / "train").rglob("*.csv"))[0]
+        first.write_text(first.read_text().replace("0", "1", 1))
+        return summary
+
+    shutil.rmtree(data)
+    monkeypatch.setattr(psm_model.sim, "simulate", other_bytes)
+    for _ in range(2):
+        with pytest.raises(ValueError, match="bench automated seed 1 simulated again .* differs"):
+            prepare_benches(tmp_path / "run", 0.01, (1,), teleop=False, log=logs.append)
+        assert not data.joinpath("automated_seed1").exists()
+        assert not data.joinpath("prior_seed1.json").exists()
+        assert next(cache.glob("simulate_task-*.json")).read_bytes() == record
+    monkeypatch.setattr(psm_model.sim, "simulate", simulate)   # the same files again: accepted
+    prepare_benches(tmp_path / "run", 0.01, (1,), teleop=False, log=logs.append)
+    assert bench() == before
 
 
 def test_the_figures_networks_predict_on_the_runs_device(tiny_run, tmp_path, monkeypatch):
