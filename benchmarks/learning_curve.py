@@ -16,8 +16,8 @@ disjoint ``--seeds`` or ``--models`` and a ``--json`` of their own under ``runs/
 are done, the full call finds every task cached, writes the point, and ``--render-only`` renders
 it. A call for some of the models over the seeds is a part of the point, and the JSON keeps it:
 a later call for the other models on the same seeds, on another machine too, completes the point
-(:func:`merge`) when its benches are the same files (their digests are in the point). A point already in the JSON is kept when its run is not under ``--work``
-(``runs/`` is not committed).
+(:func:`merge`) when its benches are the same files (their digests are in the point). A point
+already in the JSON is kept when its run is not under ``--work`` (``runs/`` is not committed).
 
 ``--lanes N`` does that split itself: each seed's bench (simulation, prior, floor) first, one
 process per seed, then every (seed, model) call, the costliest first, over ``N`` processes of
