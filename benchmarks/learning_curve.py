@@ -28,8 +28,10 @@ cores (``--threads 1``) or a GPU, one call finishes a scale:
 
 ``--device cuda`` trains a scale's run on a GPU. A run's networks train on one device (each
 task's cache key holds it, so a CPU call does not reuse a GPU run's tasks); the closed-form
-MultiRocket-Hydra fits on the CPU in either (:func:`hybrid.reproduce.task_device`). The point
-records the device of each model's networks and the table shows it.
+MultiRocket-Hydra fits on the CPU in either (:func:`hybrid.reproduce.task_device`). ``--finish-on
+cpu`` finishes a GPU run on the CPU, its tasks keyed as before, a training resuming its saved
+state (:func:`hybrid.reproduce.reproduce`). The point records the device(s) each model's
+networks trained on, per seed where a training moved, and the table shows them.
 
 The JSON holds, per scale, the minutes of training recordings (the automated training split,
 validation included, at the bench's rate), each model's causal and paper NRMSE per axis (mean,
@@ -74,12 +76,15 @@ def run_dir(work: Path, scale: float) -> Path:
     return work / f"scale_{scale:g}"
 
 
-def run_scale(work: Path, scale: float, seeds, models, threads: int, device: str = "cpu") -> None:
+def run_scale(work: Path, scale: float, seeds, models, threads: int, device: str = "cpu",
+              finish_on: str | None = None) -> None:
     """Run (or resume) the reproduction at ``scale`` with its networks on ``device`` (a torch
-    device; one per run, since a task's cache key holds it)."""
+    device; one per run, since a task's cache key holds it), or, with ``finish_on``, the
+    trainings still to do on that device instead (:func:`hybrid.reproduce.reproduce`)."""
     from hybrid.reproduce import reproduce
     reproduce(run_dir(work, scale), scale=scale, seeds=seeds, device=device, threads=threads,
-              models=models, ablations=False, efficiency=False, teleop=False)
+              finish_on=finish_on, models=models, ablations=False, efficiency=False,
+              teleop=False)
 
 
 TRAINING_COST = {"transformer": 3, "hybrid": 2, "fcn": 1, "rocket": 0}
@@ -95,7 +100,7 @@ def lane_jobs(seeds, models) -> list[tuple[int, str]]:
 
 
 def run_lanes(work: Path, scale: float, seeds, models, lanes: int, threads: int,
-              device: str) -> None:
+              device: str, finish_on: str | None = None) -> None:
     """Run a scale in ``lanes`` processes of ``threads`` threads each, in the one resumable run
     folder: first each seed's bench (:func:`hybrid.reproduce.prepare_benches`, one process per
     seed, since two must not write one bench), then the (seed, model) calls of
@@ -113,7 +118,8 @@ def run_lanes(work: Path, scale: float, seeds, models, lanes: int, threads: int,
         what = ["--benches-only"] if model is None else ["--models", model]
         cmd = [sys.executable, str(Path(__file__).resolve()), "--scales", f"{scale:g}",
                "--seeds", str(seed), *what, "--threads", str(threads), "--device", device,
-               "--work", str(work), "--json", str(logs / f"{name}.json")]
+               *(["--finish-on", finish_on] if finish_on else []), "--work", str(work),
+               "--json", str(logs / f"{name}.json")]
         with open(logs / f"{name}.log", "a") as f:
             rc = subprocess.run(cmd, stdout=f, stderr=subprocess.STDOUT).returncode
         return name, rc, logs / f"{name}.log"
@@ -150,7 +156,6 @@ def bench_digests(out: Path, seeds) -> dict[str, str]:
 def point(out: Path) -> dict:
     """One finished run's point of the curve (or its part, when the run holds some models of
     the curve only: ``model_names``)."""
-    from hybrid.recipes import recipe
     results = json.loads((out / "results.json").read_text())
     call = results["call"]
     seeds = call["seeds"]
@@ -159,8 +164,7 @@ def point(out: Path) -> dict:
                       for m in METRICS}
               for label in automated["causal"]}
     return {"scale": call["scale"], "seeds": seeds, "model_names": sorted(call["models"]),
-            "devices": {_label(m): call["device"] for m in call["models"]
-                        if not recipe(m).closed_form},
+            "devices": _trained_on(results),
             "training_minutes": _training_minutes(out, seeds),
             "bench_sha256": bench_digests(out, seeds),
             "simulator_versions": sorted(set(results["benches"].values())),
@@ -168,6 +172,25 @@ def point(out: Path) -> dict:
             "stopped": _stopped(results.get("training", {})),
             "optimiser": _optimiser(out, results),
             "hybrid_vs_transformer": _verdicts(models), "run": shown_path(out)}
+
+
+def _trained_on(results: dict) -> dict:
+    """{label: the device(s) its networks trained on}: the run's, or, where a seed's training
+    moved (a run finished on another device, :func:`hybrid.reproduce.reproduce`), per seed
+    the devices its epochs ran on in order. A training cached before trainings recorded their
+    devices trained on the run's."""
+    from hybrid.recipes import recipe
+    from hybrid.reproduce import task_device
+    per_seed: dict[str, dict[str, list[str]]] = {}
+    for key, t in sorted(results.get("training", {}).items(),
+                         key=lambda kv: int(kv[0].rsplit(" ", 1)[1])):
+        model, seed = key.split(" ", 1)[0], key.rsplit(" ", 1)[1]
+        if not recipe(model).closed_form:
+            ran = " then ".join(t.get("devices") or [task_device(model, results["call"]["device"])])
+            per_seed.setdefault(_label(model), {}).setdefault(ran, []).append(seed)
+    return {label: next(iter(by)) if len(by) == 1 else "; ".join(
+                f"{ran} (seed{'s' if len(s) > 1 else ''} {', '.join(s)})" for ran, s in by.items())
+            for label, by in per_seed.items()}
 
 
 def _label(model: str) -> str:
@@ -547,6 +570,10 @@ def main(argv=None) -> int:
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--device", default="cpu",
                     help="torch device the networks train on (cpu, cuda); one per scale's run")
+    ap.add_argument("--finish-on", default=None,
+                    help="torch device the trainings still to do run on instead of --device "
+                         "(a GPU run whose machine is gone finishes on the CPU, tasks keyed "
+                         "as before)")
     ap.add_argument("--work", type=Path, default=Path("runs/learning_curve"))
     ap.add_argument("--json", type=Path, default=ROOT / "results" / "learning_curve"
                     / "learning_curve.json")
@@ -575,11 +602,12 @@ def main(argv=None) -> int:
             if args.lanes > 1:
                 try:
                     run_lanes(args.work, scale, args.seeds, args.models, args.lanes,
-                              args.threads, args.device)
+                              args.threads, args.device, args.finish_on)
                 except RuntimeError as e:
                     print(f"learning_curve: {e}", file=sys.stderr)
                     return 1
-            run_scale(args.work, scale, args.seeds, args.models, args.threads, args.device)
+            run_scale(args.work, scale, args.seeds, args.models, args.threads, args.device,
+                      args.finish_on)
             assemble(args.work, args.scales, args.json)  # kept at once
     assemble(args.work, args.scales, args.json)
     return 0

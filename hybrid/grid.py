@@ -43,11 +43,13 @@ RESULT_FORMAT = "psmforce-task-result"
 RESULT_VERSION = 1
 """1: the first cached results with the integrity envelope (older files carry none: recomputed)."""
 
-LOCATION_PARAMS = ("run_dir",)
-"""Parameters that say where a run's files are, not what a task computes: a task's key and its
-cached result's check leave them out. The cache lives in the run folder, so a key that held the
-folder's path tied every result to that path, and a moved run recomputed everything. A task's
-result must not depend on them otherwise (it names files inside the run folder relative to it)."""
+LOCATION_PARAMS = ("run_dir", "finish_on")
+"""Parameters that say where a run's files are and where its remaining tasks compute, not what a
+task computes: a task's key and its cached result's check leave them out. The cache lives in the
+run folder, so a key that held the folder's path tied every result to that path, and a moved run
+recomputed everything. A task's result must not depend on them otherwise (it names files inside
+the run folder relative to it; a training on a ``finish_on`` device records the device of each
+epoch, :func:`hybrid.reproduce.reproduce`)."""
 
 TaskSpec = tuple[Callable[[dict], dict], dict]
 

@@ -189,6 +189,13 @@ def task_device(model: str, device: str) -> str:
     return "cpu" if recipe(model).closed_form else device
 
 
+def _compute_device(p: dict) -> str:
+    """The device a task computes on: the run's ``finish_on`` where one is given (a run whose
+    GPU is gone goes on on the CPU, its tasks keeping their keys), else the device its key
+    holds. The training's history records each epoch's device."""
+    return task_device(p["model"], p.get("finish_on") or p["device"])
+
+
 def _checkpoint(run_dir: str, p: dict) -> Path:
     return (Path(run_dir) / "checkpoints" / f"{p['model']}_{p['variant']}_f{p['fraction']}_"
                                             f"seed{p['seed']}_{p['budget']}_{p['device']}.pt")
@@ -214,7 +221,7 @@ def _scores(setup: TrainedModel, trials: Sequence[Trial], device: str) -> dict:
 
 def _training_summary(rep: dict) -> dict:
     keep = ("epochs_run", "stopped_by", "capped", "converged", "best_val_loss", "seconds",
-            "train_windows", "val_windows", "batches_per_epoch", "chunk", "parameters")
+            "devices", "train_windows", "val_windows", "batches_per_epoch", "chunk", "parameters")
     return {k: rep.get(k) for k in keep} | {"history": [
         {k: h[k] for k in ("epoch", "steps", "elapsed_s", "train_loss", "val_loss", "lr")}
         for h in rep["history"]]}
@@ -233,12 +240,13 @@ def _pretrain_task(p: dict) -> dict:
     path = _checkpoint(p["run_dir"], p)
     resume = _resume_path(path)
     rep = train_model(setup, train, val,
-                      _config(p["budget"], "pretrain", p["seed"], p["device"], p["model"]),
+                      _config(p["budget"], "pretrain", p["seed"], _compute_device(p),
+                              p["model"]),
                       desc=f"{p['model']} seed {p['seed']}", resume=resume)
     setup.provenance = {"reproduce": p, "train_trials": [t.path for t in train],
                         "val_trials": [t.path for t in val], "history": rep["history"]}
     setup.save(path)
-    test = _scores(setup, ds.select(split="test"), p["device"])
+    test = _scores(setup, ds.select(split="test"), _compute_device(p))
     clear_state(resume)  # only now: a task killed while scoring resumes its finished training
     return {"training": _training_summary(rep) | {"optimiser": p["recipe"]["optimiser"]},
             "checkpoint": str(path.relative_to(p["run_dir"])), "test": test}
@@ -275,13 +283,15 @@ def _finetune_task(p: dict) -> dict:
     resume = Path(p["run_dir"]) / "resume" / (f"finetune_{p['model']}_{p['fold']}_seed{p['seed']}_"
                                                f"{p['budget']}_{p['device']}.state")
     rep = finetune_model(ckpt, ft_train, ft_val,
-                         _config(p["budget"], "finetune", p["seed"], p["device"], p["model"]),
+                         _config(p["budget"], "finetune", p["seed"], _compute_device(p),
+                                 p["model"]),
                          desc=f"finetune {p['model']} {p['fold']}", resume=resume)
     scores = {}
     for which in ("seen", "unseen"):
         for cond in TELEOP_CONDITIONS:
             group = [t for t in fold[f"{which}_test"] if t.condition == cond]
-            scores[f"{cond}/{which.capitalize()}"] = _scores(ckpt, group, p["device"])["overall"]
+            scores[f"{cond}/{which.capitalize()}"] = _scores(ckpt, group,
+                                                             _compute_device(p))["overall"]
     clear_state(resume)
     return {"training": _training_summary(rep), "scores": scores,
             "parameters": {"trainable": rep["trainable_parameters"], "total": rep["parameters"]}}
@@ -376,8 +386,9 @@ def prepare_benches(out: str | Path, scale: float, seeds: Sequence[int], *, tele
 
 def reproduce(out: str | Path, scale: float = 0.1, seeds: Sequence[int] = (1, 2, 3),
               device: str = "cpu", *, budget: str = "full", threads: int = 2,
-              models: Sequence[str] | None = None, ablations: bool = True, efficiency: bool = True,
-              teleop: bool = True, port: str = "none", ray_address: str | None = None,
+              finish_on: str | None = None, models: Sequence[str] | None = None,
+              ablations: bool = True, efficiency: bool = True, teleop: bool = True,
+              port: str = "none", ray_address: str | None = None,
               log: Callable[[str], None] | None = None) -> dict:
     """Run (or resume) the grid into ``out`` and write ``results.md``, ``results.json``,
     ``learning_curves.json`` and figures there. ``out`` must be new, empty, or hold a previous
@@ -386,7 +397,10 @@ def reproduce(out: str | Path, scale: float = 0.1, seeds: Sequence[int] = (1, 2,
     :data:`hybrid.recipes.RECIPES` (default: all, in the table's order). ``port``: the cannula
     the shaft passes through on every bench of the run (:data:`psm_model.sim.port.PORT_NAMES`;
     ``"none"``, the paper's benchtop), like the scale a property of the run: one ``out`` per
-    port."""
+    port. ``finish_on``: the device the tasks still to compute run on, when not ``device``: a run
+    started on a GPU whose machine is gone finishes on the CPU, every task keeping the key of
+    ``device`` and a training resuming its saved state (:mod:`hybrid.resume`); each training
+    records the devices it ran on."""
     say = log or (lambda s: print(s, flush=True))
     if budget not in BUDGETS:
         raise ValueError(f"unknown budget '{budget}'; known: {sorted(BUDGETS)}")
@@ -400,14 +414,15 @@ def reproduce(out: str | Path, scale: float = 0.1, seeds: Sequence[int] = (1, 2,
         raise ValueError(f"seeds: {repeated[0]} given more than once; each seed is one "
                          f"independent bench and initialisation")
     out = Path(out)
-    call = {"scale": scale, "seeds": list(seeds), "device": device, "budget": budget,
+    call = {"scale": scale, "seeds": list(seeds), "device": device, "finish_on": finish_on,
+            "budget": budget,
             "models": list(models), "ablations": ablations, "efficiency": efficiency,
             "teleop": teleop, "port": port}
     floors = prepare_benches(out, scale, seeds, teleop=teleop, port=port,
                              ray_address=ray_address, log=say)
     run_dir, cache = str((out / "work").resolve()), out / "work" / "cache"
     common = {"run_dir": run_dir, "budget": budget, "budget_settings": BUDGETS[budget],
-              "device": device, "threads": threads}
+              "device": device, "finish_on": finish_on, "threads": threads}
     started = time.time()
 
     variants = [(m, "full", 1.0) for m in models]
@@ -445,7 +460,7 @@ def reproduce(out: str | Path, scale: float = 0.1, seeds: Sequence[int] = (1, 2,
     results["timing"] = _timing({plan(m).label: checkpoints[(m, "full", 1.0, seeds[0])]
                                  for m in torch_models})
     results["figures"] = _figures(out, run_dir, seeds[0], torch_models, pre_by, checkpoints,
-                                  device)
+                                  finish_on or device)
     write_text_atomic(out / "results.json", json.dumps(results, indent=1) + "\n")
     write_text_atomic(out / "learning_curves.json", json.dumps(_curves(pre_specs, pre), indent=1))
     write_text_atomic(out / "results.md", results_markdown(results))

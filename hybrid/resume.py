@@ -3,21 +3,23 @@ read back as strictly as a checkpoint.
 
 A training killed between epochs (a session's end, Ctrl-C, a lost machine) resumes from its
 last completed epoch and ends bit-identical to an uninterrupted run on the same device and
-thread count (``tests/test_resume.py``). The state holds what the next epoch depends on: the
-model's weights, the best weights so far, the optimiser's and the scheduler's state, the early
-stopping counters, the history, the random stream that orders each epoch's batches and torch's
-global random state (dropout draws from it; CUDA's too on a GPU). A kill inside an epoch loses
-that epoch only.
+thread count (``tests/test_resume.py``). It may also resume on another device (a GPU training
+whose machine is gone goes on on the CPU): the result is then a training like any other, not
+bit-identical to either device's, and its history names each epoch's device. The state holds
+what the next epoch depends on: the model's weights, the best weights so far, the optimiser's and
+the scheduler's state, the early stopping counters, the history, the random stream that orders
+each epoch's batches and torch's global random state (dropout draws from it; CUDA's too on a
+GPU). A kill inside an epoch loses that epoch only.
 
 The file: ``torch.save`` of ``{"format", "format_version", "fingerprint", "sha256",
 "payload"}``, where ``payload`` is the state serialised by ``torch.save`` (plain tensors, dicts,
 lists and numbers; read back with ``weights_only=True``) and ``sha256`` its digest. The
 fingerprint is a digest of everything the training depends on (:func:`fingerprint`: the
-training configuration, the model's name, constructor config and input columns, the number of
-training and validation windows). Loading refuses, with :class:`ResumeError` naming the file: a
-file of another format or format version (an integer, strictly), a payload that does not match
-its digest, and a state written for another training; it is never silently continued or
-silently restarted.
+training configuration but the device, the model's name, constructor config and input columns,
+the number of training and validation windows). Loading refuses, with :class:`ResumeError`
+naming the file: a file of another format or format version (an integer, strictly), a payload
+that does not match its digest, and a state written for another training; it is never silently
+continued or silently restarted.
 """
 
 from __future__ import annotations

@@ -227,7 +227,8 @@ def fit(model: nn.Module, train_trials: Sequence[Trial], val_trials: Sequence[Tr
     every epoch.
 
     Returns the fit report: the history (per epoch: train and validation loss, learning rate,
-    seconds, cumulative optimiser steps and wall-clock), ``epochs_run``, ``stopped_by``
+    seconds, cumulative optimiser steps, wall-clock and device), ``devices`` (those the epochs
+    ran on, in order: more than one when a resumed training moved), ``epochs_run``, ``stopped_by``
     ("patience": early stopping fired; "epoch_limit") and ``converged`` (early stopping fired and
     no batch cap thinned the epochs).
     """
@@ -268,7 +269,7 @@ def fit(model: nn.Module, train_trials: Sequence[Trial], val_trials: Sequence[Tr
         sched.load_state_dict(state["scheduler"])
         gen.set_state(state["generator"])
         torch.set_rng_state(state["torch_rng"])
-        if "cuda_rng" in state:
+        if "cuda_rng" in state and str(cfg.device).startswith("cuda"):
             torch.cuda.set_rng_state_all(state["cuda_rng"])
         best, best_state, stale = state["best"], state["best_state"], state["stale"]
         history, steps, elapsed = state["history"], state["steps"], state["elapsed_s"]
@@ -305,7 +306,7 @@ def fit(model: nn.Module, train_trials: Sequence[Trial], val_trials: Sequence[Tr
         sched.step(val)
         history.append({"epoch": epoch + 1, "train_loss": running / n_batches, "val_loss": val,
                         "lr": lr, "seconds": time.perf_counter() - t0, "steps": steps,
-                        "elapsed_s": time.perf_counter() - started})
+                        "elapsed_s": time.perf_counter() - started, "device": str(cfg.device)})
         bar.set_postfix(train=f"{running / n_batches:.4f}", val=f"{val:.4f}", lr=f"{lr:.0e}")
         if val < best:
             best, best_state, stale = val, copy.deepcopy(model.state_dict()), 0
@@ -329,6 +330,7 @@ def fit(model: nn.Module, train_trials: Sequence[Trial], val_trials: Sequence[Tr
     return {"history": history, "best_val_loss": best, "epochs_run": len(history),
             "stopped_by": stopped_by, "capped": capped,
             "converged": stopped_by == "patience" and not capped,
+            "devices": list(dict.fromkeys(h.get("device", "not recorded") for h in history)),
             "train_windows": len(train_set), "val_windows": len(val_set),
             "batches_per_epoch": n_batches, "chunk": getattr(train_set, "window", None)
             if is_chunk(model) else None}
@@ -336,9 +338,11 @@ def fit(model: nn.Module, train_trials: Sequence[Trial], val_trials: Sequence[Tr
 
 def _resume_key(model: nn.Module, setup: TrainedModel, cfg: TrainConfig, n_train: int,
                 n_val: int, finetuning: bool) -> str:
-    """What a saved training state must have been written by (:mod:`hybrid.resume`)."""
+    """What a saved training state must have been written by (:mod:`hybrid.resume`). The device
+    is left out: a state moves between devices (a training started on a GPU that is lost goes
+    on on the CPU), and its history records each epoch's."""
     return fingerprint({
-        "config": {k: v for k, v in cfg.to_dict().items() if k != "progress"},
+        "config": {k: v for k, v in cfg.to_dict().items() if k not in ("progress", "device")},
         "model": setup.model_name, "model_config": setup.config,
         "features": list(setup.features), "base": list(setup.base_columns),
         "windows": [n_train, n_val], "finetuning": finetuning,

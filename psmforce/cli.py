@@ -268,6 +268,11 @@ def _parser() -> argparse.ArgumentParser:
                    help="run the tasks on Ray: 'auto', 'local' or a cluster address "
                         "(pip install 'psmforce[cluster]')")
     p.add_argument("--device", default="cpu", choices=["cpu", "cuda"])
+    p.add_argument("--finish-on", choices=["cpu", "cuda"],
+                   help="compute the tasks still to do on this device, every task keeping the "
+                        "key of --device: a run started on a GPU whose machine is gone "
+                        "finishes on the CPU, each training resuming its saved state and "
+                        "recording the devices it ran on")
     p.add_argument("--json", help="write all tables here")
 
     p = add("export", commands.export_command, "export an estimator for C++ / ROS 2",

@@ -46,12 +46,13 @@ def _fresh_folder(path: str, option: str) -> None:
     _writable_ancestor(target, option)
 
 
-def _device(args) -> None:
-    if args.device == "cuda":
+def _device(args, option: str = "--device") -> None:
+    """Refuse a CUDA device that is not there; ``option``: the flag whose device computes."""
+    if getattr(args, option.lstrip("-").replace("-", "_")) == "cuda":
         import torch
         if not torch.cuda.is_available():
-            raise ValueError("--device cuda: torch sees no CUDA device on this machine "
-                             "(use --device cpu)")
+            raise ValueError(f"{option} cuda: torch sees no CUDA device on this machine "
+                             f"(use {option} cpu)")
 
 
 def _seed(value: int, option: str) -> None:
@@ -353,14 +354,14 @@ def reproduce_command(args) -> dict:
                          f"independent run, a repeat would report a spread of 0")
     if args.models is not None:
         _models(args.models, "--models")
-    _device(args)
+    _device(args, "--finish-on" if args.finish_on else "--device")
     target = Path(args.out)
     if target.exists() and not target.is_dir():
         raise ValueError(f"--out: {target} exists and is not a folder")
     _writable_ancestor(target, "--out")
     from hybrid.reproduce import reproduce
     return reproduce(args.out, scale=args.scale, seeds=args.seeds, device=args.device,
-                     budget=args.budget, models=args.models, ablations=not args.no_ablations,
+                     finish_on=args.finish_on, budget=args.budget, models=args.models, ablations=not args.no_ablations,
                      efficiency=not args.no_efficiency, teleop=not args.no_teleop,
                      port=args.port, ray_address=args.ray)
 

@@ -116,3 +116,20 @@ def test_text_cell_in_a_numeric_column_names_file_column_and_row(bench, tmp_path
     line = cli_error("train")
     assert str(bad) in line and "'roll_effort'" in line and "'abc'" in line and "row 7" in line
     assert not ckpt.exists()
+
+
+@pytest.mark.skipif(torch.cuda.is_available(), reason="needs a machine without CUDA")
+def test_a_gpu_run_finishes_on_the_cpu_and_computes_nowhere_else(tmp_path, cli_error,
+                                                                  monkeypatch):
+    """``reproduce --device cuda`` needs CUDA here; with ``--finish-on cpu`` the run keeps its
+    GPU keys and computes on the CPU; ``--finish-on cuda`` needs CUDA as ``--device`` does."""
+    import hybrid.reproduce
+    calls = []
+    monkeypatch.setattr(hybrid.reproduce, "reproduce", lambda *a, **k: calls.append(k) or {})
+    out = str(tmp_path / "run")
+    assert main(["reproduce", "--out", out, "--device", "cuda"]) == 2
+    assert "--device cuda" in cli_error("reproduce") and calls == []
+    assert main(["reproduce", "--out", out, "--finish-on", "cuda"]) == 2
+    assert "--finish-on cuda" in cli_error("reproduce") and calls == []
+    assert main(["reproduce", "--out", out, "--device", "cuda", "--finish-on", "cpu"]) == 0
+    assert calls[0]["device"] == "cuda" and calls[0]["finish_on"] == "cpu"

@@ -168,6 +168,18 @@ def test_a_moved_run_reads_its_results_back(tmp_path):
         read_result(cache_path(tmp_path, fn, p), _QUALNAME, {**p, "n": 258})
 
 
+def test_a_run_finished_on_another_device_reads_its_results_back(tmp_path):
+    """``finish_on`` says where the remaining tasks compute (a GPU run finished on the CPU):
+    out of the key, so what the first device finished is read back, not recomputed."""
+    on_gpu = [(fn, {**p, "finish_on": None}) for fn, p in _grid(3)]
+    first = run_grid(on_gpu[:2], tmp_path, log=lambda s: None)
+    CALLS.clear()
+    on_cpu = [(fn, {**p, "finish_on": "cpu"}) for fn, p in _grid(3)]
+    lines: list[str] = []
+    assert run_grid(on_cpu, tmp_path, log=lines.append)[:2] == first
+    assert [c["i"] for c in CALLS] == [2] and lines[0] == "grid: 3 tasks, 2 cached, 1 to run"
+
+
 def test_results_keyed_by_an_earlier_path_are_adopted_when_they_verify(tmp_path):
     """Keys once hashed the run folder's path: such files are linked under their current name
     (and kept, for a process of the earlier code); one that fails its check is recomputed."""

@@ -164,6 +164,24 @@ def test_parts_of_a_point_run_apart_on_the_same_benches_make_the_point(tmp_path)
     assert kept["points"] == whole["points"] and kept["partial"] == []
 
 
+def test_a_training_finished_on_another_device_is_named_per_seed(tmp_path):
+    """A GPU run finished on the CPU (``--finish-on cpu``): the seed whose training moved names
+    both devices in order, the others the run's; trainings cached before trainings recorded
+    their devices count as the run's."""
+    run = run_dir(tmp_path, 1.0)
+    _finished_run(run, 1.0, 0.3, 0.6, seeds=(1, 2), models=["hybrid", "transformer"],
+                  device="cuda")
+    results = json.loads((run / "results.json").read_text())
+    results["training"]["hybrid full 1.0 seed 1"]["devices"] = ["cuda", "cpu"]
+    results["training"]["hybrid full 1.0 seed 2"]["devices"] = ["cuda"]
+    (run / "results.json").write_text(json.dumps(results))
+    curve = assemble(tmp_path, [1.0], tmp_path / "curve" / "learning_curve.json")
+    assert curve["partial"][0]["devices"] == {
+        HYBRID: "cuda then cpu (seed 1); cuda (seed 2)", TRANSFORMER: "cuda"}
+    page = (tmp_path / "curve" / "README.md").read_text()
+    assert "cuda then cpu (seed 1); cuda (seed 2) (Hybrid (ours))" in page
+
+
 def test_the_table_says_which_recipe_settings_each_scale_trained_with(tmp_path):
     """A recipe change retrains the model at the scales run after it: the page names the
     settings per scale, so a curve across the change is not read as one recipe's."""

@@ -103,3 +103,25 @@ def test_a_state_file_is_read_back_strictly(monkeypatch, tmp_path):
     state.write_text("not a state")
     with pytest.raises(ResumeError, match="not a readable training state"):
         _train(state)
+
+
+def test_a_training_resumes_on_another_device_and_names_each_epochs(monkeypatch, tmp_path):
+    """A GPU training whose machine is gone goes on on the CPU: the state is accepted on another
+    device (here "cpu:0", another device string on the same hardware, so the numbers must still
+    equal the uninterrupted run's) and the history says where each epoch ran."""
+    whole, whole_report = _train()
+    state = tmp_path / "moved.state"
+    with monkeypatch.context() as m:
+        _killed_in_epoch(m, 3)
+        with pytest.raises(KeyboardInterrupt):
+            _train(state)
+    moved_cfg = TrainConfig(**{**CFG.to_dict(), "device": "cpu:0"})
+    setup = make_setup("hybrid", TRIALS[:4], inputs=Inputs(("a", "b")), config=CONFIG)
+    report = train_model(setup, TRIALS[:4], TRIALS[4:], moved_cfg, resume=state)
+    assert [h["device"] for h in report["history"]] == ["cpu"] * 2 + ["cpu:0"] * (
+        whole_report["epochs_run"] - 2)
+    assert report["devices"] == ["cpu", "cpu:0"] and whole_report["devices"] == ["cpu"]
+    assert [h["val_loss"] for h in report["history"]] == \
+        [h["val_loss"] for h in whole_report["history"]]
+    for key, value in whole.model.state_dict().items():
+        assert torch.equal(value, setup.model.state_dict()[key]), key
