@@ -361,9 +361,9 @@ def reproduce_command(args) -> dict:
     _writable_ancestor(target, "--out")
     from hybrid.reproduce import reproduce
     return reproduce(args.out, scale=args.scale, seeds=args.seeds, device=args.device,
-                     finish_on=args.finish_on, budget=args.budget, models=args.models, ablations=not args.no_ablations,
-                     efficiency=not args.no_efficiency, teleop=not args.no_teleop,
-                     port=args.port, ray_address=args.ray)
+                     finish_on=args.finish_on, budget=args.budget, models=args.models,
+                     ablations=not args.no_ablations, efficiency=not args.no_efficiency,
+                     teleop=not args.no_teleop, port=args.port, ray_address=args.ray)
 
 
 def export_command(args) -> dict:

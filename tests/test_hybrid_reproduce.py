@@ -319,3 +319,25 @@ def test_the_figures_networks_predict_on_the_runs_device(tiny_run, tmp_path, mon
     pre_by = {("fcn", "full", 1.0, 1): json.loads(task.read_text())["result"]}
     rep._figures(tmp_path, work, 1, ["fcn"], pre_by, checkpoints, "cuda")
     assert set(asked) == {("load", "cuda"), ("predict", "cuda")}
+
+
+def test_a_gpu_run_finishes_on_the_cpu_under_its_keys(tiny_run, tmp_path):
+    """``finish_on="cpu"``: the tasks keep the keys (and checkpoint names) of the run's device
+    and compute on the CPU, so the FCN trained there equals the CPU run's to the bit, and its
+    training records where it ran. The checkpoint's scalers, rebuilt from this machine's bench
+    (``benchmarks/trained_data_identity.py``), come out identical: the check's control."""
+    from benchmarks.trained_data_identity import compare_run
+    from hybrid.grid import task_key
+    from hybrid.reproduce import _pretrain_task
+    run = tmp_path / "gpu_run"
+    moved = reproduce(run, **{**TINY, "device": "cuda", "finish_on": "cpu"})
+    assert moved["automated"] == tiny_run[1]["automated"]
+    [task] = (run / "work" / "cache").glob("pretrain_task-*.json")
+    record = json.loads(task.read_text())
+    assert record["params"]["device"] == "cuda" and record["params"]["finish_on"] == "cpu"
+    assert task.stem.endswith(task_key(_pretrain_task, {**record["params"], "finish_on": None}))
+    assert record["result"]["training"]["devices"] == ["cpu"]
+    assert [p.name for p in (run / "work" / "checkpoints").glob("*.pt")] == [
+        "fcn_full_f1.0_seed1_quick_cuda.pt"]
+    [(name, row)] = compare_run(run).items()
+    assert row["trained_on"] == ["cpu"] and row["input_scaler"] == row["target_scaler"] == 0.0
