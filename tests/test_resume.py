@@ -49,14 +49,19 @@ def _killed_in_epoch(monkeypatch, epoch: int) -> None:
     monkeypatch.setattr(train_module, "_evaluate_loss", interrupted)
 
 
-def test_a_killed_training_resumes_to_the_uninterrupted_result(monkeypatch, tmp_path):
-    whole, whole_report = _train()
-    state = tmp_path / "hybrid.state"
+def _killed_training(monkeypatch, state, epoch: int = 3) -> None:
+    """A training with its state at ``state``, killed in ``epoch``."""
     with monkeypatch.context() as m:
-        _killed_in_epoch(m, 3)
+        _killed_in_epoch(m, epoch)
         with pytest.raises(KeyboardInterrupt):
             _train(state)
     assert state.exists()
+
+
+def test_a_killed_training_resumes_to_the_uninterrupted_result(monkeypatch, tmp_path):
+    whole, whole_report = _train()
+    state = tmp_path / "hybrid.state"
+    _killed_training(monkeypatch, state)
     resumed, report = _train(state)
     for key, value in whole.model.state_dict().items():
         assert torch.equal(value, resumed.model.state_dict()[key]), key
@@ -82,10 +87,7 @@ def _record(path):
 
 def test_a_state_file_is_read_back_strictly(monkeypatch, tmp_path):
     state = tmp_path / "s.state"
-    with monkeypatch.context() as m:
-        _killed_in_epoch(m, 2)
-        with pytest.raises(KeyboardInterrupt):
-            _train(state)
+    _killed_training(monkeypatch, state, epoch=2)
     good = _record(state)
 
     def refused(record, match):
@@ -111,10 +113,7 @@ def test_a_training_resumes_on_another_device_and_names_each_epochs(monkeypatch,
     equal the uninterrupted run's) and the history says where each epoch ran."""
     whole, whole_report = _train()
     state = tmp_path / "moved.state"
-    with monkeypatch.context() as m:
-        _killed_in_epoch(m, 3)
-        with pytest.raises(KeyboardInterrupt):
-            _train(state)
+    _killed_training(monkeypatch, state)
     moved_cfg = TrainConfig(**{**CFG.to_dict(), "device": "cpu:0"})
     setup = make_setup("hybrid", TRIALS[:4], inputs=Inputs(("a", "b")), config=CONFIG)
     report = train_model(setup, TRIALS[:4], TRIALS[4:], moved_cfg, resume=state)
