@@ -415,9 +415,8 @@ def reproduce(out: str | Path, scale: float = 0.1, seeds: Sequence[int] = (1, 2,
                          f"independent bench and initialisation")
     out = Path(out)
     call = {"scale": scale, "seeds": list(seeds), "device": device, "finish_on": finish_on,
-            "budget": budget,
-            "models": list(models), "ablations": ablations, "efficiency": efficiency,
-            "teleop": teleop, "port": port}
+            "budget": budget, "models": list(models), "ablations": ablations,
+            "efficiency": efficiency, "teleop": teleop, "port": port}
     floors = prepare_benches(out, scale, seeds, teleop=teleop, port=port,
                              ray_address=ray_address, log=say)
     run_dir, cache = str((out / "work").resolve()), out / "work" / "cache"

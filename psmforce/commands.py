@@ -46,9 +46,9 @@ def _fresh_folder(path: str, option: str) -> None:
     _writable_ancestor(target, option)
 
 
-def _device(args, option: str = "--device") -> None:
-    """Refuse a CUDA device that is not there; ``option``: the flag whose device computes."""
-    if getattr(args, option.lstrip("-").replace("-", "_")) == "cuda":
+def _device(device: str, option: str = "--device") -> None:
+    """Refuse a CUDA ``device`` that is not there; ``option``: the flag that asked for it."""
+    if device == "cuda":
         import torch
         if not torch.cuda.is_available():
             raise ValueError(f"{option} cuda: torch sees no CUDA device on this machine "
@@ -66,7 +66,7 @@ def _training_options(args) -> None:
     if args.epochs < 1:
         raise ValueError(f"--epochs: must be at least 1, got {args.epochs}")
     _seed(args.seed, "--seed")
-    _device(args)
+    _device(args.device)
     output_file(args.out, "--out")
 
 
@@ -354,7 +354,10 @@ def reproduce_command(args) -> dict:
                          f"independent run, a repeat would report a spread of 0")
     if args.models is not None:
         _models(args.models, "--models")
-    _device(args, "--finish-on" if args.finish_on else "--device")
+    if args.finish_on:
+        _device(args.finish_on, "--finish-on")
+    else:
+        _device(args.device)
     target = Path(args.out)
     if target.exists() and not target.is_dir():
         raise ValueError(f"--out: {target} exists and is not a folder")

@@ -8,6 +8,7 @@ import json
 import shutil
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 import pytest
 
@@ -341,3 +342,11 @@ def test_a_gpu_run_finishes_on_the_cpu_under_its_keys(tiny_run, tmp_path):
         "fcn_full_f1.0_seed1_quick_cuda.pt"]
     [(name, row)] = compare_run(run).items()
     assert row["trained_on"] == ["cpu"] and row["input_scaler"] == row["target_scaler"] == 0.0
+    # a checkpoint fitted on other data (its scaler moved by 1e-3) is reported as such
+    from hybrid.checkpoint import load_checkpoint
+    path = run / "work" / "checkpoints" / name
+    other = load_checkpoint(path)
+    other.input_scaler.mean = other.input_scaler.mean + np.float32(1e-3)
+    other.save(path)
+    [(_, row)] = compare_run(run).items()
+    assert row["input_scaler"] == pytest.approx(1e-3, rel=1e-3) and row["target_scaler"] == 0.0
