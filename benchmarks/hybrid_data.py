@@ -2,11 +2,11 @@
 
     python benchmarks/hybrid_data.py [--rows 1000000] [--files 100] [--json OUT.json]
 
-Writes synthetic recordings in the contract's layout (psm_model.recording, all columns random,
-100 Hz) into a temporary folder, then times :func:`hybrid.data.load_dataset` (the CSV parse and
-checks), scaler fitting, :class:`hybrid.data.WindowSet` construction for the paper's transformer
-(L = 100, s = 5, zero-copy view) and the gathering of 100 batches of 256 windows. One thread for
-torch; the CSV reader uses two threads.
+Writes synthetic recordings in the contract's layout (psmforce.io.recording, all columns random, 100
+Hz) into a temporary folder, then times :func:`psmforce.estimators.data.dataset.load_dataset` (the
+CSV parse and checks), scaler fitting, :class:`psmforce.estimators.data.dataset.WindowSet`
+construction for the paper's transformer (L = 100, s = 5, zero-copy view) and the gathering of 100
+batches of 256 windows. One thread for torch; the CSV reader uses two threads.
 """
 
 from __future__ import annotations
@@ -20,9 +20,10 @@ import numpy as np
 import pandas as pd
 import torch
 
-from hybrid.data import WindowSet, fit_scalers, index_recordings, load_dataset, resolve_features
-from psm_model.recording import REQUIRED, TARGETS, write_recording
-from _report import write_json
+from psmforce.estimators.data.dataset import (WindowSet, fit_scalers, index_recordings,
+                                              load_dataset, resolve_features)
+from psmforce.io.recording import REQUIRED, TARGETS, write_recording
+from psmforce.experiments.report import write_json
 
 
 def main() -> dict:

@@ -3,10 +3,10 @@
     python benchmarks/kinematics.py [--n 100000] [--repeats 5] [--json PATH]
 
 Runs on one core (BLAS/OpenMP threads set to 1 before numpy loads). Prints and writes (JSON):
-configurations per second for FK + WORLD Jacobian at cp (best of ``--repeats``), for FK alone,
-for wrench_from_torques, and for a per-sample Pinocchio loop for comparison; then the smallest
-singular value of the Jacobian that wrench_from_torques inverts (WORLD, and LOCAL_WORLD_ALIGNED at
-cp) by insertion band, which is what the damping threshold of psm_model.wrench is judged against.
+configurations per second for FK + WORLD Jacobian at cp (best of ``--repeats``), for FK alone, for
+wrench_from_torques, and for a per-sample Pinocchio loop for comparison; then the smallest singular
+value of the Jacobian that wrench_from_torques inverts (WORLD, and LOCAL_WORLD_ALIGNED at cp) by
+insertion band, which is what the damping threshold of psmforce.robot.wrench is judged against.
 Target: >= 200,000 configurations/s.
 """
 
@@ -23,9 +23,9 @@ from pathlib import Path  # noqa: E402
 import numpy as np  # noqa: E402
 import pinocchio as pin  # noqa: E402
 
-from psm_model import PSM  # noqa: E402
-from psm_model.wrench import DEFAULT_SIGMA_THRESHOLD  # noqa: E402
-from _report import write_json  # noqa: E402
+from psmforce.robot import PSM  # noqa: E402
+from psmforce.robot.wrench import DEFAULT_SIGMA_THRESHOLD  # noqa: E402
+from psmforce.experiments.report import write_json  # noqa: E402
 
 TARGET_CONFIGS_PER_S = 200_000
 

@@ -2,13 +2,13 @@
 
     python benchmarks/live.py [--checkpoint HYBRID.pt] [--seconds 60] [--json OUT.json]
 
-Needs the extra ``psmforce[ros]`` (cyclonedds, mcap). One thread for torch, BLAS and OpenMP
-(set before they load), in every process. ``--checkpoint``: a streamable hybrid (default: one
-trained here for 2 epochs on a 1 %-scale simulated bench, the default architecture at the
-bench's 100 Hz; the figures below do not depend on how well it is trained). The input is a
-simulated palpation session put on a 1 kHz clock (:func:`psmforce.live.robot.bench_recording`):
-the model runs at 100 Hz, every 10th message (decimation 10, :mod:`hybrid.rates`). Prints and
-writes (JSON):
+Needs the extra ``psmforce[ros]`` (cyclonedds, mcap). One thread for torch, BLAS and OpenMP (set
+before they load), in every process. ``--checkpoint``: a streamable hybrid (default: one trained
+here for 2 epochs on a 1 %-scale simulated bench, the default architecture at the bench's 100 Hz;
+the figures below do not depend on how well it is trained). The input is a simulated palpation
+session put on a 1 kHz clock (:func:`psmforce.live.sim_robot.bench_recording`): the model runs at
+100 Hz, every 10th message (decimation 10, :mod:`psmforce.estimators.data.rates`). Prints and writes
+(JSON):
 
 * ``decode``: the time to decode one sample's three messages (arm and jaw JointState, HEX10
   WrenchStamped) from the CDR bytes the robot writes, by :mod:`psmforce.live.cdr` (what
@@ -22,7 +22,7 @@ writes (JSON):
   compared with the 1 ms period of a 1 kHz loop. Every answer's flags are checked free of
   GAP / RESET / INVALID_INPUT, so the split is the estimator's own (network on every 10th);
 * ``dds``: three processes on loopback as on the robot: the simulated robot
-  (``python -m psmforce.live.robot --duration S``: arm and jaw JointState and HEX10
+  (``python -m psmforce.live.sim_robot --duration S``: arm and jaw JointState and HEX10
   WrenchStamped at 1 kHz), ``psmforce serve`` (``--input-rate 1000 --sync-stamps``) and this
   process subscribing to ``/PSM1/tool_force/hex10``: HEX10 messages sent, answers received,
   lost fraction, end-to-end latency (from the robot's write of a HEX10 message to this
@@ -56,13 +56,13 @@ from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 import torch  # noqa: E402
-from _report import write_json  # noqa: E402
+from psmforce.experiments.report import write_json  # noqa: E402
 
-from hybrid.streaming import Flags, StreamingEstimator  # noqa: E402
-from psm_model import PSM  # noqa: E402
-from psm_model.bags.messages import stream_columns  # noqa: E402
-from psm_model.bags.reading import resolve_topics  # noqa: E402
-from psm_model.conventions import CHAIN_JOINTS, JAW_JOINT  # noqa: E402
+from psmforce.estimators.runtime.streaming import Flags, StreamingEstimator  # noqa: E402
+from psmforce.robot import PSM  # noqa: E402
+from psmforce.io.bags.messages import stream_columns  # noqa: E402
+from psmforce.io.bags.reading import resolve_topics  # noqa: E402
+from psmforce.robot.conventions import CHAIN_JOINTS, JAW_JOINT  # noqa: E402
 
 PERIOD_MS = 1.0
 """The period of a 1 kHz loop: the budget of one message (ms)."""
@@ -80,8 +80,8 @@ def _percentiles(values_ms) -> dict:
 
 
 def _checkpoint(tmp: Path) -> tuple[Path, str]:
-    from hybrid.train import train
-    from psm_model.sim import simulate
+    from psmforce.estimators.training.train import train
+    from psmforce.sim import simulate
     simulate("automated", scale=0.01, seed=0, out=tmp / "bench")
     summary = train(tmp / "bench", "hybrid", tmp / "hybrid.pt", epochs=2, seed=0)
     return tmp / "hybrid.pt", (f"hybrid trained here: 1 %-scale simulated bench, seed 0, "
@@ -90,7 +90,7 @@ def _checkpoint(tmp: Path) -> tuple[Path, str]:
 
 def _raw_messages(frame) -> list[tuple[str, bytes]]:
     """The robot's messages, per row, as the CDR bytes it writes
-    (:meth:`psmforce.live.robot.Robot.publish`): arm and jaw JointState, then HEX10
+    (:meth:`psmforce.live.sim_robot.Robot.publish`): arm and jaw JointState, then HEX10
     WrenchStamped."""
     from psmforce.live import cdr
     values = {s: frame[list(stream_columns(s))].to_numpy(np.float64) for s in ("js", "jaw",
@@ -193,7 +193,7 @@ def dds_figures(ckpt: Path, frame, seconds: float, tmp: Path) -> dict:
     from cyclonedds.topic import Topic
     from cyclonedds.util import duration
 
-    from psm_model.recording import write_recording
+    from psmforce.io.recording import write_recording
     from psmforce.live import cdr, dds
     from psmforce.live.node import output_topics
     domain_id = 150 + os.getpid() % 80
@@ -212,7 +212,7 @@ def dds_figures(ckpt: Path, frame, seconds: float, tmp: Path) -> dict:
         waitset.attach(ReadCondition(r, SampleState.Any | ViewState.Any | InstanceState.Any))
     env = dict(os.environ, PYTHONPATH=str(ROOT))
     node = subprocess.Popen(
-        [sys.executable, "-m", "psmforce.cli", "serve", str(ckpt), "--domain-id", str(domain_id),
+        [sys.executable, "-m", "psmforce.cli.main", "serve", str(ckpt), "--domain-id", str(domain_id),
          "--input-rate", "1000", "--sync-stamps", "--idle-stop", "3", "--json",
          str(tmp / "node.json")], env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
         text=True)
@@ -226,7 +226,7 @@ def dds_figures(ckpt: Path, frame, seconds: float, tmp: Path) -> dict:
                 raise RuntimeError(f"psmforce serve did not come up: {node.communicate()}")
             time.sleep(0.05)
         robot = subprocess.Popen(
-            [sys.executable, "-m", "psmforce.live.robot", str(tmp / "robot.csv"), "--domain-id",
+            [sys.executable, "-m", "psmforce.live.sim_robot", str(tmp / "robot.csv"), "--domain-id",
              str(domain_id), "--start-ns", str(START_NS), "--duration", str(seconds),
              "--sent", str(tmp / "sent.json")], env=env, stdout=subprocess.PIPE,
             stderr=subprocess.PIPE, text=True)
@@ -270,7 +270,7 @@ def dds_figures(ckpt: Path, frame, seconds: float, tmp: Path) -> dict:
 
 
 def replay_figures(ckpt: Path, frame, tmp: Path) -> dict:
-    from psm_model.bags.writing import write_bag
+    from psmforce.io.bags.writing import write_bag
     from psmforce.live.replay import replay
     write_bag(frame, tmp / "session", start_ns=START_NS)
     started = time.perf_counter()
@@ -291,7 +291,7 @@ def main() -> tuple[dict, str | None]:
     parser.add_argument("--json")
     args = parser.parse_args()
     torch.set_num_threads(1)
-    from psmforce.live.robot import bench_recording
+    from psmforce.live.sim_robot import bench_recording
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
         result = {"machine": {"platform": platform.platform(), "cpus": os.cpu_count(),

@@ -3,12 +3,12 @@ before and after MultiRocket-Hydra's, per numba threading layer.
 
     python benchmarks/process_interference.py [--scale 0.02] [--trials 3] [--threads 2] [--json OUT]
 
-``psmforce reproduce`` and ``benchmarks/another_tool.py`` train and score several models in one
-process. MultiRocket-Hydra's kernels run on numba's parallel threads; with numba's OpenMP layer
-(its default where TBB is absent) a second libgomp pool lives beside torch's, and torch's
-attention afterwards ran about 85x slower (one test trial: 1.07 s -> 90.5 s).
-:mod:`hybrid.rocket` therefore picks numba's ``workqueue`` layer unless the user set
-``NUMBA_THREADING_LAYER``.
+``psmforce reproduce`` and ``studies/another_tool.py`` train and score several models in one
+process. MultiRocket-Hydra's kernels run on numba's parallel threads; with numba's OpenMP layer (its
+default where TBB is absent) a second libgomp pool lives beside torch's, and torch's attention
+afterwards ran about 85x slower (one test trial: 1.07 s -> 90.5 s).
+:mod:`psmforce.estimators.networks.rocket` therefore picks numba's ``workqueue`` layer unless the
+user set ``NUMBA_THREADING_LAYER``.
 
 This simulates a small automated bench, trains a paper transformer (1 epoch: only its inference
 time matters here) and a MultiRocket-Hydra (2,000 training windows), then, for each layer
@@ -29,16 +29,16 @@ import sys
 import tempfile
 from pathlib import Path
 
-from _report import write_json
+from psmforce.experiments.report import write_json
 
 LAYERS = {"library (workqueue)": None, "omp (numba's default here)": "omp"}
 
 _ONE_PROCESS = """
 import json, sys, time
 import torch
-from hybrid.checkpoint import load_checkpoint
-from hybrid.data import load_dataset
-from hybrid.evaluate import predict_trial
+from psmforce.estimators.training.checkpoint import load_checkpoint
+from psmforce.estimators.data.dataset import load_dataset
+from psmforce.estimators.evaluation.evaluate import predict_trial
 data, transformer, rocket, threads, n_trials = sys.argv[1:6]
 torch.set_num_threads(int(threads))
 ds = load_dataset(data)
@@ -65,8 +65,8 @@ print(json.dumps({"transformer_before_s": before, "rocket_s": rocket_s,
 
 
 def _models(tmp: Path, scale: float) -> tuple[Path, Path, Path]:
-    from hybrid.train import train
-    from psm_model.sim import simulate
+    from psmforce.estimators.training.train import train
+    from psmforce.sim import simulate
     data = tmp / "bench"
     simulate("automated", scale=scale, seed=1, out=data)
     transformer, rocket = tmp / "transformer.pt", tmp / "rocket.pt"

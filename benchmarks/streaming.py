@@ -9,13 +9,14 @@ dataset folder (default: a small one simulated into a temporary folder, seed 0);
 scalers fitted on the data's train split and ``--prior`` if given; latency does not depend on
 the weights). Prints and writes (JSON):
 
-* per-step latency (median / p99 / max, ms; wall clock, and the thread's CPU time, which
-  leaves out waits while other processes hold the core) over ``--steps`` steps after 500 warm-up steps of
-  the full hybrid pipeline fed recorded samples as dicts: input checks, prior, compensated
-  inputs, scaling, network step (backend ``auto``), un-scaling, causal low-pass; and of the same
-  with base-frame output (PSM rotation per sample);
-* the same for the paper's transformer (hybrid/models.py, 155,715 parameters) recomputing its
-  100-sample window each step in eager PyTorch (scaling included): the reference;
+* per-step latency (median / p99 / max, ms; wall clock, and the thread's CPU time, which leaves out
+  waits while other processes hold the core) over ``--steps`` steps after 500 warm-up steps of the
+  full hybrid pipeline fed recorded samples as dicts: input checks, prior, compensated inputs,
+  scaling, network step (backend ``auto``), un-scaling, causal low-pass; and of the same with
+  base-frame output (PSM rotation per sample);
+* the same for the paper's transformer (psmforce/estimators/networks/baselines.py, 155,715
+  parameters) recomputing its 100-sample window each step in eager PyTorch (scaling included): the
+  reference;
 * network-step latency per backend (numpy, onnx, torch), the basis of ``backend="auto"``;
 * offline batch throughput (windows = estimates per second) on the test recordings;
 * max |streaming - offline| (N) on a recorded test trial;
@@ -23,8 +24,8 @@ the weights). Prints and writes (JSON):
   axis on the test split, from sample 99, no bias step) next to the raw estimate and the paper's
   bidirectional median (k = 71).
 
-Targets (wall clock): hybrid p99 < 1.0 ms; hybrid median >= 5x faster than the reference median in the same
-run; offline >= 20,000 windows/s; streaming == offline within 1e-4 N.
+Targets (wall clock): hybrid p99 < 1.0 ms; hybrid median >= 5x faster than the reference median in
+the same run; offline >= 20,000 windows/s; streaming == offline within 1e-4 N.
 """
 
 import os
@@ -42,17 +43,17 @@ from pathlib import Path  # noqa: E402
 import numpy as np  # noqa: E402
 import torch  # noqa: E402
 
-from hybrid.causal import CausalTransformer  # noqa: E402
-from hybrid.data import fit_scalers, load_dataset  # noqa: E402
-from hybrid.evaluate import EVAL_START  # noqa: E402
-from hybrid.inputs import add_prior_columns, hybrid_columns, select_base  # noqa: E402
-from hybrid.metrics import axis_metrics, postprocess  # noqa: E402
-from hybrid.models import PaperTransformer, count_parameters  # noqa: E402
-from hybrid.postfilter import CausalFilter  # noqa: E402
-from hybrid.steppers import make_backend  # noqa: E402
-from hybrid.streaming import Flags, StreamingEstimator  # noqa: E402
-from psm_model.recording import PAPER_FEATURES, TARGETS  # noqa: E402
-from _report import shown_path, write_json  # noqa: E402
+from psmforce.estimators.networks.causal import CausalTransformer  # noqa: E402
+from psmforce.estimators.data.dataset import fit_scalers, load_dataset  # noqa: E402
+from psmforce.estimators.evaluation.evaluate import EVAL_START  # noqa: E402
+from psmforce.estimators.data.hybrid_inputs import (add_prior_columns, hybrid_columns, select_base)  # noqa: E402
+from psmforce.estimators.evaluation.metrics import axis_metrics, postprocess  # noqa: E402
+from psmforce.estimators.networks.baselines import PaperTransformer, count_parameters  # noqa: E402
+from psmforce.estimators.runtime.postfilter import CausalFilter  # noqa: E402
+from psmforce.estimators.runtime.steppers import make_backend  # noqa: E402
+from psmforce.estimators.runtime.streaming import Flags, StreamingEstimator  # noqa: E402
+from psmforce.io.recording import PAPER_FEATURES, TARGETS  # noqa: E402
+from psmforce.experiments.report import shown_path, write_json  # noqa: E402
 
 TARGET_P99_MS = 1.0
 TARGET_SPEEDUP = 5.0
@@ -94,7 +95,7 @@ def _time_steps(step, n: int) -> tuple[list[int], list[int]]:
 def _load(args, tmp: Path):
     data = Path(args.data) if args.data else None
     if data is None:
-        from psm_model.sim.dataset import simulate
+        from psmforce.sim.dataset import simulate
         data = tmp / "sim"
         simulate("automated", scale=0.03, seed=0, out=data)
     dataset = load_dataset(data)
@@ -108,7 +109,7 @@ def _load(args, tmp: Path):
         make = lambda **o: StreamingEstimator.from_checkpoint(args.checkpoint, **o)  # noqa: E731
     else:
         if args.prior:
-            from psm_model.identification.prior import InternalForcePrior
+            from psmforce.identification.prior import InternalForcePrior
             prior = InternalForcePrior.load(args.prior)
         features, base = hybrid_columns(use_prior=prior is not None)
         if prior is not None:
@@ -155,7 +156,7 @@ def main() -> tuple[dict, str | None]:
     result["hybrid_pipeline"] = _stats(_time_steps(
         lambda i: est.step(rows[i % n_rows], time=i * period), args.steps))
     try:
-        from psm_model import PSM
+        from psmforce.robot import PSM
         est_base = make(psm=PSM(), **POST_FILTER)
         result["hybrid_pipeline_base_frame"] = _stats(_time_steps(
             lambda i: est_base.step(rows[i % n_rows], time=i * period, base_frame=True),

@@ -26,7 +26,7 @@ import torch
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from benchmarks._report import shown_path, write_json  # noqa: E402
+from psmforce.experiments.report import shown_path, write_json  # noqa: E402
 
 BATCH = 256
 
@@ -94,8 +94,8 @@ def main(argv=None) -> int:
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--json", type=Path)
     args = ap.parse_args(argv)
-    from hybrid.checkpoint import load_checkpoint
-    from hybrid.train import is_chunk
+    from psmforce.estimators.training.checkpoint import load_checkpoint
+    from psmforce.estimators.training.train import is_chunk
     torch.set_num_threads(args.threads)
     setup = load_checkpoint(args.checkpoint)
     if is_chunk(setup.model) or not isinstance(setup.model, torch.nn.Module):

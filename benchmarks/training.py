@@ -5,18 +5,20 @@ and its wall-clock to convergence.
     python benchmarks/training.py --profile [--json OUT]
 
 Throughput: optimiser steps (forward, backward, Adam) on batches of the training loop's shape
-(window models: 256 windows; chunk models: the batch and chunk of their recipe's training
-settings, the LSTM's 16 of 1000 samples), timed after warm-up steps, best of ``--steps``. Printed and written per model as windows/s
-(chunks/s for chunk models) and supervised samples/s (one per window; ``chunk - window`` per
-chunk). The paper transformer is timed four ways, all the same function
-(``tests/test_hybrid_pipeline.py`` checks the own forward against the stock encoder,
-``tests/test_attention.py`` the chunked attention against plain autograd with the same mask):
+(window models: 256 windows; chunk models: the batch and chunk of their recipe's training settings,
+the LSTM's 16 of 1000 samples), timed after warm-up steps, best of ``--steps``. Printed and written
+per model as windows/s (chunks/s for chunk models) and supervised samples/s (one per window; ``chunk
+- window`` per chunk). The paper transformer is timed four ways, all the same function
+(``tests/estimators/test_hybrid_pipeline.py`` checks the own forward against the stock encoder,
+``tests/estimators/test_attention.py`` the chunked attention against plain autograd with the same
+mask):
 
 * ``before``: the stock ``nn.TransformerEncoder`` forward (the implementation this replaced);
-* ``own forward, torch attention``: :class:`hybrid.models.PaperTransformer`'s forward (last
-  layer for the last sample only) with torch's attention kernel and its dropout;
+* ``own forward, torch attention``:
+  :class:`psmforce.estimators.networks.baselines.PaperTransformer`'s forward (last layer for the
+  last sample only) with torch's attention kernel and its dropout;
 * ``after``: the same with the attention and its dropout in cache-sized chunks
-  (:mod:`hybrid.attention`), the model as trained;
+  (:mod:`psmforce.estimators.networks.attention`), the model as trained;
 * ``after, compiled``: the same through ``torch.compile`` (``TrainConfig.compile``; the first
   two steps, which include compiling, are printed apart).
 
@@ -45,16 +47,16 @@ from pathlib import Path
 import torch
 from torch.nn import functional as F
 
-from hybrid.attention import CHUNK_WINDOWS, _DroppedAttention
-from hybrid.models import PaperTransformer
-from hybrid.recipes import build_model, recipe
-from hybrid.train import TrainConfig, chunk_length
-from _report import write_json
+from psmforce.estimators.networks.attention import CHUNK_WINDOWS, _DroppedAttention
+from psmforce.estimators.networks.baselines import PaperTransformer
+from psmforce.estimators.networks.recipes import build_model, recipe
+from psmforce.estimators.training.train import TrainConfig, chunk_length
+from psmforce.experiments.report import write_json
 
 
 class _TorchAttentionTransformer(PaperTransformer):
     """The model's own forward with torch's attention kernel, dropout included (torch's math
-    path on a CPU): the implementation :mod:`hybrid.attention` replaced."""
+    path on a CPU): the implementation :mod:`psmforce.estimators.networks.attention` replaced."""
 
     attend = staticmethod(lambda q, k, v, dropout_p: F.scaled_dot_product_attention(
         q, k, v, dropout_p=dropout_p))
@@ -68,8 +70,8 @@ class _StockTransformer(PaperTransformer):
 
 
 class _ChunkedAttentionTransformer(PaperTransformer):
-    """The model as a CPU trains it (:mod:`hybrid.attention`'s chunk loop), on any device: off the
-    CPU :func:`hybrid.attention.attention` takes torch's kernel, and this times what it avoids."""
+    """The model as a CPU trains it (:mod:`psmforce.estimators.networks.attention`'s chunk loop), on any device: off the
+    CPU :func:`psmforce.estimators.networks.attention.attention` takes torch's kernel, and this times what it avoids."""
 
     attend = staticmethod(lambda q, k, v, dropout_p: _DroppedAttention.apply(
         q, k, v, dropout_p, CHUNK_WINDOWS))
@@ -110,7 +112,7 @@ def _step_seconds(model, x, steps: int, compile_model: bool = False,
 def _throughput(steps: int, device: str = "cpu") -> dict:
     """Every case on ``device``; off the CPU the compiled case is left out (its compile time
     dominates a short call) and the CPU's chunked attention is timed as a case of its own."""
-    from hybrid.inputs import hybrid_columns
+    from psmforce.estimators.data.hybrid_inputs import hybrid_columns
     n_hybrid = len(hybrid_columns(True)[0])
     lstm_chunk = recipe("lstm").optimiser["chunk"]
     hybrid, hybrid_cfg = build_model("hybrid", n_hybrid), TrainConfig(**recipe("hybrid").optimiser)
@@ -155,11 +157,12 @@ SPEED_OPTIONS = {"float32, batch 256 (as trained)": (256, False),
 
 def _speed_options(steps: int) -> dict:
     """Windows per second of the paper transformer's training step under each of
-    :data:`SPEED_OPTIONS`, and the data path's share: the seconds :class:`hybrid.data.WindowSet`
-    takes to gather a batch, against the step."""
+    :data:`SPEED_OPTIONS`, and the data path's share: the seconds
+    :class:`psmforce.estimators.data.dataset.WindowSet` takes to gather a batch, against the
+    step."""
     import numpy as np
     import pandas as pd
-    from hybrid.data import Scaler, Trial, WindowSet
+    from psmforce.estimators.data.dataset import Scaler, Trial, WindowSet
     out = {}
     for name, (batch, bf16) in SPEED_OPTIONS.items():
         torch.manual_seed(0)
@@ -210,9 +213,9 @@ def _profile(top: int = 10) -> dict:
 _FRESH_PREDICT = """
 import sys, time
 import torch
-from hybrid.checkpoint import load_checkpoint
-from hybrid.data import load_dataset
-from hybrid.evaluate import predict_trial
+from psmforce.estimators.training.checkpoint import load_checkpoint
+from psmforce.estimators.data.dataset import load_dataset
+from psmforce.estimators.evaluation.evaluate import predict_trial
 torch.set_num_threads(int(sys.argv[3]))
 setup = load_checkpoint(sys.argv[1])
 ds = load_dataset(sys.argv[2])
@@ -225,7 +228,7 @@ print(time.perf_counter() - t0)
 
 
 def _predict_seconds(setup, trials) -> float:
-    from hybrid.evaluate import predict_trial
+    from psmforce.estimators.evaluation.evaluate import predict_trial
     t0 = time.perf_counter()
     for t in trials:
         predict_trial(setup, t)
@@ -235,10 +238,10 @@ def _predict_seconds(setup, trials) -> float:
 def _converge(scale: float) -> dict:
     """Train to convergence, then time the test trials' prediction twice: in the process that
     trained (what ``reproduce`` and ``another_tool`` do) and in a fresh one from the checkpoint."""
-    from hybrid.data import load_dataset, split_validation
-    from hybrid.reproduce import _config
-    from hybrid.train import make_setup, train_model
-    from psm_model.sim import simulate
+    from psmforce.estimators.data.dataset import load_dataset, split_validation
+    from psmforce.experiments.reproduce import _config
+    from psmforce.estimators.training.train import make_setup, train_model
+    from psmforce.sim import simulate
     with tempfile.TemporaryDirectory() as tmp:
         simulate("automated", scale=scale, seed=1, out=Path(tmp) / "bench")
         ds = load_dataset(Path(tmp) / "bench")

@@ -3,9 +3,9 @@ the simulated bench. Run from the repository root: python examples/fit_identific
 import sys
 from pathlib import Path
 
-from psm_model.identification import InternalForcePrior, fit_dynamics_cli, fit_prior_cli
-from psm_model.recording import read_recording
-from psm_model.sim import simulate
+from psmforce.identification import InternalForcePrior, fit_dynamics_cli, fit_prior_cli
+from psmforce.io.recording import read_recording
+from psmforce.sim import simulate
 
 out = Path(sys.argv[1] if len(sys.argv) > 1 else "out/example_identification")
 out.mkdir(parents=True, exist_ok=True)

@@ -4,10 +4,10 @@ Run from the repository root: python examples/stream_hybrid.py [OUT]"""
 import sys
 from pathlib import Path
 
-from hybrid import StreamingEstimator
-from hybrid.train import train
-from psm_model import PSM
-from psm_model.recording import read_recording
+from psmforce.estimators import StreamingEstimator
+from psmforce.estimators.training.train import train
+from psmforce.robot import PSM
+from psmforce.io.recording import read_recording
 
 out = Path(sys.argv[1] if len(sys.argv) > 1 else "out/example_identification")
 train(out / "bench", "hybrid", out / "hybrid.pt", prior=out / "prior.json", epochs=3)

@@ -8,16 +8,16 @@ torques it exerts are tau = J^T w; the motors would hold it with -tau (dVRK effo
 at the jaw tip (base axes), the same load at the HEX10 origin in HEX10 axes and about the RCM, and
 on UR5 / Panda at their tool frames (base axes: the robot's base, Pinocchio's world). Where a
 wrench is expressed (``expressed_in``): "base", "base_at_frame" or "frame", the one vocabulary of
-psm_model.conventions for PSM.jacobian, PSM.wrench_from_torques and psm_model.wrench alike.
+psmforce.robot.conventions for PSM.jacobian, PSM.wrench_from_torques and psmforce.robot.wrench alike.
 """
 
 import numpy as np
 import pinocchio as pin
 
-from psm_model import PSM
-from psm_model.example_robots import load_example_robot
-from psm_model.frames import base_to_hex10
-from psm_model.wrench import wrench_from_torques
+from psmforce.robot import PSM
+from psmforce.robot.example_robots import load_example_robot
+from psmforce.robot.frames import base_to_hex10
+from psmforce.robot.wrench import wrench_from_torques
 
 np.set_printoptions(precision=4, suppress=True)
 

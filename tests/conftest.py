@@ -2,7 +2,7 @@
 
 import pytest
 
-import hybrid.train
+import psmforce.estimators.training.train
 
 
 @pytest.fixture
@@ -10,7 +10,7 @@ def no_training(monkeypatch):
     """Any check that fires only after loading the data would reach this and fail the test."""
     def refuse(*args, **kwargs):
         raise AssertionError("the bad option was not found before the expensive work")
-    monkeypatch.setattr(hybrid.train, "load_dataset", refuse)
+    monkeypatch.setattr(psmforce.estimators.training.train, "load_dataset", refuse)
 
 
 @pytest.fixture

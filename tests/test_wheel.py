@@ -1,4 +1,6 @@
-"""The package installs as a package: build the wheel, install it into a fresh virtual environment
+import pytest
+"""The package installs as one import package, ``psmforce``: build the wheel, check that it holds
+no other top-level name, install it into a fresh virtual environment
 outside the repository, and run the library from there (the URDF must come from the wheel)."""
 import os
 import shutil
@@ -7,6 +9,7 @@ import sys
 import sysconfig
 import textwrap
 import venv
+import zipfile
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
@@ -15,18 +18,17 @@ SCRIPT = textwrap.dedent("""
     import sys
     from pathlib import Path
 
-    import hybrid, psm_model, psmforce
+    import psmforce
     venv = Path(sys.prefix).resolve()
-    for module in (psm_model, hybrid, psmforce):
-        assert venv in Path(module.__file__).resolve().parents, (module.__file__, venv)
+    assert venv in Path(psmforce.__file__).resolve().parents, (psmforce.__file__, venv)
 
     import numpy as np
-    from hybrid import StreamingEstimator
-    from hybrid.train import TrainConfig, train
-    from psm_model import PSM
-    from psm_model.identification import fit_prior_cli
-    from psm_model.recording import read_recording
-    from psm_model.sim import simulate
+    from psmforce.estimators import StreamingEstimator
+    from psmforce.estimators.training.train import TrainConfig, train
+    from psmforce.robot import PSM
+    from psmforce.identification import fit_prior_cli
+    from psmforce.io.recording import read_recording
+    from psmforce.sim import simulate
 
     psm = PSM()
     assert venv in Path(str(psm.urdf_path)).resolve().parents, psm.urdf_path
@@ -43,6 +45,25 @@ SCRIPT = textwrap.dedent("""
 """)
 
 
+def wheel_top_level(wheel: Path) -> set[str]:
+    """The import names a wheel installs: the first part of every file's path but its
+    ``.dist-info`` folder (a module at the top level counts by its stem)."""
+    with zipfile.ZipFile(wheel) as archive:
+        names = archive.namelist()
+    return {Path(n).parts[0].removesuffix(".py") for n in names
+            if not Path(n).parts[0].endswith((".dist-info", ".data"))}
+
+
+def test_the_top_level_check_sees_a_second_package(tmp_path):
+    """The check can fail: a wheel that also installs ``hybrid/`` and a loose module."""
+    wheel = tmp_path / "x-1-py3-none-any.whl"
+    with zipfile.ZipFile(wheel, "w") as archive:
+        for name in ("psmforce/__init__.py", "hybrid/__init__.py", "loose.py",
+                     "x-1.dist-info/RECORD"):
+            archive.writestr(name, "")
+    assert wheel_top_level(wheel) == {"psmforce", "hybrid", "loose"}
+
+
 def _site_packages_line() -> str:
     """A .pth line giving the new environment this test's own dependencies (numpy, torch,
     pinocchio...) without installing them: ``--system-site-packages`` exposes the base
@@ -53,12 +74,13 @@ def _site_packages_line() -> str:
     return "import site; " + "; ".join(f"site.addsitedir({d!r})" for d in sorted(dirs)) + "\n"
 
 
+@pytest.mark.slow
+@pytest.mark.e2e
 def test_wheel_installs_and_runs_outside_the_repository(tmp_path):
     # build from a copy, so no build/ or *.egg-info left in the repository (and none reused)
     source = tmp_path / "source"
     ignore = shutil.ignore_patterns("__pycache__", "*.egg-info", "*.pyc")
-    for name in ("psm_model", "hybrid", "psmforce"):
-        shutil.copytree(REPO / name, source / name, ignore=ignore)
+    shutil.copytree(REPO / "psmforce", source / "psmforce", ignore=ignore)
     for name in ("pyproject.toml", "README.md"):
         shutil.copy2(REPO / name, source / name)
     wheels = tmp_path / "wheels"
@@ -68,6 +90,7 @@ def test_wheel_installs_and_runs_outside_the_repository(tmp_path):
                     "--wheel-dir", str(wheels), str(source)], check=True, env=env,
                    capture_output=True)
     (wheel,) = wheels.glob("psmforce-*.whl")
+    assert wheel_top_level(wheel) == {"psmforce"}
 
     prefix = tmp_path / "venv"
     venv.create(prefix, system_site_packages=True, with_pip=False)

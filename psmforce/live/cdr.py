@@ -6,14 +6,14 @@ times both).
 Encoding: a 4-byte encapsulation header ``00 01 00 00`` (CDR, little-endian), then the fields in
 declaration order, each primitive aligned to its own size counted from the end of that header;
 a string is its uint32 length including the NUL, its bytes and the NUL; a sequence its uint32
-count and its elements. ``tests/test_live_cdr.py`` checks every function here byte for byte
-against ``rosbags`` (:data:`psm_model.bags.messages.ROS2_TYPESTORE`) and ``cyclonedds``.
+count and its elements. ``tests/live/test_live_cdr.py`` checks every function here byte for byte
+against ``rosbags`` (:data:`psmforce.io.bags.messages.ROS2_TYPESTORE`) and ``cyclonedds``.
 
 Decoding (:func:`decode_joint_state`, :func:`decode_wrench_stamped`) reads either byte order
 (encapsulation ``00 01``, little-endian, or ``00 00``, big-endian: plain CDR, what ROS 2's
 middlewares write) into light messages with the ROS 2 field names (``msg.name``,
 ``msg.header.stamp.sec``, ``msg.wrench.force.x``; a JointState's arrays are float64 numpy
-views of the bytes), which :mod:`psm_model.bags.messages` decodes like any other. Bytes that do
+views of the bytes), which :mod:`psmforce.io.bags.messages` decodes like any other. Bytes that do
 not hold the message (cut short, a length past the end, another encapsulation, a string without
 its NUL or not UTF-8) raise :class:`CdrError` naming what is wrong. Bytes after the message
 (padding to four bytes, or an appended field) are ignored, as the middlewares' readers do.
@@ -232,7 +232,7 @@ def decode_wrench_stamped(data: bytes) -> WrenchStamped:
 def decode_joint_state(data: bytes) -> JointState:
     """sensor_msgs/msg/JointState from its CDR bytes (module docstring). The arrays' lengths are
     read as sent: whether they match the names is the stream decoder's check
-    (:class:`psm_model.bags.messages.JointStateDecoder`)."""
+    (:class:`psmforce.io.bags.messages.JointStateDecoder`)."""
     r = _Reader(data, "JointState")
     header = r.header()
     names = r.strings(r.count(5))  # a string: its length and its NUL at least

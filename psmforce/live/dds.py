@@ -7,7 +7,7 @@ ROS 2 maps a topic ``/PSM1/measured_js`` onto the DDS topic ``rt/PSM1/measured_j
 structures below carry those names and the ROS 2 fields in order, so a node built on them is
 seen by ``ros2 topic echo`` on a machine running ROS 2 on a DDS middleware in the same
 ``ROS_DOMAIN_ID``; their bytes equal ``rosbags``' and :mod:`psmforce.live.cdr`'s
-(``tests/test_live_cdr.py``). They decode with :mod:`psm_model.bags.messages` like the
+(``tests/live/test_live_cdr.py``). They decode with :mod:`psmforce.io.bags.messages` like the
 ``rosbags`` classes (same attribute names).
 
 QoS (:func:`qos`): reliable, volatile, keep last :data:`DEPTH`: what the dVRK's ROS 2 publishers

@@ -3,15 +3,15 @@
 
 :class:`ForceNode` holds the latest message of each input stream (``js``: the arm's
 sensor_msgs/JointState, ``jaw``: the jaw's, ``hex10``: the HEX10 geometry_msgs/WrenchStamped;
-:mod:`psm_model.bags.messages`) and, on each new message of its ``trigger`` stream (default the
+:mod:`psmforce.io.bags.messages`) and, on each new message of its ``trigger`` stream (default the
 HEX10), builds the estimator's sample from the three with
-:func:`psm_model.bags.messages.sample_from_messages` (time: the trigger's header stamp) and steps
-the :class:`hybrid.streaming.StreamingEstimator` once: one answer per trigger message, at the
-input rate, whatever rate the network runs at (the estimator decimates, :mod:`hybrid.rates`).
-Nothing is answered until each stream has delivered a message. With ``sync``, the triggers
-that arrive before the first message of another stream wait for it (up to 2 s of them: a
-DDS reader that matched its writer a moment late receives that writer's first messages
-resent, tens of ms after the others), then meet their partners as below.
+:func:`psmforce.io.bags.messages.sample_from_messages` (time: the trigger's header stamp) and steps
+the :class:`psmforce.estimators.runtime.streaming.StreamingEstimator` once: one answer per trigger
+message, at the input rate, whatever rate the network runs at (the estimator decimates,
+:mod:`psmforce.estimators.data.rates`). Nothing is answered until each stream has delivered a
+message. With ``sync``, the triggers that arrive before the first message of another stream wait for
+it (up to 2 s of them: a DDS reader that matched its writer a moment late receives that writer's
+first messages resent, tens of ms after the others), then meet their partners as below.
 
 Pairing. By default each trigger message meets the latest message of the other streams that
 has arrived: what a subscriber sees, right for streams stamped by different clocks (the dVRK's
@@ -31,8 +31,10 @@ stamp of the trigger message answered):
            (``frame_id`` ``{arm}_base``), N; torque zero (not estimated).
 ``hex10``  the same force in the HEX10 frame (``frame_id`` ``hex10``).
 ``std``    geometry_msgs/Vector3Stamped, per-axis std of the raw estimate, N, HEX10 frame (only
-           for a network that predicts its variance, :mod:`hybrid.uncertainty`).
-``flags``  std_msgs/UInt32: the bits of :class:`hybrid.streaming.Flags` (bits 0-8), and the
+           for a network that predicts its variance,
+           :mod:`psmforce.estimators.networks.uncertainty`).
+``flags``  std_msgs/UInt32: the bits of :class:`psmforce.estimators.runtime.streaming.Flags` (bits
+0-8), and the
            node's own :data:`TARING` (bit 16) and :data:`STALE` (bit 17).
 
 Tare. The estimate's offset in free space is removed by a tare: :meth:`ForceNode.request_tare`
@@ -51,8 +53,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from hybrid.streaming import Flags, StreamingEstimator
-from psm_model.bags.messages import MessageError, sample_from_messages, stamp_ns
+from psmforce.estimators.runtime.streaming import Flags, StreamingEstimator
+from psmforce.io.bags.messages import MessageError, sample_from_messages, stamp_ns
 from psmforce.live import cdr
 
 TARING = 1 << 16
@@ -96,7 +98,7 @@ def check_sync_wait(max_wait_s: float) -> None:
 class ForceNode:
     """Latest of each stream -> one estimator step per trigger message (module docstring).
 
-    ``estimator``: built with a PSM model (``psm=psm_model.PSM()``) for the base frame.
+    ``estimator``: built with a PSM model (``psm=psmforce.robot.PSM()``) for the base frame.
     ``arm``: namespace of the output topics and of the base frame's id. ``sync``: pair by
     stamp (module docstring, Pairing).
     """

@@ -1,7 +1,7 @@
 """``psmforce replay``: a recorded session played through the live node's code path, the
 estimates written as a ROS 2 MCAP beside the inputs.
 
-:func:`replay` reads a bag (ROS 2 MCAP / sqlite3 or ROS 1, :mod:`psm_model.bags`) in receive
+:func:`replay` reads a bag (ROS 2 MCAP / sqlite3 or ROS 1, :mod:`psmforce.io.bags`) in receive
 order, hands each arm, jaw and HEX10 message to a :class:`psmforce.live.node.ForceNode` exactly
 as ``psmforce serve`` hands it the messages it receives over DDS, and writes one MCAP file
 (:class:`psmforce.live.view.McapOut`, profile ``ros2``): every input topic the typestore knows,
@@ -9,13 +9,13 @@ copied, and the node's outputs (:func:`psmforce.live.node.output_topics`), each 
 receive time of the message it answers. A layout for Foxglove is written beside it
 (``OUT.layout.json``, :func:`psmforce.live.view.layout`).
 
-The input rate is the HEX10 stream's, measured from its header stamps (or given); a rate the
-model cannot serve is refused in one line before anything is written (:mod:`hybrid.rates`).
-``realtime``: paced by the receive times. ``view_port``: the same messages served live by a
-Foxglove WebSocket server on that port while they are played (:class:`psmforce.live.view.LiveView`:
-every channel advertised before the first message); ``view_wait_s``: the playback first waits up
-to that long for a client to subscribe to the estimate (HEX10 frame), so a viewer that connects
-after the start still sees it from its first answer.
+The input rate is the HEX10 stream's, measured from its header stamps (or given); a rate the model
+cannot serve is refused in one line before anything is written
+(:mod:`psmforce.estimators.data.rates`). ``realtime``: paced by the receive times. ``view_port``:
+the same messages served live by a Foxglove WebSocket server on that port while they are played
+(:class:`psmforce.live.view.LiveView`: every channel advertised before the first message);
+``view_wait_s``: the playback first waits up to that long for a client to subscribe to the estimate
+(HEX10 frame), so a viewer that connects after the start still sees it from its first answer.
 """
 
 from __future__ import annotations
@@ -26,11 +26,11 @@ from pathlib import Path
 import numpy as np
 from rosbags.highlevel import AnyReader
 
-from hybrid.rates import RateError, recording_rate_hz
-from hybrid.streaming import StreamingEstimator
-from hybrid.uncertainty import predicts_variance
-from psm_model.bags.messages import ACCEPTED_TYPES, ROS2_TYPESTORE, stamp_ns
-from psm_model.bags.reading import BagError, resolve_topics
+from psmforce.estimators.data.rates import RateError, recording_rate_hz
+from psmforce.estimators.runtime.streaming import StreamingEstimator
+from psmforce.estimators.networks.uncertainty import predicts_variance
+from psmforce.io.bags.messages import ACCEPTED_TYPES, ROS2_TYPESTORE, stamp_ns
+from psmforce.io.bags.reading import BagError, resolve_topics
 from psmforce.live.node import OUTPUT_TYPES, ForceNode
 
 _RATE_MESSAGES = 2000
@@ -72,7 +72,7 @@ def replay(bag: str | Path, checkpoint: str | Path, out: str | Path, *, arm: str
     ``view_wait_s``: with ``view_port``, how long to wait for a client to subscribe to the
     estimate before playing (module docstring); ``view_hold_s``: how long the server stays up
     after the last message (None: until interrupted)."""
-    from psm_model import PSM
+    from psmforce.robot import PSM
     from psmforce.live.view import LiveView, McapOut, write_layout
     bag, out = Path(bag), Path(out)
     if out.suffix != ".mcap":

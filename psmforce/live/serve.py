@@ -38,10 +38,10 @@ import time
 
 import numpy as np
 
-from hybrid.rates import recording_rate_hz
-from hybrid.streaming import StreamingEstimator
-from psm_model.bags.messages import stamp_ns
-from psm_model.bags.reading import resolve_topics
+from psmforce.estimators.data.rates import recording_rate_hz
+from psmforce.estimators.runtime.streaming import StreamingEstimator
+from psmforce.io.bags.messages import stamp_ns
+from psmforce.io.bags.reading import resolve_topics
 from psmforce.live import cdr
 from psmforce.live.node import OUTPUT_TYPES, ForceNode, check_sync_wait, output_topics
 
@@ -64,7 +64,7 @@ class DdsNode:
     hex10); ``sync``: pair the streams by stamp (:class:`psmforce.live.node.ForceNode`);
     ``sync_wait_s``: with ``sync``, how long a trigger waits for its partners (``max_wait_s`` of
     :class:`psmforce.live.node.ForceNode`); ``options``: more keyword arguments of
-    :meth:`hybrid.streaming.StreamingEstimator.from_checkpoint` (post_filter, backend)."""
+    :meth:`psmforce.estimators.runtime.streaming.StreamingEstimator.from_checkpoint` (post_filter, backend)."""
 
     def __init__(self, checkpoint, participant, *, arm: str = "PSM1",
                  topics: dict | None = None, input_rate_hz: float | None = None,
@@ -120,7 +120,7 @@ class DdsNode:
         self.flag_counts = np.zeros(32, np.int64)
 
     def _build(self, rate_hz: float) -> ForceNode:
-        from psm_model import PSM
+        from psmforce.robot import PSM
         estimator = StreamingEstimator.from_checkpoint(self.checkpoint, input_rate_hz=rate_hz,
                                                        psm=PSM(), **self.options)
         node = ForceNode(estimator, arm=self.arm, tare_s=self.tare_s, sync=self.sync,

@@ -2,7 +2,7 @@
 WebSocket server (``foxglove-sdk``, the optional extra ``psmforce[ros]``).
 
 Every channel carries CDR bytes under its ROS 2 type with the ``ros2msg`` schema from
-:data:`psm_model.bags.messages.ROS2_TYPESTORE`: the MCAP profile ``ros2`` that Foxglove and
+:data:`psmforce.io.bags.messages.ROS2_TYPESTORE`: the MCAP profile ``ros2`` that Foxglove and
 PlotJuggler open, and what the WebSocket server advertises. :func:`layout` is a Foxglove layout
 (import it with "Import layout from file"): one plot per axis, the estimate in the HEX10 frame
 against the HEX10's raw reading and, where recorded, the ATI's raw reading (in the ATI's own
@@ -16,7 +16,7 @@ import threading
 import time
 from pathlib import Path
 
-from psm_model.bags.messages import ROS2_TYPESTORE
+from psmforce.io.bags.messages import ROS2_TYPESTORE
 
 
 def schema_text(msgtype: str) -> str:

@@ -1,0 +1,72 @@
+"""Guards every ``psmforce`` command gets from :func:`psmforce.cli.main.main`: no output written over
+an input, and a sign of life on stderr while a long fit runs. Kept free of heavy imports, so
+``psmforce --help`` stays fast.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import sys
+import threading
+import time
+from pathlib import Path
+
+_INPUTS = ("checkpoint", "data", "bag", "recording", "dynamics", "prior", "config", "train",
+           "test", "session", "r_ati_psm", "column_map")
+"""Argument names that hold a command's inputs (files or folders), whatever the command."""
+_OUTPUTS = ("out", "json", "model_out")
+"""Argument names that hold what a command writes."""
+
+
+def _option(name: str) -> str:
+    return "--" + name.replace("_", "-")
+
+
+def outputs_spare_inputs(args) -> None:
+    """No command writes over one of its inputs: an output that is an input file or folder
+    (links followed), or an existing file inside an input folder (a recording, a
+    metadata.json), is refused; so are two outputs naming the same file."""
+    inputs = []
+    for name in _INPUTS:
+        value = getattr(args, name, None)
+        if isinstance(value, str) and value and Path(value).exists():
+            inputs.append((name, Path(value).resolve()))
+    outputs: dict[Path, str] = {}
+    for name in _OUTPUTS:
+        value = getattr(args, name, None)
+        if not isinstance(value, str) or not value:
+            continue
+        target = Path(value).resolve()
+        if target in outputs:
+            raise ValueError(f"{_option(name)}: {value} is also {outputs[target]}: two outputs "
+                             f"cannot share one file")
+        outputs[target] = _option(name)
+        for source_name, source in inputs:
+            inside = source.is_dir() and target.is_file() and source in target.parents
+            if target == source or inside:
+                what = "is" if target == source else "lies inside"
+                label = source_name if source_name in ("checkpoint", "bag", "recording",
+                                                       "session") else _option(source_name)
+                raise ValueError(f"{_option(name)}: {value} {what} the command's input "
+                                 f"{label}: refusing to write over an input (give another "
+                                 f"path)")
+
+
+@contextlib.contextmanager
+def progress(label: str, every_s: float = 30.0):
+    """While the block runs, a line on stderr every ``every_s`` seconds saying it still runs
+    (a fit that takes minutes is not silent); nothing for a block shorter than that."""
+    done = threading.Event()
+    start = time.monotonic()
+
+    def beat():
+        while not done.wait(every_s):
+            print(f"  ... {label}: still running, {time.monotonic() - start:.0f} s",
+                  file=sys.stderr, flush=True)
+    thread = threading.Thread(target=beat, daemon=True)
+    thread.start()
+    try:
+        yield
+    finally:
+        done.set()
+        thread.join()

@@ -1,0 +1,155 @@
+"""The live commands of the command line: ``psmforce replay`` and ``psmforce serve``.
+
+:func:`add_live_commands` registers them on the ``psmforce`` sub-command parser; each returns a
+JSON-ready report (``--json``). A missing optional package (``cyclonedds``, ``foxglove-sdk``,
+``mcap``: ``pip install 'psmforce[ros]'``) is one error line, as every other failure.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import threading
+
+
+def _needs(module: str, feature: str) -> None:
+    import importlib.util
+    if importlib.util.find_spec(module) is None:
+        raise RuntimeError(f"{feature} needs the '{module}' package: "
+                           f"pip install 'psmforce[ros]'")
+
+
+def _topics(args) -> dict:
+    return {k: v for k, v in (("js", args.topic_js), ("jaw", args.topic_jaw),
+                              ("hex10", args.topic_hex10)) if v is not None}
+
+
+def replay_command(args) -> dict:
+    _needs("mcap", "replay")
+    if args.view:
+        _needs("foxglove", "replay --view")
+    from psmforce.live.replay import replay
+    topics = _topics(args) | ({"ati": args.topic_ati} if args.topic_ati else {})
+    if args.view:
+        print(f"replay --view: Foxglove WebSocket on ws://127.0.0.1:{args.port}; playing once a "
+              f"client subscribes to /{args.arm.strip('/')}/tool_force/hex10 (at most "
+              f"{args.view_wait:g} s from now), serving until interrupted", flush=True)
+    report = replay(args.bag, args.checkpoint, args.out, arm=args.arm, topics=topics,
+                    input_rate_hz=args.input_rate, post_filter=args.post_filter,
+                    tare_on_start=args.tare_on_start, sync=args.sync_stamps,
+                    realtime=args.realtime,
+                    view_port=args.port if args.view else None, view_wait_s=args.view_wait,
+                    view_hold_s=None)
+    print(f"wrote {report['out']} ({report['answers']} estimates at "
+          f"{report['input_rate_hz']:.4g} Hz, model at {report['model_rate_hz']:g} Hz) and "
+          f"{report['layout']}")
+    return report
+
+
+def serve_command(args) -> dict:
+    _needs("cyclonedds", "serve")
+    from cyclonedds.domain import DomainParticipant
+
+    from psmforce.live.serve import DdsNode, domain
+    participant = DomainParticipant(domain(args.domain_id))
+    node = DdsNode(args.checkpoint, participant, arm=args.arm, topics=_topics(args),
+                   input_rate_hz=args.input_rate, tare_on_start=args.tare_on_start,
+                   tare_s=args.tare_s, best_effort=args.best_effort,
+                   sync=args.sync_stamps or args.sim, sync_wait_s=args.sync_wait,
+                   post_filter=args.post_filter)
+    print(f"psmforce serve: domain {domain(args.domain_id)}, listening on "
+          f"{', '.join(node.input_topics.values())}; publishing "
+          f"{node.output_topics['hex10']} and {node.output_topics['base']}", flush=True)
+    stop, player = threading.Event(), None
+    if args.sim:
+        player = _start_sim(args, participant, stop)
+    try:
+        report = node.spin(duration_s=args.duration, idle_stop_s=args.idle_stop)
+    except KeyboardInterrupt:
+        report = node.report()
+    finally:
+        stop.set()
+        if player is not None:
+            player.join(5)
+    print(json.dumps({k: report[k] for k in ("received", "malformed", "answers_published",
+                                             "unpaired", "input_rate_hz", "model_rate_hz",
+                                             "decimation", "lag_s") if k in report}))
+    return report
+
+
+def _start_sim(args, participant, stop: threading.Event) -> threading.Thread:
+    """The simulated robot, in a thread of this process publishing on the same domain."""
+    from psmforce.io.recording import read_recording
+    from psmforce.live.sim_robot import bench_recording, play
+    frame = (read_recording(args.sim_recording, require_targets=False) if args.sim_recording
+             else bench_recording(args.sim_rate))
+    thread = threading.Thread(target=play, args=(frame, participant),
+                              kwargs={"arm": args.arm, "topics": _topics(args), "loop": True,
+                                      "stop": stop}, daemon=True)
+    thread.start()
+    return thread
+
+
+def _common(p: argparse.ArgumentParser) -> None:
+    p.add_argument("checkpoint", help="a streamable hybrid checkpoint (psmforce train)")
+    p.add_argument("--arm", default="PSM1", help="arm namespace (default PSM1)")
+    p.add_argument("--topic-js", help="arm JointState topic (default /ARM/measured_js)")
+    p.add_argument("--topic-jaw", help="jaw JointState topic (default /ARM/jaw/measured_js)")
+    p.add_argument("--topic-hex10", help="HEX10 WrenchStamped topic (default /hex10/measured_cf)")
+    p.add_argument("--input-rate", type=float, metavar="HZ",
+                   help="the HEX10 stream's rate (default: measured from its stamps); a whole "
+                        "multiple of the model's training rate")
+    p.add_argument("--post-filter", default="none", choices=["none", "median", "lowpass"])
+    p.add_argument("--tare-on-start", action="store_true",
+                   help="tare on the first 0.5 s after warm-up: the arm still, touching nothing")
+    p.add_argument("--sync-stamps", action="store_true",
+                   help="pair the streams by header stamp, for streams stamped on one clock "
+                        "(a simulated robot; --sim sets it); default: the latest of each")
+    p.add_argument("--json", help="write the report here")
+
+
+def add_live_commands(sub) -> None:
+    """Register ``replay`` and ``serve`` on the ``psmforce`` sub-command parser ``sub``."""
+    p = sub.add_parser(
+        "replay", help="play a bag through the live node, write the estimates as MCAP",
+        description="Play a recorded session (ROS 2 / ROS 1 bag) through the same code as "
+                    "'psmforce serve' and write OUT.mcap (ROS 2 MCAP: the inputs and the "
+                    "estimates, both frames, std, flags; docs/live.md) and OUT.layout.json "
+                    "(a Foxglove layout).")
+    p.add_argument("bag")
+    _common(p)
+    p.add_argument("--out", required=True, help="the .mcap file to write")
+    p.add_argument("--topic-ati", help="ATI WrenchStamped topic (default /ati/measured_cf)")
+    p.add_argument("--realtime", action="store_true", help="play at the recorded pace")
+    p.add_argument("--view", action="store_true",
+                   help="serve the messages live to Foxglove (WebSocket, --port) while playing, "
+                        "and until interrupted")
+    p.add_argument("--port", type=int, default=8765, help="--view's port (default 8765)")
+    p.add_argument("--view-wait", type=float, default=60.0, metavar="S",
+                   help="with --view: wait up to S s for a client to subscribe to the estimate "
+                        "before playing (default 60; 0: play at once)")
+    p.set_defaults(func=replay_command)
+
+    p = sub.add_parser(
+        "serve", help="the live force estimator node over DDS (ROS 2)",
+        description="Subscribe to the dVRK's joint states and the HEX10 over DDS (ROS 2 "
+                    "topics), publish the tool force in the base and HEX10 frames, its std and "
+                    "flags (docs/live.md). Needs pip install 'psmforce[ros]'.")
+    _common(p)
+    p.add_argument("--tare-s", type=float, default=0.5, help="tare duration (default 0.5 s)")
+    p.add_argument("--sync-wait", type=float, default=0.1, metavar="S",
+                   help="with --sync-stamps: how long a HEX10 message waits for the arm's and "
+                        "jaw's messages of its stamp before it is answered without them "
+                        "(counted as unpaired; default 0.1 s)")
+    p.add_argument("--domain-id", type=int, help="DDS domain (default: ROS_DOMAIN_ID, else 0)")
+    p.add_argument("--best-effort", action="store_true",
+                   help="best-effort readers (to match sensor-data QoS publishers)")
+    p.add_argument("--duration", type=float, metavar="S", help="stop after S seconds")
+    p.add_argument("--idle-stop", type=float, metavar="S",
+                   help="stop when no message came for S seconds after the first")
+    p.add_argument("--sim", action="store_true",
+                   help="also run a simulated dVRK + HEX10 publishing a bench session")
+    p.add_argument("--sim-rate", type=float, default=1000.0,
+                   help="the simulated robot's rate (default 1000 Hz)")
+    p.add_argument("--sim-recording", help="with --sim: publish this recording CSV instead")
+    p.set_defaults(func=serve_command)

@@ -1,0 +1,381 @@
+"""What each ``psmforce`` command does once its arguments are parsed (:mod:`psmforce.cli.main` builds
+the parser): the option checks that must pass before any work starts, so that a bad argument
+leaves nothing behind, and one handler per command calling the library. Heavy modules are
+imported inside the handlers, so ``psmforce --help`` stays fast.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import sys
+from pathlib import Path
+
+from psmforce.cli.guards import progress
+
+
+def _writable_ancestor(target: Path, option: str) -> None:
+    """The nearest existing folder above ``target`` must be writable (the library creates the
+    missing ones): found before the work that produces the output, not after."""
+    parent = target.parent
+    while not parent.exists() and parent != parent.parent:
+        parent = parent.parent
+    if not parent.is_dir() or not os.access(parent, os.W_OK | os.X_OK):
+        raise ValueError(f"{option}: cannot write {target}: {parent} is not a writable folder")
+
+
+def output_file(path: str, option: str, *, parents: bool = True) -> None:
+    """Refuse an output file that cannot be written (``parents``: missing folders get created)."""
+    target = Path(path)
+    if target.is_dir():
+        raise ValueError(f"{option}: {target} is a folder, expected a file name")
+    if not parents and not target.parent.is_dir():
+        raise ValueError(f"{option}: folder {target.parent} does not exist")
+    _writable_ancestor(target, option)
+
+
+def _fresh_folder(path: str, option: str) -> None:
+    """An output folder must be new or empty: results are never mixed with older ones."""
+    target = Path(path)
+    if target.exists():
+        if not target.is_dir():
+            raise ValueError(f"{option}: {target} exists and is not a folder")
+        if any(target.iterdir()):
+            raise ValueError(f"{option}: {target} is not empty (refusing to overwrite or mix "
+                             f"results; give a new folder)")
+    _writable_ancestor(target, option)
+
+
+def _device(device: str, option: str = "--device") -> None:
+    """Refuse a CUDA ``device`` that is not there; ``option``: the flag that asked for it."""
+    if device == "cuda":
+        import torch
+        if not torch.cuda.is_available():
+            raise ValueError(f"{option} cuda: torch sees no CUDA device on this machine "
+                             f"(use {option} cpu)")
+
+
+def _seed(value: int, option: str) -> None:
+    from psmforce.sim.dataset import MAX_SEED  # the simulator's limit (numpy's seed range)
+    if not 0 <= value <= MAX_SEED:
+        raise ValueError(f"{option}: must be an integer in [0, {MAX_SEED}], got {value}")
+
+
+def _training_options(args) -> None:
+    """What train / finetune would discover only after loading data or training."""
+    if args.epochs < 1:
+        raise ValueError(f"--epochs: must be at least 1, got {args.epochs}")
+    _seed(args.seed, "--seed")
+    _device(args.device)
+    output_file(args.out, "--out")
+
+
+def json_object(value: str | None, option: str) -> dict | None:
+    """An option holding a JSON object, as the path of a file holding one or inline; None when
+    the option is not given."""
+    if value is None:
+        return None
+    is_file = Path(value).is_file()
+    try:
+        parsed = json.loads(Path(value).read_text() if is_file else value)
+    except json.JSONDecodeError as err:
+        what = f"file {value} holds no valid JSON" if is_file else \
+            f"{value!r} is neither valid JSON nor an existing file"
+        raise ValueError(f"{option}: {what} ({err})") from None
+    if not isinstance(parsed, dict):
+        raise ValueError(f"{option}: expected a JSON object, got {type(parsed).__name__}")
+    return parsed
+
+
+def write_json(path: str | None, payload: dict) -> None:
+    if path is None:
+        return
+    from psmforce.core.files import write_text_atomic
+    write_text_atomic(path, json.dumps(payload, indent=2, default=_jsonable) + "\n")
+
+
+def _jsonable(value):
+    if hasattr(value, "tolist"):
+        return value.tolist()
+    if isinstance(value, Path):
+        return str(value)
+    raise TypeError(f"not JSON serialisable: {type(value).__name__}")
+
+
+def _scale(value: float) -> None:
+    from psmforce.sim.dataset import MAX_SCALE  # the simulator's limit, checked before it runs
+    if not 0 < value <= MAX_SCALE:  # also refuses NaN
+        raise ValueError(f"--scale: must be in (0, {MAX_SCALE:g}] (times the paper's "
+                         f"protocol), got {value:g}")
+
+
+def simulate_command(args) -> dict:
+    _scale(args.scale)
+    if args.tool_spread is not None and args.tool_seed is None:
+        raise ValueError("--tool-spread: only with --tool-seed (without it the bench runs the "
+                         "nominal tool)")
+    from psmforce.sim import simulate
+    spread = 1.0 if args.tool_spread is None else args.tool_spread
+    return simulate(protocol=args.protocol, scale=args.scale, seed=args.seed, out=args.out,
+                    port=args.port, tool_seed=args.tool_seed, tool_spread=spread,
+                    fmt=args.format)
+
+
+def convert_command(args) -> dict:
+    from psmforce.io.bags import convert_bag, convert_csv, summary_line
+    output_file(args.out, "--out", parents=False)
+    if Path(args.bag).suffix.lower() == ".csv":
+        report = convert_csv(args.bag, args.out, column_map=args.column_map)
+        print(f"wrote {args.out}")
+        return report
+    topics = {k: v for k, v in (("js", args.topic_js), ("jaw", args.topic_jaw),
+                                 ("hex10", args.topic_hex10), ("ati", args.topic_ati),
+                                 ("jacobian", args.topic_jacobian)) if v is not None}
+    r_ati_psm = None
+    if args.r_ati_psm is not None:
+        import numpy as np
+
+        from psmforce.robot.frames import check_rotation
+        option = f"--r-ati-psm {args.r_ati_psm}"
+        try:  # ValueError: invalid JSON or not numbers; TypeError: null entries
+            matrix = np.asarray(json.loads(Path(args.r_ati_psm).read_text()), dtype=float)
+        except (OSError, ValueError, TypeError) as err:
+            raise ValueError(f"{option}: not a JSON 3x3 rotation matrix ({err})") from None
+        r_ati_psm = check_rotation(matrix, option)
+    report = convert_bag(args.bag, args.out, rate_hz=args.rate, arm=args.arm,
+                         topics=topics or None, r_ati_psm=r_ati_psm, on_gap=args.on_gap)
+    print(summary_line(report))
+    return report
+
+
+def fit_dynamics_command(args) -> dict:
+    if args.model_out:
+        output_file(args.model_out, "--model-out")
+    from psmforce.identification import fit_dynamics_cli
+    print("fitting the arm's dynamics (CasADi / IPOPT; minutes on a large dataset)",
+          flush=True)
+    with progress("fit-dynamics"):
+        report = fit_dynamics_cli(train=args.train, test=args.test, fmt=args.format,
+                                  json_out=None, model_out=args.model_out, data=args.data,
+                                  select=args.select, gravity=args.gravity,
+                                  accept_poor_fit=args.accept_poor_fit)
+    if "selection" in report:
+        print(f"selected: {report['selection']['selected']} ({report['selection']['method']})")
+    print(f"fit: {report['solver_status']} in {report['fit_time_s']:.1f} s, "
+          f"{report['n_base_parameters']} base parameters, physically consistent "
+          f"{report['physically_consistent']}; model: {report.get('model')}")
+    for key in ("train_relative_error_percent", "test_relative_error_percent"):
+        if key in report:
+            print(f"{key.split('_')[0]} relative torque error %: " + ", ".join(
+                f"{n} {e:.1f}" for n, e in zip(report["coordinates"], report[key])))
+    threshold = report["poor_fit_threshold_relative_error_percent"]
+    scored = report.get("test_relative_error_percent") or report.get(
+        "train_relative_error_percent", [])
+    above = [f"{n} {e:.0f} %" for n, e in zip(report["coordinates"], scored)
+             if not e <= threshold]
+    print("verdict: " + ("POOR FIT, every coordinate" if report["poor_fit"] else "passes the gate")
+          + f" (relative torque error above {threshold:g} %: "
+          + (", ".join(above) if above else "none") + ")"
+          + ("; those coordinates' torques are not explained" if above and not report["poor_fit"]
+             else ""))
+    if report["poor_fit"] and not args.accept_poor_fit:
+        raise ValueError(("" if args.model_out is None else f"{args.model_out} not written: ")
+                         + f"poor fit: relative torque error above "
+                         f"{report['poor_fit_threshold_relative_error_percent']:g} % on every "
+                         f"coordinate (--accept-poor-fit keeps it)")
+    return report
+
+
+def wrench_command(args) -> dict:
+    output_file(args.out, "--out", parents=False)
+    from psmforce.core.files import atomic_path
+    from psmforce.identification import ArmDynamicsModel
+    from psmforce.identification.recordings import recording_wrench
+    model = ArmDynamicsModel.load(args.dynamics)
+    table = recording_wrench(model, args.recording, frame=args.frame,
+                             expressed_in=args.expressed_in)
+    out = Path(args.out)
+    with atomic_path(out) as tmp:
+        table.to_csv(tmp, index=False, float_format="%.7g")
+    damped = int(table["damped"].sum())
+    print(f"wrote {out}: {len(table)} samples, {damped} damped (near a singularity)")
+    return {"recording": args.recording, "dynamics": args.dynamics, "out": str(out),
+            "frame": args.frame, "expressed_in": args.expressed_in, "samples": len(table),
+            "damped_samples": damped, "sigma_min_smallest": float(table["sigma_min"].min())}
+
+
+def index_command(args) -> dict:
+    from psmforce.estimators.data.dataset import index_recordings
+    path = index_recordings(args.data)
+    trials = json.loads(path.read_text())["trials"]
+    print(f"wrote {path}: {len(trials)} recordings")
+    return {"metadata": str(path), "trials": trials}
+
+
+def fit_prior_command(args) -> dict:
+    output_file(args.out, "--out")
+    from psmforce.identification import fit_prior_cli
+    from psmforce.io.recording import HEX10_FORCE
+    print("fitting the internal-force prior (CasADi / IPOPT)", flush=True)
+    with progress("fit-prior"):
+        report = fit_prior_cli(args.data, args.out, use_loaded=args.use_loaded,
+                               accept_poor_fit=args.accept_poor_fit)
+    metrics = report.get("test_free_metrics")
+    print(f"fit: {report['solver_status']} in {report['fit_time_s']:.1f} s; test Free "
+          + (", ".join(f"{c} RMS {metrics[c]['rms']:.3g}" for c in HEX10_FORCE)
+             + " N" if metrics else "not scored (no test/Free recordings)"))
+    missed = report.get("targets_not_met") or []
+    print("verdict: " + ("not scored, no gate applied" if metrics is None else
+                         "POOR FIT" if report.get("poor_fit") else
+                         "passes the gate" + ("" if missed else ", meets its targets"))
+          + (f"; targets NOT met: {'; '.join(missed)}" if missed else ""))
+    if report["model"] is None:
+        raise ValueError(f"{args.out} not written: {report['model_not_saved_reason']}"
+                         + (" (--accept-poor-fit saves it anyway)" if report.get("poor_fit")
+                            else ""))
+    return report
+
+
+def fit_transmission_command(args) -> dict:
+    output_file(args.out, "--out")
+    import math
+
+    from psmforce.identification.transmission.model import CableTransmission
+    from psmforce.identification.transmission.recording import (home_session,
+                                                                read_transmission_session)
+    session = home_session(read_transmission_session(args.session, args.rate_hz))
+    names = {r.name.rsplit("/", 1)[-1]: r for r in session}
+    unknown = sorted(set(args.validation) - set(names))
+    if unknown:
+        raise ValueError(f"--validation: no file {unknown[0]}.TXT in {args.session}")
+    validation = [names[n] for n in args.validation]
+    fit_on = [r for n, r in names.items() if n not in args.validation]
+    if not fit_on:
+        raise ValueError("--validation holds every file: nothing left to fit on")
+    with progress("fit-transmission"):
+        model = CableTransmission.fit(fit_on, validation=validation)
+    model.save(args.out)
+    report = {"model": args.out, "fit_files": [r.name for r in fit_on],
+              "validation_files": [r.name for r in validation], **model.to_dict(),
+              "fit_scores": model.score(fit_on),
+              "validation_scores": model.score(validation) if validation else None}
+    ident = model.info["identifiability"]
+    print(f"fit: {model.info['solver_status']} in {model.info['fit_time_s']:.1f} s on "
+          f"{len(fit_on)} files; Fisher condition number "
+          f"{ident['fisher_condition_number']:.3g}"
+          + (f"; {model.info['tied']}" if model.info.get("tied") else ""))
+    for label in ("fit", "validation"):
+        score = report[f"{label}_scores"]
+        if score:
+            print(f"{label}: jaw torque RMSE {1e3 * score['jaw_torque_rmse_nm']:.2f} mNm, jaw "
+                  f"angle RMSE {math.degrees(score['jaw_angle_rmse_rad']):.2f} deg")
+    # the one gate this fit has is convergence (a fit that does not converge raises and writes
+    # nothing); the verdict says so on the console, as every fit's does
+    print(f"verdict: converged ({model.info['solver_status']}), the only gate of this fit; "
+          + ("judge it by the validation RMSE above" if validation else
+             "no held-out files (--validation), so scored on its own fit data only"))
+    print(f"wrote {args.out}")
+    return report
+
+
+def _models(names, option: str) -> None:
+    """Every name a model of the recipe table, none twice."""
+    from psmforce.estimators.networks.recipes import RECIPES
+    for k, name in enumerate(names):
+        if name not in RECIPES:
+            raise ValueError(f"{option}: unknown model '{name}'; known: {list(RECIPES)}")
+        if name in names[:k]:
+            raise ValueError(f"{option}: '{name}' given more than once")
+
+
+def train_command(args) -> dict:
+    _training_options(args)
+    _models([args.model], "--model")
+    config = json_object(args.config, "--config")
+    from psmforce.estimators.training.train import (train)  # checks the config builds the model before reading data
+    return train(args.data, args.model, args.out, features=args.features, epochs=args.epochs,
+                 seed=args.seed, device=args.device, prior=args.prior, config=config)
+
+
+def finetune_command(args) -> dict:
+    _training_options(args)
+    from psmforce.estimators.training.train import finetune
+    return finetune(args.checkpoint, args.data, args.out, epochs=args.epochs, seed=args.seed,
+                    device=args.device)
+
+
+def calibrate_command(args) -> dict:
+    _training_options(args)
+    from psmforce.estimators.training.calibrate import calibrate
+    result = calibrate(args.checkpoint, args.data, args.out, minutes=args.minutes,
+                       epochs=args.epochs, seed=args.seed, device=args.device)
+    record = result["calibration"]
+    print(f"calibrated on {len(record['trials'])} trials, {record['minutes_used']:.2f} min "
+          f"(Free {record['minutes_by_condition']['Free']:.2f}, Traction "
+          f"{record['minutes_by_condition']['Traction']:.2f})"
+          + (", prior refitted" if record["prior_refit"] else "")
+          + f"; {record['epochs_run']} epochs ({record['stopped_by']}); wrote {args.out}")
+    return result
+
+
+def evaluate_command(args) -> dict:
+    _fresh_folder(args.out, "--out")
+    from psmforce.estimators.training.checkpoint import load_checkpoint, trial_hashes
+    from psmforce.estimators.data.sanity import repeated_recordings
+    from psmforce.estimators.evaluation.evaluate import causal_table, evaluate
+    known = trial_hashes(load_checkpoint(args.checkpoint).provenance)
+    repeats = repeated_recordings(args.data, "test", known)
+    if repeats and not args.allow_train_overlap:
+        rel, match = repeats[0]
+        raise ValueError(f"{Path(args.data) / rel}: same content as {match}, a trial "
+                         f"{args.checkpoint} was trained on"
+                         + (f" ({len(repeats)} test recordings repeat training ones)"
+                            if len(repeats) > 1 else "")
+                         + ": its scores would be leaked (--allow-train-overlap scores anyway)")
+    for rel, match in repeats:
+        print(f"psmforce evaluate: warning: test recording {rel} has the content of training "
+              f"trial {match}: its scores are not held-out", file=sys.stderr)
+    result = evaluate(args.checkpoint, args.data, args.out)
+    if repeats and isinstance(result, dict):
+        result["train_overlap"] = [{"test": rel, "train": match} for rel, match in repeats]
+    # the console's headline is what a haptic loop gets; every metric is in OUT/metrics.md
+    print(causal_table(result) + f"\nAll metrics (paper's, by condition): "
+          f"{Path(args.out) / 'metrics.md'}", flush=True)
+    return result
+
+
+def reproduce_command(args) -> dict:
+    # before reproduce() writes OUT/work: bad arguments leave nothing behind
+    _scale(args.scale)
+    for seed in args.seeds:
+        _seed(seed, "--seeds")
+    repeated = sorted({s for s in args.seeds if args.seeds.count(s) > 1})
+    if repeated:
+        raise ValueError(f"--seeds: {repeated[0]} given more than once; each seed is one "
+                         f"independent run, a repeat would report a spread of 0")
+    if args.models is not None:
+        _models(args.models, "--models")
+    if args.finish_on:
+        _device(args.finish_on, "--finish-on")
+    else:
+        _device(args.device)
+    target = Path(args.out)
+    if target.exists() and not target.is_dir():
+        raise ValueError(f"--out: {target} exists and is not a folder")
+    _writable_ancestor(target, "--out")
+    from psmforce.experiments.reproduce import reproduce
+    return reproduce(args.out, scale=args.scale, seeds=args.seeds, device=args.device,
+                     finish_on=args.finish_on, budget=args.budget, models=args.models,
+                     ablations=not args.no_ablations, efficiency=not args.no_efficiency,
+                     teleop=not args.no_teleop, port=args.port, ray_address=args.ray)
+
+
+def export_command(args) -> dict:
+    _fresh_folder(args.out, "--out")
+    from psmforce.estimators.runtime.export import export
+    return export(args.checkpoint, args.out)
+
+
+def demo_command(args) -> dict:
+    from psmforce.cli.demo import run_demo
+    return run_demo(args.out, seed=args.seed)

@@ -1,0 +1,224 @@
+"""Few-shot calibration of a trained estimator to another instrument (``psmforce calibrate``).
+
+The paper notes that every hand-modified tool is different: pretension, pulley radii, cable
+asymmetry, capstan friction and the HEX10's cross-talk and offsets change from one tool to the
+next (``InstrumentParams.sample`` draws such a tool on the simulated bench). A model trained on one
+tool is calibrated to a new one from a few minutes of recordings made with it:
+
+**Which trials.** The ``train`` split of the new tool's dataset, conditions ``Free`` (free-space
+motions: no fixture needed) and ``Traction`` (a spring on the ATI, the bench's simplest loaded
+trial), each condition in ``metadata.json`` order, interleaved by minutes (the next trial comes from
+the condition with fewer minutes so far, ``Free`` on a tie), and the longest prefix of that order
+lasting at most ``minutes``. Traction trials whose trajectory family (metadata ``group``) holds a
+free-space trial are left out: on the simulated bench they are the trials a free-space recording
+replays, and keeping them out makes each free-space trial a family of its own, so the validation
+split (:func:`psmforce.estimators.data.dataset.split_validation`, by family) can never take every
+free-space trial away from the prior's refit. The prefix must hold at least :data:`MIN_FREE_TRIALS`
+free-space and :data:`MIN_TRACTION_TRIALS` traction trials (one to train on, one to stop on); a
+dataset with fewer than ``minutes`` of such trials is refused, so a calibration never claims minutes
+it did not have. On the simulated bench at scale 1 the default :data:`DEFAULT_MINUTES` takes one
+free-space replay (1.8 min) and four traction trials (0.58 min each), 4.1 min in all.
+
+**What changes per model.** The calibration trials are split into training and validation
+(:func:`psmforce.estimators.data.dataset.split_validation`, seeded, by trajectory family). For the
+hybrid (inputs derived from the internal-force prior) the prior, the physics that changes with the
+tool, is refitted on the training part (as :func:`psmforce.estimators.training.train.fit_prior` in
+training: every condition, the known ATI force subtracted; its insertion-effort model, the arm's, is
+kept) and its columns recomputed; then every model's last block is finetuned on the training part
+with early stopping on the validation part
+(:func:`psmforce.estimators.training.train.finetune_model`: the last decoder block of the networks,
+the ridge of ``rocket``), with the pretrained scalers. The new checkpoint's provenance names the
+calibration trials, their roles and minutes, and the prior before / after.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import numbers
+from pathlib import Path
+
+import numpy as np
+
+from psmforce.estimators.training.checkpoint import load_checkpoint
+from psmforce.estimators.data.dataset import (Dataset, Trial, load_dataset, split_validation,
+                                              trajectory_group)
+from psmforce.estimators.data.hybrid_inputs import prior_to_json
+from psmforce.estimators.training.train import TrainConfig, TrainingError, finetune_model
+from psmforce.robot.conventions import INSERTION_JOINT
+from psmforce.io.recording import joint_column
+
+CALIBRATION_CONDITIONS = ("Free", "Traction")
+DEFAULT_MINUTES = 5.0
+"""A few minutes of a new tool: on the simulated bench at scale 1, one free-space replay and
+four traction trials (module docstring)."""
+MIN_FREE_TRIALS = 1
+"""The prior's refit needs free-space motion (the internal force alone)."""
+MIN_TRACTION_TRIALS = 2
+"""One traction trial to finetune on, one to stop on (validation)."""
+INSERTION_COLUMNS = tuple(joint_column(INSERTION_JOINT, q) for q in ("velocity", "effort"))
+"""What the prior's fit would fit the insertion-effort model on; left out of the refit."""
+VALIDATION_FRACTION = 0.1
+"""As in training and finetuning; :func:`split_validation` takes at least one family from every
+condition with two or more."""
+CALIBRATION_RULE = (
+    "train split, conditions Free and Traction (traction trials sharing a trajectory family with "
+    "a free-space trial left out), each in metadata.json order, interleaved by minutes (next "
+    "from the condition with fewer minutes so far, Free on a tie), longest prefix within the "
+    "requested minutes; validation split by trajectory family (psmforce.estimators.data.dataset.split_validation)")
+
+
+class CalibrationError(ValueError):
+    """A calibration request that cannot run as asked; the message says why."""
+
+
+def trial_minutes(trial: Trial) -> float:
+    """Duration of a recording in minutes from its ``time`` column (any sample rate)."""
+    t = trial.frame["time"].to_numpy(dtype=float)
+    if len(t) < 2:
+        return 0.0
+    return float((t[-1] - t[0] + np.median(np.diff(t))) / 60.0)
+
+
+def calibration_trials(dataset: Dataset, minutes: float = DEFAULT_MINUTES) -> list[Trial]:
+    """The new tool's calibration trials, in the documented order (module docstring)."""
+    where = dataset.root
+    if (isinstance(minutes, bool) or not isinstance(minutes, numbers.Real)
+            or not math.isfinite(minutes) or minutes <= 0):
+        raise CalibrationError(f"minutes: must be a finite number > 0, got {minutes!r}")
+    train = dataset.select(split="train")
+    if not train:
+        raise CalibrationError(f"{where}: no trials in a 'train' split to calibrate on")
+    free = [t for t in train if t.condition == "Free"]
+    free_families = {trajectory_group(t) for t in free}
+    traction = [t for t in train if t.condition == "Traction"
+                and trajectory_group(t) not in free_families]
+    if len(free) < MIN_FREE_TRIALS:
+        raise CalibrationError(f"{where}: no free-space trials (train/Free) to refit the prior "
+                               f"on; calibration needs {MIN_FREE_TRIALS}")
+    if len(traction) < MIN_TRACTION_TRIALS:
+        raise CalibrationError(f"{where}: {len(traction)} usable traction trials (train/Traction)"
+                               f", calibration needs {MIN_TRACTION_TRIALS}")
+    available = sum(map(trial_minutes, free + traction))
+    if available < minutes:
+        raise CalibrationError(f"{where}: asked for {minutes:g} min of calibration trials, the "
+                               f"dataset has {available:.2f} min (train Free + Traction); give "
+                               f"--minutes {math.floor(available * 100) / 100:g} or record more")
+    order = _order(free, traction)
+    ends = np.cumsum([trial_minutes(t) for t in order])
+    chosen = order[:int(np.searchsorted(ends, minutes, side="right"))]
+    n_free = sum(t.condition == "Free" for t in chosen)
+    if n_free < MIN_FREE_TRIALS or len(chosen) - n_free < MIN_TRACTION_TRIALS:
+        free_seen = np.cumsum([t.condition == "Free" for t in order])
+        enough = (free_seen >= MIN_FREE_TRIALS) & (
+            np.arange(1, len(order) + 1) - free_seen >= MIN_TRACTION_TRIALS)
+        need = ends[int(np.argmax(enough))]
+        raise CalibrationError(
+            f"too few minutes: {minutes:g} min of {where} hold {n_free} free-space and "
+            f"{len(chosen) - n_free} traction trials; calibration needs {MIN_FREE_TRIALS} and "
+            f"{MIN_TRACTION_TRIALS}, which takes --minutes {math.ceil(need * 100) / 100:g}")
+    return chosen
+
+
+def _order(free: list[Trial], traction: list[Trial]) -> list[Trial]:
+    """Free-space and traction trials interleaved by minutes: the next from the condition with
+    fewer minutes so far (Free on a tie), each condition in its given order."""
+    queues = {"Free": list(free), "Traction": list(traction)}
+    spent = {"Free": 0.0, "Traction": 0.0}
+    out: list[Trial] = []
+    while any(queues.values()):
+        cond = min((c for c in CALIBRATION_CONDITIONS if queues[c]), key=lambda c: spent[c])
+        out.append(queues[cond].pop(0))
+        spent[cond] += trial_minutes(out[-1])
+    return out
+
+
+def _prior_free_error(prior, trials: list[Trial]) -> dict | None:
+    """Per force axis, RMS (N) of the HEX10 force minus the prior on free-space trials (no
+    external force: what the prior should explain); None without such trials."""
+    from psmforce.identification.prior import channel_metrics
+    from psmforce.io.recording import HEX10
+    free = [t for t in trials if t.condition == "Free"]
+    if not free:
+        return None
+    y = np.concatenate([t.matrix(HEX10, np.float64) for t in free])
+    y_hat = np.concatenate([prior.predict(t.frame) for t in free])
+    return {axis: m["rms"] for axis, m in channel_metrics(y, y_hat).items()
+            if axis in ("fx", "fy", "fz")}
+
+
+def calibrate(checkpoint: str | Path, data_dir: str | Path, out: str | Path, *,
+              minutes: float = DEFAULT_MINUTES, epochs: int = 100, seed: int = 0,
+              device: str = "cpu", train_config=None) -> dict:
+    """Calibrate a trained checkpoint to the instrument recorded in ``data_dir`` from its first
+    ``minutes`` of calibration trials (module docstring) and write ``out``. ``seed``: the validation
+    split and the finetuning's shuffling; ``train_config``: a
+    :class:`psmforce.estimators.training.train.TrainConfig` (default: finetuning's). Returns a
+    summary: the finetuning report, the calibration trials with their roles and minutes, and for the
+    hybrid the prior's free-space error before and after its refit."""
+    from psmforce.identification import InternalForcePrior
+    from psmforce.identification.errors import NotConvergedError
+    from psmforce.identification.prior import NAMES
+    if isinstance(epochs, bool) or not isinstance(epochs, int) or epochs < 1:
+        raise TrainingError(f"epochs must be an integer >= 1, got {epochs!r}")
+    if Path(out).resolve() == Path(checkpoint).resolve():
+        raise TrainingError(f"out {out} is the checkpoint being calibrated: refusing to write "
+                            f"over its input (give another file)")
+    ckpt = load_checkpoint(checkpoint, device)
+    dataset = load_dataset(data_dir)
+    chosen = calibration_trials(dataset, minutes)
+    train_trials, val_trials = split_validation(chosen, VALIDATION_FRACTION, seed)
+    calibration = Dataset(dataset.root, chosen, dataset.metadata)
+    prior_report = None
+    if ckpt.prior_json is not None:
+        old = ckpt.prior()
+        # The insertion-effort model is the arm's (carriage gravity and friction), not the
+        # tool's, and Free + Traction trials barely move the insertion: refitted on them its
+        # friction terms are not identifiable (on a scale-0.02 bench its cross-validated error
+        # was 120 N; on a scale-0.01 one the fit refuses). The fit sees the recordings without
+        # the insertion joint's effort, so it fits the cable model only, as in training
+        # otherwise (psmforce.estimators.training.train.fit_prior: every condition, the ATI force subtracted), and
+        # the trained insertion model is kept.
+        frames = [t.frame.drop(columns=list(INSERTION_COLUMNS)) for t in train_trials]
+        new = dataclasses.replace(
+            InternalForcePrior.fit(frames, provenance={"trials": [t.path for t in train_trials]}),
+            insertion=old.insertion)
+        try:
+            ckpt.prior_json = prior_to_json(new)
+        except NotConvergedError as err:
+            raise CalibrationError(f"{data_dir}: the prior's refit on the calibration trials "
+                                   f"did not converge ({err}); give more --minutes") from None
+        # the refit saw the training part: its free-space error there is in-sample, the
+        # validation part's (when it holds a free-space trial) is not
+        errors = {role: {"before": _prior_free_error(old, trials),
+                         "after": _prior_free_error(new, trials)}
+                  for role, trials in (("train", train_trials), ("validation", val_trials))}
+        prior_report = {
+            "refitted_on": [t.path for t in train_trials],
+            "insertion_model": "kept from the checkpoint (the arm's, not the tool's)",
+            "free_space_rms_n": {r: e for r, e in errors.items() if e["before"] is not None},
+            "parameters_before": dict(zip(NAMES, old.params.tolist())),
+            "parameters_after": dict(zip(NAMES, new.params.tolist()))}
+    ckpt.derive(calibration)
+    cfg = train_config or TrainConfig()
+    cfg = TrainConfig(**{**cfg.to_dict(), "max_epochs": epochs, "seed": seed, "device": device})
+    report = finetune_model(ckpt, train_trials, val_trials, cfg, desc="calibrate")
+    roles = {t.path: "train" for t in train_trials} | {t.path: "validation" for t in val_trials}
+    record = {
+        "data_dir": str(data_dir), "tool": dataset.metadata.get("tool"),
+        "rule": CALIBRATION_RULE, "minutes_requested": float(minutes),
+        "minutes_used": round(sum(map(trial_minutes, chosen)), 4),
+        "minutes_by_condition": {c: round(sum(trial_minutes(t) for t in chosen
+                                              if t.condition == c), 4)
+                                 for c in CALIBRATION_CONDITIONS},
+        "trials": [{"path": t.path, "condition": t.condition, "role": roles[t.path],
+                    "minutes": round(trial_minutes(t), 4)} for t in chosen],
+        "prior_refit": prior_report, "finetune_config": cfg.to_dict(),
+        "trainable_parameters": report["trainable_parameters"],
+        "epochs_run": report["epochs_run"], "stopped_by": report["stopped_by"],
+        "converged": report["converged"], "best_val_loss": report["best_val_loss"]}
+    ckpt.provenance = {**ckpt.provenance, "calibrated_from": str(checkpoint),
+                       "calibration": record}
+    ckpt.save(out)
+    return ({k: v for k, v in report.items() if k != "history"}
+            | {"checkpoint": str(out), "calibration": record})

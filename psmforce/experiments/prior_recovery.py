@@ -1,0 +1,161 @@
+"""Parameter recovery of the internal-force prior on an in-family bench (docs/identification.md,
+section 2.1, "Parameter recovery on an in-family bench").
+
+The in-family bench is the simulator with the switches and instrument below, so that the HEX10
+wrench it simulates is, up to sensor noise, a member of the prior's family
+(:mod:`psmforce.identification.prior`) and the wrist efforts the prior reads are the cable
+torques plus white noise and current quantisation; :func:`prior_truth` maps the bench's
+parameters onto the prior's. Sensor noise stays on: it is what decides what is identifiable.
+This module reads the simulator's truth for the comparison only; the prior itself does not.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+from pathlib import Path
+
+from psmforce.identification.prior import NAMES, InternalForcePrior
+from psmforce.identification.prior_identifiability import RECOVERY_TOLERANCE
+from psmforce.robot.kinematics import PSM
+from psmforce.sim.params import Effects, InstrumentParams
+
+SWITCHES = {
+    "pretension": "on: T_tot/6 per cable (prior: pretension_total)",
+    "slack": "on: S = max(2 T0 + a D, |D|) (prior: its smooth max, 0.05 N wide)",
+    "cable_asymmetry": "on: S = 2 T0 + a D when taut (prior: asymmetry_pitch / _blade)",
+    "roll_twist": "on: T0 (1 + g roll^2) (prior: twist_gain); its capstan part needs capstan",
+    "elasticity": "on: the wrist deflects; the efforts and the cables see the same deflected "
+                  "load, the prior uses neither the deflection nor the wrist angles but pitch",
+    "distal_gravity": "on: the distal mass on the shaft axis (prior: distal_mass, "
+                      "distal_com_distance); the jaw mass is moved there (in_family_instrument)",
+    "hex10_bias": "on: constant force offset (prior: bias_fx..fz)",
+    "sensor_noise": "on: HEX10, ATI and joint-effort white noise (the prior reads the noisy "
+                    "efforts: errors in variables)",
+    "encoder_quantisation": "on: sensor resolution",
+    "current_quantisation": "on: effort resolution, 0.1 mNm at the discs",
+    "arm_dynamics": "on: arm joints only (the prior reads no arm effort); its wrist-disc "
+                    "friction is drive_friction",
+    "contact_friction": "on: part of the external force, which the ATI measures and the fit "
+                        "subtracts",
+    "capstan": "off: multiplicative exp(mu z) with Dahl memory, outside the family (the prior's "
+               "direction_tension is a stand-in; truth 0)",
+    "hysteresis": "off: only drives capstan and pin friction",
+    "pin_friction": "off: not in the family",
+    "pitch_path_mismatch": "off: the bench adds it to the blade pretension (it moves the slack "
+                           "threshold), the prior outside the max (truth 0)",
+    "hex10_crosstalk": "off: the prior has no cross-talk",
+    "hex10_drift": "off: a random walk, not a constant bias",
+    "hex10_range_error": "off: not in the family (and |f| < 25 N mostly)",
+    "drive_friction": "off: the wrist discs' friction is proximal of the HEX10: in the efforts, "
+                      "not in the cables",
+    "coloured_effort_noise": "off: an effort disturbance that tensions no cable",
+    "remount_offsets": "off: a constant effort offset that tensions no cable",
+}
+"""Each Effects switch of the in-family bench and why (on / off)."""
+
+IN_FAMILY_EFFECTS = Effects(**{name: why.startswith("on") for name, why in SWITCHES.items()})
+
+RECOVERY_FIXED: dict[str, float] = {}
+"""Nothing is held in the recovery fit. The cable radius is not identifiable (it is fitted from
+moments only where no external force acts; with no load on the wrist the pair differentials there
+are the efforts' noise alone, input reliability about 0, and least squares shrinks it to zero),
+but holding it at the datasheet's 1.2 mm (``DATASHEET``) is worse: the moments then carry
+rho x the effort noise (about 5e-4 Nm, 2.4x the moment noise) and the fit shrinks the pair
+differentials instead, pulley radii to their upper bound and the pretension to zero
+(docs/identification.md, section 2.1)."""
+
+
+def in_family_instrument(base: InstrumentParams | None = None) -> InstrumentParams:
+    """``base`` (nominal by default) made in-family: the jaw mass moved onto the distal body on
+    the shaft axis (the prior has one distal mass on the axis; the jaws' moves with the wrist
+    angles), the two blade pairs given one asymmetry (their mean: the prior ties them), the
+    cables along the shaft where they cross the section (no lateral force)."""
+    base = base or InstrumentParams()
+    a = base.cable_asymmetry
+    blade = 0.5 * (a[1] + a[2])
+    return dataclasses.replace(base, jaw_mass_kg=0.0,
+                               distal_body_mass_kg=base.distal_body_mass_kg + base.jaw_mass_kg, cable_asymmetry=(a[0], blade, blade),
+                               cable_crossing_angle_rad=0.0)
+
+
+def prior_truth(instrument: InstrumentParams, psm: PSM | None = None) -> dict[str, float]:
+    """The prior's parameters (SI) of an in-family bench with ``instrument`` and
+    :data:`IN_FAMILY_EFFECTS`. Raises ValueError for an instrument outside the family."""
+    a = instrument.cable_asymmetry
+    if instrument.jaw_mass_kg != 0.0 or a[1] != a[2] or instrument.cable_crossing_angle_rad != 0.0:
+        raise ValueError("not an in-family instrument: use in_family_instrument() (jaw mass 0, "
+                         "equal blade asymmetries, cables crossing the section along the shaft)")
+    bias = instrument.hex10_residual_bias_n
+    return {
+        "pretension_total": instrument.pretension_total_n,
+        "pulley_radius_pitch": instrument.pulley_radius_pitch_m,
+        "pulley_radius_blade": instrument.pulley_radius_blade_m,
+        "twist_gain": instrument.twist_tension_gain_per_rad2,
+        "direction_tension": 0.0,                       # capstan off
+        "asymmetry_pitch": a[0], "asymmetry_blade": a[1],
+        "pitch_path_tension": 0.0,                      # pitch_path_mismatch off
+        "distal_mass": instrument.distal_body_mass_kg + instrument.jaw_mass_kg,
+        # the body's COM lies distal_body_com_m proximal of the pitch axis, the HEX10 origin
+        # hex10_distance proximal of it: its distance along the HEX10 z axis (towards the tip)
+        "distal_com_distance": (psm or PSM()).hex10_distance - instrument.distal_body_com_m,
+        "cable_radius": instrument.cable_radius_in_section_m,
+        "bias_fx": bias[0], "bias_fy": bias[1], "bias_fz": bias[2],
+        "bias_tx": 0.0, "bias_ty": 0.0, "bias_tz": 0.0,  # the bench's tare offset is forces only
+    }
+
+
+def compare(prior: InternalForcePrior, truth: dict[str, float]) -> dict:
+    """Per parameter: truth, fitted, relative error, and whether it is identifiable (not fixed,
+    not in the report's ``not_identifiable``); ``failures``: the identifiable parameters off by
+    more than :data:`RECOVERY_TOLERANCE` of the truth."""
+    report = prior.info["identifiability"]
+    rows, failures = {}, []
+    for name, value in zip(NAMES, prior.params):
+        true = truth[name]
+        rel = abs(value / true - 1.0) if true != 0 else None
+        status = ("fixed" if name in report["fixed"] else
+                  "not identifiable" if name in report["not_identifiable"] else "identifiable")
+        rows[name] = {"truth": true, "fitted": float(value), "relative_error": rel,
+                      "standard_error": report["standard_errors"].get(name), "status": status}
+        if status == "identifiable" and (rel is None or rel > RECOVERY_TOLERANCE):
+            failures.append(name)
+    return {"parameters": rows, "failures": failures}
+
+
+LOADED = ("Free", "Traction", "Palpation")
+
+
+def recover(workdir, scale: float = 0.02, seed: int = 1, fixed: dict | None = None,
+            conditions: tuple[str, ...] = LOADED) -> dict:
+    """Simulate the automated protocol on the in-family bench into ``workdir`` (unless its
+    metadata.json exists: then reuse it), fit the prior on the training split's ``conditions``
+    (loaded trials make pairs slack) and :func:`compare` with the truth. ``fixed`` defaults to
+    :data:`RECOVERY_FIXED`."""
+    from psmforce.io.recording import list_recordings, read_recording
+    from psmforce.sim import simulate
+
+    instrument = in_family_instrument()
+    meta = Path(workdir) / "metadata.json"
+    if not meta.exists():
+        simulate("automated", scale=scale, seed=seed, out=str(workdir), instrument=instrument,
+                 effects=IN_FAMILY_EFFECTS)
+    elif {k: json.loads(meta.read_text())[k] for k in ("scale", "seed", "effects", "instrument")} \
+            != {"scale": scale, "seed": seed, "effects": IN_FAMILY_EFFECTS.to_dict(),
+                "instrument": instrument.to_dict()}:
+        raise ValueError(f"{workdir} holds another bench than the in-family one at scale "
+                         f"{scale}, seed {seed}")
+    frames = [read_recording(r.path) for r in list_recordings(Path(workdir))
+              if r.split == "train" and r.condition in conditions]
+    prior = InternalForcePrior.fit(frames, fixed=RECOVERY_FIXED if fixed is None else fixed)
+    out = compare(prior, prior_truth(instrument))
+    ident = prior.info["identifiability"]
+    out.update({"scale": scale, "seed": seed, "conditions": list(conditions),
+                "fixed": prior.info["fixed"], "converged": prior.converged,
+                "n_samples": prior.info["n_samples"], "fit_time_s": prior.info["fit_time_s"],
+                "identifiability": ident,
+                "rest_level_n": {"truth": float(instrument.hex10_residual_bias_n[2]
+                                                - instrument.pretension_total_n),
+                                 "fitted": float(prior.params[NAMES.index("bias_fz")]
+                                                 - prior.params[NAMES.index("pretension_total")])}})
+    return out

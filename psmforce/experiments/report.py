@@ -1,0 +1,47 @@
+"""What the studies, benchmarks and robustness runs share: the options of one on a dataset
+folder, writing its figures as JSON, whole or not at all, and naming paths in them without a
+machine's absolute path."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+from pathlib import Path
+
+from psmforce.core.files import write_text_atomic
+
+
+def write_json(path: str | Path, figures: dict) -> None:
+    """``figures`` as indented JSON at ``path`` (parents created), whole or not at all
+    (:func:`psmforce.core.files.write_text_atomic`)."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    write_text_atomic(path, json.dumps(figures, indent=2, default=float) + "\n")
+    print(f"wrote {path}")
+
+
+def shown_path(path: str | Path, under: str | Path | None = None) -> str:
+    """``path`` as a committed JSON names it: relative to ``under`` (a run's work folder) when
+    it lies there, else to the repository (:func:`repository`)."""
+    path = Path(path).resolve()
+    if under is not None and path.is_relative_to(Path(under).resolve()):
+        return str(path.relative_to(Path(under).resolve()))
+    return os.path.relpath(path, repository())
+
+
+def repository() -> Path:
+    """The checkout this package runs from (the folder above ``psmforce/`` holding its
+    ``pyproject.toml``), else the working folder: an installed wheel has no repository."""
+    above = Path(__file__).resolve().parents[2]
+    return above if (above / "pyproject.toml").is_file() else Path.cwd()
+
+
+def dataset_arguments(doc: str) -> argparse.Namespace:
+    """``--data DIR`` (a dataset folder), ``--seed`` (the validation split's, default 0) and
+    ``--json OUT`` for a benchmark described by the first paragraph of ``doc``."""
+    ap = argparse.ArgumentParser(description=doc.split("\n\n")[0])
+    ap.add_argument("--data", required=True, type=Path)
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--json", type=Path)
+    return ap.parse_args()

@@ -1,0 +1,469 @@
+"""Internal-force prior: the wrench the HEX10 reads with no external force, from wrist states.
+
+A simplified, identifiable physical model of the cable-driven wrist (the physics of
+docs/simulator.md sections 5-7 read as a datasheet; no simulator code or truth is used). Frames:
+HEX10 frame (z along the shaft towards the tip); output [fx, fy, fz, tx, ty, tz] in N and Nm, the
+HEX10 sign convention (compression negative fz). Inputs per sample:
+
+* ``positions = (roll, wrist_pitch)`` (rad); wrist efforts ``e = (wrist_pitch, wrist_yaw, jaw)``
+  (Nm, dVRK joint space, what the motors apply); wrist velocities ``v`` (rad/s, same joints);
+* ``g_hex`` (m/s^2): gravity in the HEX10 frame, ``R_PSM_HEX10(q)^T (0, 0, -9.81)`` with the
+  rotation from ``PSM.rotation(q, "hex10")`` (base frame upright).
+
+Model::
+
+    tau_d  = (e_wp, e_wy/2 - e_jaw, e_wy/2 + e_jaw)      generalized torques on (pitch, blade1,
+    blade2) u      = K^-T tau_d,  K = [[1,0,0],[k,1,0],[k,0,1]], k = 0.8306/1.0186   (dVRK coupling)
+    D_i    = u_i / r_i,   r = (r_pitch, r_blade, r_blade)     pair differential tension (N) T0     =
+    T_tot/6 * (1 + g_twist roll^2)                  per-cable pretension with roll twist S_i    =
+    smoothmax(2 T0 + a_i D_i, |D_i|) + c_dir tanh(dx_i / v_eps)   pair tension sum
+             (the pair law of psmforce.identification.cable_pair, shared with the transmission):
+             taut with pair asymmetry a_i, or slack (|D_i|); direction-dependent tension
+             (capstan friction along the cable path) with dx = K v the cable-coordinate velocity
+    S_path = 4 c_pm (1 - cos wrist_pitch)        blade cables' path change over the pitch pulleys
+    f      = m_d g_hex - (0, 0, S_path + sum_i S_i) + b_f
+    t      = sum_i rho (-sin phi_i, cos phi_i, 0) D_i + l_d e_z x (m_d g_hex) + b_t
+
+with the cable angles phi = (0, 60, 120) deg of the pairs' "+" cables (datasheet). Parameters
+(:data:`PARAMETERS`) have physical bounds. What the data pin down is reported with every fit
+(``info["identifiability"]``, :func:`identifiability`: Fisher information, standard errors,
+correlations, the efforts' noise against the regressors, slack samples); ``fit(fixed=...)``
+holds parameters at given values (:data:`DATASHEET`). On a bench inside this family with noisy
+efforts (docs/identification.md section 2.1, "Parameter recovery on an in-family bench"): m_d, l_d
+and the lateral biases are identified from free-space data; T_tot (apart from bias_fz),
+g_twist and the pulley radii only from loaded data (external force subtracted) that drive
+|D_i| past 2 T0 by more than the efforts' noise (slack); the asymmetries and the cable radius
+multiply the pair differentials, which the efforts' noise dominates where they are fitted, and
+least squares shrinks them towards zero (errors in variables).
+
+The model reads the wrist efforts as cable torques. On a dVRK they are motor currents: they also
+carry the instrument discs' own friction with stiction (proximal of the HEX10, so it tensions no
+cable at the sensor) and a disturbance of the real arm's size (docs/simulator.md section 8).
+An effort error of 0.01 Nm on wrist pitch is 5 N of pair differential at a 2 mm pulley, which in
+the slack regime is 5 N of axial force: the fit then trades the effort-dependent terms against
+the rest level, and T_tot and bias_fz stop being physical (their difference, the rest level, is).
+What that leaves on the bench: docs/identification.md section 2.
+
+**Axis weights.** A prediction is ``w * law`` per component, ``w``
+(:attr:`InternalForcePrior.axis_weights`, ones as fitted) set on recordings the fit did not see by
+:func:`psmforce.identification.prior_support.supported_weights`: where the law's variation does not
+explain the held-out internal wrench (a lateral internal force outside its family, a component it
+predicts as a constant) the weight goes to 0 and the prior stays out of that component; the hybrid
+then reads the raw HEX10 there.
+
+The law (parameters, bounds, the vectorised model) is :mod:`psmforce.identification.prior_law`;
+what the fit reports about identifiability, :mod:`psmforce.identification.prior_identifiability`.
+
+Size: the prior as one record (law, weights, fit, persistence, strict loading), each part
+short; the law and the identifiability report already live in their own modules.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from psmforce.robot.conventions import GRAVITY_UPRIGHT_MPS2, INSERTION_JOINT, WRIST_JOINTS
+from psmforce.core.files import write_text_atomic
+from psmforce.identification.errors import IdentificationInputError, NotConvergedError
+from psmforce.identification.insertion import InsertionEffortModel
+from psmforce.identification.model_file import parse_model_json, read_model_json
+from psmforce.identification.prior_identifiability import identifiability
+from psmforce.identification.prior_law import (CABLE_ANGLES_RAD, KAPPA, NAMES,  # noqa: F401
+                                                MIN_SAMPLES, PARAMETERS, _CasadiOps, _model)
+from psmforce.identification.signals import check_finite_2d
+from psmforce.robot.kinematics import PSM
+from psmforce.io.recording import (HEX10, JOINT_POSITIONS, OVERLOAD, TARGETS, joint_column,
+                                 read_recording)
+
+FORMAT = "psmforce.identification.InternalForcePrior/1"
+FORMAT_VERSION = 2
+"""2: the integrity envelope (:mod:`psmforce.core.integrity`: a SHA-256 over every field) and this
+integer; a file with neither was written before them and still loads (its parameters checked
+against their bounds, as every prior's are)."""
+
+_MIN_SAMPLES = MIN_SAMPLES
+_WRIST_EFFORTS = tuple(joint_column(j, "effort") for j in WRIST_JOINTS)
+_WRIST_VELOCITIES = tuple(joint_column(j, "velocity") for j in WRIST_JOINTS)
+_INSERTION_VELOCITY = joint_column(INSERTION_JOINT, "velocity")
+_INSERTION_EFFORT = joint_column(INSERTION_JOINT, "effort")
+
+
+def gravity_in_hex10(q, psm=None) -> np.ndarray:
+    """(N,3) gravity (m/s^2) in the HEX10 frame for joint vectors q (N,6|7), base upright."""
+    return _gravity_in_frame((psm or PSM()).rotation(q, "hex10"))
+
+
+def _gravity_in_frame(r_base_frame: np.ndarray) -> np.ndarray:
+    """(N,3) gravity of the upright base, R^T (0, 0, -g), in frames with rotations (N,3,3)."""
+    return np.einsum("nji,j->ni", r_base_frame, np.array(GRAVITY_UPRIGHT_MPS2))
+
+
+def arrays_from_frame(frame, psm=None) -> dict:
+    """Model inputs (positions (N,2) roll and wrist_pitch, efforts (N,3), velocities (N,3),
+    g_hex (N,3)) from a recording frame, and ``d_shaft`` (N,3): the HEX10 z axis (the shaft,
+    towards the tip) in the base frame, for the insertion model."""
+    q = frame[list(JOINT_POSITIONS)].to_numpy(dtype=float)
+    e = frame[list(_WRIST_EFFORTS)].to_numpy(dtype=float)
+    v = frame[list(_WRIST_VELOCITIES)].to_numpy(dtype=float)
+    r = (psm or PSM()).rotation(q, "hex10")
+    return {"positions": q[:, [3, 4]], "efforts": e, "velocities": v,
+            "g_hex": _gravity_in_frame(r),
+            "d_shaft": r[:, :, 2]}
+
+
+def internal_wrench_target(frame) -> tuple[np.ndarray, np.ndarray]:
+    """(y, mask), (N, 6) each: what the prior should predict in a recording, the HEX10 reading
+    with the known external force (``ati_fx..ati_fz``, HEX10 frame, where the recording has
+    them) subtracted from its force channels, and a 0/1 mask of the samples that count: not
+    the moments of samples with an external force above 0.05 N (they would need the contact
+    point), nothing of an overloaded sample."""
+    y = frame[list(HEX10)].to_numpy(dtype=float)
+    mask = np.ones_like(y)
+    if all(t in frame.columns for t in TARGETS):
+        ext = frame[list(TARGETS)].to_numpy(dtype=float)
+        y[:, :3] -= ext
+        mask[np.linalg.norm(ext, axis=1) > 0.05, 3:] = 0.0
+    if OVERLOAD in frame.columns:
+        mask[frame[OVERLOAD].to_numpy() > 0] = 0.0
+    return y, mask
+
+
+def _check_arrays(positions, efforts, velocities, g_hex):
+    pos = check_finite_2d(positions, "positions (roll, wrist_pitch)", width=2)
+    n = len(pos)
+    arrs = []
+    for x, name in ((efforts, "efforts"), (velocities, "velocities"), (g_hex, "g_hex")):
+        a = check_finite_2d(x, name, width=3)
+        if len(a) != n:
+            raise IdentificationInputError(f"{name} has {len(a)} samples but positions has {n}")
+        arrs.append(a)
+    return pos, *arrs
+
+
+@dataclass
+class InternalForcePrior:
+    """Fitted internal-force prior. ``params`` in :data:`NAMES` order."""
+
+    params: np.ndarray = field(default_factory=lambda: np.array([p[4] for p in PARAMETERS]))
+    converged: bool = False
+    info: dict = field(default_factory=dict)
+    insertion: InsertionEffortModel | None = None
+    """The insertion joint's internal effort (:mod:`psmforce.identification.insertion`), fitted
+    alongside when the recordings carry the external force; None otherwise."""
+    axis_weights: np.ndarray = field(default_factory=lambda: np.ones(6))
+    """(6,) in [0, 1]: the share of each output component [fx .. tz] that predictions carry, as
+    held-out recordings support it (:mod:`psmforce.identification.prior_support`); ones (the
+    law as fitted) until :meth:`with_axis_weights` sets them."""
+
+    def insertion_axial_force(self, frame, psm=None) -> np.ndarray:
+        """(N,) external force along the shaft (N, HEX10 z) from the insertion effort."""
+        if self.insertion is None:
+            raise IdentificationInputError("this prior has no insertion model (it was fitted "
+                                           "without known external forces)")
+        q = frame[list(JOINT_POSITIONS)].to_numpy(dtype=float)
+        d = (psm or PSM()).rotation(q, "hex10")[:, :, 2]
+        return self.insertion.axial_force(d, frame[_INSERTION_VELOCITY].to_numpy(dtype=float),
+                                          frame[_INSERTION_EFFORT].to_numpy(dtype=float))
+
+    # ------------------------------------------------------------ prediction
+    def predict_arrays(self, positions, efforts, velocities, g_hex) -> np.ndarray:
+        """(N,6) HEX10 wrench [fx, fy, fz, tx, ty, tz] (N, Nm) from (N,2) and (N,3) arrays."""
+        pos, e, v, g = _check_arrays(positions, efforts, velocities, g_hex)
+        return self.law_arrays(pos, e, v, g) * self.axis_weights
+
+    def law_arrays(self, positions, efforts, velocities, g_hex) -> np.ndarray:
+        """(N,6) the fitted law's output before :attr:`axis_weights` (checked arrays)."""
+        out = _model(self.params, positions.T, efforts.T, velocities.T, g_hex.T, np)
+        return np.stack([np.broadcast_to(c, (len(positions),)) for c in out], axis=1)
+
+    def predict(self, frame_or_arrays, psm=None) -> np.ndarray:
+        """(N,6) prediction for a recording DataFrame or a dict of :func:`arrays_from_frame`."""
+        arrays = frame_or_arrays if isinstance(frame_or_arrays, dict) else arrays_from_frame(
+            frame_or_arrays, psm)
+        return self.predict_arrays(arrays["positions"], arrays["efforts"], arrays["velocities"],
+                                   arrays["g_hex"])
+
+    def predict_one(self, positions, efforts, velocities, g_hex) -> tuple:
+        """Per-sample fast path (pure Python floats): 6-tuple wrench from 2-, 3-, 3-, 3-sequences."""
+        out = _model(self._plist, positions, efforts, velocities, g_hex, math)
+        if self._unweighted:
+            return out
+        return tuple(w * x for w, x in zip(self._wlist, out))
+
+    def with_axis_weights(self, weights, report: dict | None = None) -> InternalForcePrior:
+        """A copy predicting ``weights * law`` per component (:attr:`axis_weights`);
+        ``report`` goes to ``info["axis_weights"]``."""
+        w = _check_weights(weights, "axis weights")
+        info = {**self.info, **({"axis_weights": report} if report is not None else {})}
+        return InternalForcePrior(params=self.params.copy(), converged=self.converged,
+                                  info=info, insertion=self.insertion, axis_weights=w)
+
+    @property
+    def _unweighted(self) -> bool:
+        return bool(np.all(self.axis_weights == 1.0))
+
+    @property
+    def _wlist(self):
+        return [float(x) for x in self.axis_weights]
+
+    @property
+    def _plist(self):
+        cached = getattr(self, "_plist_cache", None)
+        if cached is None or cached[0] is not self.params:
+            cached = (self.params, [float(x) for x in self.params])
+            self._plist_cache = cached
+        return cached[1]
+
+    # ------------------------------------------------------------ fit
+    @classmethod
+    def fit(cls, recordings, *, psm=None, provenance=None, max_iter: int = 500,
+            fixed: dict[str, float] | None = None) -> InternalForcePrior:
+        """Fit on recordings (DataFrames of ``psmforce.io.recording`` or paths).
+
+        Where target columns ``ati_fx..ati_fz`` exist, the known external force (HEX10 frame) is
+        subtracted from the force channels, and samples with an external force above 0.05 N are
+        fitted on forces only (their moments would need the contact point).
+
+        ``fixed``: parameters (names of :data:`NAMES`, SI values inside their bounds) held at the
+        given values instead of fitted: those the data cannot pin down, set from the instrument's
+        datasheet (:data:`DATASHEET`). ``info["identifiability"]`` reports which of the others
+        the data do pin down (:func:`identifiability`).
+        """
+        import casadi as ca
+
+        t0 = time.perf_counter()
+        if len(recordings) == 0:
+            raise IdentificationInputError("no recordings to fit the prior on")
+        fixed = _check_fixed(fixed)
+        parts, axial = [], []
+        sources = []
+        for rec in recordings:
+            if isinstance(rec, (str, Path)):
+                sources.append(str(rec))
+                rec = read_recording(rec)
+            else:
+                sources.append("<DataFrame>")
+            a = arrays_from_frame(rec, psm)
+            y, mask = internal_wrench_target(rec)
+            parts.append((a, y, mask))
+            if all(t in rec.columns for t in TARGETS) and \
+                    {_INSERTION_VELOCITY, _INSERTION_EFFORT} <= set(rec.columns):
+                axial.append((a["d_shaft"], rec[_INSERTION_VELOCITY].to_numpy(dtype=float),
+                              rec[_INSERTION_EFFORT].to_numpy(dtype=float),
+                              rec[TARGETS[2]].to_numpy(dtype=float)))
+        pos = np.concatenate([p[0]["positions"] for p in parts])
+        e = np.concatenate([p[0]["efforts"] for p in parts])
+        v = np.concatenate([p[0]["velocities"] for p in parts])
+        g = np.concatenate([p[0]["g_hex"] for p in parts])
+        y = np.concatenate([p[1] for p in parts])
+        mask = np.concatenate([p[2] for p in parts])
+        pos, e, v, g = _check_arrays(pos, e, v, g)
+        roll = pos[:, 0]
+        check_finite_2d(y, "HEX10 readings", width=6)
+        if len(roll) < _MIN_SAMPLES:
+            raise IdentificationInputError(
+                f"{len(roll)} samples is too short to fit the prior (need {_MIN_SAMPLES})")
+        if np.ptp(roll) < 1e-3 and np.ptp(g, axis=0).max() < 1e-3:
+            raise IdentificationInputError(
+                "the recordings do not move the instrument (roll and orientation constant): "
+                "twist gain, distal mass and biases are not identifiable")
+
+        lo = np.array([p[2] for p in PARAMETERS])
+        hi = np.array([p[3] for p in PARAMETERS])
+        scale = np.maximum(np.abs(hi - lo), 1e-12)
+        z = ca.MX.sym("z", len(PARAMETERS))
+        p = lo + z * scale  # optimise on [0, 1] per parameter: IPOPT sees O(1) numbers
+        cols = [ca.DM(x) for x in (e.T.tolist())]
+        vcols = [ca.DM(x) for x in (v.T.tolist())]
+        gcols = [ca.DM(x) for x in (g.T.tolist())]
+        pred = _model([p[i] for i in range(len(PARAMETERS))], [ca.DM(pos[:, 0]), ca.DM(pos[:, 1])], cols, vcols, gcols,
+                      _CasadiOps())
+        ch_scale = np.sqrt(np.sum(mask * (y - (y * mask).sum(0) / np.maximum(mask.sum(0), 1)) ** 2,
+                                  axis=0) / np.maximum(mask.sum(0), 1))
+        ch_scale = np.maximum(ch_scale, [0.02] * 3 + [2e-4] * 3)  # noise floors, N and Nm
+        cost = 0
+        for k in range(6):
+            r = (pred[k] - ca.DM(y[:, k])) * ca.DM(mask[:, k] / ch_scale[k])
+            cost = cost + ca.sumsqr(r)
+        cost = cost / len(roll)
+        solver = ca.nlpsol("prior", "ipopt", {"x": z, "f": cost}, {
+            "ipopt.print_level": 0, "print_time": False, "ipopt.max_iter": max_iter,
+            "ipopt.tol": 1e-9, "ipopt.sb": "yes"})
+        z0 = (np.array([fixed.get(n, p_[4]) for n, p_ in zip(NAMES, PARAMETERS)]) - lo) / scale
+        is_fixed = np.array([n in fixed for n in NAMES])
+        sol = solver(x0=z0, lbx=np.where(is_fixed, z0, 0.0), ubx=np.where(is_fixed, z0, 1.0))
+        stats = solver.stats()
+        params = lo + np.array(sol["x"]).ravel() * scale
+        params[is_fixed] = [fixed[n] for n in NAMES if n in fixed]  # exact, not via z
+        insertion = (InsertionEffortModel.fit(*map(list, zip(*axial)))
+                     if len(axial) == len(parts) else None)
+        prior = cls(params=params, converged=bool(stats["success"]), insertion=insertion)
+        fitted = prior.predict_arrays(pos, e, v, g)
+        prior.info = {
+            "solver": "CasADi IPOPT", "solver_status": stats["return_status"],
+            "iterations": int(stats["iter_count"]), "fit_time_s": time.perf_counter() - t0,
+            "n_samples": int(len(roll)),
+            "bounds_hit": [n for n, x, a, b in zip(NAMES, params, lo, hi)
+                           if min(x - a, b - x) <= 1e-6 * (b - a) and n not in fixed],
+            "fixed": {n: float(x) for n, x in fixed.items()},
+            "identifiability": identifiability(params, fixed, (pos, e, v, g), y, mask, ch_scale),
+            "slack_samples_fraction": float(np.mean(_slack_any(prior.params, roll, e))),
+            "train_metrics": channel_metrics(y, fitted, mask),
+            "provenance": provenance or {"recordings": sources},
+        }
+        return prior
+
+    # ------------------------------------------------------------ persistence
+    def to_dict(self) -> dict:
+        return {"format": FORMAT, "converged": bool(self.converged),
+                "frames_and_units": "output: HEX10 wrench [fx,fy,fz,tx,ty,tz] in N, Nm, HEX10 frame, "
+                                    "compression negative fz; inputs: roll and wrist_pitch rad, wrist efforts Nm "
+                                    "(dVRK joints), wrist velocities rad/s, gravity in HEX10 m/s^2",
+                "model": "see psmforce/identification/prior.py module docstring",
+                "parameters": {n: {"value": float(x), "unit": u, "lower": lo, "upper": hi}
+                               for (n, u, lo, hi, _), x in zip(PARAMETERS, self.params)},
+                "axis_weights": [float(x) for x in self.axis_weights],
+                "info": self.info,
+                **({"insertion": self.insertion.to_dict()} if self.insertion is not None else {})}
+
+    def save(self, path) -> None:
+        """Write human-readable JSON atomically; refuses a non-converged fit."""
+        write_text_atomic(path, self.to_json())
+
+    def to_json(self) -> str:
+        """The text :meth:`save` writes, in memory (a checkpoint keeps it); refuses a
+        non-converged fit."""
+        if not self.converged:
+            raise NotConvergedError("refusing to save a prior whose fit did not converge "
+                                    f"({self.info.get('solver_status')})")
+        from psmforce.core.integrity import seal
+        return json.dumps(seal({**self.to_dict(), "format_version": FORMAT_VERSION}), indent=2,
+                          allow_nan=False) + "\n"
+
+    @classmethod
+    def load(cls, path) -> InternalForcePrior:
+        """Read a prior JSON written by :meth:`save`. Refuses, naming the file: unreadable or
+        invalid JSON, another format, a field that does not match the file's SHA-256 envelope
+        or a format version that is not the integer :data:`FORMAT_VERSION` (files written
+        before the envelope carry neither and load), a missing parameter, and any parameter
+        that is not a finite number inside its physical bounds (:data:`PARAMETERS`; the same
+        bounds the fit uses, so a prior the fit wrote always loads): a NaN predicts NaN
+        everywhere, a negative pulley radius trains a model on nonsense."""
+        return cls.from_dict(read_model_json(path, FORMAT, "an InternalForcePrior"), path)
+
+    @classmethod
+    def from_json(cls, text: str, source: str = "prior JSON") -> InternalForcePrior:
+        """:meth:`load` on the text :meth:`to_json` gives, in memory; ``source`` names it in
+        the refusals."""
+        return cls.from_dict(parse_model_json(text, FORMAT, "an InternalForcePrior", source),
+                             source)
+
+    @classmethod
+    def from_dict(cls, d: dict, path) -> InternalForcePrior:
+        """The checks of :meth:`load` on the parsed JSON ``d``; ``path`` names its source."""
+        if "format_version" in d or "sha256" in d:  # a file without both predates them
+            from psmforce.core.integrity import check_version, verify
+            check_version(d.get("format_version"), (FORMAT_VERSION,), str(path), "prior",
+                          IdentificationInputError)
+            verify(d, str(path), "prior", IdentificationInputError)
+        entries = d.get("parameters")
+        if not isinstance(entries, dict):
+            raise IdentificationInputError(f"{path}: no 'parameters' object")
+        missing = [n for n in NAMES if n not in entries]
+        if missing:
+            raise IdentificationInputError(f"{path}: missing parameters {missing}")
+        params = []
+        for name, unit, lo, hi, _ in PARAMETERS:
+            entry = entries[name]
+            value = entry.get("value") if isinstance(entry, dict) else None
+            # the fit's solver may sit on a bound within its own tolerance
+            slack = 1e-6 * (hi - lo)
+            if (isinstance(value, bool) or not isinstance(value, (int, float))
+                    or not math.isfinite(value) or not lo - slack <= value <= hi + slack):
+                raise IdentificationInputError(
+                    f"{path}: parameter '{name}' must be a finite number in [{lo:g}, {hi:g}] "
+                    f"{unit}, got {value!r}")
+            params.append(float(value))
+        try:
+            insertion = (InsertionEffortModel.from_dict(d["insertion"]) if "insertion" in d
+                         else None)
+        except IdentificationInputError as err:
+            raise IdentificationInputError(f"{path}: {err}") from None
+        try:  # priors written before the weights predict the law as fitted
+            weights = _check_weights(d.get("axis_weights", [1.0] * 6), "'axis_weights'")
+        except IdentificationInputError as err:
+            raise IdentificationInputError(f"{path}: {err}") from None
+        info = d.get("info", {})
+        return cls(params=np.array(params), converged=bool(d.get("converged")),
+                   info=info if isinstance(info, dict) else {}, insertion=insertion,
+                   axis_weights=weights)
+
+
+DATASHEET = {"cable_radius": 1.2e-3, "pulley_radius_pitch": 2.0e-3, "pulley_radius_blade": 1.5e-3}
+"""Geometry the datasheet states (docs/simulator.md sections 7 and 10: cables cross the bore at
+1.2 mm; pulley radii 2.0 / 1.5 mm), for ``fit(fixed=...)``: the values to hold a parameter at
+when the data cannot pin it down. The cable radius, for one, is fitted from moments only where no
+external force acts, and there the pair differentials are the wrist efforts' noise alone (nothing
+loads the wrist): least squares then shrinks it towards zero (``input_reliability`` of
+:func:`identifiability`). The pulley radii are pinned only by slack samples."""
+def _check_weights(weights, name: str) -> np.ndarray:
+    """Six finite numbers in [0, 1], or a one-line refusal naming ``name``."""
+    if (not isinstance(weights, (list, tuple, np.ndarray)) or len(weights) != 6
+            or any(isinstance(w, bool) or not isinstance(w, (int, float, np.floating))
+                   for w in weights)):
+        raise IdentificationInputError(f"{name} must be a list of 6 numbers (fx .. tz), "
+                                       f"got {weights!r}")
+    w = np.asarray(weights, dtype=float)
+    if not (np.isfinite(w).all() and (w >= 0).all() and (w <= 1).all()):
+        raise IdentificationInputError(f"{name} must lie in [0, 1], got {w.tolist()}")
+    return w
+
+
+def _check_fixed(fixed) -> dict[str, float]:
+    if fixed is None:
+        return {}
+    if not isinstance(fixed, dict):
+        raise IdentificationInputError(
+            f"fixed: expected a dict name -> value, got {type(fixed).__name__}")
+    out = {}
+    for name, value in fixed.items():
+        if name not in NAMES:
+            raise IdentificationInputError(f"fixed: unknown parameter {name!r} (one of {NAMES})")
+        _, unit, lo, hi, _ = PARAMETERS[NAMES.index(name)]
+        if (isinstance(value, bool) or not isinstance(value, (int, float, np.floating))
+                or not math.isfinite(value) or not lo <= value <= hi):
+            raise IdentificationInputError(f"fixed: '{name}' must be a finite number in "
+                                           f"[{lo:g}, {hi:g}] {unit}, got {value!r}")
+        out[name] = float(value)
+    if len(out) == len(NAMES):
+        raise IdentificationInputError("fixed: every parameter is fixed, nothing to fit")
+    return out
+
+
+def _slack_any(params, roll, e):
+    T_tot, r_p, r_b, g_tw = params[:4]
+    tau_b1, tau_b2 = 0.5 * e[:, 1] - e[:, 2], 0.5 * e[:, 1] + e[:, 2]
+    u0 = e[:, 0] - KAPPA * (tau_b1 + tau_b2)
+    D = np.abs(np.stack([u0 / r_p, tau_b1 / r_b, tau_b2 / r_b], axis=1))
+    return (D > (T_tot / 3.0 * (1 + g_tw * roll ** 2))[:, None]).any(axis=1)
+
+
+def channel_metrics(y, y_hat, mask=None) -> dict:
+    """Per channel: RMS residual and R^2 (over samples where ``mask`` is 1)."""
+    mask = np.ones_like(y) if mask is None else mask
+    out = {}
+    for k, name in enumerate(HEX10):
+        m = mask[:, k] > 0
+        if not m.any():
+            continue
+        r = y[m, k] - y_hat[m, k]
+        var = np.var(y[m, k])
+        out[name] = {"rms": float(np.sqrt(np.mean(r ** 2))),
+                     "r2": float(1.0 - np.mean(r ** 2) / var) if var > 0 else None}
+    return out

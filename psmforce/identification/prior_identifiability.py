@@ -1,0 +1,172 @@
+"""Which parameters of the internal-force prior the fitted data pin down
+(:func:`identifiability`, reported in ``InternalForcePrior.info["identifiability"]``).
+
+The Fisher information of the scaled residuals gives the standard errors and correlations; it
+treats the wrist efforts as exact, so the shrinkage that their noise causes in the parameters
+that multiply them (errors in variables) is estimated separately (``input_reliability``).
+docs/identification.md section 2.1.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from psmforce.identification.prior_law import KAPPA, NAMES, PARAMETERS, _model
+from psmforce.identification.prior_law import MIN_SAMPLES as _MIN_SAMPLES
+
+RECOVERY_TOLERANCE = 0.10
+"""The relative accuracy :func:`identifiability` asks of a parameter: three standard errors, and
+the shrinkage that input noise causes, within 10 % of its value."""
+MIN_INPUT_RELIABILITY = 1.0 - RECOVERY_TOLERANCE
+
+
+def _pair_differentials(params, e):
+    """(N, 3) pair differentials D (N) of the model from efforts (N, 3)."""
+    tau_b1, tau_b2 = 0.5 * e[:, 1] - e[:, 2], 0.5 * e[:, 1] + e[:, 2]
+    u0 = e[:, 0] - KAPPA * (tau_b1 + tau_b2)
+    return np.stack([u0 / params[1], tau_b1 / params[2], tau_b2 / params[2]], axis=1)
+
+
+def identifiability(params, fixed, inputs, y, mask, ch_scale, chunk: int = 20000) -> dict:
+    """Which parameters the fitted data pin down, at the optimum ``params``.
+
+    ``inputs`` = (positions, efforts, velocities, g_hex); ``y``, ``mask``, ``ch_scale``: the
+    fit's readings (external force removed), sample mask and channel scales, so the residuals
+    are the fit's own scaled residuals r. J = dr/dp (central differences, physical units) over
+    the free parameters; Fisher information sum_k J_k^T J_k / s_k^2 with s_k^2 the residual
+    variance of channel k; its condition number once normalised to a unit diagonal (scale free:
+    1 for orthogonal parameters, large where a combination is barely seen). Standard errors and
+    correlations from the fit's own estimator (it weighs channels by their scale, not their
+    noise: sandwich covariance H^-1 (sum_k s_k^2 J_k^T J_k) H^-1, H = J^T J), white residuals
+    assumed: a lower bound where they are correlated in time.
+
+    Input noise (errors in variables) is not in J: the model reads the wrist efforts as exact,
+    and where their noise is a sizeable part of a regressor's spread, least squares shrinks the
+    parameter that multiplies it towards zero by the reliability ``1 - var(noise) / var(D)``.
+    The noise is estimated from the efforts' sample-to-sample steps (median absolute step: the
+    white part only, a lower bound where the efforts carry slower disturbances); the regressors
+    are the pair differentials D where the pair is taut (asymmetries, force samples) and where
+    moments are fitted (cable radius).
+
+    ``not_identifiable`` (name -> reason): a parameter at its bound; one correlated beyond
+    0.99 with another; 3 standard errors above :data:`RECOVERY_TOLERANCE` of its value (a value
+    within 3 standard errors of zero cannot be pinned down relatively at all); a reliability
+    below :data:`MIN_INPUT_RELIABILITY`; pulley radii, pretension, twist gain, bias_fz where fewer
+    than 200 samples are slack by more than 3 noise standard deviations (only slack separates
+    them; the smooth max's curvature would otherwise "identify" them from noise).
+    """
+    pos, e, v, g = inputs
+    free = [i for i, n in enumerate(NAMES) if n not in fixed]
+    span = np.array([p[3] - p[2] for p in PARAMETERS])
+    used = mask > 0
+
+    def residual(p, sl):
+        out = _model(p, pos[sl].T, e[sl].T, v[sl].T, g[sl].T, np)
+        pred = np.stack(np.broadcast_arrays(*out), axis=1)
+        return ((pred - y[sl]) / ch_scale)[used[sl]]
+
+    gram = np.zeros((6, len(free), len(free)))  # per channel J_k^T J_k
+    sq, n_res = np.zeros(6), np.zeros(6)
+    channel = np.broadcast_to(np.arange(6), y.shape)
+    for start in range(0, len(pos), chunk):
+        sl = slice(start, start + chunk)
+        r, ch = residual(params, sl), channel[sl][used[sl]]
+        cols = []
+        for i in free:
+            dp = np.zeros(len(params))
+            dp[i] = 1e-6 * span[i]
+            cols.append((residual(params + dp, sl) - residual(params - dp, sl)) / (2 * dp[i]))
+        jac = np.stack(cols, axis=1)
+        for k in range(6):
+            gram[k] += jac[ch == k].T @ jac[ch == k]
+            sq[k], n_res[k] = sq[k] + np.sum(r[ch == k] ** 2), n_res[k] + np.sum(ch == k)
+    s2 = np.where(n_res > 0, sq / np.maximum(n_res, 1), 1.0)  # residual variance per channel
+    info = np.einsum("kij,k->ij", gram, 1.0 / s2)  # Fisher information
+    # the fit weighs channels by ch_scale, not by their residual variance: sandwich covariance
+    hess_inv = np.linalg.pinv(gram.sum(axis=0))
+    cov = hess_inv @ np.einsum("kij,k->ij", gram, s2) @ hess_inv
+    se = np.sqrt(np.maximum(np.diag(cov), 0.0))
+    d = np.sqrt(np.diag(info))
+    spread = d * span[free]  # the residuals' sensitivity across each parameter's bounds
+    excited = spread > 1e-9 * spread.max()
+    norm = info[np.ix_(excited, excited)] / np.outer(d[excited], d[excited])
+    corr = np.clip(cov / np.outer(np.where(se > 0, se, 1.0), np.where(se > 0, se, 1.0)), -1, 1)
+
+    # errors in variables: the wrist efforts' white noise against the regressors' spread
+    D = _pair_differentials(params, e)
+    noise_var = (1.4826 * np.median(np.abs(np.diff(D, axis=0)), axis=0)) ** 2 / 2.0
+    two_t0 = params[0] / 3.0 * (1.0 + params[3] * pos[:, 0] ** 2)
+    a = np.array([params[5], params[6], params[6]])
+    taut = (two_t0[:, None] + a * D > np.abs(D)) & used[:, 2:3]
+
+    def reliability(pairs, sel):
+        var = [np.var(D[sel[:, i], i]) for i in pairs if sel[:, i].sum() > 1]
+        return float(1.0 - np.mean(noise_var[list(pairs)]) / np.mean(var)) if var else 0.0
+
+    # slack samples beyond the effort noise: what separates the pretension from bias_fz (the
+    # threshold) and pins the pulley radii (fz = -|D| there)
+    clear_slack = (np.abs(D) - (two_t0[:, None] + a * D) > 3 * np.sqrt(noise_var)) & used[:, 2:3]
+    n_slack = [int(clear_slack[:, 0].sum()), int(clear_slack[:, 1:].any(axis=1).sum())]
+    not_slack = {"pulley_radius_pitch": n_slack[0] < _MIN_SAMPLES,
+                 "pulley_radius_blade": n_slack[1] < _MIN_SAMPLES,
+                 **dict.fromkeys(("pretension_total", "bias_fz", "twist_gain"),
+                                 sum(n_slack) < _MIN_SAMPLES)}
+    lo = np.array([p[2] for p in PARAMETERS])
+    at_bound = np.minimum(params - lo, lo + span - params) <= 1e-3 * span
+    moments = np.broadcast_to(used[:, 3:4], D.shape)
+    rel = {"asymmetry_pitch": reliability([0], taut), "asymmetry_blade": reliability([1, 2], taut),
+           "cable_radius": reliability([0, 1, 2], moments)}
+
+    reasons = {}
+    for k, i in enumerate(free):
+        name, unit, value = NAMES[i], PARAMETERS[i][1], params[i]
+        if not excited[k]:
+            reasons[name] = "not excited: the fitted samples do not depend on it"
+            continue
+        why = []
+        if at_bound[i]:
+            why.append("at its bound: set by the bound, not by the data")
+        if not_slack.get(name):
+            why.append(f"slack samples beyond the effort noise: {n_slack[0]} (pitch pair), "
+                       f"{n_slack[1]} (blade pairs), fewer than {_MIN_SAMPLES}: without them the "
+                       f"data see the rest level bias_fz - pretension_total, the product "
+                       f"pretension_total x twist_gain and the ratios asymmetry / pulley "
+                       f"radius, not the parts")
+        partner = max((j for j in range(len(free)) if j != k), key=lambda j: abs(corr[k, j]),
+                      default=None)
+        if partner is not None and abs(corr[k, partner]) > 0.99:
+            why.append(f"correlation {corr[k, partner]:+.4f} with {NAMES[free[partner]]}: the "
+                       f"data see a combination of the two")
+        if 3 * se[k] > RECOVERY_TOLERANCE * abs(value):
+            why.append(f"{value:.4g} +- {se[k]:.2g} {unit} (1 SE): "
+                       + ("indistinguishable from zero" if abs(value) <= 3 * se[k] else
+                          f"3 SE are {3 * se[k] / abs(value):.0%} of the value"))
+            if partner is not None and 0.9 < abs(corr[k, partner]) <= 0.99:
+                why[-1] += f", correlation {corr[k, partner]:+.3f} with {NAMES[free[partner]]}"
+        if name in rel and rel[name] < MIN_INPUT_RELIABILITY:
+            why.append(f"errors in variables: the wrist efforts' noise leaves a reliability of "
+                       f"{rel[name]:.2f} in its regressor (the pair differentials), so the fit "
+                       f"shrinks it towards zero")
+        if why:
+            reasons[name] = "; ".join(why)
+    for name in ("bias_fz", "twist_gain"):  # the data see bias_fz - T_tot and T_tot x twist_gain
+        if "pretension_total" in reasons and name not in reasons and NAMES.index(name) in free:
+            reasons[name] = ("tied to pretension_total, which is not identifiable: the data see "
+                             "bias_fz - pretension_total and pretension_total x twist_gain")
+    pairs = [[NAMES[free[i]], NAMES[free[j]], float(corr[i, j])]
+             for i in range(len(free)) for j in range(i + 1, len(free)) if abs(corr[i, j]) > 0.9]
+    return {
+        "method": "Fisher information of the fit's scaled residuals (central differences) at the "
+                  "optimum, channel noise from the residuals; sandwich standard errors, white "
+                  "residuals assumed; input noise from the efforts' steps",
+        "condition_number": float(np.linalg.cond(norm)) if norm.size else None,
+        "standard_errors": {NAMES[i]: float(x) for i, x in zip(free, se)},
+        "correlations_above_0.9": pairs,
+        "effort_noise_differential_n": [float(x) for x in np.sqrt(noise_var)],
+        "input_reliability": rel,
+        "clear_slack_samples": {"pitch": n_slack[0], "blade": n_slack[1]},
+        "not_identifiable": reasons,
+        "fixed": sorted(fixed),
+    }
+
+

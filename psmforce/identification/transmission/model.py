@@ -1,0 +1,389 @@
+"""One cable transmission, motor to jaw: identified with CasADi from the signals a robot has.
+
+The law every antagonistic cable pair of an EndoWrist follows, written for one pair: a motor
+(current ``i``, encoder angle ``theta`` at the input spindle) drives a spindle; a pair of cables
+runs along the shaft over idler pulleys to a jaw; the jaw is loaded. Frames and signs follow
+:mod:`psmforce.identification.transmission.recording`: positive ``theta`` and positive current drive
+the jaw towards closing; ``jaw_torque`` is the load's torque on the jaw (negative while it resists
+closing). SI units throughout (Nm, A, rad, s).
+
+Torque path (per sample; ``z`` in [-1, 1] the Dahl friction-direction state, rate independent,
+driven by the motor displacement with pre-sliding angle ``phi_c``). Every torque parameter is
+referred to the jaw (Nm at the jaw): a cable drive's torque ratio is the inverse of its angle
+ratio ``n``, so the spindle-side figures are the jaw-side ones times ``n`` (the fit reports the
+spindle current gain ``G n``)::
+
+    tau_s = G i - b omega - J alpha - k_theta theta - f_m z   motor torque into the cables
+    P_s   = smoothmax(P + a tau_s, |tau_s|)                   pair tension sum x pulley radius:
+                                                              taut (asymmetric pair a) or slack
+    m     = mu (1 + mu_theta theta) z                         capstan exponent (wrap grows)
+    tau_c = tau_s cosh m - P_s sinh m                         cable torque on the jaw (capstan)
+    jaw_torque_model = -tau_c + c_0
+
+The pair law is the one the internal-force prior uses for every pair of the Cadiere wrist
+(:mod:`psmforce.identification.cable_pair`), here in torques: the tension sum times the pulley
+radius as the pretension torque ``P = 2 T_0 r`` and the pair asymmetry ``a`` of the bench's loop
+closure (``S = 2 T_0 + a D``): the friction grows with the load even while the pair is taut, at
+a different rate closing (``cosh mu - a sinh mu``) and opening (``cosh mu + a sinh mu``).
+
+Stick. While the motor does not move, neither end of the transmission slides: the current
+relaxes (the drive's position loop is satisfied) while the gearbox and the cables hold the last
+torque. The estimate therefore follows the law only as fast as the motor moves (a displacement-
+driven first-order hold, a Maxwell-slip element with one slip angle ``phi_h``)::
+
+    jaw_torque_k = a_k jaw_torque_{k-1} + (1 - a_k) jaw_torque_model_k
+    a_k = exp(-|dtheta_k| / phi_h)
+
+The law is fitted through the hold on every sample (what is fitted is what is predicted): the
+hold is linear in the law's output, ``M y = (1 - a) law`` with ``M`` lower bidiagonal, one sparse
+solve per solver iteration.
+
+Angle path (cable stretch and backlash between the motor encoder and the jaw)::
+
+    jaw_angle = n play_h(theta) + kappa_tau jaw_torque - kappa_i i + kappa_z z + theta_0
+
+``play_h`` the backlash (play) operator of half-width ``h`` on the motor angle; ``kappa_tau``
+(rad/Nm) the cables' compliance under the load they carry (the held torque estimate above: the
+jaw deflects about 7 degrees across the real instrument's load range), ``kappa_i`` (rad/A) the
+stretch the motor's own torque adds while it drives, ``kappa_z`` (rad) the wind-up the friction
+holds in the cables. Linear in its parameters given the widths: solved exactly.
+
+Identifiability (stated, and checked from the fit's Fisher information in :attr:`info`):
+
+* ``G`` (motor constant x 35:1 x gearbox efficiency / n) is identified only as a whole;
+* the pretension torque ``P`` and the motor-side Coulomb friction ``f_m`` both give a friction
+  in the direction of motion; they separate only through the load dependence of the pretension
+  term (asymmetry, slack) within the data. When the information cannot split them (correlation
+  above :data:`TIE_CORRELATION`), ``f_m`` is FIXED at 0 and the load-independent friction is
+  carried by ``P`` (the fit's report says so);
+* ``J`` (reflected inertia) needs accelerations the slow drives barely have; bounded to the
+  motor's datasheet range.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Sequence
+
+import numpy as np
+
+from psmforce.core.files import write_json_atomic
+from psmforce.identification.cable_pair import capstan, tension_sum
+from psmforce.identification.errors import IdentificationInputError, NotConvergedError
+from psmforce.identification.transmission.hysteresis import (dahl_state, hold, hold_coefficients,
+                                                             play)
+from psmforce.identification.model_file import check_sealed, read_model_json
+from psmforce.core.integrity import seal
+from psmforce.identification.transmission.recording import TransmissionRecording
+
+OMEGA_MOVING = 0.05
+"""rad/s: motor speed above which the motor counts as moving (the data-sufficiency check)."""
+SMOOTH_MAX_NM = 1e-3
+"""Nm: width of the smooth max between the pretension torque and |tau_s|."""
+TIE_CORRELATION = 0.95
+FORMAT = "psmforce.identification.CableTransmission/1"
+FORMAT_VERSION = 2
+"""2: the integrity envelope (:mod:`psmforce.core.integrity`) and this integer; a file with neither
+predates them and loads, its bounds checked; one with only one of them is refused."""
+
+# name, unit, lower, upper, initial: the torque path's parameters (physical bounds)
+TORQUE_PARAMETERS = (
+    ("current_gain", "Nm/A", 0.05, 3.0, 0.7),   # Maxon k_t 0.02-0.04 Nm/A x 35 x efficiency / n
+    ("viscous", "Nm s/rad", 0.0, 0.5, 0.0),
+    ("inertia", "kg m^2", 0.0, 0.01, 0.0),
+    ("position_stiffness", "Nm/rad", -0.5, 0.5, 0.0),
+    ("motor_coulomb", "Nm", 0.0, 0.3, 0.02),
+    ("capstan_mu", "1", 0.0, 2.0, 0.4),
+    ("capstan_mu_per_rad", "1/rad", -1.0, 1.0, 0.0),
+    ("pretension_torque", "Nm", 0.0, 1.0, 0.1),
+    ("pair_asymmetry", "1", -0.95, 0.95, 0.0),
+    ("torque_bias", "Nm", -0.3, 0.3, 0.0),
+)
+TORQUE_NAMES = tuple(p[0] for p in TORQUE_PARAMETERS)
+ANGLE_NAMES = ("ratio", "compliance_torque", "compliance_current", "windup", "angle_offset")
+PRESLIDING_GRID_RAD = (0.01, 0.02, 0.04, 0.08)
+HOLD_GRID_RAD = (0.005, 0.02, 0.05, 0.1, 0.2, 0.4)
+BACKLASH_GRID_RAD = (0.0, 0.005, 0.01, 0.02)
+
+
+@dataclass(frozen=True)
+class _Signals:
+    current: np.ndarray
+    theta: np.ndarray
+    omega: np.ndarray
+    alpha: np.ndarray
+    z: np.ndarray
+
+
+def _signals(rec: TransmissionRecording, presliding_rad: float) -> _Signals:
+    omega = rec.motor_velocity_rad_s
+    return _Signals(rec.motor_current_a, rec.motor_angle_rad, omega,
+                    np.diff(omega, prepend=omega[:1]) * rec.rate_hz,
+                    dahl_state(rec.motor_angle_rad, presliding_rad))
+
+
+def _concat(sigs: Sequence[_Signals]) -> _Signals:
+    return _Signals(*(np.concatenate([getattr(s, f) for s in sigs])
+                      for f in _Signals.__dataclass_fields__))
+
+
+def _torque_law(p, s, xp):
+    """Jaw torque (Nm) before the stick hold; ``p`` in TORQUE_NAMES order; ``xp`` numpy or
+    casadi."""
+    G, b, J, k_th, f_m, mu, mu_th, P, a, c0 = p
+    tau_s = G * s.current - b * s.omega - J * s.alpha - k_th * s.theta - f_m * s.z
+    p_s = tension_sum(P + a * tau_s, tau_s, SMOOTH_MAX_NM, xp)
+    return -capstan(tau_s, p_s, mu * (1.0 + mu_th * s.theta) * s.z, xp) + c0
+
+
+@dataclass(frozen=True)
+class TransmissionPrediction:
+    """Causal estimates, (N,) each."""
+
+    jaw_torque_nm: np.ndarray
+    jaw_angle_rad: np.ndarray
+
+
+@dataclass
+class CableTransmission:
+    """Identified motor-to-jaw transmission (module docstring). ``torque`` in TORQUE_NAMES order,
+    ``angle`` in ANGLE_NAMES order; the three hysteresis widths are chosen by :meth:`fit`."""
+
+    torque: np.ndarray = field(default_factory=lambda: np.array([p[4] for p in TORQUE_PARAMETERS]))
+    angle: np.ndarray = field(default_factory=lambda: np.array([0.9, 0.0, 0.0, 0.0, 0.0]))
+    presliding_rad: float = 0.02
+    hold_rad: float = 0.05
+    backlash_rad: float = 0.0
+    fixed: tuple[str, ...] = ()
+    info: dict = field(default_factory=dict)
+
+    # ------------------------------------------------------------ prediction
+    def predict(self, rec: TransmissionRecording) -> TransmissionPrediction:
+        """Jaw torque and angle from the motor signals of ``rec`` (past and present samples
+        only)."""
+        s = _signals(rec, self.presliding_rad)
+        torque = self._held_torque(s)
+        return TransmissionPrediction(torque, self._angle_columns(s, torque) @ self.angle)
+
+    def _held_torque(self, s: _Signals) -> np.ndarray:
+        return hold(_torque_law(self.torque, s, np), s.theta, self.hold_rad)
+
+    def _angle_columns(self, s: _Signals, torque: np.ndarray) -> np.ndarray:
+        return np.stack([play(s.theta, self.backlash_rad), torque, -s.current, s.z,
+                         np.ones_like(s.theta)], axis=1)
+
+    # ------------------------------------------------------------ fit
+    @classmethod
+    def fit(cls, recordings: Sequence[TransmissionRecording], *,
+            validation: Sequence[TransmissionRecording] = (),
+            initial: "CableTransmission | None" = None, max_iter: int = 300) -> "CableTransmission":
+        """Identify on ``recordings``: for each pre-sliding and hold width the torque law
+        (IPOPT through the hold, every sample), then for each backlash width the angle path
+        (exact least squares, driven by the held torque estimate). The widths are chosen on
+        ``validation`` when given (else on the fit data). With ``initial`` (few-shot
+        recalibration on another instrument), its widths are kept and its parameters start the
+        solver."""
+        t0 = time.perf_counter()
+        recordings = list(recordings)
+        if not recordings:
+            raise IdentificationInputError("no recordings to fit the transmission on")
+        n_samples = sum(len(r) for r in recordings)
+        if n_samples < 500:
+            raise IdentificationInputError(f"{n_samples} samples is too short to fit the "
+                                           "transmission (need 500)")
+        select_on = list(validation) or recordings
+        if initial is not None:
+            widths = [(initial.presliding_rad, initial.hold_rad)]
+            backlashes = (initial.backlash_rad,)
+        else:
+            widths = [(phi, w) for phi in PRESLIDING_GRID_RAD for w in HOLD_GRID_RAD]
+            backlashes = BACKLASH_GRID_RAD
+        y = np.concatenate([r.jaw_torque_nm for r in recordings])
+        y_angle = np.concatenate([r.jaw_angle_rad for r in recordings])
+        best, scores = None, []
+        for phi, hold_rad in widths:
+            sigs = [_signals(r, phi) for r in recordings]
+            s = _concat(sigs)
+            if np.sum(np.abs(s.omega) > OMEGA_MOVING) < 200:
+                raise IdentificationInputError("the motor hardly moves: fewer than 200 samples "
+                                               f"faster than {OMEGA_MOVING} rad/s")
+            hold_a = np.concatenate([hold_coefficients(x.theta, hold_rad) for x in sigs])
+            start = initial.torque if initial is not None else None
+            torque, fixed, info = _solve_torque(s, y, hold_a, start, max_iter)
+            for h in backlashes:
+                model = cls(torque, np.zeros(len(ANGLE_NAMES)), phi, hold_rad, h, fixed, dict(info))
+                cols = np.concatenate([model._angle_columns(x, model._held_torque(x))
+                                       for x in sigs])
+                model.angle, *_ = np.linalg.lstsq(cols, y_angle, rcond=None)
+                if not 0.3 < model.angle[0] < 3.0:
+                    raise IdentificationInputError("the jaw angle does not follow the motor angle "
+                                                   f"(fitted ratio {model.angle[0]:.3g})")
+                score = model.score(select_on)
+                scores.append({"presliding_rad": phi, "backlash_rad": h, "hold_rad": hold_rad,
+                               **score})
+                key = (score["jaw_torque_rmse_nm"] / 0.005
+                       + score["jaw_angle_rmse_rad"] / math.radians(0.5))
+                if best is None or key < best[0]:
+                    best = (key, model)
+        model = best[1]
+        model.info.update({"selection": "validation" if validation else "fit data",
+                           "width_scores": scores, "fit_time_s": time.perf_counter() - t0,
+                           "n_samples": n_samples,
+                           "spindle_current_gain_nm_per_a": float(model.torque[0] * model.angle[0]),
+                           "recordings": [r.name for r in recordings]})
+        return model
+
+    def score(self, recordings: Sequence[TransmissionRecording]) -> dict:
+        """RMSE of the causal estimates over ``recordings`` (whole files)."""
+        et, ea = [], []
+        for r in recordings:
+            p = self.predict(r)
+            et.append(p.jaw_torque_nm - r.jaw_torque_nm)
+            ea.append(p.jaw_angle_rad - r.jaw_angle_rad)
+        et, ea = np.concatenate(et), np.concatenate(ea)
+        return {"jaw_torque_rmse_nm": float(np.sqrt(np.mean(et ** 2))),
+                "jaw_angle_rmse_rad": float(np.sqrt(np.mean(ea ** 2)))}
+
+    # ------------------------------------------------------------ persistence
+    def to_dict(self) -> dict:
+        """Human-readable JSON content: every parameter with its unit and bounds."""
+        return {"format": FORMAT,
+                "frames_and_units": "inputs: motor current A (positive drives the jaw closed), "
+                                    "motor angle rad at the input spindle; outputs: jaw torque Nm "
+                                    "(the load's torque on the jaw), jaw angle rad; "
+                                    "psmforce/identification/transmission/recording.py",
+                "torque": {n: {"value": float(v), "unit": u, "lower": lo, "upper": hi}
+                           for (n, u, lo, hi, _), v in zip(TORQUE_PARAMETERS, self.torque)},
+                "angle": dict(zip(ANGLE_NAMES, map(float, self.angle))),
+                "presliding_rad": self.presliding_rad, "hold_rad": self.hold_rad,
+                "backlash_rad": self.backlash_rad, "fixed": list(self.fixed),
+                "info": {k: v for k, v in self.info.items() if k != "width_scores"}}
+
+    def save(self, path) -> None:
+        """Write the JSON atomically, sealed (:data:`FORMAT_VERSION`); refuses a fit whose
+        solver did not converge."""
+        if not self.info.get("converged", False):
+            raise NotConvergedError("refusing to save a transmission whose fit did not converge "
+                                    f"({self.info.get('solver_status', 'no fit')})")
+        write_json_atomic(path, seal({**self.to_dict(), "format_version": FORMAT_VERSION}))
+
+    @classmethod
+    def load(cls, path) -> "CableTransmission":
+        """Read a file :meth:`save` wrote. Refuses, naming the file and the entry: unreadable
+        JSON, another format, an edited field or a format version that is not the integer
+        :data:`FORMAT_VERSION` (:func:`.model_file.check_sealed`), a missing or unknown
+        parameter, a torque parameter that is not a finite number inside its bounds, an angle
+        parameter that is not finite (the ratio within (0.3, 3)), a width that is not a finite
+        number in its range."""
+        d = read_model_json(path, FORMAT, "a CableTransmission")
+        check_sealed(d, path, "CableTransmission", FORMAT_VERSION)
+
+        def number(value, name, lo=-math.inf, hi=math.inf) -> float:
+            if (isinstance(value, bool) or not isinstance(value, (int, float))
+                    or not math.isfinite(value) or not lo <= value <= hi):
+                raise IdentificationInputError(f"{path}: '{name}' must be a finite number in "
+                                               f"[{lo:g}, {hi:g}], got {value!r}")
+            return float(value)
+
+        torque, angle = d.get("torque"), d.get("angle")
+        if not isinstance(torque, dict) or set(torque) != set(TORQUE_NAMES):
+            raise IdentificationInputError(f"{path}: 'torque' must hold exactly {TORQUE_NAMES}")
+        if not isinstance(angle, dict) or set(angle) != set(ANGLE_NAMES):
+            raise IdentificationInputError(f"{path}: 'angle' must hold exactly {ANGLE_NAMES}")
+        params = []
+        for name, _, lo, hi, _ in TORQUE_PARAMETERS:
+            entry = torque[name]
+            slack = 1e-6 * (hi - lo)  # the solver may sit on a bound within its tolerance
+            params.append(number(entry.get("value") if isinstance(entry, dict) else None,
+                                 name, lo - slack, hi + slack))
+        angles = [number(angle[n], n) for n in ANGLE_NAMES]
+        number(angles[0], "ratio", 0.3, 3.0)
+        fixed = d.get("fixed", [])
+        if not isinstance(fixed, list) or not set(fixed) <= set(TORQUE_NAMES):
+            raise IdentificationInputError(f"{path}: 'fixed' must list torque parameters")
+        info = d.get("info", {})
+        return cls(np.array(params), np.array(angles),
+                   number(d.get("presliding_rad"), "presliding_rad", 1e-6, 1.0),
+                   number(d.get("hold_rad"), "hold_rad", 1e-6, 10.0),
+                   number(d.get("backlash_rad"), "backlash_rad", 0.0, 1.0), tuple(fixed),
+                   info if isinstance(info, dict) else {})
+
+
+def _solve_torque(s: _Signals, y: np.ndarray, hold_a: np.ndarray, start, max_iter: int,
+                  fixed: tuple[str, ...] = ()):
+    """IPOPT through the hold on every sample; returns (params, fixed names, info with
+    identifiability). When the Fisher information cannot split the motor Coulomb friction from
+    the pretension term, refits with the former fixed at 0 (module docstring)."""
+    import casadi as ca
+    from scipy import sparse
+
+    lo = np.array([p[2] for p in TORQUE_PARAMETERS])
+    hi = np.array([p[3] for p in TORQUE_PARAMETERS])
+    x0 = np.array(start if start is not None else [p[4] for p in TORQUE_PARAMETERS], dtype=float)
+    x0 = np.clip(x0, lo, hi)
+    for name in fixed:
+        k = TORQUE_NAMES.index(name)
+        lo[k] = hi[k] = x0[k] = 0.0
+    span = np.maximum(hi - lo, 1e-12)
+    free = [k for k, n in enumerate(TORQUE_NAMES) if n not in fixed]
+    u = ca.MX.sym("u", len(free))
+    p = [ca.DM(lo[k]) for k in range(len(lo))]
+    for j, k in enumerate(free):
+        p[k] = lo[k] + u[j] * span[k]
+    n = len(y)
+    hold_matrix = ca.DM(sparse.csc_matrix(sparse.eye(n) - sparse.diags(hold_a[1:], -1)))
+    cols = _Signals(*(ca.DM(getattr(s, f)) for f in _Signals.__dataclass_fields__))
+    held = ca.solve(hold_matrix, ca.DM(1.0 - hold_a) * _torque_law(p, cols, ca), "csparse")
+    resid = held - ca.DM(y)
+    cost = ca.sumsqr(resid) / n / 1e-6  # in mNm^2: O(1)-O(100) numbers for IPOPT
+    solver = ca.nlpsol("transmission", "ipopt", {"x": u, "f": cost}, {
+        "ipopt.print_level": 0, "print_time": False, "ipopt.max_iter": max_iter,
+        "ipopt.tol": 1e-10, "ipopt.sb": "yes"})
+    sol = solver(x0=((x0 - lo) / span)[free], lbx=0.0, ubx=1.0)
+    stats = solver.stats()
+    if not stats["success"] and stats["return_status"] != "Maximum_Iterations_Exceeded":
+        raise NotConvergedError(f"transmission fit: IPOPT {stats['return_status']}")
+    u_hat = np.array(sol["x"]).ravel()
+    params = lo.copy()
+    params[free] = lo[free] + u_hat * span[free]
+    jac_r = ca.Function("j", [u], [ca.jacobian(resid, u), resid])
+    jac, r_hat = (np.array(x) for x in jac_r(u_hat))
+    sigma2 = float(np.sum(r_hat ** 2) / max(n - len(free), 1))
+    ident = _identifiability(jac, sigma2, [TORQUE_NAMES[k] for k in free], params[free],
+                             lo[free], hi[free], span[free])
+    pair = ("motor_coulomb", "pretension_torque")
+    if not fixed and abs(ident["correlations"].get(f"{pair[0]}|{pair[1]}", 0.0)) > TIE_CORRELATION:
+        params, fixed_out, info = _solve_torque(s, y, hold_a, params, max_iter,
+                                                fixed=(pair[0],))
+        info["tied"] = (f"{pair[0]} fixed at 0: the data cannot split it from {pair[1]} "
+                        f"(correlation {ident['correlations'][f'{pair[0]}|{pair[1]}']:.3f}); "
+                        "the load-independent friction is carried by the pretension term")
+        return params, fixed_out, info
+    info = {"solver": "CasADi IPOPT", "solver_status": stats["return_status"],
+            "converged": bool(stats["success"]), "iterations": int(stats["iter_count"]),
+            "train_rmse_nm": float(np.sqrt(np.mean(r_hat ** 2))),
+            "identifiability": ident}
+    return params, tuple(fixed), info
+
+
+def _identifiability(jac, sigma2, names, values, lo, hi, span) -> dict:
+    """Fisher information of the scaled parameters (each on [0, 1] over its bounds) from the
+    residual Jacobian and the residual variance ``sigma2`` (Nm^2): its condition number, the
+    parameter correlations, each parameter's standard deviation relative to its value, and
+    the parameters pinned at a bound."""
+    fim = jac.T @ jac / sigma2
+    cond = float(np.linalg.cond(fim))
+    cov = np.linalg.pinv(fim)
+    sd = np.sqrt(np.maximum(np.diag(cov), 1e-300))
+    corr = cov / np.outer(sd, sd)
+    pairs = {f"{names[a]}|{names[b]}": float(corr[a, b])
+             for a in range(len(names)) for b in range(a + 1, len(names))}
+    return {"fisher_condition_number": cond,
+            "correlations": pairs,
+            "strongly_correlated": [k for k, v in pairs.items() if abs(v) > TIE_CORRELATION],
+            "at_bound": [n for n, v, a, b in zip(names, values, lo, hi)
+                         if min(v - a, b - v) <= 1e-4 * (b - a)],
+            "relative_sd": {n: float(s_ * w / max(abs(v), 1e-12)) for n, s_, w, v in
+                            zip(names, sd, span, values)}}

@@ -1,0 +1,153 @@
+"""A robot to try the node on without a robot: a recording played over DDS as the dVRK and the
+HEX10 publish it (``psmforce serve --sim``, the end-to-end test, ``benchmarks/live.py``).
+
+:func:`play` publishes, per row of a recording (:mod:`psmforce.io.recording`), the arm's
+sensor_msgs/JointState (the six chain joints, dVRK >= 2024 names and order), the jaw's (one joint
+``jaw``) and the HEX10's geometry_msgs/WrenchStamped (``frame_id`` ``hex10``), in that order, on
+the CRTK topics of :func:`psmforce.io.bags.reading.default_topics` (or the ones given), each header
+stamped ``start_ns`` + the row's ``time``; paced in real time by default. Messages are
+encoded by :mod:`psmforce.live.cdr` and written as they are (QoS: :func:`psmforce.live.dds.qos`).
+:func:`bench_recording` simulates a short bench session (:mod:`psmforce.sim`) and puts it on the
+clock a dVRK publishes at (linear interpolation onto ``rate_hz``).
+"""
+
+from __future__ import annotations
+
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from psmforce.io.bags.messages import stream_columns
+from psmforce.io.bags.reading import resolve_topics
+from psmforce.robot.conventions import CHAIN_JOINTS, JAW_JOINT
+from psmforce.io.recording import TIME, read_recording
+from psmforce.live import cdr
+
+
+def bench_recording(rate_hz: float = 1000.0, seed: int = 0) -> pd.DataFrame:
+    """A simulated palpation session (about 10 s; the bench runs at 100 Hz) on a ``rate_hz``
+    clock."""
+    from psmforce.sim import simulate
+    with tempfile.TemporaryDirectory() as tmp:
+        simulate(protocol="automated", scale=0.01, seed=seed, out=Path(tmp) / "bench")
+        files = sorted((Path(tmp) / "bench" / "test" / "Palpation").glob("*.csv"))
+        frame = max((read_recording(f) for f in files), key=len)
+    t = frame[TIME].to_numpy()
+    clock = np.arange(0.0, t[-1], 1.0 / rate_hz)
+    return pd.DataFrame({c: np.interp(clock, t, frame[c].to_numpy(float))
+                         for c in frame.columns if c == TIME or frame[c].dtype.kind == "f"}
+                        ).assign(**{TIME: clock})
+
+
+class Robot:
+    """DDS writers of the robot's three streams (module docstring)."""
+
+    def __init__(self, participant, *, arm: str = "PSM1", topics: dict | None = None,
+                 best_effort: bool = False):
+        from cyclonedds.pub import DataWriter
+        from cyclonedds.topic import Topic
+
+        from psmforce.live import dds
+        resolved, _ = resolve_topics(arm, {k: v for k, v in (topics or {}).items()
+                                           if k in ("js", "jaw", "hex10")})
+        self.topics = {s: resolved[s] for s in ("js", "jaw", "hex10")}
+        kinds = {"js": dds.JointState, "jaw": dds.JointState, "hex10": dds.WrenchStamped}
+        self.writers = {s: DataWriter(participant, Topic(participant, dds.dds_topic(t), kinds[s]),
+                                      qos=dds.qos(best_effort))
+                        for s, t in self.topics.items()}
+
+    def wait_for_readers(self, timeout_s: float = 10.0) -> bool:
+        """Wait until every stream has a matched reader (False on timeout)."""
+        end = time.monotonic() + timeout_s
+        while time.monotonic() < end:
+            if all(w.get_matched_subscriptions() for w in self.writers.values()):
+                return True
+            time.sleep(0.02)
+        return False
+
+    def publish(self, stamp_ns: int, values: dict[str, np.ndarray]) -> int:
+        """One sample: js, jaw, hex10 (``values``: each stream's :func:`stream_columns`
+        values); returns the wall time (ns) the HEX10 message was written."""
+        from psmforce.live.dds import write_raw
+        js, jaw, hex10 = values["js"], values["jaw"], values["hex10"]
+        write_raw(self.writers["js"], cdr.joint_state(stamp_ns, "", CHAIN_JOINTS, js[0:6],
+                                                      js[6:12], js[12:18]))
+        write_raw(self.writers["jaw"], cdr.joint_state(stamp_ns, "", (JAW_JOINT,), jaw[0:1],
+                                                       jaw[1:2], jaw[2:3]))
+        sent = time.time_ns()
+        write_raw(self.writers["hex10"], cdr.wrench_stamped(stamp_ns, "hex10", hex10[:3],
+                                                            hex10[3:]))
+        return sent
+
+
+def play(frame: pd.DataFrame, participant, *, arm: str = "PSM1", topics: dict | None = None,
+         start_ns: int | None = None, realtime: bool = True, loop: bool = False,
+         wait_s: float = 10.0, best_effort: bool = False, stop=None) -> dict:
+    """Publish ``frame`` as the robot (module docstring). ``start_ns``: the stamp of ``time``
+    0 (default: now). ``loop``: start over at the end (stamps keep increasing) until ``stop``
+    (a ``threading.Event`` or similar) is set. Returns the stamps and HEX10 write times (ns)."""
+    robot = Robot(participant, arm=arm, topics=topics, best_effort=best_effort)
+    if not robot.wait_for_readers(wait_s):
+        raise RuntimeError(f"no node subscribed to {sorted(robot.topics.values())} within "
+                           f"{wait_s:g} s")
+    values = {s: frame[list(stream_columns(s))].to_numpy(np.float64) for s in robot.writers}
+    t = frame[TIME].to_numpy(np.float64) - float(frame[TIME].iloc[0])
+    period = float(np.median(np.diff(t))) if len(t) > 1 else 0.0
+    start_ns = time.time_ns() if start_ns is None else int(start_ns)
+    stamps, sent = [], []
+    offset, t0 = 0.0, time.monotonic()
+    while True:
+        for k in range(len(t)):
+            if stop is not None and stop.is_set():
+                return {"stamps_ns": stamps, "sent_ns": sent}
+            due = offset + t[k]
+            if realtime:
+                delay = t0 + due - time.monotonic()
+                if delay > 0:
+                    time.sleep(delay)
+            stamp = start_ns + int(round(due * 1e9))
+            sent.append(robot.publish(stamp, {s: v[k] for s, v in values.items()}))
+            stamps.append(stamp)
+        if not loop:
+            return {"stamps_ns": stamps, "sent_ns": sent}
+        offset += t[-1] + period
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``python -m psmforce.live.sim_robot RECORDING.csv [--domain-id N] [--start-ns NS]
+    [--duration S]``: play a recording as the robot, in real time, once (or looped for S
+    seconds), and print how many samples went out."""
+    import argparse
+    import json
+
+    from cyclonedds.domain import DomainParticipant
+
+    from psmforce.live.serve import domain
+    parser = argparse.ArgumentParser(prog="python -m psmforce.live.sim_robot")
+    parser.add_argument("recording")
+    parser.add_argument("--domain-id", type=int)
+    parser.add_argument("--start-ns", type=int)
+    parser.add_argument("--arm", default="PSM1")
+    parser.add_argument("--duration", type=float, metavar="S",
+                        help="loop the recording for S seconds (default: play it once)")
+    parser.add_argument("--sent", help="write the stamps and HEX10 write times (ns) here")
+    args = parser.parse_args(argv)
+    frame = read_recording(args.recording, require_targets=False)
+    stop = None
+    if args.duration is not None:
+        import threading
+        stop = threading.Event()
+        threading.Timer(args.duration, stop.set).start()  # the wait for a node included
+    result = play(frame, DomainParticipant(domain(args.domain_id)), arm=args.arm,
+                  start_ns=args.start_ns, loop=stop is not None, stop=stop)
+    if args.sent:
+        Path(args.sent).write_text(json.dumps(result))
+    print(f"published {len(result['stamps_ns'])} samples")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

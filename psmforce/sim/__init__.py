@@ -1,0 +1,11 @@
+"""Simulated bench: dVRK PSM + modified EndoWrist Cadiere forceps with a HEX10 in the shaft, an ATI
+Nano17 under the fixtures, and the seed paper's protocols. Physics and calibration:
+docs/simulator.md."""
+
+from psmforce.sim.bench import Contact, run_trajectory
+from psmforce.sim.dataset import SimulationConfigError, simulate
+from psmforce.sim.params import Effects, InstrumentParams
+from psmforce.sim.port import PORT_NAMES, PORTS, Port
+
+__all__ = ["simulate", "InstrumentParams", "Effects", "SimulationConfigError", "run_trajectory", "Contact",
+           "Port", "PORTS", "PORT_NAMES"]

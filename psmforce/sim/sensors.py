@@ -1,0 +1,89 @@
+"""Sensor models: HEX10 in the shaft, dVRK joint states, ATI Nano17 under the fixture.
+
+Arrays are whole recordings (N, ...). Units SI. Frames: HEX10 readings in the HEX10 frame;
+ATI raw readings in the ATI frame.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from psmforce.sim.params import Effects, InstrumentParams
+
+COUPLING = np.array([[-1.5632, 0.0, 0.0, 0.0],
+                     [0.0, 1.0186, 0.0, 0.0],
+                     [0.0, -0.8306, 0.6089, 0.6089],
+                     [0.0, 0.0, -1.2177, 1.2177]])
+"""dVRK instrument coupling (Cadiere 400049): q_joint = C q_actuator for (roll, wrist_pitch,
+wrist_yaw, jaw)."""
+
+ENCODER_QUANTUM = (2 * np.pi / (14400 * 56.5), 2 * np.pi / (14400 * 56.5), 2 * np.pi / (14400 * 336.6))
+"""Joint-space encoder step of yaw, pitch (rad) and insertion (m): counts per turn x gear ratio."""
+DISC_QUANTUM = 2 * np.pi / (4000 * 11.71)
+"""Instrument disc encoder step (rad of disc)."""
+
+
+def hex10_reading(w_section: np.ndarray, dt: float, params: InstrumentParams, effects: Effects,
+                  rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    """HEX10 output (N, 6) [fx fy fz tx ty tz] and overload flag (N,) from the physical section
+    wrench (N, 6) in the HEX10 frame.
+
+    y = X w (cross-talk); forces beyond the nominal range get an extra gain error
+    g (|y| - F_nom) sign(y); + residual tare bias + random-walk drift + white noise; then every
+    channel is clipped at its overload limit and the flag set where any channel reached it.
+    """
+    n = len(w_section)
+    y = w_section @ np.asarray(params.hex10_crosstalk).T if effects.hex10_crosstalk else w_section.copy()
+    if effects.hex10_range_error:
+        f = y[:, :3]
+        excess = np.maximum(np.abs(f) - params.hex10_nominal_range_n, 0.0)
+        y[:, :3] = f + params.hex10_range_gain_error * excess * np.sign(f)
+    if effects.hex10_bias:
+        y[:, :3] += np.asarray(params.hex10_residual_bias_n)
+    if effects.hex10_drift:
+        step = params.hex10_bias_drift_n_per_sqrt_s * np.sqrt(dt)
+        y[:, :3] += np.cumsum(rng.standard_normal((n, 3)), axis=0) * step
+    if effects.sensor_noise:
+        y[:, :3] += params.hex10_force_noise_n * rng.standard_normal((n, 3))
+        y[:, 3:] += params.hex10_moment_noise_nm * rng.standard_normal((n, 3))
+    limit = np.array([params.hex10_overload_n] * 3 + [params.hex10_overload_moment_nm] * 3)
+    overload = (np.abs(y) >= limit).any(axis=1)
+    return np.clip(y, -limit, limit), overload
+
+
+def quantise_joints(q: np.ndarray, effects: Effects) -> np.ndarray:
+    """Encoder-quantised (N, 7) joint positions: arm joints directly, instrument joints through
+    their disc encoders and the coupling."""
+    if not effects.encoder_quantisation:
+        return q.copy()
+    out = q.copy()
+    step = np.asarray(ENCODER_QUANTUM)
+    out[:, :3] = np.round(q[:, :3] / step) * step
+    discs = q[:, 3:] @ np.linalg.inv(COUPLING).T
+    out[:, 3:] = (np.round(discs / DISC_QUANTUM) * DISC_QUANTUM) @ COUPLING.T
+    return out
+
+
+def filtered_velocity(q_measured: np.ndarray, dt: float, time_constant: float) -> np.ndarray:
+    """Backward difference of the quantised positions through a first-order low-pass
+    (the dVRK differentiates encoders and filters), causal."""
+    from scipy.signal import lfilter
+
+    raw = np.diff(q_measured, axis=0, prepend=q_measured[:1]) / dt
+    a = dt / (time_constant + dt)
+    return lfilter([a], [1.0, a - 1.0], raw, axis=0)
+
+
+def ati_raw(force_on_tool: np.ndarray, moment_arm: np.ndarray, r_base_ati: np.ndarray,
+            params: InstrumentParams, effects: Effects, rng: np.random.Generator) -> np.ndarray:
+    """ATI Nano17 reading (N, 6) in its own frame: the load the fixture puts on the sensor, i.e.
+    minus the force on the tool, and its moment about the sensor origin (``moment_arm`` (N, 3):
+    attachment point minus ATI origin, base frame)."""
+    f_base = -force_on_tool
+    m_base = np.cross(moment_arm, f_base)
+    out = np.concatenate([f_base @ r_base_ati, m_base @ r_base_ati], axis=1)
+    if effects.sensor_noise:
+        n = len(out)
+        out[:, :3] += params.ati_force_noise_n * rng.standard_normal((n, 3))
+        out[:, 3:] += params.ati_moment_noise_nm * rng.standard_normal((n, 3))
+    return out

@@ -1,0 +1,7 @@
+"""``python -m reports [--check]``: rebuild every rendered page from its JSON (:mod:`reports.render`)."""
+
+import sys
+
+from reports.render import main
+
+sys.exit(main())

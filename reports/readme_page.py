@@ -1,0 +1,212 @@
+"""The README's rendered blocks (registered in :data:`reports.render.BLOCKS`): where the
+estimator stands at the paper's amount of data (its first screen), and one paragraph each for the
+transmission and the prior, each a summary of a table on another page, from the same JSON; and
+the first comparison's table, now on the results page."""
+
+from __future__ import annotations
+
+from reports.identification_page import LEARNED_BASELINES, MODEL_NAMES
+from reports.cells import spread_cell
+from reports.results_page import PRIOR_VARIANTS, SIMULATOR_NOT_RECORDED
+from psmforce.experiments.plan import PLAN
+from studies.learning_curve import AXES, HYBRID, PAPER_SCALE, TRANSFORMER
+from psmforce.estimators.evaluation.tables import compare
+
+
+def _ratio(models: dict, metric: str, a: str = "hybrid", b: str = "transformer") -> str:
+    return f"{models[a]['whole'][metric]['mean'] / models[b]['whole'][metric]['mean']:.2f}"
+
+
+def _verdict(models: dict, metric: str, a: str = "hybrid", b: str = "transformer") -> str:
+    """The spread rule (:func:`psmforce.estimators.evaluation.tables.compare`) between ``a`` and ``b`` on whole files."""
+    word = {-1: "win", 0: "tie", 1: "loss"}[compare(models[a]["whole"][metric],
+                                                    models[b]["whole"][metric])]
+    return f"a {word} by the spread rule"
+
+
+def transmission_summary(result: dict) -> str:
+    """The README's paragraph: held-out files, what the physics gives, what the residual network
+    adds, against the best learned baseline and the published figures."""
+    held = result["summary"]["a_held_out_files"]
+
+    def fig(model: str) -> str:
+        w = held[model]["whole"]
+        return (f"{w['torque_rmse_mNm']['mean']:.2f} mNm / {w['angle_rmse_deg']['mean']:.2f} deg")
+
+    best = min((m for m in LEARNED_BASELINES if m in held),
+               key=lambda m: held[m]["whole"]["torque_rmse_mNm"]["mean"])
+    pub = result["published"]
+    text = (f"On a real EndoWrist's cable transmission (jaw torque and angle from the motor's "
+            f"current and encoder, files held out by frequency and load; docs/identification.md "
+            f"section 4) the identified physics model alone gives {fig('physics')}, the paper's "
+            f"transformer {fig('transformer')}, and the hybrid, the same transformer learning the "
+            f"physics' residual, {fig('hybrid')}")
+    if best != "transformer":
+        text += f"; the best other learned baseline ({MODEL_NAMES[best]}) {fig(best)}"
+    text += (f" (whole files, mean over seeds {result['seeds']}; published on this data, "
+             f"{pub['jaw_torque_rmse_mNm']} mNm / {pub['jaw_angle_rmse_deg']} deg on a random "
+             f"sample split). What the physics adds to the learning: the angle error "
+             f"x{_ratio(held, 'angle_rmse_deg')} ({_verdict(held, 'angle_rmse_deg')}), the "
+             f"torque error x{_ratio(held, 'torque_rmse_mNm')} "
+             f"({_verdict(held, 'torque_rmse_mNm')}). Another session or instrument, as is "
+             "and after 60 s of calibration: the tables there.")
+    return "\n" + text + "\n"
+
+
+def prior_ablation_summary(result: dict) -> str:
+    """README: what the physics prior adds to the hybrid, per axis, as the ablation measures it."""
+    shipped = result["shipped"]
+    parts = []
+    for bench, variants in result["verdicts"].items():
+        v = variants[shipped]["causal"]
+        rows = result["summary"][bench]
+        cells = ", ".join(
+            f"{a} {rows[shipped]['causal'][a]['mean']:.2f} % against "
+            f"{rows['no_prior']['causal'][a]['mean']:.2f} % ({v[a]['verdict']})"
+            for a in ("Fx", "Fy", "Fz"))
+        parts.append(f"on the {bench} bench {cells}")
+    seeds = ", ".join(str(s) for s in result["seeds"])
+    return ("\nWhat the physics prior adds to the hybrid on the simulated bench (simulator "
+            f"{SIMULATOR_NOT_RECORDED['prior_ablation']}, scale "
+            f"{result['scale']:g}, bench seeds {seeds}, every run trained to early "
+            "stopping; causal NRMSE with the prior as shipped against the same network "
+            "without it, verdicts by the spread rule; docs/results.md, \"The prior, axis by "
+            "axis\"): " + "; ".join(parts) + ". The crossing bench adds an internal lateral "
+            "force the prior does not model. Each component of the prior is weighed on "
+            "validation trials (0: it explains nothing held out); "
+            + _lateral_weights(result) + ". " + _validation_choice(result) + "\n")
+
+
+def _validation_choice(result: dict) -> str:
+    """Which variant the validation trials prefer, and by how much."""
+    shipped = result["shipped"]
+    chosen = result["chosen_on_validation"]
+    ratios = chosen["validation_ratio_to_no_prior"]
+    prior_ratios = [r for v, r in ratios.items() if v != "no_prior"]
+    return (f"On the validation trials the variants with a prior score "
+            f"{min(prior_ratios):.3f}-{max(prior_ratios):.3f}x the error without it (mean over "
+            f"axes and benches); the lowest is {PRIOR_VARIANTS[chosen['variant']]}"
+            + ("" if chosen["variant"] == shipped else
+               f"; the shipped hybrid is {PRIOR_VARIANTS[shipped]}, "
+               f"{ratios[shipped] / ratios[chosen['variant']] - 1:.1%} above it") + ".")
+
+
+def _lateral_weights(result: dict) -> str:
+    """How many of the weighted prior's fits kept its lateral force components."""
+    weights = [t["axis_weights"][:2] for t in result["tasks"] if t["variant"] == "weighted"]
+    kept = sum(w > 0 for pair in weights for w in pair)
+    return (f"{kept} of its {2 * len(weights)} lateral force weights over "
+            f"{len(weights)} fits are above zero")
+
+
+def status_table(result: dict) -> str:
+    """README: where the estimator stands, model against model on the causal metric, the bench
+    and the protocol named."""
+    causal, verdicts, call = result["automated"]["causal"], result["verdicts"]["causal"], \
+        result["call"]
+    versions = sorted(set(result["benches"].values()))
+    seeds = ", ".join(str(s) for s in call["seeds"])
+    lines = ["", f"On the simulated bench (simulator {', '.join(versions)}, its joint-effort "
+             "channels calibrated against a real dVRK; the paper's automated protocol at "
+             f"{call['scale']:g} of its data; bench seeds {seeds}; "
+             + ("every model trained to early stopping" if result["all_converged"]
+                else "NOT every model converged")
+             + "). Causal NRMSE % of the force on the tool (HEX10 frame): the raw per-sample "
+             "estimate a haptic loop gets, mean ± std over seeds, lower is better; **bold**: a "
+             "win by the spread rule (mean + std below every other model's mean - std).", "",
+             "| model | Fx | Fy | Fz |", "|---|---|---|---|"]
+    for model, axes in causal.items():
+        cells = []
+        for axis in ("Fx", "Fy", "Fz"):
+            cell = spread_cell(axes[axis]["nrmse_pct"])
+            won = verdicts[axis]["win"] and verdicts[axis]["best"] == model
+            cells.append(f"**{cell}**" if won else cell)
+        lines.append(f"| {model} | " + " | ".join(cells) + " |")
+    lines += ["", f"That is {100 * call['scale']:g} % of the data the paper trained on"
+              + (", a small-data regime: whether the lead holds at the paper's amount of data "
+                 "is measured by the learning curve below." if call["scale"] < 1 else "."), ""]
+    return "\n".join(lines)
+
+
+FIGURE = "results/learning_curve/learning_curve.png"
+"""The learning curve's three-axis figure (drawn by ``studies/learning_curve.py``)."""
+
+
+def _by_verdict(ratios: dict) -> str:
+    """``{axis: {ratio, verdict}}`` as words: the axes grouped by verdict, each with its ratio."""
+    words = {"hybrid ahead": "ahead", "tie": "tied", "hybrid behind": "behind"}
+    groups: dict[str, list[str]] = {}
+    for a in AXES:
+        groups.setdefault(words[ratios[a]["verdict"]], []).append(
+            f"{a} ({ratios[a]['ratio']:.2f}x)")
+
+    def listed(items: list[str]) -> str:
+        return items[0] if len(items) == 1 else ", ".join(items[:-1]) + " and " + items[-1]
+
+    return ", ".join(f"{w} on {listed(axes)}" for w, axes in groups.items())
+
+
+def _published() -> dict[str, dict]:
+    """The seed paper's published NRMSE on its robot, by model label (Table III)."""
+    return {plan.label: plan.published_nrmse_pct for plan in PLAN.values()
+            if plan.published_nrmse_pct}
+
+
+def _against_robot(point: dict) -> str:
+    """How the bench's errors (paper metric) compare with those the paper published on its
+    robot, for the models it published."""
+    ratios = {label: [point["models"][label]["paper"][a]["mean"] / pub[a] for a in AXES]
+              for label, pub in _published().items() if label in point["models"]}
+    if not ratios:
+        return ""
+    every = [r for rs in ratios.values() for r in rs]
+    words = ("easier than" if max(every) < 1 else "harder than" if min(every) > 1
+             else "neither uniformly easier nor harder than")
+    return (f"On the paper's metric the bench's {' and '.join(ratios)} score "
+            f"{min(every):.2f}-{max(every):.2f}x the errors the paper published on its robot "
+            f"(last column): the bench is {words} the robot.")
+
+
+def headline(curve: dict) -> str:
+    """README's first screen: the hybrid against every model at the paper's amount of data on
+    today's simulator, one sentence and one table, both metrics (ties stated as ties, the seed
+    paper's published robot figures beside), and the learning curve's figure."""
+    at = [p for p in curve["points"] if p["scale"] == PAPER_SCALE]
+    if not at:
+        return ("\nAt the paper's amount of training data nothing is measured yet, so nothing is "
+                "claimed there (`results/learning_curve/`).\n")
+    p = at[0]
+    vs = p["hybrid_vs_transformer"]
+    seeds = " and ".join(str(s) for s in p["seeds"])
+    sentence = (
+        f"At the paper's amount of training data ({p['training_minutes']:.0f} min of "
+        f"recordings on the simulated bench, simulator {', '.join(p['simulator_versions'])}, "
+        f"bench seeds {seeds}, "
+        + ("every model trained to early stopping" if p["all_converged"]
+           else "NOT every model converged")
+        + "), the hybrid against the paper's transformer, on the causal error a haptic loop "
+        f"gets, is {_by_verdict(vs['causal'])}; on the paper's offline metric it is "
+        f"{_by_verdict(vs['paper'])} (the hybrid's error over the transformer's, verdicts by "
+        f"the spread rule over {len(p['seeds'])} seeds). " + _against_robot(p))
+    published = _published()
+    head = ("| model | causal Fx | causal Fy | causal Fz | paper Fx | paper Fy | paper Fz | "
+            "published on the robot (paper metric) |")
+    lines = ["", sentence, "", head, "|---|---|---|---|---|---|---|---|"]
+    order = [HYBRID, TRANSFORMER] + sorted(set(p["models"]) - {HYBRID, TRANSFORMER})
+    for label in order:
+        r = p["models"][label]
+        cells = [spread_cell(r[m][a]) for m in ("causal", "paper") for a in AXES]
+        pub = published.get(label)
+        lines.append(f"| {label} | " + " | ".join(cells) + " | "
+                     + (" / ".join(f"{pub[a]:.2f}" for a in AXES) if pub else "not published")
+                     + " |")
+    lines.append("| hybrid / transformer | " + " | ".join(
+        f"{vs[m][a]['ratio']:.2f}x ({vs[m][a]['verdict']})" for m in ("causal", "paper")
+        for a in AXES) + " | |")
+    lines += ["", "NRMSE % of the force on the tool (HEX10 frame), mean ± std over bench seeds, "
+              "lower is better; causal: the raw per-sample estimate, paper: the paper's offline "
+              "post-processing (bias removed, centred median). Every scale, model and metric: "
+              "`docs/results.md`.", "",
+              f"![The learning curve: causal NRMSE against minutes of training data, per axis]"
+              f"({FIGURE})", ""]
+    return "\n".join(lines)

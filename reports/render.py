@@ -1,0 +1,205 @@
+"""Blocks of the docs and the README, and whole result pages, rendered from committed result
+JSONs, so that no figure a reader sees there is typed by hand.
+
+    python -m reports            # rewrite every block and page from its JSON
+    python -m reports --check    # exit 1 if a page differs from its JSON, write nothing
+
+Each block sits between ``<!-- NAME: rendered by python -m reports -->`` and
+``<!-- end NAME -->`` (:data:`BLOCKS`: page, JSON or tuple of JSONs, render function; one
+module of render functions per page: :mod:`reports.readme_page`,
+:mod:`reports.identification_page`, :mod:`reports.results_page`); nothing outside the
+markers is touched. :data:`WHOLE_PAGES` are rewritten whole. Every block and page ends with a
+visible line naming its JSON and the command that wrote it (:func:`source_line`), so a reader
+finds where a figure came from in one hop.
+``tests/reports/test_rendered_docs.py`` holds every page equal to what its JSON renders.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from reports import identification_page  # noqa: E402
+from reports import readme_page  # noqa: E402
+from reports import results_page  # noqa: E402
+from psmforce.core.files import write_text_atomic  # noqa: E402
+
+TRANSMISSION = ROOT / "results" / "benchmarks" / "transmission.json"
+PRIOR_RECOVERY = ROOT / "results" / "benchmarks" / "prior_recovery.json"
+PRIOR_ABLATION = ROOT / "results" / "benchmarks" / "prior_ablation.json"
+COMPARISON = ROOT / "results" / "ports" / "none" / "results.json"
+PORTS = ROOT / "results" / "benchmarks" / "port_comparison.json"
+ANOTHER_TOOL = ROOT / "results" / "benchmarks" / "another_tool.json"
+PORT_DESIGN = ROOT / "results" / "benchmarks" / "hybrid_port_design.json"
+LEARNING_CURVE = ROOT / "results" / "learning_curve" / "learning_curve.json"
+HYBRID_PLATEAU = ROOT / "results" / "benchmarks" / "hybrid_plateau.json"
+PORT_DESIGN_NOTCH = ROOT / "results" / "benchmarks" / "hybrid_port_design_notch.json"
+TRAINING = ROOT / "results" / "benchmarks" / "training.json"
+TRAINING_CONVERGENCE = ROOT / "results" / "benchmarks" / "training_convergence.json"
+TRAINING_OPTIONS = ROOT / "results" / "benchmarks" / "training_speed_options.json"
+TRAINING_GPU = ROOT / "results" / "benchmarks" / "training_gpu.json"
+STREAMING = ROOT / "results" / "benchmarks" / "streaming.json"
+LIVE = ROOT / "results" / "benchmarks" / "live.json"
+RESULTS = ROOT / "docs" / "results.md"
+IDENTIFICATION = ROOT / "docs" / "identification.md"
+README = ROOT / "README.md"
+
+
+WRITERS = {
+    TRANSMISSION: "python studies/transmission.py --seeds 1 2 3 --jobs 2",
+    PRIOR_RECOVERY: "python studies/prior_recovery.py",
+    PRIOR_ABLATION: "python studies/prior_ablation.py",
+    COMPARISON: "psmforce reproduce --port none",
+    PORTS: "python studies/port_comparison.py",
+    ANOTHER_TOOL: "python studies/another_tool.py",
+    PORT_DESIGN: "python studies/hybrid_port_design.py",
+    PORT_DESIGN_NOTCH: "python studies/hybrid_port_design.py",
+    LEARNING_CURVE: "python studies/learning_curve.py",
+    HYBRID_PLATEAU: "python studies/hybrid_plateau.py",
+    TRAINING: "python benchmarks/training.py",
+    TRAINING_CONVERGENCE: "python benchmarks/training.py --converge-scale 0.1",
+    TRAINING_OPTIONS: "python benchmarks/training.py --speed-options",
+    TRAINING_GPU: "python benchmarks/training.py (on a lent GPU)",
+    STREAMING: "python benchmarks/streaming.py",
+    LIVE: "python benchmarks/live.py",
+}
+"""The script that writes each JSON a page renders, where the JSON does not record the command
+it was written by (:func:`writer`)."""
+
+
+def writer(path: Path, result: dict) -> str:
+    """The command that wrote ``result`` (the JSON at ``path``): the one it records, with the
+    script's path as it is today, else :data:`WRITERS`'s."""
+    recorded = result.get("command") if isinstance(result, dict) else None
+    if not isinstance(recorded, str):
+        recorded = next((v["command"] for v in result.values()
+                         if isinstance(v, dict) and isinstance(v.get("command"), str)), None)
+    if isinstance(recorded, str):
+        for old in ("benchmarks/", "tests/robustness/"):
+            name = recorded.split(old, 1)[-1].split(" ", 1)[0] if old in recorded else None
+            if name and not (ROOT / old / name).exists() and (ROOT / "studies" / name).exists():
+                recorded = recorded.replace(old + name, "studies/" + name)
+        return recorded
+    if path not in WRITERS:
+        raise SystemExit(f"{path.relative_to(ROOT)} records no command and WRITERS names none")
+    return WRITERS[path]
+
+
+def source_line(paths: tuple[Path, ...], results: list[dict]) -> str:
+    """The visible line under a rendered block: its JSONs and the commands that wrote them."""
+    parts = [f"`{p.relative_to(ROOT).as_posix()}` (written by `{writer(p, r)}`)"
+             for p, r in zip(paths, results)]
+    return f"<sub>Source: {'; '.join(parts)}; rendered by `python -m reports`.</sub>"
+
+
+def _hybrid_plateau_table(result: dict) -> str:
+    from studies.hybrid_plateau import table
+    return "\n" + table(result) + "\n"
+
+
+BLOCKS = (
+    (README, "headline", LEARNING_CURVE, readme_page.headline),
+    (README, "transmission-summary", TRANSMISSION, readme_page.transmission_summary),
+    (README, "prior-ablation-summary", PRIOR_ABLATION, readme_page.prior_ablation_summary),
+    (IDENTIFICATION, "prior-recovery-table", PRIOR_RECOVERY,
+     identification_page.prior_recovery_table),
+    (IDENTIFICATION, "transmission-tables", TRANSMISSION, identification_page.transmission_tables),
+    (RESULTS, "results-status",
+     (LEARNING_CURVE, PRIOR_ABLATION, PORTS, COMPARISON, PORT_DESIGN, ANOTHER_TOOL),
+     results_page.status),
+    (RESULTS, "learning-curve", LEARNING_CURVE, results_page.learning_curve),
+    (RESULTS, "hybrid-plateau", HYBRID_PLATEAU, _hybrid_plateau_table),
+    (RESULTS, "prior-ablation-tables", PRIOR_ABLATION, results_page.prior_ablation_tables),
+    (RESULTS, "ports-table", PORTS, results_page.ports_table),
+    (RESULTS, "ports-findings", (PORTS, COMPARISON), results_page.ports_findings),
+    (RESULTS, "port-design-table", PORT_DESIGN, results_page.port_design_table),
+    (RESULTS, "port-design-findings", (PORT_DESIGN, PORT_DESIGN_NOTCH),
+     results_page.port_design_findings),
+    (RESULTS, "axial-channels-table", PORTS, results_page.axial_channels_table),
+    (RESULTS, "axial-findings", PORTS, results_page.axial_findings),
+    (RESULTS, "another-tool-table", ANOTHER_TOOL, results_page.another_tool_table),
+    (RESULTS, "another-tool-findings", ANOTHER_TOOL, results_page.another_tool_findings),
+    (RESULTS, "training-speed", (TRAINING, TRAINING_CONVERGENCE, TRAINING_OPTIONS),
+     results_page.training_speed),
+    (RESULTS, "training-gpu", TRAINING_GPU, results_page.training_gpu),
+    (RESULTS, "latency", (STREAMING, LIVE), results_page.latency),
+    (RESULTS, "status-table", COMPARISON, readme_page.status_table),
+)
+
+
+def _run_page(result: dict) -> str:
+    from psmforce.estimators.evaluation.tables import results_markdown
+    return results_markdown(result)
+
+
+def _learning_curve_page(result: dict) -> str:
+    from studies.learning_curve import table
+    return table(result)
+
+
+WHOLE_PAGES = tuple(
+    [(ROOT / "results" / run / "results.md", ROOT / "results" / run / "results.json", _run_page)
+     for run in ("ports/none", "ports/cannula", "ports/abdominal-wall",
+                 "history/previous_hybrid")]
+    + [(LEARNING_CURVE.parent / "README.md", LEARNING_CURVE, _learning_curve_page)])
+"""Pages rendered whole from one JSON: each committed run's page, and the learning curve's
+table (its figures are drawn by ``studies/learning_curve.py --render-only``). Run D's page
+is not here: its JSON predates today's format, and the page is the run's own output."""
+
+
+def markers(name: str) -> tuple[str, str]:
+    return f"<!-- {name}: rendered by python -m reports -->", f"<!-- end {name} -->"
+
+
+def splice(doc: str, name: str, body: str) -> str:
+    """``doc`` with block ``name``'s content replaced by ``body``."""
+    begin, end = markers(name)
+    if doc.count(begin) != 1 or doc.count(end) != 1:
+        raise SystemExit(f"expected one '{begin}' and one '{end}' marker")
+    head, rest = doc.split(begin)
+    return head + begin + body + end + rest.split(end, 1)[1]
+
+
+def pages(results: dict[Path, dict] | None = None) -> dict[Path, str]:
+    """Each page with every block rendered from its JSON (``results`` overrides a JSON's
+    content, for tests)."""
+    out: dict[Path, str] = {}
+    for doc, name, json_paths, render in BLOCKS:
+        found = [(results or {}).get(p) or json.loads(p.read_text())
+                 for p in block_jsons(json_paths)]
+        body = render(*found).rstrip("\n") + "\n\n" + source_line(block_jsons(json_paths), found)
+        out[doc] = splice(out.get(doc, doc.read_text()), name, body + "\n")
+    for doc, json_path, render in WHOLE_PAGES:
+        found = (results or {}).get(json_path) or json.loads(json_path.read_text())
+        out[doc] = render(found).rstrip("\n") + "\n\n" + source_line((json_path,), [found]) + "\n"
+    return out
+
+
+def block_jsons(json_paths: Path | tuple[Path, ...]) -> tuple[Path, ...]:
+    """A block's JSONs: one path, or a tuple when it renders from several."""
+    return json_paths if isinstance(json_paths, tuple) else (json_paths,)
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--check", action="store_true", help="compare, write nothing")
+    args = ap.parse_args(argv)
+    rendered = pages()
+    stale = [p for p, text in rendered.items() if text != p.read_text()]
+    if args.check:
+        for p in stale:
+            print(f"{p.relative_to(ROOT)} differs from what its JSON renders: rerun "
+                  "python -m reports")
+        return 1 if stale else 0
+    for p in stale:
+        write_text_atomic(p, rendered[p])
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,454 @@
+"""The tables and findings of ``docs/results.md``, rendered from the committed JSONs that measured
+them.
+
+Each function takes the JSON(s) named in :data:`reports.render.BLOCKS` and returns a Markdown block.
+Every sentence with a figure in it is built here, so the page's prose between the blocks names none
+(``tests/reports/test_rendered_docs.py`` holds it to that). Verdicts between two models use the
+project's one spread rule (:func:`psmforce.estimators.evaluation.tables.compare`: a win needs mean +
+std below the other's mean - std).
+"""
+
+from __future__ import annotations
+
+from reports.cells import spread_cell
+from studies.learning_curve import (
+    HYBRID,
+    TRANSFORMER,
+    paper_budget,
+    settings_lines,
+    standing,
+)
+from psmforce.estimators.evaluation.tables import compare, verdicts
+
+AXES = ("Fx", "Fy", "Fz")
+LATERAL = ("Fx", "Fy")
+PORT_NAMES = {"none": "no port", "cannula": "cannula", "abdominal-wall": "abdominal wall"}
+SIMULATOR_NOT_RECORDED = {"prior_ablation": "2.1", "hybrid_port_design": "2.0",
+                          "another_tool": "2.0"}
+"""The simulator version of runs whose JSON predates the version record, read from the commit
+that wrote each JSON (the prior ablation after 2.1's cable law, the other two before it)."""
+
+
+FZ_TARGET_RATIO = 0.6
+"""Issue 13's target for the hybrid's error, as a fraction of the paper transformer's (the
+``targets`` of port_comparison.json name it, not its value)."""
+
+
+def _pair(pair) -> dict:
+    """``[mean, std]`` (another_tool.json's layout) as ``{mean, std}``."""
+    return {"mean": pair[0], "std": pair[1]}
+
+
+def _standings(by_model: dict) -> str:
+    """Per axis, who has the lowest mean and whether it wins by the spread rule
+    (:func:`psmforce.estimators.evaluation.tables.verdicts`); ``by_model``: {model: {axis: {mean, std}}}."""
+    v = verdicts({m: {a: {"nrmse_pct": s[a]} for a in AXES} for m, s in by_model.items()})
+    return "; ".join(f"{a}: {v[a]['best']} " + (
+        f"lowest, tied with {' and '.join(v[a]['tied_with'])}" if v[a]["tied_with"] else "wins")
+        for a in AXES)
+
+
+def _verdict(a: dict, b: dict) -> str:
+    """``a`` against ``b`` by the spread rule, with the ratio of the means."""
+    word = {-1: "ahead", 0: "tie", 1: "behind"}[compare(a, b)]
+    return f"{a['mean'] / b['mean']:.2f}x, {word}"
+
+
+def _yes(flag: bool) -> str:
+    return "yes" if flag else "**no**"
+
+
+def status(curve: dict, ablation: dict, ports: dict, comparison: dict, design: dict,
+           tool: dict) -> str:
+    """What each section of the page measured: bench, data, seeds, convergence, its JSON."""
+    pts = curve["points"]
+    design_runs = [r for p in design["ports"].values() for v in p.values() for r in v["runs"]]
+    rows = [
+        ("1. The learning curve",
+         ", ".join(sorted({v for p in pts for v in p["simulator_versions"]})),
+         "scales " + ", ".join(f"{p['scale']:g}" for p in pts) + "; not yet: "
+         + (", ".join(f"{s:g}" for s in curve["missing_scales"]) or "none"),
+         "; ".join(f"{len(p['seeds'])} at {p['scale']:g}" for p in pts),
+         _yes(all(p["all_converged"] for p in pts)), "results/learning_curve/learning_curve.json"),
+        ("2. The prior, axis by axis",
+         SIMULATOR_NOT_RECORDED["prior_ablation"] + " (not in its JSON)",
+         f"scale {ablation['scale']:g}", " ".join(str(s) for s in ablation["seeds"]),
+         _yes(ablation["all_converged"]), "results/benchmarks/prior_ablation.json"),
+        ("3. Ports; 5. the axial channels",
+         ", ".join(sorted(set(comparison["benches"].values()))),
+         f"scale {ports['call']['scale']:g}", " ".join(str(s) for s in ports["call"]["seeds"]),
+         _yes(all(ports["all_converged"].values())), "results/benchmarks/port_comparison.json"),
+        ("4. The hybrid's inputs",
+         SIMULATOR_NOT_RECORDED["hybrid_port_design"] + " (not in its JSON)",
+         f"scale {design['scale']:g}, validation trials",
+         f"{design['seed']} (the design bench)",
+         f"{sum(r['converged'] for r in design_runs)} of {len(design_runs)}",
+         "results/benchmarks/hybrid_port_design.json"),
+        ("6. Another tool", SIMULATOR_NOT_RECORDED["another_tool"] + " (not in its JSON)",
+         f"trained at scale {tool['settings']['scale']:g}, scored at "
+         f"{tool['settings']['test_scale']:g}",
+         " ".join(str(s) for s in tool["settings"]["seeds"]), _yes(tool["converged"]),
+         "results/benchmarks/another_tool.json"),
+    ]
+    lines = ["", "| section | simulator | data | bench seeds | every run converged | JSON |",
+             "|---|---|---|---|---|---|"]
+    lines += ["| " + " | ".join(r[:5]) + f" | `{r[5]}` |" for r in rows]
+    return "\n".join(lines + [""])
+
+
+def learning_curve(curve: dict) -> str:
+    """Section 1: the hybrid against the paper transformer per scale, both metrics, and where
+    each model stands."""
+    lines = ["", "NRMSE % on the test trials, mean ± std over bench seeds; causal = the raw "
+             "per-sample estimate a haptic loop gets, paper = the paper's offline "
+             "post-processing; every model in `results/learning_curve/README.md`.", "",
+             "| scale | minutes of training data | seeds | converged | metric | Hybrid (ours) "
+             "Fx / Fy / Fz | Transformer (paper) Fx / Fy / Fz | hybrid against transformer |",
+             "|---|---|---|---|---|---|---|---|"]
+    for p in curve["points"]:
+        for m in ("causal", "paper"):
+            h, t = p["models"][HYBRID][m], p["models"][TRANSFORMER][m]
+            v = p["hybrid_vs_transformer"][m]
+            lines.append(
+                f"| {p['scale']:g} | {p['training_minutes']:.1f} | {len(p['seeds'])} | "
+                f"{_yes(p['all_converged'])} | {m} | " + " / ".join(spread_cell(h[a]) for a in AXES)
+                + " | " + " / ".join(spread_cell(t[a]) for a in AXES) + " | "
+                + " / ".join(f"{v[a]['ratio']:.2f}x ({v[a]['verdict']})" for a in AXES) + " |")
+    settings = settings_lines(curve)
+    if settings:
+        lines += ["", "Training settings of the recipes beyond `psmforce.estimators.training.train.TrainConfig`'s "
+                  "defaults, per scale:", ""] + settings
+    lines += ["", "Where each model stands (causal metric, spread rule):", ""] + standing(curve)
+    for p in curve.get("partial", []):
+        lines += ["", f"At scale {p['scale']:g} ({p['training_minutes']:.1f} min of training "
+                  f"data, {len(p['seeds'])} seeds, "
+                  + ("every run converged" if p["all_converged"] else "NOT every run converged")
+                  + "), so far only: " + "; ".join(
+                      f"{label} causal " + " / ".join(spread_cell(r["causal"][a]) for a in AXES)
+                      for label, r in p["models"].items())
+                  + ". The hybrid against the transformer is not measured there yet."]
+    largest = max((p["scale"] for p in curve["points"]), default=None)
+    lines += ["", f"Measured up to scale {largest:g} of the paper's data; not yet: "
+              + (", ".join(f"{s:g}" for s in curve["missing_scales"]) or "none")
+              + ". " + paper_budget(curve), ""]
+    return "\n".join(lines)
+
+
+def ports_findings(ports: dict, comparison: dict) -> str:
+    """Section 3: who wins each axis without a port and through each one, and the paper metric."""
+    lines = [""]
+    for port, by_model in ports["causal_nrmse_pct"].items():
+        lines.append(f"- {PORT_NAMES[port]} (causal): {_standings(by_model)}.")
+    paper = {m: {a: s[a]["nrmse_pct"] for a in AXES}
+             for m, s in comparison["automated"]["paper"].items()}
+    lines.append(f"- no port, the paper's metric: {_standings(paper)}.")
+    hyb = {p: ports["causal_nrmse_pct"][p][HYBRID] for p in ports["causal_nrmse_pct"]}
+    lines.append("- The hybrid through a port against itself without one (causal): "
+                 + "; ".join(f"{PORT_NAMES[p]} " + ", ".join(
+                     f"{a} x{hyb[p][a]['ratio_to_no_port']:.2f}" for a in AXES)
+                             for p in hyb if p != "none") + ".")
+    return "\n".join(lines + [""])
+
+
+def port_design_findings(design: dict, notch: dict) -> str:
+    """Section 4: the initialisations' Fz ranges of the chosen inputs against the previous
+    default, per port, and the notched base tried after."""
+    new, old = "+ insertion velocity, position", "default"
+    lines = [""]
+    for port, variants in design["ports"].items():
+        ranges = {k: [r["causal"][2] for r in variants[k]["runs"]] for k in (new, old)}
+        apart = max(ranges[new]) < min(ranges[old])
+        lines.append(f"- {PORT_NAMES[port]}: Fz over the initialisations "
+                     f"{min(ranges[new]):.2f}-{max(ranges[new]):.2f} with the insertion state "
+                     f"against {min(ranges[old]):.2f}-{max(ranges[old]):.2f} without it ("
+                     + ("the ranges do not overlap" if apart else "the ranges overlap") + ").")
+    means = notch["ports"]["none"]
+    (base_name, base), (tried_name, tried) = list(means.items())
+    lines.append(f"- The notched base ({tried_name}), no port, causal Fx / Fy / Fz: "
+                 + " / ".join(f"{x:.2f}" for x in tried["mean"]["causal"]) + " against "
+                 + " / ".join(f"{x:.2f}" for x in base["mean"]["causal"])
+                 + f" for {base_name}: "
+                 + ("worse on every axis" if all(t > b for t, b in zip(
+                     tried["mean"]["causal"], base["mean"]["causal"])) else "not worse everywhere")
+                 + " (`results/benchmarks/hybrid_port_design_notch.json`).")
+    return "\n".join(lines + [""])
+
+
+def axial_findings(ports: dict) -> str:
+    """Section 5: the hybrid's Fz against the best a fixed filter makes of a perfect stage
+    model, the issue's target, and what the HEX10's axial channel leaves."""
+    ch, models = ports["axial_channels_fz_nrmse_pct"], ports["causal_nrmse_pct"]
+    bound = ch["none"]["perfect stage model, best fixed filter"]
+    hybrid = models["none"][HYBRID]["Fz"]
+    target = FZ_TARGET_RATIO * models["none"][TRANSFORMER]["Fz"]["mean"]
+    return "\n".join([
+        "",
+        f"- No port: the hybrid's Fz {spread_cell(hybrid)} against a perfect stage model through "
+        "the "
+        f"best fixed filter {spread_cell(bound)} ({_verdict(hybrid, bound)}).",
+        f"- The target, {FZ_TARGET_RATIO:g}x the paper transformer's Fz without a port, is "
+        f"{target:.2f} %: "
+        f"{target / bound['mean']:.2f}x that bound.",
+        f"- The HEX10's axial reading after the prior (`comp_fz`) misses by "
+        f"{ch['none']['comp_fz']['mean']:.0f} % of the force's range; blended above the best "
+        f"crossover it scores {spread_cell(ch['none']['complementary'])} against "
+        f"{spread_cell(ch['none']['insertion_fz'])} for `insertion_fz` alone.", ""])
+
+
+def another_tool_findings(tool: dict) -> str:
+    """Section 6: the hybrid against the FCN and the paper transformer on a drawn tool, as is
+    and calibrated; its Fz across tools."""
+    table = tool["table"]
+    lines = [""]
+    for spread in ("1x", "2x"):
+        for state in ("as is", "calibrated"):
+            row = f"{spread} {state}"
+            hyb = table["hybrid"][row]["causal"]
+            parts = [f"{a} against {other} " + _verdict(_pair(hyb[a]),
+                                                         _pair(table[other][row]["causal"][a]))
+                     for other in ("fcn", "transformer") for a in LATERAL]
+            lines.append(f"- Tool at {spread} the spread, {state} (causal, hybrid's ratio): "
+                         + "; ".join(parts) + ".")
+    nominal = {s: table["hybrid"][f"nominal {s}"]["causal"] for s in ("as is", "calibrated")}
+    lines.append("- Calibrating the nominal tool, the hybrid's lateral error: "
+                 + "; ".join(f"{a} {nominal['as is'][a][0]:.2f} -> "
+                             f"{nominal['calibrated'][a][0]:.2f} %" for a in LATERAL) + ".")
+    for model in ("hybrid", "fcn", "transformer"):
+        fz = [table[model][f"{t} as is"]["causal"]["Fz"][0] for t in ("nominal", "1x", "2x")]
+        lines.append(f"- {model} Fz as is, nominal -> 1x -> 2x: "
+                     + " -> ".join(f"{x:.2f}" for x in fz) + " %.")
+    return "\n".join(lines + [""])
+
+
+def training_speed(training: dict, convergence: dict, options: dict) -> str:
+    """Section 7: one training step per model, the paper transformer's converged run, and the
+    speed options measured."""
+    c = convergence["convergence"]
+    lines = ["", f"Machine: {training['machine']['threads']} threads, torch "
+             f"{training['machine']['torch']}.", "",
+             "| model (training step) | batch x length | seconds per step | speed-up |",
+             "|---|---|---|---|"]
+    for name, t in training["throughput"].items():
+        speedup = t.get("speedup_vs_before")
+        lines.append(f"| {name} | {t['batch']} x {t['length']} | {t['seconds_per_step']:.3g} | "
+                     + (f"{speedup:.2f}x the stock encoder" if speedup else "") + " |")
+    lines += ["", f"The paper transformer at scale {c['scale']:g} ({c['train_windows']:,} training "
+              f"windows per epoch, {convergence['machine']['threads']} threads): stopped by "
+              f"{c['stopped_by']} after {c['epochs_run']} epochs in {c['seconds'] / 60:.1f} min "
+              f"({c['seconds'] / c['epochs_run']:.0f} s per epoch, validation included; "
+              + ("compiled" if c["compiled"] else "eager") + ").", "",
+              f"Speed options ({options['machine']['threads']} thread, "
+              "`benchmarks/training.py --speed-options`):", "",
+              "| option | seconds per step | windows per s | speed-up |", "|---|---|---|---|"]
+    speed = options["speed_options"]
+    for name, o in speed.items():
+        if "seconds_per_step" in o:
+            lines.append(f"| {name} | {o['seconds_per_step']:.2f} | {o['windows_per_s']:.0f} | "
+                         f"{o['speedup']:.2f}x |")
+    if "data path" in speed:
+        lines += ["", f"The data path: {speed['data path']['share_of_step']:.2%} of a step."]
+    return "\n".join(lines + [""])
+
+
+def training_gpu(training: dict) -> str:
+    """Section 7, on a GPU: one training step per model, and what the CPU's chunked attention
+    would cost there."""
+    m, t = training["machine"], training["throughput"]
+    chunked = t["transformer (chunked attention, the CPU's path)"]["seconds_per_step"]
+    fused = t["transformer (after)"]["seconds_per_step"]
+    lines = ["", f"Machine: {m['gpu']}, torch {m['torch']}.", "",
+             "| model (training step) | batch x length | seconds per step |", "|---|---|---|"]
+    lines += [f"| {name} | {r['batch']} x {r['length']} | {r['seconds_per_step']:.3g} |"
+              for name, r in t.items()]
+    lines += ["", f"On this GPU the CPU's chunked attention would make the paper transformer's "
+              f"step {chunked / fused:.0f}x slower than torch's fused kernel, which "
+              "`psmforce.estimators.networks.attention.attention` takes off the CPU."]
+    return "\n".join(lines + [""])
+
+
+def latency(streaming: dict, live: dict) -> str:
+    """Section 8: the streaming step at batch 1, and the live node over DDS."""
+    def row(name, t):
+        return f"| {name} | {t['median_ms']:.3f} | {t['p99_ms']:.3f} | {t['max_ms']:.3f} |"
+
+    lines = ["", f"`results/benchmarks/streaming.json`: {streaming['estimator']}, "
+             f"{streaming['machine']['threads']} thread, one recorded trial replayed sample by "
+             "sample (`python benchmarks/streaming.py`).", "",
+             "| step | median ms | p99 ms | max ms |", "|---|---|---|---|",
+             row("hybrid pipeline (HEX10 frame)", streaming["hybrid_pipeline"]),
+             row("hybrid pipeline, base frame too", streaming["hybrid_pipeline_base_frame"]),
+             row("paper transformer, full window", streaming["reference_paper_transformer"])]
+    lines += [row(f"hybrid network step, {b}", t)
+              for b, t in streaming["network_step_by_backend"].items()]
+    d, node = live["dds"], live["node"]
+    lines += ["", f"`results/benchmarks/live.json` (`python benchmarks/live.py`, "
+              f"{live['machine']['cpus']} CPUs): the node's own time per HEX10 message at "
+              f"{live['session']['rate_hz']:.0f} Hz, median {node['all']['median_ms']:.3f} ms, "
+              f"p99 {node['all']['p99_ms']:.3f} ms, "
+              f"{node['all']['over_budget_fraction']:.1%} over its {node['budget_ms']:g} ms "
+              f"budget. Decoding one sample's three messages from their bytes: median "
+              f"{1e3 * live['decode']['psmforce.live.cdr']['median_ms']:.0f} µs with "
+              f"`psmforce.live.cdr` (what the node uses), "
+              f"{1e3 * live['decode']['cyclonedds']['median_ms']:.0f} µs with `cyclonedds`' "
+              f"classes. Over DDS, robot, node and subscriber in three processes for "
+              f"{d['seconds']:.0f} s: {d['hex10_sent']:,} sent, {d['answers_received']:,} "
+              f"answers received ({d['lost_fraction']:.1%} lost); end-to-end latency median "
+              f"{d['latency']['median_ms']:.2f} ms, p99 {d['latency']['p99_ms']:.2f} ms, max "
+              f"{d['latency']['max_ms']:.1f} ms (the robot's own messages to the subscriber, "
+              f"no node, in the same run: median {d['transport_latency']['median_ms']:.2f} ms, "
+              f"p99 {d['transport_latency']['p99_ms']:.2f} ms, "
+              + ("within" if d["transport_latency"]["p99_ms"] <= node["budget_ms"]
+                 else "already over")
+              + f" the target without the node); the p99 target of {node['budget_ms']:g} ms is "
+              + ("met" if d["within_target"] else "**not met**") + ".", ""]
+    return "\n".join(lines)
+
+
+PRIOR_VARIANTS = {"weighted": "prior weighted on validation, subtracted from the inputs",
+                  "as_fitted": "prior as fitted (every weight 1), subtracted from the inputs",
+                  "raw_and_prior": "prior weighted, beside the raw HEX10 among the inputs",
+                  "no_prior": "no prior (`no_prior`)"}
+
+
+def prior_ablation_tables(result: dict) -> str:
+    """docs/results.md: the hybrid with and without its prior, per bench and axis."""
+    seeds = " ".join(str(s) for s in result["seeds"])
+    chosen = result["chosen_on_validation"]
+    lines = ["", f"`python studies/prior_ablation.py --json "
+             f"results/benchmarks/prior_ablation.json` (scale {result['scale']:g}, bench seeds "
+             f"{seeds}; crossing bench: cables at {result['crossing_rad']:g} rad; every run "
+             f"{'stopped by its patience' if result['all_converged'] else 'NOT all converged'})."
+             " NRMSE % on the test trials, mean ± std over seeds; causal = the raw per-sample "
+             "estimate a haptic loop gets, paper = the paper's offline post-processing; the "
+             "last columns are the validation trials, where the design is chosen.", ""]
+    for bench, rows in result["summary"].items():
+        lines += [f"**{bench} bench**", "",
+                  "| hybrid | causal Fx | causal Fy | causal Fz | paper Fx | paper Fy | paper Fz "
+                  "| validation causal Fx / Fy / Fz |",
+                  "|---|---|---|---|---|---|---|---|"]
+        for variant in PRIOR_VARIANTS:
+            if variant not in rows:
+                continue
+            r = rows[variant]
+            cells = [spread_cell(r[m][a]) for m in ("causal", "paper") for a in ("Fx", "Fy", "Fz")]
+            val = " / ".join(f"{r['validation_causal'][a]['mean']:.2f}" for a in ("Fx", "Fy", "Fz"))
+            shipped = " (shipped)" if variant == result["shipped"] else ""
+            lines.append(f"| {PRIOR_VARIANTS[variant]}{shipped} | " + " | ".join(cells)
+                         + f" | {val} |")
+        for variant, verdict in result["verdicts"].get(bench, {}).items():
+            cells = [f"{verdict[m][a]['verdict']} ({verdict[m][a]['ratio']:.2f}x)"
+                     for m in ("causal", "paper") for a in ("Fx", "Fy", "Fz")]
+            lines.append(f"| {variant} against no prior, spread rule | " + " | ".join(cells)
+                         + " | |")
+        weights = [t["axis_weights"] for t in result["tasks"]
+                   if t["bench"] == bench and t["variant"] == "weighted"]
+        if weights:
+            lines += ["", "Weights the validation trials gave the prior (fx fy fz tx ty tz; "
+                      "one group per seed): " + "; ".join(
+                          " ".join(f"{w:.2f}" for w in ws) for ws in weights) + "."]
+        lines.append("")
+    ratios = ", ".join(f"{v} {x:.3f}" for v, x in chosen["validation_ratio_to_no_prior"].items())
+    lines += [f"Chosen on the validation trials (causal NRMSE relative to no prior, averaged "
+              f"over axes and benches: {ratios}): **{chosen['variant']}**.", ""]
+    return "\n".join(lines)
+
+
+def ports_table(result: dict) -> str:
+    """docs/results.md: every model without a port and through each port, causal NRMSE."""
+    by_port = result["causal_nrmse_pct"]
+    names = {"none": "no port", "cannula": "cannula", "abdominal-wall": "abdominal wall"}
+    ports = [p for p in names if p in by_port]
+    lines = ["", "Automated test set, causal NRMSE %, mean ± std over bench seeds "
+             + " ".join(str(s) for s in result["call"]["seeds"])
+             + f" (scale {result['call']['scale']:g}; "
+             + ("every run converged" if all(result["all_converged"].values())
+                else "NOT every run converged")
+             + "); through a port, x: the ratio to the same model without one.", "",
+             "| Model | " + " | ".join(f"{names[p]} Fx / Fy / Fz" for p in ports) + " |",
+             "|---|" + "---|" * len(ports)]
+    for model in by_port["none"]:
+        cells = []
+        for port in ports:
+            axes = by_port[port][model]
+            cell = " / ".join(spread_cell(axes[a]) for a in ("Fx", "Fy", "Fz"))
+            if port != "none":
+                cell += " (x" + " / x".join(f"{axes[a]['ratio_to_no_port']:.2f}"
+                                             for a in ("Fx", "Fy", "Fz")) + ")"
+            cells.append(cell)
+        lines.append(f"| {model} | " + " | ".join(cells) + " |")
+    lines.append("")
+    for target, t in result["targets"].items():
+        detail = ", ".join(f"{k} {v:.2f}" if isinstance(v, float) else
+                           f"{k} " + " / ".join(f"{a} {x:.2f}" for a, x in v.items())
+                           for k, v in t.items() if k != "met")
+        lines.append(f"- Target \"{target}\": {'met' if t['met'] else '**not met**'} "
+                     f"({detail}).")
+    lines.append("")
+    return "\n".join(lines)
+
+
+AXIAL_CHANNELS = {
+    "insertion_fz": "`insertion_fz` (insertion effort minus the identified stage model)",
+    "insertion_fz, best fixed filter": "`insertion_fz`, best fixed filter",
+    "comp_fz": "`comp_fz` (HEX10 axial minus the prior's internal force)",
+    "complementary": "`insertion_fz` below a crossover + `comp_fz` above (best crossover)",
+    "perfect stage model": "a perfect stage model: truth + the insertion effort's disturbance "
+                           "only",
+    "perfect stage model, best fixed filter": "a perfect stage model, best fixed filter"}
+
+
+def axial_channels_table(result: dict) -> str:
+    """docs/results.md: the axial channels without a network against the networks' Fz."""
+    channels, models = result["axial_channels_fz_nrmse_pct"], result["causal_nrmse_pct"]
+    ports = [p for p in ("none", "cannula", "abdominal-wall") if p in channels]
+    names = {"none": "no port", "cannula": "cannula", "abdominal-wall": "abdominal wall"}
+    lines = ["", "| axial channel (causal Fz NRMSE %) | " + " | ".join(names[p] for p in ports)
+             + " |", "|---|" + "---|" * len(ports)]
+    for key, label in AXIAL_CHANNELS.items():
+        lines.append(f"| {label} | " + " | ".join(spread_cell(channels[p][key]) for p in ports)
+                     + " |")
+    for model in ("Hybrid (ours)", "Transformer (paper)"):
+        lines.append(f"| {model}, for comparison | "
+                     + " | ".join(spread_cell(models[p][model]["Fz"]) for p in ports) + " |")
+    lines.append("")
+    return "\n".join(lines)
+
+
+TOOL_ROWS = ("nominal as is", "nominal calibrated", "1x as is", "1x calibrated", "2x as is",
+             "2x calibrated")
+
+
+def another_tool_table(result: dict) -> str:
+    """docs/results.md: every model on another tool, as is and calibrated."""
+    lines = ["", "| model | tool | causal Fx | causal Fy | causal Fz | paper Fx | paper Fy "
+             "| paper Fz |", "|---|---|---|---|---|---|---|---|"]
+    for model, rows in result["table"].items():
+        for tool in (t for t in TOOL_ROWS if t in rows):
+            cells = [f"{rows[tool][m][a][0]:.2f} ± {rows[tool][m][a][1]:.2f}"
+                     for m in ("causal", "paper") for a in ("Fx", "Fy", "Fz")]
+            lines.append(f"| {model} | {tool} | " + " | ".join(cells) + " |")
+    lines += ["", "Every training and calibration "
+              + ("stopped by its patience." if result["converged"] else "did NOT converge."), ""]
+    return "\n".join(lines)
+
+
+DESIGN_VARIANTS = {"default": "previous default", "+ insertion velocity": "+ insertion velocity",
+                   "+ insertion velocity, position": "+ insertion velocity and position "
+                                                     "(new default)",
+                   "no base on z": "no `insertion_fz` base on z"}
+
+
+def port_design_table(result: dict) -> str:
+    """docs/results.md: the hybrid's input variants on the validation trials, per port."""
+    ports = list(result["ports"])
+    names = {"none": "no port", "cannula": "cannula", "abdominal-wall": "abdominal wall"}
+    lines = ["", "| variant | " + " | ".join(f"{names[p]} Fx / Fy / Fz" for p in ports) + " |",
+             "|---|" + "---|" * len(ports)]
+    for key, label in DESIGN_VARIANTS.items():
+        cells = [" / ".join(f"{x:.2f}" for x in result["ports"][p][key]["mean"]["causal"])
+                 for p in ports]
+        lines.append(f"| {label} | " + " | ".join(cells) + " |")
+    runs = [r for p in ports for v in result["ports"][p].values() for r in v["runs"]]
+    lines += ["", f"{sum(r['converged'] for r in runs)} of the {len(runs)} runs stopped by "
+              "their patience.", ""]
+    return "\n".join(lines)

@@ -1,0 +1,135 @@
+"""CLI failures (issue 14, items 5 and 6): one line naming the file or option, exit 2, nothing
+left behind, found before the expensive work."""
+
+from __future__ import annotations
+
+import os
+
+import pandas as pd
+import pytest
+import torch
+
+import psmforce.estimators.training.train
+from psmforce.sim import simulate
+from psmforce.sim.dataset import MAX_SCALE as MAX_SIMULATE_SCALE
+from psmforce.cli.main import main
+
+
+@pytest.fixture(scope="module")
+def bench(tmp_path_factory):
+    out = tmp_path_factory.mktemp("cli") / "bench"
+    simulate("automated", scale=0.01, seed=0, out=out)
+    return out
+
+
+def test_train_epochs_0_is_refused_first(bench, tmp_path, cli_error, no_training):
+    ckpt = tmp_path / "m.pt"
+    assert main(["train", "--data", str(bench), "--model", "fcn", "--epochs", "0",
+                 "--out", str(ckpt)]) == 2
+    assert "--epochs" in cli_error("train") and not ckpt.exists()
+    assert main(["finetune", str(ckpt), "--data", str(bench), "--epochs", "-3",
+                 "--out", str(tmp_path / "t.pt")]) == 2
+    assert "--epochs" in cli_error("finetune")
+
+
+def test_train_epochs_0_from_python_is_refused(bench, tmp_path):
+    with pytest.raises(ValueError, match="epochs"):
+        psmforce.estimators.training.train.train(bench, "fcn", tmp_path / "m.pt", epochs=0)
+    assert not (tmp_path / "m.pt").exists()
+
+
+@pytest.mark.skipif(torch.cuda.is_available(), reason="needs a machine without CUDA")
+def test_device_cuda_without_cuda_is_refused_first(bench, tmp_path, cli_error, no_training):
+    assert main(["train", "--data", str(bench), "--model", "fcn", "--device", "cuda",
+                 "--out", str(tmp_path / "m.pt")]) == 2
+    assert "--device cuda" in cli_error("train")
+    assert not list(tmp_path.iterdir())
+
+
+def test_unwritable_out_is_found_before_training(bench, tmp_path, cli_error, no_training):
+    blocker = tmp_path / "a_file"
+    blocker.write_text("")
+    unwritable = [blocker / "sub" / "m.pt"]  # a file where a folder must be: even root fails
+    if os.geteuid() != 0:  # root writes into read-only folders
+        locked = tmp_path / "locked"
+        locked.mkdir()
+        locked.chmod(0o500)
+        unwritable.append(locked / "m.pt")
+    try:
+        for out in unwritable:
+            assert main(["train", "--data", str(bench), "--model", "fcn", "--epochs", "1",
+                         "--out", str(out)]) == 2
+            line = cli_error("train")
+            assert line.count("--out") == 1 and "not a writable folder" in line
+    finally:
+        if os.geteuid() != 0:
+            locked.chmod(0o700)
+    assert main(["train", "--data", str(bench), "--out", str(tmp_path)]) == 2
+    assert "is a folder" in cli_error("train")
+
+
+@pytest.mark.parametrize("command", ["evaluate", "export"])
+def test_evaluate_and_export_refuse_a_non_empty_out(tmp_path, cli_error, command):
+    out = tmp_path / "results"
+    out.mkdir()
+    (out / "metrics.json").write_text("{}\n")  # an earlier run's result
+    ckpt = tmp_path / "m.pt"
+    ckpt.write_bytes(b"")
+    args = [command, str(ckpt), "--out", str(out)] + (
+        ["--data", str(tmp_path)] if command == "evaluate" else [])
+    assert main(args) == 2
+    line = cli_error(command)
+    assert "--out" in line and "not empty" in line
+    assert [p.name for p in out.iterdir()] == ["metrics.json"]
+    assert (out / "metrics.json").read_text() == "{}\n"
+
+
+def test_simulate_scale_above_the_bound_is_refused_before_allocating(tmp_path, cli_error,
+                                                                     monkeypatch):
+    import psmforce.sim as sim
+    monkeypatch.setattr(sim, "simulate", lambda **kw: pytest.fail("simulate was called"))
+    out = tmp_path / "bench"
+    assert main(["simulate", "--scale", "1e6", "--out", str(out)]) == 2
+    assert "--scale" in cli_error("simulate") and not out.exists()
+    assert MAX_SIMULATE_SCALE >= 1.0  # the paper's own protocol stays allowed
+
+
+def test_json_into_a_missing_folder_is_refused_before_the_work(tmp_path, cli_error):
+    out = tmp_path / "bench"
+    assert main(["simulate", "--scale", "0.01", "--out", str(out),
+                 "--json", str(tmp_path / "missing" / "s.json")]) == 2
+    assert "--json" in cli_error("simulate")
+    assert not out.exists()  # no dataset left behind without its summary
+
+
+def test_text_cell_in_a_numeric_column_names_file_column_and_row(bench, tmp_path, cli_error):
+    import shutil
+    data = tmp_path / "data"
+    shutil.copytree(bench, data)
+    bad = sorted(data.rglob("train/Free/*.csv"))[0]
+    frame = pd.read_csv(bad).astype({"roll_effort": object})
+    frame.loc[7, "roll_effort"] = "abc"
+    frame.to_csv(bad, index=False)
+    ckpt = tmp_path / "m.pt"
+    assert main(["train", "--data", str(data), "--model", "fcn", "--epochs", "1",
+                 "--out", str(ckpt)]) == 2
+    line = cli_error("train")
+    assert str(bad) in line and "'roll_effort'" in line and "'abc'" in line and "row 7" in line
+    assert not ckpt.exists()
+
+
+@pytest.mark.skipif(torch.cuda.is_available(), reason="needs a machine without CUDA")
+def test_a_gpu_run_finishes_on_the_cpu_and_computes_nowhere_else(tmp_path, cli_error,
+                                                                  monkeypatch):
+    """``reproduce --device cuda`` needs CUDA here; with ``--finish-on cpu`` the run keeps its
+    GPU keys and computes on the CPU; ``--finish-on cuda`` needs CUDA as ``--device`` does."""
+    import psmforce.experiments.reproduce
+    calls = []
+    monkeypatch.setattr(psmforce.experiments.reproduce, "reproduce", lambda *a, **k: calls.append(k) or {})
+    out = str(tmp_path / "run")
+    assert main(["reproduce", "--out", out, "--device", "cuda"]) == 2
+    assert "--device cuda" in cli_error("reproduce") and calls == []
+    assert main(["reproduce", "--out", out, "--finish-on", "cuda"]) == 2
+    assert "--finish-on cuda" in cli_error("reproduce") and calls == []
+    assert main(["reproduce", "--out", out, "--device", "cuda", "--finish-on", "cpu"]) == 0
+    assert calls[0]["device"] == "cuda" and calls[0]["finish_on"] == "cpu"

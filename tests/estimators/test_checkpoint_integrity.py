@@ -1,0 +1,180 @@
+"""Checkpoints carry a SHA-256 of their weights and an envelope over their metadata; corrupt,
+edited, empty or foreign files are refused in one line naming the file (issue 14, items 5 and 6;
+issue 26, item 1)."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+import torch
+
+from psmforce.estimators.training import checkpoint as ck
+from psmforce.estimators.data.dataset import Scaler
+from psmforce.estimators.networks.recipes import build_model
+from psmforce.cli.main import main
+
+torch.set_num_threads(1)
+FEATURES = ("fx", "fy", "fz", "tx")
+
+
+def _saved(tmp_path):
+    torch.manual_seed(0)
+    model = build_model("fcn", len(FEATURES))
+    scaler = Scaler(np.zeros(len(FEATURES), np.float32), np.ones(len(FEATURES), np.float32))
+    target = Scaler(np.zeros(3, np.float32), np.ones(3, np.float32))
+    path = ck.TrainedModel("fcn", {}, FEATURES, scaler, target, model=model).save(
+        tmp_path / "m.pt")
+    return path, model
+
+
+def test_checksum_is_stored_and_a_byte_changed_in_the_weights_is_refused(tmp_path):
+    path, model = _saved(tmp_path)
+    meta = json.loads(torch.load(path, weights_only=True)["meta"])
+    assert meta["format_version"] == ck.FORMAT_VERSION == 3
+    assert meta["weights_sha256"] == ck.weights_sha256(model.state_dict())
+    ck.load_checkpoint(path)  # intact: loads
+    # overwrite 8 bytes inside the largest tensor's stored data (the zip stores it uncompressed)
+    name, tensor = max(model.state_dict().items(), key=lambda kv: kv[1].numel())
+    raw = path.read_bytes()
+    where = raw.find(tensor.detach().numpy().tobytes()[:64])
+    assert where > 0, f"{name}'s bytes not found in the file"
+    corrupt = tmp_path / "corrupt.pt"
+    corrupt.write_bytes(raw[:where + 16] + b"\x7f" * 8 + raw[where + 24:])
+    with pytest.raises(ck.CheckpointError, match="do not match their SHA-256") as err:
+        ck.load_checkpoint(corrupt)
+    assert str(corrupt) in str(err.value)
+
+
+def _rewritten(tmp_path, path, edit, name="edited.pt"):
+    """The checkpoint at ``path`` with its metadata passed through ``edit`` (in place)."""
+    payload = torch.load(path, weights_only=True)
+    meta = json.loads(payload["meta"])
+    edit(meta)
+    payload["meta"] = json.dumps(meta)
+    torch.save(payload, tmp_path / name)
+    return tmp_path / name
+
+
+@pytest.mark.parametrize("field, edit", [
+    ("features", lambda m: m.update(features=[m["features"][1], m["features"][0],
+                                              *m["features"][2:]])),
+    ("input_scaler", lambda m: m["input_scaler"].update(std=[1.0] * len(m["features"]),
+                                                        mean=[0.5] * len(m["features"]))),
+    ("target_scaler", lambda m: m["target_scaler"]["mean"].__setitem__(0, 3.0)),
+    ("config", lambda m: m["config"].update(hidden=64)),
+    ("provenance", lambda m: m["provenance"].update(data_dir="elsewhere")),
+    ("derivation", lambda m: m.update(derivation="lstm")),
+    ("base_columns", lambda m: m.update(base_columns=["fx", "fy", "fz"]))])
+def test_a_checkpoint_with_one_metadata_field_changed_is_refused_naming_it(tmp_path, field, edit):
+    path, _ = _saved(tmp_path)
+    meta = json.loads(torch.load(path, weights_only=True)["meta"])
+    assert "sha256" in meta and "prior_sha256" in meta
+    edited = _rewritten(tmp_path, path, edit)
+    with pytest.raises(ck.CheckpointError, match=f"changed: {field}") as err:
+        ck.load_checkpoint(edited)
+    assert str(edited) in str(err.value) and "\n" not in str(err.value)
+
+
+def test_an_edited_prior_or_an_added_field_is_refused(tmp_path):
+    path, _ = _saved(tmp_path)
+    payload = torch.load(path, weights_only=True)
+    payload["prior_json"] = '{"format": "psmforce-internal-force-prior"}'
+    torch.save(payload, tmp_path / "prior.pt")
+    with pytest.raises(ck.CheckpointError, match="prior does not match"):
+        ck.load_checkpoint(tmp_path / "prior.pt")
+    rate = _rewritten(tmp_path, path, lambda m: m.update(sample_rate_hz=1000.0), "rate.pt")
+    with pytest.raises(ck.CheckpointError, match="changed: sample_rate_hz"):
+        ck.load_checkpoint(rate)
+    added = _rewritten(tmp_path, path, lambda m: m.update(note="trust me"))
+    with pytest.raises(ck.CheckpointError, match="added: note"):
+        ck.load_checkpoint(added)
+    stripped = _rewritten(tmp_path, path, lambda m: m.pop("sha256"), "stripped.pt")
+    with pytest.raises(ck.CheckpointError, match="carries no SHA-256 envelope"):
+        ck.load_checkpoint(stripped)
+
+
+@pytest.mark.parametrize("version", ["3", 3.0, True, None, [3]])
+def test_a_format_version_that_is_not_an_integer_is_refused(tmp_path, version):
+    path, _ = _saved(tmp_path)
+    edited = _rewritten(tmp_path, path, lambda m: m.update(format_version=version))
+    with pytest.raises(ck.CheckpointError, match="is not an integer") as err:
+        ck.load_checkpoint(edited)
+    assert str(edited) in str(err.value)
+
+
+def _as_version_2(meta):
+    for key in ("sha256", "prior_sha256"):
+        meta.pop(key)
+    meta["format_version"] = 2
+
+
+def test_version_2_checkpoints_load_with_their_weights_checked(tmp_path):
+    """The previous format (weights checksum, no envelope) still loads; its metadata is checked
+    for sense (a zero std is refused) though not for edits; version 1 is refused."""
+    path, _ = _saved(tmp_path)
+    v2 = _rewritten(tmp_path, path, _as_version_2, "v2.pt")
+    assert ck.load_checkpoint(v2).features == FEATURES
+    collapsed = _rewritten(tmp_path, v2, lambda m: m["target_scaler"].update(std=[0, 1, 1]),
+                           "collapsed.pt")
+    with pytest.raises(ck.CheckpointError, match="target_scaler must be finite with std > 0"):
+        ck.load_checkpoint(collapsed)
+    swapped = _rewritten(tmp_path, v2, lambda m: m.update(features=["fx", "fx", "fz", "tx"]),
+                         "repeat.pt")
+    with pytest.raises(ck.CheckpointError, match="distinct column names"):
+        ck.load_checkpoint(swapped)
+    v1 = _rewritten(tmp_path, v2, lambda m: (m.pop("weights_sha256"),
+                                             m.update(format_version=1)), "v1.pt")
+    with pytest.raises(ck.CheckpointError, match="version 1 carries no checksum"):
+        ck.load_checkpoint(v1)
+    resaved = ck.load_checkpoint(v2).save(tmp_path / "resaved.pt")  # sealed as version 3
+    assert json.loads(torch.load(resaved, weights_only=True)["meta"])["format_version"] == 3
+    ck.load_checkpoint(resaved)
+
+
+@pytest.mark.parametrize("config, key", [
+    ({"n_heads": 0}, "n_heads"), ({"n_heads": 3}, "n_heads must divide d_model"),
+    ({"attention_window": 10 ** 7}, "attention_window"), ({"d_model": 0}, "d_model"),
+    ({"attention_window": 4096, "n_layers": 16, "d_model": 512}, "attention_window too large")])
+def test_a_version_2_checkpoint_asking_for_an_impossible_model_is_refused_before_building(
+        tmp_path, monkeypatch, config, key):
+    """A config read from a file is checked like one typed in, before any allocation."""
+    path, _ = _saved(tmp_path)
+
+    def edit(meta):
+        _as_version_2(meta)
+        meta.update(model="hybrid", config=config)
+    edited = _rewritten(tmp_path, path, edit)
+    built = []
+    monkeypatch.setattr("psmforce.estimators.networks.causal.CausalTransformer.__init__",
+                        lambda *a, **k: built.append(k))
+    with pytest.raises(ck.CheckpointError, match=key) as err:
+        ck.load_checkpoint(edited)
+    assert str(edited) in str(err.value) and not built
+
+
+@pytest.mark.parametrize("content, reason", [
+    (b"", "empty file"),
+    (b"hello, this is a text file\n", "corrupt or not a psmforce checkpoint"),
+    (b"[1, 2, 3]", "corrupt or not a psmforce checkpoint")])
+def test_empty_or_text_file_is_refused_in_one_line_naming_it(tmp_path, capsys, content, reason):
+    bad = tmp_path / "model.pt"
+    bad.write_bytes(content)
+    with pytest.raises(ck.CheckpointError, match=reason) as err:
+        ck.load_checkpoint(bad)
+    assert str(bad) in str(err.value) and "\n" not in str(err.value)
+    out = tmp_path / "onnx"
+    assert main(["export", str(bad), "--out", str(out)]) == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1 and str(bad) in lines[0] and reason in lines[0]
+    assert not out.exists()
+
+
+def test_a_payload_without_tensors_is_refused(tmp_path):
+    path, _ = _saved(tmp_path)
+    payload = torch.load(path, weights_only=True)
+    payload["state_dict"] = {"w": 3}
+    torch.save(payload, tmp_path / "odd.pt")
+    with pytest.raises(ck.CheckpointError, match="not a dict of tensors"):
+        ck.load_checkpoint(tmp_path / "odd.pt")

@@ -1,0 +1,60 @@
+"""Export: ONNX step graph + JSON, run back with ONNX Runtime, equal to the Python estimator."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from psmforce.estimators.training import checkpoint as ck
+from psmforce.estimators.runtime.export import ExportError, export, run_export
+from psmforce.estimators.data.hybrid_inputs import hybrid_columns, prior_to_json
+from psmforce.estimators.networks.recipes import build_model
+from psmforce.estimators.runtime.streaming import StreamingEstimator
+from psmforce.identification.prior import InternalForcePrior
+from tests.estimators.test_streaming import (INSERTION, model_and_scalers, one_thread, recording)  # noqa: F401
+
+
+def _checkpoint(tmp_path, use_prior: bool):
+    features, base = hybrid_columns(use_prior)
+    model, xs, ys = model_and_scalers(len(features))
+    return ck.TrainedModel(
+        "hybrid", {"d_model": 16, "n_heads": 2, "d_ff": 32, "attention_window": 8},
+        features, xs, ys, base, model=model,
+        derivation="prior" if use_prior else "none",
+        # the identification prior with its default (physical) parameters, as a fit would save it
+        prior_json=prior_to_json(InternalForcePrior(converged=True, insertion=INSERTION))
+        if use_prior else None,
+        provenance={"seed": 3}).save(tmp_path / "hybrid.pt")
+
+
+@pytest.mark.parametrize("use_prior", [True, False])
+def test_export_round_trip_matches_python_estimator(tmp_path, use_prior):
+    path = _checkpoint(tmp_path, use_prior)
+    summary = export(path, tmp_path / "out")
+    assert summary["onnx_vs_torch_max_abs_diff"] < 1e-5
+    spec = json.loads((tmp_path / "out" / "hybrid.json").read_text())
+    assert spec["features"] == list(hybrid_columns(use_prior)[0])
+    assert spec["provenance"] == {"seed": 3} and spec["window"] == 2 * 7 + 1
+    assert (spec["prior"] is not None) == use_prior
+    assert spec["format_version"] == 3 and spec["graph"]["state"] == [  # the model's own state
+        {"name": "keys", "shape": [2, 1, 8, 16], "dtype": "float32"},
+        {"name": "values", "shape": [2, 1, 8, 16], "dtype": "float32"},
+        {"name": "n_valid", "shape": [1], "dtype": "int64"}]
+    assert not list((tmp_path / "out").glob("*.part"))
+    frame = recording(150)
+    exported = run_export(tmp_path / "out", frame)
+    est = StreamingEstimator.from_checkpoint(path)
+    python = np.stack([est.step(r).force_hex10 for r in frame.to_dict("records")])
+    assert np.abs(exported - python).max() < 1e-5
+
+
+def test_export_refuses_other_models_and_foreign_folders(tmp_path):
+    _, xs, ys = model_and_scalers(1)
+    path = ck.TrainedModel("fcn", {}, ("fx",), xs, ys, model=build_model("fcn", 1)).save(
+        tmp_path / "fcn.pt")
+    with pytest.raises(ExportError, match="does not stream"):
+        export(path, tmp_path / "out")
+    with pytest.raises(ExportError, match="no readable hybrid.json"):
+        run_export(tmp_path / "nothing", recording(5))

@@ -1,0 +1,161 @@
+"""Rates: the checkpoint and the export record the training rate, old files read as 100 Hz, a
+stream at a whole multiple of it is decimated causally and answered at its own rate, any other
+stream refused in one line."""
+
+from __future__ import annotations
+
+import json
+from types import SimpleNamespace
+
+import numpy as np
+import pandas as pd
+import pytest
+import torch
+
+from psmforce.estimators.training import checkpoint as ck
+from psmforce.estimators.runtime.export import export
+from psmforce.estimators.data.hybrid_inputs import hybrid_columns
+from psmforce.core.integrity import seal
+from psmforce.estimators.data.rates import (DEFAULT_SAMPLE_RATE_HZ, AntiAlias, RateError,
+                                            decimation_factor, recording_rate_hz, trials_rate_hz)
+from psmforce.estimators.runtime.streaming import StreamingError, StreamingEstimator
+from tests.estimators.test_streaming import (StandInPrior, model_and_scalers, one_thread, recording)  # noqa: F401
+
+CONFIG = {"d_model": 16, "n_heads": 2, "d_ff": 32, "attention_window": 8}
+
+
+def _checkpoint(path, rate_hz=None):
+    features, base = hybrid_columns(use_prior=False)
+    model, xs, ys = model_and_scalers(len(features))
+    return ck.TrainedModel("hybrid", CONFIG, features, xs, ys, base, model=model,
+                           sample_rate_hz=rate_hz).save(path)
+
+
+def _rewrite(path, version=None, **changes):
+    """Rewrite a checkpoint's metadata: ``changes`` (None removes a field), sealed again
+    (:mod:`psmforce.core.integrity`), or as a version 2 file (written before the envelope)."""
+    payload = torch.load(path, weights_only=True)
+    meta = {k: v for k, v in json.loads(payload["meta"]).items() if k != "sha256"}
+    meta = {k: v for k, v in {**meta, **changes}.items() if v is not None}
+    if version == 2:
+        meta["format_version"] = 2
+    else:
+        meta = seal(meta)
+    payload["meta"] = json.dumps(meta)
+    torch.save(payload, path)
+
+
+def test_checkpoint_and_export_record_the_rate_and_old_files_read_as_100_hz(tmp_path):
+    path = _checkpoint(tmp_path / "k.pt", 1000.0)
+    assert ck.load_checkpoint(path).sample_rate_hz == 1000.0
+    export(path, tmp_path / "out")
+    assert json.loads((tmp_path / "out" / "hybrid.json").read_text())["sample_rate_hz"] == 1000.0
+    assert StreamingEstimator.from_checkpoint(path).rate_hz == 1000.0
+    _rewrite(path, version=2, sample_rate_hz=None)  # a file from before the field
+    assert ck.load_checkpoint(path).sample_rate_hz == DEFAULT_SAMPLE_RATE_HZ == 100.0
+    unknown = _checkpoint(tmp_path / "u.pt")  # a setup that did not know its rate: null
+    assert ck.load_checkpoint(unknown).sample_rate_hz == 100.0
+
+
+@pytest.mark.parametrize("bad", [-1.0, 0, "fast", True])
+def test_a_checkpoint_with_a_rate_that_is_not_a_rate_is_refused(tmp_path, bad):
+    path = _checkpoint(tmp_path / "k.pt", 100.0)
+    _rewrite(path, sample_rate_hz=bad)
+    with pytest.raises(ck.CheckpointError, match="sample_rate_hz"):
+        ck.load_checkpoint(path)
+
+
+def test_a_stream_at_a_rate_the_model_cannot_serve_is_refused_in_one_line(tmp_path):
+    path = _checkpoint(tmp_path / "k.pt", 100.0)
+    for rate in (150.0, 50.0, 1234.0):
+        with pytest.raises(StreamingError) as err:
+            StreamingEstimator.from_checkpoint(path, input_rate_hz=rate)
+        assert "whole multiple" in str(err.value) and "\n" not in str(err.value)
+    with pytest.raises(StreamingError, match="trained at 100 Hz"):
+        StreamingEstimator.from_checkpoint(path, rate_hz=1000.0)
+    assert StreamingEstimator.from_checkpoint(path, input_rate_hz=1000.0).decimation == 10
+    assert StreamingEstimator.from_checkpoint(path, input_rate_hz=999.6).decimation == 10
+    assert decimation_factor(100.0, 100.0) == 1
+    with pytest.raises(RateError, match="input_rate_hz"):
+        decimation_factor(float("nan"), 100.0)
+
+
+def _estimator(input_rate_hz, **options):
+    features, base = hybrid_columns(use_prior=True)
+    model, xs, ys = model_and_scalers(len(features))
+    return StreamingEstimator(model, features, xs, ys, base, StandInPrior(), rate_hz=100.0,
+                              input_rate_hz=input_rate_hz, **options)
+
+
+def _fast(n, factor, seed=0):
+    """A recording at ``factor`` x 100 Hz (the 100 Hz generator's signals on a finer clock)."""
+    frame = recording(n, seed)
+    frame["time"] = np.arange(n) / (100.0 * factor)
+    return frame
+
+
+@pytest.mark.parametrize("post_filter", ["none", "lowpass"])
+def test_a_1khz_stream_steps_the_network_every_tenth_sample_and_equals_the_batch_path(
+        post_filter):
+    est = _estimator(1000.0, post_filter=post_filter, backend="numpy")
+    steps = []
+    step = est._net.step
+    est._net.step = lambda x: (steps.append(1), step(x))[1]
+    frame = _fast(600, 10)
+    streamed = np.stack([est.step(r).force_hex10 for r in frame.to_dict("records")])
+    assert len(steps) == 60  # samples 0, 10, 20, ...: one network step per 10 inputs
+    batch = _estimator(1000.0, post_filter=post_filter).predict_recording(frame)
+    np.testing.assert_allclose(streamed, batch, atol=2e-5)
+    assert np.abs(np.diff(streamed[:, 0])).max() > 0  # answered, not held, between steps
+
+
+def test_at_1khz_each_network_step_sees_the_anti_aliased_sample_a_100hz_stream_would_carry():
+    """Reference built here: the 1 kHz signals low-passed (AntiAlias, checked against scipy
+    below), every 10th kept, streamed at 100 Hz: the 1 kHz answers on the network's steps
+    equal it, and the warm-up lasts ``window`` network steps."""
+    fast = _fast(400, 10, seed=2)
+    est = _estimator(1000.0)
+    outs = [est.step(r) for r in fast.to_dict("records")]
+    columns = list(est.columns)
+    slow = fast.copy()
+    slow[columns] = AntiAlias(len(columns), 10, 100.0).offline(fast[columns].to_numpy())
+    slow = slow.iloc[::10].assign(time=np.arange(40) / 100.0)
+    at_100 = [o.force_hex10 for o in map(_estimator(100.0).step, slow.to_dict("records"))]
+    np.testing.assert_allclose(np.stack([o.force_hex10 for o in outs[::10]]), at_100, atol=1e-6)
+    assert np.abs(np.stack(at_100) - np.stack([o.force_hex10 for o in outs[5::10]])).max() > 1e-3
+    window = est.window
+    assert outs[10 * (window - 1) - 1].flags & 1 and not outs[10 * (window - 1)].flags & 1
+
+
+def test_gaps_count_input_samples_and_the_lag_is_stated():
+    est = _estimator(1000.0)
+    rows = _fast(50, 10).to_dict("records")
+    for r in rows[:20]:
+        est.step(r)
+    assert not est.step(rows[25]).flags & 16   # 4 samples (4 ms) missing: bridged
+    assert est.step(rows[40]).flags & 16       # 14 missing: a gap, a new warm-up
+    # 2nd-order Butterworth at 40 Hz: sqrt(2) / (2 pi 40) s as an analog filter (the digital
+    # one at 1 kHz within 1 %), plus a hold of 4.5 ms on average
+    assert est.lag_s() == pytest.approx(np.sqrt(2) / (2 * np.pi * 40) + 0.0045, rel=1e-2)
+    assert _estimator(100.0).lag_s() == 0.0
+
+
+def test_anti_alias_step_equals_offline_and_attenuates_above_the_model_nyquist():
+    rng = np.random.default_rng(1)
+    values = rng.standard_normal((400, 4))
+    online = AntiAlias(4, 10, 100.0)
+    stepped = np.stack([online.step(v).copy() for v in values])
+    np.testing.assert_allclose(stepped, AntiAlias(4, 10, 100.0).offline(values), atol=1e-12)
+    t = np.arange(2000) / 1000.0
+    tone = np.sin(2 * np.pi * 200 * t)[:, None]  # 200 Hz: would alias onto 0 Hz at 100 Hz
+    assert np.abs(AntiAlias(1, 10, 100.0).offline(tone)[500:]).max() < 0.1
+
+
+def test_training_rate_is_measured_from_the_recordings():
+    def trial(rate, n=50, name="a.csv"):
+        return SimpleNamespace(path=name, frame=pd.DataFrame({"time": np.arange(n) / rate}))
+    assert trials_rate_hz([trial(100.0), trial(100.0, 80)]) == pytest.approx(100.0)
+    with pytest.raises(RateError, match="b.csv: sampled at 1000 Hz"):
+        trials_rate_hz([trial(100.0), trial(100.0), trial(1000.0, name="b.csv")])
+    with pytest.raises(RateError, match="strictly increasing"):
+        recording_rate_hz([0.0, 0.0, 0.1])

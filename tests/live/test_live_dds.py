@@ -1,0 +1,225 @@
+"""End to end over real DDS on loopback, three processes: a robot plays a recording at 1 kHz
+(python -m psmforce.live.sim_robot), `psmforce serve` estimates, this test subscribes and tares.
+The wrenches received equal the offline streaming estimate of the same recording to 1e-6 N,
+every one arrives, and the tare removes the mean of the answers it collected."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+from tests.live.test_live_replay import START_NS, checkpoint, offline
+from tests.estimators.test_streaming import one_thread, recording  # noqa: F401
+
+from psmforce.io.bags.messages import stream_columns
+from psmforce.io.recording import read_recording, write_recording
+
+pytest.importorskip("cyclonedds")
+from cyclonedds.domain import DomainParticipant  # noqa: E402
+from cyclonedds.pub import DataWriter  # noqa: E402
+from cyclonedds.sub import DataReader  # noqa: E402
+from cyclonedds.topic import Topic  # noqa: E402
+
+from psmforce.live import dds  # noqa: E402
+from psmforce.live.node import STALE, TARING, output_topics  # noqa: E402
+
+N = 1500          # 1.5 s at 1 kHz
+TARE_AT = 600     # answers received before the tare is asked for (warm-up: 150)
+TARE_S = 0.05     # 50 answers
+
+
+def _env():
+    return dict(os.environ, OMP_NUM_THREADS="1", PYTHONPATH=os.getcwd())
+
+
+def _take(readers, got):
+    """What the readers hold (a writer leaving gives an invalid sample: skipped)."""
+    for name, reader in readers.items():
+        got[name] += [m for m in reader.take(N=1000) if m.sample_info.valid_data]
+
+
+@pytest.mark.slow
+@pytest.mark.e2e
+def test_serve_over_dds_equals_the_offline_estimate_loses_nothing_and_tares(tmp_path):
+    domain_id = 100 + os.getpid() % 100
+    ckpt = checkpoint(tmp_path / "h.pt", rate_hz=100.0)
+    frame = recording(N)
+    frame["time"] = np.arange(N) / 1000.0
+    write_recording(frame, tmp_path / "session.csv")
+    frame = read_recording(tmp_path / "session.csv", require_targets=False)  # as published
+    participant = DomainParticipant(domain_id)
+    topics = output_topics("PSM1")
+    qos = dds.qos()
+    # The test's own readers keep everything: in a long pytest process this thread can stall
+    # for more than a second (1,000 messages), and a KeepLast(1000) reader would then drop the
+    # oldest answers, a loss of the test's, not of the node's.
+    from cyclonedds.core import Policy, Qos
+    keep_all = Qos(Policy.Reliability.Reliable(max_blocking_time=0),
+                   Policy.Durability.Volatile, Policy.History.KeepAll)
+    readers = {name: DataReader(participant, Topic(participant, dds.dds_topic(topics[name]),
+                                                   kind), qos=keep_all)
+               for name, kind in (("hex10", dds.WrenchStamped), ("base", dds.WrenchStamped),
+                                  ("flags", dds.UInt32))}
+    tare = DataWriter(participant, Topic(participant, dds.dds_topic(topics["tare"]), dds.Empty),
+                      qos=qos)
+    node = subprocess.Popen(
+        [sys.executable, "-m", "psmforce.cli.main", "serve", str(ckpt), "--domain-id",
+         str(domain_id), "--sync-stamps", "--idle-stop", "1.5", "--tare-s", str(TARE_S),
+         "--sync-wait", "1.0",  # a loaded test machine holds a resent datagram back longer
+         "--input-rate", "1000",  # built before it subscribes: the tare lands mid-stream
+         "--json", str(tmp_path / "report.json")], env=_env(), stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE, text=True)
+    robot = None
+    got = {name: [] for name in readers}
+    try:
+        deadline = time.monotonic() + 60
+        while not all(r.get_matched_publications() for r in readers.values()):
+            assert time.monotonic() < deadline and node.poll() is None, node.communicate()
+            time.sleep(0.05)
+        while not tare.get_matched_subscriptions():
+            time.sleep(0.05)
+        robot = subprocess.Popen(
+            [sys.executable, "-m", "psmforce.live.sim_robot", str(tmp_path / "session.csv"),
+             "--domain-id", str(domain_id), "--start-ns", str(START_NS)], env=_env(),
+            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        tared = False
+        deadline = time.monotonic() + 60
+        while len(got["flags"]) < N and time.monotonic() < deadline and node.poll() is None:
+            _take(readers, got)
+            if not tared and len(got["hex10"]) >= TARE_AT:
+                tare.write(dds.Empty())
+                tared = True
+            time.sleep(0.01)
+        out, err = robot.communicate(timeout=30)
+        assert robot.returncode == 0, err
+        _, err = node.communicate(timeout=30)
+        assert node.returncode == 0, err
+    finally:
+        for process in (robot, node):
+            if process is not None and process.poll() is None:
+                process.kill()
+    _take(readers, got)
+    report = json.loads((tmp_path / "report.json").read_text())
+    outs, stamps = offline(ckpt, frame)
+    received = [m.header.stamp.sec * 10**9 + m.header.stamp.nanosec for m in got["hex10"]]
+    assert received == stamps.tolist(), (  # none lost, in order, each stamped with its input
+        len(received), report)
+    assert len(got["base"]) == len(got["flags"]) == N
+    force = np.array([[m.wrench.force.x, m.wrench.force.y, m.wrench.force.z]
+                      for m in got["hex10"]])
+    base = np.array([[m.wrench.force.x, m.wrench.force.y, m.wrench.force.z]
+                     for m in got["base"]])
+    flags = np.array([m.data for m in got["flags"]])
+    raw = np.stack([o.force_hex10 for o in outs])
+    taring = np.flatnonzero(flags & TARING)
+    n_tare = round(TARE_S * 1000)
+    assert len(taring) == n_tare - 1 and taring[0] >= TARE_AT  # the last one completes it
+    done = taring[-1] + 1
+    offset = raw[taring[0]:done + 1].mean(axis=0)
+    assert report["unpaired"] == 0, report  # every trigger met its own partners
+    np.testing.assert_allclose(force[:done], raw[:done], atol=1e-6)
+    np.testing.assert_allclose(force[done:], raw[done:] - offset, atol=1e-6)
+    np.testing.assert_allclose(base[:done], [o.force_base for o in outs[:done]], atol=1e-6)
+    np.testing.assert_allclose(np.linalg.norm(base, axis=1), np.linalg.norm(force, axis=1),
+                               atol=1e-9)  # the base frame is a rotation of the HEX10 frame
+    assert ((flags & 0xFFFF) == [o.flags for o in outs]).all() and not (flags & STALE).any()
+    assert report["received"]["hex10"] == N and report["answers_published"] == N
+    assert report["decimation"] == 10 and report["received"]["tare"] == 1
+    np.testing.assert_allclose(report["tare_offset_N"], offset, atol=1e-9)
+
+
+@pytest.mark.slow
+def test_serve_measuring_the_rate_loses_nothing_while_the_estimator_is_built(tmp_path,
+                                                                             monkeypatch):
+    """Without --input-rate the node measures the rate from the first HEX10 stamps, then builds
+    the estimator (seconds on a busy machine: made 2.5 s here, longer than the readers'
+    history at 1 kHz); the readers go on being emptied meanwhile, so every message is
+    answered, in order."""
+    import threading
+
+    from cyclonedds.core import Policy, Qos
+    from cyclonedds.util import duration
+
+    from psmforce.live.sim_robot import play
+    from psmforce.live.serve import DdsNode
+    ckpt = checkpoint(tmp_path / "h.pt", rate_hz=100.0)
+    frame = recording(N)
+    frame["time"] = np.arange(N) / 1000.0
+    build = DdsNode._build
+    monkeypatch.setattr(DdsNode, "_build", lambda self, rate: time.sleep(2.5)
+                        or build(self, rate))
+    participant = DomainParticipant(100 + (os.getpid() + 50) % 100)
+    node = DdsNode(ckpt, participant, sync=True)
+    deep = Qos(Policy.Reliability.Reliable(duration(milliseconds=100)),
+               Policy.History.KeepLast(4 * N))  # the answers come in one burst: keep them all
+    readers = {"hex10": DataReader(participant, Topic(participant, dds.dds_topic(
+        node.output_topics["hex10"]), dds.WrenchStamped), qos=deep)}
+    robot = threading.Thread(target=play, args=(frame, participant),
+                             kwargs={"start_ns": START_NS})
+    robot.start()
+    report = node.spin(duration_s=60, idle_stop_s=1.0)
+    robot.join(30)
+    got = {"hex10": []}
+    for _ in range(4):  # 1000 a take
+        _take(readers, got)
+    assert report["received"]["hex10"] == N and report["answers_published"] == N, report
+    assert report["input_rate_hz"] == pytest.approx(1000.0) and report["unpaired"] == 0
+    stamps = START_NS + np.arange(N) * 10**6
+    assert [m.header.stamp.sec * 10**9 + m.header.stamp.nanosec for m in got["hex10"]] \
+        == stamps.tolist()
+
+
+def test_serve_skips_and_counts_messages_that_do_not_decode(tmp_path, capsys):
+    """Bytes that DDS delivers but that are not the topic's message are counted and skipped
+    with one line per stream, never fatal: every good HEX10 message is answered. (Cyclone DDS
+    refuses bytes cut short on both ends; a string that is not UTF-8 it passes through.)"""
+    from psmforce.live import cdr
+    from psmforce.live.sim_robot import Robot
+    from psmforce.live.serve import DdsNode
+    participant = DomainParticipant(100 + (os.getpid() + 25) % 100)
+    node = DdsNode(checkpoint(tmp_path / "h.pt", rate_hz=100.0), participant,
+                   input_rate_hz=1000.0)
+    robot = Robot(participant)
+    assert robot.wait_for_readers(30)
+    names = ("yaw", "pitch", "insertion", "roll", "wrist_pitch", "wrist_yaw")
+    good_js = cdr.joint_state(START_NS, "", names, [0.1] * 6, [0.0] * 6, [0.0] * 6)
+    for _ in range(2):
+        dds.write_raw(robot.writers["js"], good_js.replace(b"yaw", b"\xff\xfe\xfd"))
+    dds.write_raw(robot.writers["hex10"], cdr.wrench_stamped(START_NS, "ab", [1, 2, 3])
+                  .replace(b"ab\x00", b"\xff\xfe\x00"))
+    frame = recording(300)
+    values = {s: frame[list(stream_columns(s))].to_numpy(np.float64) for s in robot.writers}
+    for i in range(300):
+        robot.publish(START_NS + (i + 1) * 10**6, {s: v[i] for s, v in values.items()})
+    report = node.spin(duration_s=60, idle_stop_s=1.0)
+    assert report["malformed"] == {"js": 2, "jaw": 0, "hex10": 1, "tare": 0}
+    assert report["received"]["hex10"] == 300 and report["answers_published"] == 300
+    err = capsys.readouterr().err.splitlines()
+    assert [line.split(":")[1].strip() for line in err if line.startswith("serve:")] == [
+        node.input_topics["hex10"], node.input_topics["js"]], err  # one a stream, HEX10 first
+
+
+@pytest.mark.slow
+@pytest.mark.e2e
+def test_a_wait_for_partners_that_is_not_positive_is_refused(tmp_path):
+    from psmforce.estimators.runtime.streaming import StreamingEstimator
+    from psmforce.robot import PSM
+    from psmforce.live.node import ForceNode
+    from psmforce.live.serve import DdsNode
+    ckpt = checkpoint(tmp_path / "h.pt", rate_hz=100.0)
+    participant = DomainParticipant(100 + (os.getpid() + 75) % 100)
+    for bad in (0.0, -0.1, float("nan")):
+        with pytest.raises(ValueError, match="partners must be > 0 s"):
+            DdsNode(ckpt, participant, sync=True, sync_wait_s=bad)   # before it subscribes
+        with pytest.raises(ValueError, match="partners must be > 0 s"):
+            ForceNode(StreamingEstimator.from_checkpoint(ckpt, psm=PSM()), max_wait_s=bad)
+    run = subprocess.run([sys.executable, "-m", "psmforce.cli.main", "serve", str(ckpt),
+                          "--sync-stamps", "--sync-wait", "0", "--duration", "1"],
+                         env=_env(), capture_output=True, text=True, timeout=120)
+    assert run.returncode != 0 and "partners must be > 0 s, got 0.0" in run.stderr
+    assert "Traceback" not in run.stderr

@@ -1,0 +1,274 @@
+"""``psmforce replay``: a bag through the node's code path; the MCAP's wrenches equal the offline
+streaming estimate; tare; the shared message decoding; the live Foxglove view."""
+
+from __future__ import annotations
+
+import json
+import socket
+import threading
+import time
+
+import numpy as np
+import pytest
+from tests.estimators.test_streaming import (INSERTION, model_and_scalers, one_thread, recording)  # noqa: F401
+
+from psmforce.estimators.training import checkpoint as ck
+from psmforce.estimators.data.hybrid_inputs import hybrid_columns, prior_to_json
+from psmforce.estimators.runtime.streaming import Flags, StreamingEstimator
+from psmforce.robot import PSM
+from psmforce.io.bags import ROS2_TYPESTORE, MessageError, sample_from_messages
+from psmforce.io.bags.writing import write_bag
+from psmforce.identification.prior import InternalForcePrior
+
+pytest.importorskip("mcap")
+from mcap.reader import make_reader  # noqa: E402
+
+START_NS = 1_700_000_000 * 10**9
+CONFIG = {"d_model": 16, "n_heads": 2, "d_ff": 32, "attention_window": 8}
+TOPIC = "/PSM1/tool_force/hex10"
+
+
+def checkpoint(path, rate_hz=100.0):
+    """A small hybrid with the identification prior (physical default parameters)."""
+    features, base = hybrid_columns(True)
+    model, xs, ys = model_and_scalers(len(features))
+    return ck.TrainedModel("hybrid", CONFIG, features, xs, ys, base, model=model,
+                           derivation="prior", sample_rate_hz=rate_hz,
+                           prior_json=prior_to_json(InternalForcePrior(converged=True,
+                                                                       insertion=INSERTION))
+                           ).save(path)
+
+
+def session(tmp_path, n=600, rate_hz=1000.0):
+    """A recording at ``rate_hz`` and the ROS 2 bag of it, as the bench records one."""
+    frame = recording(n)
+    frame["time"] = np.arange(n) / rate_hz
+    bag = tmp_path / "session"
+    write_bag(frame, bag, start_ns=START_NS)
+    return frame, bag
+
+
+def offline(ckpt, frame, rate_hz=1000.0):
+    """The streaming estimator stepped over the recording, times as the node gives them."""
+    est = StreamingEstimator.from_checkpoint(ckpt, input_rate_hz=rate_hz, psm=PSM())
+    stamps = START_NS + np.rint(frame["time"].to_numpy() * 1e9).astype(np.int64)
+    outs = [est.step(dict(row, time=s * 1e-9), base_frame=True)
+            for row, s in zip(frame.to_dict("records"), stamps)]
+    return outs, stamps
+
+
+def read_mcap(path, topic):
+    """(log ns, message) of ``topic`` in the MCAP, decoded with rosbags."""
+    with open(path, "rb") as f:
+        return [(m.log_time, ROS2_TYPESTORE.deserialize_cdr(m.data, s.name))
+                for s, c, m in make_reader(f).iter_messages(topics=[topic])]
+
+
+def test_replay_writes_the_offline_estimate_in_both_frames(tmp_path):
+    from psmforce.live.replay import replay
+    ckpt = checkpoint(tmp_path / "h.pt")
+    frame, bag = session(tmp_path)
+    report = replay(bag, ckpt, tmp_path / "out.mcap")
+    assert report["input_rate_hz"] == pytest.approx(1000.0) and report["decimation"] == 10
+    outs, stamps = offline(ckpt, frame)
+    hex10 = read_mcap(tmp_path / "out.mcap", TOPIC)
+    base = read_mcap(tmp_path / "out.mcap", "/PSM1/tool_force/base")
+    flags = read_mcap(tmp_path / "out.mcap", "/PSM1/tool_force/flags")
+    assert len(hex10) == len(base) == len(flags) == len(frame) == report["answers"]
+    got = np.array([[m.wrench.force.x, m.wrench.force.y, m.wrench.force.z] for _, m in hex10])
+    np.testing.assert_allclose(got, [o.force_hex10 for o in outs], atol=1e-9)
+    got = np.array([[m.wrench.force.x, m.wrench.force.y, m.wrench.force.z] for _, m in base])
+    np.testing.assert_allclose(got, [o.force_base for o in outs], atol=1e-9)
+    assert [m.data for _, m in flags] == [o.flags for o in outs]
+    assert [m.header.stamp.sec * 10**9 + m.header.stamp.nanosec for _, m in hex10] \
+        == stamps.tolist()  # each answer carries the stamp of the input it answers
+    assert {m.header.frame_id for _, m in hex10} == {"hex10"}
+    assert {m.header.frame_id for _, m in base} == {"PSM1_base"}
+    assert report["topics"]["/hex10/measured_cf"] == len(frame)  # the inputs, beside
+    layout = json.loads((tmp_path / "out.layout.json").read_text())
+    assert layout["configById"]["Plot!force_x"]["paths"][0]["value"] == TOPIC + ".wrench.force.x"
+
+
+def test_replay_tare_on_start_removes_the_mean_of_the_first_settled_answers(tmp_path):
+    from psmforce.live.replay import replay
+    ckpt = checkpoint(tmp_path / "h.pt", rate_hz=1000.0)
+    frame, bag = session(tmp_path, n=300)
+    report = replay(bag, ckpt, tmp_path / "out.mcap", tare_on_start=True)
+    outs, _ = offline(ckpt, frame)
+    raw = np.stack([o.force_hex10 for o in outs])
+    settled = [k for k, o in enumerate(outs) if not o.flags & (Flags.WARMING_UP | Flags.HELD)]
+    assert len(settled) < 500  # a short session: the tare never completes, nothing subtracted
+    assert report["tare_offset_N"] == [0.0, 0.0, 0.0]
+    (tmp_path / "long").mkdir()
+    frame, bag = session(tmp_path / "long", n=800)
+    report = replay(bag, ckpt, tmp_path / "long.mcap", tare_on_start=True, tare_s=0.2)
+    outs, _ = offline(ckpt, frame)
+    raw = np.stack([o.force_hex10 for o in outs])
+    settled = [k for k, o in enumerate(outs) if not o.flags & (Flags.WARMING_UP | Flags.HELD)]
+    offset = raw[settled[:200]].mean(axis=0)
+    np.testing.assert_allclose(report["tare_offset_N"], offset, atol=1e-9)
+    got = np.array([[m.wrench.force.x, m.wrench.force.y, m.wrench.force.z]
+                    for _, m in read_mcap(tmp_path / "long.mcap", TOPIC)])
+    after = settled[199]  # the answer that completes the tare is the first tared
+    np.testing.assert_allclose(got[after:], raw[after:] - offset, atol=1e-9)
+    np.testing.assert_allclose(got[:after], raw[:after], atol=1e-9)
+    taring = [m.data & (1 << 16) for _, m in read_mcap(tmp_path / "long.mcap",
+                                                         "/PSM1/tool_force/flags")]
+    assert all(taring[:after]) and not any(taring[after:])
+
+
+def test_replay_refuses_a_stream_the_model_cannot_serve_and_writes_nothing(tmp_path):
+    from psmforce.live.replay import replay
+    ckpt = checkpoint(tmp_path / "h.pt", rate_hz=100.0)
+    _, bag = session(tmp_path, n=100, rate_hz=150.0)
+    with pytest.raises(ValueError, match="150 Hz stream cannot feed a model trained at 100 Hz"):
+        replay(bag, ckpt, tmp_path / "out.mcap")
+    assert not list(tmp_path.glob("out*"))
+
+
+def _messages():
+    types = ROS2_TYPESTORE.types
+    header = types["std_msgs/msg/Header"](
+        stamp=types["builtin_interfaces/msg/Time"](sec=12, nanosec=500_000_000), frame_id="")
+    joint_state = types["sensor_msgs/msg/JointState"]
+    vector, wrench = types["geometry_msgs/msg/Vector3"], types["geometry_msgs/msg/Wrench"]
+    names = ["outer_roll", "outer_yaw", "jaw", "outer_pitch", "outer_wrist_yaw",
+             "outer_insertion", "outer_wrist_pitch"]
+    values = np.arange(7, dtype=float)
+    js = joint_state(header=header, name=names, position=values, velocity=values + 10,
+                     effort=values + 20)
+    jaw = joint_state(header=header, name=["jaw"], position=np.array([0.3]),
+                      velocity=np.array([0.1]), effort=np.array([0.05]))
+    hex10 = types["geometry_msgs/msg/WrenchStamped"](header=header, wrench=wrench(
+        force=vector(x=1.0, y=2.0, z=3.0), torque=vector(x=0.1, y=0.2, z=0.3)))
+    return js, jaw, hex10
+
+
+def test_sample_from_messages_matches_joints_by_name():
+    js, jaw, hex10 = _messages()
+    sample = sample_from_messages(js, jaw, hex10)
+    assert sample["time"] == 12.5 and sample["fz"] == 3.0 and sample["tz"] == 0.3
+    assert sample["roll_position"] == 0.0 and sample["yaw_velocity"] == 11.0
+    assert sample["insertion_effort"] == 25.0 and sample["jaw_position"] == 0.3
+    assert len(sample) == 28 and sample_from_messages(js, jaw, hex10, time_s=1.0)["time"] == 1.0
+    js.name[0] = "elbow"
+    with pytest.raises(MessageError, match="unknown joint names \\['elbow'\\]"):
+        sample_from_messages(js, jaw, hex10)
+
+
+def test_node_flags_a_message_that_does_not_decode_and_goes_on(tmp_path):
+    """A JointState with an unknown joint name, or arrays shorter than its names, is answered
+    INVALID_INPUT | HELD with the last estimate; the next good message goes on."""
+    from psmforce.live.node import ForceNode
+    ckpt = checkpoint(tmp_path / "h.pt", rate_hz=1000.0)
+    node = ForceNode(StreamingEstimator.from_checkpoint(ckpt, psm=PSM()))
+    types = ROS2_TYPESTORE.types
+    frame = recording(40)
+
+    def header(k):
+        return types["std_msgs/msg/Header"](stamp=types["builtin_interfaces/msg/Time"](
+            sec=100, nanosec=k * 1_000_000), frame_id="")
+
+    def messages(k, names=None, short=False):
+        row = frame.iloc[k]
+        names = names or ["yaw", "pitch", "insertion", "roll", "wrist_pitch", "wrist_yaw"]
+        joints = ["yaw", "pitch", "insertion", "roll", "wrist_pitch", "wrist_yaw"]
+        arrays = [np.array([row[f"{j}_{q}"] for j in joints]) for q in
+                  ("position", "velocity", "effort")]
+        if short:
+            arrays[0] = arrays[0][:5]
+        js = types["sensor_msgs/msg/JointState"](header=header(k), name=names, position=arrays[0],
+                                                  velocity=arrays[1], effort=arrays[2])
+        jaw = types["sensor_msgs/msg/JointState"](
+            header=header(k), name=["jaw"], position=np.array([row["jaw_position"]]),
+            velocity=np.array([row["jaw_velocity"]]), effort=np.array([row["jaw_effort"]]))
+        vector = types["geometry_msgs/msg/Vector3"]
+        hex10 = types["geometry_msgs/msg/WrenchStamped"](
+            header=header(k), wrench=types["geometry_msgs/msg/Wrench"](
+                force=vector(x=row["fx"], y=row["fy"], z=row["fz"]),
+                torque=vector(x=row["tx"], y=row["ty"], z=row["tz"])))
+        return js, jaw, hex10
+
+    def answer(js, jaw, hex10):
+        node.update("js", js)
+        node.update("jaw", jaw)
+        (out,) = node.update("hex10", hex10)
+        return out
+
+    good = [answer(*messages(k)) for k in range(20)]
+    assert not any(a.flags & Flags.INVALID_INPUT for a in good)
+    for k, bad in ((20, {"names": ["elbow", "pitch", "insertion", "roll", "wrist_pitch",
+                                   "wrist_yaw"]}), (21, {"short": True})):
+        out = answer(*messages(k, **bad))
+        assert out.flags & Flags.INVALID_INPUT and out.flags & Flags.HELD
+        np.testing.assert_array_equal(out.force_hex10, good[-1].force_hex10)
+    after = answer(*messages(22))
+    assert not after.flags & (Flags.INVALID_INPUT | Flags.HELD) and node.answers == 23
+
+
+def _free_port():
+    """A TCP port no one listens on now (the OS's choice: never shared with a run beside)."""
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        return probe.getsockname()[1]
+
+
+@pytest.mark.slow
+def test_view_serves_the_estimate_channel_to_a_websocket_client(tmp_path):
+    """The client connects whenever the player gets there (any load): the replay waits for its
+    subscription to the estimate, so it receives the estimates from the first answer on."""
+    pytest.importorskip("foxglove")
+    websocket = pytest.importorskip("websocket")
+    from psmforce.live.replay import replay
+    ckpt = checkpoint(tmp_path / "h.pt", rate_hz=1000.0)
+    _, bag = session(tmp_path, n=3000)  # 3 s in real time
+    port = _free_port()
+    result, failed = {}, []
+
+    def play():
+        try:
+            result.update(replay(bag, ckpt, tmp_path / "out.mcap", realtime=True,
+                                 view_port=port, view_wait_s=120.0, view_hold_s=1.0))
+        except BaseException as err:  # re-raised below, in the test's thread
+            failed.append(err)
+
+    player = threading.Thread(target=play)
+    player.start()
+    ws, channel, payloads = None, None, []
+    try:
+        deadline = time.monotonic() + 120
+        while ws is None and player.is_alive() and time.monotonic() < deadline:
+            try:
+                ws = websocket.create_connection(f"ws://127.0.0.1:{port}", timeout=5,
+                                                 subprotocols=["foxglove.sdk.v1"])
+            except OSError:
+                time.sleep(0.05)
+        assert ws is not None, f"no server on port {port}: {failed}"
+        while time.monotonic() < deadline and len(payloads) < 3:
+            try:
+                opcode, data = ws.recv_data()
+            except websocket.WebSocketTimeoutException:
+                continue  # a starved machine: the deadline decides
+            if opcode == 1:
+                message = json.loads(data)
+                if message.get("op") == "advertise" and channel is None:
+                    for c in message["channels"]:
+                        if c["topic"] == TOPIC:
+                            channel = c
+                            assert c["encoding"] == "cdr" and c["schemaEncoding"] == "ros2msg"
+                            ws.send(json.dumps({"op": "subscribe", "subscriptions": [
+                                {"id": 7, "channelId": c["id"]}]}))
+            elif opcode == 2 and data[0] == 1:  # message data: op, subscription id, time, CDR
+                assert int.from_bytes(data[1:5], "little") == 7
+                payloads.append(ROS2_TYPESTORE.deserialize_cdr(
+                    data[13:], "geometry_msgs/msg/WrenchStamped"))
+    finally:
+        if ws is not None:
+            ws.close()
+        player.join(120)
+    assert not failed, failed
+    assert channel is not None and len(payloads) >= 3
+    assert all(np.isfinite(m.wrench.force.x) and m.header.frame_id == "hex10" for m in payloads)
+    stamps = [m.header.stamp.sec * 10**9 + m.header.stamp.nanosec for m in payloads]
+    assert stamps == [START_NS + k * 10**6 for k in range(len(payloads))]  # from the first on
+    assert result["answers"] == 3000 and result["viewer_before_play"] is True

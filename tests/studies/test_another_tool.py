@@ -1,0 +1,185 @@
+"""Another tool (issue 13, item 4): the bench's instrument drawn per tool, and the few-shot
+calibration of a trained model to it (psmforce/estimators/training/calibrate.py, ``psmforce calibrate``)."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+import torch
+
+from psmforce.estimators.training.calibrate import (MIN_FREE_TRIALS, MIN_TRACTION_TRIALS,
+                                                    CalibrationError, calibrate)
+from psmforce.estimators.training.checkpoint import load_checkpoint
+from psmforce.estimators.data.dataset import DatasetError, load_dataset
+from psmforce.estimators.evaluation.evaluate import evaluate
+from psmforce.estimators.data.hybrid_inputs import prior_from_json
+from psmforce.estimators.evaluation.metrics import AXES
+from psmforce.estimators.training.train import TrainConfig, train
+from psmforce.io.recording import HEX10, TARGETS
+from psmforce.sim import InstrumentParams, SimulationConfigError, simulate
+from psmforce.cli.main import main
+
+torch.set_num_threads(1)
+CHEAP = TrainConfig(progress=False, max_batches_per_epoch=2, max_val_batches=2)
+"""Smoke settings: these tests check the mechanics, not how well anything converges."""
+
+
+def _files(root):
+    return {p.relative_to(root).as_posix(): p.read_bytes()
+            for p in sorted(root.rglob("*.csv"))}
+
+
+# ------------------------------------------------------------------ the tool on the bench
+
+@pytest.mark.slow
+def test_tool_sample_is_recorded_reproducible_and_default_unchanged(tmp_path):
+    simulate("automated", scale=0.01, seed=2, out=tmp_path / "a", tool_seed=4, tool_spread=2.0)
+    assert main(["simulate", "--scale", "0.01", "--seed", "2", "--tool-seed", "4",
+                 "--tool-spread", "2", "--out", str(tmp_path / "b")]) == 0
+    simulate("automated", scale=0.01, seed=2, out=tmp_path / "nominal")
+    meta = json.loads((tmp_path / "a" / "metadata.json").read_text())
+    assert meta["tool"]["seed"] == 4 and meta["tool"]["spread"] == 2.0
+    assert meta["instrument"] == InstrumentParams().sample(4, 2.0).to_dict()
+    nominal = json.loads((tmp_path / "nominal" / "metadata.json").read_text())
+    assert "tool" not in nominal and nominal["instrument"] == InstrumentParams().to_dict()
+    assert _files(tmp_path / "a") == _files(tmp_path / "b")          # CLI = API, bit-exact
+    drawn, nom = _files(tmp_path / "a"), _files(tmp_path / "nominal")
+    assert drawn.keys() == nom.keys()                                 # same protocol ...
+    assert all(drawn[k] != nom[k] for k in drawn)                     # ... another instrument
+
+
+@pytest.mark.parametrize("kwargs, message", [({"tool_seed": -1}, "tool_seed"),
+                                             ({"tool_seed": 1.5}, "tool_seed"),
+                                             ({"tool_seed": 1, "tool_spread": math.nan},
+                                              "tool_spread"),
+                                             ({"tool_seed": 1, "tool_spread": -0.5},
+                                              "tool_spread")])
+def test_bad_tool_options_fail_before_writing(tmp_path, kwargs, message):
+    with pytest.raises(SimulationConfigError, match=message):
+        simulate("automated", scale=0.01, out=tmp_path / "x", **kwargs)
+    assert not (tmp_path / "x").exists()
+
+
+def test_tool_spread_without_tool_seed_is_refused(tmp_path, capsys):
+    assert main(["simulate", "--scale", "0.01", "--tool-spread", "2",
+                 "--out", str(tmp_path / "x")]) == 2
+    assert "--tool-spread" in capsys.readouterr().err
+    assert not (tmp_path / "x").exists()
+
+
+# ------------------------------------------------------------------ calibration
+
+@pytest.fixture(scope="module")
+def benches(tmp_path_factory):
+    """A nominal bench with a smoke-trained hybrid and FCN, and a bench of another tool (2x the
+    nominal spread)."""
+    root = tmp_path_factory.mktemp("another_tool")
+    simulate("automated", scale=0.01, seed=1, out=root / "nominal")
+    simulate("automated", scale=0.02, seed=2, out=root / "tool", tool_seed=3, tool_spread=2.0)
+    for model in ("hybrid", "fcn"):
+        train(root / "nominal", model, root / f"{model}.pt", epochs=1, train_config=CHEAP)
+    return root
+
+
+def _lateral_base_error(prior, trials) -> float:
+    """Mean square (N^2, fx and fy) of HEX10 force - prior - ATI force: the error of the
+    hybrid's lateral base (the compensated HEX10), on trials the prior was not fitted on. (Its
+    fz is no base: the hybrid's axial base is the insertion effort.)"""
+    err = np.concatenate([t.matrix(HEX10, np.float64)[:, :2] - prior.predict(t.frame)[:, :2]
+                          - t.matrix(TARGETS, np.float64)[:, :2] for t in trials])
+    return float(np.mean(err ** 2))
+
+
+@pytest.mark.slow
+def test_calibrate_refits_the_prior_and_names_its_trials(benches, tmp_path):
+    out = tmp_path / "cal.pt"
+    summary = calibrate(benches / "hybrid.pt", benches / "tool", out, minutes=1.0, epochs=1,
+                        train_config=CHEAP)
+    old, new = load_checkpoint(benches / "hybrid.pt"), load_checkpoint(out)
+    record = new.provenance["calibration"]
+    assert record == summary["calibration"]
+    assert new.provenance["calibrated_from"] == str(benches / "hybrid.pt")
+    assert record["tool"]["seed"] == 3 and record["tool"]["spread"] == 2.0
+    tool = load_dataset(benches / "tool")
+    train_paths = {t.path: t.condition for t in tool.select(split="train")}
+    paths = [t["path"] for t in record["trials"]]
+    assert paths and all(train_paths[p] in ("Free", "Traction") for p in paths)
+    assert {t["role"] for t in record["trials"]} == {"train", "validation"}
+    assert sum(t["condition"] == "Free" for t in record["trials"]) >= MIN_FREE_TRIALS
+    assert sum(t["condition"] == "Traction" for t in record["trials"]) >= MIN_TRACTION_TRIALS
+    assert 0 < record["minutes_used"] <= 1.0 and record["minutes_requested"] == 1.0
+    assert record["prior_refit"]["refitted_on"] == [t["path"] for t in record["trials"]
+                                                    if t["role"] == "train"]
+    # the refitted prior compensates the new tool's internal force better on its test trials
+    # (8 of 8 tools drawn at 1x and 2x spread did so when this test was written)
+    test = tool.select(split="test")
+    old_prior, new_prior = prior_from_json(old.prior_json), prior_from_json(new.prior_json)
+    assert _lateral_base_error(new_prior, test) < 0.8 * _lateral_base_error(old_prior, test)
+    assert new_prior.insertion.to_dict() == old_prior.insertion.to_dict()   # the arm's, kept
+    # only the last block moved, and the checkpoint serves the new tool's data
+    changed = {k for k, v in new.model.state_dict().items()
+               if not torch.equal(v, old.model.state_dict()[k])}
+    assert changed and changed <= {k for m in new.model.finetune_modules()
+                                   for k in _names(new.model, m)}
+    metrics = evaluate(out, benches / "tool", tmp_path / "eval", plots=False)
+    assert all(np.isfinite(metrics["overall"][a]["nrmse_pct"]) for a in AXES)
+
+
+def _names(model, module) -> set[str]:
+    ids = {id(p) for p in module.parameters()}
+    return {k for k, p in model.named_parameters() if id(p) in ids}
+
+
+@pytest.mark.slow
+def test_calibrate_a_baseline_finetunes_its_last_block_only(benches, tmp_path):
+    out = tmp_path / "fcn_cal.pt"
+    calibrate(benches / "fcn.pt", benches / "tool", out, minutes=1.0, epochs=1,
+              train_config=CHEAP)
+    ckpt = load_checkpoint(out)
+    record = ckpt.provenance["calibration"]
+    assert record["prior_refit"] is None and not ckpt.prior_json
+    assert 0 < record["trainable_parameters"] < sum(p.numel() for p in ckpt.model.parameters())
+
+
+@pytest.mark.slow
+def test_calibration_is_deterministic(benches):
+    tool = load_dataset(benches / "tool")
+    from psmforce.estimators.training.calibrate import calibration_trials
+    first = [t.path for t in calibration_trials(tool, 1.0)]
+    assert first == [t.path for t in calibration_trials(load_dataset(benches / "tool"), 1.0)]
+    assert first[0].startswith("train/Free/")       # free space first, then interleaved
+    longer = [t.path for t in calibration_trials(tool, 1.2)]
+    assert longer[:len(first)] == first              # more minutes extend the same order
+
+
+@pytest.mark.slow
+def test_calibrate_bad_inputs_are_refused_naming_the_problem(benches, tmp_path, capsys):
+    out = tmp_path / "cal.pt"
+    with pytest.raises(DatasetError, match="does not exist"):
+        calibrate(benches / "hybrid.pt", tmp_path / "missing", out)
+    with pytest.raises(CalibrationError, match="too few minutes.*--minutes"):
+        calibrate(benches / "hybrid.pt", benches / "tool", out, minutes=0.05)
+    with pytest.raises(CalibrationError, match="asked for 500 min"):
+        calibrate(benches / "hybrid.pt", benches / "tool", out, minutes=500)
+    with pytest.raises(CalibrationError, match="minutes"):
+        calibrate(benches / "hybrid.pt", benches / "tool", out, minutes=math.nan)
+    # a dataset without free-space recordings cannot refit the prior
+    meta = json.loads((benches / "tool" / "metadata.json").read_text())
+    meta["trials"] = [t for t in meta["trials"] if t["condition"] != "Free"]
+    no_free = tmp_path / "no_free"
+    no_free.mkdir()
+    for t in meta["trials"]:
+        target = no_free / t["path"]
+        target.parent.mkdir(parents=True, exist_ok=True)
+        target.write_bytes((benches / "tool" / t["path"]).read_bytes())
+    (no_free / "metadata.json").write_text(json.dumps(meta))
+    with pytest.raises(CalibrationError, match="no free-space trials"):
+        calibrate(benches / "hybrid.pt", no_free, out)
+    assert main(["calibrate", str(benches / "hybrid.pt"), "--data", str(benches / "tool"),
+                 "--out", str(out), "--minutes", "0.05"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("psmforce calibrate: error: too few minutes")
+    assert not out.exists()
