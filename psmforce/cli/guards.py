@@ -22,6 +22,15 @@ def _option(name: str) -> str:
     return "--" + name.replace("_", "-")
 
 
+def _exists(value: str) -> bool:
+    """Whether ``value`` names an existing path; a text no file system could hold as a name (an
+    inline JSON ``--config``, a name too long) names none, and its own option says so."""
+    try:
+        return Path(value).exists()
+    except OSError:
+        return False
+
+
 def outputs_spare_inputs(args) -> None:
     """No command writes over one of its inputs: an output that is an input file or folder
     (links followed), or an existing file inside an input folder (a recording, a
@@ -29,13 +38,18 @@ def outputs_spare_inputs(args) -> None:
     inputs = []
     for name in _INPUTS:
         value = getattr(args, name, None)
-        if isinstance(value, str) and value and Path(value).exists():
+        if isinstance(value, str) and value and _exists(value):
             inputs.append((name, Path(value).resolve()))
     outputs: dict[Path, str] = {}
     for name in _OUTPUTS:
         value = getattr(args, name, None)
         if not isinstance(value, str) or not value:
             continue
+        from psmforce.core.files import check_name
+        try:
+            check_name(value)  # a name no file system holds: refused before any work
+        except ValueError as err:
+            raise ValueError(f"{_option(name)}: {err}") from None
         target = Path(value).resolve()
         if target in outputs:
             raise ValueError(f"{_option(name)}: {value} is also {outputs[target]}: two outputs "

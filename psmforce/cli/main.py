@@ -3,7 +3,8 @@
 Every subcommand explains its inputs and outputs in ``--help``, exits 0 on success, and on
 failure prints one line ``psmforce <command>: error: <reason>`` to stderr and exits 2, leaving
 no partial output files (each library call writes atomically or into a fresh folder).
-Where a command produces figures, ``--json PATH`` writes them machine-readably.
+Where a command produces figures, ``--json PATH`` writes them machine-readably (``--json -``: on
+standard output; a path that exists and is not a regular file is refused).
 
 One error boundary (:func:`main`): a refused input (the library's errors, all ValueError,
 OSError, RuntimeError or KeyError) exits 2; any other exception is a bug and still ends in one

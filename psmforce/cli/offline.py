@@ -25,10 +25,21 @@ def _writable_ancestor(target: Path, option: str) -> None:
 
 
 def output_file(path: str, option: str, *, parents: bool = True) -> None:
-    """Refuse an output file that cannot be written (``parents``: missing folders get created)."""
+    """Refuse an output file that cannot be written (``parents``: missing folders get created),
+    or that exists and is not a regular file (a link, a pipe, a device: never replaced,
+    :func:`psmforce.core.files.check_output`). ``-`` for ``--json`` is standard output."""
+    if path == "-" and option == "--json":
+        return
     target = Path(path)
-    if target.is_dir():
+    if target.is_dir() and not target.is_symlink():
         raise ValueError(f"{option}: {target} is a folder, expected a file name")
+    from psmforce.core.files import check_name, check_output
+    try:
+        check_name(target)
+        check_output(target)
+    except ValueError as err:
+        raise ValueError(f"{option}: {err}" + ("; --json - writes to standard output"
+                                                if option == "--json" else "")) from None
     if not parents and not target.parent.is_dir():
         raise ValueError(f"{option}: folder {target.parent} does not exist")
     _writable_ancestor(target, option)
@@ -37,6 +48,11 @@ def output_file(path: str, option: str, *, parents: bool = True) -> None:
 def _fresh_folder(path: str, option: str) -> None:
     """An output folder must be new or empty: results are never mixed with older ones."""
     target = Path(path)
+    from psmforce.core.files import check_name
+    try:
+        check_name(target)
+    except ValueError as err:
+        raise ValueError(f"{option}: {err}") from None
     if target.exists():
         if not target.is_dir():
             raise ValueError(f"{option}: {target} exists and is not a folder")
@@ -70,17 +86,29 @@ def _training_options(args) -> None:
     output_file(args.out, "--out")
 
 
+MAX_JSON_OPTION_BYTES = 1 << 20
+"""The largest file an option holding JSON (``--config``) may name: a model's arguments."""
+
+
 def json_object(value: str | None, option: str) -> dict | None:
-    """An option holding a JSON object, as the path of a file holding one or inline; None when
-    the option is not given."""
+    """An option holding a JSON object, inline (it starts with ``{``) or as the path of a regular
+    file of at most :data:`MAX_JSON_OPTION_BYTES` holding one; None when the option is not
+    given."""
     if value is None:
         return None
-    is_file = Path(value).is_file()
+    inline = value.lstrip().startswith("{")  # never tried as a path: a long one is no file name
+    if inline:
+        text = value
+    else:
+        from psmforce.core.files import read_input_text
+        try:
+            text = read_input_text(value, MAX_JSON_OPTION_BYTES, f"{option} file")
+        except ValueError as err:
+            raise ValueError(f"{option}: {err} (inline JSON starts with '{{')") from None
     try:
-        parsed = json.loads(Path(value).read_text() if is_file else value)
+        parsed = json.loads(text)
     except json.JSONDecodeError as err:
-        what = f"file {value} holds no valid JSON" if is_file else \
-            f"{value!r} is neither valid JSON nor an existing file"
+        what = "the inline JSON is not valid" if inline else f"file {value} holds no valid JSON"
         raise ValueError(f"{option}: {what} ({err})") from None
     if not isinstance(parsed, dict):
         raise ValueError(f"{option}: expected a JSON object, got {type(parsed).__name__}")
@@ -88,10 +116,15 @@ def json_object(value: str | None, option: str) -> dict | None:
 
 
 def write_json(path: str | None, payload: dict) -> None:
+    """``payload`` as JSON at ``path``, whole or not at all; ``-``: on standard output."""
     if path is None:
         return
+    text = json.dumps(payload, indent=2, default=_jsonable) + "\n"
+    if path == "-":
+        sys.stdout.write(text)
+        return
     from psmforce.core.files import write_text_atomic
-    write_text_atomic(path, json.dumps(payload, indent=2, default=_jsonable) + "\n")
+    write_text_atomic(path, text)
 
 
 def _jsonable(value):

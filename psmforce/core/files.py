@@ -1,10 +1,18 @@
-"""Files written whole or not at all.
+"""Files written whole or not at all, and never through or over what the user has.
 
 Every file the project writes (recordings, dataset metadata, priors, arm models, checkpoints,
-exports, figures, reports, task caches) goes through :func:`atomic_path`: the content is written
-to a sibling ``NAME.part`` and renamed onto ``NAME`` only once complete, and the sibling is
-removed if writing fails. A rename within one folder is atomic on POSIX, so a reader, or a writer
-interrupted by a signal or a full disk, sees the previous file or none, never half of one.
+exports, figures, reports, task caches, bags) goes through :func:`atomic_path`: the content is
+written to a temporary sibling and renamed onto the target only once complete, and the sibling
+is removed if writing fails. A rename within one folder is atomic on POSIX, so a reader, or a
+writer interrupted by a signal or a full disk, sees the previous file or none, never half of one.
+
+The temporary sibling is created exclusively under a name no other file has
+(``.NAME.<random>.part``, :func:`tempfile.mkstemp`): a file the user keeps beside the target,
+whatever its name, is never taken for it and never deleted, and a link planted under some
+expected name is never written through. The target itself must be a regular file or absent:
+a symbolic link, a folder, a named pipe, a socket or a device (``/dev/stdout`` included) is
+refused (:class:`OutputError`), since the rename would replace it with a regular file. A folder
+written as a whole (a bag's staging folder) is staged the same way (:func:`staging_folder`).
 :func:`folder_sha256` tells whether two folders hold the same files, byte for byte.
 """
 
@@ -13,31 +21,105 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import shutil
+import stat
+import tempfile
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Iterator
 
+_KINDS = ((stat.S_ISLNK, "a symbolic link"), (stat.S_ISDIR, "a folder"),
+          (stat.S_ISFIFO, "a named pipe"), (stat.S_ISSOCK, "a socket"),
+          (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"))
+
+
+class OutputError(ValueError):
+    """An output path the project will not write: it exists and is not a regular file."""
+
+
+def check_output(path: str | Path) -> None:
+    """Refuse ``path`` unless it is absent or a regular file (not followed if a link)."""
+    try:
+        mode = os.lstat(path).st_mode
+    except (FileNotFoundError, NotADirectoryError):  # absent; whether it can be written is
+        return                                       # the writer's (or the caller's) check
+    if stat.S_ISREG(mode):
+        return
+    kind = next((name for test, name in _KINDS if test(mode)), "not a regular file")
+    raise OutputError(f"{path}: exists and is {kind}; refusing to replace it with a file "
+                      f"(give the path of a regular file or a new name)")
+
+
+def read_input_text(path: str | Path, max_bytes: int, what: str = "input") -> str:
+    """The text of the input file ``path``, refused (ValueError naming it) unless it is a regular
+    file (a link to one is followed) of at most ``max_bytes``: a pipe would hang the reader and a
+    device (``/dev/zero``) exhaust the memory."""
+    try:
+        info = os.stat(path)
+    except OSError as err:
+        raise ValueError(f"{path}: cannot read the {what} ({err.strerror})") from None
+    if not stat.S_ISREG(info.st_mode):
+        raise ValueError(f"{path}: the {what} is not a regular file")
+    if info.st_size > max_bytes:
+        raise ValueError(f"{path}: the {what} holds {info.st_size} bytes, more than the "
+                         f"{max_bytes} it may")
+    with open(path, "rb") as fh:
+        data = fh.read(max_bytes + 1)
+    if len(data) > max_bytes:  # grew while read
+        raise ValueError(f"{path}: the {what} is longer than the {max_bytes} bytes it may hold")
+    try:
+        return data.decode()
+    except UnicodeDecodeError:
+        raise ValueError(f"{path}: the {what} is not UTF-8 text") from None
+
+
+def check_name(path: str | Path) -> None:
+    """Refuse (ValueError) a path the file system cannot hold: a name longer than its folder
+    allows, or a path longer than the system's limit; found before any work, not after it."""
+    path = Path(path)
+    folder = next((p for p in [path.parent, *path.parent.parents] if p.is_dir()), Path("."))
+    name_max = os.pathconf(folder, "PC_NAME_MAX")
+    long = next((part for part in path.parts if len(os.fsencode(part)) > name_max), None)
+    if long is not None:
+        raise ValueError(f"{path}: the name {long[:40]}... is {len(os.fsencode(long))} bytes, "
+                         f"longer than the {name_max} the file system allows")
+    path_max = os.pathconf(folder, "PC_PATH_MAX")
+    if len(os.fsencode(os.path.abspath(path))) >= path_max:
+        raise ValueError(f"{path}: longer than the {path_max} bytes a path may have")
+
 
 @contextmanager
-def atomic_path(path: str | Path, *, keep_suffix: bool = False,
-                per_process: bool = False) -> Iterator[Path]:
-    """Yield the temporary sibling to write; on success it replaces ``path``.
+def atomic_path(path: str | Path, *, keep_suffix: bool = False) -> Iterator[Path]:
+    """Yield a new, empty temporary sibling to write; on success it replaces ``path``.
 
-    ``keep_suffix``: ``NAME.part.SUFFIX`` (for writers that choose the format by suffix, such as
-    matplotlib). ``per_process``: ``.NAME.PID.part``, for caches that several processes may
-    write at once (the last complete write wins, none sees another's half)."""
+    ``keep_suffix``: the temporary name ends in ``.part.SUFFIX`` (for writers that choose the
+    format by suffix, such as matplotlib). Several processes may write one target at once: each
+    has its own sibling, and the last complete write wins."""
     path = Path(path)
-    if per_process:
-        tmp = path.with_name(f".{path.name}.{os.getpid()}.part")
-    elif keep_suffix:
-        tmp = path.with_name(f"{path.stem}.part{path.suffix}")
-    else:
-        tmp = path.with_name(f"{path.name}.part")
+    check_output(path)
+    fd, name = tempfile.mkstemp(prefix=f".{path.name}.",
+                                suffix=".part" + (path.suffix if keep_suffix else ""),
+                                dir=path.parent)
+    os.close(fd)
+    tmp = Path(name)
     try:
         yield tmp
+        check_output(path)  # again: the target may have changed while the content was written
         tmp.replace(path)
     finally:
         tmp.unlink(missing_ok=True)
+
+
+@contextmanager
+def staging_folder(path: str | Path) -> Iterator[Path]:
+    """Yield a new, empty temporary folder beside ``path`` (``.NAME.<random>.part``) for a
+    writer that needs a folder of its own; it is removed with whatever is left in it."""
+    path = Path(path)
+    staging = Path(tempfile.mkdtemp(prefix=f".{path.name}.", suffix=".part", dir=path.parent))
+    try:
+        yield staging
+    finally:
+        shutil.rmtree(staging, ignore_errors=True)
 
 
 def write_text_atomic(path: str | Path, text: str) -> None:

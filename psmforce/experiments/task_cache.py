@@ -189,7 +189,7 @@ def run_task(where: str, params: dict, cache: str) -> dict:
     record = seal({"format": RESULT_FORMAT, "format_version": RESULT_VERSION,
                    "task": _task(fn).identity, "params": params,
                    "seconds": time.perf_counter() - t0, "result": result})
-    with atomic_path(path, per_process=True) as tmp:  # Ray workers may race on one key
+    with atomic_path(path) as tmp:  # Ray workers may race on one key: each its own sibling
         tmp.write_text(json.dumps(record, indent=1) + "\n")
     return record["result"]
 
@@ -252,7 +252,7 @@ def adopt_earlier_keys(cache: Path, tasks: Sequence[TaskSpec], log) -> None:
         try:
             os.link(path, cache / name)
         except OSError:  # a file system without hard links
-            with atomic_path(cache / name, per_process=True) as tmp:
+            with atomic_path(cache / name) as tmp:
                 shutil.copyfile(path, tmp)
         del missing[name]
         adopted += 1

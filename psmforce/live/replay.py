@@ -26,6 +26,7 @@ from pathlib import Path
 import numpy as np
 from rosbags.highlevel import AnyReader
 
+from psmforce.core.files import atomic_path
 from psmforce.estimators.data.rates import RateError, recording_rate_hz
 from psmforce.estimators.runtime.streaming import StreamingEstimator
 from psmforce.estimators.networks.uncertainty import predicts_variance
@@ -104,22 +105,23 @@ def replay(bag: str | Path, checkpoint: str | Path, out: str | Path, *, arm: str
         if tare_on_start:
             node.request_tare()
         stream_of = {resolved[s]: s for s in ("js", "jaw", "hex10")}
-        partial = out.with_name(out.name + ".part")
-        sink = McapOut(partial)
         flags = np.zeros(32, np.int64)
         view, viewer = None, None
         try:
-            if view_port is not None:
-                outputs = {node.topics[n]: t for n, t in OUTPUT_TYPES.items()
-                           if n != "std" or predicts_variance(estimator.model)}
-                inputs = {c.topic: c.msgtype for c in reader.connections
-                          if c.msgtype in ROS2_TYPESTORE.types}
-                view = LiveView(view_port, channels=inputs | outputs)
-                viewer = view_wait_s > 0 and view.wait_for_subscriber(node.topics["hex10"],
-                                                                     view_wait_s)
-            summary = _play(reader, node, stream_of, sink, view, realtime, flags)
-            sink.close()
-            partial.rename(out)
+            with atomic_path(out) as partial:  # the MCAP exists only once complete
+                sink = McapOut(partial)
+                try:
+                    if view_port is not None:
+                        outputs = {node.topics[n]: t for n, t in OUTPUT_TYPES.items()
+                                   if n != "std" or predicts_variance(estimator.model)}
+                        inputs = {c.topic: c.msgtype for c in reader.connections
+                                  if c.msgtype in ROS2_TYPESTORE.types}
+                        view = LiveView(view_port, channels=inputs | outputs)
+                        viewer = view_wait_s > 0 and view.wait_for_subscriber(
+                            node.topics["hex10"], view_wait_s)
+                    summary = _play(reader, node, stream_of, sink, view, realtime, flags)
+                finally:
+                    sink.close()
             layout = write_layout(out.with_suffix(".layout.json"), node.topics["hex10"],
                                   resolved["hex10"], resolved.get("ati")
                                   if resolved.get("ati") in present else None)
@@ -128,9 +130,6 @@ def replay(bag: str | Path, checkpoint: str | Path, out: str | Path, *, arm: str
         finally:
             if view is not None:
                 view.close()
-            if partial.exists():
-                sink.close()
-                partial.unlink()
     finally:
         reader.close()
     return {"bag": str(bag), "out": str(out), "layout": str(layout),

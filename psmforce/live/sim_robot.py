@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from psmforce.core.files import write_text_atomic
 from psmforce.io.bags.messages import stream_columns
 from psmforce.io.bags.reading import resolve_topics
 from psmforce.robot.conventions import CHAIN_JOINTS, JAW_JOINT
@@ -144,7 +145,7 @@ def main(argv: list[str] | None = None) -> int:
     result = play(frame, DomainParticipant(domain(args.domain_id)), arm=args.arm,
                   start_ns=args.start_ns, loop=stop is not None, stop=stop)
     if args.sent:
-        Path(args.sent).write_text(json.dumps(result))
+        write_text_atomic(args.sent, json.dumps(result))
     print(f"published {len(result['stamps_ns'])} samples")
     return 0
 

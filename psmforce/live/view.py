@@ -16,6 +16,7 @@ import threading
 import time
 from pathlib import Path
 
+from psmforce.core.files import write_text_atomic
 from psmforce.io.bags.messages import ROS2_TYPESTORE
 
 
@@ -49,7 +50,7 @@ def layout(estimate_topic: str, hex10_topic: str, ati_topic: str | None) -> dict
 def write_layout(path: str | Path, *args) -> Path:
     """Write :func:`layout` (``args``: its arguments) as JSON to ``path``."""
     path = Path(path)
-    path.write_text(json.dumps(layout(*args), indent=2) + "\n")
+    write_text_atomic(path, json.dumps(layout(*args), indent=2) + "\n")
     return path
 
 
@@ -77,8 +78,10 @@ class McapOut:
         self.counts[topic] = self.counts.get(topic, 0) + 1
 
     def close(self) -> None:
-        self._writer.finish()
-        self._file.close()
+        """Finish the file (once; a second call does nothing)."""
+        if not self._file.closed:
+            self._writer.finish()
+            self._file.close()
 
 
 class LiveView:

@@ -133,3 +133,66 @@ def test_a_gpu_run_finishes_on_the_cpu_and_computes_nowhere_else(tmp_path, cli_e
     assert "--finish-on cuda" in cli_error("reproduce") and calls == []
     assert main(["reproduce", "--out", out, "--device", "cuda", "--finish-on", "cpu"]) == 0
     assert calls[0]["device"] == "cuda" and calls[0]["finish_on"] == "cpu"
+
+
+# Issue 46, class 1: an output that exists and is not a regular file is refused before the work.
+
+@pytest.mark.parametrize("kind", ["symlink", "fifo", "device"])
+def test_a_json_output_that_is_not_a_regular_file_is_refused_before_the_work(tmp_path, kind,
+                                                                              cli_error):
+    kept = tmp_path / "kept.json"
+    kept.write_text("the user's file")
+    target = {"device": "/dev/null"}.get(kind, str(tmp_path / "report.json"))
+    if kind == "symlink":
+        os.symlink(kept, target)
+    elif kind == "fifo":
+        os.mkfifo(target)   # a writer opening it would hang; the refusal comes first
+    out = tmp_path / "bench"
+    assert main(["simulate", "--scale", "0.005", "--seed", "0", "--out", str(out),
+                 "--json", target]) == 2
+    assert "--json" in cli_error("simulate") and "not" not in kept.read_text()
+    assert kept.read_text() == "the user's file" and not out.exists()
+
+
+def test_json_dash_writes_to_standard_output(tmp_path, capsys):
+    assert main(["index", str(tmp_path / "none"), "--json", "-"]) == 2  # refused: no folder
+    out = tmp_path / "bench"
+    assert main(["simulate", "--scale", "0.005", "--seed", "0", "--out", str(out),
+                 "--json", "-"]) == 0
+    printed = capsys.readouterr().out
+    assert '"protocol": "automated"' in printed and not (tmp_path / "-").exists()
+
+
+# Issue 46, class 11: refusals that were wrong or came after the work.
+
+def test_a_long_inline_config_is_json_not_a_file_name(bench, tmp_path, cli_error, no_training):
+    config = '{"hidden": 64, "dropout": 0.1' + ", " * 200 + "}"   # 300+ characters, invalid
+    assert main(["train", "--data", str(bench), "--model", "fcn", "--epochs", "1", "--config",
+                 config, "--out", str(tmp_path / "m.pt")]) == 2
+    line = cli_error("train")
+    assert "--config" in line and "inline JSON is not valid" in line
+    assert "File name too long" not in line
+
+
+@pytest.mark.parametrize("special", ["/dev/zero", "fifo"])
+def test_a_config_file_that_is_not_a_regular_file_is_refused(bench, tmp_path, special,
+                                                             cli_error, no_training):
+    path = special
+    if special == "fifo":
+        path = str(tmp_path / "config.json")
+        os.mkfifo(path)  # reading it would wait for a writer forever
+    assert main(["train", "--data", str(bench), "--model", "fcn", "--epochs", "1", "--config",
+                 path, "--out", str(tmp_path / "m.pt")]) == 2
+    assert "not a regular file" in cli_error("train")
+
+
+def test_an_out_name_the_file_system_cannot_hold_is_refused_before_training(
+        bench, tmp_path, cli_error, no_training):
+    out = tmp_path / ("m" * 300 + ".pt")
+    assert main(["train", "--data", str(bench), "--model", "fcn", "--epochs", "1",
+                 "--out", str(out)]) == 2
+    line = cli_error("train")
+    assert "--out" in line and "longer than the" in line
+    out_folder = tmp_path / ("e" * 300)
+    assert main(["simulate", "--scale", "0.005", "--out", str(out_folder)]) == 2
+    assert "--out" in cli_error("simulate")

@@ -1,10 +1,12 @@
-"""psmforce.core.files: a file is replaced whole or left as it was, and no temporary stays behind."""
+"""psmforce.core.files: a file is replaced whole or left as it was, no temporary stays behind, and
+nothing the user has is taken for a temporary, written through or replaced."""
 
 import os
 
 import pytest
 
-from psmforce.core.files import atomic_path, write_bytes_atomic, write_text_atomic
+from psmforce.core.files import (OutputError, atomic_path, check_output, staging_folder,
+                                 write_bytes_atomic, write_text_atomic)
 
 
 def test_a_failed_write_leaves_the_previous_file_and_no_part(tmp_path):
@@ -25,14 +27,70 @@ def test_a_complete_write_replaces_the_file(tmp_path):
     assert target.read_bytes() == b"\x02" and len(list(tmp_path.iterdir())) == 1
 
 
-def test_temporary_names(tmp_path):
+def test_temporary_names_are_hidden_unique_and_keep_the_suffix_when_asked(tmp_path):
     with atomic_path(tmp_path / "fig.png", keep_suffix=True) as tmp:
-        assert tmp.name == "fig.part.png"  # matplotlib picks the format by suffix
-        tmp.write_bytes(b"png")
-    with atomic_path(tmp_path / "task.json", per_process=True) as tmp:
-        assert tmp.name == f".task.json.{os.getpid()}.part"
-        tmp.write_text("{}")
+        assert tmp.name.startswith(".fig.png.") and tmp.name.endswith(".part.png")
+        tmp.write_bytes(b"png")  # matplotlib picks the format by suffix
+    with atomic_path(tmp_path / "task.json") as a, atomic_path(tmp_path / "task.json") as b:
+        assert a != b and a.exists() and b.exists()   # two writers, two siblings
+        a.write_text("{}")
+        b.write_text("[]")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["fig.png", "task.json"]
+    assert (tmp_path / "task.json").read_text() == "{}"   # the last complete write wins
+
+
+# Issue 46, class 1: the user's files are never taken for a temporary, written through or replaced.
+
+def test_a_file_named_like_the_old_temporary_survives_a_write(tmp_path):
+    """``calibrate ck.pt.part --out ck.pt`` once deleted its input: the temporary was the fixed
+    sibling ``NAME.part``."""
+    theirs = tmp_path / "ck.pt.part"
+    theirs.write_bytes(b"the user's checkpoint")
+    write_bytes_atomic(tmp_path / "ck.pt", b"new")
+    assert theirs.read_bytes() == b"the user's checkpoint"
+    assert (tmp_path / "ck.pt").read_bytes() == b"new"
+
+
+def test_a_link_planted_under_a_temporary_name_is_not_written_through(tmp_path):
+    """A leftover link named as the temporary once was made a write land in the file it points to."""
+    precious = tmp_path / "prior.json"
+    precious.write_text("the user's prior")
+    for name in ("out.json.part", ".out.json.part", f".out.json.{os.getpid()}.part"):
+        (tmp_path / name).symlink_to(precious)
+    write_text_atomic(tmp_path / "out.json", "result")
+    assert precious.read_text() == "the user's prior"
+    assert (tmp_path / "out.json").read_text() == "result"
+
+
+@pytest.mark.parametrize("kind", ["symlink", "fifo", "folder"])
+def test_a_target_that_is_not_a_regular_file_is_refused_and_left_as_it_was(tmp_path, kind):
+    target, other = tmp_path / "out.json", tmp_path / "elsewhere.json"
+    other.write_text("kept")
+    if kind == "symlink":
+        target.symlink_to(other)
+    elif kind == "fifo":
+        os.mkfifo(target)
+    else:
+        target.mkdir()
+    before = sorted(p.name for p in tmp_path.iterdir())
+    with pytest.raises(OutputError, match=f"{target}: exists and is a "):
+        write_text_atomic(target, "result")
+    assert sorted(p.name for p in tmp_path.iterdir()) == before   # no temporary left either
+    assert other.read_text() == "kept"
+    assert {"symlink": target.is_symlink, "fifo": target.is_fifo, "folder": target.is_dir}[kind]()
+
+
+def test_standard_output_as_a_device_is_refused():
+    with pytest.raises(OutputError, match="character device"):
+        check_output("/dev/null")
+
+
+def test_a_staging_folder_is_new_and_goes_whatever_it_holds(tmp_path):
+    (tmp_path / "run.mcap.part").mkdir()   # left by an earlier writer, or the user's: untouched
+    with staging_folder(tmp_path / "run.mcap") as staging:
+        assert staging.is_dir() and not any(staging.iterdir())
+        (staging / "run.mcap").write_bytes(b"bag")
+    assert not staging.exists() and (tmp_path / "run.mcap.part").is_dir()
 
 
 def test_folder_digest_sees_every_byte_and_name_not_the_location(tmp_path):

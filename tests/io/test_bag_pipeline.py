@@ -147,6 +147,22 @@ def test_write_bag_without_ati_and_convert_back(tmp_path):
     np.testing.assert_allclose(back[list(REQUIRED)], frame[list(REQUIRED)], rtol=RTOL, atol=ATOL)
 
 
+def test_a_folder_named_like_a_staging_folder_is_not_the_writers(tmp_path):
+    """Issue 46, class 1: a bag was staged in the fixed sibling ``NAME.part`` and refused to be
+    written beside the user's folder of that name; a link in the bag's place is not replaced."""
+    theirs = tmp_path / "b.part"
+    theirs.mkdir()
+    (theirs / "notes.txt").write_text("the user's")
+    write_bag(_recording(), tmp_path / "b", start_ns=START_NS)
+    assert (tmp_path / "b" / "metadata.yaml").is_file()
+    assert [p.name for p in theirs.iterdir()] == ["notes.txt"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["b", "b.part"]   # no staging left
+    (tmp_path / "link").symlink_to(tmp_path / "nowhere")  # dangling: exists() says False
+    with pytest.raises(BagError, match="exists already"):
+        write_bag(_recording(), tmp_path / "link", start_ns=START_NS)
+    assert (tmp_path / "link").is_symlink()
+
+
 @pytest.mark.parametrize("change, message", [
     (lambda f: f.drop(columns="jaw_effort"), r"lacks columns \['jaw_effort'\]"),
     (lambda f: f.assign(time=0.0), "strictly increasing"),

@@ -414,3 +414,4 @@ def test_csv_export_with_other_column_names(tmp_path):
     back = read_recording(tmp_path / "back.csv")
     assert report["rows"] == len(frame) and list(back.columns) == list(frame.columns)
     np.testing.assert_array_equal(back.to_numpy(), frame.to_numpy())
+

@@ -26,13 +26,14 @@ order, interleaved as a recorder running on the bench would store them.
 
 from __future__ import annotations
 
-import shutil
+import os
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 from rosbags.rosbag2 import StoragePlugin, Writer
 
+from psmforce.core.files import staging_folder
 from psmforce.io.bags.messages import (JOINT_STATE, ROS2_TYPESTORE, WRENCH, WRENCH_STAMPED,
                                      stream_columns)
 from psmforce.io.bags.reading import BagError, resolve_topics
@@ -62,12 +63,13 @@ def write_bag(frame: pd.DataFrame, path: str | Path, *, start_ns: int,
 
     ``frame``: a recording (:mod:`psmforce.io.recording` columns; ``time`` strictly increasing,
     seconds). ``start_ns``: the absolute time stamp (ns since the epoch) of ``time`` = 0.
-    ``arm``: namespace of the arm topics. Written into a ``.part`` sibling and renamed into
-    place: ``path`` exists only when complete. Returns the topic of each stream written.
+    ``arm``: namespace of the arm topics. Written into a new staging folder beside ``path``
+    (:func:`psmforce.core.files.staging_folder`) and renamed into place: ``path`` exists only
+    when complete. Returns the topic of each stream written.
     Raises :class:`~psmforce.io.bags.BagError` naming ``path`` (nothing written).
     """
     path = Path(path)
-    if path.exists():
+    if os.path.lexists(path):  # a link too, dangling or not: never replaced
         raise BagError(f"{path}: exists already; a bag is written only into a new folder")
     if not path.parent.is_dir():
         raise BagError(f"{path}: the output folder {path.parent} does not exist")
@@ -91,20 +93,16 @@ def write_bag(frame: pd.DataFrame, path: str | Path, *, start_ns: int,
     row = np.tile(np.arange(len(stamps)), len(streams))
     order = np.argsort(log_ns, kind="stable")
 
-    staging = path.with_name(path.name + ".part")
-    if staging.exists():
-        raise BagError(f"{path}: {staging} exists (left by an interrupted write?); remove it")
-    staging.mkdir()
-    try:
+    with staging_folder(path) as staging:
         with Writer(staging / path.name, version=9, storage_plugin=StoragePlugin.MCAP) as writer:
             connections = [writer.add_connection(topics[s], _TYPES[s], typestore=ROS2_TYPESTORE)
                            for s in streams]
             for k in order:
                 writer.write(connections[which[k]], int(log_ns[k]),
                              payloads[streams[which[k]]][row[k]])
+        if os.path.lexists(path):  # appeared while the bag was written: not replaced
+            raise BagError(f"{path}: appeared while the bag was written; left as it is")
         (staging / path.name).rename(path)
-    finally:
-        shutil.rmtree(staging, ignore_errors=True)
     return topics
 
 
