@@ -56,7 +56,8 @@ def _fresh_folder(path: str, option: str) -> None:
     if target.exists():
         if not target.is_dir():
             raise ValueError(f"{option}: {target} exists and is not a folder")
-        if any(target.iterdir()):
+        from psmforce.core.files import folder_is_empty
+        if not folder_is_empty(target):
             raise ValueError(f"{option}: {target} is not empty (refusing to overwrite or mix "
                              f"results; give a new folder)")
     _writable_ancestor(target, option)

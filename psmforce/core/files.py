@@ -18,6 +18,7 @@ written as a whole (a bag's staging folder) is staged the same way (:func:`stagi
 
 from __future__ import annotations
 
+import fcntl
 import hashlib
 import json
 import os
@@ -120,6 +121,46 @@ def staging_folder(path: str | Path) -> Iterator[Path]:
         yield staging
     finally:
         shutil.rmtree(staging, ignore_errors=True)
+
+
+LOCK_NAME = ".psmforce.lock"
+"""The file in an output folder that a command holds locked while it writes the folder."""
+
+
+@contextmanager
+def locked_folder(folder: str | Path) -> Iterator[Path]:
+    """Hold the output folder ``folder`` (created if absent) for the block: a second command
+    (another process, or another call here) that asks for it meanwhile is refused at once
+    (:class:`OutputError`, one line), so two writers never mix their files in one folder. The
+    lock is an exclusive ``flock`` on :data:`LOCK_NAME` inside the folder, released when the block
+    ends or the process dies (a killed command leaves no lock that blocks the next one); the file
+    goes with the block, and so does the folder if the block made it and left it empty. Callers check the folder's contents (:func:`folder_is_empty`) inside the
+    block, where no other command can change them."""
+    folder = Path(folder)
+    created = not os.path.lexists(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    lock = folder / LOCK_NAME
+    fd = os.open(lock, os.O_RDWR | os.O_CREAT | os.O_NOFOLLOW, 0o644)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        if os.fstat(fd).st_ino != os.stat(lock, follow_symlinks=False).st_ino:
+            raise BlockingIOError  # the holder removed the file between our open and our lock
+    except (BlockingIOError, FileNotFoundError):
+        os.close(fd)
+        raise OutputError(f"{folder}: another command is writing this folder now; wait for it "
+                          f"to end or give another folder") from None
+    try:
+        yield folder
+    finally:
+        Path(lock).unlink(missing_ok=True)
+        os.close(fd)
+        if created and not any(folder.iterdir()):
+            folder.rmdir()  # made for a command that wrote nothing (refused): not left behind
+
+
+def folder_is_empty(folder: str | Path) -> bool:
+    """Whether ``folder`` holds nothing but, perhaps, the lock of :func:`locked_folder`."""
+    return all(p.name == LOCK_NAME for p in Path(folder).iterdir())
 
 
 def write_text_atomic(path: str | Path, text: str) -> None:

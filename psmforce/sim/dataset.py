@@ -27,7 +27,7 @@ import numpy as np
 import psmforce.sim.protocols as protocols
 
 from psmforce.robot.conventions import GRAVITY_UPRIGHT_MPS2
-from psmforce.core.files import write_text_atomic
+from psmforce.core.files import folder_is_empty, locked_folder, write_text_atomic
 from psmforce.io.recording import OVERLOAD, TIME, write_recording
 from psmforce.sim.bench import run_trajectory
 from psmforce.sim.params import Effects, InstrumentParams
@@ -86,7 +86,7 @@ def _check_out(out) -> Path:
     if path.exists():
         if not path.is_dir():
             raise SimulationConfigError(f"out: {path} exists and is not a folder")
-        if any(path.iterdir()):
+        if not folder_is_empty(path):
             raise SimulationConfigError(f"out: {path} is not empty (refusing to mix datasets)")
         if not os.access(path, os.W_OK | os.X_OK):
             raise SimulationConfigError(f"out: {path} is not writable")
@@ -147,59 +147,61 @@ def simulate(protocol: str = "automated", scale: float = 1.0, seed: int = 0, out
     if fmt not in FORMATS:
         raise SimulationConfigError(f"fmt: unknown {fmt!r}, expected one of {FORMATS}")
     path = _validate(protocol, scale, seed, out, instrument, effects, port)
-    port_params = port_by_name(port)
-    instrument = instrument or InstrumentParams()
-    tool = _check_tool(tool_seed, tool_spread)
-    if tool is not None:
-        instrument = instrument.sample(tool_seed, tool_spread)
-    effects = effects or Effects()
-    start = time.perf_counter()
-    plans = protocols.automated(scale, seed) if protocol == "automated" else protocols.teleop(scale, seed)
-    path.mkdir(parents=True, exist_ok=True)
-    trials, minutes, rows = [], {}, 0
-    bag_start_ns = BAG_SESSION_START_NS
-    for index, plan in enumerate(plans):
-        rng = np.random.default_rng([seed, 100, index])
-        frame = run_trajectory(plan.q, protocols.DT, plan.contact, instrument, effects, rng,
-                               r_base_ati=protocols.R_BASE_ATI, truth=truth, port=port_params)
-        target = path / plan.path
-        target.parent.mkdir(parents=True, exist_ok=True)
-        if fmt == "csv":
-            write_recording(frame, target)
-        else:
-            from psmforce.io.bags.writing import write_bag  # the bag stack (rosbags) only for MCAP
-            target = target.with_suffix("")
-            topics = write_bag(frame, target, start_ns=bag_start_ns)
-            bag_start_ns += int(round((frame[TIME].iat[-1] + BAG_TRIAL_PAUSE_S) * 1e9))
-        rows += len(frame)
-        key = f"{plan.split}/{plan.condition}"
-        minutes[key] = minutes.get(key, 0.0) + len(frame) * protocols.DT / 60.0
-        trials.append({"path": target.relative_to(path).as_posix(), "split": plan.split,
-                       "condition": plan.condition,
-                       "rows": len(frame), "contact": plan.contact.kind,
-                       "hex10_overload_rows": int(frame[OVERLOAD].sum()), **plan.info})
-    metadata = {
-        "simulator_version": SIM_VERSION, "software_version": _package_version(),
-        "protocol": protocol, "scale": float(scale), "seed": int(seed), "sample_rate_hz": 1.0 / protocols.DT,
-        "instrument": instrument.to_dict(), **({} if tool is None else {"tool": tool}),
-        "effects": effects.to_dict(),
-        "port": {"name": port, **({} if port_params is None else port_params.to_dict())},
-        "gravity_base": list(GRAVITY_UPRIGHT_MPS2),
-        "R_base_ati": protocols.R_BASE_ATI.tolist(),
-        "ati_convention": "ati_raw_* = load the fixture puts on the Nano17 (= minus the force on the "
-                          "tool) in the ATI frame; ati_f* = -R_PSM_HEX10(q)^T R_base_ati ati_raw_f",
-        "effort_convention": "efforts are what the motors apply: a static external force F on the "
-                             "tool adds -J^T F",
-        "format": fmt,
-        "trials": trials,
-    }
-    if fmt == "mcap":
-        metadata["bags"] = _bag_session(path, topics)
-    write_text_atomic(path / "metadata.json", json.dumps(metadata, indent=1))
-    return {"out": str(path), "protocol": protocol, "format": fmt, "trials": len(trials),
-            "rows": rows,
-            "minutes": {k: round(v, 3) for k, v in sorted(minutes.items())},
-            "seconds": round(time.perf_counter() - start, 2)}
+    with locked_folder(path):  # a second command on this folder is refused while this one runs
+        if not folder_is_empty(path):
+            raise SimulationConfigError(f"out: {path} is not empty (refusing to mix datasets)")
+        port_params = port_by_name(port)
+        instrument = instrument or InstrumentParams()
+        tool = _check_tool(tool_seed, tool_spread)
+        if tool is not None:
+            instrument = instrument.sample(tool_seed, tool_spread)
+        effects = effects or Effects()
+        start = time.perf_counter()
+        plans = protocols.automated(scale, seed) if protocol == "automated" else protocols.teleop(scale, seed)
+        trials, minutes, rows = [], {}, 0
+        bag_start_ns = BAG_SESSION_START_NS
+        for index, plan in enumerate(plans):
+            rng = np.random.default_rng([seed, 100, index])
+            frame = run_trajectory(plan.q, protocols.DT, plan.contact, instrument, effects, rng,
+                                   r_base_ati=protocols.R_BASE_ATI, truth=truth, port=port_params)
+            target = path / plan.path
+            target.parent.mkdir(parents=True, exist_ok=True)
+            if fmt == "csv":
+                write_recording(frame, target)
+            else:
+                from psmforce.io.bags.writing import write_bag  # the bag stack (rosbags) only for MCAP
+                target = target.with_suffix("")
+                topics = write_bag(frame, target, start_ns=bag_start_ns)
+                bag_start_ns += int(round((frame[TIME].iat[-1] + BAG_TRIAL_PAUSE_S) * 1e9))
+            rows += len(frame)
+            key = f"{plan.split}/{plan.condition}"
+            minutes[key] = minutes.get(key, 0.0) + len(frame) * protocols.DT / 60.0
+            trials.append({"path": target.relative_to(path).as_posix(), "split": plan.split,
+                           "condition": plan.condition,
+                           "rows": len(frame), "contact": plan.contact.kind,
+                           "hex10_overload_rows": int(frame[OVERLOAD].sum()), **plan.info})
+        metadata = {
+            "simulator_version": SIM_VERSION, "software_version": _package_version(),
+            "protocol": protocol, "scale": float(scale), "seed": int(seed), "sample_rate_hz": 1.0 / protocols.DT,
+            "instrument": instrument.to_dict(), **({} if tool is None else {"tool": tool}),
+            "effects": effects.to_dict(),
+            "port": {"name": port, **({} if port_params is None else port_params.to_dict())},
+            "gravity_base": list(GRAVITY_UPRIGHT_MPS2),
+            "R_base_ati": protocols.R_BASE_ATI.tolist(),
+            "ati_convention": "ati_raw_* = load the fixture puts on the Nano17 (= minus the force on the "
+                              "tool) in the ATI frame; ati_f* = -R_PSM_HEX10(q)^T R_base_ati ati_raw_f",
+            "effort_convention": "efforts are what the motors apply: a static external force F on the "
+                                 "tool adds -J^T F",
+            "format": fmt,
+            "trials": trials,
+        }
+        if fmt == "mcap":
+            metadata["bags"] = _bag_session(path, topics)
+        write_text_atomic(path / "metadata.json", json.dumps(metadata, indent=1))
+        return {"out": str(path), "protocol": protocol, "format": fmt, "trials": len(trials),
+                "rows": rows,
+                "minutes": {k: round(v, 3) for k, v in sorted(minutes.items())},
+                "seconds": round(time.perf_counter() - start, 2)}
 
 
 def _bag_session(path: Path, topics: dict[str, str]) -> dict:

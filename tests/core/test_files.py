@@ -105,3 +105,52 @@ def test_folder_digest_sees_every_byte_and_name_not_the_location(tmp_path):
     (tmp_path / "b" / "train" / "t.csv").write_text("fx\n0.1\n")
     (tmp_path / "b" / "train" / "t.csv").rename(tmp_path / "b" / "train" / "u.csv")
     assert folder_sha256(tmp_path / "a") != folder_sha256(tmp_path / "b")   # same bytes, renamed
+
+
+# Issue 46, class 6: two commands, one output folder: the second is refused while the first writes.
+
+def test_a_held_folder_refuses_a_second_holder_and_is_free_again_after(tmp_path):
+    from psmforce.core.files import LOCK_NAME, folder_is_empty, locked_folder
+    out = tmp_path / "out"
+    with locked_folder(out):
+        assert folder_is_empty(out) and (out / LOCK_NAME).exists()
+        with pytest.raises(OutputError, match=f"{out}: another command is writing this folder"):
+            with locked_folder(out):
+                pass
+        (out / "result.json").write_text("{}")
+    assert sorted(p.name for p in out.iterdir()) == ["result.json"]   # the lock went with it
+    with locked_folder(out):   # free again
+        pass
+
+
+def test_a_held_folder_made_for_nothing_is_not_left_behind(tmp_path):
+    from psmforce.core.files import locked_folder
+    with pytest.raises(RuntimeError):
+        with locked_folder(tmp_path / "new"):
+            raise RuntimeError("the command was refused")
+    assert not (tmp_path / "new").exists()
+    (tmp_path / "kept").mkdir()
+    with locked_folder(tmp_path / "kept"):
+        pass
+    assert (tmp_path / "kept").is_dir()   # the user's folder, even empty, stays
+
+
+def test_a_lock_held_by_another_process_refuses_simulate_and_writes_nothing(tmp_path):
+    import subprocess
+    import sys
+    from psmforce.sim import simulate
+    out = tmp_path / "sim"
+    holder = subprocess.Popen(
+        [sys.executable, "-c", "import sys, time\nfrom psmforce.core.files import locked_folder\n"
+         f"with locked_folder({str(out)!r}):\n    print('held', flush=True)\n"
+         "    sys.stdin.read()\n"], stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+    try:
+        assert holder.stdout.readline().strip() == "held"
+        with pytest.raises(OutputError, match="another command is writing this folder"):
+            simulate("automated", scale=0.005, seed=1, out=out)
+        assert [p.name for p in out.iterdir()] == [".psmforce.lock"]
+    finally:
+        holder.communicate("", timeout=30)
+    assert not out.exists()   # the holder made it and wrote nothing: gone with its lock
+    simulate("automated", scale=0.005, seed=1, out=out)
+    assert (out / "metadata.json").is_file() and not (out / ".psmforce.lock").exists()

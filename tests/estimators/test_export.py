@@ -56,5 +56,20 @@ def test_export_refuses_other_models_and_foreign_folders(tmp_path):
         tmp_path / "fcn.pt")
     with pytest.raises(ExportError, match="does not stream"):
         export(path, tmp_path / "out")
+    assert not (tmp_path / "out").exists()   # refused: no folder left behind
     with pytest.raises(ExportError, match="no readable hybrid.json"):
         run_export(tmp_path / "nothing", recording(5))
+
+
+@pytest.mark.parametrize("use_prior", [False])
+def test_an_export_into_a_folder_another_command_holds_is_refused(tmp_path, use_prior):
+    """Issue 46, class 6: two exports into one folder both succeeded, and one was lost."""
+    from psmforce.core.files import OutputError, locked_folder
+    path = _checkpoint(tmp_path, use_prior)
+    with locked_folder(tmp_path / "out"):
+        with pytest.raises(OutputError, match="another command is writing this folder"):
+            export(path, tmp_path / "out")
+        assert [p.name for p in (tmp_path / "out").iterdir()] == [".psmforce.lock"]
+    export(path, tmp_path / "out")
+    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == ["hybrid.json",
+                                                                    "hybrid_step.onnx"]

@@ -58,6 +58,10 @@ def test_a_registered_model_runs_the_whole_path(toy, data, tmp_path):
     assert record.model_name == "toy" and isinstance(record.model, Toy)
     assert record.features == PAPER_FEATURES and record.base_columns == ()
 
+    from psmforce.core.files import OutputError, locked_folder
+    with locked_folder(tmp_path / "eval"):  # issue 46, class 6: one writer per output folder
+        with pytest.raises(OutputError, match="another command is writing this folder"):
+            evaluate(tmp_path / "toy.pt", data, tmp_path / "eval", plots=False)
     result = evaluate(tmp_path / "toy.pt", data, tmp_path / "eval", plots=False)
     assert result["model"] == "toy" and result["bias_correction"] is toy.bias_correction
     assert set(result["by_condition"]) == {"Free", "Traction"}

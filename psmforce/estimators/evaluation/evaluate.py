@@ -36,7 +36,7 @@ from psmforce.estimators.evaluation.metrics import POSTPROCESSING, axis_metrics,
 from psmforce.estimators.evaluation.tables import automated_table, modes_table, uncertainty_table
 from psmforce.estimators.networks.uncertainty import (output_width, predicts_variance, std_newton,
                                                       uncertainty_metrics)
-from psmforce.core.files import write_text_atomic
+from psmforce.core.files import locked_folder, write_text_atomic
 from psmforce.io.recording import TARGETS
 
 EVAL_START = 99
@@ -189,7 +189,14 @@ def evaluate(checkpoint: str | Path, data_dir: str | Path, out_dir: str | Path, 
     """Score a checkpoint on the ``split`` trials of ``data_dir`` (all trials when None), overall
     and per condition; writes metrics.json, metrics.md (the paper's metric, then the causal
     one, :func:`causal_table`) and (``plots``) PNG figures into ``out_dir``. Returns the
-    metrics dict."""
+    metrics dict. ``out_dir`` is held for the call (:func:`psmforce.core.files.locked_folder`):
+    a second evaluation into it meanwhile is refused."""
+    with locked_folder(out_dir):
+        return _evaluate(checkpoint, data_dir, out_dir, split=split, device=device, plots=plots)
+
+
+def _evaluate(checkpoint: str | Path, data_dir: str | Path, out_dir: str | Path, *,
+              split: str | None, device: str, plots: bool) -> dict:
     ckpt = load_checkpoint(checkpoint, device)
     dataset = load_dataset(data_dir)
     ckpt.derive(dataset)
@@ -219,7 +226,6 @@ def evaluate(checkpoint: str | Path, data_dir: str | Path, out_dir: str | Path, 
                                                             if t.condition == c])
                              for c in conditions}}
     out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
     write_text_atomic(out / "metrics.json", json.dumps(result, indent=2) + "\n")
     md = automated_table({ckpt.model_name: result["overall"]}, f"{split or 'all'} trials")
     md += "\n" + causal_table(result)

@@ -65,7 +65,7 @@ from psmforce.estimators.runtime.steppers import (OPSET, OnnxStepper, TorchStepp
                                                   state_spec, step_onnx_bytes)
 from psmforce.estimators.networks.uncertainty import (LOGVAR_MAX, LOGVAR_MIN, output_width,
                                                       predicts_variance, std_newton)
-from psmforce.core.files import write_bytes_atomic
+from psmforce.core.files import locked_folder, write_bytes_atomic
 
 FORMAT = "psmforce-hybrid-export"
 FORMAT_VERSION = 3
@@ -82,7 +82,13 @@ class ExportError(ValueError):
 def export(checkpoint: str | Path, out_dir: str | Path) -> dict:
     """Write ``hybrid_step.onnx`` and ``hybrid.json`` for a hybrid checkpoint into ``out_dir``;
     check the ONNX graph against the eager step on random inputs. Returns a summary (paths,
-    sizes, that check's maximum difference)."""
+    sizes, that check's maximum difference). ``out_dir`` is held for the call
+    (:func:`psmforce.core.files.locked_folder`): a second export into it meanwhile is refused."""
+    with locked_folder(out_dir):
+        return _export(checkpoint, out_dir)
+
+
+def _export(checkpoint: str | Path, out_dir: str | Path) -> dict:
     ckpt = load_checkpoint(checkpoint)
     if not ckpt.recipe.streams:
         raise ExportError(f"{checkpoint}: holds a '{ckpt.model_name}' model, which does not "
@@ -125,7 +131,6 @@ def export(checkpoint: str | Path, out_dir: str | Path) -> dict:
     }
     spec = seal({**spec, "onnx_sha256": sha256_bytes(onnx_bytes)})
     out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
     write_bytes_atomic(out / ONNX_NAME, onnx_bytes)
     write_bytes_atomic(out / JSON_NAME, (json.dumps(spec, indent=2) + "\n").encode())
     return {"onnx": str(out / ONNX_NAME), "json": str(out / JSON_NAME),
