@@ -21,7 +21,7 @@ import sys
 import traceback
 
 from psmforce import __version__
-from psmforce.cli import guards, offline
+from psmforce.cli import guards, offline, options
 
 
 
@@ -281,6 +281,16 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("checkpoint")
     p.add_argument("--out", required=True, help="folder to write")
 
+    p = add("upgrade-checkpoint", offline.upgrade_checkpoint_command,
+            "seal a format 2 checkpoint you trust as format 3",
+            "Format 2 checkpoints carry no checksum over their metadata and prior, so they are "
+            "refused (docs/integrity.md). This checks what can be checked (the weights' "
+            "checksum, the metadata's shape and sense) and writes the same record as format 3, "
+            "sealed: you vouch for its content once.")
+    p.add_argument("checkpoint")
+    p.add_argument("--out", required=True, help="the format 3 checkpoint to write")
+    p.add_argument("--json", help="write a summary here")
+
     p = add("demo", offline.demo_command, "the main job: a small bench end to end in a few minutes",
             "Simulate a small bench, fit the prior, train the hybrid and a baseline, evaluate "
             "them, print the table and write the plots.")
@@ -298,9 +308,9 @@ def main(argv: list[str] | None = None) -> int:
     try:
         guards.outputs_spare_inputs(args)
         if getattr(args, "json", None):
-            offline.output_file(args.json, "--json", parents=False)  # before the work, not after it
+            options.output_file(args.json, "--json", parents=False)  # before the work, not after it
         result = args.func(args)
-        offline.write_json(getattr(args, "json", None), result if isinstance(result, dict) else {})
+        options.write_json(getattr(args, "json", None), result if isinstance(result, dict) else {})
     except KeyboardInterrupt:
         print(f"psmforce {args.command}: interrupted", file=sys.stderr)
         return 130

@@ -1,150 +1,21 @@
 """What each ``psmforce`` command does once its arguments are parsed (:mod:`psmforce.cli.main` builds
-the parser): the option checks that must pass before any work starts, so that a bad argument
-leaves nothing behind, and one handler per command calling the library. Heavy modules are
+the parser): one handler per command, checking its options first (:mod:`psmforce.cli.options`)
+so that a bad argument leaves nothing behind, then calling the library. Heavy modules are
 imported inside the handlers, so ``psmforce --help`` stays fast.
 """
 
 from __future__ import annotations
 
 import json
-import os
 import sys
 from pathlib import Path
 
+from psmforce.cli import options
 from psmforce.cli.guards import progress
 
 
-def _writable_ancestor(target: Path, option: str) -> None:
-    """The nearest existing folder above ``target`` must be writable (the library creates the
-    missing ones): found before the work that produces the output, not after."""
-    parent = target.parent
-    while not parent.exists() and parent != parent.parent:
-        parent = parent.parent
-    if not parent.is_dir() or not os.access(parent, os.W_OK | os.X_OK):
-        raise ValueError(f"{option}: cannot write {target}: {parent} is not a writable folder")
-
-
-def output_file(path: str, option: str, *, parents: bool = True) -> None:
-    """Refuse an output file that cannot be written (``parents``: missing folders get created),
-    or that exists and is not a regular file (a link, a pipe, a device: never replaced,
-    :func:`psmforce.core.files.check_output`). ``-`` for ``--json`` is standard output."""
-    if path == "-" and option == "--json":
-        return
-    target = Path(path)
-    if target.is_dir() and not target.is_symlink():
-        raise ValueError(f"{option}: {target} is a folder, expected a file name")
-    from psmforce.core.files import check_name, check_output
-    try:
-        check_name(target)
-        check_output(target)
-    except ValueError as err:
-        raise ValueError(f"{option}: {err}" + ("; --json - writes to standard output"
-                                                if option == "--json" else "")) from None
-    if not parents and not target.parent.is_dir():
-        raise ValueError(f"{option}: folder {target.parent} does not exist")
-    _writable_ancestor(target, option)
-
-
-def _fresh_folder(path: str, option: str) -> None:
-    """An output folder must be new or empty: results are never mixed with older ones."""
-    target = Path(path)
-    from psmforce.core.files import check_name
-    try:
-        check_name(target)
-    except ValueError as err:
-        raise ValueError(f"{option}: {err}") from None
-    if target.exists():
-        if not target.is_dir():
-            raise ValueError(f"{option}: {target} exists and is not a folder")
-        from psmforce.core.files import folder_is_empty
-        if not folder_is_empty(target):
-            raise ValueError(f"{option}: {target} is not empty (refusing to overwrite or mix "
-                             f"results; give a new folder)")
-    _writable_ancestor(target, option)
-
-
-def _device(device: str, option: str = "--device") -> None:
-    """Refuse a CUDA ``device`` that is not there; ``option``: the flag that asked for it."""
-    if device == "cuda":
-        import torch
-        if not torch.cuda.is_available():
-            raise ValueError(f"{option} cuda: torch sees no CUDA device on this machine "
-                             f"(use {option} cpu)")
-
-
-def _seed(value: int, option: str) -> None:
-    from psmforce.sim.dataset import MAX_SEED  # the simulator's limit (numpy's seed range)
-    if not 0 <= value <= MAX_SEED:
-        raise ValueError(f"{option}: must be an integer in [0, {MAX_SEED}], got {value}")
-
-
-def _training_options(args) -> None:
-    """What train / finetune would discover only after loading data or training."""
-    if args.epochs < 1:
-        raise ValueError(f"--epochs: must be at least 1, got {args.epochs}")
-    _seed(args.seed, "--seed")
-    _device(args.device)
-    output_file(args.out, "--out")
-
-
-MAX_JSON_OPTION_BYTES = 1 << 20
-"""The largest file an option holding JSON (``--config``) may name: a model's arguments."""
-
-
-def json_object(value: str | None, option: str) -> dict | None:
-    """An option holding a JSON object, inline (it starts with ``{``) or as the path of a regular
-    file of at most :data:`MAX_JSON_OPTION_BYTES` holding one; None when the option is not
-    given."""
-    if value is None:
-        return None
-    inline = value.lstrip().startswith("{")  # never tried as a path: a long one is no file name
-    if inline:
-        text = value
-    else:
-        from psmforce.core.files import read_input_text
-        try:
-            text = read_input_text(value, MAX_JSON_OPTION_BYTES, f"{option} file")
-        except ValueError as err:
-            raise ValueError(f"{option}: {err} (inline JSON starts with '{{')") from None
-    try:
-        parsed = json.loads(text)
-    except json.JSONDecodeError as err:
-        what = "the inline JSON is not valid" if inline else f"file {value} holds no valid JSON"
-        raise ValueError(f"{option}: {what} ({err})") from None
-    if not isinstance(parsed, dict):
-        raise ValueError(f"{option}: expected a JSON object, got {type(parsed).__name__}")
-    return parsed
-
-
-def write_json(path: str | None, payload: dict) -> None:
-    """``payload`` as JSON at ``path``, whole or not at all; ``-``: on standard output."""
-    if path is None:
-        return
-    text = json.dumps(payload, indent=2, default=_jsonable) + "\n"
-    if path == "-":
-        sys.stdout.write(text)
-        return
-    from psmforce.core.files import write_text_atomic
-    write_text_atomic(path, text)
-
-
-def _jsonable(value):
-    if hasattr(value, "tolist"):
-        return value.tolist()
-    if isinstance(value, Path):
-        return str(value)
-    raise TypeError(f"not JSON serialisable: {type(value).__name__}")
-
-
-def _scale(value: float) -> None:
-    from psmforce.sim.dataset import MAX_SCALE  # the simulator's limit, checked before it runs
-    if not 0 < value <= MAX_SCALE:  # also refuses NaN
-        raise ValueError(f"--scale: must be in (0, {MAX_SCALE:g}] (times the paper's "
-                         f"protocol), got {value:g}")
-
-
 def simulate_command(args) -> dict:
-    _scale(args.scale)
+    options.scale(args.scale)
     if args.tool_spread is not None and args.tool_seed is None:
         raise ValueError("--tool-spread: only with --tool-seed (without it the bench runs the "
                          "nominal tool)")
@@ -157,7 +28,7 @@ def simulate_command(args) -> dict:
 
 def convert_command(args) -> dict:
     from psmforce.io.bags import convert_bag, convert_csv, summary_line
-    output_file(args.out, "--out", parents=False)
+    options.output_file(args.out, "--out", parents=False)
     if Path(args.bag).suffix.lower() == ".csv":
         report = convert_csv(args.bag, args.out, column_map=args.column_map)
         print(f"wrote {args.out}")
@@ -184,7 +55,7 @@ def convert_command(args) -> dict:
 
 def fit_dynamics_command(args) -> dict:
     if args.model_out:
-        output_file(args.model_out, "--model-out")
+        options.output_file(args.model_out, "--model-out")
     from psmforce.identification import fit_dynamics_cli
     print("fitting the arm's dynamics (CasADi / IPOPT; minutes on a large dataset)",
           flush=True)
@@ -221,7 +92,7 @@ def fit_dynamics_command(args) -> dict:
 
 
 def wrench_command(args) -> dict:
-    output_file(args.out, "--out", parents=False)
+    options.output_file(args.out, "--out", parents=False)
     from psmforce.core.files import atomic_path
     from psmforce.identification import ArmDynamicsModel
     from psmforce.identification.recordings import recording_wrench
@@ -247,7 +118,7 @@ def index_command(args) -> dict:
 
 
 def fit_prior_command(args) -> dict:
-    output_file(args.out, "--out")
+    options.output_file(args.out, "--out")
     from psmforce.identification import fit_prior_cli
     from psmforce.io.recording import HEX10_FORCE
     print("fitting the internal-force prior (CasADi / IPOPT)", flush=True)
@@ -271,7 +142,7 @@ def fit_prior_command(args) -> dict:
 
 
 def fit_transmission_command(args) -> dict:
-    output_file(args.out, "--out")
+    options.output_file(args.out, "--out")
     import math
 
     from psmforce.identification.transmission.model import CableTransmission
@@ -323,23 +194,23 @@ def _models(names, option: str) -> None:
 
 
 def train_command(args) -> dict:
-    _training_options(args)
+    options.training_options(args)
     _models([args.model], "--model")
-    config = json_object(args.config, "--config")
+    config = options.json_object(args.config, "--config")
     from psmforce.estimators.training.train import (train)  # checks the config builds the model before reading data
     return train(args.data, args.model, args.out, features=args.features, epochs=args.epochs,
                  seed=args.seed, device=args.device, prior=args.prior, config=config)
 
 
 def finetune_command(args) -> dict:
-    _training_options(args)
+    options.training_options(args)
     from psmforce.estimators.training.train import finetune
     return finetune(args.checkpoint, args.data, args.out, epochs=args.epochs, seed=args.seed,
                     device=args.device)
 
 
 def calibrate_command(args) -> dict:
-    _training_options(args)
+    options.training_options(args)
     from psmforce.estimators.training.calibrate import calibrate
     result = calibrate(args.checkpoint, args.data, args.out, minutes=args.minutes,
                        epochs=args.epochs, seed=args.seed, device=args.device)
@@ -353,7 +224,7 @@ def calibrate_command(args) -> dict:
 
 
 def evaluate_command(args) -> dict:
-    _fresh_folder(args.out, "--out")
+    options.fresh_folder(args.out, "--out")
     from psmforce.estimators.training.checkpoint import load_checkpoint, trial_hashes
     from psmforce.estimators.data.sanity import repeated_recordings
     from psmforce.estimators.evaluation.evaluate import causal_table, evaluate
@@ -380,9 +251,9 @@ def evaluate_command(args) -> dict:
 
 def reproduce_command(args) -> dict:
     # before reproduce() writes OUT/work: bad arguments leave nothing behind
-    _scale(args.scale)
+    options.scale(args.scale)
     for seed in args.seeds:
-        _seed(seed, "--seeds")
+        options.seed(seed, "--seeds")
     repeated = sorted({s for s in args.seeds if args.seeds.count(s) > 1})
     if repeated:
         raise ValueError(f"--seeds: {repeated[0]} given more than once; each seed is one "
@@ -390,13 +261,13 @@ def reproduce_command(args) -> dict:
     if args.models is not None:
         _models(args.models, "--models")
     if args.finish_on:
-        _device(args.finish_on, "--finish-on")
+        options.device(args.finish_on, "--finish-on")
     else:
-        _device(args.device)
+        options.device(args.device)
     target = Path(args.out)
     if target.exists() and not target.is_dir():
         raise ValueError(f"--out: {target} exists and is not a folder")
-    _writable_ancestor(target, "--out")
+    options.writable_ancestor(target, "--out")
     from psmforce.experiments.reproduce import reproduce
     return reproduce(args.out, scale=args.scale, seeds=args.seeds, device=args.device,
                      finish_on=args.finish_on, budget=args.budget, models=args.models,
@@ -405,9 +276,19 @@ def reproduce_command(args) -> dict:
 
 
 def export_command(args) -> dict:
-    _fresh_folder(args.out, "--out")
+    options.fresh_folder(args.out, "--out")
     from psmforce.estimators.runtime.export import export
     return export(args.checkpoint, args.out)
+
+
+def upgrade_checkpoint_command(args) -> dict:
+    options.output_file(args.out, "--out")
+    from psmforce.estimators.training.checkpoint import upgrade_checkpoint
+    result = upgrade_checkpoint(args.checkpoint, args.out)
+    print(f"sealed {args.checkpoint} as format 3: {args.out}"
+          + ("" if result["trial_sha256"] else " (it names no trial hashes: evaluate cannot "
+                                                "check its test sets against its training)"))
+    return result
 
 
 def demo_command(args) -> dict:

@@ -110,27 +110,50 @@ def _as_version_2(meta):
     meta["format_version"] = 2
 
 
-def test_version_2_checkpoints_load_with_their_weights_checked(tmp_path):
-    """The previous format (weights checksum, no envelope) still loads; its metadata is checked
-    for sense (a zero std is refused) though not for edits; version 1 is refused."""
+def test_a_version_2_checkpoint_is_refused_naming_the_upgrade_and_the_upgrade_checks_it(
+        tmp_path, capsys):
+    """Issue 46, class 3: a version 3 file relabelled 2 once loaded with any edit unseen (swapped
+    features, other scalers, another prior). Version 2 is refused with the one command that
+    seals it; the upgrade checks what it can (here a collapsed scaler, repeated features) and
+    writes version 3; version 1 stays refused."""
     path, _ = _saved(tmp_path)
+    relabelled = _rewritten(tmp_path, path, lambda m: (m.update(features=["tx", "fz", "fy", "fx"]),
+                                                       m.update(format_version=2)), "relabel.pt")
+    with pytest.raises(ck.CheckpointError, match=r"version 2 has no checksum over its metadata"
+                       r".*psmforce upgrade-checkpoint .*relabel.pt --out NEW.pt") as err:
+        ck.load_checkpoint(relabelled)
+    assert len(str(err.value).splitlines()) == 1
     v2 = _rewritten(tmp_path, path, _as_version_2, "v2.pt")
-    assert ck.load_checkpoint(v2).features == FEATURES
-    collapsed = _rewritten(tmp_path, v2, lambda m: m["target_scaler"].update(std=[0, 1, 1]),
-                           "collapsed.pt")
-    with pytest.raises(ck.CheckpointError, match="target_scaler must be finite with std > 0"):
-        ck.load_checkpoint(collapsed)
-    swapped = _rewritten(tmp_path, v2, lambda m: m.update(features=["fx", "fx", "fz", "tx"]),
-                         "repeat.pt")
-    with pytest.raises(ck.CheckpointError, match="distinct column names"):
-        ck.load_checkpoint(swapped)
+    for bad, match in ((lambda m: m["target_scaler"].update(std=[0, 1, 1]),
+                        "target_scaler must be finite with std > 0"),
+                       (lambda m: m.update(features=["fx", "fx", "fz", "tx"]),
+                        "distinct column names")):
+        with pytest.raises(ck.CheckpointError, match=match):
+            ck.upgrade_checkpoint(_rewritten(tmp_path, v2, bad, "bad.pt"), tmp_path / "no.pt")
+        assert not (tmp_path / "no.pt").exists()
+    assert main(["upgrade-checkpoint", str(v2), "--out", str(tmp_path / "v3.pt")]) == 0
+    assert "sealed" in capsys.readouterr().out
+    upgraded = ck.load_checkpoint(tmp_path / "v3.pt")
+    assert upgraded.features == FEATURES
+    assert json.loads(torch.load(tmp_path / "v3.pt", weights_only=True)["meta"])[
+        "format_version"] == 3
     v1 = _rewritten(tmp_path, v2, lambda m: (m.pop("weights_sha256"),
                                              m.update(format_version=1)), "v1.pt")
-    with pytest.raises(ck.CheckpointError, match="version 1 carries no checksum"):
-        ck.load_checkpoint(v1)
-    resaved = ck.load_checkpoint(v2).save(tmp_path / "resaved.pt")  # sealed as version 3
-    assert json.loads(torch.load(resaved, weights_only=True)["meta"])["format_version"] == 3
-    ck.load_checkpoint(resaved)
+    for call in (ck.load_checkpoint, lambda f: ck.upgrade_checkpoint(f, tmp_path / "x.pt")):
+        with pytest.raises(ck.CheckpointError, match="version 1 carries no checksum"):
+            call(v1)
+
+
+def test_the_trial_hashes_come_from_the_file_never_from_paths_it_names(tmp_path):
+    """Issue 46, class 3: a provenance naming a data folder outside ``--data`` made evaluate read
+    (or, for a pipe, hang on) files there to compute the hashes it should have recorded."""
+    outside = tmp_path / "outside"
+    outside.mkdir()
+    (outside / "secret.csv").write_text("not yours to read")
+    provenance = {"data_dir": str(outside), "train_trials": ["secret.csv"], "val_trials": []}
+    assert ck.trial_hashes(provenance) == {}
+    recorded = {"trial_sha256": {"train/a.csv": "ab" * 32, "train/b.csv": 3}}
+    assert ck.trial_hashes(recorded) == {"train/a.csv": "ab" * 32}
 
 
 @pytest.mark.parametrize("config, key", [
@@ -139,7 +162,8 @@ def test_version_2_checkpoints_load_with_their_weights_checked(tmp_path):
     ({"attention_window": 4096, "n_layers": 16, "d_model": 512}, "attention_window too large")])
 def test_a_version_2_checkpoint_asking_for_an_impossible_model_is_refused_before_building(
         tmp_path, monkeypatch, config, key):
-    """A config read from a file is checked like one typed in, before any allocation."""
+    """A config read from a file is checked like one typed in, before any allocation (here by
+    the upgrade, the one reader of version 2 files)."""
     path, _ = _saved(tmp_path)
 
     def edit(meta):
@@ -150,8 +174,9 @@ def test_a_version_2_checkpoint_asking_for_an_impossible_model_is_refused_before
     monkeypatch.setattr("psmforce.estimators.networks.causal.CausalTransformer.__init__",
                         lambda *a, **k: built.append(k))
     with pytest.raises(ck.CheckpointError, match=key) as err:
-        ck.load_checkpoint(edited)
+        ck.upgrade_checkpoint(edited, tmp_path / "upgraded.pt")
     assert str(edited) in str(err.value) and not built
+    assert not (tmp_path / "upgraded.pt").exists()
 
 
 @pytest.mark.parametrize("content, reason", [

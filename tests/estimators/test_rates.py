@@ -51,8 +51,10 @@ def test_checkpoint_and_export_record_the_rate_and_old_files_read_as_100_hz(tmp_
     export(path, tmp_path / "out")
     assert json.loads((tmp_path / "out" / "hybrid.json").read_text())["sample_rate_hz"] == 1000.0
     assert StreamingEstimator.from_checkpoint(path).rate_hz == 1000.0
-    _rewrite(path, version=2, sample_rate_hz=None)  # a file from before the field
-    assert ck.load_checkpoint(path).sample_rate_hz == DEFAULT_SAMPLE_RATE_HZ == 100.0
+    _rewrite(path, version=2, sample_rate_hz=None)  # a file from before the field, upgraded
+    ck.upgrade_checkpoint(path, tmp_path / "upgraded.pt")
+    assert ck.load_checkpoint(tmp_path / "upgraded.pt").sample_rate_hz == DEFAULT_SAMPLE_RATE_HZ
+    assert DEFAULT_SAMPLE_RATE_HZ == 100.0
     unknown = _checkpoint(tmp_path / "u.pt")  # a setup that did not know its rate: null
     assert ck.load_checkpoint(unknown).sample_rate_hz == 100.0
 

@@ -210,8 +210,8 @@ def test_the_cli_trains_a_hybrid_with_uncertainty_and_evaluate_scores_it(data, t
     ('{"uncertainty": "yes"}', "uncertainty must be true or false"),
     ('{"no_such_argument": 1}', "does not build a 'hybrid' model"),
     ("[1, 2]", "--config: expected a JSON object, got list"),
-    ("{not json", "--config: '{not json' is neither valid JSON nor an existing file"),
-    ("missing.json", "neither valid JSON nor an existing file")])
+    ("{not json", "--config: the inline JSON is not valid"),
+    ("missing.json", "--config: missing.json: cannot read the --config file")])
 def test_a_bad_config_is_refused_before_training(data, tmp_path, cli_error, no_training,
                                                  config, reason):
     assert main(["train", "--data", str(data), "--config", config,

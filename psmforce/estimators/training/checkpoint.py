@@ -27,11 +27,13 @@ recomputes all of them: a swapped feature name, a collapsed scaler or a byte cha
 is refused naming the file and the field, never loaded. The format version must be an ``int``:
 ``"3"``, ``3.0`` or ``true`` is refused, not coerced.
 
-Older files: version 2 (written before the envelope; only the weights carry a checksum) still
-loads, its weights checked and its metadata checked for shape and sense (below) but not for
-edits, since nothing recorded it: retraining takes hours and those files are in use. Version 1
-(no checksum at all) is refused: nothing in it can be verified. :meth:`TrainedModel.save` writes
-version 3 (re-saving a loaded version 2 file seals what it holds now).
+Older files are refused, each with the one line that says what to do. Version 2 (written before
+the envelope; only the weights carry a checksum) cannot be told from a version 3 file whose
+metadata was edited and relabelled, so loading it would let an edit through unseen: the refusal
+names ``psmforce upgrade-checkpoint OLD --out NEW`` (:func:`upgrade_checkpoint`), which checks
+all it can (the weights' checksum, the metadata's shape and sense) and seals what the file holds
+as version 3: the user vouches for its content once, in a command, not silently at every load.
+Version 1 (no checksum at all) is refused for good: nothing in it can be verified.
 
 The metadata carries ``sample_rate_hz``, the rate the model was trained at
 (:mod:`psmforce.estimators.data.rates`); a file without it (written before the field, or null) loads
@@ -78,9 +80,10 @@ from psmforce.core.files import atomic_path
 
 FORMAT = "psmforce-checkpoint"
 FORMAT_VERSION = 3
-"""3: the integrity envelope over weights and metadata; 2: ``weights_sha256`` only (still read,
-see the module docstring); 1: no checksum (refused)."""
-_READABLE_VERSIONS = (2, 3)
+"""3: the integrity envelope over weights and metadata; 2: ``weights_sha256`` only (refused,
+upgraded by :func:`upgrade_checkpoint`); 1: no checksum (refused)."""
+_READABLE_VERSIONS = (3,)
+_UPGRADABLE_VERSIONS = (2, 3)
 
 
 class CheckpointError(ValueError):
@@ -149,7 +152,7 @@ class TrainedModel:
         path = Path(path)
         state = {k: v.detach().cpu() for k, v in self.model.state_dict().items()}
         if "trial_sha256" not in self.provenance:
-            hashes = trial_hashes(self.provenance)
+            hashes = _hash_trials(self.provenance)
             if hashes:
                 self.provenance = {**self.provenance, "trial_sha256": hashes}
         prior_json = self.prior_json or ""
@@ -194,12 +197,19 @@ def _versions() -> dict:
 
 
 def trial_hashes(provenance: dict) -> dict:
-    """Trial path -> SHA-256 of its file, for the trials a model was trained and validated on:
-    the provenance's ``trial_sha256`` where recorded, else computed from its ``data_dir`` and
-    ``train_trials`` / ``val_trials`` where those files can still be read (else empty)."""
+    """Trial path -> SHA-256 of its file, for the trials a model was trained and validated on,
+    as the provenance's ``trial_sha256`` records them (empty where it records none). Only what
+    the file holds: no path the provenance names is read, since a file must not decide which
+    files a command reads."""
     recorded = provenance.get("trial_sha256")
-    if isinstance(recorded, dict):
-        return recorded
+    if not isinstance(recorded, dict):
+        return {}
+    return {t: h for t, h in recorded.items() if isinstance(t, str) and isinstance(h, str)}
+
+
+def _hash_trials(provenance: dict) -> dict:
+    """Trial path -> SHA-256 of its file for the training and validation trials of a training
+    that just ran (its ``data_dir``, the caller's dataset), read where the files are there."""
     if not isinstance(provenance.get("data_dir"), str):
         return {}
     names = [t for key in ("train_trials", "val_trials")
@@ -225,7 +235,23 @@ def _first_line(err: BaseException) -> str:
 
 
 def load_checkpoint(path: str | Path, device: str = "cpu") -> TrainedModel:
-    path = Path(path)
+    """The checkpoint at ``path``, every check of the module docstring passed, else
+    :class:`CheckpointError` in one line naming the file."""
+    return _load(Path(path), device, _READABLE_VERSIONS)
+
+
+def upgrade_checkpoint(path: str | Path, out: str | Path) -> dict:
+    """Seal the version 2 checkpoint at ``path`` as version 3 at ``out``: its weights' checksum
+    and its metadata's shape and sense are checked as at any load, what cannot be checked (that
+    the metadata is what training wrote) is vouched for by the caller. Returns a summary."""
+    record = _load(Path(path), "cpu", _UPGRADABLE_VERSIONS)
+    record.save(out)
+    return {"checkpoint": str(out), "from": str(path), "model": record.model_name,
+            "features": len(record.features),
+            "trial_sha256": bool(trial_hashes(record.provenance))}
+
+
+def _load(path: Path, device: str, versions: tuple[int, ...]) -> TrainedModel:
     if not path.is_file():
         raise CheckpointError(f"checkpoint {path} does not exist")
     if path.stat().st_size == 0:
@@ -248,7 +274,12 @@ def load_checkpoint(path: str | Path, device: str = "cpu") -> TrainedModel:
         raise CheckpointError(f"{path}: checkpoint format version 1 carries no checksum, so "
                               f"nothing in it can be verified; retrain it (this code reads "
                               f"versions {list(_READABLE_VERSIONS)})")
-    check_version(version, _READABLE_VERSIONS, str(path), "checkpoint", CheckpointError)
+    if version == 2 and type(version) is int and 2 not in versions:  # noqa: E721
+        raise CheckpointError(f"{path}: checkpoint format version 2 has no checksum over its "
+                              f"metadata and prior, so an edit to them cannot be seen; if you "
+                              f"trust this file, upgrade it once: psmforce upgrade-checkpoint "
+                              f"{path} --out NEW.pt")
+    check_version(version, versions, str(path), "checkpoint", CheckpointError)
     if not isinstance(state, dict) or not all(isinstance(v, torch.Tensor)
                                               for v in state.values()):
         raise CheckpointError(f"{path}: corrupt checkpoint (weights are not a dict of tensors)")

@@ -158,18 +158,41 @@ def cases() -> list[Case]:
         found.append(Case("api StreamingEstimator.from_checkpoint: metadata", damage,
                           "REJECTED", stream_with))
 
-    @case("api load_checkpoint", "a version 2 file (previous format) loads", "HANDLED")
+    def to_v2(meta, payload):
+        meta.pop("sha256")
+        meta.pop("prior_sha256")
+        meta["format_version"] = 2
+
+    @case("api load_checkpoint", "a version 2 file (previous format) is refused naming the upgrade")
     def _(s, d):
         from psmforce.estimators.training.checkpoint import load_checkpoint
+        path = edit_checkpoint(s.hybrid, d / "v2.pt", to_v2)
+        return Attempt(call=lambda: load_checkpoint(path), names=(str(path),))
 
-        def to_v2(meta, payload):
-            meta.pop("sha256")
-            meta.pop("prior_sha256")
-            meta["format_version"] = 2
+    @case("cli upgrade-checkpoint", "a version 2 file is sealed as version 3", "HANDLED")
+    def _(s, d):
+        from psmforce.estimators.training.checkpoint import load_checkpoint
         path = edit_checkpoint(s.hybrid, d / "v2.pt", to_v2)
 
-        def check(record):
-            same = record.features == load_checkpoint(s.hybrid).features
-            return same, f"loaded, features as written: {same}"
-        return Attempt(call=lambda: load_checkpoint(path), check=check)
+        def check(result):
+            same = load_checkpoint(d / "v3.pt").features == load_checkpoint(s.hybrid).features
+            return same, f"upgraded, features as written: {same}"
+        return Attempt(argv=["upgrade-checkpoint", str(path), "--out", str(d / "v3.pt")],
+                       check=check)
+
+    for name, edit in (("features swapped", lambda m: m.update(features=m["features"][::-1])),
+                       ("another target scaler", lambda m: m["target_scaler"].update(
+                           mean=[9.0, 9.0, 9.0])),
+                       ("a provenance naming files outside", lambda m: m.update(provenance={
+                           "data_dir": "/etc", "train_trials": ["passwd"]}))):
+        def relabelled(s, d, edit=edit):
+            from psmforce.estimators.training.checkpoint import load_checkpoint
+
+            def to_edited_v2(meta, payload):
+                to_v2(meta, payload)
+                edit(meta)
+            path = edit_checkpoint(s.hybrid, d / "relabelled.pt", to_edited_v2)
+            return Attempt(call=lambda: load_checkpoint(path), names=(str(path),))
+        found.append(Case("api load_checkpoint", f"version 3 relabelled 2, {name}", "REJECTED",
+                          relabelled))
     return found
