@@ -125,7 +125,7 @@ def test_a_version_2_checkpoint_is_refused_naming_the_upgrade_and_the_upgrade_ch
     assert len(str(err.value).splitlines()) == 1
     v2 = _rewritten(tmp_path, path, _as_version_2, "v2.pt")
     for bad, match in ((lambda m: m["target_scaler"].update(std=[0, 1, 1]),
-                        "target_scaler must be finite with std > 0"),
+                        "target_scaler must be finite with std >= 1e-09 in float32"),
                        (lambda m: m.update(features=["fx", "fx", "fz", "tx"]),
                         "distinct column names")):
         with pytest.raises(ck.CheckpointError, match=match):
@@ -203,3 +203,21 @@ def test_a_payload_without_tensors_is_refused(tmp_path):
     torch.save(payload, tmp_path / "odd.pt")
     with pytest.raises(ck.CheckpointError, match="not a dict of tensors"):
         ck.load_checkpoint(tmp_path / "odd.pt")
+
+
+@pytest.mark.parametrize("scaler, field", [
+    ({"std": [1e-300, 1, 1]}, "std"), ({"std": [1e39, 1, 1]}, "std"),
+    ({"mean": [1e39, 0, 0]}, "mean"), ({"std": [1e-12, 1, 1]}, "std")])
+def test_scalers_are_checked_in_float32_the_dtype_they_are_used_in(tmp_path, scaler, field):
+    """Issue 46, class 7: a std of 1e-300 passed a float64 check, became 0 in float32, and export
+    wrote a folder its own runner refused (evaluate blamed the window length)."""
+    from psmforce.core.integrity import seal
+    path, _ = _saved(tmp_path)
+
+    def edit(meta):
+        meta["target_scaler"].update(scaler)
+        meta.update(seal({k: v for k, v in meta.items() if k != "sha256"}))  # a careless tool
+    edited = _rewritten(tmp_path, path, edit)
+    with pytest.raises(ck.CheckpointError, match="target_scaler must be finite with std >= "
+                                                 "1e-09 in float32"):
+        ck.load_checkpoint(edited)

@@ -277,13 +277,17 @@ class Scaler:
     mean: np.ndarray
     std: np.ndarray
 
+    MIN_STD = 1e-9
+    """The smallest std a column keeps: below it the column counts as constant (std 1). Applied
+    in float32, the dtype the scaler is used in: a smaller one read back from a file is refused."""
+
     @classmethod
     def fit(cls, values: np.ndarray, raw: Sequence[bool] | None = None) -> "Scaler":
         """Columns flagged in ``raw`` are passed through (mean 0, std 1); constant columns keep
         std 1 so they are centred, not divided by zero."""
         values = np.asarray(values, dtype=np.float64)
         mean, std = values.mean(axis=0), values.std(axis=0)
-        std = np.where(std > 1e-9, std, 1.0)
+        std = np.where(std > cls.MIN_STD, std, 1.0)
         if raw is not None:
             raw = np.asarray(raw, dtype=bool)
             mean, std = np.where(raw, 0.0, mean), np.where(raw, 1.0, std)

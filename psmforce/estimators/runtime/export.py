@@ -263,9 +263,13 @@ def _check_spec(spec: dict, where: Path) -> None:
     if width not in (3, 6):
         raise bad(f"graph.y must have 3 or 6 columns, got {width!r}")
     for mean, std, n in scalers:
+        with np.errstate(over="ignore"):  # checked in float32, the dtype the runner uses
+            mean, std = mean.astype(np.float32), std.astype(np.float32)
         if mean.shape != (n,) or std.shape != (n,) or not (
-                np.isfinite(mean).all() and np.isfinite(std).all() and (std > 0).all()):
-            raise bad(f"a scaler is not {n} finite means and stds > 0")
+                np.isfinite(mean).all() and np.isfinite(std).all()
+                and (std >= Scaler.MIN_STD).all()):
+            raise bad(f"a scaler is not {n} means and stds >= {Scaler.MIN_STD:g}, finite in "
+                      f"float32")
     if not isinstance(state, list):
         raise bad("graph.state must be a list")
     for entry in state:

@@ -352,5 +352,9 @@ def _check_metadata(meta: dict, path: Path) -> None:
         if mean.shape != (width,) or std.shape != (width,):
             raise bad(f"{key} must hold {width} means and stds, got {mean.shape} and "
                       f"{std.shape}")
-        if not (np.isfinite(mean).all() and np.isfinite(std).all() and (std > 0).all()):
-            raise bad(f"{key} must be finite with std > 0")
+        with np.errstate(over="ignore"):  # checked in float32, the dtype the scaler is used in
+            mean, std = mean.astype(np.float32), std.astype(np.float32)
+        if not (np.isfinite(mean).all() and np.isfinite(std).all()
+                and (std >= Scaler.MIN_STD).all()):
+            raise bad(f"{key} must be finite with std >= {Scaler.MIN_STD:g} in float32, the "
+                      f"dtype it is used in")
