@@ -25,6 +25,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from reports import identification_page  # noqa: E402
+from reports import integrity_page  # noqa: E402
 from reports import readme_page  # noqa: E402
 from reports import results_page  # noqa: E402
 from psmforce.core.files import write_text_atomic  # noqa: E402
@@ -48,6 +49,8 @@ LIVE = ROOT / "results" / "benchmarks" / "live.json"
 RESULTS = ROOT / "docs" / "results.md"
 IDENTIFICATION = ROOT / "docs" / "identification.md"
 README = ROOT / "README.md"
+INTEGRITY = ROOT / "docs" / "integrity.md"
+FUZZ = ROOT / "results" / "benchmarks" / "fuzz.json"
 
 
 WRITERS = {
@@ -67,6 +70,7 @@ WRITERS = {
     TRAINING_GPU: "python benchmarks/training.py (on a lent GPU)",
     STREAMING: "python benchmarks/streaming.py",
     LIVE: "python benchmarks/live.py",
+    FUZZ: "python -m tests.robustness --json results/benchmarks/fuzz.json",
 }
 """The script that writes each JSON a page renders, where the JSON does not record the command
 it was written by (:func:`writer`)."""
@@ -129,6 +133,7 @@ BLOCKS = (
     (RESULTS, "training-gpu", TRAINING_GPU, results_page.training_gpu),
     (RESULTS, "latency", (STREAMING, LIVE), results_page.latency),
     (RESULTS, "status-table", COMPARISON, readme_page.status_table),
+    (INTEGRITY, "fuzz-counts", FUZZ, integrity_page.fuzz_counts),
 )
 
 

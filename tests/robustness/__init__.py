@@ -20,6 +20,10 @@ SILENT    accepted with wrong, NaN or misleading output, or rejected leaving fil
 CRASH     a traceback: an exception the CLI does not catch, or from the API one that is not a
           library error (TypeError, IndexError, AttributeError, ...), or an exit code not 0 / 2
           (3 is the CLI's "internal error": a bug its error boundary caught);
+LOSS      a file the user had (in the case's folder, the shared inputs or beside the cases) changed
+          or disappeared, byte for byte, whatever the verdict otherwise: only the files the
+          command is asked to write (``--out``, ``--json``, ``--model-out``, or a call's declared
+          outputs) may be replaced;
 ESCAPE    the case reached outside its folder: a file changed in the shared inputs or in the
           ``outside`` folder beside the cases, or a case that points a file outside its folder
           (an export's graph) was accepted.
@@ -38,5 +42,5 @@ Each case also states the verdict it should get (REJECTED or HANDLED). Cases who
 would start expensive work (a simulation at scale 1e6, a reproduce run) patch that work to raise
 :class:`Reached`: reaching it with the bad input is SILENT. Prints the counts and every case that
 is not REJECTED or HANDLED (and any verdict other than expected), writes the JSON, exits 1 if any
-case is SILENT, UNCLEAR or CRASH or differs from its expected verdict.
+case is SILENT, UNCLEAR, CRASH, ESCAPE or LOSS or differs from its expected verdict.
 """

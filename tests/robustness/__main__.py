@@ -1,6 +1,6 @@
 """``python -m tests.robustness``: every robustness case, classified (the package docstring);
 prints the counts and the cases that are not as expected, writes the JSON, exits 1 on any
-SILENT, UNCLEAR, CRASH or ESCAPE case or any verdict other than the expected one."""
+SILENT, UNCLEAR, CRASH, ESCAPE or LOSS case or any verdict other than the expected one."""
 
 import os
 

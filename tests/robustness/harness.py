@@ -31,7 +31,10 @@ RECOVERED_N = 1e-3
 within a millinewton (far below any sensor's resolution): a refused sample never entered the
 network or the filter, and the 5 Hz filter has long forgotten a one-sample shift."""
 EXPECTED = ("REJECTED", "HANDLED")
-FAILING = ("SILENT", "UNCLEAR", "CRASH", "ESCAPE")
+FAILING = ("SILENT", "UNCLEAR", "CRASH", "ESCAPE", "LOSS")
+OUTPUT_OPTIONS = ("--out", "--json", "--model-out")
+"""The options that name what a command writes: a file the user had there may be replaced (that
+is what the option asks), no other file may change (LOSS)."""
 
 
 class Reached(Exception):
@@ -47,6 +50,8 @@ class Attempt:
     check: Callable | None = None              # acceptance: result -> (ok, note)
     guard: str | None = None                   # dotted attribute that acceptance would reach
     escape: bool = False                       # acceptance means a file outside was used
+    outputs: tuple[str, ...] = ()              # files a Python call may write over (CLI: options)
+    cleanup: Callable | None = None            # run after the case (a process it started)
 
 
 @dataclass
@@ -171,6 +176,32 @@ def _tree(*roots: Path) -> dict:
     return state
 
 
+def _contents(*roots: Path) -> dict:
+    """Every regular file under ``roots`` with the SHA-256 of its bytes, and every link with its
+    target (links are not followed, pipes and devices not read): what the user has, byte for
+    byte."""
+    import hashlib
+    import os
+    import stat
+    state = {}
+    for root in roots:
+        for p in sorted(root.rglob("*")):
+            mode = os.lstat(p).st_mode
+            if stat.S_ISLNK(mode):
+                state[str(p)] = ("link", os.readlink(p))
+            elif stat.S_ISREG(mode):
+                state[str(p)] = hashlib.sha256(p.read_bytes()).hexdigest()
+    return state
+
+
+def _declared(attempt: Attempt) -> set[str]:
+    """The paths a case's command or call is asked to write (resolved as the case names them)."""
+    named = set(attempt.outputs)
+    argv = attempt.argv or []
+    named |= {argv[i + 1] for i, a in enumerate(argv[:-1]) if a in OUTPUT_OPTIONS}
+    return {str(Path(n)) for n in named}
+
+
 def _changes(before: dict, after: dict) -> list[str]:
     return sorted({k for k in before.keys() | after.keys() if before.get(k) != after.get(k)})
 
@@ -182,12 +213,26 @@ def _guarded(target: str | None):
 
 
 def run_case(case: Case, shared: Shared, folder: Path) -> Outcome:
+    """Run one case in ``folder`` and classify it (the package docstring's verdicts); what the
+    case started (its ``cleanup``) is ended once it is classified."""
+    cleanups: list[Callable] = []
+    try:
+        return _run_case(case, shared, folder, cleanups)
+    finally:
+        for cleanup in cleanups:
+            cleanup()
+
+
+def _run_case(case: Case, shared: Shared, folder: Path, cleanups: list) -> Outcome:
     folder.mkdir(parents=True)
     outside = folder.parent.parent / "outside"  # beside the cases: nothing may change it
     outside.mkdir(exist_ok=True)
     attempt = case.prepare(shared, folder)
+    if attempt.cleanup is not None:
+        cleanups.append(attempt.cleanup)
     before = _tree(folder, shared.root, outside)
     around = _tree(shared.root, outside)
+    had = _contents(folder, shared.root, outside)
     out, err = io.StringIO(), io.StringIO()
     result, error, rc = None, None, None
     start = time.perf_counter()
@@ -216,6 +261,11 @@ def run_case(case: Case, shared: Shared, folder: Path) -> Outcome:
     if escaped:
         return outcome("ESCAPE", "changed outside its folder: "
                                  + ", ".join(Path(p).name for p in escaped[:5]))
+    now, asked = _contents(folder, shared.root, outside), _declared(attempt)
+    lost = [p for p, digest in had.items() if p not in asked and now.get(p) != digest]
+    if lost:
+        return outcome("LOSS", "changed or removed a file the user had: "
+                               + ", ".join(Path(p).name for p in lost[:5]))
     if isinstance(error, Reached):
         return outcome("SILENT", f"accepted: reached {error} with the bad input" + (
             "; wrote " + ", ".join(Path(p).name for p in left[:5]) if left else ""))
@@ -364,6 +414,14 @@ CHECKPOINT_EDITS: dict[str, tuple[Callable, bool]] = {
         **m["config"], "attention_window": 10 ** 7}), True),
     "resealed: config d_model 0": (_meta(config=lambda m: {**m["config"], "d_model": 0}), True),
     "resealed: config unknown key": (_meta(config=lambda m: {**m["config"], "depth": 9}), True),
+    "resealed: target std 1e-300 (0 in float32)": (_meta(target_scaler=_scaler(
+        "target_scaler", std=[1e-300, 1.0, 1.0])), True),
+    "resealed: target std 1e39 (inf in float32)": (_meta(target_scaler=_scaler(
+        "target_scaler", std=[1e39, 1.0, 1.0])), True),
+    "resealed: input mean 1e39 (inf in float32)": (_meta(input_scaler=_scaler(
+        "input_scaler", mean=lambda n: [1e39] + [0.0] * (n - 1))), True),
+    "resealed: input std 1e-12 (below the floor)": (_meta(input_scaler=_scaler(
+        "input_scaler", std=lambda n: [1e-12] + [1.0] * (n - 1))), True),
     "resealed: model 'svm'": (_meta(model="svm"), True),
     "resealed: input_scaler std 0": (_meta(input_scaler=_scaler(
         "input_scaler", std=lambda n: [0.0] * n)), True),

@@ -10,7 +10,8 @@ from importlib import import_module
 
 MODULES = ("recordings", "datasets", "training", "priors", "checkpoints", "bench",
            "bags", "arm_dynamics", "runs", "stream", "api", "export",
-           "outputs", "task_cache", "gates")
+           "outputs", "task_cache", "gates",
+           "writes")
 """Modules of this package, one per artefact."""
 
 

@@ -33,7 +33,7 @@ def cases() -> list[Case]:
                 redone = any("recomputing" in line for line in logged)
                 return (results == [{"y": 2}, {"y": 4}] and redone,
                         f"results {results}, recomputed {redone}")
-            return Attempt(call=run, check=check)
+            return Attempt(call=run, check=check, outputs=(str(path),))  # the cache's own file
         found.append(Case("api run_grid: cache", name, "HANDLED", prepare))
 
     def edit_record(change):
