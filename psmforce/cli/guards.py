@@ -12,10 +12,15 @@ import time
 from pathlib import Path
 
 _INPUTS = ("checkpoint", "data", "bag", "recording", "dynamics", "prior", "config", "train",
-           "test", "session", "r_ati_psm", "column_map")
+           "test", "session", "r_ati_psm", "column_map", "sim_recording")
 """Argument names that hold a command's inputs (files or folders), whatever the command."""
 _OUTPUTS = ("out", "json", "model_out")
 """Argument names that hold what a command writes."""
+SIDE_OUTPUTS = {
+    "replay": lambda args: [Path(args.out).with_suffix(".layout.json")],
+}
+"""Files a command writes beside the outputs it is given (command -> args -> paths): checked as
+outputs, and never written over a file that is already there, since no option named it."""
 
 
 def _option(name: str) -> str:
@@ -34,7 +39,8 @@ def _exists(value: str) -> bool:
 def outputs_spare_inputs(args) -> None:
     """No command writes over one of its inputs: an output that is an input file or folder
     (links followed), or an existing file inside an input folder (a recording, a
-    metadata.json), is refused; so are two outputs naming the same file."""
+    metadata.json), is refused; so are two outputs naming the same file, and a side file a
+    command writes beside its outputs (:data:`SIDE_OUTPUTS`) where a file is already."""
     inputs = []
     for name in _INPUTS:
         value = getattr(args, name, None)
@@ -55,15 +61,30 @@ def outputs_spare_inputs(args) -> None:
             raise ValueError(f"{_option(name)}: {value} is also {outputs[target]}: two outputs "
                              f"cannot share one file")
         outputs[target] = _option(name)
-        for source_name, source in inputs:
-            inside = source.is_dir() and target.is_file() and source in target.parents
-            if target == source or inside:
-                what = "is" if target == source else "lies inside"
-                label = source_name if source_name in ("checkpoint", "bag", "recording",
-                                                       "session") else _option(source_name)
-                raise ValueError(f"{_option(name)}: {value} {what} the command's input "
-                                 f"{label}: refusing to write over an input (give another "
-                                 f"path)")
+        _spares(inputs, target, value, _option(name))
+    for side in SIDE_OUTPUTS.get(getattr(args, "command", None), lambda _: [])(args):
+        target = side.resolve()
+        if target in outputs:
+            raise ValueError(f"{outputs[target]}: {side} is where {args.command} writes its "
+                             f"{side.name.split('.', 1)[1]} beside --out: give another path")
+        if side.exists() or side.is_symlink():
+            raise ValueError(f"--out: {args.command} writes {side} beside it, and a file is there "
+                             f"already: move it or give another --out")
+        outputs[target] = str(side)
+        _spares(inputs, target, str(side), "--out")
+
+
+def _spares(inputs: list, target: Path, value: str, option: str) -> None:
+    """Refuse the output ``target`` (``value`` as given, after ``option``) when it is one of
+    ``inputs`` or an existing file inside an input folder."""
+    for source_name, source in inputs:
+        inside = source.is_dir() and target.is_file() and source in target.parents
+        if target == source or inside:
+            what = "is" if target == source else "lies inside"
+            label = source_name if source_name in ("checkpoint", "bag", "recording",
+                                                   "session") else _option(source_name)
+            raise ValueError(f"{option}: {value} {what} the command's input {label}: refusing "
+                             f"to write over an input (give another path)")
 
 
 @contextlib.contextmanager

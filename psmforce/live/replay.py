@@ -78,8 +78,12 @@ def replay(bag: str | Path, checkpoint: str | Path, out: str | Path, *, arm: str
     bag, out = Path(bag), Path(out)
     if out.suffix != ".mcap":
         raise ValueError(f"--out {out}: must name a .mcap file")
-    if out.exists():
+    if out.exists() or out.is_symlink():
         raise ValueError(f"--out {out}: exists already")
+    layout_path = out.with_suffix(".layout.json")
+    if layout_path.exists() or layout_path.is_symlink():  # no option named it: never replaced
+        raise ValueError(f"--out {out}: replay writes {layout_path} beside it, and a file is "
+                         f"there already: move it or give another --out")
     resolved, required = resolve_topics(arm, {k: v for k, v in (topics or {}).items()
                                               if k in ("js", "jaw", "hex10", "ati")})
     reader = _open(bag)
@@ -122,7 +126,7 @@ def replay(bag: str | Path, checkpoint: str | Path, out: str | Path, *, arm: str
                     summary = _play(reader, node, stream_of, sink, view, realtime, flags)
                 finally:
                     sink.close()
-            layout = write_layout(out.with_suffix(".layout.json"), node.topics["hex10"],
+            layout = write_layout(layout_path, node.topics["hex10"],
                                   resolved["hex10"], resolved.get("ati")
                                   if resolved.get("ati") in present else None)
             if view is not None:

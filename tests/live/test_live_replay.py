@@ -126,6 +126,25 @@ def test_replay_refuses_a_stream_the_model_cannot_serve_and_writes_nothing(tmp_p
     assert not list(tmp_path.glob("out*"))
 
 
+def test_replay_never_replaces_a_layout_it_was_not_asked_for(tmp_path, capsys):
+    """Issue 46, class 2: ``replay --out run.mcap`` silently replaced an existing
+    ``run.layout.json``, and ``--json run.layout.json`` clobbered the layout it writes."""
+    from psmforce.cli.main import main
+    from psmforce.live.replay import replay
+    ckpt = checkpoint(tmp_path / "h.pt", rate_hz=100.0)
+    _, bag = session(tmp_path, n=100, rate_hz=100.0)
+    theirs = tmp_path / "out.layout.json"
+    theirs.write_text("the user's layout")
+    with pytest.raises(ValueError, match="writes .*out.layout.json beside it, and a file is there"):
+        replay(bag, ckpt, tmp_path / "out.mcap")
+    assert main(["replay", str(bag), str(ckpt), "--out", str(tmp_path / "out.mcap")]) == 2
+    assert "a file is there already" in capsys.readouterr().err
+    assert theirs.read_text() == "the user's layout" and not (tmp_path / "out.mcap").exists()
+    assert main(["replay", str(bag), str(ckpt), "--out", str(tmp_path / "new.mcap"), "--json",
+                 str(tmp_path / "new.layout.json")]) == 2
+    assert "--json" in capsys.readouterr().err and not (tmp_path / "new.mcap").exists()
+
+
 def _messages():
     types = ROS2_TYPESTORE.types
     header = types["std_msgs/msg/Header"](
@@ -272,3 +291,16 @@ def test_view_serves_the_estimate_channel_to_a_websocket_client(tmp_path):
     stamps = [m.header.stamp.sec * 10**9 + m.header.stamp.nanosec for m in payloads]
     assert stamps == [START_NS + k * 10**6 for k in range(len(payloads))]  # from the first on
     assert result["answers"] == 3000 and result["viewer_before_play"] is True
+
+
+def test_serve_never_writes_its_report_over_the_recording_it_publishes(tmp_path, capsys):
+    """Issue 46, class 2: ``serve --sim --sim-recording rec.csv --json rec.csv`` overwrote the
+    recording; every path a command reads is an input to the guard."""
+    from psmforce.cli.main import main
+    ckpt = checkpoint(tmp_path / "h.pt", rate_hz=100.0)
+    rec = tmp_path / "rec.csv"
+    rec.write_text("the user's recording")
+    assert main(["serve", str(ckpt), "--sim", "--sim-recording", str(rec), "--json",
+                 str(rec)]) == 2
+    err = capsys.readouterr().err
+    assert "--json" in err and "input" in err and rec.read_text() == "the user's recording"

@@ -141,4 +141,39 @@ def cases() -> list[Case]:
                            names=("--config",),
                            guard="psmforce.estimators.training.train.load_dataset")
         found.append(Case("cli train --config", what, "REJECTED", config))
+    # --- side files and every path read: through the same guard (class 2) ---------------------
+    def replay_bag(s, d):
+        from psmforce.io.bags.writing import write_bag
+        from psmforce.io.recording import read_recording
+        bag = d / "session"
+        write_bag(read_recording(trial(s.bench)), bag, start_ns=1_700_000_000 * 10**9)
+        return bag
+
+    @case_of(found, "cli replay", "a layout already beside --out")
+    def _(s, d):
+        bag = replay_bag(s, d)
+        (d / "run.layout.json").write_text('{"the user": "has this"}')
+        return Attempt(argv=["replay", str(bag), str(s.hybrid), "--out", str(d / "run.mcap")],
+                       names=("--out",))
+
+    @case_of(found, "cli replay", "--json names the layout it writes")
+    def _(s, d):
+        bag = replay_bag(s, d)
+        return Attempt(argv=["replay", str(bag), str(s.hybrid), "--out", str(d / "run.mcap"),
+                             "--json", str(d / "run.layout.json")], names=("--json",))
+
+    @case_of(found, "cli serve", "--json names the --sim-recording it publishes")
+    def _(s, d):
+        rec = d / "rec.csv"
+        shutil.copy(trial(s.bench), rec)
+        return Attempt(argv=["serve", str(s.hybrid), "--sim", "--sim-recording", str(rec),
+                             "--json", str(rec)], names=("--json",))
     return found
+
+
+def case_of(found: list, kind: str, name: str, expect: str = "REJECTED"):
+    """A decorator adding its ``prepare`` function to ``found`` as a :class:`Case`."""
+    def register(prepare):
+        found.append(Case(kind, name, expect, prepare))
+        return prepare
+    return register
