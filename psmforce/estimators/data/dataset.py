@@ -278,8 +278,7 @@ class Scaler:
     std: np.ndarray
 
     MIN_STD = 1e-9
-    """The smallest std a column keeps: below it the column counts as constant (std 1). Applied
-    in float32, the dtype the scaler is used in: a smaller one read back from a file is refused."""
+    """The smallest std a column keeps (below: constant, std 1); files are checked in float32."""
 
     @classmethod
     def fit(cls, values: np.ndarray, raw: Sequence[bool] | None = None) -> "Scaler":
