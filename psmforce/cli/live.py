@@ -11,6 +11,8 @@ import argparse
 import json
 import threading
 
+from psmforce.cli import options
+
 
 def _needs(module: str, feature: str) -> None:
     import importlib.util
@@ -96,7 +98,7 @@ def _common(p: argparse.ArgumentParser) -> None:
     p.add_argument("--topic-js", help="arm JointState topic (default /ARM/measured_js)")
     p.add_argument("--topic-jaw", help="jaw JointState topic (default /ARM/jaw/measured_js)")
     p.add_argument("--topic-hex10", help="HEX10 WrenchStamped topic (default /hex10/measured_cf)")
-    p.add_argument("--input-rate", type=float, metavar="HZ",
+    p.add_argument("--input-rate", type=options.RATE_HZ, metavar="HZ",
                    help="the HEX10 stream's rate (default: measured from its stamps); a whole "
                         "multiple of the model's training rate")
     p.add_argument("--post-filter", default="none", choices=["none", "median", "lowpass"])
@@ -124,8 +126,11 @@ def add_live_commands(sub) -> None:
     p.add_argument("--view", action="store_true",
                    help="serve the messages live to Foxglove (WebSocket, --port) while playing, "
                         "and until interrupted")
-    p.add_argument("--port", type=int, default=8765, help="--view's port (default 8765)")
-    p.add_argument("--view-wait", type=float, default=60.0, metavar="S",
+    p.add_argument("--port", type=options.number_in(0, 65535, low_open=False, integer=True),
+                   default=8765, help="--view's port (default 8765; 0: any free port)")
+    p.add_argument("--view-wait", type=options.number_in(0.0, options.MAX_SECONDS,
+                                                          low_open=False),
+                   default=60.0, metavar="S",
                    help="with --view: wait up to S s for a client to subscribe to the estimate "
                         "before playing (default 60; 0: play at once)")
     p.set_defaults(func=replay_command)
@@ -136,20 +141,22 @@ def add_live_commands(sub) -> None:
                     "topics), publish the tool force in the base and HEX10 frames, its std and "
                     "flags (docs/live.md). Needs pip install 'psmforce[ros]'.")
     _common(p)
-    p.add_argument("--tare-s", type=float, default=0.5, help="tare duration (default 0.5 s)")
+    p.add_argument("--tare-s", type=options.number_in(0.0, 3600.0), default=0.5,
+                   help="tare duration (default 0.5 s)")
     p.add_argument("--sync-wait", type=float, default=0.1, metavar="S",
                    help="with --sync-stamps: how long a HEX10 message waits for the arm's and "
                         "jaw's messages of its stamp before it is answered without them "
                         "(counted as unpaired; default 0.1 s)")
-    p.add_argument("--domain-id", type=int, help="DDS domain (default: ROS_DOMAIN_ID, else 0)")
+    p.add_argument("--domain-id", type=options.number_in(0, 232, low_open=False, integer=True),
+                   help="DDS domain, 0 to 232 (default: ROS_DOMAIN_ID, else 0)")
     p.add_argument("--best-effort", action="store_true",
                    help="best-effort readers (to match sensor-data QoS publishers)")
-    p.add_argument("--duration", type=float, metavar="S", help="stop after S seconds")
-    p.add_argument("--idle-stop", type=float, metavar="S",
+    p.add_argument("--duration", type=options.SECONDS, metavar="S", help="stop after S seconds")
+    p.add_argument("--idle-stop", type=options.SECONDS, metavar="S",
                    help="stop when no message came for S seconds after the first")
     p.add_argument("--sim", action="store_true",
                    help="also run a simulated dVRK + HEX10 publishing a bench session")
-    p.add_argument("--sim-rate", type=float, default=1000.0,
+    p.add_argument("--sim-rate", type=options.RATE_HZ, default=1000.0,
                    help="the simulated robot's rate (default 1000 Hz)")
     p.add_argument("--sim-recording", help="with --sim: publish this recording CSV instead")
     p.set_defaults(func=serve_command)

@@ -85,7 +85,8 @@ def _parser() -> argparse.ArgumentParser:
             "out-of-order messages. A .csv input with --column-map is renamed to our layout.")
     p.add_argument("bag", help="bag file, ROS 2 bag folder, or a CSV export")
     p.add_argument("--out", required=True, help="CSV file to write")
-    p.add_argument("--rate", type=float, default=100.0, help="output rate in Hz (default 100)")
+    p.add_argument("--rate", type=options.RATE_HZ, default=100.0,
+                   help="output rate in Hz (default 100; at most 10 kHz)")
     p.add_argument("--arm", default="PSM1", help="arm namespace (default PSM1)")
     p.add_argument("--topic-js", help="arm JointState topic (default /ARM/measured_js)")
     p.add_argument("--topic-jaw", help="jaw JointState topic (default /ARM/jaw/measured_js)")

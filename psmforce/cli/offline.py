@@ -43,7 +43,9 @@ def convert_command(args) -> dict:
         from psmforce.robot.frames import check_rotation
         option = f"--r-ati-psm {args.r_ati_psm}"
         try:  # ValueError: invalid JSON or not numbers; TypeError: null entries
-            matrix = np.asarray(json.loads(Path(args.r_ati_psm).read_text()), dtype=float)
+            from psmforce.core.files import MAX_JSON_BYTES, read_input_text
+            matrix = np.asarray(json.loads(read_input_text(args.r_ati_psm, MAX_JSON_BYTES,
+                                                           "rotation")), dtype=float)
         except (OSError, ValueError, TypeError) as err:
             raise ValueError(f"{option}: not a JSON 3x3 rotation matrix ({err})") from None
         r_ati_psm = check_rotation(matrix, option)

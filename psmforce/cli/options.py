@@ -5,7 +5,9 @@ JSON, devices, seeds and scales; and how a command's figures are written (``--js
 
 from __future__ import annotations
 
+import argparse
 import json
+import math
 import os
 import sys
 from pathlib import Path
@@ -138,3 +140,30 @@ def scale(value: float) -> None:
     if not 0 < value <= MAX_SCALE:  # also refuses NaN
         raise ValueError(f"--scale: must be in (0, {MAX_SCALE:g}] (times the paper's "
                          f"protocol), got {value:g}")
+
+
+MAX_RATE_HZ = 10_000.0  # psmforce.io.recording.MAX_RATE_HZ, without importing the library
+"""The highest stream rate an option may ask for (:data:`psmforce.io.recording.MAX_RATE_HZ`)."""
+MAX_SECONDS = 1e7
+"""The longest duration an option may ask for (about four months)."""
+
+
+def number_in(low: float, high: float, *, low_open: bool = True, integer: bool = False):
+    """An argparse ``type``: a finite number in ``(low, high]`` (``[low, high]`` when not
+    ``low_open``), refused in argparse's one line naming the option otherwise (NaN and
+    infinity included), before any allocation or wait."""
+    def parse(text: str):
+        try:
+            value = int(text) if integer else float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+        above = value > low if low_open else value >= low
+        if not (math.isfinite(value) and above and value <= high):
+            bracket = "(" if low_open else "["
+            raise argparse.ArgumentTypeError(f"must be in {bracket}{low:g}, {high:g}], got {text}")
+        return value
+    return parse
+
+
+RATE_HZ = number_in(0.0, MAX_RATE_HZ)
+SECONDS = number_in(0.0, MAX_SECONDS)

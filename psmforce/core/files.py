@@ -51,10 +51,16 @@ def check_output(path: str | Path) -> None:
                       f"(give the path of a regular file or a new name)")
 
 
-def read_input_text(path: str | Path, max_bytes: int, what: str = "input") -> str:
-    """The text of the input file ``path``, refused (ValueError naming it) unless it is a regular
-    file (a link to one is followed) of at most ``max_bytes``: a pipe would hang the reader and a
-    device (``/dev/zero``) exhaust the memory."""
+MAX_JSON_BYTES = 64 << 20
+"""The largest JSON file read back (a model, a prior, an export's JSON, a column map)."""
+MAX_DATA_BYTES = 8 << 30
+"""The largest recording or checkpoint file read back: a bound no real one nears."""
+
+
+def check_input_file(path: str | Path, max_bytes: int, what: str = "input") -> None:
+    """Refuse (ValueError naming it) an input ``path`` that is not a regular file (a link to one
+    is followed) of at most ``max_bytes``: a pipe would hang its reader and a device
+    (``/dev/zero``) exhaust the memory."""
     try:
         info = os.stat(path)
     except OSError as err:
@@ -64,6 +70,12 @@ def read_input_text(path: str | Path, max_bytes: int, what: str = "input") -> st
     if info.st_size > max_bytes:
         raise ValueError(f"{path}: the {what} holds {info.st_size} bytes, more than the "
                          f"{max_bytes} it may")
+
+
+def read_input_text(path: str | Path, max_bytes: int, what: str = "input") -> str:
+    """The text of the input file ``path`` (:func:`check_input_file`), read no further than
+    ``max_bytes`` even if it grows meanwhile."""
+    check_input_file(path, max_bytes, what)
     with open(path, "rb") as fh:
         data = fh.read(max_bytes + 1)
     if len(data) > max_bytes:  # grew while read

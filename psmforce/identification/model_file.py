@@ -6,9 +6,9 @@ integrity envelope (:func:`check_sealed`: :mod:`psmforce.core.integrity`)."""
 from __future__ import annotations
 
 import json
-from pathlib import Path
 
 from psmforce.identification.errors import IdentificationInputError
+from psmforce.core.files import MAX_JSON_BYTES, read_input_text
 from psmforce.core.integrity import check_version, verify
 
 
@@ -17,9 +17,10 @@ def read_model_json(path, file_format: str, what: str) -> dict:
     :class:`IdentificationInputError` naming the file and ``what`` it should hold (``"an
     InternalForcePrior"``)."""
     try:
-        text = Path(path).read_text()
-    except (OSError, UnicodeDecodeError) as err:
-        raise IdentificationInputError(f"{path}: cannot read {what} JSON ({err})") from None
+        text = read_input_text(path, MAX_JSON_BYTES, f"{what} JSON")
+    except (OSError, ValueError) as err:
+        raise IdentificationInputError(f"{err}" if str(path) in str(err)
+                                       else f"{path}: cannot read {what} JSON ({err})") from None
     return parse_model_json(text, file_format, what, path)
 
 

@@ -38,7 +38,7 @@ import numpy as np
 import pandas as pd
 
 from psmforce.robot.conventions import JOINTS
-from psmforce.core.files import atomic_path
+from psmforce.core.files import MAX_DATA_BYTES, atomic_path, check_input_file
 
 JOINT_QUANTITIES = ("position", "velocity", "effort")
 
@@ -59,6 +59,9 @@ JOINT_EFFORTS = tuple(joint_column(j, "effort") for j in JOINTS)
 HEX10_FORCE = ("fx", "fy", "fz")
 HEX10_TORQUE = ("tx", "ty", "tz")
 HEX10 = HEX10_FORCE + HEX10_TORQUE
+MAX_RATE_HZ = 10_000.0
+"""The highest sample rate a recording or a stream may be asked for: ten times the dVRK's
+fastest stream (1 kHz), far below what would exhaust the memory (1e9 Hz asked for some 40 GiB)."""
 TARGETS = ("ati_fx", "ati_fy", "ati_fz")
 AXES = ("Fx", "Fy", "Fz")
 """The force axes of :data:`TARGETS` (and of every estimate), as tables and reports name them."""
@@ -147,6 +150,10 @@ def read_recording(path: str | Path, *, require_targets: bool = False,
         bag = (path / "metadata.yaml").is_file()
         raise RecordingError(f"{path}: a folder, not a recording CSV" + (
             " (a ROS 2 bag: 'psmforce convert' it to a recording first)" if bag else ""))
+    try:
+        check_input_file(path, MAX_DATA_BYTES, "recording")
+    except ValueError as err:
+        raise RecordingError(str(err)) from None
     try:
         frame = pd.read_csv(path, engine="c")
     except (OSError, pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as err:

@@ -196,3 +196,53 @@ def test_an_out_name_the_file_system_cannot_hold_is_refused_before_training(
     out_folder = tmp_path / ("e" * 300)
     assert main(["simulate", "--scale", "0.005", "--out", str(out_folder)]) == 2
     assert "--out" in cli_error("simulate")
+
+
+# Issue 46, class 8: every size an option or a file asks for is bounded before any allocation.
+
+@pytest.mark.parametrize("argv, option", [
+    (["convert", "x.mcap", "--out", "o.csv", "--rate", "1e9"], "--rate"),
+    (["serve", "h.pt", "--sim", "--sim-rate", "1e9"], "--sim-rate"),
+    (["serve", "h.pt", "--sim", "--sim-rate", "0"], "--sim-rate"),
+    (["serve", "h.pt", "--sim", "--sim-rate", "-5"], "--sim-rate"),
+    (["serve", "h.pt", "--duration", "nan"], "--duration"),
+    (["serve", "h.pt", "--duration", "inf"], "--duration"),
+    (["serve", "h.pt", "--idle-stop", "-1"], "--idle-stop"),
+    (["serve", "h.pt", "--input-rate", "1e9"], "--input-rate"),
+    (["serve", "h.pt", "--domain-id", "300"], "--domain-id"),
+    (["serve", "h.pt", "--domain-id", "-5"], "--domain-id"),
+    (["replay", "b", "h.pt", "--out", "o.mcap", "--port", "70000"], "--port"),
+    (["replay", "b", "h.pt", "--out", "o.mcap", "--input-rate", "1000000000"], "--input-rate")])
+def test_sizes_and_durations_outside_their_bounds_are_refused_in_one_line(argv, option, capsys):
+    with pytest.raises(SystemExit) as exit_:
+        main(argv)
+    assert exit_.value.code == 2
+    line = capsys.readouterr().err.strip().splitlines()[-1]
+    assert line.startswith(f"psmforce {argv[0]}: error: argument {option}: must be in")
+
+
+def test_the_command_lines_rate_bound_is_the_librarys():
+    from psmforce.cli.options import MAX_RATE_HZ
+    from psmforce.io.recording import MAX_RATE_HZ as LIBRARY
+    assert MAX_RATE_HZ == LIBRARY
+
+
+@pytest.mark.parametrize("special", ["/dev/zero", "fifo"])
+def test_inputs_that_are_not_regular_files_are_refused_not_read(tmp_path, special, cli_error):
+    """``/dev/zero`` as ``--r-ati-psm`` or ``--prior`` ran out of memory; a pipe hung."""
+    path = special
+    if special == "fifo":
+        path = str(tmp_path / "input")
+        os.mkfifo(path)
+    from psmforce.identification.prior import InternalForcePrior
+    from psmforce.io.recording import RecordingError, read_recording
+    with pytest.raises(ValueError, match="not a regular file"):
+        InternalForcePrior.load(path)
+    with pytest.raises(RecordingError, match="not a regular file"):
+        read_recording(path)
+    from psmforce.estimators.training.checkpoint import CheckpointError, load_checkpoint
+    with pytest.raises(CheckpointError, match="not a regular file"):
+        load_checkpoint(path)
+    assert main(["convert", str(tmp_path / "no.mcap"), "--out", str(tmp_path / "o.csv"),
+                 "--r-ati-psm", path]) == 2
+    assert "not a regular file" in cli_error("convert")

@@ -65,7 +65,8 @@ from psmforce.estimators.runtime.steppers import (OPSET, OnnxStepper, TorchStepp
                                                   state_spec, step_onnx_bytes)
 from psmforce.estimators.networks.uncertainty import (LOGVAR_MAX, LOGVAR_MIN, output_width,
                                                       predicts_variance, std_newton)
-from psmforce.core.files import locked_folder, write_bytes_atomic
+from psmforce.core.files import (MAX_JSON_BYTES, locked_folder, read_input_text,
+                                 write_bytes_atomic)
 
 FORMAT = "psmforce-hybrid-export"
 FORMAT_VERSION = 3
@@ -213,8 +214,8 @@ def read_export(out_dir: str | Path) -> tuple[dict, bytes]:
     out = Path(out_dir)
     where = out / JSON_NAME
     try:
-        spec = json.loads(where.read_text())
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as err:
+        spec = json.loads(read_input_text(where, MAX_JSON_BYTES, "export JSON"))
+    except (OSError, ValueError) as err:  # missing, not a file, too large, not JSON
         raise ExportError(f"{where}: no readable {JSON_NAME} ({err})") from None
     if not isinstance(spec, dict) or spec.get("format") != FORMAT:
         raise ExportError(f"{where}: not a {FORMAT} file")

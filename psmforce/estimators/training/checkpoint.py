@@ -76,7 +76,7 @@ from psmforce.core.integrity import check_version, seal, sha256_bytes, verify
 from psmforce.estimators.data.rates import DEFAULT_SAMPLE_RATE_HZ
 from psmforce.estimators.networks.recipes import (DERIVATIONS, build_model, import_recipe, origin,
                                                   recipe)
-from psmforce.core.files import atomic_path
+from psmforce.core.files import MAX_DATA_BYTES, atomic_path, check_input_file
 
 FORMAT = "psmforce-checkpoint"
 FORMAT_VERSION = 3
@@ -252,8 +252,12 @@ def upgrade_checkpoint(path: str | Path, out: str | Path) -> dict:
 
 
 def _load(path: Path, device: str, versions: tuple[int, ...]) -> TrainedModel:
-    if not path.is_file():
+    if not path.exists():
         raise CheckpointError(f"checkpoint {path} does not exist")
+    try:
+        check_input_file(path, MAX_DATA_BYTES, "checkpoint")
+    except ValueError as err:
+        raise CheckpointError(str(err)) from None
     if path.stat().st_size == 0:
         raise CheckpointError(f"{path}: empty file, not a psmforce checkpoint")
     try:

@@ -526,6 +526,7 @@ def train(data_dir: str | Path, model: str, out_checkpoint: str | Path, *,
                             f"{'is trained without one' if spec.uses_prior else 'uses none'}")
     cfg = train_config or TrainConfig(**spec.optimiser)
     cfg = TrainConfig(**{**cfg.to_dict(), "max_epochs": epochs, "seed": seed, "device": device})
+    given_prior = _load_prior(prior) if inputs.uses_prior else None  # before the data is read
     dataset = load_dataset(data_dir)
     trials = dataset.select(split="train")
     if not trials:
@@ -533,7 +534,7 @@ def train(data_dir: str | Path, model: str, out_checkpoint: str | Path, *,
     train_trials, val_trials = split_validation(trials, 0.1, seed)
     prior_json = None
     if inputs.uses_prior:
-        prior_json = prior_to_json(_load_prior(prior) or fit_prior(train_trials, val_trials))
+        prior_json = prior_to_json(given_prior or fit_prior(train_trials, val_trials))
     DERIVATIONS[inputs.derivation](dataset, prior_json)
     setup = make_setup(model, train_trials, features=features, use_prior=use_prior,
                        prior_json=prior_json, config=config)

@@ -14,6 +14,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+from psmforce.core.files import MAX_JSON_BYTES, read_input_text
 from psmforce.io.recording import COLUMNS, RecordingError, read_recording, write_recording
 
 
@@ -21,9 +22,11 @@ def load_column_map(path: str | Path) -> dict[str, str]:
     """Read and check a column map JSON file; raises :class:`RecordingError` naming the problem."""
     path = Path(path)
     try:
-        mapping = json.loads(path.read_text())
-    except (OSError, UnicodeDecodeError) as err:
-        raise RecordingError(f"{path}: cannot read the column map ({err})") from None
+        text = read_input_text(path, MAX_JSON_BYTES, "column map")
+    except (OSError, ValueError) as err:
+        raise RecordingError(str(err)) from None
+    try:
+        mapping = json.loads(text)
     except json.JSONDecodeError as err:
         raise RecordingError(f"{path}: column map is not valid JSON ({err})") from None
     return check_column_map(mapping, str(path))

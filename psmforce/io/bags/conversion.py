@@ -31,7 +31,8 @@ from psmforce.io.bags.reading import STREAMS, BagError, read_streams, resolve_to
 from psmforce.io.bags.resampling import clean, gap_threshold_s, output_clock, resample
 from psmforce.robot.frames import ati_force_in_hex10
 from psmforce.robot.kinematics import PSM, KinematicsInputError
-from psmforce.io.recording import ATI_RAW, JOINT_POSITIONS, TARGETS, TIME, write_recording
+from psmforce.io.recording import (ATI_RAW, JOINT_POSITIONS, MAX_RATE_HZ, TARGETS, TIME,
+                                   write_recording)
 
 GAP_COLUMN = "in_gap"
 
@@ -125,8 +126,9 @@ def _check_options(bag_path: Path, out_csv: Path, rate_hz: float, gap_periods: f
         raise BagError(f"{out_csv}: the output folder {out_csv.parent} does not exist")
     if out_csv.resolve() == bag_path.resolve():
         raise BagError(f"{out_csv}: the output would overwrite the bag")
-    if not (isinstance(rate_hz, numbers.Real) and math.isfinite(rate_hz) and rate_hz > 0):
-        raise BagError(f"rate_hz must be finite and positive, got {rate_hz!r}")
+    if not (isinstance(rate_hz, numbers.Real) and math.isfinite(rate_hz)
+            and 0 < rate_hz <= MAX_RATE_HZ):
+        raise BagError(f"rate_hz must be in (0, {MAX_RATE_HZ:g}] Hz, got {rate_hz!r}")
     if not (isinstance(gap_periods, numbers.Real) and math.isfinite(gap_periods)
             and gap_periods >= 1):
         raise BagError(f"gap_periods must be a finite number >= 1, got {gap_periods!r}")
