@@ -137,6 +137,23 @@ def list_recordings(root: str | Path) -> list[ListedRecording]:
     return listed
 
 
+def _repeated_header_name(path: Path) -> str | None:
+    """The first name the CSV header at ``path`` holds twice, else None (also for a file whose
+    header cannot be read: :func:`read_recording`'s reader says why)."""
+    import csv
+    try:
+        with open(path, newline="") as fh:
+            header = next(csv.reader(fh), [])
+    except (OSError, UnicodeDecodeError, csv.Error):
+        return None
+    seen = set()
+    for name in (h.strip() for h in header):
+        if name in seen:
+            return name
+        seen.add(name)
+    return None
+
+
 def read_recording(path: str | Path, *, require_targets: bool = False,
                    column_map: dict[str, str] | None = None) -> pd.DataFrame:
     """Read one recording CSV and check it.
@@ -154,6 +171,9 @@ def read_recording(path: str | Path, *, require_targets: bool = False,
         check_input_file(path, MAX_DATA_BYTES, "recording")
     except ValueError as err:
         raise RecordingError(str(err)) from None
+    repeated = _repeated_header_name(path)
+    if repeated:  # the CSV reader would rename the second copy (fx.1) and read the first
+        raise RecordingError(f"{path}: column {repeated!r} appears more than once in the header")
     try:
         frame = pd.read_csv(path, engine="c")
     except (OSError, pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as err:

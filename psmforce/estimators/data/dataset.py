@@ -34,6 +34,8 @@ import pandas as pd
 import torch
 
 from psmforce.estimators.data.bounds import physical_bounds
+from psmforce.estimators.data.sanity import (entry_problem, outside_physical_range,
+                                             target_problem)
 from psmforce.io.recording import (HEX10, JOINT_EFFORTS, JOINT_POSITIONS, JOINT_VELOCITIES,
                                  PAPER_FEATURES, TARGETS, list_recordings, read_recording)
 
@@ -158,47 +160,25 @@ def load_dataset(root: str | Path, *, require_targets: bool = True, threads: int
             raise DatasetError(f"{meta_path}: trial entry {k} path {e['path']!r} must be "
                                f"relative and inside {root}")
         listed.append((e["path"], e["condition"], e["split"], e))
+    problem = entry_problem([(rel, condition, split) for rel, condition, split, _ in listed])
+    if problem:
+        raise DatasetError(f"{meta_path}: {problem}")
 
     bounds = physical_bounds()
 
     def read(item):
         rel, condition, split, extra = item
         frame = read_recording(root / rel, require_targets=require_targets)
-        _check_physical(frame, root / rel, bounds)
-        if require_targets:
-            _check_targets(frame, root / rel)
+        problem = (outside_physical_range(frame, bounds)
+                   or (target_problem(frame) if require_targets else None))
+        if problem:
+            raise DatasetError(f"{root / rel}: {problem}")
         params = {k: v for k, v in extra.items() if k not in ("path", "condition", "split")}
         return Trial(str(rel), str(condition), str(split), frame, params)
 
     with ThreadPoolExecutor(max_workers=max(1, threads)) as pool:
         trials = list(pool.map(read, listed))
     return Dataset(root, trials, metadata)
-
-
-def _check_physical(frame: pd.DataFrame, path: Path, bounds: dict) -> None:
-    """Every value inside the physical range the streaming estimator accepts
-    (:func:`psmforce.estimators.data.bounds.physical_bounds`): a model is never trained or scored on
-    samples it would refuse when streaming (a roll of 1e30 rad would set a scaler and train
-    silently)."""
-    for column, (low, high) in bounds.items():
-        values = frame[column].to_numpy(dtype=float)
-        outside = (values < low) | (values > high)
-        if outside.any():
-            row = int(np.argmax(outside))
-            raise DatasetError(f"{path}: {column} = {values[row]:.6g} at row {row} is outside its "
-                               f"physical range [{low:.4g}, {high:.4g}] "
-                               f"(psmforce.estimators.data.bounds.physical_bounds)")
-
-
-def _check_targets(frame: pd.DataFrame, path: Path) -> None:
-    """Refuse a recording whose target column never changes: nothing to learn from or score
-    against (the ATI of a real or simulated bench always reads some noise)."""
-    for column in TARGETS:
-        values = frame[column].to_numpy(dtype=float)
-        if len(values) and values.min() == values.max():
-            raise DatasetError(f"{path}: target {column} is constant ({values[0]:g} in all "
-                               f"{len(values)} rows): the force sensor recorded nothing "
-                               f"(unplugged or not written)")
 
 
 def index_recordings(root: str | Path) -> Path:
@@ -213,6 +193,10 @@ def index_recordings(root: str | Path) -> Path:
     if meta_path.exists():
         raise DatasetError(f"{meta_path} exists: the folder is already a dataset")
     listed = list_recordings(root)  # refuses a missing folder or one without CSVs
+    problem = entry_problem([(r.path.relative_to(root).as_posix(), r.condition, r.split)
+                             for r in listed])
+    if problem:
+        raise DatasetError(f"{root}: {problem}")
     trials = [{"path": r.path.relative_to(root).as_posix(), "condition": r.condition,
                "split": r.split} for r in listed]
     write_text_atomic(meta_path, json.dumps(

@@ -68,6 +68,27 @@ def cases() -> list[Case]:
         return str(bad)
     dataset_case("recording without ATI targets", no_targets)
 
+    # issue 46, class 5: columns and entries named once, known, plausible
+    dataset_case("a trial listed twice", meta_trials(lambda t: t + t[:1]))
+    dataset_case("an unknown condition", meta_trials(
+        lambda t: [{**t[0], "condition": "Freee"}] + t[1:]))
+    dataset_case("an unknown split", meta_trials(lambda t: [{**t[0], "split": "tarin"}] + t[1:]))
+
+    def repeated_column(data):
+        bad = trial(data)
+        lines = bad.read_text().splitlines()
+        first = lines[0].split(",")[1]
+        bad.write_text("\n".join([lines[0] + "," + first]
+                                 + [line + ",0" for line in lines[1:]]) + "\n")
+        return str(bad)
+    dataset_case("a recording naming a column twice", repeated_column)
+
+    def ati_in_millinewton(data):
+        bad = trial(data, condition="Traction")
+        edit_csv(bad, lambda f: f.assign(ati_fz=f["ati_fz"] * 1e3 + 1e4))
+        return str(bad)
+    dataset_case("an ATI target in the wrong unit", ati_in_millinewton)
+
     @case("cli train: dataset", "train recording shorter than the transformer's window")
     def _(s, d):
         data = s.copy(d)
