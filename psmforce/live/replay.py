@@ -27,7 +27,7 @@ import numpy as np
 from rosbags.highlevel import AnyReader
 
 from psmforce.core.files import atomic_path
-from psmforce.estimators.data.rates import RateError, recording_rate_hz
+from psmforce.estimators.data.rates import RATE_TOLERANCE, RateError, recording_rate_hz
 from psmforce.estimators.runtime.streaming import StreamingEstimator
 from psmforce.estimators.networks.uncertainty import predicts_variance
 from psmforce.io.bags.messages import ACCEPTED_TYPES, ROS2_TYPESTORE, stamp_ns
@@ -97,11 +97,15 @@ def replay(bag: str | Path, checkpoint: str | Path, out: str | Path, *, arm: str
             if present[topic] not in ACCEPTED_TYPES[name]:
                 raise BagError(f"{bag}: topic '{topic}' ({name} stream) has type "
                                f"{present[topic]}; expected {' or '.join(ACCEPTED_TYPES[name])}")
+        try:
+            measured = measure_rate(reader, resolved["hex10"])
+        except RateError as err:
+            raise BagError(f"{bag}: {err}") from None
         if input_rate_hz is None:
-            try:
-                input_rate_hz = measure_rate(reader, resolved["hex10"])
-            except RateError as err:
-                raise BagError(f"{bag}: {err}") from None
+            input_rate_hz = measured
+        elif abs(input_rate_hz - measured) > RATE_TOLERANCE * measured:
+            raise BagError(f"{bag}: --input-rate {input_rate_hz:g} Hz, but the HEX10 stamps "
+                           f"come at {measured:.4g} Hz: give the rate of the stream, or none")
         estimator = StreamingEstimator.from_checkpoint(
             checkpoint, input_rate_hz=input_rate_hz, psm=PSM(), post_filter=post_filter,
             backend=backend)

@@ -161,3 +161,45 @@ def test_training_rate_is_measured_from_the_recordings():
         trials_rate_hz([trial(100.0), trial(100.0), trial(1000.0, name="b.csv")])
     with pytest.raises(RateError, match="strictly increasing"):
         recording_rate_hz([0.0, 0.0, 0.1])
+
+
+# Issue 46, class 4: the rate is measured from the data at training, stored, and checked.
+
+def _bench_at(tmp_path, name: str, time_scale: float, only: str | None = None):
+    """A tiny bench whose recordings' times are multiplied by ``time_scale`` (0.5: 200 Hz;
+    1000: the same data in milliseconds), all of them or the ``only`` one."""
+    from psmforce.io.recording import read_recording, write_recording
+    from psmforce.sim import simulate
+    out = tmp_path / name
+    simulate("automated", scale=0.005, seed=0, out=out)
+    for path in sorted(out.rglob("*.csv")):
+        if only is None or path.match(only):
+            frame = read_recording(path)
+            frame["time"] = frame["time"] * time_scale
+            write_recording(frame, path)
+    return out
+
+
+@pytest.mark.slow
+def test_training_records_the_datas_rate_and_finetuning_keeps_it(tmp_path):
+    from psmforce.estimators.training.train import finetune, train
+    fast = _bench_at(tmp_path, "fast", 0.5)
+    train(fast, "fcn", tmp_path / "fast.pt", epochs=1)
+    assert ck.load_checkpoint(tmp_path / "fast.pt").sample_rate_hz == pytest.approx(200.0)
+    slow = _bench_at(tmp_path, "slow", 1.0)
+    with pytest.raises(ValueError, match="sampled at 100 Hz, but .*fast.pt was trained at 200 Hz"):
+        finetune(tmp_path / "fast.pt", slow, tmp_path / "tuned.pt", epochs=1)
+    assert not (tmp_path / "tuned.pt").exists()
+
+
+@pytest.mark.parametrize("time_scale, only, match", [
+    (1000.0, None, r"outside \[1, 10000\] Hz: .*milliseconds or nanoseconds"),
+    (1e9, None, r"outside \[1, 10000\] Hz"),
+    (0.5, "*/Free/*", "a model is trained at one rate")])
+def test_training_data_at_an_implausible_or_mixed_rate_is_refused(tmp_path, time_scale, only,
+                                                                  match):
+    from psmforce.estimators.training.train import train
+    bench = _bench_at(tmp_path, "bench", time_scale, only)
+    with pytest.raises(ValueError, match=match):
+        train(bench, "fcn", tmp_path / "m.pt", epochs=1)
+    assert not (tmp_path / "m.pt").exists()

@@ -304,3 +304,14 @@ def test_serve_never_writes_its_report_over_the_recording_it_publishes(tmp_path,
                  str(rec)]) == 2
     err = capsys.readouterr().err
     assert "--json" in err and "input" in err and rec.read_text() == "the user's recording"
+
+
+def test_an_input_rate_the_stamps_contradict_is_refused(tmp_path):
+    """Issue 46, class 4: ``replay --input-rate 1000`` was accepted against 100 Hz stamps."""
+    from psmforce.io.bags import BagError
+    from psmforce.live.replay import replay
+    ckpt = checkpoint(tmp_path / "h.pt", rate_hz=100.0)
+    _, bag = session(tmp_path, n=100, rate_hz=100.0)
+    with pytest.raises(BagError, match="--input-rate 1000 Hz, but the HEX10 stamps come at 100"):
+        replay(bag, ckpt, tmp_path / "out.mcap", input_rate_hz=1000.0)
+    assert not list(tmp_path.glob("out*"))

@@ -20,12 +20,13 @@ frequency, run forward only, so nothing from the future leaks in). Its lag is it
 from __future__ import annotations
 
 import math
+from pathlib import Path
 from typing import Sequence
 
 import numpy as np
 from scipy import signal
 
-from psmforce.io.recording import TIME
+from psmforce.io.recording import MAX_RATE_HZ, TIME
 
 DEFAULT_SAMPLE_RATE_HZ = 100.0
 """The rate assumed for a checkpoint that does not record ``sample_rate_hz`` (Hz)."""
@@ -60,19 +61,41 @@ def recording_rate_hz(time: np.ndarray, where: str = "recording") -> float:
     return 1.0 / float(np.median(dt))
 
 
-def trials_rate_hz(trials: Sequence, time_column: str = TIME) -> float:
+def trials_rate_hz(trials: Sequence, time_column: str = TIME, root=None) -> float:
     """The one rate (Hz) of recordings (objects with a ``frame`` and a ``path``, such as
     :class:`psmforce.estimators.data.dataset.Trial`): refused when they do not share it within
-    :data:`RATE_TOLERANCE`. Returns the median of their rates."""
+    :data:`RATE_TOLERANCE`. Returns the median of their rates. ``root``: the folder their paths
+    are relative to, named in a refusal."""
     if not trials:
         raise RateError("no recordings to measure a rate from")
-    rates = [recording_rate_hz(t.frame[time_column].to_numpy(), str(t.path)) for t in trials]
+
+    def where(t) -> str:
+        return str(t.path if root is None else Path(root) / t.path)
+    rates = [recording_rate_hz(t.frame[time_column].to_numpy(), where(t)) for t in trials]
     median = float(np.median(rates))
     worst = int(np.argmax([abs(r - median) for r in rates]))
     if abs(rates[worst] - median) > RATE_TOLERANCE * median:
-        raise RateError(f"{trials[worst].path}: sampled at {rates[worst]:.4g} Hz, the other "
+        raise RateError(f"{where(trials[worst])}: sampled at {rates[worst]:.4g} Hz, the other "
                         f"recordings at {median:.4g} Hz; a model is trained at one rate")
     return median
+
+
+MIN_TRAINING_RATE_HZ = 1.0
+"""The lowest rate training data may have: below it the time column is not in seconds."""
+
+
+def training_rate_hz(trials: Sequence, time_column: str = TIME, root=None) -> float:
+    """The rate (Hz) a model trained on ``trials`` is trained at (:func:`trials_rate_hz`),
+    refused (:class:`RateError`, naming a file) when the trials do not share one, or when it lies
+    outside [:data:`MIN_TRAINING_RATE_HZ`, :data:`psmforce.io.recording.MAX_RATE_HZ`]: times in
+    milliseconds or nanoseconds where the recording layout has seconds."""
+    rate = trials_rate_hz(trials, time_column, root)
+    if not MIN_TRAINING_RATE_HZ <= rate <= MAX_RATE_HZ:
+        first = trials[0].path if root is None else Path(root) / trials[0].path
+        raise RateError(f"{first}: sampled at {rate:.4g} Hz by its '{time_column}' "
+                        f"column, outside [{MIN_TRAINING_RATE_HZ:g}, {MAX_RATE_HZ:g}] Hz: the "
+                        f"recording layout's time is in seconds (milliseconds or nanoseconds?)")
+    return rate
 
 
 def decimation_factor(input_rate_hz: float, model_rate_hz: float) -> int:

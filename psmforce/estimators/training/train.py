@@ -47,6 +47,8 @@ import torch
 from torch import nn
 from tqdm import tqdm
 
+from psmforce.io.recording import TIME
+from psmforce.estimators.data.rates import RATE_TOLERANCE, training_rate_hz
 from psmforce.estimators.training.checkpoint import TrainedModel, load_checkpoint
 from psmforce.estimators.networks.contract import ClosedFormModel, is_chunk
 from psmforce.estimators.data.dataset import (DatasetError, Scaler, Trial, WindowSet, fit_scalers,
@@ -368,10 +370,12 @@ def make_setup(model_name: str, train_trials: Sequence[Trial], *, features: Feat
     if inputs.uses_prior != (prior_json is not None):
         raise TrainingError(f"derivation '{inputs.derivation}' and "
                             f"{'a' if prior_json else 'no'} prior do not go together")
+    timed = all(TIME in t.frame.columns for t in train_trials)  # recordings always are
+    rate_hz = training_rate_hz(train_trials) if timed else None  # every stream meets it
     x_scaler, y_scaler = fit_scalers(train_trials, inputs.features, raw_columns=inputs.raw,
                                      base_columns=inputs.base)
     return TrainedModel(model_name, dict(config or {}), inputs.features, x_scaler, y_scaler,
-                        inputs.base, inputs.derivation, prior_json)
+                        inputs.base, inputs.derivation, prior_json, sample_rate_hz=rate_hz)
 
 
 def _closed_form_windows(model, trials: Sequence[Trial], setup: TrainedModel, cfg: TrainConfig,
@@ -531,6 +535,7 @@ def train(data_dir: str | Path, model: str, out_checkpoint: str | Path, *,
     trials = dataset.select(split="train")
     if not trials:
         raise DatasetError(f"{data_dir}: no trials in a 'train' split")
+    training_rate_hz(trials, root=dataset.root)  # one rate, in seconds, named by file
     train_trials, val_trials = split_validation(trials, 0.1, seed)
     prior_json = None
     if inputs.uses_prior:
@@ -564,6 +569,11 @@ def finetune(checkpoint: str | Path, data_dir: str | Path, out: str | Path, *, e
         raise DatasetError(f"{data_dir}: no trials to finetune on (splits {splits})")
     cfg = train_config or TrainConfig()
     cfg = TrainConfig(**{**cfg.to_dict(), "max_epochs": epochs, "seed": seed, "device": device})
+    rate_hz = training_rate_hz(trials, root=dataset.root)
+    if abs(rate_hz - record.sample_rate_hz) > RATE_TOLERANCE * record.sample_rate_hz:
+        raise DatasetError(f"{data_dir}: sampled at {rate_hz:.4g} Hz, but {checkpoint} was "
+                           f"trained at {record.sample_rate_hz:.4g} Hz; a model is finetuned at "
+                           f"its own rate")
     train_trials, val_trials = split_validation(trials, 0.1, seed)
     report = finetune_model(record, train_trials, val_trials, cfg)
     record.provenance = {

@@ -89,6 +89,19 @@ def cases() -> list[Case]:
         return str(bad)
     dataset_case("an ATI target in the wrong unit", ati_in_millinewton)
 
+    # issue 46, class 4: the rate is measured from the data, one rate, in seconds
+    def times_scaled(scale, condition=None):
+        def damage(data):
+            paths = sorted(data.rglob("*.csv")) if condition is None else [
+                trial(data, condition=condition)]
+            for path in paths:
+                edit_csv(path, lambda f: f.assign(time=f["time"] * scale))
+            return str(paths[0]) if condition else str(data)  # every file: the folder
+        return damage
+    dataset_case("times in milliseconds", times_scaled(1e3))
+    dataset_case("times in nanoseconds", times_scaled(1e9))
+    dataset_case("one recording at another rate", times_scaled(0.5, condition="Free"))
+
     @case("cli train: dataset", "train recording shorter than the transformer's window")
     def _(s, d):
         data = s.copy(d)
