@@ -73,3 +73,30 @@ def test_an_export_into_a_folder_another_command_holds_is_refused(tmp_path, use_
     export(path, tmp_path / "out")
     assert sorted(p.name for p in (tmp_path / "out").iterdir()) == ["hybrid.json",
                                                                     "hybrid_step.onnx"]
+
+
+def test_a_graph_replaced_under_its_export_is_refused_before_it_runs(tmp_path):
+    """Issue 46, class 10: an export whose graph was replaced (and its digest recomputed) made
+    run_export raise ONNX Runtime's own errors or hang; the graph's inputs and outputs are now
+    checked against the export's metadata first."""
+    from psmforce.core.integrity import seal, sha256_bytes
+    from psmforce.estimators.runtime.steppers import step_onnx_bytes
+    export(_checkpoint(tmp_path, False), tmp_path / "out")
+    spec = json.loads((tmp_path / "out" / "hybrid.json").read_text())
+    other, _, _ = model_and_scalers(len(spec["features"]) + 2)  # a graph of more inputs
+    graph = step_onnx_bytes(other)
+    (tmp_path / "out" / "hybrid_step.onnx").write_bytes(graph)
+    resealed = seal({**{k: v for k, v in spec.items() if k != "sha256"},
+                     "onnx_sha256": sha256_bytes(graph)})
+    (tmp_path / "out" / "hybrid.json").write_text(json.dumps(resealed))
+    with pytest.raises(ExportError, match="the graph's input x is tensor.float. .*the export says"):
+        run_export(tmp_path / "out", recording(20))
+
+
+def test_the_runner_refuses_a_recording_whose_time_runs_backwards(tmp_path):
+    """Issue 46, class 10: the stream flags a step back in time; the batch runner accepted it."""
+    export(_checkpoint(tmp_path, False), tmp_path / "out")
+    frame = recording(20)
+    frame.loc[10, "time"] = frame.loc[3, "time"]
+    with pytest.raises(ExportError, match="column time row 10: time does not increase"):
+        run_export(tmp_path / "out", frame)

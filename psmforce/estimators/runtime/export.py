@@ -58,6 +58,7 @@ import torch
 from psmforce.estimators.data.bounds import physical_bounds
 from psmforce.estimators.training.checkpoint import load_checkpoint
 from psmforce.estimators.data.dataset import Scaler
+from psmforce.io.recording import TIME
 from psmforce.core.integrity import check_version, seal, sha256_bytes, verify
 from psmforce.estimators.networks.recipes import MAX_STATE_FLOATS
 from psmforce.estimators.data.hybrid_inputs import HybridInputs, prior_from_json
@@ -185,7 +186,8 @@ def run_export(out_dir: str | Path, frame: pd.DataFrame, *, with_std: bool = Fal
         raise ExportError(f"{where}: the exported network predicts no variance")
     target = Scaler.from_dict(spec["target_scaler"])
     try:
-        stepper = OnnxStepper(onnx_bytes, spec["graph"]["state"])
+        stepper = OnnxStepper(onnx_bytes, spec["graph"]["state"],
+                              x_width=len(spec["features"]), y_width=spec["graph"]["y"]["shape"][1])
     except Exception as err:  # noqa: BLE001 - ONNX Runtime raises its own types
         raise ExportError(f"{out / spec['onnx']}: ONNX Runtime cannot run it with the JSON's "
                           f"state ({type(err).__name__}: {str(err).strip()[:160]})") from None
@@ -309,6 +311,12 @@ def _raw_matrix(frame: pd.DataFrame, columns: list[str], where: Path) -> np.ndar
             raise ExportError(f"column {c}: not numeric ({kind}; real numbers only), as "
                               f"{where} reads it")
     raw = frame[columns].to_numpy(np.float64)
+    if TIME in frame.columns:  # the stream flags a step back in time; a batch refuses it
+        step = np.diff(pd.to_numeric(frame[TIME], errors="coerce").to_numpy(np.float64))
+        if not (step > 0).all():
+            row = int(np.argmin(step > 0)) + 1
+            raise ExportError(f"column {TIME} row {row}: time does not increase (the recording "
+                              f"runs backwards or repeats a stamp)")
     bounds = physical_bounds()
     for k, c in enumerate(columns):
         low, high = bounds.get(c, (-np.inf, np.inf))

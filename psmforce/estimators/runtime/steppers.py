@@ -149,13 +149,15 @@ class OnnxStepper:
 
     backend = "onnx"
 
-    def __init__(self, onnx_model: bytes | str | Path, state: Sequence[dict]):
+    def __init__(self, onnx_model: bytes | str | Path, state: Sequence[dict], *,
+                 x_width: int | None = None, y_width: int | None = None):
         import onnxruntime as ort
         options = ort.SessionOptions()
         options.intra_op_num_threads = 1
         options.inter_op_num_threads = 1
         source = str(onnx_model) if isinstance(onnx_model, Path) else onnx_model
         self._session = ort.InferenceSession(source, options, providers=["CPUExecutionProvider"])
+        _check_signature(self._session, state, x_width, y_width)
         inputs = {i.name: i for i in self._session.get_inputs()}
         self._x = np.zeros((1, inputs["x"].shape[1]), np.float32)
         outputs = {o.name: o for o in self._session.get_outputs()}
@@ -184,6 +186,32 @@ class OnnxStepper:
         self._session.run_with_iobinding(self._bindings[self._phase])
         self._phase = 1 - self._phase
         return self._y[0]
+
+
+_ONNX_TYPES = {"float32": "tensor(float)", "int64": "tensor(int64)"}
+
+
+def _check_signature(session, state: Sequence[dict], x_width: int | None,
+                     y_width: int | None) -> None:
+    """Refuse (ValueError, one line) a graph whose inputs and outputs are not those the step
+    protocol and ``state`` (with ``x_width`` features, ``y_width`` outputs, where given) say:
+    the same names, shapes and dtypes, so a graph replaced under an export is never run."""
+    want_in = {"x": ([1, x_width] if x_width else None, "tensor(float)")}
+    want_out = {"y": ([1, y_width] if y_width else None, "tensor(float)")}
+    for entry in state:
+        kind = _ONNX_TYPES.get(entry["dtype"])
+        want_in[entry["name"]] = (list(entry["shape"]), kind)
+        want_out[f"{entry['name']}_out"] = (list(entry["shape"]), kind)
+    for side, args, want in (("inputs", session.get_inputs(), want_in),
+                             ("outputs", session.get_outputs(), want_out)):
+        got = {a.name: (list(a.shape), a.type) for a in args}
+        if set(got) != set(want):
+            raise ValueError(f"the graph's {side} are {sorted(got)}, the export says "
+                             f"{sorted(want)}")
+        for name, (shape, kind) in want.items():
+            if kind != got[name][1] or (shape is not None and shape != got[name][0]):
+                raise ValueError(f"the graph's {side[:-1]} {name} is {got[name][1]} "
+                                 f"{got[name][0]}, the export says {kind} {shape}")
 
 
 class NumpyStepper:
