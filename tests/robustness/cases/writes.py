@@ -8,7 +8,7 @@ import os
 import shutil
 from pathlib import Path
 
-from tests.robustness.harness import Attempt, Case, trial
+from tests.robustness.harness import Attempt, Case, registrar, trial
 
 TARGET_KINDS = ("a link to a file the user has", "a dangling link", "a named pipe", "a folder")
 """What a command's output may find at its path, none of which it may replace."""
@@ -47,6 +47,7 @@ COMMANDS = ("simulate --json", "index --json", "fit-prior --out", "wrench --out"
 def cases() -> list[Case]:
     """The cases of this artefact, in a fixed order."""
     found: list[Case] = []
+    case = registrar(found)
 
     # --- a target that is not a regular file: refused before the work, nothing replaced ------
     for command in COMMANDS:
@@ -149,31 +150,23 @@ def cases() -> list[Case]:
         write_bag(read_recording(trial(s.bench)), bag, start_ns=1_700_000_000 * 10**9)
         return bag
 
-    @case_of(found, "cli replay", "a layout already beside --out")
+    @case("cli replay", "a layout already beside --out")
     def _(s, d):
         bag = replay_bag(s, d)
         (d / "run.layout.json").write_text('{"the user": "has this"}')
         return Attempt(argv=["replay", str(bag), str(s.hybrid), "--out", str(d / "run.mcap")],
                        names=("--out",))
 
-    @case_of(found, "cli replay", "--json names the layout it writes")
+    @case("cli replay", "--json names the layout it writes")
     def _(s, d):
         bag = replay_bag(s, d)
         return Attempt(argv=["replay", str(bag), str(s.hybrid), "--out", str(d / "run.mcap"),
                              "--json", str(d / "run.layout.json")], names=("--json",))
 
-    @case_of(found, "cli serve", "--json names the --sim-recording it publishes")
+    @case("cli serve", "--json names the --sim-recording it publishes")
     def _(s, d):
         rec = d / "rec.csv"
         shutil.copy(trial(s.bench), rec)
         return Attempt(argv=["serve", str(s.hybrid), "--sim", "--sim-recording", str(rec),
                              "--json", str(rec)], names=("--json",))
     return found
-
-
-def case_of(found: list, kind: str, name: str, expect: str = "REJECTED"):
-    """A decorator adding its ``prepare`` function to ``found`` as a :class:`Case`."""
-    def register(prepare):
-        found.append(Case(kind, name, expect, prepare))
-        return prepare
-    return register
