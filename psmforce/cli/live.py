@@ -8,7 +8,10 @@ JSON-ready report (``--json``). A missing optional package (``cyclonedds``, ``fo
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
+import signal
+import sys
 import threading
 
 from psmforce.cli import options
@@ -44,12 +47,23 @@ def replay_command(args) -> dict:
                     view_hold_s=None)
     print(f"wrote {report['out']} ({report['answers']} estimates at "
           f"{report['input_rate_hz']:.4g} Hz, model at {report['model_rate_hz']:g} Hz) and "
-          f"{report['layout']}")
+          f"{report['layout']}" + (f"; skipped {sum(report['malformed'].values())} messages "
+                                   f"that did not decode" if report["malformed"] else ""))
     return report
 
 
 def serve_command(args) -> dict:
     _needs("cyclonedds", "serve")
+    stop = threading.Event()
+    with _stop_on_signals(stop):  # from the start: a signal while loading still ends in a report
+        report = _serve(args, stop)
+    print(json.dumps({k: report[k] for k in ("received", "malformed", "answers_published",
+                                             "unpaired", "input_rate_hz", "model_rate_hz",
+                                             "decimation", "lag_s") if k in report}))
+    return report
+
+
+def _serve(args, stop: threading.Event) -> dict:
     from cyclonedds.domain import DomainParticipant
 
     from psmforce.live.serve import DdsNode, domain
@@ -62,21 +76,39 @@ def serve_command(args) -> dict:
     print(f"psmforce serve: domain {domain(args.domain_id)}, listening on "
           f"{', '.join(node.input_topics.values())}; publishing "
           f"{node.output_topics['hex10']} and {node.output_topics['base']}", flush=True)
-    stop, player = threading.Event(), None
-    if args.sim:
-        player = _start_sim(args, participant, stop)
+    player = _start_sim(args, participant, stop) if args.sim and not stop.is_set() else None
     try:
-        report = node.spin(duration_s=args.duration, idle_stop_s=args.idle_stop)
-    except KeyboardInterrupt:
-        report = node.report()
+        return node.spin(duration_s=args.duration, stop=stop, idle_stop_s=args.idle_stop)
     finally:
         stop.set()
         if player is not None:
             player.join(5)
-    print(json.dumps({k: report[k] for k in ("received", "malformed", "answers_published",
-                                             "unpaired", "input_rate_hz", "model_rate_hz",
-                                             "decimation", "lag_s") if k in report}))
-    return report
+        node.close()
+
+
+@contextlib.contextmanager
+def _stop_on_signals(stop: threading.Event):
+    """SIGINT (Ctrl-C) and SIGTERM (a launcher, ``kill``, systemd) set ``stop``: the node ends
+    its loop, stops the simulated robot, and the command writes its report and ``--json`` as
+    at the end of ``--duration``. Raising ``KeyboardInterrupt`` instead would land anywhere,
+    inside the middleware's calls included, and leave no report. A second signal while
+    stopping is the impatient user's: it interrupts at once. A SIGINT the shell set to be
+    ignored (a background job) stays ignored."""
+    def on_signal(signum, frame):
+        if stop.is_set():
+            raise KeyboardInterrupt
+        stop.set()
+        print(f"psmforce serve: {signal.Signals(signum).name}: stopping, writing the report",
+              file=sys.stderr, flush=True)
+
+    handled = [signal.SIGTERM] + ([signal.SIGINT] if signal.getsignal(signal.SIGINT)
+                                  is not signal.SIG_IGN else [])
+    before = {s: signal.signal(s, on_signal) for s in handled}
+    try:
+        yield
+    finally:
+        for s, handler in before.items():
+            signal.signal(s, handler)
 
 
 def _start_sim(args, participant, stop: threading.Event) -> threading.Thread:
@@ -94,10 +126,10 @@ def _start_sim(args, participant, stop: threading.Event) -> threading.Thread:
 
 def _common(p: argparse.ArgumentParser) -> None:
     p.add_argument("checkpoint", help="a streamable hybrid checkpoint (psmforce train)")
-    p.add_argument("--arm", default="PSM1", help="arm namespace (default PSM1)")
-    p.add_argument("--topic-js", help="arm JointState topic (default /ARM/measured_js)")
-    p.add_argument("--topic-jaw", help="jaw JointState topic (default /ARM/jaw/measured_js)")
-    p.add_argument("--topic-hex10", help="HEX10 WrenchStamped topic (default /hex10/measured_cf)")
+    p.add_argument("--arm", default="PSM1", type=options.ros_name(namespace=True), help="arm namespace (default PSM1)")
+    p.add_argument("--topic-js", type=options.ros_name(), help="arm JointState topic (default /ARM/measured_js)")
+    p.add_argument("--topic-jaw", type=options.ros_name(), help="jaw JointState topic (default /ARM/jaw/measured_js)")
+    p.add_argument("--topic-hex10", type=options.ros_name(), help="HEX10 WrenchStamped topic (default /hex10/measured_cf)")
     p.add_argument("--input-rate", type=options.RATE_HZ, metavar="HZ",
                    help="the HEX10 stream's rate (default: measured from its stamps); a whole "
                         "multiple of the model's training rate")
@@ -121,7 +153,7 @@ def add_live_commands(sub) -> None:
     p.add_argument("bag")
     _common(p)
     p.add_argument("--out", required=True, help="the .mcap file to write")
-    p.add_argument("--topic-ati", help="ATI WrenchStamped topic (default /ati/measured_cf)")
+    p.add_argument("--topic-ati", type=options.ros_name(), help="ATI WrenchStamped topic (default /ati/measured_cf)")
     p.add_argument("--realtime", action="store_true", help="play at the recorded pace")
     p.add_argument("--view", action="store_true",
                    help="serve the messages live to Foxglove (WebSocket, --port) while playing, "

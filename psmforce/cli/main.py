@@ -42,6 +42,10 @@ def _parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"psmforce {__version__}")
     parser.add_argument("--debug", action="store_true",
                         help="on failure, print the traceback as well as the one-line reason")
+    parser.add_argument("--plugin", action="append", default=[], metavar="MODULE",
+                        help="import MODULE first: it registers a model of your own "
+                             "(psmforce.estimators.networks.recipes.register), which a checkpoint "
+                             "names but never imports itself; repeatable")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
     def add(name, func, help_, description):
@@ -87,11 +91,11 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--out", required=True, help="CSV file to write")
     p.add_argument("--rate", type=options.RATE_HZ, default=100.0,
                    help="output rate in Hz (default 100; at most 10 kHz)")
-    p.add_argument("--arm", default="PSM1", help="arm namespace (default PSM1)")
-    p.add_argument("--topic-js", help="arm JointState topic (default /ARM/measured_js)")
-    p.add_argument("--topic-jaw", help="jaw JointState topic (default /ARM/jaw/measured_js)")
-    p.add_argument("--topic-hex10", help="HEX10 WrenchStamped topic (default /hex10/measured_cf)")
-    p.add_argument("--topic-ati", help="ATI WrenchStamped topic (default /ati/measured_cf)")
+    p.add_argument("--arm", default="PSM1", type=options.ros_name(namespace=True), help="arm namespace (default PSM1)")
+    p.add_argument("--topic-js", type=options.ros_name(), help="arm JointState topic (default /ARM/measured_js)")
+    p.add_argument("--topic-jaw", type=options.ros_name(), help="jaw JointState topic (default /ARM/jaw/measured_js)")
+    p.add_argument("--topic-hex10", type=options.ros_name(), help="HEX10 WrenchStamped topic (default /hex10/measured_cf)")
+    p.add_argument("--topic-ati", type=options.ros_name(), help="ATI WrenchStamped topic (default /ati/measured_cf)")
     p.add_argument("--topic-jacobian", help="spatial Jacobian topic (optional)")
     p.add_argument("--r-ati-psm", help="JSON file with the 3x3 rotation R_ati_PSM (fixture "
                    "calibration); with it the ATI targets ati_fx..fz are written (paper eq. 4)")
@@ -307,6 +311,9 @@ def _parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     try:
+        if args.plugin:
+            from psmforce.estimators.networks.recipes import load_plugins
+            load_plugins(args.plugin)
         guards.outputs_spare_inputs(args)
         if getattr(args, "json", None):
             options.output_file(args.json, "--json", parents=False)  # before the work, not after it

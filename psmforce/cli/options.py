@@ -167,3 +167,17 @@ def number_in(low: float, high: float, *, low_open: bool = True, integer: bool =
 
 RATE_HZ = number_in(0.0, MAX_RATE_HZ)
 SECONDS = number_in(0.0, MAX_SECONDS)
+
+
+def ros_name(*, namespace: bool = False):
+    """An argparse ``type``: a ROS 2 topic name (``namespace``: an arm namespace), checked
+    against ROS 2's naming rules (:mod:`psmforce.io.bags.names`) in argparse's one line naming
+    the option, before anything is read or any endpoint is created."""
+    from psmforce.io.bags.names import check_namespace, check_ros_name
+
+    def parse(text: str) -> str:
+        try:
+            return check_namespace(text, "name") if namespace else check_ros_name(text, "name")
+        except ValueError as err:
+            raise argparse.ArgumentTypeError(str(err).replace("name ", "", 1)) from None
+    return parse

@@ -55,6 +55,7 @@ import numpy as np
 
 from psmforce.estimators.runtime.streaming import Flags, StreamingEstimator
 from psmforce.io.bags.messages import MessageError, sample_from_messages, stamp_ns
+from psmforce.io.bags.names import check_namespace
 from psmforce.live import cdr
 
 TARING = 1 << 16
@@ -72,7 +73,7 @@ TARE_TYPE = "std_msgs/msg/Empty"
 
 def output_topics(arm: str = "PSM1") -> dict[str, str]:
     """The topic of each output, and ``tare`` (the tare request, std_msgs/Empty)."""
-    root = f"/{arm.strip('/')}/tool_force"
+    root = f"/{check_namespace(arm)}/tool_force"  # ROS 2's naming rules, one line if not
     return {name: f"{root}/{name}" for name in (*OUTPUT_TYPES, "tare")}
 
 

@@ -16,15 +16,22 @@ the same messages served live by a Foxglove WebSocket server on that port while 
 (:class:`psmforce.live.view.LiveView`: every channel advertised before the first message);
 ``view_wait_s``: the playback first waits up to that long for a client to subscribe to the estimate
 (HEX10 frame), so a viewer that connects after the start still sees it from its first answer.
+
+A message of a stream the node reads whose bytes do not hold its type (a truncated or corrupt
+record) is skipped, not copied, and counted per topic (``malformed`` in the report, its reason
+printed once per topic), as ``serve`` does: the node goes on with that stream's previous
+message, and one bad record never ends the replay.
 """
 
 from __future__ import annotations
 
+import struct
+import sys
 import time
 from pathlib import Path
 
 import numpy as np
-from rosbags.highlevel import AnyReader
+from rosbags.highlevel import AnyReader, AnyReaderError
 
 from psmforce.core.files import atomic_path
 from psmforce.estimators.data.rates import RATE_TOLERANCE, RateError, recording_rate_hz
@@ -36,6 +43,17 @@ from psmforce.live.node import OUTPUT_TYPES, ForceNode
 
 _RATE_MESSAGES = 2000
 """HEX10 messages whose stamps measure the input rate."""
+
+_UNDECODABLE = (AnyReaderError, ValueError, IndexError, struct.error, UnicodeDecodeError)
+"""What decoding raises for bytes that do not hold their message (rosbags wraps most)."""
+
+
+def _decode(reader: AnyReader, raw, msgtype: str):
+    """The message ``raw`` holds, or None when its bytes do not decode (module docstring)."""
+    try:
+        return reader.deserialize(raw, msgtype)
+    except _UNDECODABLE:
+        return None
 
 
 def _open(bag: Path) -> AnyReader:
@@ -53,7 +71,10 @@ def measure_rate(reader: AnyReader, topic: str) -> float:
     connections = [c for c in reader.connections if c.topic == topic]
     stamps = []
     for connection, _, raw in reader.messages(connections=connections):
-        stamps.append(stamp_ns(reader.deserialize(raw, connection.msgtype)))
+        message = _decode(reader, raw, connection.msgtype)
+        if message is None:
+            continue
+        stamps.append(stamp_ns(message))
         if len(stamps) >= _RATE_MESSAGES:
             break
     stamps = np.sort(np.array([s for s in stamps if s], dtype=np.int64))
@@ -155,6 +176,7 @@ def _play(reader, node: ForceNode, stream_of: dict, sink, view, realtime: bool,
     start_wall = start_log = None
     last_ns = 0
     copied = skipped = 0
+    malformed: dict[str, int] = {}
     for connection, log_ns, raw in reader.messages():
         if realtime:
             if start_wall is None:
@@ -162,24 +184,30 @@ def _play(reader, node: ForceNode, stream_of: dict, sink, view, realtime: bool,
             delay = start_wall + (log_ns - start_log) * 1e-9 - time.monotonic()
             if delay > 0:
                 time.sleep(delay)
-        msgtype = connection.msgtype
+        msgtype, topic = connection.msgtype, connection.topic
         if msgtype not in ROS2_TYPESTORE.types:
             skipped += 1
             continue
+        stream = stream_of.get(topic)
         message = None
+        if stream is not None or not reader.is2:
+            message = _decode(reader, raw, msgtype)
+            if message is None:  # skipped and counted, as serve does (module docstring)
+                if topic not in malformed:
+                    print(f"replay: {topic}: a message whose bytes do not hold a {msgtype}; "
+                          f"such messages are skipped and counted", file=sys.stderr)
+                malformed[topic] = malformed.get(topic, 0) + 1
+                continue
         if not reader.is2:  # ROS 1: re-serialised as ROS 2 CDR
-            message = reader.deserialize(raw, msgtype)
             raw = ROS2_TYPESTORE.serialize_cdr(message, msgtype)
-        _emit(sink, view, connection.topic, msgtype, bytes(raw), log_ns)
+        _emit(sink, view, topic, msgtype, bytes(raw), log_ns)
         copied += 1
-        stream = stream_of.get(connection.topic)
         if stream is None:
             continue
-        _answer(node, node.update(stream, message or reader.deserialize(raw, msgtype)), sink,
-                view, log_ns, flags)
+        _answer(node, node.update(stream, message), sink, view, log_ns, flags)
         last_ns = log_ns
     _answer(node, node.flush(), sink, view, last_ns, flags)
-    return {"inputs_copied": copied, "inputs_skipped": skipped}
+    return {"inputs_copied": copied, "inputs_skipped": skipped, "malformed": malformed}
 
 
 def _answer(node: ForceNode, answers, sink, view, log_ns: int, flags: np.ndarray) -> None:

@@ -59,6 +59,15 @@ def domain(domain_id: int | None = None) -> int:
     return int(value or 0)
 
 
+def _check_streams(checkpoint) -> None:
+    from psmforce.estimators.runtime.streaming import StreamingError
+    from psmforce.estimators.training.checkpoint import load_checkpoint
+    record = load_checkpoint(checkpoint)
+    if not record.recipe.streams:
+        raise StreamingError(f"{checkpoint}: holds a '{record.model_name}' model, which does "
+                             f"not stream")
+
+
 class DdsNode:
     """The live node (module docstring). ``topics``: stream -> topic overrides (js, jaw,
     hex10); ``sync``: pair the streams by stamp (:class:`psmforce.live.node.ForceNode`);
@@ -92,6 +101,8 @@ class DdsNode:
         self._built: list = []
         if input_rate_hz is not None:
             self.node = self._build(input_rate_hz)
+        else:  # a file that is no streamable checkpoint is refused now, not at the first message
+            _check_streams(checkpoint)
         resolved, _ = resolve_topics(arm, {k: v for k, v in (topics or {}).items()
                                            if k in ("js", "jaw", "hex10")})
         self.input_topics = {s: resolved[s] for s in ("js", "jaw", "hex10")}
@@ -213,6 +224,12 @@ class DdsNode:
                     and not (self.node is None and self._builder is not None):  # not building
                 break
         return self.report()
+
+    def close(self, timeout_s: float = 60.0) -> None:
+        """Wait for an estimator still being built (its backend compiles in native threads: a
+        process that exits under them aborts) before the node is let go."""
+        if self._builder is not None:
+            self._builder.join(timeout_s)
 
     def report(self) -> dict:
         node = self.node

@@ -32,7 +32,8 @@ from psmforce.estimators.networks.recipes import (
     Recipe,
     RecipeError,
     build_model,
-    import_recipe,
+    load_plugins,
+    require_recipe,
     origin,
     recipe,
     register,
@@ -165,16 +166,33 @@ def test_evaluate_writes_the_causal_table(data, tmp_path):
     assert result["eval_start_sample"] == EVAL_START
 
 
-def test_an_import_path_that_cannot_serve_is_refused_by_name():
+def test_a_plugin_that_cannot_serve_is_refused_by_name():
     assert origin("hybrid") is None  # shipped: always there
-    with pytest.raises(RecipeError, match="'no_such_module_xyz'.*cannot be imported"):
-        import_recipe("mine", "no_such_module_xyz:MINE")
-    with pytest.raises(RecipeError, match="registered by a script"):
-        import_recipe("mine", "__main__:MINE")
-    with pytest.raises(RecipeError, match="not 'module' or 'module:attribute'"):
-        import_recipe("mine", "os; rm -rf")
-    with pytest.raises(RecipeError, match="importing 'json', where it was registered, did not"):
-        import_recipe("mine", "json")
+    with pytest.raises(RecipeError, match="'no_such_module_xyz' cannot be imported"):
+        load_plugins(["no_such_module_xyz"])
+    with pytest.raises(RecipeError, match="script"):
+        load_plugins(["__main__"])
+    for bad in ("os; rm -rf", "json:loads", ""):
+        with pytest.raises(RecipeError, match="not a module name"):
+            load_plugins([bad])
+
+
+def test_loading_never_imports_the_module_a_checkpoint_names(tmp_path, monkeypatch):
+    """The recipe path in a file only words the refusal: nothing in a file decides which
+    module is imported (issue 46, class 3). A module that would record its import is named by
+    a sealed checkpoint; loading is refused and the module stays unimported."""
+    modules = tmp_path / "modules"
+    modules.mkdir()
+    (modules / "planted_models.py").write_text("import pathlib\n"
+                                               f"pathlib.Path({str(tmp_path / 'ran')!r})"
+                                               ".write_text('imported')\n")
+    monkeypatch.syspath_prepend(str(modules))
+    with pytest.raises(RecipeError, match="unknown model 'planted'.*module 'planted_models' "
+                                          "registers it.*--plugin planted_models"):
+        require_recipe("planted", "planted_models:PLANTED")
+    assert not (tmp_path / "ran").exists() and "planted_models" not in sys.modules
+    assert require_recipe("hybrid", "planted_models:PLANTED") is recipe("hybrid")
+    assert not (tmp_path / "ran").exists()
 
 
 MODULE = '''
@@ -210,21 +228,25 @@ def test_a_model_registered_at_run_time_is_evaluated_by_a_new_process(data, tmp_
     finally:
         unregister("tiny_fcn")
         sys.modules.pop("tiny_models", None)
+    with pytest.raises(CheckpointError, match="cannot build model 'tiny_fcn'.*module "
+                                              "'tiny_models' registers it"):
+        load_checkpoint(tmp_path / "tiny.pt")  # importable, yet not imported by the file
+    assert "tiny_models" not in sys.modules
     sys.path.remove(str(modules))  # monkeypatch restores sys.path afterwards
-    with pytest.raises(CheckpointError, match="cannot build model 'tiny_fcn'.*'tiny_models'.*"
-                                              "cannot be imported"):
-        load_checkpoint(tmp_path / "tiny.pt")
 
     source = str(Path(__file__).resolve().parents[2])  # the repository
-    ok = _cli(["evaluate", str(tmp_path / "tiny.pt"), "--data", str(data), "--out",
-               str(tmp_path / "eval")], [source, str(modules)])
+    unasked = _cli(["evaluate", str(tmp_path / "tiny.pt"), "--data", str(data), "--out",
+                    str(tmp_path / "eval")], [source, str(modules)])
+    assert unasked.returncode == 2 and "--plugin tiny_models" in unasked.stderr
+    ok = _cli(["--plugin", "tiny_models", "evaluate", str(tmp_path / "tiny.pt"), "--data",
+               str(data), "--out", str(tmp_path / "eval")], [source, str(modules)])
     assert ok.returncode == 0, ok.stderr[-2000:]
     assert "Causal metric, test trials" in ok.stdout and "HEX10 frame" in ok.stdout
     result = json.loads((tmp_path / "eval" / "metrics.json").read_text())
     assert result["model"] == "tiny_fcn"
     assert f"{result['postprocessing']['overall']['causal']['Fz']['rmse_n']:.3f}" in ok.stdout
 
-    lost = _cli(["evaluate", str(tmp_path / "tiny.pt"), "--data", str(data), "--out",
-                 str(tmp_path / "eval2")], [source])
+    lost = _cli(["--plugin", "tiny_models", "evaluate", str(tmp_path / "tiny.pt"), "--data",
+                 str(data), "--out", str(tmp_path / "eval2")], [source])
     assert lost.returncode == 2
     assert "tiny_models" in lost.stderr and "cannot be imported" in lost.stderr

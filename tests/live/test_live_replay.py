@@ -315,3 +315,22 @@ def test_an_input_rate_the_stamps_contradict_is_refused(tmp_path):
     with pytest.raises(BagError, match="--input-rate 1000 Hz, but the HEX10 stamps come at 100"):
         replay(bag, ckpt, tmp_path / "out.mcap", input_rate_hz=1000.0)
     assert not list(tmp_path.glob("out*"))
+
+
+@pytest.mark.parametrize("topic", ["/hex10/measured_cf", "/PSM1/measured_js"])
+def test_a_message_that_does_not_decode_is_skipped_and_counted(tmp_path, topic):
+    """Issue 46, class 9: one corrupt record in a bag made replay exit 3. It is skipped, not
+    copied, and counted; every other message is answered as in the clean bag."""
+    from psmforce.live.replay import replay
+    from tests.robustness.cases.live import corrupt_bag
+    ckpt = checkpoint(tmp_path / "h.pt", rate_hz=1000.0)
+    _, bag = session(tmp_path, n=300)
+    assert corrupt_bag(bag, tmp_path / "corrupt", topic, lambda raw: raw[:10],
+                       lambda k: k in (150, 151)) == 2
+    clean = replay(bag, ckpt, tmp_path / "clean.mcap")
+    report = replay(tmp_path / "corrupt", ckpt, tmp_path / "out.mcap")
+    assert report["malformed"] == {topic: 2} and clean["malformed"] == {}
+    trigger = topic == "/hex10/measured_cf"
+    assert report["answers"] == clean["answers"] - 2 * trigger
+    assert report["inputs_copied"] == clean["inputs_copied"] - 2
+    assert len(read_mcap(tmp_path / "out.mcap", TOPIC)) == report["answers"]

@@ -19,9 +19,10 @@ Training, evaluation, finetuning, calibration, reproduce, streaming, export and 
 :data:`RECIPES`; no other module compares model names. A new model is one :func:`register` call
 (``tests/estimators/test_recipes.py`` registers a toy model and trains, evaluates, streams and
 exports it). :func:`register` notes the module that called it; a checkpoint of a model registered
-outside this module records it as ``"module:attribute"`` (:func:`origin`), and loading such a
-checkpoint in a new process imports that module first (:func:`import_recipe`), so a model of one's
-own, registered at the top level of an importable module, survives into ``psmforce evaluate``.
+outside this module records it as ``"module:attribute"`` (:func:`origin`). Loading never imports
+it: a file does not choose which code runs. The user imports the module (``psmforce --plugin
+mymodels evaluate ...``, :func:`load_plugins`; ``import mymodels`` in Python), and a checkpoint of
+an unregistered model is refused naming the module it recorded (:func:`require_recipe`).
 """
 
 from __future__ import annotations
@@ -291,37 +292,38 @@ def origin(name: str) -> str | None:
     return f"{home}:{bound[0]}" if bound else home
 
 
-def import_recipe(name: str, path: str | None) -> Recipe:
-    """The recipe of model ``name``, importing ``path`` (:func:`origin`'s ``"module"`` or
-    ``"module:attribute"``, as a checkpoint records it) first when ``name`` is not registered;
-    a ``"module:attribute"`` bound to an unregistered recipe of that name is registered. Refused
-    with :class:`RecipeError` saying why: the module cannot be imported (it must be on the
-    path), it is a script, or it does not register ``name``.
+def require_recipe(name: str, path: str | None) -> Recipe:
+    """The recipe of model ``name``, which must be registered in this process; ``path`` (where a
+    checkpoint says it was registered, :func:`origin`) only words the refusal. Nothing read from
+    a file decides which module is imported: a model of one's own is registered by importing
+    its module first, by the caller's choice (``import mymodels`` in Python, ``psmforce --plugin
+    mymodels`` on the command line, :func:`load_plugins`)."""
+    if name in RECIPES:
+        return RECIPES[name]
+    hint = ""
+    if isinstance(path, str) and _IMPORT_PATH.fullmatch(path):
+        module = path.partition(":")[0]
+        hint = (f"; the file says module '{module}' registers it: if you trust that module, "
+                f"import it first (psmforce --plugin {module} ..., or import {module} in Python)")
+    raise RecipeError(f"unknown model '{name}'; known: {list(RECIPES)}{hint}")
 
-    Importing runs that module's code, as a plugin's entry point would: load checkpoints from
-    sources you would run code from."""
-    if name in RECIPES or path is None:
-        return recipe(name)
-    if not isinstance(path, str) or not _IMPORT_PATH.fullmatch(path):
-        raise RecipeError(f"model '{name}': its recipe's import path {path!r:.80} is not "
-                          f"'module' or 'module:attribute'")
-    module, _, attribute = path.partition(":")
-    if module == "__main__":
-        raise RecipeError(f"model '{name}' was registered by a script (__main__), which another "
-                          f"process cannot import: register it in an importable module")
-    try:
-        found = importlib.import_module(module)
-    except ImportError as err:
-        raise RecipeError(f"model '{name}' is registered by module '{module}' (recipe "
-                          f"'{path}'), which cannot be imported ({err}): put it on the Python "
-                          f"path") from None
-    bound = getattr(found, attribute, None) if attribute else None
-    if name not in RECIPES and isinstance(bound, Recipe) and bound.name == name:
-        register(replace(bound, home=bound.home or module))
-    if name not in RECIPES:
-        raise RecipeError(f"unknown model '{name}'; known: {list(RECIPES)}; importing "
-                          f"'{path}', where it was registered, did not register it")
-    return RECIPES[name]
+
+def load_plugins(modules: Sequence[str]) -> None:
+    """Import ``modules``, the user's own models (each registers its recipes when imported):
+    the one place a module is imported by name. Refused with :class:`RecipeError` naming the
+    module: not a dotted module name, a script (``__main__``), or not importable."""
+    for module in modules:
+        if not isinstance(module, str) or not _IMPORT_PATH.fullmatch(module) or ":" in module:
+            raise RecipeError(f"plugin {module!r:.80}: not a module name (such as 'mymodels' "
+                              f"or 'lab.models')")
+        if module == "__main__":
+            raise RecipeError("plugin '__main__': a script cannot be imported by another "
+                              "process; register the model in an importable module")
+        try:
+            importlib.import_module(module)
+        except ImportError as err:
+            raise RecipeError(f"plugin '{module}' cannot be imported ({err}): put it on the "
+                              f"Python path") from None
 
 
 def check_config(name: str, n_features: int, config: dict | None = None) -> None:

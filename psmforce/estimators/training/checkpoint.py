@@ -14,8 +14,9 @@ models); the inputs derivation (``"none"``, ``"lstm"`` for the Jacobian-map colu
 the prior-compensated columns) with the prior as the JSON its ``save`` writes; software versions;
 training provenance (data folder, split, seed, epochs, losses, wall time); for a model registered
 outside :mod:`psmforce.estimators.networks.recipes`, the ``recipe``'s import path
-(``"module:attribute"``, :func:`psmforce.estimators.networks.recipes.origin`), which loading imports
-first (:func:`psmforce.estimators.networks.recipes.import_recipe`). Writes are atomic (temporary
+(``"module:attribute"``, :func:`psmforce.estimators.networks.recipes.origin`), which loading never
+imports: it only names the module in the refusal when the model is not registered
+(:func:`psmforce.estimators.networks.recipes.require_recipe`). Writes are atomic (temporary
 file, then rename).
 
 Integrity (format version 3, :mod:`psmforce.core.integrity`): the metadata carries
@@ -74,8 +75,8 @@ from psmforce.estimators.data.sanity import file_sha256
 from psmforce.estimators.data.hybrid_inputs import prior_from_json
 from psmforce.core.integrity import check_version, seal, sha256_bytes, verify
 from psmforce.estimators.data.rates import DEFAULT_SAMPLE_RATE_HZ
-from psmforce.estimators.networks.recipes import (DERIVATIONS, build_model, import_recipe, origin,
-                                                  recipe)
+from psmforce.estimators.networks.recipes import (DERIVATIONS, build_model, origin, recipe,
+                                                  require_recipe)
 from psmforce.core.files import MAX_DATA_BYTES, atomic_path, check_input_file
 
 FORMAT = "psmforce-checkpoint"
@@ -304,7 +305,7 @@ def _load(path: Path, device: str, versions: tuple[int, ...]) -> TrainedModel:
                               f"rate in Hz)")
     features = tuple(meta["features"])
     try:  # the config is checked against its recipe's ranges before anything is allocated
-        import_recipe(meta["model"], meta.get("recipe"))  # a model registered at run time
+        require_recipe(meta["model"], meta.get("recipe"))  # registered by the user, not the file
         model = build_model(meta["model"], len(features), meta["config"])
     except (TypeError, ValueError) as err:  # an unknown name (RecipeError) is a ValueError
         raise CheckpointError(f"{path}: cannot build model '{meta['model']}' with config "

@@ -40,6 +40,7 @@ from psmforce.io.bags.messages import (ACCEPTED_TYPES, JACOBIAN_COLUMNS, JOINT_S
                                      MULTI_ARRAY, ROS2_TYPESTORE, STREAMS, WRENCH,
                                      WRENCH_STAMPED, JointStateDecoder, MessageError,
                                      jacobian_values, stamp_ns, stream_columns, wrench_values)
+from psmforce.io.bags.names import check_namespace, check_ros_name
 from psmforce.io.recording import RecordingError
 
 REQUIRED_STREAMS = ("js", "jaw", "hex10")
@@ -80,9 +81,11 @@ def resolve_topics(arm: str, topics: dict[str, str | None] | None
     ``topics`` maps stream names (:data:`STREAMS`) to topic names; ``None`` switches an optional
     stream off.
     """
-    if not isinstance(arm, str) or not arm.strip("/"):
-        raise BagError(f"arm must be a namespace such as 'PSM1', got {arm!r}")
-    resolved = default_topics(arm.strip("/"))
+    try:
+        arm = check_namespace(arm)
+    except ValueError as err:
+        raise BagError(str(err)) from None
+    resolved = default_topics(arm)
     required = set(REQUIRED_STREAMS)
     overrides = dict(topics or {})
     unknown = sorted(set(overrides) - set(STREAMS))
@@ -94,9 +97,10 @@ def resolve_topics(arm: str, topics: dict[str, str | None] | None
                 raise BagError(f"stream '{name}' is required and cannot be switched off")
             del resolved[name]
             continue
-        if not isinstance(topic, str) or not topic.strip():
-            raise BagError(f"topic for stream '{name}' must be a non-empty string, got {topic!r}")
-        resolved[name] = topic if topic.startswith("/") else "/" + topic
+        try:
+            resolved[name] = check_ros_name(topic, f"topic for stream '{name}'")
+        except ValueError as err:
+            raise BagError(str(err)) from None
         required.add(name)
     by_topic: dict[str, list[str]] = {}
     for name, topic in resolved.items():

@@ -11,7 +11,7 @@ from importlib import import_module
 MODULES = ("recordings", "datasets", "training", "priors", "checkpoints", "bench",
            "bags", "arm_dynamics", "runs", "stream", "api", "export",
            "outputs", "task_cache", "gates",
-           "writes", "sizes")
+           "writes", "sizes", "live")
 """Modules of this package, one per artefact."""
 
 

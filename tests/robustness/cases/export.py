@@ -127,4 +127,61 @@ def cases() -> list[Case]:
     runner_frame("recording: a complex column", lambda f: f.assign(fz=f["fz"] + 1j),
                  ("fz",))
     runner_frame("recording: no rows", lambda f: f.iloc[:0], ("no rows", "empty"))
+    runner_frame("recording: time steps back", lambda f: f.assign(
+        time=f["time"].where(f.index != 10, f["time"][3])), ("time does not increase",))
+    runner_frame("recording: time repeats", lambda f: f.assign(
+        time=f["time"].where(f.index != 10, f["time"][9])), ("time does not increase",))
+    runner_frame("recording: time in reverse", lambda f: f.assign(time=f["time"][::-1].to_numpy()),
+                 ("time does not increase",))
+
+    # --- a graph replaced under its export, its digest recomputed (class 10) ---------------
+    def replaced(name, graph):
+        """The export's graph replaced by ``graph(shared, export_spec) -> bytes`` and the JSON
+        resealed over it: only the check of the graph against the JSON can refuse it."""
+        def prepare_more(s, d, out):
+            from psmforce.core.integrity import seal, sha256_bytes
+            spec = json.loads((out / "hybrid.json").read_text())
+            raw = graph(s, spec)
+            (out / "hybrid_step.onnx").write_bytes(raw)
+            spec = {k: v for k, v in spec.items() if k != "sha256"}
+            (out / "hybrid.json").write_text(json.dumps(seal({**spec,
+                                                              "onnx_sha256": sha256_bytes(raw)})))
+        runner(f"graph replaced: {name}", prepare_more=prepare_more, names=("hybrid_step.onnx",))
+
+    def other_network(n_extra=0, **config):
+        def graph(s, spec):
+            from psmforce.estimators.networks.recipes import build_model
+            from psmforce.estimators.runtime.steppers import step_onnx_bytes
+            from psmforce.estimators.training.checkpoint import load_checkpoint
+            record = load_checkpoint(s.hybrid)
+            model = build_model("hybrid", len(spec["features"]) + n_extra,
+                                {**record.config, **config})
+            return step_onnx_bytes(model)
+        return graph
+
+    def edited(change):
+        def graph(s, spec):
+            import onnx
+            model = onnx.load_from_string((s.export / "hybrid_step.onnx").read_bytes())
+            change(model.graph)
+            return model.SerializeToString()
+        return graph
+
+    def rename(entries, old, new):
+        for entry in entries:
+            if entry.name == old:
+                entry.name = new
+
+    replaced("two more inputs", other_network(2))
+    replaced("a wider network (state of another shape)", other_network(d_model=48, n_heads=4))
+    replaced("a longer attention window (state of another shape)",
+             other_network(attention_window=60))
+    replaced("input x renamed", edited(lambda g: rename(g.input, "x", "inputs")))
+    replaced("output y renamed", edited(lambda g: rename(g.output, "y", "force")))
+    replaced("input x declared float64", edited(
+        lambda g: g.input[0].type.tensor_type.__setattr__("elem_type", 11)))
+    replaced("input x of batch 4", edited(
+        lambda g: g.input[0].type.tensor_type.shape.dim[0].__setattr__("dim_value", 4)))
+    replaced("one input more", edited(lambda g: g.input.append(
+        __import__("onnx").helper.make_tensor_value_info("extra", 1, [1, 1]))))
     return found
