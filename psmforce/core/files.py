@@ -3,7 +3,8 @@
 Every file the project writes (recordings, dataset metadata, priors, arm models, checkpoints,
 exports, figures, reports, task caches, bags) goes through :func:`atomic_path`: the content is
 written to a temporary sibling and renamed onto the target only once complete, and the sibling
-is removed if writing fails. A rename within one folder is atomic on POSIX, so a reader, or a
+is removed if writing fails. The file gets the permissions of the file it replaces, or those a
+plain write would give (0o666 less the umask). A rename within one folder is atomic on POSIX, so a reader, or a
 writer interrupted by a signal or a full disk, sees the previous file or none, never half of one.
 
 The temporary sibling is created exclusively under a name no other file has
@@ -118,9 +119,23 @@ def atomic_path(path: str | Path, *, keep_suffix: bool = False) -> Iterator[Path
     try:
         yield tmp
         check_output(path)  # again: the target may have changed while the content was written
+        os.chmod(tmp, _mode_for(path))
         tmp.replace(path)
     finally:
         tmp.unlink(missing_ok=True)
+
+
+def _mode_for(path: Path) -> int:
+    """The permissions ``path`` gets: those of the file it replaces, else those a plain
+    ``open(path, "w")`` would give (0o666 less the umask). The temporary sibling is created
+    0o600, as :func:`tempfile.mkstemp` must, and would otherwise hide the output from the
+    user's group."""
+    try:
+        return stat.S_IMODE(os.lstat(path).st_mode)
+    except FileNotFoundError:
+        mask = os.umask(0o022)  # read by setting: the only portable way; restored at once
+        os.umask(mask)
+        return 0o666 & ~mask
 
 
 @contextmanager

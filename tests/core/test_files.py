@@ -154,3 +154,22 @@ def test_a_lock_held_by_another_process_refuses_simulate_and_writes_nothing(tmp_
     assert not out.exists()   # the holder made it and wrote nothing: gone with its lock
     simulate("automated", scale=0.005, seed=1, out=out)
     assert (out / "metadata.json").is_file() and not (out / ".psmforce.lock").exists()
+
+
+def test_an_output_has_the_permissions_a_plain_write_gives_or_those_it_replaces(tmp_path):
+    """mkstemp creates the temporary sibling 0o600; renamed as it is, every output was hidden
+    from the user's group (fuzz.json came out -rw-------)."""
+    import os
+    import stat
+    mask = os.umask(0o027)
+    try:
+        with atomic_path(tmp_path / "new.json") as tmp:
+            tmp.write_text("{}")
+        assert stat.S_IMODE((tmp_path / "new.json").stat().st_mode) == 0o640
+        (tmp_path / "kept.json").write_text("{}")
+        os.chmod(tmp_path / "kept.json", 0o604)
+        with atomic_path(tmp_path / "kept.json") as tmp:
+            tmp.write_text("[]")
+        assert stat.S_IMODE((tmp_path / "kept.json").stat().st_mode) == 0o604
+    finally:
+        os.umask(mask)
