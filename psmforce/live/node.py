@@ -42,8 +42,13 @@ Tare. The estimate's offset in free space is removed by a tare: :meth:`ForceNode
 averages the next ``tare_s`` seconds of answers that are neither warming up nor held (flagged
 ``TARING`` meanwhile; the arm must be still and touch nothing), then subtracts that mean (HEX10
 frame) from every later force, rotated into the base frame for ``base``. ``STALE``: a
-non-trigger stream's latest stamp is more than ``stale_periods`` input periods older than the
-trigger's (a stream stalled; the estimate uses its last values).
+non-trigger stream's latest message was received more than ``stale_periods`` input periods
+before the trigger message answered (a stream stalled; the estimate uses its last values).
+Staleness is judged on one clock, the node's own receive times (``received_ns`` of
+:meth:`ForceNode.update`: ``serve`` passes its monotonic clock, ``replay`` the bag's receive
+times), never by comparing header stamps of different clocks: an arm whose clock runs 50 ms
+behind the HEX10's is not stale, and one that stops is, whatever its stamps say. Without
+``received_ns`` the messages' header stamps stand in (streams stamped on one clock).
 """
 
 from __future__ import annotations
@@ -117,6 +122,8 @@ class ForceNode:
         self.topics = output_topics(arm)
         self.base_frame_id = f"{arm.strip('/')}_base"
         self.latest: dict[str, object] = dict.fromkeys(INPUT_STREAMS)
+        self._received: dict[str, int] = dict.fromkeys(INPUT_STREAMS, 0)
+        """The receive time (ns, one clock) of each stream's latest message."""
         self._stale_ns = stale_periods / estimator.input_rate_hz * 1e9
         self._tare_n = max(1, round(tare_s * estimator.input_rate_hz))
         self.offset = np.zeros(3)
@@ -145,11 +152,14 @@ class ForceNode:
     def taring(self) -> bool:
         return self._tare_left > 0
 
-    def update(self, stream: str, message) -> list[Answer]:
-        """Take the newest ``message`` of ``stream`` (:data:`INPUT_STREAMS`); the answers it
-        releases: the trigger's once every stream has delivered (with ``sync``: the triggers
-        whose partners are known, module docstring), else none."""
+    def update(self, stream: str, message, received_ns: int | None = None) -> list[Answer]:
+        """Take the newest ``message`` of ``stream`` (:data:`INPUT_STREAMS`), received at
+        ``received_ns`` (the node's clock, module docstring); the answers it releases: the
+        trigger's once every stream has delivered (with ``sync``: the triggers whose partners
+        are known, module docstring), else none."""
+        received = received_ns if received_ns is not None else (stamp_ns(message) or 0)
         if stream != self.trigger:
+            self._received[stream] = received
             self.latest[stream] = message
             if self.sync:
                 self._history[stream].append((stamp_ns(message) or 0, message))
@@ -159,8 +169,8 @@ class ForceNode:
             if any(m is None for s, m in self.latest.items() if s != stream):
                 return []
             self.latest[stream] = message
-            return [self._answer(message)]
-        self._pending.append(message)
+            return [self._answer(message, received)]
+        self._pending.append((message, received))
         return self._release(False)
 
     def flush(self) -> list[Answer]:
@@ -170,7 +180,7 @@ class ForceNode:
     def _release(self, force: bool) -> list[Answer]:
         answers = []
         while self._pending:
-            stamp = stamp_ns(self._pending[0]) or 0
+            stamp = stamp_ns(self._pending[0][0]) or 0
             if not all(self._history.values()):  # a stream has delivered nothing yet
                 if not (force or len(self._pending) > self._startup_pending):
                     break
@@ -179,24 +189,22 @@ class ForceNode:
             ready = all(h[-1][0] >= stamp for h in self._history.values())
             if not (ready or force or len(self._pending) > self._max_pending):
                 break
-            trigger = self._pending.popleft()
+            trigger, received = self._pending.popleft()
             self.unpaired += not ready
             for name, history in self._history.items():  # the latest at or before the stamp
                 while len(history) > 1 and history[1][0] <= stamp:
                     history.popleft()  # passed: later triggers are stamped later
                 self.latest[name] = history[0][1]
-            answers.append(self._answer(trigger))
+            answers.append(self._answer(trigger, received))
         return answers
 
-    def _answer(self, message) -> Answer:
+    def _answer(self, message, received_ns: int) -> Answer:
         self.latest[self.trigger] = message
         stamp = stamp_ns(message)
         flags = 0
-        for name, other in self.latest.items():
-            other_stamp = stamp_ns(other)
-            if name != self.trigger and stamp and other_stamp \
-                    and stamp - other_stamp > self._stale_ns:
-                flags |= STALE
+        if any(received_ns - self._received[name] > self._stale_ns
+               for name in self.latest if name != self.trigger):
+            flags |= STALE
         try:
             sample = sample_from_messages(self.latest["js"], self.latest["jaw"],
                                           self.latest["hex10"],

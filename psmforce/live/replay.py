@@ -34,7 +34,7 @@ import numpy as np
 from rosbags.highlevel import AnyReader, AnyReaderError
 
 from psmforce.core.files import atomic_path
-from psmforce.estimators.data.rates import RATE_TOLERANCE, RateError, recording_rate_hz
+from psmforce.estimators.data.rates import RATE_TOLERANCE, RateError, stream_rate_hz
 from psmforce.estimators.runtime.streaming import StreamingEstimator
 from psmforce.estimators.networks.uncertainty import predicts_variance
 from psmforce.io.bags.messages import ACCEPTED_TYPES, ROS2_TYPESTORE, stamp_ns
@@ -74,11 +74,10 @@ def measure_rate(reader: AnyReader, topic: str) -> float:
         message = _decode(reader, raw, connection.msgtype)
         if message is None:
             continue
-        stamps.append(stamp_ns(message))
+        stamps.append(stamp_ns(message) or 0)
         if len(stamps) >= _RATE_MESSAGES:
             break
-    stamps = np.sort(np.array([s for s in stamps if s], dtype=np.int64))
-    return recording_rate_hz((stamps - stamps[:1]) * 1e-9, f"topic {topic}")
+    return stream_rate_hz(stamps, f"topic {topic}")
 
 
 def replay(bag: str | Path, checkpoint: str | Path, out: str | Path, *, arm: str = "PSM1",
@@ -204,7 +203,7 @@ def _play(reader, node: ForceNode, stream_of: dict, sink, view, realtime: bool,
         copied += 1
         if stream is None:
             continue
-        _answer(node, node.update(stream, message), sink, view, log_ns, flags)
+        _answer(node, node.update(stream, message, log_ns), sink, view, log_ns, flags)
         last_ns = log_ns
     _answer(node, node.flush(), sink, view, last_ns, flags)
     return {"inputs_copied": copied, "inputs_skipped": skipped, "malformed": malformed}

@@ -38,7 +38,7 @@ import time
 
 import numpy as np
 
-from psmforce.estimators.data.rates import recording_rate_hz
+from psmforce.estimators.data.rates import stream_rate_hz
 from psmforce.estimators.runtime.streaming import StreamingEstimator
 from psmforce.io.bags.messages import stamp_ns
 from psmforce.io.bags.reading import resolve_topics
@@ -96,7 +96,7 @@ class DdsNode:
         check_sync_wait(sync_wait_s)  # before subscribing, not once the node is built
         self.sync, self.sync_wait_s = sync, sync_wait_s
         self.node: ForceNode | None = None
-        self._held: list[tuple[str, object]] = []
+        self._held: list[tuple[str, object, int]] = []
         self._builder: threading.Thread | None = None
         self._built: list = []
         if input_rate_hz is not None:
@@ -146,11 +146,11 @@ class DdsNode:
         except Exception as err:  # raised again by spin_once, in the node's thread
             self._built.append(err)
 
-    def _handle(self, stream: str, message) -> None:
+    def _handle(self, stream: str, message, received_ns: int) -> None:
         if stream == "tare":
             self.node.request_tare()
             return
-        for answer in self.node.update(stream, message):
+        for answer in self.node.update(stream, message, received_ns):
             for name, data in self.node.encode(answer).items():
                 self._write(self.writers[name], data)
             self.published += 1
@@ -165,6 +165,7 @@ class DdsNode:
         # before it, so they are in the other readers by the time those are emptied
         for order, stream in enumerate(self._take_order):
             decode = self._decode[stream]
+            taken_ns = time.monotonic_ns()  # the node's receive clock (STALE, node.py)
             for data, info in self._take(self.readers[stream], 4096):
                 try:
                     message = decode(data)
@@ -174,14 +175,14 @@ class DdsNode:
                               f"messages are skipped and counted", file=sys.stderr)
                     self.malformed[stream] += 1
                     continue
-                batch.append((info.source_timestamp, order, stream, message))
+                batch.append((info.source_timestamp, order, stream, message, taken_ns))
         batch.sort(key=lambda item: item[:2])
-        for _, _, stream, message in batch:
+        for _, _, stream, message, taken_ns in batch:
             self.received[stream] += 1
             if self.node is None:
-                self._held.append((stream, message))
+                self._held.append((stream, message, taken_ns))
             else:
-                self._handle(stream, message)
+                self._handle(stream, message, taken_ns)
         if self.node is None:
             self._start()
         return len(batch)
@@ -190,11 +191,10 @@ class DdsNode:
         """Measure the rate once enough HEX10 messages are held, build the node in a thread,
         and once built, handle the held messages (module docstring, Rate)."""
         if self._builder is None:
-            stamps = [stamp_ns(m) for s, m in self._held if s == "hex10"]
+            stamps = [stamp_ns(m) or 0 for s, m, _ in self._held if s == "hex10"]
             if len(stamps) < RATE_MESSAGES:
                 return
-            stamps = np.sort(np.array(stamps, np.int64))
-            rate = recording_rate_hz((stamps - stamps[0]) * 1e-9, "the HEX10 stream")
+            rate = stream_rate_hz(stamps, "the HEX10 stream")  # a bad stamp is flagged later
             self._builder = threading.Thread(target=self._build_in_thread, args=(rate,),
                                              daemon=True)
             self._builder.start()

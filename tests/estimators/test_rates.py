@@ -203,3 +203,16 @@ def test_training_data_at_an_implausible_or_mixed_rate_is_refused(tmp_path, time
     with pytest.raises(ValueError, match=match):
         train(bench, "fcn", tmp_path / "m.pt", epochs=1)
     assert not (tmp_path / "m.pt").exists()
+
+
+def test_a_live_stream_rate_survives_a_repeated_or_backward_stamp_among_the_first():
+    """Issue 47, item 4: one repeated or backward stamp among the first messages stopped the
+    node (exit 2). It is set aside when the rate is measured, and flagged by the estimator."""
+    from psmforce.estimators.data.rates import stream_rate_hz
+    stamps = [10**18 + k * 10**6 for k in range(100)]  # 1 kHz
+    stamps[40] = stamps[39]            # repeated
+    stamps[60] = stamps[50]            # back in time
+    stamps[70] = 0                     # unset
+    assert stream_rate_hz(stamps) == pytest.approx(1000.0)
+    with pytest.raises(RateError, match="distinct header stamps"):
+        stream_rate_hz([10**18] * 60 + stamps[:40])

@@ -175,38 +175,43 @@ def test_sample_from_messages_matches_joints_by_name():
         sample_from_messages(js, jaw, hex10)
 
 
+def node_messages(frame, k, names=None, short=False, arm_lag_ns=0):
+    """The arm, jaw and HEX10 messages of row ``k`` (1 kHz stamps), the arm's and jaw's stamped
+    ``arm_lag_ns`` behind the HEX10's (another clock)."""
+    types = ROS2_TYPESTORE.types
+
+    def header(lag_ns):
+        t = 100 * 10**9 + k * 1_000_000 - lag_ns
+        return types["std_msgs/msg/Header"](stamp=types["builtin_interfaces/msg/Time"](
+            sec=t // 10**9, nanosec=t % 10**9), frame_id="")
+
+    row = frame.iloc[k]
+    joints = ["yaw", "pitch", "insertion", "roll", "wrist_pitch", "wrist_yaw"]
+    arrays = [np.array([row[f"{j}_{q}"] for j in joints]) for q in
+              ("position", "velocity", "effort")]
+    if short:
+        arrays[0] = arrays[0][:5]
+    js = types["sensor_msgs/msg/JointState"](header=header(arm_lag_ns), name=names or joints,
+                                              position=arrays[0], velocity=arrays[1],
+                                              effort=arrays[2])
+    jaw = types["sensor_msgs/msg/JointState"](
+        header=header(arm_lag_ns), name=["jaw"], position=np.array([row["jaw_position"]]),
+        velocity=np.array([row["jaw_velocity"]]), effort=np.array([row["jaw_effort"]]))
+    vector = types["geometry_msgs/msg/Vector3"]
+    hex10 = types["geometry_msgs/msg/WrenchStamped"](
+        header=header(0), wrench=types["geometry_msgs/msg/Wrench"](
+            force=vector(x=row["fx"], y=row["fy"], z=row["fz"]),
+            torque=vector(x=row["tx"], y=row["ty"], z=row["tz"])))
+    return js, jaw, hex10
+
+
 def test_node_flags_a_message_that_does_not_decode_and_goes_on(tmp_path):
     """A JointState with an unknown joint name, or arrays shorter than its names, is answered
     INVALID_INPUT | HELD with the last estimate; the next good message goes on."""
     from psmforce.live.node import ForceNode
     ckpt = checkpoint(tmp_path / "h.pt", rate_hz=1000.0)
     node = ForceNode(StreamingEstimator.from_checkpoint(ckpt, psm=PSM()))
-    types = ROS2_TYPESTORE.types
     frame = recording(40)
-
-    def header(k):
-        return types["std_msgs/msg/Header"](stamp=types["builtin_interfaces/msg/Time"](
-            sec=100, nanosec=k * 1_000_000), frame_id="")
-
-    def messages(k, names=None, short=False):
-        row = frame.iloc[k]
-        names = names or ["yaw", "pitch", "insertion", "roll", "wrist_pitch", "wrist_yaw"]
-        joints = ["yaw", "pitch", "insertion", "roll", "wrist_pitch", "wrist_yaw"]
-        arrays = [np.array([row[f"{j}_{q}"] for j in joints]) for q in
-                  ("position", "velocity", "effort")]
-        if short:
-            arrays[0] = arrays[0][:5]
-        js = types["sensor_msgs/msg/JointState"](header=header(k), name=names, position=arrays[0],
-                                                  velocity=arrays[1], effort=arrays[2])
-        jaw = types["sensor_msgs/msg/JointState"](
-            header=header(k), name=["jaw"], position=np.array([row["jaw_position"]]),
-            velocity=np.array([row["jaw_velocity"]]), effort=np.array([row["jaw_effort"]]))
-        vector = types["geometry_msgs/msg/Vector3"]
-        hex10 = types["geometry_msgs/msg/WrenchStamped"](
-            header=header(k), wrench=types["geometry_msgs/msg/Wrench"](
-                force=vector(x=row["fx"], y=row["fy"], z=row["fz"]),
-                torque=vector(x=row["tx"], y=row["ty"], z=row["tz"])))
-        return js, jaw, hex10
 
     def answer(js, jaw, hex10):
         node.update("js", js)
@@ -214,15 +219,36 @@ def test_node_flags_a_message_that_does_not_decode_and_goes_on(tmp_path):
         (out,) = node.update("hex10", hex10)
         return out
 
-    good = [answer(*messages(k)) for k in range(20)]
+    good = [answer(*node_messages(frame, k)) for k in range(20)]
     assert not any(a.flags & Flags.INVALID_INPUT for a in good)
     for k, bad in ((20, {"names": ["elbow", "pitch", "insertion", "roll", "wrist_pitch",
                                    "wrist_yaw"]}), (21, {"short": True})):
-        out = answer(*messages(k, **bad))
+        out = answer(*node_messages(frame, k, **bad))
         assert out.flags & Flags.INVALID_INPUT and out.flags & Flags.HELD
         np.testing.assert_array_equal(out.force_hex10, good[-1].force_hex10)
-    after = answer(*messages(22))
+    after = answer(*node_messages(frame, 22))
     assert not after.flags & (Flags.INVALID_INPUT | Flags.HELD) and node.answers == 23
+
+
+def test_stale_is_judged_on_the_nodes_receive_clock_not_on_stamps_of_two_clocks(tmp_path):
+    """Issue 47, item 5: an arm clock 50 ms behind the HEX10's flagged every answer STALE
+    while nothing stalled. Received together, nothing is stale whatever the stamps; an arm
+    that stops delivering is stale after 10 periods of the node's clock."""
+    from psmforce.live.node import STALE, ForceNode
+    ckpt = checkpoint(tmp_path / "h.pt", rate_hz=1000.0)
+    node = ForceNode(StreamingEstimator.from_checkpoint(ckpt, psm=PSM()))
+    frame = recording(60)
+    flags = []
+    for k in range(60):
+        received = 5 * 10**9 + k * 1_000_000
+        js, jaw, hex10 = node_messages(frame, k, arm_lag_ns=50_000_000)
+        if k < 30:  # the arm and the jaw stop after 30 ms
+            node.update("js", js, received)
+            node.update("jaw", jaw, received)
+        (out,) = node.update("hex10", hex10, received)
+        flags.append(bool(out.flags & STALE))
+    assert flags[:30] == [False] * 30  # 50 ms apart in stamps, never stale
+    assert flags[30:40] == [False] * 10 and flags[41:] == [True] * 19  # 10 periods, then stale
 
 
 def _free_port():
@@ -334,3 +360,19 @@ def test_a_message_that_does_not_decode_is_skipped_and_counted(tmp_path, topic):
     assert report["answers"] == clean["answers"] - 2 * trigger
     assert report["inputs_copied"] == clean["inputs_copied"] - 2
     assert len(read_mcap(tmp_path / "out.mcap", TOPIC)) == report["answers"]
+
+
+def test_a_repeated_stamp_among_the_first_messages_is_flagged_not_fatal(tmp_path):
+    """Issue 47, item 4: the rate is measured past a bad stamp; the message is answered
+    flagged TIME_BACKWARDS and the stream goes on."""
+    from psmforce.live.replay import replay
+    from tests.robustness.cases.live import corrupt_bag
+    ckpt = checkpoint(tmp_path / "h.pt", rate_hz=1000.0)
+    _, bag = session(tmp_path, n=300)
+    sec, nanosec = divmod(START_NS + 4 * 10**6, 10**9)
+    corrupt_bag(bag, tmp_path / "repeated", "/hex10/measured_cf",
+                lambda raw: raw[:4] + sec.to_bytes(4, "little") + nanosec.to_bytes(4, "little")
+                + raw[12:], lambda k: k == 5)
+    report = replay(tmp_path / "repeated", ckpt, tmp_path / "out.mcap")
+    assert report["input_rate_hz"] == pytest.approx(1000.0) and report["answers"] == 300
+    assert report["flag_counts"].get(Flags.TIME_BACKWARDS.bit_length() - 1) == 1

@@ -61,6 +61,20 @@ def recording_rate_hz(time: np.ndarray, where: str = "recording") -> float:
     return 1.0 / float(np.median(dt))
 
 
+def stream_rate_hz(stamps_ns, where: str = "stream") -> float:
+    """The rate (Hz) of a live stream from the header stamps (ns) of its first messages, as
+    they came: unset (0) stamps, repeats and steps back are what a stream may carry and the
+    estimator flags one by one, so they are set aside here, not fatal. The rate is 1 / the
+    median step between the distinct stamps in order; refused (:class:`RateError`) when fewer
+    than half the messages carry distinct stamps."""
+    stamps = np.asarray([s for s in stamps_ns if s], dtype=np.int64)
+    distinct = np.unique(stamps)
+    if len(distinct) < 2 or len(distinct) < len(stamps_ns) / 2:
+        raise RateError(f"{where}: needs distinct header stamps on most of its first "
+                        f"{len(stamps_ns)} messages to measure its rate, found {len(distinct)}")
+    return 1.0 / float(np.median(np.diff(distinct) * 1e-9))
+
+
 def trials_rate_hz(trials: Sequence, time_column: str = TIME, root=None) -> float:
     """The one rate (Hz) of recordings (objects with a ``frame`` and a ``path``, such as
     :class:`psmforce.estimators.data.dataset.Trial`): refused when they do not share it within
