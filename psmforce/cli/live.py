@@ -83,7 +83,6 @@ def _serve(args, stop: threading.Event) -> dict:
         stop.set()
         if player is not None:
             player.join(5)
-        node.close()
 
 
 @contextlib.contextmanager

@@ -42,13 +42,12 @@ Tare. The estimate's offset in free space is removed by a tare: :meth:`ForceNode
 averages the next ``tare_s`` seconds of answers that are neither warming up nor held (flagged
 ``TARING`` meanwhile; the arm must be still and touch nothing), then subtracts that mean (HEX10
 frame) from every later force, rotated into the base frame for ``base``. ``STALE``: a
-non-trigger stream's latest message was received more than ``stale_periods`` input periods
-before the trigger message answered (a stream stalled; the estimate uses its last values).
-Staleness is judged on one clock, the node's own receive times (``received_ns`` of
-:meth:`ForceNode.update`: ``serve`` passes its monotonic clock, ``replay`` the bag's receive
-times), never by comparing header stamps of different clocks: an arm whose clock runs 50 ms
-behind the HEX10's is not stale, and one that stops is, whatever its stamps say. Without
-``received_ns`` the messages' header stamps stand in (streams stamped on one clock).
+non-trigger stream has delivered nothing while more than ``stale_periods`` trigger messages
+arrived (a stream stalled; the estimate uses its last values). Staleness is judged on the order
+the node receives messages in (``serve``: by DDS source time; ``replay``: the bag's receive
+order), never by comparing header stamps of different clocks: an arm whose clock runs 50 ms
+behind the HEX10's is not stale, one that stops is, whatever its stamps say, and a transport
+hiccup that delays every stream alike flags nothing.
 """
 
 from __future__ import annotations
@@ -122,9 +121,9 @@ class ForceNode:
         self.topics = output_topics(arm)
         self.base_frame_id = f"{arm.strip('/')}_base"
         self.latest: dict[str, object] = dict.fromkeys(INPUT_STREAMS)
-        self._received: dict[str, int] = dict.fromkeys(INPUT_STREAMS, 0)
-        """The receive time (ns, one clock) of each stream's latest message."""
-        self._stale_ns = stale_periods / estimator.input_rate_hz * 1e9
+        self._silent = {s: 0 for s in INPUT_STREAMS if s != trigger}
+        """Trigger messages received since each other stream's latest message."""
+        self._stale_after = stale_periods
         self._tare_n = max(1, round(tare_s * estimator.input_rate_hz))
         self.offset = np.zeros(3)
         """The tare subtracted from every force (N, HEX10 frame)."""
@@ -152,14 +151,12 @@ class ForceNode:
     def taring(self) -> bool:
         return self._tare_left > 0
 
-    def update(self, stream: str, message, received_ns: int | None = None) -> list[Answer]:
-        """Take the newest ``message`` of ``stream`` (:data:`INPUT_STREAMS`), received at
-        ``received_ns`` (the node's clock, module docstring); the answers it releases: the
-        trigger's once every stream has delivered (with ``sync``: the triggers whose partners
-        are known, module docstring), else none."""
-        received = received_ns if received_ns is not None else (stamp_ns(message) or 0)
+    def update(self, stream: str, message) -> list[Answer]:
+        """Take the newest ``message`` of ``stream`` (:data:`INPUT_STREAMS`), in the order
+        received; the answers it releases: the trigger's once every stream has delivered (with
+        ``sync``: the triggers whose partners are known, module docstring), else none."""
         if stream != self.trigger:
-            self._received[stream] = received
+            self._silent[stream] = 0
             self.latest[stream] = message
             if self.sync:
                 self._history[stream].append((stamp_ns(message) or 0, message))
@@ -169,9 +166,15 @@ class ForceNode:
             if any(m is None for s, m in self.latest.items() if s != stream):
                 return []
             self.latest[stream] = message
-            return [self._answer(message, received)]
-        self._pending.append((message, received))
+            return [self._answer(message, self._stale())]
+        self._pending.append((message, self._stale()))
         return self._release(False)
+
+    def _stale(self) -> bool:
+        """One more trigger message received: has another stream been silent too long?"""
+        for name in self._silent:
+            self._silent[name] += 1
+        return max(self._silent.values()) > self._stale_after
 
     def flush(self) -> list[Answer]:
         """With ``sync``: answer every trigger still waiting, with the partners there are."""
@@ -189,22 +192,19 @@ class ForceNode:
             ready = all(h[-1][0] >= stamp for h in self._history.values())
             if not (ready or force or len(self._pending) > self._max_pending):
                 break
-            trigger, received = self._pending.popleft()
+            trigger, stale = self._pending.popleft()
             self.unpaired += not ready
             for name, history in self._history.items():  # the latest at or before the stamp
                 while len(history) > 1 and history[1][0] <= stamp:
                     history.popleft()  # passed: later triggers are stamped later
                 self.latest[name] = history[0][1]
-            answers.append(self._answer(trigger, received))
+            answers.append(self._answer(trigger, stale))
         return answers
 
-    def _answer(self, message, received_ns: int) -> Answer:
+    def _answer(self, message, stale: bool) -> Answer:
         self.latest[self.trigger] = message
         stamp = stamp_ns(message)
-        flags = 0
-        if any(received_ns - self._received[name] > self._stale_ns
-               for name in self.latest if name != self.trigger):
-            flags |= STALE
+        flags = STALE if stale else 0
         try:
             sample = sample_from_messages(self.latest["js"], self.latest["jaw"],
                                           self.latest["hex10"],

@@ -203,7 +203,7 @@ def _play(reader, node: ForceNode, stream_of: dict, sink, view, realtime: bool,
         copied += 1
         if stream is None:
             continue
-        _answer(node, node.update(stream, message, log_ns), sink, view, log_ns, flags)
+        _answer(node, node.update(stream, message), sink, view, log_ns, flags)
         last_ns = log_ns
     _answer(node, node.flush(), sink, view, last_ns, flags)
     return {"inputs_copied": copied, "inputs_skipped": skipped, "malformed": malformed}

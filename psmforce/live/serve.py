@@ -18,13 +18,16 @@ the middleware's Python classes (``benchmarks/live.py`` times both). A message w
 decode is counted (``malformed`` in :meth:`DdsNode.report`, its reason printed once per stream)
 and skipped: the node goes on with the stream's previous message, flagged STALE if none follows.
 
-Rate. With ``input_rate_hz`` the estimator is built before the node subscribes. Otherwise the
-first :data:`RATE_MESSAGES` HEX10 messages are held back while their header stamps measure the
-input rate; the estimator is then built in a thread (a second or more: the network's backend is
-compiled) while the readers go on being emptied into the held messages, so none falls out of
-their history (:data:`psmforce.live.dds.DEPTH`), and once it is built the held messages are
-handled in order: nothing is lost, the first answers only come later. A rate the model cannot
-serve stops the node with one line.
+Rate. The estimator, with its network's backend (the slow part: the step graph is compiled), is
+built before the node subscribes, at ``input_rate_hz`` when given, else at the model's rate.
+Without ``input_rate_hz`` the first :data:`RATE_MESSAGES` HEX10 messages are held back while their
+header stamps measure the input rate (:func:`psmforce.estimators.data.rates.stream_rate_hz`: a
+repeated, backward or unset stamp among them is set aside, and flagged when its message is
+answered), the estimator is set to it
+(:meth:`psmforce.estimators.runtime.streaming.StreamingEstimator.set_input_rate`: microseconds),
+and the held messages are answered in order: the first answer follows the fifth HEX10 message
+by well under a millisecond of work, nothing is lost. A rate the model cannot serve stops the
+node with one line.
 
 The domain: ``domain_id``, else ``ROS_DOMAIN_ID``, else 0, as ROS 2 does.
 """
@@ -45,8 +48,9 @@ from psmforce.io.bags.reading import resolve_topics
 from psmforce.live import cdr
 from psmforce.live.node import OUTPUT_TYPES, ForceNode, check_sync_wait, output_topics
 
-RATE_MESSAGES = 100
-"""HEX10 messages held back to measure the input rate (0.1 s at 1 kHz)."""
+RATE_MESSAGES = 5
+"""HEX10 messages held back to measure the input rate (4 ms at 1 kHz): the median of their four
+steps, which one bad stamp cannot move."""
 
 
 def domain(domain_id: int | None = None) -> int:
@@ -57,15 +61,6 @@ def domain(domain_id: int | None = None) -> int:
     if value and not value.isdigit():
         raise ValueError(f"ROS_DOMAIN_ID must be an integer, got {value!r}")
     return int(value or 0)
-
-
-def _check_streams(checkpoint) -> None:
-    from psmforce.estimators.runtime.streaming import StreamingError
-    from psmforce.estimators.training.checkpoint import load_checkpoint
-    record = load_checkpoint(checkpoint)
-    if not record.recipe.streams:
-        raise StreamingError(f"{checkpoint}: holds a '{record.model_name}' model, which does "
-                             f"not stream")
 
 
 class DdsNode:
@@ -96,13 +91,10 @@ class DdsNode:
         check_sync_wait(sync_wait_s)  # before subscribing, not once the node is built
         self.sync, self.sync_wait_s = sync, sync_wait_s
         self.node: ForceNode | None = None
-        self._held: list[tuple[str, object, int]] = []
-        self._builder: threading.Thread | None = None
-        self._built: list = []
+        self._held: list[tuple[str, object]] = []
+        self._estimator = self._build_estimator(input_rate_hz)  # refused now, not at a message
         if input_rate_hz is not None:
-            self.node = self._build(input_rate_hz)
-        else:  # a file that is no streamable checkpoint is refused now, not at the first message
-            _check_streams(checkpoint)
+            self.node = self._node()
         resolved, _ = resolve_topics(arm, {k: v for k, v in (topics or {}).items()
                                            if k in ("js", "jaw", "hex10")})
         self.input_topics = {s: resolved[s] for s in ("js", "jaw", "hex10")}
@@ -130,27 +122,23 @@ class DdsNode:
         self.published = 0
         self.flag_counts = np.zeros(32, np.int64)
 
-    def _build(self, rate_hz: float) -> ForceNode:
+    def _build_estimator(self, rate_hz: float | None) -> StreamingEstimator:
         from psmforce.robot import PSM
-        estimator = StreamingEstimator.from_checkpoint(self.checkpoint, input_rate_hz=rate_hz,
-                                                       psm=PSM(), **self.options)
-        node = ForceNode(estimator, arm=self.arm, tare_s=self.tare_s, sync=self.sync,
+        return StreamingEstimator.from_checkpoint(self.checkpoint, input_rate_hz=rate_hz,
+                                                  psm=PSM(), **self.options)
+
+    def _node(self) -> ForceNode:
+        node = ForceNode(self._estimator, arm=self.arm, tare_s=self.tare_s, sync=self.sync,
                          max_wait_s=self.sync_wait_s)
         if self.tare_on_start:
             node.request_tare()
         return node
 
-    def _build_in_thread(self, rate_hz: float) -> None:
-        try:
-            self._built.append(self._build(rate_hz))
-        except Exception as err:  # raised again by spin_once, in the node's thread
-            self._built.append(err)
-
-    def _handle(self, stream: str, message, received_ns: int) -> None:
+    def _handle(self, stream: str, message) -> None:
         if stream == "tare":
             self.node.request_tare()
             return
-        for answer in self.node.update(stream, message, received_ns):
+        for answer in self.node.update(stream, message):
             for name, data in self.node.encode(answer).items():
                 self._write(self.writers[name], data)
             self.published += 1
@@ -165,7 +153,6 @@ class DdsNode:
         # before it, so they are in the other readers by the time those are emptied
         for order, stream in enumerate(self._take_order):
             decode = self._decode[stream]
-            taken_ns = time.monotonic_ns()  # the node's receive clock (STALE, node.py)
             for data, info in self._take(self.readers[stream], 4096):
                 try:
                     message = decode(data)
@@ -175,34 +162,26 @@ class DdsNode:
                               f"messages are skipped and counted", file=sys.stderr)
                     self.malformed[stream] += 1
                     continue
-                batch.append((info.source_timestamp, order, stream, message, taken_ns))
+                batch.append((info.source_timestamp, order, stream, message))
         batch.sort(key=lambda item: item[:2])
-        for _, _, stream, message, taken_ns in batch:
+        for _, _, stream, message in batch:
             self.received[stream] += 1
             if self.node is None:
-                self._held.append((stream, message, taken_ns))
+                self._held.append((stream, message))
             else:
-                self._handle(stream, message, taken_ns)
+                self._handle(stream, message)
         if self.node is None:
             self._start()
         return len(batch)
 
     def _start(self) -> None:
-        """Measure the rate once enough HEX10 messages are held, build the node in a thread,
-        and once built, handle the held messages (module docstring, Rate)."""
-        if self._builder is None:
-            stamps = [stamp_ns(m) or 0 for s, m, _ in self._held if s == "hex10"]
-            if len(stamps) < RATE_MESSAGES:
-                return
-            rate = stream_rate_hz(stamps, "the HEX10 stream")  # a bad stamp is flagged later
-            self._builder = threading.Thread(target=self._build_in_thread, args=(rate,),
-                                             daemon=True)
-            self._builder.start()
-        if not self._built:
+        """Measure the rate once enough HEX10 messages are held, set the estimator to it and
+        handle the held messages (module docstring, Rate)."""
+        stamps = [stamp_ns(m) or 0 for s, m in self._held if s == "hex10"]
+        if len(stamps) < RATE_MESSAGES:
             return
-        if isinstance(self._built[0], Exception):
-            raise self._built[0]
-        self.node = self._built[0]
+        self._estimator.set_input_rate(stream_rate_hz(stamps, "the HEX10 stream"))
+        self.node = self._node()
         held, self._held = self._held, []
         for item in held:
             self._handle(*item)
@@ -210,8 +189,7 @@ class DdsNode:
     def spin(self, duration_s: float | None = None, stop: threading.Event | None = None,
              idle_stop_s: float | None = None) -> dict:
         """Handle messages until ``duration_s`` has passed, ``stop`` is set, or nothing came
-        for ``idle_stop_s`` after the first message (and the node is not being built); returns
-        :meth:`report`."""
+        for ``idle_stop_s`` after the first message; returns :meth:`report`."""
         end = None if duration_s is None else time.monotonic() + duration_s
         last = None
         while not (stop is not None and stop.is_set()):
@@ -220,16 +198,9 @@ class DdsNode:
                 break
             if self.spin_once(0.05):
                 last = now
-            elif idle_stop_s is not None and last is not None and now - last > idle_stop_s \
-                    and not (self.node is None and self._builder is not None):  # not building
+            elif idle_stop_s is not None and last is not None and now - last > idle_stop_s:
                 break
         return self.report()
-
-    def close(self, timeout_s: float = 60.0) -> None:
-        """Wait for an estimator still being built (its backend compiles in native threads: a
-        process that exits under them aborts) before the node is let go."""
-        if self._builder is not None:
-            self._builder.join(timeout_s)
 
     def report(self) -> dict:
         node = self.node

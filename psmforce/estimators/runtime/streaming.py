@@ -170,9 +170,6 @@ class StreamingEstimator:
             raise StreamingError(f"base needs 0 or 3 columns, got {list(base_columns)}")
         try:
             rate_hz = check_rate(rate_hz)
-            input_rate_hz = rate_hz if input_rate_hz is None else check_rate(input_rate_hz,
-                                                                            "input_rate_hz")
-            decimation = decimation_factor(input_rate_hz, rate_hz)
         except RateError as err:
             raise StreamingError(str(err)) from None
         if isinstance(max_gap_samples, bool) or not isinstance(max_gap_samples, int) \
@@ -187,18 +184,13 @@ class StreamingEstimator:
         """The recorded signals :meth:`step` reads, in the order an array sample must follow."""
         self.rate_hz = rate_hz
         """The rate the network runs at (Hz): the rate it was trained at."""
-        self.input_rate_hz = input_rate_hz
-        """The rate samples arrive and are answered at (Hz)."""
-        self.decimation = decimation
-        """Input samples per network step."""
-        self.anti_alias = AntiAlias(len(self.columns), decimation, rate_hz)
         self.max_gap_samples = max_gap_samples
         self.window = model.window
+        self._filter_options = {"kind": post_filter, "median_kernel": median_kernel,
+                                "lowpass_hz": lowpass_hz, "lowpass_order": lowpass_order}
+        self._set_rates(rate_hz if input_rate_hz is None else input_rate_hz)
         self._net = make_backend(model, backend)
         self.backend_name = self._net.backend
-        self.filter = CausalFilter(post_filter, rate_hz=input_rate_hz,
-                                   median_kernel=median_kernel,
-                                   lowpass_hz=lowpass_hz, lowpass_order=lowpass_order)
         self._y_mean = np.asarray(target_scaler.mean, np.float64)
         self._y_std = np.asarray(target_scaler.std, np.float64)
         n_feat = len(self.inputs.features)
@@ -216,7 +208,6 @@ class StreamingEstimator:
         finite = np.finfo(np.float64).max  # a column without a physical bound: finite is enough
         self._raw_lo = np.array([bounds.get(c, (-finite, finite))[0] for c in self.columns])
         self._raw_hi = np.array([bounds.get(c, (-finite, finite))[1] for c in self.columns])
-        self._memory = self.window * decimation + self.filter.memory_samples() - 1
         if psm is not None:
             self._hex_rotation = HexRotation(psm)
             self._q_index = np.array([self.columns.index(c) for c in CHAIN_POSITIONS])
@@ -248,6 +239,29 @@ class StreamingEstimator:
                                  f"as input_rate_hz")
         return cls(ckpt.model, ckpt.features, ckpt.input_scaler, ckpt.target_scaler,
                    ckpt.base_columns, ckpt.prior(), rate_hz=ckpt.sample_rate_hz, **options)
+
+    def _set_rates(self, input_rate_hz: float) -> None:
+        try:
+            input_rate_hz = check_rate(input_rate_hz, "input_rate_hz")
+            decimation = decimation_factor(input_rate_hz, self.rate_hz)
+        except RateError as err:
+            raise StreamingError(str(err)) from None
+        self.input_rate_hz = input_rate_hz
+        """The rate samples arrive and are answered at (Hz)."""
+        self.decimation = decimation
+        """Input samples per network step."""
+        self.anti_alias = AntiAlias(len(self.columns), decimation, self.rate_hz)
+        self.filter = CausalFilter(rate_hz=input_rate_hz, **self._filter_options)
+        self._memory = self.window * decimation + self.filter.memory_samples() - 1
+
+    def set_input_rate(self, input_rate_hz: float) -> None:
+        """Answer samples arriving at ``input_rate_hz`` from now on (a whole multiple of
+        :attr:`rate_hz`, else :class:`StreamingError`): the decimation, the anti-alias filter
+        and the post-filter are rebuilt and the stream starts over (:meth:`reset`); the
+        network's backend, the slow part to build, is kept. For a node that builds its
+        estimator before its first messages tell the rate (``psmforce serve``)."""
+        self._set_rates(input_rate_hz)
+        self.reset()
 
     def lag_s(self) -> float:
         """Lag (s) the decimation adds to an answer: the anti-alias filter's group delay at
