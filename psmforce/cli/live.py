@@ -70,9 +70,10 @@ def _serve(args, stop: threading.Event) -> dict:
     participant = DomainParticipant(domain(args.domain_id))
     node = DdsNode(args.checkpoint, participant, arm=args.arm, topics=_topics(args),
                    input_rate_hz=args.input_rate, tare_on_start=args.tare_on_start,
-                   tare_s=args.tare_s, best_effort=args.best_effort,
+                   tare_s=args.tare_s, reader_best_effort=args.reader_qos == "best-effort",
+                   writer_best_effort=args.writer_qos == "best-effort",
                    sync=args.sync_stamps or args.sim, sync_wait_s=args.sync_wait,
-                   post_filter=args.post_filter)
+                   domain_id=domain(args.domain_id), post_filter=args.post_filter)
     print(f"psmforce serve: domain {domain(args.domain_id)}, listening on "
           f"{', '.join(node.input_topics.values())}; publishing "
           f"{node.output_topics['hex10']} and {node.output_topics['base']}", flush=True)
@@ -180,8 +181,15 @@ def add_live_commands(sub) -> None:
                         "(counted as unpaired; default 0.1 s)")
     p.add_argument("--domain-id", type=options.number_in(0, 232, low_open=False, integer=True),
                    help="DDS domain, 0 to 232 (default: ROS_DOMAIN_ID, else 0)")
-    p.add_argument("--best-effort", action="store_true",
-                   help="best-effort readers (to match sensor-data QoS publishers)")
+    p.add_argument("--reader-qos", choices=["reliable", "best-effort"], default="reliable",
+                   help="the node's readers: reliable (default; matches the dVRK's reliable "
+                        "publishers) or best-effort (also matches sensor-data QoS publishers)")
+    p.add_argument("--writer-qos", choices=["reliable", "best-effort"], default="reliable",
+                   help="the node's writers: reliable (default; every subscriber matches) or "
+                        "best-effort (only best-effort subscribers match)")
+    p.add_argument("--best-effort", dest="reader_qos", action="store_const",
+                   const="best-effort", help="the same as --reader-qos best-effort (the "
+                   "writers stay reliable)")
     p.add_argument("--duration", type=options.SECONDS, metavar="S", help="stop after S seconds")
     p.add_argument("--idle-stop", type=options.SECONDS, metavar="S",
                    help="stop when no message came for S seconds after the first")

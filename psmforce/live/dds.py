@@ -12,8 +12,11 @@ seen by ``ros2 topic echo`` on a machine running ROS 2 on a DDS middleware in th
 
 QoS (:func:`qos`): reliable, volatile, keep last :data:`DEPTH`: what the dVRK's ROS 2 publishers
 use (rclcpp's default profile, reliable and volatile), with a deeper history so a reader that
-falls a few milliseconds behind at 1 kHz loses nothing. ``best_effort=True`` gives a best-effort
-reader, which also matches best-effort (sensor-data QoS) publishers.
+falls a few milliseconds behind at 1 kHz loses nothing. Readers and writers are set apart:
+``best_effort=True`` gives a best-effort reader, which also matches best-effort (sensor-data QoS)
+publishers, or a best-effort writer, which only best-effort subscribers match.
+:class:`EndpointWatch` says, in one line each, when a peer's QoS cannot match or an input topic
+has no publisher.
 
 No ``from __future__ import annotations`` here: ``cyclonedds`` reads the field types at run time.
 """
@@ -138,3 +141,53 @@ def header(stamp_ns: int, frame_id: str) -> Header:
     """A header for a stamp in ns since the epoch."""
     sec, nanosec = divmod(int(stamp_ns), 1_000_000_000)
     return Header(Time(sec, nanosec), frame_id)
+
+
+POLICIES = {2: "DURABILITY", 4: "DEADLINE", 5: "LATENCY_BUDGET", 6: "OWNERSHIP",
+            8: "LIVELINESS", 10: "PARTITION", 11: "RELIABILITY", 12: "DESTINATION_ORDER",
+            13: "HISTORY", 14: "RESOURCE_LIMITS"}
+"""DDS QoS policy ids (the DDS specification's numbering) named in the endpoint warnings."""
+
+UNMATCHED_AFTER_S = 5.0
+"""How long an input topic may have no publisher before the node says so."""
+
+
+class EndpointWatch:
+    """What a user would otherwise never learn: a publisher or subscriber whose QoS cannot
+    match the node's, and an input topic no publisher has matched (another domain, another
+    discovery range, a mistyped topic). :meth:`check` returns each problem once, as one line
+    that says what to change; the node prints them as they appear."""
+
+    def __init__(self, readers: dict, writers: dict, domain_id: int, started_s: float):
+        self._readers, self._writers = readers, writers  # topic -> DataReader / DataWriter
+        self._domain, self._started = domain_id, started_s
+        self._said: set = set()
+
+    def check(self, now_s: float) -> list[str]:
+        lines = []
+        for topic, reader in self._readers.items():
+            status = reader.get_requested_incompatible_qos_status()
+            if status.total_count and ("qos", topic) not in self._said:
+                self._said.add(("qos", topic))
+                policy = POLICIES.get(status.last_policy_id, f"policy {status.last_policy_id}")
+                hint = (" (a best-effort publisher, such as sensor-data QoS: run with "
+                        "--reader-qos best-effort)" if policy == "RELIABILITY" else "")
+                lines.append(f"serve: a publisher of {topic} offers QoS this node's reader "
+                             f"cannot match: {policy}{hint}")
+            if now_s - self._started > UNMATCHED_AFTER_S and ("none", topic) not in self._said \
+                    and not reader.get_subscription_matched_status().total_count:
+                self._said.add(("none", topic))
+                lines.append(f"serve: no publisher of {topic} matched in {UNMATCHED_AFTER_S:g} s "
+                             f"on domain {self._domain}: check the topic (ros2 topic list), "
+                             f"the domain (ROS_DOMAIN_ID, --domain-id) and the discovery range "
+                             f"(ROS_AUTOMATIC_DISCOVERY_RANGE, ROS_LOCALHOST_ONLY) on both sides")
+        for topic, writer in self._writers.items():
+            status = writer.get_offered_incompatible_qos_status()
+            if status.total_count and ("qos", topic) not in self._said:
+                self._said.add(("qos", topic))
+                policy = POLICIES.get(status.last_policy_id, f"policy {status.last_policy_id}")
+                hint = (" (a reliable subscriber: run with --writer-qos reliable)"
+                        if policy == "RELIABILITY" else "")
+                lines.append(f"serve: a subscriber of {topic} requests QoS this node's writer "
+                             f"cannot offer: {policy}{hint}")
+        return lines

@@ -72,8 +72,9 @@ class DdsNode:
 
     def __init__(self, checkpoint, participant, *, arm: str = "PSM1",
                  topics: dict | None = None, input_rate_hz: float | None = None,
-                 tare_on_start: bool = False, tare_s: float = 0.5, best_effort: bool = False,
-                 sync: bool = False, sync_wait_s: float = 0.1, **options):
+                 tare_on_start: bool = False, tare_s: float = 0.5,
+                 reader_best_effort: bool = False, writer_best_effort: bool = False,
+                 sync: bool = False, sync_wait_s: float = 0.1, domain_id: int = 0, **options):
         from cyclonedds.core import (
             InstanceState,
             ReadCondition,
@@ -99,16 +100,22 @@ class DdsNode:
                                            if k in ("js", "jaw", "hex10")})
         self.input_topics = {s: resolved[s] for s in ("js", "jaw", "hex10")}
         self.output_topics = output_topics(arm)
-        qos = dds.qos(best_effort)
         kinds = {"js": dds.JointState, "jaw": dds.JointState, "hex10": dds.WrenchStamped,
                  "tare": dds.Empty}
         sources = {**self.input_topics, "tare": self.output_topics["tare"]}
         self.readers = {s: DataReader(participant, Topic(participant, dds.dds_topic(t),
-                                                         kinds[s]), qos=qos)
+                                                         kinds[s]),
+                                          qos=dds.qos(reader_best_effort))
                         for s, t in sources.items()}
         self.writers = {name: DataWriter(participant, Topic(
-            participant, dds.dds_topic(self.output_topics[name]), dds.TYPES[msgtype]), qos=qos)
-            for name, msgtype in OUTPUT_TYPES.items()}
+            participant, dds.dds_topic(self.output_topics[name]), dds.TYPES[msgtype]),
+            qos=dds.qos(writer_best_effort)) for name, msgtype in OUTPUT_TYPES.items()}
+        self.watch = dds.EndpointWatch(
+            {self.input_topics[s]: self.readers[s] for s in self.input_topics},
+            {self.output_topics[n]: w for n, w in self.writers.items()}, domain_id,
+            time.monotonic())
+        self.warnings: list[str] = []
+        """What :attr:`watch` said (printed on stderr as it appeared)."""
         self._waitset = WaitSet(participant)
         mask = SampleState.Any | ViewState.Any | InstanceState.Any
         for reader in self.readers.values():
@@ -192,8 +199,14 @@ class DdsNode:
         for ``idle_stop_s`` after the first message; returns :meth:`report`."""
         end = None if duration_s is None else time.monotonic() + duration_s
         last = None
+        watched = 0.0
         while not (stop is not None and stop.is_set()):
             now = time.monotonic()
+            if now - watched > 0.5:
+                watched = now
+                for line in self.watch.check(now):
+                    print(line, file=sys.stderr, flush=True)
+                    self.warnings.append(line)
             if end is not None and now >= end:
                 break
             if self.spin_once(0.05):
@@ -205,7 +218,7 @@ class DdsNode:
     def report(self) -> dict:
         node = self.node
         out = {"received": dict(self.received), "malformed": dict(self.malformed),
-               "answers_published": self.published,
+               "answers_published": self.published, "warnings": list(self.warnings),
                "input_topics": self.input_topics, "output_topics": self.output_topics,
                "flag_counts": {bit: int(n) for bit, n in enumerate(self.flag_counts) if n}}
         if node is not None:

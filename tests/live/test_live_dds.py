@@ -255,3 +255,40 @@ def test_serve_refuses_a_checkpoint_before_it_subscribes(tmp_path, capsys):
     assert main(["serve", str(tmp_path / "missing.pt"), "--duration", "30"]) == 2
     out, err = capsys.readouterr()
     assert "missing.pt does not exist" in err and "listening" not in out
+
+
+@pytest.mark.slow
+@pytest.mark.e2e
+def test_serve_says_which_peer_qos_cannot_match_and_which_topic_has_no_publisher(tmp_path):
+    """Issue 47, item 3: a publisher whose QoS cannot match the node's readers, a subscriber
+    the node's writers cannot serve, and an input topic with no publisher were never
+    mentioned. Each is one line on stderr, in the report's ``warnings``, saying what to change;
+    ``--best-effort`` no longer switches the writers."""
+    domain = 100 + (os.getpid() + 25) % 100
+    ckpt = checkpoint(tmp_path / "h.pt", rate_hz=100.0)
+    participant = DomainParticipant(domain)
+    sensor_qos = dds.qos(True)  # best effort: what a sensor-data publisher offers
+    writer = DataWriter(participant, Topic(participant, dds.dds_topic("/hex10/measured_cf"),
+                                           dds.WrenchStamped), qos=sensor_qos)
+    reliable = DataReader(participant, Topic(participant, dds.dds_topic(
+        "/PSM1/tool_force/base"), dds.WrenchStamped), qos=dds.qos(False))
+    runs = {}
+    for name, extra in (("default", []), ("best_effort_writers", ["--writer-qos",
+                                                                   "best-effort"])):
+        report = tmp_path / f"{name}.json"
+        runs[name] = subprocess.run(
+            [sys.executable, "-m", "psmforce.cli.main", "serve", str(ckpt), "--domain-id",
+             str(domain), "--duration", "7", "--json", str(report), *extra], env=_env(),
+            capture_output=True, text=True, timeout=120)
+        assert runs[name].returncode == 0, runs[name].stderr[-2000:]
+        runs[name] = (runs[name].stderr, json.loads(report.read_text())["warnings"])
+    err, warnings = runs["default"]
+    assert "a publisher of /hex10/measured_cf offers QoS this node's reader cannot match: " \
+           "RELIABILITY" in err and "--reader-qos best-effort" in err
+    assert "no publisher of /PSM1/measured_js matched in 5 s on domain" in err
+    assert "subscriber" not in err  # reliable writers serve the reliable subscriber
+    assert all(w in err for w in warnings) and len(warnings) == 4  # hex10 qos, js, jaw, hex10 none
+    err, _ = runs["best_effort_writers"]
+    assert "a subscriber of /PSM1/tool_force/base requests QoS this node's writer cannot " \
+           "offer: RELIABILITY (a reliable subscriber: run with --writer-qos reliable)" in err
+    del writer, reliable
