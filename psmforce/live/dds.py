@@ -28,6 +28,8 @@ from cyclonedds.core import Policy, Qos
 from cyclonedds.idl import IdlStruct
 from cyclonedds.util import duration
 
+from psmforce.live.type_hash import user_data
+
 DEPTH = 1000
 """History kept per topic (messages): one second at 1 kHz."""
 
@@ -44,11 +46,16 @@ def dds_type_name(ros_type: str) -> str:
     return f"{package}::{kind}::dds_::{name}_"
 
 
-def qos(best_effort: bool = False) -> Qos:
-    """Reader and writer QoS (module docstring)."""
+def qos(best_effort: bool = False, ros_type: str | None = None) -> Qos:
+    """Reader and writer QoS (module docstring); with ``ros_type``, the endpoint also carries
+    that type's ROS 2 hash in its USER_DATA, as a Jazzy endpoint does
+    (:func:`psmforce.live.type_hash.user_data`)."""
     reliability = (Policy.Reliability.BestEffort if best_effort
                    else Policy.Reliability.Reliable(max_blocking_time=duration(milliseconds=100)))
-    return Qos(reliability, Policy.Durability.Volatile, Policy.History.KeepLast(DEPTH))
+    policies = [reliability, Policy.Durability.Volatile, Policy.History.KeepLast(DEPTH)]
+    if ros_type is not None:
+        policies.append(Policy.Userdata(user_data(ros_type)))
+    return Qos(*policies)
 
 
 @dataclass

@@ -46,7 +46,8 @@ from psmforce.estimators.runtime.streaming import StreamingEstimator
 from psmforce.io.bags.messages import stamp_ns
 from psmforce.io.bags.reading import resolve_topics
 from psmforce.live import cdr
-from psmforce.live.node import OUTPUT_TYPES, ForceNode, check_sync_wait, output_topics
+from psmforce.live.node import (OUTPUT_TYPES, TARE_TYPE, ForceNode, check_sync_wait,
+                                 output_topics)
 
 RATE_MESSAGES = 5
 """HEX10 messages held back to measure the input rate (4 ms at 1 kHz): the median of their four
@@ -100,16 +101,16 @@ class DdsNode:
                                            if k in ("js", "jaw", "hex10")})
         self.input_topics = {s: resolved[s] for s in ("js", "jaw", "hex10")}
         self.output_topics = output_topics(arm)
-        kinds = {"js": dds.JointState, "jaw": dds.JointState, "hex10": dds.WrenchStamped,
-                 "tare": dds.Empty}
+        kinds = {"js": "sensor_msgs/msg/JointState", "jaw": "sensor_msgs/msg/JointState",
+                 "hex10": "geometry_msgs/msg/WrenchStamped", "tare": TARE_TYPE}
         sources = {**self.input_topics, "tare": self.output_topics["tare"]}
         self.readers = {s: DataReader(participant, Topic(participant, dds.dds_topic(t),
-                                                         kinds[s]),
-                                          qos=dds.qos(reader_best_effort))
+                                                         dds.TYPES[kinds[s]]),
+                                      qos=dds.qos(reader_best_effort, kinds[s]))
                         for s, t in sources.items()}
         self.writers = {name: DataWriter(participant, Topic(
             participant, dds.dds_topic(self.output_topics[name]), dds.TYPES[msgtype]),
-            qos=dds.qos(writer_best_effort)) for name, msgtype in OUTPUT_TYPES.items()}
+            qos=dds.qos(writer_best_effort, msgtype)) for name, msgtype in OUTPUT_TYPES.items()}
         self.watch = dds.EndpointWatch(
             {self.input_topics[s]: self.readers[s] for s in self.input_topics},
             {self.output_topics[n]: w for n, w in self.writers.items()}, domain_id,

@@ -55,9 +55,11 @@ class Robot:
         resolved, _ = resolve_topics(arm, {k: v for k, v in (topics or {}).items()
                                            if k in ("js", "jaw", "hex10")})
         self.topics = {s: resolved[s] for s in ("js", "jaw", "hex10")}
-        kinds = {"js": dds.JointState, "jaw": dds.JointState, "hex10": dds.WrenchStamped}
-        self.writers = {s: DataWriter(participant, Topic(participant, dds.dds_topic(t), kinds[s]),
-                                      qos=dds.qos(best_effort))
+        kinds = {"js": "sensor_msgs/msg/JointState", "jaw": "sensor_msgs/msg/JointState",
+                 "hex10": "geometry_msgs/msg/WrenchStamped"}
+        self.writers = {s: DataWriter(participant, Topic(participant, dds.dds_topic(t),
+                                                         dds.TYPES[kinds[s]]),
+                                      qos=dds.qos(best_effort, kinds[s]))
                         for s, t in self.topics.items()}
 
     def wait_for_readers(self, timeout_s: float = 10.0) -> bool:

@@ -292,3 +292,41 @@ def test_serve_says_which_peer_qos_cannot_match_and_which_topic_has_no_publisher
     assert "a subscriber of /PSM1/tool_force/base requests QoS this node's writer cannot " \
            "offer: RELIABILITY (a reliable subscriber: run with --writer-qos reliable)" in err
     del writer, reliable
+
+
+@pytest.mark.slow
+@pytest.mark.e2e
+def test_every_endpoint_of_the_node_carries_its_ros_2_type_hash(tmp_path):
+    """Issue 47, item 7: Jazzy's tools warned for every endpoint of the node, which carried no
+    type hash. Read back by DDS discovery (the builtin topics, as a ROS 2 tool sees them), each
+    reader and writer carries ``typehash=RIHS01_...;`` equal to rosbags' hash of its type."""
+    from cyclonedds.builtin import (BuiltinDataReader, BuiltinTopicDcpsPublication,
+                                    BuiltinTopicDcpsSubscription)
+    from cyclonedds.core import Policy
+
+    from psmforce.io.bags import ROS2_TYPESTORE
+    from psmforce.live.serve import DdsNode
+    domain = 100 + (os.getpid() + 35) % 100
+    ckpt = checkpoint(tmp_path / "h.pt", rate_hz=100.0)
+    node = DdsNode(ckpt, DomainParticipant(domain), input_rate_hz=100.0)
+    tool = DomainParticipant(domain)
+    found: dict[str, bytes] = {}
+    deadline = time.monotonic() + 10
+    readers = [BuiltinDataReader(tool, BuiltinTopicDcpsPublication),
+               BuiltinDataReader(tool, BuiltinTopicDcpsSubscription)]
+    wanted = {dds.dds_topic(t) for t in [*node.input_topics.values(),
+                                         *node.output_topics.values()]}
+    while time.monotonic() < deadline and not wanted <= set(found):
+        for reader in readers:
+            for sample in reader.take(N=100):
+                data = sample.qos[Policy.Userdata]
+                found[sample.topic_name] = data.data if data is not None else b""
+        time.sleep(0.1)
+    assert wanted <= set(found), sorted(wanted - set(found))
+    by_topic = {dds.dds_topic(node.input_topics["js"]): "sensor_msgs/msg/JointState",
+                dds.dds_topic(node.input_topics["hex10"]): "geometry_msgs/msg/WrenchStamped",
+                dds.dds_topic(node.output_topics["flags"]): "std_msgs/msg/UInt32",
+                dds.dds_topic(node.output_topics["std"]): "geometry_msgs/msg/Vector3Stamped",
+                dds.dds_topic(node.output_topics["tare"]): "std_msgs/msg/Empty"}
+    for topic, ros_type in by_topic.items():
+        assert found[topic] == f"typehash={ROS2_TYPESTORE.hash_rihs01(ros_type)};".encode()
