@@ -10,9 +10,12 @@ seen by ``ros2 topic echo`` on a machine running ROS 2 on a DDS middleware in th
 (``tests/live/test_live_cdr.py``). They decode with :mod:`psmforce.io.bags.messages` like the
 ``rosbags`` classes (same attribute names).
 
-QoS (:func:`qos`): reliable, volatile, keep last :data:`DEPTH`: what the dVRK's ROS 2 publishers
-use (rclcpp's default profile, reliable and volatile), with a deeper history so a reader that
-falls a few milliseconds behind at 1 kHz loses nothing. Readers and writers are set apart:
+QoS (:func:`qos`): reliable and volatile, what the dVRK's ROS 2 publishers use (rclcpp's default
+profile). Writers keep the last :data:`DEPTH` samples. Bursts: readers keep all samples, up to
+:data:`READER_LIMIT`, so a burst the node cannot answer at once waits in the reader instead of
+falling out of a keep-last history (a controller that bursts 10x after a hiccup lost a third of
+its messages that way); with reliable QoS a reader that is full holds its publisher back rather
+than drop a sample, and the limit bounds how far the node can fall behind. Readers and writers are set apart:
 ``best_effort=True`` gives a best-effort reader, which also matches best-effort (sensor-data QoS)
 publishers, or a best-effort writer, which only best-effort subscribers match.
 :class:`EndpointWatch` says, in one line each, when a peer's QoS cannot match or an input topic
@@ -31,7 +34,10 @@ from cyclonedds.util import duration
 from psmforce.live.type_hash import user_data
 
 DEPTH = 1000
-"""History kept per topic (messages): one second at 1 kHz."""
+"""History a writer keeps (messages): one second at 1 kHz."""
+READER_LIMIT = 20_000
+"""Most samples a reader holds unread: 2 s of a 10 kHz burst; the bound on how far the node
+can fall behind."""
 
 
 def dds_topic(ros_topic: str) -> str:
@@ -46,13 +52,19 @@ def dds_type_name(ros_type: str) -> str:
     return f"{package}::{kind}::dds_::{name}_"
 
 
-def qos(best_effort: bool = False, ros_type: str | None = None) -> Qos:
+def qos(best_effort: bool = False, ros_type: str | None = None, *,
+        reader: bool = False) -> Qos:
     """Reader and writer QoS (module docstring); with ``ros_type``, the endpoint also carries
     that type's ROS 2 hash in its USER_DATA, as a Jazzy endpoint does
-    (:func:`psmforce.live.type_hash.user_data`)."""
+    (:func:`psmforce.live.type_hash.user_data`). A ``reader`` keeps every sample up to
+    :data:`READER_LIMIT` (module docstring, Bursts)."""
     reliability = (Policy.Reliability.BestEffort if best_effort
                    else Policy.Reliability.Reliable(max_blocking_time=duration(milliseconds=100)))
-    policies = [reliability, Policy.Durability.Volatile, Policy.History.KeepLast(DEPTH)]
+    history = ([Policy.History.KeepAll,
+                Policy.ResourceLimits(max_samples=READER_LIMIT, max_instances=1,
+                                      max_samples_per_instance=READER_LIMIT)]
+               if reader else [Policy.History.KeepLast(DEPTH)])
+    policies = [reliability, Policy.Durability.Volatile, *history]
     if ros_type is not None:
         policies.append(Policy.Userdata(user_data(ros_type)))
     return Qos(*policies)

@@ -106,7 +106,7 @@ class DdsNode:
         sources = {**self.input_topics, "tare": self.output_topics["tare"]}
         self.readers = {s: DataReader(participant, Topic(participant, dds.dds_topic(t),
                                                          dds.TYPES[kinds[s]]),
-                                      qos=dds.qos(reader_best_effort, kinds[s]))
+                                      qos=dds.qos(reader_best_effort, kinds[s], reader=True))
                         for s, t in sources.items()}
         self.writers = {name: DataWriter(participant, Topic(
             participant, dds.dds_topic(self.output_topics[name]), dds.TYPES[msgtype]),
