@@ -64,17 +64,16 @@ def serve_command(args) -> dict:
 
 
 def _serve(args, stop: threading.Event) -> dict:
-    from cyclonedds.domain import DomainParticipant
-
-    from psmforce.live.serve import DdsNode, domain
-    participant = DomainParticipant(domain(args.domain_id))
+    from psmforce.live.serve import DdsNode, discovery, domain, participant as join
+    participant = join(args.domain_id)
     node = DdsNode(args.checkpoint, participant, arm=args.arm, topics=_topics(args),
                    input_rate_hz=args.input_rate, tare_on_start=args.tare_on_start,
                    tare_s=args.tare_s, reader_best_effort=args.reader_qos == "best-effort",
                    writer_best_effort=args.writer_qos == "best-effort",
                    sync=args.sync_stamps or args.sim, sync_wait_s=args.sync_wait,
                    domain_id=domain(args.domain_id), post_filter=args.post_filter)
-    print(f"psmforce serve: domain {domain(args.domain_id)}, listening on "
+    print(f"psmforce serve: domain {domain(args.domain_id)}, discovery "
+          f"{discovery()[0].lower()}, listening on "
           f"{', '.join(node.input_topics.values())}; publishing "
           f"{node.output_topics['hex10']} and {node.output_topics['base']}", flush=True)
     player = _start_sim(args, participant, stop) if args.sim and not stop.is_set() else None

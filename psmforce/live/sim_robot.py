@@ -126,9 +126,7 @@ def main(argv: list[str] | None = None) -> int:
     import argparse
     import json
 
-    from cyclonedds.domain import DomainParticipant
-
-    from psmforce.live.serve import domain
+    from psmforce.live.serve import participant
     parser = argparse.ArgumentParser(prog="python -m psmforce.live.sim_robot")
     parser.add_argument("recording")
     parser.add_argument("--domain-id", type=int)
@@ -144,7 +142,7 @@ def main(argv: list[str] | None = None) -> int:
         import threading
         stop = threading.Event()
         threading.Timer(args.duration, stop.set).start()  # the wait for a node included
-    result = play(frame, DomainParticipant(domain(args.domain_id)), arm=args.arm,
+    result = play(frame, participant(args.domain_id), arm=args.arm,
                   start_ns=args.start_ns, loop=stop is not None, stop=stop)
     if args.sent:
         write_text_atomic(args.sent, json.dumps(result))

@@ -364,3 +364,60 @@ def test_a_burst_as_fast_as_the_publisher_can_loses_nothing(tmp_path):
     assert rate > 1500, rate  # a burst: faster than the stream's own rate
     assert result["received"] == {"js": n, "jaw": n, "hex10": n, "tare": 0}, (rate, result)
     assert result["answers_published"] == n
+
+
+def test_the_discovery_range_is_read_as_ros_2_jazzy_reads_it(monkeypatch):
+    """Issue 47, item 7: ROS_AUTOMATIC_DISCOVERY_RANGE, ROS_STATIC_PEERS and ROS_LOCALHOST_ONLY
+    were ignored; a domain outside [0, 232] was an internal error."""
+    from psmforce.live.serve import _discovery_config, discovery, domain
+    for name in ("ROS_AUTOMATIC_DISCOVERY_RANGE", "ROS_STATIC_PEERS", "ROS_LOCALHOST_ONLY"):
+        monkeypatch.delenv(name, raising=False)
+    assert discovery() == ("SUBNET", []) and _discovery_config("SUBNET", []) is None
+    monkeypatch.setenv("ROS_AUTOMATIC_DISCOVERY_RANGE", "localhost")
+    monkeypatch.setenv("ROS_STATIC_PEERS", "10.0.0.7; robot.lab")
+    assert discovery() == ("LOCALHOST", ["10.0.0.7", "robot.lab"])
+    config = _discovery_config(*discovery())
+    assert '127.0.0.1' in config and '<Peer address="localhost"/>' in config \
+        and '<Peer address="robot.lab"/>' in config
+    monkeypatch.setenv("ROS_AUTOMATIC_DISCOVERY_RANGE", "SUBNET")
+    monkeypatch.setenv("ROS_LOCALHOST_ONLY", "1")  # deprecated in Jazzy, and it wins
+    assert discovery()[0] == "LOCALHOST"
+    monkeypatch.setenv("ROS_AUTOMATIC_DISCOVERY_RANGE", "lan")
+    with pytest.raises(ValueError, match="ROS_AUTOMATIC_DISCOVERY_RANGE must be one of"):
+        discovery()
+    for bad in (300, -5, True):
+        with pytest.raises(ValueError, match=r"domain must be an integer in \[0, 232\]"):
+            domain(bad)
+
+
+@pytest.mark.slow
+@pytest.mark.e2e
+def test_a_node_with_discovery_off_sees_no_other_process_and_localhost_does(tmp_path):
+    """Between processes on one machine: LOCALHOST on both sides finds the robot; OFF finds
+    nothing, as a ROS 2 node with that range would."""
+    domain = 100 + (os.getpid() + 55) % 100
+    ckpt = checkpoint(tmp_path / "h.pt", rate_hz=100.0)
+    rec = tmp_path / "rec.csv"
+    frame = recording(300)
+    frame["time"] = np.arange(300) / 100.0
+    write_recording(frame, rec)
+    received = {}
+    for node_range in ("LOCALHOST", "OFF"):
+        env = dict(_env(), ROS_AUTOMATIC_DISCOVERY_RANGE=node_range)
+        report = tmp_path / f"{node_range}.json"
+        node = subprocess.Popen([sys.executable, "-m", "psmforce.cli.main", "serve", str(ckpt),
+                                 "--domain-id", str(domain), "--duration", "6", "--json",
+                                 str(report)], env=env, stdout=subprocess.PIPE,
+                                stderr=subprocess.PIPE, text=True)
+        robot = subprocess.Popen([sys.executable, "-m", "psmforce.live.sim_robot", str(rec),
+                                  "--domain-id", str(domain), "--duration", "3"],
+                                 env=dict(_env(), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST"),
+                                 stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        try:
+            node.communicate(timeout=60)
+            robot.communicate(timeout=60)
+        finally:
+            node.kill()
+            robot.kill()
+        received[node_range] = json.loads(report.read_text())["received"]["hex10"]
+    assert received["LOCALHOST"] > 0 and received["OFF"] == 0, received
