@@ -21,7 +21,7 @@ its NUL or not UTF-8) raise :class:`CdrError` naming what is wrong. Bytes after 
 Messages (ROS 2 names; what the node means by them: :mod:`psmforce.live.node`):
 ``std_msgs/msg/Header`` (inside the others), ``geometry_msgs/msg/WrenchStamped``,
 ``geometry_msgs/msg/Vector3Stamped``, ``std_msgs/msg/UInt32``, ``std_msgs/msg/Empty``,
-``sensor_msgs/msg/JointState``.
+``sensor_msgs/msg/JointState``, ``diagnostic_msgs/msg/DiagnosticArray``.
 """
 
 from __future__ import annotations
@@ -83,6 +83,25 @@ def uint32(value: int) -> bytes:
     """std_msgs/msg/UInt32."""
     buf = _Buffer()
     buf.uint32(int(value))
+    return bytes(buf.data)
+
+
+def diagnostic_array(stamp_ns: int, frame_id: str,
+                     statuses: Sequence[tuple[int, str, str, str, Sequence[tuple[str, str]]]]
+                     ) -> bytes:
+    """diagnostic_msgs/msg/DiagnosticArray: a header and, per status, ``(level, name,
+    message, hardware_id, [(key, value), ...])`` (level: 0 OK, 1 WARN, 2 ERROR, 3 STALE)."""
+    buf = _Buffer()
+    buf.header(stamp_ns, frame_id)
+    buf.uint32(len(statuses))
+    for level, name, message, hardware_id, values in statuses:
+        buf.data += bytes((int(level),))  # a byte: no alignment
+        for text in (name, message, hardware_id):
+            buf.string(text)
+        buf.uint32(len(values))
+        for key, value in values:
+            buf.string(key)
+            buf.string(value)
     return bytes(buf.data)
 
 

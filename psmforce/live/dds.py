@@ -126,11 +126,35 @@ class JointState(IdlStruct, typename=dds_type_name("sensor_msgs/msg/JointState")
     effort: t.sequence[t.float64] = field(default_factory=list)
 
 
+@dataclass
+class KeyValue(IdlStruct, typename=dds_type_name("diagnostic_msgs/msg/KeyValue")):
+    key: str = ""
+    value: str = ""
+
+
+@dataclass
+class DiagnosticStatus(IdlStruct, typename=dds_type_name("diagnostic_msgs/msg/DiagnosticStatus")):
+    level: t.byte = 0
+    name: str = ""
+    message: str = ""
+    hardware_id: str = ""
+    values: t.sequence[KeyValue] = field(default_factory=list)
+
+
+@dataclass
+class DiagnosticArray(IdlStruct, typename=dds_type_name("diagnostic_msgs/msg/DiagnosticArray")):
+    header: Header = field(default_factory=Header)
+    status: t.sequence[DiagnosticStatus] = field(default_factory=list)
+
+
 TYPES = {"builtin_interfaces/msg/Time": Time, "std_msgs/msg/Header": Header,
          "geometry_msgs/msg/Vector3": Vector3, "geometry_msgs/msg/Wrench": Wrench,
          "geometry_msgs/msg/WrenchStamped": WrenchStamped,
          "geometry_msgs/msg/Vector3Stamped": Vector3Stamped, "std_msgs/msg/UInt32": UInt32,
-         "std_msgs/msg/Empty": Empty, "sensor_msgs/msg/JointState": JointState}
+         "std_msgs/msg/Empty": Empty, "sensor_msgs/msg/JointState": JointState,
+         "diagnostic_msgs/msg/KeyValue": KeyValue,
+         "diagnostic_msgs/msg/DiagnosticStatus": DiagnosticStatus,
+         "diagnostic_msgs/msg/DiagnosticArray": DiagnosticArray}
 """The DDS structure of each ROS 2 message type used."""
 
 

@@ -35,7 +35,14 @@ stamp of the trigger message answered):
            :mod:`psmforce.estimators.networks.uncertainty`).
 ``flags``  std_msgs/UInt32: the bits of :class:`psmforce.estimators.runtime.streaming.Flags` (bits
 0-8), and the
-           node's own :data:`TARING` (bit 16) and :data:`STALE` (bit 17).
+           node's own :data:`TARING` (bit 16) and :data:`STALE` (bit 17). Unstamped (kept for
+           subscribers written against it): pair it by order, or read ``status``.
+``status`` diagnostic_msgs/DiagnosticArray, the same flags stamped with the answered stamp: one
+           status, ``name`` ``psmforce/{arm}/tool_force``, ``level`` OK (no flag), WARN (the
+           estimate stands but is qualified: warming up, overload, time step back, gap,
+           extrapolation, taring, stale) or ERROR (no usable estimate: invalid input, held,
+           reset, implausible; :data:`ERROR_FLAGS`), ``message`` the flag names joined by
+           ``|``, ``values`` ``flags`` (the bits in decimal) and ``stamp_ns``.
 
 Tare. The estimate's offset in free space is removed by a tare: :meth:`ForceNode.request_tare`
 (``serve``: any message on ``/{arm}/tool_force/tare``, std_msgs/Empty, or ``--tare-on-start``)
@@ -47,7 +54,9 @@ arrived (a stream stalled; the estimate uses its last values). Staleness is judg
 the node receives messages in (``serve``: by DDS source time; ``replay``: the bag's receive
 order), never by comparing header stamps of different clocks: an arm whose clock runs 50 ms
 behind the HEX10's is not stale, one that stops is, whatever its stamps say, and a transport
-hiccup that delays every stream alike flags nothing.
+hiccup that delays every stream alike flags nothing. With ``sync`` the streams share one clock
+(that is what pairing by stamp assumes), so there it is judged on that clock: a partner stamped
+more than ``stale_periods`` input periods before the trigger it meets is stale.
 """
 
 from __future__ import annotations
@@ -70,9 +79,22 @@ STALE = 1 << 17
 INPUT_STREAMS = ("js", "jaw", "hex10")
 OUTPUT_TYPES = {"base": "geometry_msgs/msg/WrenchStamped",
                 "hex10": "geometry_msgs/msg/WrenchStamped",
-                "std": "geometry_msgs/msg/Vector3Stamped", "flags": "std_msgs/msg/UInt32"}
+                "std": "geometry_msgs/msg/Vector3Stamped", "flags": "std_msgs/msg/UInt32",
+                "status": "diagnostic_msgs/msg/DiagnosticArray"}
 """The ROS 2 message type of each output (module docstring)."""
 TARE_TYPE = "std_msgs/msg/Empty"
+
+
+FLAG_NAMES = {**{int(f): f.name for f in Flags if f}, TARING: "TARING", STALE: "STALE"}
+"""Each flag bit's name, as ``status`` gives them."""
+ERROR_FLAGS = Flags.INVALID_INPUT | Flags.HELD | Flags.RESET | Flags.IMPLAUSIBLE
+"""Flags that leave no usable estimate: ``status`` level ERROR (any other flag: WARN)."""
+
+
+def status_of(flags: int) -> tuple[int, str]:
+    """The DiagnosticStatus level (0 OK, 1 WARN, 2 ERROR) and message of ``flags``."""
+    names = "|".join(name for bit, name in FLAG_NAMES.items() if flags & bit)
+    return (2 if flags & ERROR_FLAGS else 1 if flags else 0), names
 
 
 def output_topics(arm: str = "PSM1") -> dict[str, str]:
@@ -120,10 +142,12 @@ class ForceNode:
         self.trigger = trigger
         self.topics = output_topics(arm)
         self.base_frame_id = f"{arm.strip('/')}_base"
+        self._status_name = f"psmforce/{arm.strip('/')}/tool_force"
         self.latest: dict[str, object] = dict.fromkeys(INPUT_STREAMS)
         self._silent = {s: 0 for s in INPUT_STREAMS if s != trigger}
         """Trigger messages received since each other stream's latest message."""
         self._stale_after = stale_periods
+        self._stale_ns = stale_periods / estimator.input_rate_hz * 1e9
         self._tare_n = max(1, round(tare_s * estimator.input_rate_hz))
         self.offset = np.zeros(3)
         """The tare subtracted from every force (N, HEX10 frame)."""
@@ -192,12 +216,13 @@ class ForceNode:
             ready = all(h[-1][0] >= stamp for h in self._history.values())
             if not (ready or force or len(self._pending) > self._max_pending):
                 break
-            trigger, stale = self._pending.popleft()
+            trigger, _ = self._pending.popleft()
             self.unpaired += not ready
             for name, history in self._history.items():  # the latest at or before the stamp
                 while len(history) > 1 and history[1][0] <= stamp:
                     history.popleft()  # passed: later triggers are stamped later
                 self.latest[name] = history[0][1]
+            stale = any(stamp - h[0][0] > self._stale_ns for h in self._history.values())
             answers.append(self._answer(trigger, stale))
         return answers
 
@@ -230,9 +255,13 @@ class ForceNode:
         """The CDR bytes of each output of ``answer`` (:mod:`psmforce.live.cdr`), by output
         name (``std`` only with a std)."""
         stamp = answer.stamp_ns
+        level, message = status_of(answer.flags)
         out = {"base": cdr.wrench_stamped(stamp, self.base_frame_id, answer.force_base),
                "hex10": cdr.wrench_stamped(stamp, "hex10", answer.force_hex10),
-               "flags": cdr.uint32(answer.flags)}
+               "flags": cdr.uint32(answer.flags),
+               "status": cdr.diagnostic_array(stamp, "hex10", [(
+                   level, self._status_name, message, self.base_frame_id.removesuffix("_base"),
+                   [("flags", str(answer.flags)), ("stamp_ns", str(stamp))])])}
         if answer.std_hex10 is not None:
             out["std"] = cdr.vector3_stamped(stamp, "hex10", answer.std_hex10)
         return out

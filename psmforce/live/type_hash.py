@@ -10,7 +10,8 @@ gives those bytes; :mod:`psmforce.live.dds` sets them on every reader and writer
 the simulated robot create.
 
 :data:`DEFINITIONS` are the ROS 2 message definitions (fields in order, as in the ``.msg``
-files of ``builtin_interfaces``, ``std_msgs``, ``geometry_msgs`` and ``sensor_msgs``); the hashes
+files of ``builtin_interfaces``, ``std_msgs``, ``geometry_msgs``, ``sensor_msgs`` and
+``diagnostic_msgs``); the hashes
 are computed here, and ``tests/live/test_type_hash.py`` checks each against ``rosbags``' own.
 """
 
@@ -31,6 +32,12 @@ DEFINITIONS: dict[str, tuple[tuple[str, str], ...]] = {
                                  ("torque", "geometry_msgs/msg/Vector3")),
     "geometry_msgs/msg/WrenchStamped": (("header", "std_msgs/msg/Header"),
                                         ("wrench", "geometry_msgs/msg/Wrench")),
+    "diagnostic_msgs/msg/KeyValue": (("key", "string"), ("value", "string")),
+    "diagnostic_msgs/msg/DiagnosticStatus": (("level", "byte"), ("name", "string"),
+                                             ("message", "string"), ("hardware_id", "string"),
+                                             ("values", "diagnostic_msgs/msg/KeyValue[]")),
+    "diagnostic_msgs/msg/DiagnosticArray": (("header", "std_msgs/msg/Header"),
+                                            ("status", "diagnostic_msgs/msg/DiagnosticStatus[]")),
     "sensor_msgs/msg/JointState": (("header", "std_msgs/msg/Header"), ("name", "string[]"),
                                    ("position", "float64[]"), ("velocity", "float64[]"),
                                    ("effort", "float64[]")),

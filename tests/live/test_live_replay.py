@@ -375,3 +375,31 @@ def test_a_repeated_stamp_among_the_first_messages_is_flagged_not_fatal(tmp_path
     report = replay(tmp_path / "repeated", ckpt, tmp_path / "out.mcap")
     assert report["input_rate_hz"] == pytest.approx(1000.0) and report["answers"] == 300
     assert report["flag_counts"].get(Flags.TIME_BACKWARDS.bit_length() - 1) == 1
+
+
+def test_status_carries_each_answers_flags_under_its_stamp(tmp_path):
+    """Issue 47, item 6: ``flags`` is a bare UInt32, so a subscriber that misses one cannot
+    tell which estimate it belongs to. ``status`` (diagnostic_msgs/DiagnosticArray) carries the
+    same bits under the answered stamp, their names and a level."""
+    from psmforce.live.node import status_of
+    from psmforce.live.replay import replay
+    ckpt = checkpoint(tmp_path / "h.pt", rate_hz=1000.0)
+    _, bag = session(tmp_path, n=300)
+    replay(bag, ckpt, tmp_path / "out.mcap", tare_on_start=True)
+    hex10 = read_mcap(tmp_path / "out.mcap", TOPIC)
+    flags = read_mcap(tmp_path / "out.mcap", "/PSM1/tool_force/flags")
+    status = read_mcap(tmp_path / "out.mcap", "/PSM1/tool_force/status")
+    assert len(status) == len(hex10) == len(flags) == 300
+    levels = set()
+    for (_, estimate), (_, bits), (_, array) in zip(hex10, flags, status):
+        (entry,) = array.status
+        values = {kv.key: kv.value for kv in entry.values}
+        assert array.header.stamp == estimate.header.stamp
+        assert int(values["flags"]) == bits.data
+        assert int(values["stamp_ns"]) == estimate.header.stamp.sec * 10**9 \
+            + estimate.header.stamp.nanosec
+        assert (entry.level, entry.message) == status_of(bits.data)
+        assert entry.name == "psmforce/PSM1/tool_force" and entry.hardware_id == "PSM1"
+        levels.add(entry.level)
+    assert 1 in levels and 2 not in levels  # warming up, taring: qualified, never unusable
+    assert status_of(Flags.WARMING_UP | Flags.HELD) == (2, "WARMING_UP|HELD")
