@@ -32,6 +32,16 @@ session put on a 1 kHz clock (:func:`psmforce.live.sim_robot.bench_recording`): 
   the node, the floor under the end-to-end figure) in
   ms, and the node's CPU use (user + system time of its process over the playback / the
   playback's wall time; 1.0 = one core);
+  ``node_added_latency``: per message, the answer's arrival minus the robot's own message's
+  arrival in this process (the node's share of the latency, transport excluded);
+  ``node_lost``: HEX10 messages the node never received; ``first_answer_ms``: from the robot's
+  first HEX10 write to the first answer taken here;
+* ``dds_busy_core``: the same for a third of the time while another process keeps one core
+  busy;
+* ``dds_rate_measured``: the same for 5 s without ``--input-rate`` (the node measures the rate
+  from the first stamps): ``first_answer_ms`` is what a user starting the node sees;
+* ``burst``: 5000 samples published as fast as this process can (several times 1 kHz) to
+  ``serve`` in another process: what the node received and answered, per stream;
 * ``replay``: ``psmforce replay`` of a 1 kHz bag of the same session, as fast as it goes:
   input messages and answers per second (MCAP written).
 
@@ -178,7 +188,8 @@ def _cpu_s(pid: int) -> float:
     return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
 
 
-def dds_figures(ckpt: Path, frame, seconds: float, tmp: Path) -> dict:
+def dds_figures(ckpt: Path, frame, seconds: float, tmp: Path, *, input_rate: bool = True,
+                busy_core: bool = False) -> dict:
     from cyclonedds.core import (
         InstanceState,
         Policy,
@@ -213,10 +224,10 @@ def dds_figures(ckpt: Path, frame, seconds: float, tmp: Path) -> dict:
     env = dict(os.environ, PYTHONPATH=str(ROOT))
     node = subprocess.Popen(
         [sys.executable, "-m", "psmforce.cli.main", "serve", str(ckpt), "--domain-id", str(domain_id),
-         "--input-rate", "1000", "--sync-stamps", "--idle-stop", "3", "--json",
-         str(tmp / "node.json")], env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-        text=True)
-    robot = None
+         *(["--input-rate", "1000"] if input_rate else []), "--sync-stamps", "--idle-stop", "3",
+         "--json", str(tmp / "node.json")], env=env, stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE, text=True)
+    robot = burner = None
     received: dict[int, int] = {}
     received_direct: dict[int, int] = {}
     try:
@@ -225,6 +236,8 @@ def dds_figures(ckpt: Path, frame, seconds: float, tmp: Path) -> dict:
             if node.poll() is not None or time.monotonic() > deadline:
                 raise RuntimeError(f"psmforce serve did not come up: {node.communicate()}")
             time.sleep(0.05)
+        if busy_core:  # one core kept busy by another process all through the playback
+            burner = subprocess.Popen([sys.executable, "-c", "while True: pass"])
         robot = subprocess.Popen(
             [sys.executable, "-m", "psmforce.live.sim_robot", str(tmp / "robot.csv"), "--domain-id",
              str(domain_id), "--start-ns", str(START_NS), "--duration", str(seconds),
@@ -249,7 +262,7 @@ def dds_figures(ckpt: Path, frame, seconds: float, tmp: Path) -> dict:
             raise RuntimeError(f"the robot failed: {robot.communicate()[1]}")
         node.communicate(timeout=60)
     finally:
-        for process in (robot, node):
+        for process in (robot, node, burner):
             if process is not None and process.poll() is None:
                 process.kill()
     sent = json.loads((tmp / "sent.json").read_text())
@@ -258,8 +271,15 @@ def dds_figures(ckpt: Path, frame, seconds: float, tmp: Path) -> dict:
                if s in received]
     transport = [(received_direct[s] - w) * 1e-6
                  for s, w in zip(sent["stamps_ns"], sent["sent_ns"]) if s in received_direct]
+    added = [(received[s] - received_direct[s]) * 1e-6 for s in sent["stamps_ns"]
+             if s in received and s in received_direct]
+    first_answer = min(received.values()) - sent["sent_ns"][0] if received else None
     n = len(sent["stamps_ns"])
-    return {"seconds": seconds, "hex10_sent": n, "node_received": report["received"]["hex10"],
+    return {"seconds": seconds, "input_rate_given": input_rate, "busy_core": busy_core,
+            "hex10_sent": n, "node_received": report["received"]["hex10"],
+            "node_lost": n - report["received"]["hex10"],
+            "node_added_latency": _percentiles(added),
+            "first_answer_ms": None if first_answer is None else first_answer * 1e-6,
             "answers_published": report["answers_published"], "answers_received": len(latency),
             "lost_fraction": 1.0 - len(latency) / n, "unpaired": report["unpaired"],
             "latency": _percentiles(latency), "transport_latency": _percentiles(transport),
@@ -267,6 +287,38 @@ def dds_figures(ckpt: Path, frame, seconds: float, tmp: Path) -> dict:
                                   and len(latency) == n),
             "node_cpu_fraction": (cpu1 - cpu0) / (wall1 - wall0),
             "flag_counts": report["flag_counts"]}
+
+
+def burst_figures(ckpt: Path, frame, tmp: Path, samples: int = 5000) -> dict:
+    """``samples`` of the 1 kHz session published by this process as fast as it can (a burst
+    of several times the stream's rate, as a controller sends after a hiccup) to ``serve`` in
+    another process; what the node received and answered."""
+    from cyclonedds.domain import DomainParticipant
+
+    from psmforce.live.sim_robot import play
+    domain_id = 150 + (os.getpid() + 40) % 80
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    node = subprocess.Popen(
+        [sys.executable, "-m", "psmforce.cli.main", "serve", str(ckpt), "--domain-id",
+         str(domain_id), "--input-rate", "1000", "--idle-stop", "3", "--duration", "300",
+         "--json", str(tmp / "burst.json")], env=env, stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE, text=True)
+    try:
+        node.stdout.readline()  # listening
+        burst = frame.iloc[:samples]
+        started = time.perf_counter()
+        play(burst, DomainParticipant(domain_id), realtime=False, start_ns=START_NS)
+        seconds = time.perf_counter() - started
+        node.communicate(timeout=300)
+    finally:
+        if node.poll() is None:
+            node.kill()
+    report = json.loads((tmp / "burst.json").read_text())
+    return {"samples": samples, "seconds": seconds, "rate_hz": samples / seconds,
+            "times_the_stream_rate": samples / seconds / 1000.0,
+            "node_received": report["received"], "node_lost":
+                {s: samples - n for s, n in report["received"].items() if s != "tare"},
+            "answers_published": report["answers_published"]}
 
 
 def replay_figures(ckpt: Path, frame, tmp: Path) -> dict:
@@ -312,6 +364,10 @@ def main() -> tuple[dict, str | None]:
         result["decode"] = decode_figures(frame)
         result["node"] = node_figures(ckpt, frame)
         result["dds"] = dds_figures(ckpt, frame, args.seconds, tmp)
+        result["dds_busy_core"] = dds_figures(ckpt, frame, args.seconds / 3, tmp,
+                                              busy_core=True)
+        result["dds_rate_measured"] = dds_figures(ckpt, frame, 5.0, tmp, input_rate=False)
+        result["burst"] = burst_figures(ckpt, frame, tmp)
         result["replay"] = replay_figures(ckpt, frame, tmp)
         result["machine"]["load_average_after"] = list(os.getloadavg())
     return result, args.json
@@ -340,6 +396,19 @@ def _print(r: dict) -> None:
           f"{100 * link['node_cpu_fraction']:.0f} % of a core; "
           f"target (p99 <= {TARGET_P99_MS:g} ms, none lost) "
           f"{'met' if link['within_target'] else 'NOT met'}")
+    added = link["node_added_latency"]
+    print(f"node-added latency (answer minus the robot's own message, per message): p50 "
+          f"{added['median_ms']:.3f} ms, p99 {added['p99_ms']:.3f} ms, max {added['max_ms']:.2f} ms")
+    busy = r["dds_busy_core"]
+    print(f"one core busy, {busy['seconds']:g} s: {busy['hex10_sent']} sent, node lost "
+          f"{busy['node_lost']}, answers lost {100 * busy['lost_fraction']:.3f} %, latency p99 "
+          f"{busy['latency']['p99_ms']:.2f} ms")
+    print(f"first answer without --input-rate: {r['dds_rate_measured']['first_answer_ms']:.1f} ms "
+          f"after the robot's first HEX10 message (with it: {link['first_answer_ms']:.1f} ms)")
+    b = r["burst"]
+    print(f"burst: {b['samples']} samples at {b['rate_hz']:.0f} Hz "
+          f"({b['times_the_stream_rate']:.1f}x), node lost {b['node_lost']}, answered "
+          f"{b['answers_published']}")
     print(f"replay: {rep['inputs_per_s']:.0f} input messages/s, {rep['answers_per_s']:.0f} "
           f"answers/s ({rep['realtime_factor']:.1f}x real time)")
     print(f"load average before / after: {r['machine']['load_average']} / "

@@ -143,10 +143,25 @@ class LiveView:
 
 class _Subscriptions:
     """The server's listener (``foxglove.ServerListener``): tells the view which topics a
-    client subscribed to."""
+    client subscribed to. The SDK calls every callback a client's actions imply (a viewer
+    that disconnects unsubscribes from each channel); one it cannot find is printed as a
+    callback error, so each is answered here, the ones the view has no use for by nothing."""
 
     def __init__(self, view: LiveView):
         self._view = view
 
     def on_subscribe(self, client, channel) -> None:
         self._view._on_subscribe(channel.topic)
+
+    def on_unsubscribe(self, client, channel) -> None:
+        """Nothing to do: :meth:`LiveView.wait_for_subscriber` asks whether a client has
+        ever subscribed."""
+
+    def on_client_advertise(self, client, channel) -> None:
+        """Nothing to do: the view publishes, it does not take a client's messages."""
+
+    def on_client_unadvertise(self, client, client_channel_id) -> None:
+        """Nothing to do (as :meth:`on_client_advertise`)."""
+
+    def on_message_data(self, client, client_channel_id, data) -> None:
+        """Nothing to do (as :meth:`on_client_advertise`)."""

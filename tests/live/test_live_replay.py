@@ -403,3 +403,32 @@ def test_status_carries_each_answers_flags_under_its_stamp(tmp_path):
         levels.add(entry.level)
     assert 1 in levels and 2 not in levels  # warming up, taring: qualified, never unusable
     assert status_of(Flags.WARMING_UP | Flags.HELD) == (2, "WARMING_UP|HELD")
+
+
+def test_a_viewer_that_disconnects_leaves_no_callback_error(capfd, caplog):
+    """Issue 47, item 8: a Foxglove viewer disconnecting printed ``Callback failed:
+    AttributeError: ... 'on_unsubscribe'`` for every channel it had subscribed to."""
+    import json as json_
+
+    import websocket
+
+    from psmforce.live.view import LiveView
+    topic = "/PSM1/tool_force/hex10"
+    view = LiveView(0, channels={topic: "geometry_msgs/msg/WrenchStamped"})
+    try:
+        ws = websocket.create_connection(f"ws://127.0.0.1:{view.port}", timeout=5,
+                                         subprotocols=["foxglove.sdk.v1"])
+        advertised = None
+        while advertised is None:
+            message = ws.recv()
+            if isinstance(message, str) and json_.loads(message).get("op") == "advertise":
+                advertised = json_.loads(message)["channels"]
+        ws.send(json_.dumps({"op": "subscribe", "subscriptions": [
+            {"id": 1, "channelId": advertised[0]["id"]}]}))
+        assert view.wait_for_subscriber(topic, 5)
+        ws.close()
+        time.sleep(0.5)  # the server notices the disconnect and unsubscribes the client
+    finally:
+        view.close()
+    printed = capfd.readouterr().err + "".join(r.getMessage() for r in caplog.records)
+    assert "Callback failed" not in printed
