@@ -300,8 +300,26 @@ def latency(streaming: dict, live: dict) -> str:
               + ("within" if d["transport_latency"]["p99_ms"] <= node["budget_ms"]
                  else "already over")
               + f" the target without the node); the p99 target of {node['budget_ms']:g} ms is "
-              + ("met" if d["within_target"] else "**not met**") + ".", ""]
-    return "\n".join(lines)
+              + ("met" if d["within_target"] else "**not met**") + "."]
+    if "burst" in live:  # the lab's conditions (issue 47)
+        added, busy, b = d["node_added_latency"], live["dds_busy_core"], live["burst"]
+        first = live["dds_rate_measured"]["first_answer_ms"]
+        lines += ["", "| the node under a lab's conditions | figure |", "|---|---|",
+                  f"| node-added latency per message (answer minus the robot's own message) "
+                  f"| p50 {added['median_ms']:.2f} ms, p99 {added['p99_ms']:.2f} ms, max "
+                  f"{added['max_ms']:.1f} ms |",
+                  f"| steady {live['session']['rate_hz']:.0f} Hz, {d['seconds']:.0f} s: "
+                  f"messages the node lost | {d['node_lost']:,} of {d['hex10_sent']:,} |",
+                  f"| one core busy, {busy['seconds']:.0f} s: messages the node lost; "
+                  f"latency p99 | {busy['node_lost']:,} of {busy['hex10_sent']:,}; "
+                  f"{busy['latency']['p99_ms']:.2f} ms |",
+                  f"| burst: {b['samples']:,} samples at {b['rate_hz']:,.0f} Hz "
+                  f"({b['times_the_stream_rate']:.1f}x the stream): messages the node lost "
+                  f"| {sum(b['node_lost'].values()):,} of {3 * b['samples']:,} "
+                  f"({b['answers_published']:,} answered) |",
+                  f"| first answer after the first HEX10 message, rate measured by the node "
+                  f"(no `--input-rate`) | {first:.0f} ms |"]
+    return "\n".join(lines + [""])
 
 
 PRIOR_VARIANTS = {"weighted": "prior weighted on validation, subtracted from the inputs",
