@@ -91,6 +91,8 @@ def test_wheel_installs_and_runs_outside_the_repository(tmp_path):
                    capture_output=True)
     (wheel,) = wheels.glob("psmforce-*.whl")
     assert wheel_top_level(wheel) == {"psmforce"}
+    with zipfile.ZipFile(wheel) as archive:  # the shipped bench model travels with the wheel
+        assert "psmforce/live/data/bench_hybrid.pt" in archive.namelist()
 
     prefix = tmp_path / "venv"
     venv.create(prefix, system_site_packages=True, with_pip=False)

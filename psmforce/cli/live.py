@@ -39,7 +39,7 @@ def replay_command(args) -> dict:
         print(f"replay --view: Foxglove WebSocket on ws://127.0.0.1:{args.port}; playing once a "
               f"client subscribes to /{args.arm.strip('/')}/tool_force/hex10 (at most "
               f"{args.view_wait:g} s from now), serving until interrupted", flush=True)
-    report = replay(args.bag, args.checkpoint, args.out, arm=args.arm, topics=topics,
+    report = replay(args.bag, _checkpoint(args, False), args.out, arm=args.arm, topics=topics,
                     input_rate_hz=args.input_rate, post_filter=args.post_filter,
                     tare_on_start=args.tare_on_start, sync=args.sync_stamps,
                     realtime=args.realtime,
@@ -63,10 +63,26 @@ def serve_command(args) -> dict:
     return report
 
 
+def _checkpoint(args, simulated: bool) -> str:
+    """The checkpoint a live command runs: the one given, else (``serve --sim``) the shipped
+    bench model; a bench model on a real robot's topics only with ``--bench-model``."""
+    from psmforce.estimators.training.checkpoint import load_checkpoint
+    from psmforce.live.bench_model import check_use, shipped_checkpoint
+    if args.checkpoint is None:
+        if not simulated:
+            raise ValueError("give a checkpoint (psmforce train); or run with --sim to see the "
+                             "shipped bench model answer a simulated robot")
+        return str(shipped_checkpoint())
+    check_use(load_checkpoint(args.checkpoint).provenance, args.checkpoint,
+              simulated=simulated, allowed=args.bench_model)
+    return args.checkpoint
+
+
 def _serve(args, stop: threading.Event) -> dict:
     from psmforce.live.serve import DdsNode, discovery, domain, participant as join
+    checkpoint = _checkpoint(args, args.sim)
     participant = join(args.domain_id)
-    node = DdsNode(args.checkpoint, participant, arm=args.arm, topics=_topics(args),
+    node = DdsNode(checkpoint, participant, arm=args.arm, topics=_topics(args),
                    input_rate_hz=args.input_rate, tare_on_start=args.tare_on_start,
                    tare_s=args.tare_s, reader_best_effort=args.reader_qos == "best-effort",
                    writer_best_effort=args.writer_qos == "best-effort",
@@ -78,7 +94,8 @@ def _serve(args, stop: threading.Event) -> dict:
           f"{node.output_topics['hex10']} and {node.output_topics['base']}", flush=True)
     player = _start_sim(args, participant, stop) if args.sim and not stop.is_set() else None
     try:
-        return node.spin(duration_s=args.duration, stop=stop, idle_stop_s=args.idle_stop)
+        return node.spin(duration_s=args.duration, stop=stop, idle_stop_s=args.idle_stop,
+                         progress_s=None if args.quiet else 1.0)
     finally:
         stop.set()
         if player is not None:
@@ -123,8 +140,17 @@ def _start_sim(args, participant, stop: threading.Event) -> threading.Thread:
     return thread
 
 
-def _common(p: argparse.ArgumentParser) -> None:
-    p.add_argument("checkpoint", help="a streamable hybrid checkpoint (psmforce train)")
+def _common(p: argparse.ArgumentParser, *, shipped: bool = False) -> None:
+    if shipped:
+        p.add_argument("checkpoint", nargs="?",
+                       help="a streamable hybrid checkpoint (psmforce train); with --sim it may "
+                            "be left out: the shipped bench model answers")
+    else:
+        p.add_argument("checkpoint", help="a streamable hybrid checkpoint (psmforce train)")
+    p.add_argument("--bench-model", action="store_true",
+                   help="run a checkpoint trained on the simulated bench only (the shipped "
+                        "one) on these topics anyway: its forces are the simulator's "
+                        "instrument's, not yours")
     p.add_argument("--arm", default="PSM1", type=options.ros_name(namespace=True), help="arm namespace (default PSM1)")
     p.add_argument("--topic-js", type=options.ros_name(), help="arm JointState topic (default /ARM/measured_js)")
     p.add_argument("--topic-jaw", type=options.ros_name(), help="jaw JointState topic (default /ARM/jaw/measured_js)")
@@ -171,7 +197,7 @@ def add_live_commands(sub) -> None:
         description="Subscribe to the dVRK's joint states and the HEX10 over DDS (ROS 2 "
                     "topics), publish the tool force in the base and HEX10 frames, its std and "
                     "flags (docs/live.md). Needs pip install 'psmforce[ros]'.")
-    _common(p)
+    _common(p, shipped=True)
     p.add_argument("--tare-s", type=options.number_in(0.0, 3600.0), default=0.5,
                    help="tare duration (default 0.5 s)")
     p.add_argument("--sync-wait", type=float, default=0.1, metavar="S",
@@ -197,4 +223,6 @@ def add_live_commands(sub) -> None:
     p.add_argument("--sim-rate", type=options.RATE_HZ, default=1000.0,
                    help="the simulated robot's rate (default 1000 Hz)")
     p.add_argument("--sim-recording", help="with --sim: publish this recording CSV instead")
+    p.add_argument("--quiet", action="store_true",
+                   help="no progress line each second (answers per second, the latest force)")
     p.set_defaults(func=serve_command)

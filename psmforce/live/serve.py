@@ -192,6 +192,7 @@ class DdsNode:
         self.received = {s: 0 for s in sources}
         self.malformed = {s: 0 for s in sources}
         self.published = 0
+        self.last_answer = None
         self.flag_counts = np.zeros(32, np.int64)
 
     def _build_estimator(self, rate_hz: float | None) -> StreamingEstimator:
@@ -214,6 +215,7 @@ class DdsNode:
             for name, data in self.node.encode(answer).items():
                 self._write(self.writers[name], data)
             self.published += 1
+            self.last_answer = answer
             self.flag_counts += (answer.flags >> np.arange(32)) & 1
 
     def spin_once(self, timeout_s: float = 0.1) -> int:
@@ -259,14 +261,20 @@ class DdsNode:
             self._handle(*item)
 
     def spin(self, duration_s: float | None = None, stop: threading.Event | None = None,
-             idle_stop_s: float | None = None) -> dict:
+             idle_stop_s: float | None = None, progress_s: float | None = None) -> dict:
         """Handle messages until ``duration_s`` has passed, ``stop`` is set, or nothing came
-        for ``idle_stop_s`` after the first message; returns :meth:`report`."""
+        for ``idle_stop_s`` after the first message; returns :meth:`report`. ``progress_s``:
+        print a line every so often (:meth:`progress`)."""
         end = None if duration_s is None else time.monotonic() + duration_s
         last = None
-        watched = 0.0
+        watched = shown = started = time.monotonic()
+        answered = 0
         while not (stop is not None and stop.is_set()):
             now = time.monotonic()
+            if progress_s is not None and now - shown >= progress_s:
+                print(self.progress(now - started, (self.published - answered) / (now - shown)),
+                      flush=True)
+                shown, answered = now, self.published
             if now - watched > 0.5:
                 watched = now
                 for line in self.watch.check(now):
@@ -279,6 +287,18 @@ class DdsNode:
             elif idle_stop_s is not None and last is not None and now - last > idle_stop_s:
                 break
         return self.report()
+
+    def progress(self, elapsed_s: float, answers_per_s: float) -> str:
+        """One line for a person watching: the rate of answers and the latest force."""
+        answer = self.last_answer
+        if answer is None:
+            return (f"serve: {elapsed_s:5.1f} s, no answer yet (received "
+                    f"{', '.join(f'{s} {n}' for s, n in self.received.items() if s != 'tare')})")
+        from psmforce.live.node import status_of
+        fx, fy, fz = answer.force_base
+        return (f"serve: {elapsed_s:5.1f} s, {answers_per_s:6.0f} answers/s, force on the tool "
+                f"(base frame) [{fx:+6.2f} {fy:+6.2f} {fz:+6.2f}] N"
+                f"{', ' + status_of(answer.flags)[1] if answer.flags else ''}")
 
     def report(self) -> dict:
         node = self.node
