@@ -406,11 +406,12 @@ def test_a_node_with_discovery_off_sees_no_other_process_and_localhost_does(tmp_
         env = dict(_env(), ROS_AUTOMATIC_DISCOVERY_RANGE=node_range)
         report = tmp_path / f"{node_range}.json"
         node = subprocess.Popen([sys.executable, "-m", "psmforce.cli.main", "serve", str(ckpt),
-                                 "--domain-id", str(domain), "--duration", "6", "--json",
-                                 str(report)], env=env, stdout=subprocess.PIPE,
+                                 "--domain-id", str(domain), "--duration", "10", "--quiet",
+                                 "--json", str(report)], env=env, stdout=subprocess.PIPE,
                                 stderr=subprocess.PIPE, text=True)
+        assert "listening on" in node.stdout.readline()  # subscribed: the robot may start
         robot = subprocess.Popen([sys.executable, "-m", "psmforce.live.sim_robot", str(rec),
-                                  "--domain-id", str(domain), "--duration", "3"],
+                                  "--domain-id", str(domain), "--duration", "5"],
                                  env=dict(_env(), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST"),
                                  stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
         try:
