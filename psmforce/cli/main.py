@@ -178,14 +178,20 @@ def _parser() -> argparse.ArgumentParser:
             "identify one instrument's cable transmission, motor to jaw (CasADi)",
             "Fit the cable-transmission model (psmforce/identification/transmission/model.py: "
             "capstan pair law, Dahl friction memory, stick hold, backlash, compliance) on a "
-            "session folder of XY.TXT recordings in the MRD Lab layout (motor current and "
-            "encoder in, jaw torque and angle as truth; psmforce/identification/transmission/recording.py). "
+            "session folder of XY.TXT or ZXY.TXT recordings in the MRD Lab layout (motor current "
+            "and encoder in, jaw torque and angle as truth; "
+            "psmforce/identification/transmission/recording.py). Files that fail a data check "
+            "(drive saturation, overspeed, encoder jumps, torque saturation, current excursion; "
+            "psmforce/identification/transmission/checks.py) are left out and named. "
             "Writes the model as JSON with the fit's identifiability report.")
-    p.add_argument("session", metavar="DIR", help="folder of XY.TXT files of one session")
+    p.add_argument("session", metavar="DIR", help="folder of XY.TXT / ZXY.TXT files of one "
+                                                  "session")
     p.add_argument("--out", required=True, help="model JSON to write")
     p.add_argument("--validation", nargs="*", default=[], metavar="XY",
                    help="files (by name, e.g. 02 12) held out to choose the hysteresis widths "
                         "(default: none, the widths are chosen on the fit data)")
+    p.add_argument("--keep-flagged", action="store_true",
+                   help="fit on files that fail a data check too (default: left out, named)")
     p.add_argument("--rate-hz", type=float, default=100.0,
                    help="sample rate the files are resampled to (must divide 1000; default 100)")
     p.add_argument("--json", help="write the parameters and scores here")

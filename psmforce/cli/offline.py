@@ -146,11 +146,19 @@ def fit_prior_command(args) -> dict:
 def fit_transmission_command(args) -> dict:
     options.output_file(args.out, "--out")
     import math
+    import warnings
 
     from psmforce.identification.transmission.model import CableTransmission
-    from psmforce.identification.transmission.recording import (home_session,
+    from psmforce.identification.transmission.recording import (TransmissionDataWarning,
+                                                                home_session,
                                                                 read_transmission_session)
-    session = home_session(read_transmission_session(args.session, args.rate_hz))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", TransmissionDataWarning)
+        session = home_session(read_transmission_session(args.session, args.rate_hz,
+                                                         keep_flagged=args.keep_flagged))
+    left_out = [str(w.message) for w in caught if w.category is TransmissionDataWarning]
+    for line in left_out:
+        print(f"note: {line} (--keep-flagged fits on them)")
     names = {r.name.rsplit("/", 1)[-1]: r for r in session}
     unknown = sorted(set(args.validation) - set(names))
     if unknown:
@@ -162,7 +170,7 @@ def fit_transmission_command(args) -> dict:
     with progress("fit-transmission"):
         model = CableTransmission.fit(fit_on, validation=validation)
     model.save(args.out)
-    report = {"model": args.out, "fit_files": [r.name for r in fit_on],
+    report = {"model": args.out, "fit_files": [r.name for r in fit_on], "left_out": left_out,
               "validation_files": [r.name for r in validation], **model.to_dict(),
               "fit_scores": model.score(fit_on),
               "validation_scores": model.score(validation) if validation else None}

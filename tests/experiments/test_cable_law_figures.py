@@ -130,6 +130,7 @@ def test_real_endowrist_against_the_bench_cable_law():
     real = result["real"]
     # The real transmission as read: jaw follows the spindle at ~0.9, friction grows with load.
     assert 0.8 < real["kinematic_ratio"] < 1.0 and real["friction_load_slope"] > 0
-    assert len(real["runs"]) == 50
+    assert len(real["runs"]) == 49          # 07 fails the data checks (a runaway): left out
+    assert not any(r["name"].endswith("/07") for r in real["runs"])
     for name, row in result["comparison"].items():
         assert tf.RATIO_RANGE[0] <= row["ratio"] <= tf.RATIO_RANGE[1], (name, row)

@@ -172,14 +172,16 @@ def test_load_refuses_unreadable_files(tmp_path):
 
 
 def _write_session(folder: Path, recs) -> None:
-    """Recordings back in the MRD Lab file layout (1 kHz rows, the stored units and signs)."""
+    """Recordings back in the MRD Lab file layout (1 kHz rows, the stored units and signs); the
+    input-spindle torque channel (unused by the model) carries a live sensor's wobble, since a
+    channel stuck at one value fails the data checks."""
     from psmforce.identification.transmission import recording as tr
     folder.mkdir()
     for k, rec in enumerate(recs):
         t = np.arange(len(rec) * 10) / 1000.0
         up = lambda x: np.interp(t, rec.time_s, x)  # noqa: E731
         cols = [t, up(rec.spindle_angle_rad) / (2 * np.pi) * tr.SPINDLE_COUNTS_PER_REV,
-                np.zeros_like(t), up(rec.motor_current_a),
+                50.0 * np.sin(7.0 * t), up(rec.motor_current_a),
                 up(rec.jaw_angle_rad) / (2 * np.pi) * tr.JAW_COUNTS_PER_REV,
                 up(rec.jaw_torque_nm) / tr.FUTEK_NM_PER_COUNT, np.full_like(t, 0.1),
                 -up(rec.motor_current_a), up(rec.motor_angle_rad) / (2 * np.pi)

@@ -33,16 +33,29 @@ Frames, units and signs (one place; :func:`read_transmission_file` applies them)
     input-spindle torque sensor and encoder (a robot has neither; kept for the physics checks).
 
 The encoders are incremental: each session has its own zero on both ends.
+
+File names: ``XY.TXT`` (X the drive frequency index, Y the load index) or, in the roll and pitch
+folders, ``ZXY.TXT`` (Z the jaw's stopping position, whose angle the ``%Yaw_rad=`` header line
+gives). Header lines ``%Yaw_rad=``, ``%Freq_Hz=``, ``%Torque_Pct=`` are kept in ``header`` as
+numbers where present (the dataset says its headers were edited by hand: trust the data first).
+
+Every file is checked before it is used (:mod:`.checks`); a session leaves a file with findings
+out and names it in a :class:`TransmissionDataWarning`, unless told to keep it. The first
+:data:`SETTLE_S` of every file are dropped: both torque channels start up to 22 ms away from
+their level (the acquisition's own start-up transient, in every folder).
 """
 
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass, replace
+import warnings
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
 from scipy import signal as _signal
+
+from psmforce.identification.transmission.checks import Finding, check_columns, session_findings
 
 FUTEK_NM_PER_COUNT = 0.000039811
 MOTOR_COUNTS_PER_REV = 4196 * 35
@@ -50,11 +63,17 @@ SPINDLE_COUNTS_PER_REV = 8192
 JAW_COUNTS_PER_REV = 4000
 FILE_RATE_HZ = 1000.0
 _N_COLUMNS = 10
-_NAME = re.compile(r"^(\d)(\d)\.TXT$", re.IGNORECASE)
+SETTLE_S = 0.03
+_NAME = re.compile(r"^(\d)?(\d)(\d)\.TXT$", re.IGNORECASE)
+_HEADER_KEYS = ("Yaw_rad", "Freq_Hz", "Torque_Pct")
 
 
 class TransmissionDataError(ValueError):
     """A transmission file or folder that cannot be read; the message names it and the problem."""
+
+
+class TransmissionDataWarning(UserWarning):
+    """Files a session left out because a data check flagged them (:mod:`.checks`)."""
 
 
 @dataclass(frozen=True)
@@ -75,6 +94,10 @@ class TransmissionRecording:
     jaw_angle_rad: np.ndarray
     spindle_torque_nm: np.ndarray
     spindle_angle_rad: np.ndarray
+    stop_index: int | None = None
+    header: dict = field(default_factory=dict)
+    findings: tuple[Finding, ...] = ()
+    current_range_a: float = float("nan")
 
     def __len__(self) -> int:
         return len(self.time_s)
@@ -89,17 +112,28 @@ class TransmissionRecording:
     def slice(self, start: int, stop: int) -> "TransmissionRecording":
         """The samples ``[start, stop)`` as a recording of their own (few-shot calibration)."""
         arrays = {k: v[start:stop] for k, v in self.__dict__.items() if isinstance(v, np.ndarray)}
-        return TransmissionRecording(name=f"{self.name}[{start}:{stop}]", session=self.session,
-                                     frequency_index=self.frequency_index,
-                                     load_index=self.load_index, rate_hz=self.rate_hz, **arrays)
+        return replace(self, name=f"{self.name}[{start}:{stop}]", **arrays)
 
 
-def _parse(path: Path) -> np.ndarray:
+def _header(lines: list[str]) -> dict:
+    out = {}
+    for line in lines:
+        key, sep, value = line[1:].partition("=")
+        if sep and key.strip() in _HEADER_KEYS:
+            try:
+                out[key.strip()] = float(value)
+            except ValueError:
+                continue
+    return out
+
+
+def _parse(path: Path) -> tuple[np.ndarray, dict]:
     try:
         text = path.read_text(errors="strict")
     except (OSError, UnicodeDecodeError) as err:
         raise TransmissionDataError(f"{path}: cannot read ({err})") from None
-    rows = [line for line in text.splitlines() if line.strip() and not line.startswith("%")]
+    lines = text.splitlines()
+    rows = [line for line in lines if line.strip() and not line.startswith("%")]
     try:
         data = np.array([[float(x) for x in line.split(",")] for line in rows])
     except ValueError as err:
@@ -116,21 +150,24 @@ def _parse(path: Path) -> np.ndarray:
     if np.abs(dt - 1.0 / FILE_RATE_HZ).max() > 1e-4:
         raise TransmissionDataError(f"{path}: the time column does not step by 1 ms "
                                     f"(steps {dt.min():.4g}..{dt.max():.4g} s)")
-    return data
+    return data, _header([line for line in lines if line.startswith("%")])
 
 
 def read_transmission_file(path, rate_hz: float = 100.0) -> TransmissionRecording:
-    """Read one ``XY.TXT`` file (X: drive frequency index, Y: load index) at ``rate_hz``."""
+    """Read one ``XY.TXT`` or ``ZXY.TXT`` file (Z: jaw stopping position, X: drive frequency
+    index, Y: load index) at ``rate_hz``, with its data checks' findings."""
     path = Path(path)
     m = _NAME.match(path.name)
     if m is None:
-        raise TransmissionDataError(f"{path}: expected a file named XY.TXT (frequency index, load "
-                                    "index)")
+        raise TransmissionDataError(f"{path}: expected a file named XY.TXT or ZXY.TXT (stopping "
+                                    "position, frequency index, load index)")
     step = FILE_RATE_HZ / rate_hz
     if not (rate_hz > 0 and abs(step - round(step)) < 1e-9 and round(step) >= 1):
         raise TransmissionDataError(f"rate_hz must divide {FILE_RATE_HZ:g} Hz, got {rate_hz}")
     step = int(round(step))
-    d = _parse(path)
+    raw, header = _parse(path)
+    findings = tuple(check_columns(raw))
+    d = raw[int(round(SETTLE_S * FILE_RATE_HZ)):]
     motor = d[:, 8] * 2 * np.pi / MOTOR_COUNTS_PER_REV
     proximal = np.stack([motor, d[:, 3], -d[:, 7]], axis=1)
     if step > 1:
@@ -142,24 +179,47 @@ def read_transmission_file(path, rate_hz: float = 100.0) -> TransmissionRecordin
     velocity = np.diff(motor_f, prepend=motor_f[0]) * rate_hz
     return TransmissionRecording(
         name=f"{path.parent.name}/{path.stem}", session=path.parent.name,
-        frequency_index=int(m.group(1)), load_index=int(m.group(2)), rate_hz=float(rate_hz),
+        frequency_index=int(m.group(2)), load_index=int(m.group(3)), rate_hz=float(rate_hz),
         time_s=d[take, 0] - d[0, 0], motor_angle_rad=motor_f, motor_velocity_rad_s=velocity,
         motor_current_a=proximal[take, 1], motor_command=proximal[take, 2],
         jaw_torque_nm=d[take, 5] * FUTEK_NM_PER_COUNT,
         jaw_angle_rad=d[take, 4] * 2 * np.pi / JAW_COUNTS_PER_REV,
         spindle_torque_nm=d[take, 2] * FUTEK_NM_PER_COUNT,
-        spindle_angle_rad=d[take, 1] * 2 * np.pi / SPINDLE_COUNTS_PER_REV)
+        spindle_angle_rad=d[take, 1] * 2 * np.pi / SPINDLE_COUNTS_PER_REV,
+        stop_index=None if m.group(1) is None else int(m.group(1)), header=header,
+        findings=findings, current_range_a=float(np.ptp(raw[:, 3])))
 
 
-def read_transmission_session(folder, rate_hz: float = 100.0) -> list[TransmissionRecording]:
-    """Every ``XY.TXT`` file of a session folder, in name order."""
+def read_transmission_session(folder, rate_hz: float = 100.0, *,
+                              keep_flagged: bool = False) -> list[TransmissionRecording]:
+    """Every ``XY.TXT`` / ``ZXY.TXT`` file of a session folder, in name order, each with its
+    findings (file checks and the session's current-excursion check, :mod:`.checks`). Files
+    with findings are left out and named in a :class:`TransmissionDataWarning` unless
+    ``keep_flagged``; a session whose every file is flagged is refused."""
+    recs = check_session(folder, rate_hz)
+    flagged = [r for r in recs if r.findings]
+    if keep_flagged or not flagged:
+        return recs
+    if len(flagged) == len(recs):
+        raise TransmissionDataError(f"{folder}: every file fails a data check "
+                                    f"(first: {flagged[0].name}: {flagged[0].findings[0]})")
+    warnings.warn(TransmissionDataWarning(
+        f"{folder}: left out {len(flagged)} file(s) that fail a data check: "
+        + "; ".join(f"{r.name}: {r.findings[0]}" for r in flagged)), stacklevel=2)
+    return [r for r in recs if not r.findings]
+
+
+def check_session(folder, rate_hz: float = 100.0) -> list[TransmissionRecording]:
+    """Every file of a session folder, flagged or not, each carrying its ``findings``."""
     folder = Path(folder)
     if not folder.is_dir():
         raise TransmissionDataError(f"{folder}: not a folder")
     files = sorted(p for p in folder.iterdir() if _NAME.match(p.name))
     if not files:
-        raise TransmissionDataError(f"{folder}: no XY.TXT transmission files")
-    return [read_transmission_file(p, rate_hz) for p in files]
+        raise TransmissionDataError(f"{folder}: no XY.TXT or ZXY.TXT transmission files")
+    recs = [read_transmission_file(p, rate_hz) for p in files]
+    extra = session_findings({r.name: r.current_range_a for r in recs})
+    return [replace(r, findings=r.findings + tuple(extra.get(r.name, ()))) for r in recs]
 
 
 def home_session(recordings: list[TransmissionRecording]) -> list[TransmissionRecording]:
