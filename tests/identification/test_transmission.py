@@ -115,7 +115,7 @@ def test_parameters_come_back_on_an_in_family_bench():
         assert abs(value - true) <= 0.1 * abs(true), (name, value, true)
     assert (fit.presliding_rad, fit.backlash_rad, fit.hold_rad) == (0.04, 0.01, 0.005)
     assert np.isfinite(ident["fisher_condition_number"])
-    assert set(ident["relative_sd"]) == {n for n in TORQUE_NAMES if n not in tied}
+    assert set(ident["white_noise_relative_sd"]) == {n for n in TORQUE_NAMES if n not in tied}
 
 
 @pytest.mark.slow
@@ -125,6 +125,45 @@ def test_another_truth_is_told_apart():
     recs = _in_family_bench(1, mu=0.4)
     fit = CableTransmission.fit(recs[:5], validation=recs[5:])
     assert fit.torque[TORQUE_NAMES.index("capstan_mu")] == pytest.approx(0.4, rel=0.1)
+
+
+def _session(recs, session: str, **truth_change) -> list[TransmissionRecording]:
+    """The in-family bench's recordings as another session whose per-session parameters differ
+    (re-mounted: another pretension, another sensor zero)."""
+    torque = dict(TRUTH, **truth_change)
+    truth = CableTransmission(np.array([torque[k] for k in TORQUE_NAMES]),
+                              np.array([ANGLE_TRUTH[k] for k in ANGLE_NAMES]),
+                              presliding_rad=0.04, hold_rad=0.005, backlash_rad=0.01)
+    rng = np.random.default_rng(len(session))
+    out = []
+    for r in recs:
+        p = truth.predict(r)
+        out.append(replace(r, name=f"{session}/{r.name.rsplit('/', 1)[1]}", session=session,
+                           jaw_torque_nm=p.jaw_torque_nm + 1e-3 * rng.standard_normal(len(r))))
+    return out
+
+
+@pytest.mark.slow
+def test_shared_and_per_session_parameters_come_back_and_a_recalibration_finds_a_new_session():
+    base = _in_family_bench(0)
+    a = _session(base[:4], "mount_a", pretension_torque=0.08, torque_bias=-0.02)
+    b = _session(base[2:6], "mount_b", pretension_torque=0.16, torque_bias=0.01)
+    fit = CableTransmission.fit(a + b, initial=CableTransmission(
+        presliding_rad=0.04, hold_rad=0.005, backlash_rad=0.01))
+    shared = dict(zip(TORQUE_NAMES, fit.torque))
+    for name in ("current_gain", "capstan_mu", "pair_asymmetry"):
+        assert shared[name] == pytest.approx(TRUTH[name], rel=0.1), name
+    assert fit.sessions["mount_a"]["pretension_torque"] == pytest.approx(0.08, rel=0.1)
+    assert fit.sessions["mount_b"]["pretension_torque"] == pytest.approx(0.16, rel=0.1)
+    assert fit.sessions["mount_b"]["torque_bias"] == pytest.approx(0.01, abs=2e-3)
+    # a third mount, unseen: as is it carries the mean; 2 files recalibrate its own values
+    c = _session(base, "mount_c", pretension_torque=0.05, torque_bias=0.03)
+    before = fit.score(c[2:])["jaw_torque_rmse_nm"]
+    again = fit.recalibrate(c[:2])
+    assert again.sessions["mount_c"]["pretension_torque"] == pytest.approx(0.05, rel=0.15)
+    assert again.sessions["mount_c"]["torque_bias"] == pytest.approx(0.03, abs=3e-3)
+    assert np.array_equal(again.torque, fit.torque)          # nothing shared moved
+    assert again.score(c[2:])["jaw_torque_rmse_nm"] < 0.5 * before
 
 
 @pytest.fixture(scope="module")
@@ -153,6 +192,10 @@ def test_save_load_round_trip(fitted, tmp_path):
     (lambda d: d.update(hold_rad=-1.0), "hold_rad"),
     (lambda d: d.update(fixed=["no_such_parameter"]), "fixed"),
     (lambda d: d.update(format="something else"), "not a CableTransmission"),
+    (lambda d: d["sessions"]["synthetic"].update(pretension_torque=7.0), "pretension_torque"),
+    (lambda d: d["sessions"]["synthetic"].update(capstan_mu=0.3), "only per-session"),
+    (lambda d: d.update(current_source="guessed"), "current_source"),
+    (lambda d: d.update(format_version=2), "refit it with"),
 ])
 def test_load_refuses_a_tampered_file(fitted, tmp_path, edit, message):
     import json
