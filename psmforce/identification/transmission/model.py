@@ -58,6 +58,19 @@ Identifiability (stated, and checked from the fit's Fisher information in :attr:
   carried by ``P`` (the fit's report says so);
 * ``J`` (reflected inertia) needs accelerations the slow drives barely have; bounded to the
   motor's datasheet range.
+
+Sessions. A parameter is a constant of the instrument (shared by every session and
+configuration) or re-estimated per session (:data:`PER_SESSION`: the pretension, the jaw torque
+sensor's zero and the jaw encoder's zero, which re-mounting changes). :meth:`CableTransmission.fit`
+takes recordings of several sessions (``rec.session``) and fits the shared parameters once and
+the per-session ones per session; :meth:`CableTransmission.recalibrate` re-estimates only the
+per-session ones on a short segment of a new session. Which parameters the data pin down is
+measured by a bootstrap over files in :mod:`.roles`; the Fisher figures here assume white
+residuals and stay diagnostics.
+
+Size: the law, its fit through the hold (one solver shared by the full fit and the
+recalibration), the angle path and the strict file reader form one model; splitting them would
+spread one set of parameter conventions over several modules.
 """
 
 from __future__ import annotations
