@@ -340,10 +340,12 @@ class CableTransmission:
                                         shared, tuple(torque_ps), check_tie=False)
         out = CableTransmission(self.torque.copy(), self.angle.copy(), self.presliding_rad,
                                 self.hold_rad, self.backlash_rad, self.fixed,
-                                {**self.info, "recalibration": {
-                                    "recordings": [r.name for r in recordings],
-                                    "solver_status": info["solver_status"],
-                                    "converged": info["converged"]}},
+                                {**self.info, "solver_status": info["solver_status"],
+                                 "converged": bool(self.info.get("converged", False)
+                                                   and info["converged"]),
+                                 "recalibration": {"recordings": [r.name for r in recordings],
+                                                   "solver_status": info["solver_status"],
+                                                   "converged": info["converged"]}},
                                 {n: dict(v) for n, v in self.sessions.items()},
                                 self.per_session, self.current_source)
         for k, n in enumerate(names):

@@ -1,0 +1,36 @@
+"""The transfer study's rules: which 60 s a lab records, and the verdict per folder."""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+from studies.transmission_transfer import GOAL_RATIO, calibration_files, verdicts
+
+
+def _rec(stop, freq, load):
+    return SimpleNamespace(stop_index=stop, frequency_index=freq, load_index=load)
+
+
+def test_the_calibration_spans_the_load_range_at_distinct_stopping_positions():
+    folder = [_rec(z, 0, y) for z in range(5) for y in range(4)]
+    chosen = calibration_files(folder)
+    assert [r.load_index for r in chosen] == [0, 2, 3]
+    assert len({r.stop_index for r in chosen}) == 3
+    flat = [_rec(None, x, y) for x in range(5) for y in range(4)]
+    assert [r.load_index for r in calibration_files(flat)] == [0, 2, 3]
+
+
+def _folder(recal, in_session, constant):
+    def score(v):
+        return {"whole": {"torque_rmse_mNm": v}, "closing": {"torque_rmse_mNm": v}}
+    return {"recalibrated": score(recal), "in_session": score(in_session),
+            "constant_calibration_mean": score(constant)}
+
+
+def test_the_verdict_names_a_miss_and_a_loss_to_the_constant():
+    v = verdicts({"ok": _folder(6.0, 5.0, 14.0), "far": _folder(8.0, 5.0, 14.0),
+                  "worse": _folder(20.0, 15.0, 18.0), "source": {"in_session": {}}})
+    assert v["ok"]["whole"] == {"ratio": 1.2, "within_goal": True, "beats_constant": True}
+    assert v["far"]["whole"]["ratio"] > GOAL_RATIO and not v["far"]["whole"]["within_goal"]
+    assert not v["worse"]["closing"]["beats_constant"]
+    assert "source" not in v
