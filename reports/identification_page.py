@@ -98,3 +98,182 @@ def prior_recovery_table(result: dict) -> str:
     lines += ["", f"Fisher condition number {conds}; {sum(len(r['failures']) for r in runs)} "
               "identifiable parameters off by more than 10 %.", ""]
     return "\n".join(lines)
+
+
+def _num(x) -> str:
+    return "—" if x is None else f"{x:.4g}"
+
+
+def prior_default_recovery_table(result: dict) -> str:
+    """docs/identification.md section 2.1: on the default bench (and its variants), per
+    parameter: truth, the all-free fit, the final fit (unidentifiable parameters held at design
+    values), relative error, free / fixed, at a bound; the verdict and held-out fz per run."""
+    from psmforce.identification.prior_law import PARAMETERS
+    unit = {p[0]: p[1] for p in PARAMETERS}
+    lines = ["", f"`{result['command']}`: `psmforce simulate --seed S --scale "
+             f"{result['scale']:g}` then `psmforce fit-prior --identify` (Free training trials). "
+             "*fixed*: held at its design value (the value shown) because the report lists it "
+             "on the fit before; *identified*: free and not listed on the final fit; "
+             "**MISS**: identified but more than 10 % from the truth (or a truth of 0); "
+             "*B*: at a bound (the one rule of `bounds_hit` and the report).", ""]
+    for run in result["runs"]:
+        rows = run["parameters"]
+        lines += [f"**{run['case']}, seed {run['seed']}** (pair law {run['pair_law']}; "
+                  f"{run['n_samples']} samples, {run['fit_time_s']:.0f} s):", "",
+                  "| parameter | unit | truth | all-free fit | final fit | rel. error | status |",
+                  "|---|---|---|---|---|---|---|"]
+        for name, r in rows.items():
+            rel = "" if r["relative_error"] is None else f"{100 * r['relative_error']:.1f} %"
+            status = r["status"]
+            if status == "fixed" and rel:
+                rel += " (design vs truth)"
+            if status == "identified" and name in run["misses"]:
+                status = "identified, **MISS**"
+            elif status == "identified" and name in run["uncompared"]:
+                status = "identified (no truth to compare)"
+            bound_first = name in run["rounds"][0]["bounds_hit"]
+            lines.append(f"| {name} | {unit[name]} | {_num(r['truth'])} | "
+                         f"{_num(r['all_free_fit'])}{' *B*' if bound_first else ''} | "
+                         f"{_num(r['fitted'])}{' *B*' if r['at_bound'] else ''} | {rel} | "
+                         f"{status} |")
+        fz, fz0 = ((m or {}).get("fz", {}) for m in (run["test_free_metrics"],
+                                                     run["all_free_test_free_metrics"]))
+        lines += ["", f"Verdict: {run['verdict']}.", "",
+                  f"Identified {len([r for r in rows.values() if r['status'] == 'identified'])}"
+                  f", fixed {len([r for r in rows.values() if r['status'] == 'fixed'])}; misses: "
+                  f"{', '.join(run['misses']) or 'none'}. Test Free fz RMS: final fit "
+                  f"{fz.get('rms', float('nan')):.3g} N, all-free fit "
+                  f"{fz0.get('rms', float('nan')):.3g} N (R^2 {fz.get('r2', float('nan')):.3g} / "
+                  f"{fz0.get('r2', float('nan')):.3g}); fit-prior rounds: {len(run['rounds'])}."
+                  + ("" if "crosstalk_of_rest_level" not in run else
+                     " The sensor's cross-talk of the pretension's axial force, a constant only "
+                     "the biases can carry (bench parameters): " + ", ".join(
+                         f"{n} {x:+.3g}" for n, x in run["crosstalk_of_rest_level"].items())
+                     + "."), ""]
+    return "\n".join(lines)
+
+
+def transmission_transfer_tables(result: dict) -> str:
+    """docs/identification.md section 4.1: the data checks on every folder, the parameters'
+    roles, and the transfer of the physics to every other folder."""
+    lines = ["", "**Data checks** (every file of every folder, before any fit; "
+             "`psmforce/identification/transmission/checks.py`):", "",
+             "| folder | files | left out | findings |", "|---|---|---|---|"]
+    for folder, rep in result["data_checks"].items():
+        found = "; ".join(f"{name}: " + ", ".join(f"{f['check']} ({f['detail']})" for f in fs)
+                          for name, fs in rep["flagged"].items()) or "none"
+        lines.append(f"| {folder} | {rep['files']} | {len(rep['flagged'])} | {found} |")
+    boot = result["bootstrap"]
+    lines += ["", f"**Roles** (fitted on {result['source_folder']}'s training files, the law "
+              f"reading the drive's {result['current_source']} current; relative sd: bootstrap "
+              f"over whole files, {boot['resamples']} resamples; a shared parameter above "
+              f"{result['relative_sd_limit']:g} is fixed at its "
+              "design value and named; *at bound*: within 0.1 % of its range from an end, the "
+              "one rule for parameters and the widths' grid):", "",
+              "| parameter | role | value | unit | relative sd | at bound |",
+              "|---|---|---|---|---|---|"]
+    for row in result["roles"]:
+        value = row["value"]
+        if isinstance(value, dict):
+            value = ", ".join(f"{s} {v:.4g}" for s, v in value.items())
+        elif isinstance(value, float):
+            value = f"{value:.4g}"
+        sd = row.get("relative_sd")
+        if isinstance(sd, dict):
+            sd = ", ".join(f"{v:.2g}" for v in sd.values() if v is not None)
+        elif isinstance(sd, float):
+            sd = f"{sd:.2g}"
+        bound = row.get("at_bound")
+        bound = ", ".join(bound) if isinstance(bound, list) else ("yes" if bound else "")
+        lines.append(f"| {row['name']} | {row['role']} | {value} | {row.get('unit', '')} | "
+                     f"{sd or ''} | {bound} |")
+    lines += ["", "**Transfer** (jaw torque RMSE, mNm, whole files / closing portions; angle "
+              "in degrees; each folder scored on its files outside its 60 s calibration):", "",
+              "| folder | constant (calibration mean) | as is | recalibrated | in session | "
+              "leave-one-configuration-out | recalibrated / in session | angle, recalibrated |",
+              "|---|---|---|---|---|---|---|---|"]
+
+    def pair(d):
+        return f"{d['whole']['torque_rmse_mNm']:.1f} / {d['closing']['torque_rmse_mNm']:.1f}"
+
+    misses = []
+    for folder, f in result["folders"].items():
+        if "recalibrated" not in f:
+            lines.append(f"| {folder} (fitted here) | | | | {pair(f['in_session'])} | | | "
+                         f"{f['in_session']['whole']['angle_rmse_deg']:.2f} |")
+            continue
+        v = result["verdicts"][folder]
+        ratio = " / ".join(f"{v[p]['ratio']:.2f}x" for p in ("whole", "closing"))
+        lines.append(f"| {folder} | {pair(f['constant_calibration_mean'])} | {pair(f['as_is'])} "
+                     f"| {pair(f['recalibrated'])} | {pair(f['in_session'])} | "
+                     f"{pair(f['loco']) if 'loco' in f else ''} | {ratio} | "
+                     f"{f['recalibrated']['whole']['angle_rmse_deg']:.2f} |")
+        for part in ("whole", "closing"):
+            if not v[part]["within_goal"]:
+                misses.append(f"{folder} ({part}: {v[part]['ratio']:.2f}x)")
+            if not v[part]["beats_constant"]:
+                misses.append(f"{folder} ({part}: not better than the constant)")
+    goal = result["goals"]
+    l2 = result["folders"].get("Tool_4_Maryland_L_2", {}).get("recalibrated")
+    lines += ["", f"Goal: recalibrated within {goal['recalibrated_over_in_session']:g}x of in "
+              "session and better than the constant on every folder: "
+              + (f"missed on {', '.join(misses)}." if misses else "met on every folder.")]
+    if l2:
+        w = l2["whole"]["torque_rmse_mNm"]
+        lines.append(f"Session transfer L_4 to L_2 on whole files: {w:.1f} mNm against the goal "
+                     f"of {goal['l2_whole_mNm']:g} ({'met' if w < goal['l2_whole_mNm'] else 'missed'}).")
+    lines += ["", "With the measured current in place of the command (same roles, refitted):", "",
+              "| folder | as is | recalibrated |", "|---|---|---|"]
+    for folder, f in result["folders"].items():
+        m = f["measured_current"]
+        if "recalibrated" in m:
+            lines.append(f"| {folder} | {pair(m['as_is'])} | {pair(m['recalibrated'])} |")
+        else:
+            lines.append(f"| {folder} (in session) | {pair(m['in_session'])} | |")
+    return "\n".join(lines) + "\n"
+
+
+def transmission_transfer_learned_tables(result: dict) -> str:
+    """docs/identification.md section 4.1: every model on every folder, as is and recalibrated
+    (jaw torque RMSE, whole / closing), and whether the hybrid is ahead of every learned
+    model."""
+    names = {"physics": "physics", "fcn": "FCN", "lstm": "LSTM", "transformer": "paper transformer",
+             "rocket": "MultiRocket-Hydra", "hybrid": "hybrid",
+             "hybrid_physics_recalibrated_only": "hybrid, physics recalibrated only"}
+    seeds = result["seeds"]
+    lines = ["", f"Seeds {seeds} (one seed: differences, not wins by the spread rule); inputs "
+             f"{', '.join(result['inputs'])}; finetuning at most {result['finetune']['epochs']} "
+             f"epochs or {result['finetune']['time_limit_s']:g} s. Jaw torque RMSE, mNm, whole "
+             "files / closing portions.", ""]
+    summary = result["summary"]
+    learned = [m for m in ("fcn", "lstm", "transformer", "rocket") if m in result["models"]]
+    ahead_misses = []
+    for protocol, title in (("in_session", "in session (L_4's held-out files)"),
+                            ("as_is", "as is"), ("recalibrated", "recalibrated on 60 s")):
+        models = [m for m in names if any(m in summary[f].get(protocol, {}) for f in summary)]
+        lines += [f"**{title}**", "", "| folder | " + " | ".join(names[m] for m in models) + " |",
+                  "|---|" + "---|" * len(models)]
+        for folder in summary:
+            row = summary[folder].get(protocol)
+            if not row:
+                continue
+            cells = []
+            for m in models:
+                if m not in row:
+                    cells.append("")
+                    continue
+                w, c = row[m]["whole"]["torque_rmse_mNm"], row[m]["closing"]["torque_rmse_mNm"]
+                cells.append(f"{w['mean']:.1f} / {c['mean']:.1f}")
+            lines.append(f"| {folder} | " + " | ".join(cells) + " |")
+            if "hybrid" in row and protocol != "in_session":
+                for part in ("whole", "closing"):
+                    h = row["hybrid"][part]["torque_rmse_mNm"]["mean"]
+                    best = min(((row[m][part]["torque_rmse_mNm"]["mean"], m) for m in learned
+                                if m in row), default=None)
+                    if best and h >= best[0]:
+                        ahead_misses.append(f"{folder} {protocol} {part} ({names[best[1]]} "
+                                            f"{best[0]:.1f} against {h:.1f})")
+        lines.append("")
+    lines.append("The hybrid below every learned model on every transfer protocol: "
+                 + (f"missed on {'; '.join(ahead_misses)}." if ahead_misses else "met.") + "")
+    return "\n".join(lines) + "\n"

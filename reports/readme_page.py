@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from reports.identification_page import LEARNED_BASELINES, MODEL_NAMES
 from reports.cells import spread_cell
-from reports.results_page import PRIOR_VARIANTS, SIMULATOR_NOT_RECORDED
+from reports.results_page import PRIOR_VARIANTS, SIMULATOR_NOT_RECORDED, stale_no_prior_arm
 from psmforce.experiments.plan import PLAN
 from studies.learning_curve import AXES, HYBRID, PAPER_SCALE, TRANSFORMER
 from psmforce.estimators.evaluation.tables import compare
@@ -66,7 +66,9 @@ def prior_ablation_summary(result: dict) -> str:
             for a in ("Fx", "Fy", "Fz"))
         parts.append(f"on the {bench} bench {cells}")
     seeds = ", ".join(str(s) for s in result["seeds"])
-    return ("\nWhat the physics prior adds to the hybrid on the simulated bench (simulator "
+    stale = stale_no_prior_arm(result)
+    return ("\n" + (stale + "\n\n" if stale else "")
+            + "What the physics prior adds to the hybrid on the simulated bench (simulator "
             f"{SIMULATOR_NOT_RECORDED['prior_ablation']}, scale "
             f"{result['scale']:g}, bench seeds {seeds}, every run trained to early "
             "stopping; causal NRMSE with the prior as shipped against the same network "

@@ -7,7 +7,8 @@ JSONs, so that no figure a reader sees there is typed by hand.
 Each block sits between ``<!-- NAME: rendered by python -m reports -->`` and
 ``<!-- end NAME -->`` (:data:`BLOCKS`: page, JSON or tuple of JSONs, render function; one
 module of render functions per page: :mod:`reports.readme_page`,
-:mod:`reports.identification_page`, :mod:`reports.results_page`); nothing outside the
+:mod:`reports.identification_page`, :mod:`reports.results_page`,
+:mod:`reports.simulator_page`); nothing outside the
 markers is touched. :data:`WHOLE_PAGES` are rewritten whole. Every block and page ends with a
 visible line naming its JSON and the command that wrote it (:func:`source_line`), so a reader
 finds where a figure came from in one hop.
@@ -28,11 +29,15 @@ from reports import identification_page  # noqa: E402
 from reports import integrity_page  # noqa: E402
 from reports import readme_page  # noqa: E402
 from reports import results_page  # noqa: E402
+from reports import simulator_page  # noqa: E402
 from psmforce.core.files import write_text_atomic  # noqa: E402
 
 TRANSMISSION = ROOT / "results" / "benchmarks" / "transmission.json"
+TRANSMISSION_TRANSFER = ROOT / "results" / "benchmarks" / "transmission_transfer.json"
+TRANSMISSION_LEARNED = ROOT / "results" / "benchmarks" / "transmission_transfer_learned.json"
 PRIOR_RECOVERY = ROOT / "results" / "benchmarks" / "prior_recovery.json"
 PRIOR_ABLATION = ROOT / "results" / "benchmarks" / "prior_ablation.json"
+PRIOR_RECOVERY_DEFAULT = ROOT / "results" / "benchmarks" / "prior_recovery_default.json"
 COMPARISON = ROOT / "results" / "ports" / "none" / "results.json"
 PORTS = ROOT / "results" / "benchmarks" / "port_comparison.json"
 ANOTHER_TOOL = ROOT / "results" / "benchmarks" / "another_tool.json"
@@ -51,6 +56,8 @@ IDENTIFICATION = ROOT / "docs" / "identification.md"
 README = ROOT / "README.md"
 INTEGRITY = ROOT / "docs" / "integrity.md"
 FUZZ = ROOT / "results" / "benchmarks" / "fuzz.json"
+SIM_CABLE_LAW = ROOT / "results" / "benchmarks" / "sim_calibration_cable_law.json"
+SIMULATOR = ROOT / "docs" / "simulator.md"
 
 
 WRITERS = {
@@ -112,7 +119,13 @@ BLOCKS = (
     (README, "prior-ablation-summary", PRIOR_ABLATION, readme_page.prior_ablation_summary),
     (IDENTIFICATION, "prior-recovery-table", PRIOR_RECOVERY,
      identification_page.prior_recovery_table),
+    (IDENTIFICATION, "prior-default-recovery-table", PRIOR_RECOVERY_DEFAULT,
+     identification_page.prior_default_recovery_table),
     (IDENTIFICATION, "transmission-tables", TRANSMISSION, identification_page.transmission_tables),
+    (IDENTIFICATION, "transmission-transfer-tables", TRANSMISSION_TRANSFER,
+     identification_page.transmission_transfer_tables),
+    (IDENTIFICATION, "transmission-transfer-learned", TRANSMISSION_LEARNED,
+     identification_page.transmission_transfer_learned_tables),
     (RESULTS, "results-status",
      (LEARNING_CURVE, PRIOR_ABLATION, PORTS, COMPARISON, PORT_DESIGN, ANOTHER_TOOL),
      results_page.status),
@@ -134,6 +147,7 @@ BLOCKS = (
     (RESULTS, "latency", (STREAMING, LIVE), results_page.latency),
     (RESULTS, "status-table", COMPARISON, readme_page.status_table),
     (INTEGRITY, "fuzz-counts", FUZZ, integrity_page.fuzz_counts),
+    (SIMULATOR, "cable-law-tables", SIM_CABLE_LAW, simulator_page.cable_law_tables),
 )
 
 

@@ -328,11 +328,27 @@ PRIOR_VARIANTS = {"weighted": "prior weighted on validation, subtracted from the
                   "no_prior": "no prior (`no_prior`)"}
 
 
+def stale_no_prior_arm(result: dict) -> str:
+    """A warning where the ablation's ``no_prior`` arm dropped the insertion-effort base together
+    with the prior (the runs before issue 43: their ``no_prior`` tasks have no ``insertion_fz``
+    base), so that its "prior helps" ratios do not read as the prior's alone; "" otherwise."""
+    arms = [t for t in result["tasks"] if t["variant"] == "no_prior"]
+    if not arms or all("insertion_fz" in t["base_columns"] for t in arms):
+        return ""
+    return ("**Needs a rerun (issue 43): these figures are not the prior's alone.** Their "
+            "`no_prior` arm dropped the insertion-effort base (`insertion_fz`) together with "
+            "the prior (base " + " / ".join(f"`{c or 'none'}`" for c in arms[0]["base_columns"])
+            + "), so each \"against no prior\" ratio, Fz above all, measures the insertion "
+            "base as much as the prior. `studies/prior_ablation.py` now keeps the base in both "
+            "arms; the full run (24 trainings) has not been repeated since.")
+
+
 def prior_ablation_tables(result: dict) -> str:
     """docs/results.md: the hybrid with and without its prior, per bench and axis."""
     seeds = " ".join(str(s) for s in result["seeds"])
     chosen = result["chosen_on_validation"]
-    lines = ["", f"`python studies/prior_ablation.py --json "
+    stale = stale_no_prior_arm(result)
+    lines = [""] + ([stale, ""] if stale else []) + [f"`python studies/prior_ablation.py --json "
              f"results/benchmarks/prior_ablation.json` (scale {result['scale']:g}, bench seeds "
              f"{seeds}; crossing bench: cables at {result['crossing_rad']:g} rad; every run "
              f"{'stopped by its patience' if result['all_converged'] else 'NOT all converged'})."

@@ -15,7 +15,14 @@ Three hybrids per bench and seed, each trained to early stopping with the recipe
   per component on the validation trials (:mod:`psmforce.identification.prior_support`): the
   prior stays out of a component its law does not explain there;
 * ``as_fitted``: the prior as fitted (every weight 1), the hybrid before the weights;
-* ``no_prior``: the ``no_prior`` ablation (paper inputs, raw HEX10 force as the base);
+* ``no_prior``: the same hybrid with the prior's law switched off and nothing else
+  (:func:`no_prior_inputs`): every component weight 0, so its compensated columns are the raw
+  HEX10 reading and ``prior_fz`` (a constant 0) leaves the inputs; the insertion model fitted
+  beside the prior stays, so the axial base is ``insertion_fz`` in both arms and "with" against
+  "without" measures the prior alone. (Before issue 43 this arm was the recipe's
+  ``use_prior=False`` ablation, paper inputs with the raw HEX10 force as the base on every axis:
+  it dropped the insertion-effort base together with the prior, and its Fz "prior helps" mostly
+  measured the insertion base.)
 * ``raw_and_prior``: the weighted prior as the base where it helps, but beside the raw HEX10 reading
   among the inputs instead of subtracted from it
   (:data:`psmforce.estimators.data.hybrid_inputs.HYBRID_INPUTS_RAW_AND_PRIOR`): what the reading
@@ -29,6 +36,7 @@ Each (bench, seed, variant) result is cached under ``--work`` (default ``runs/pr
 an interrupted run resumes.
 
     python studies/prior_ablation.py --json results/benchmarks/prior_ablation.json
+    python studies/prior_ablation.py --quick --json OUT.json   # one seed, small bench, minutes
 """
 
 from __future__ import annotations
@@ -50,7 +58,10 @@ from psmforce.estimators.data.dataset import load_dataset, split_validation  # n
 from psmforce.estimators.evaluation.evaluate import predict_trial, score_modes  # noqa: E402
 from psmforce.estimators.data.hybrid_inputs import (  # noqa: E402
     BASE_COLUMNS,
+    HYBRID_FEATURES,
     HYBRID_INPUTS_RAW_AND_PRIOR,
+    INSERTION_FZ,
+    INSERTION_STATE,
     prior_to_json,
     select_base,
 )
@@ -62,10 +73,32 @@ from psmforce.sim import simulate  # noqa: E402
 from psmforce.sim.params import InstrumentParams  # noqa: E402
 
 VARIANTS = ("weighted", "as_fitted", "no_prior", "raw_and_prior")
-CACHE_VERSION = 2
-"""Bumped when a task's result changes shape or meaning (2: validation scores, raw_and_prior)."""
+CACHE_VERSION = 3
+"""Bumped when a task's result changes shape or meaning (2: validation scores, raw_and_prior;
+3: ``no_prior`` keeps the insertion-effort base)."""
 AXES = ("Fx", "Fy", "Fz")
 METRICS = ("causal", "paper")
+NO_PRIOR_FEATURES = HYBRID_FEATURES + (INSERTION_FZ,) + INSERTION_STATE
+"""The ``no_prior`` arm's inputs: the hybrid's (:data:`~psmforce.estimators.data.hybrid_inputs.
+HYBRID_INPUTS`) without ``prior_fz``, which is 0 with the law switched off."""
+QUICK = {"seeds": [1], "benches": ["standard"], "variants": ["weighted", "no_prior"],
+         "scale": 0.02, "max_epochs": 5}
+"""``--quick``: what the smoke run checks (minutes on 2 cores, not a result)."""
+
+
+def law_switched_off(prior):
+    """``prior`` with its law switched off (every component weight 0: its compensated columns
+    are the raw HEX10 reading, ``prior_*`` 0) and its insertion model kept: the ``no_prior``
+    arm's prior."""
+    return prior.with_axis_weights(np.zeros(6), {"no_prior": "the law switched off, the "
+                                                 "insertion model kept"})
+
+
+def no_prior_inputs(train) -> Inputs:
+    """The ``no_prior`` arm's inputs (:data:`NO_PRIOR_FEATURES`) and base, chosen as the
+    hybrid's (``comp_fx``, ``comp_fy``, ``insertion_fz``, each kept where it helps on ``train``,
+    whose columns come from :func:`law_switched_off`'s prior)."""
+    return Inputs(NO_PRIOR_FEATURES, select_base(train, BASE_COLUMNS), (), "prior")
 
 
 def _bench(work: Path, bench: str, seed: int, scale: float, crossing_rad: float) -> Path:
@@ -81,22 +114,26 @@ def _bench(work: Path, bench: str, seed: int, scale: float, crossing_rad: float)
 
 
 def _task(work: Path, bench: str, seed: int, variant: str, scale: float,
-          crossing_rad: float) -> dict:
+          crossing_rad: float, max_epochs: int | None = None) -> dict:
     data = _bench(work, bench, seed, scale, crossing_rad)
     ds = load_dataset(data)
     train, val = split_validation(ds.select(split="train"), 0.1, seed)
     use_prior = variant != "no_prior"
     prior = fit_prior(train, () if variant == "as_fitted" else val)
+    if variant == "no_prior":
+        prior = law_switched_off(prior)
     prior_json = prior_to_json(prior)
     spec = recipe("hybrid")
-    DERIVATIONS[spec.inputs(None, use_prior).derivation](ds, prior_json)
+    DERIVATIONS["prior"](ds, prior_json)
     inputs = None
     if variant == "raw_and_prior":
         inputs = Inputs(HYBRID_INPUTS_RAW_AND_PRIOR, select_base(train, BASE_COLUMNS), (),
                         "prior")
-    setup = make_setup("hybrid", train, use_prior=use_prior, inputs=inputs,
-                       prior_json=prior_json if use_prior else None)
-    cfg = TrainConfig(**{**spec.optimiser, "seed": seed, "progress": False})
+    elif variant == "no_prior":
+        inputs = no_prior_inputs(train)
+    setup = make_setup("hybrid", train, inputs=inputs, prior_json=prior_json)
+    cfg = TrainConfig(**{**spec.optimiser, "seed": seed, "progress": False,
+                         **({"max_epochs": max_epochs} if max_epochs else {})})
     rep = train_model(setup, train, val, cfg)
     scores, val_scores = (
         score_modes({t.path: predict_trial(setup, t) for t in trials}, trials,
@@ -185,7 +222,16 @@ def main(argv=None) -> int:
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--work", type=Path, default=Path("runs/prior_ablation"))
     ap.add_argument("--json", type=Path)
+    ap.add_argument("--quick", action="store_true",
+                    help="smoke run: " + ", ".join(f"{k} {v}" for k, v in QUICK.items())
+                    + " (overrides those options; figures not comparable to the full run)")
     args = ap.parse_args(argv)
+    max_epochs = None
+    if args.quick:
+        for key in ("seeds", "benches", "variants", "scale"):
+            setattr(args, key, QUICK[key])
+        max_epochs = QUICK["max_epochs"]
+        args.work = args.work / "quick"
     if len(set(args.seeds)) != len(args.seeds):
         ap.error(f"--seeds: repeated seeds {args.seeds}")
     torch.set_num_threads(args.threads)
@@ -202,7 +248,8 @@ def main(argv=None) -> int:
                     result = json.loads(key.read_text())
                 else:
                     t0 = time.time()
-                    result = _task(args.work, bench, seed, variant, args.scale, args.crossing_rad)
+                    result = _task(args.work, bench, seed, variant, args.scale,
+                                   args.crossing_rad, max_epochs)
                     result["wall_s"] = time.time() - t0
                     write_text_atomic(key, json.dumps(result, indent=1))
                 tasks.append(result)
@@ -215,6 +262,10 @@ def main(argv=None) -> int:
     figures = {
         "command": "python studies/prior_ablation.py " + " ".join(argv or sys.argv[1:]),
         "scale": args.scale, "crossing_rad": args.crossing_rad, "seeds": args.seeds,
+        "quick": bool(args.quick), "max_epochs": max_epochs,
+        "no_prior_arm": "the hybrid with the prior's law switched off (component weights 0), "
+                        "the insertion-effort base kept (cache version "
+                        f"{CACHE_VERSION})",
         "work": shown_path(args.work),
         "machine": {"platform": platform.platform(), "torch_threads": args.threads},
         "all_converged": all(t["training"]["converged"] for t in tasks),

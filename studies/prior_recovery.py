@@ -9,6 +9,16 @@ radius held at the datasheet's 1.2 mm, and Free trials only. Per parameter: trut
 relative error, standard error and the identifiability report's verdict. Usage::
 
     python studies/prior_recovery.py [--scale 0.02] [--seeds 1 2 3] [--json PATH]
+
+``--default-bench``: the default bench as a user runs it, ``psmforce simulate --seed S`` (scale
+1, the default) then ``psmforce fit-prior`` (Free trials; what the identifiability report calls
+unidentifiable held at design values), for each of ``--seeds`` (default 21 22) with the nominal
+tool, and on seed 21 two variants: the second cable law (``pair_law="quadratic"``, outside the
+prior's family) and a drawn tool (``InstrumentParams().sample(21)``: truth off the design values
+the fit holds). Per parameter: truth, all-free fit, final fit, relative error, fixed / free, at a
+bound::
+
+    python studies/prior_recovery.py --default-bench --json results/benchmarks/prior_recovery_default.json
 """
 
 from __future__ import annotations
@@ -27,15 +37,69 @@ VARIANTS = {
 }
 
 
+DEFAULT_CASES = ("nominal", "quadratic pair law", "drawn tool")
+"""The default-bench cases: the nominal tool on every seed, the variants on the first seed."""
+
+
+def _instrument(case: str, seed: int):
+    import dataclasses
+
+    from psmforce.sim.params import InstrumentParams
+    return {"nominal": InstrumentParams(),
+            "quadratic pair law": dataclasses.replace(InstrumentParams(), pair_law="quadratic"),
+            "drawn tool": InstrumentParams().sample(seed)}[case]
+
+
+def default_bench(args) -> None:
+    import time
+
+    from psmforce.experiments.prior_recovery import recover_default
+    from psmforce.identification.prior_selection import DESIGN
+
+    runs, t0 = [], time.time()
+    for k, seed in enumerate(args.seeds):
+        for case in (DEFAULT_CASES if k == 0 else DEFAULT_CASES[:1]):
+            if args.cases and case not in args.cases:
+                continue
+            with tempfile.TemporaryDirectory() as tmp:
+                rep = recover_default(Path(tmp), seed, args.scale, _instrument(case, seed))
+            runs.append({"case": case, **rep})
+            print(f"seed {seed}, {case}: {rep['fit_time_s']:.0f} s, misses {rep['misses']}\n"
+                  f"  verdict: {rep['verdict']}", flush=True)
+            for name, row in rep["parameters"].items():
+                rel = row["relative_error"]
+                print(f"  {name:22s} truth {row['truth']!s:>10.10s}  fitted {row['fitted']:>11.4g}"
+                      f"  {'' if rel is None else f'{100 * rel:6.1f} %':>8s}  {row['status']}"
+                      f"{'  AT BOUND' if row['at_bound'] else ''}", flush=True)
+    if args.json:
+        write_json(args.json, {"command": "python studies/prior_recovery.py --default-bench "
+                                          f"--scale {args.scale:g} --seeds "
+                                          + " ".join(map(str, args.seeds)),
+                               "scale": args.scale, "seeds": args.seeds, "design": DESIGN,
+                               "runs": runs, "seconds": time.time() - t0})
+
+
 def main() -> None:
     from psmforce.identification.prior import DATASHEET
     from psmforce.experiments.prior_recovery import IN_FAMILY_EFFECTS, SWITCHES, recover
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--scale", type=float, default=0.02)
-    ap.add_argument("--seeds", type=int, nargs="+", default=[1, 2, 3])
+    ap.add_argument("--scale", type=float, default=None,
+                    help="protocol scale (default 0.02; 1.0 with --default-bench)")
+    ap.add_argument("--seeds", type=int, nargs="+", default=None,
+                    help="bench seeds (default 1 2 3; 21 22 with --default-bench)")
+    ap.add_argument("--default-bench", action="store_true")
+    ap.add_argument("--cases", nargs="+", choices=DEFAULT_CASES, default=None,
+                    help="with --default-bench: only these cases")
     ap.add_argument("--json", type=Path)
     args = ap.parse_args()
+    if args.default_bench:
+        args.scale = 1.0 if args.scale is None else args.scale
+        args.seeds = args.seeds or [21, 22]
+        default_bench(args)
+        return
+    args.scale = 0.02 if args.scale is None else args.scale
+    args.seeds = args.seeds or [1, 2, 3]
     runs = []
     for seed in args.seeds:
         with tempfile.TemporaryDirectory() as tmp:

@@ -10,15 +10,21 @@ ratio sim / real (rule: every std ratio within [0.67, 1.5]); skipped when the WP
 absent. ``--derive`` also prints the coloured disturbance derived from the WPI residual (the
 numbers written into psmforce/sim/params.py). Then the cable law against a real EndoWrist
 (the MRD Lab bench): hysteresis loop width, friction against load and against frequency and
-the static compliance, computed the same way on the real recordings and on the bench's cable law
-replaying their grid (psmforce/experiments/cable_law_figures.py), with the ratio sim / real (rule:
-every checked ratio within [0.67, 1.5] on Tool_4_Maryland_L_4; the other sessions are a spread),
-also for the defaults before the calibration; skipped when the MRD Lab folder is absent.
-``--cable-law`` runs only these rows (seconds). ``--json PATH`` writes everything. Usage::
+the static compliance, the friction at zero load, computed the same way on the real recordings of
+every MRD Lab folder and on the bench's cable law replaying each folder's protocol
+(psmforce/experiments/cable_law_figures.py), with the ratio sim / real for the default simulator
+version and for 2.2, whose cable law is calibrated on every folder (rule per figure: every
+folder's ratio within [0.67, 1.5], or the sim value within the real folders' spread where that is
+wider; docs/simulator.md section 12b); skipped when the MRD Lab folder is absent.
+``--cable-law`` runs only these rows (about a minute); ``--fit`` also reruns 2.2's cable-law
+calibration (minutes). ``--json PATH`` writes everything.
+
+Size: the study of one bench against the paper, the real arm and the real EndoWrist: three
+comparisons that share the bench and one command line. Usage::
 
     python studies/sim_calibration.py [--scale 1.0] [--seed 0] [--out DIR] [--json PATH]
                                          [--wpi ../shared/data/wpi_psm] [--derive]
-                                         [--mrdlab ../shared/data/mrdlab] [--cable-law]
+                                         [--mrdlab ../shared/data/mrdlab] [--cable-law] [--fit]
 """
 
 from __future__ import annotations
@@ -36,7 +42,7 @@ import pandas as pd
 
 from psmforce.robot.conventions import JOINTS
 from psmforce.sim import (Contact, Effects, InstrumentParams, motion, protocols, run_trajectory,
-                          simulate)
+                          simulate, versions)
 from psmforce.experiments import bench_calibration as calibration
 from psmforce.experiments import cable_law_figures as transmission_figures
 from psmforce.experiments.report import shown_path, write_json
@@ -44,10 +50,23 @@ from psmforce.experiments.report import shown_path, write_json
 WPI_DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data" / "wpi_psm"
 MRDLAB_DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data" / "mrdlab"
 CABLE_LAW_SESSION = "Tool_4_Maryland_L_4"
-"""The session the cable-law rule is checked on (the 2018 paper's; ten load levels)."""
-PREVIOUS_CABLE_DEFAULTS = {"cable_stiffness_n_per_m": 6.0e5, "pitch_path_mismatch_m": 1.5e-6}
-"""The ``InstrumentParams`` defaults before the calibration against the real EndoWrist (the
-"sim before" column)."""
+"""The session the load-scale sensitivity is run on (the 2018 paper's; ten load levels); the
+rule applies to every folder."""
+CABLE_LAW_VERSIONS = (versions.DEFAULT_VERSION, "2.2")
+"""The simulator versions compared: the default one (every committed result's) and the one
+whose cable law is calibrated on every folder (:mod:`psmforce.sim.versions`)."""
+CABLE_LAW_FIT = {
+    "cable_coulomb_n": (2.0, 0.0, 60.0),
+    "cable_coulomb_stretch_share": (0.05, 0.0, 1.0),
+    "cable_stiffness_n_per_m": (2.0e4, 5.0e4, 1.0e6),
+    "capstan_mu_wrap_distal": (0.02, 0.0, 1.0),
+    "capstan_mu_wrap_proximal": (0.02, 0.0, 1.0),
+    "twist_friction_gain_per_rad": (0.05, 0.0, 1.0),
+    "capstan_wrap_pitch_gain": (0.1, 0.0, 2.0),
+}
+"""The fields :func:`fit_cable_law` calibrates: (initial step, lower bound, upper bound)."""
+BAND_PENALTY = 100.0
+"""Weight of a log ratio's squared distance outside the band in :func:`fit_cable_law`."""
 LOAD_SCALE_SENSITIVITY = (0.8, 1.25)
 """Factors on the sim / real load scale (the equal-input-drum assumption): the sensitivity rows."""
 EFFORT_RATIO_RANGE = (0.67, 1.5)
@@ -198,57 +217,159 @@ def _without_runs(figures: dict) -> dict:
     return {k: v for k, v in figures.items() if k != "runs"}
 
 
-def cable_law(mrdlab_dir: Path) -> dict:
-    """The cable law against the real EndoWrist: per MRD Lab session the real figures, the
-    simulated ones with the current and with the previous defaults, their comparison, and the
-    figures per load level; on :data:`CABLE_LAW_SESSION` the rule and a load-scale sensitivity."""
+def _real_sessions(mrdlab_dir: Path) -> dict[str, tuple[Path, dict]]:
+    """Every MRD Lab session folder and its real figures (read once: the slow part)."""
+    return {folder.name: (folder, transmission_figures.session_figures(
+        transmission_figures.real_session(folder)))
+        for folder in transmission_figures.sessions(mrdlab_dir)}
+
+
+def _against(reals: dict[str, tuple[Path, dict]], params: InstrumentParams) -> dict[str, dict]:
+    return {name: transmission_figures.real_vs_sim(folder, params, real=real)
+            for name, (folder, real) in reals.items()}
+
+
+def _log_ratios(results: dict[str, dict]) -> np.ndarray:
+    return np.array([np.log(max(r["comparison"][k]["ratio"], 1e-3))
+                     for r in results.values() for k in transmission_figures.CHECKED
+                     if r["comparison"][k]["measurable"]])
+
+
+def fit_cable_law(reals: dict[str, tuple[Path, dict]], version: str = versions.DEFAULT_VERSION,
+                  sweeps: int = 12) -> dict:
+    """The calibration of simulator 2.2's cable law: start from ``version``'s instrument with the
+    load-independent friction off, then coordinate descent on the sum over folders and
+    checked figures of the squared log ratio sim / real plus :data:`BAND_PENALTY` times the
+    squared distance of each log ratio outside the band (least squares held to the rule's
+    band), each field of :data:`CABLE_LAW_FIT`
+    stepped by its step while that lowers the sum, the steps halved when no field does
+    (``sweeps`` rounds). Returns the fitted fields, the sum and the largest |log ratio|."""
+    names = list(CABLE_LAW_FIT)
+    base = versions.instrument(version)
+    x = np.array([getattr(base, n) for n in names], dtype=float)
+    steps = np.array([CABLE_LAW_FIT[n][0] for n in names])
+    lo = np.array([CABLE_LAW_FIT[n][1] for n in names])
+    hi = np.array([CABLE_LAW_FIT[n][2] for n in names])
+
+    band = np.log(transmission_figures.RATIO_RANGE)
+
+    def cost(values):
+        params = dataclasses.replace(base, **{n: float(v) for n, v in zip(names, values)})
+        r = _log_ratios(_against(reals, params))
+        outside = np.maximum(0.0, np.maximum(band[0] - r, r - band[1]))
+        return (float(np.sum(r ** 2) + BAND_PENALTY * np.sum(outside ** 2)),
+                float(np.abs(r).max()))
+
+    best, worst = cost(x)
+    evaluations = 1
+    for _ in range(sweeps):
+        improved = False
+        for i in range(len(x)):
+            for direction in (1.0, -1.0):
+                while True:
+                    y = x.copy()
+                    y[i] = np.clip(y[i] + direction * steps[i], lo[i], hi[i])
+                    if y[i] == x[i]:
+                        break
+                    c, m = cost(y)
+                    evaluations += 1
+                    if c >= best - 1e-4:
+                        break
+                    x, best, worst, improved = y, c, m, True
+        if not improved:
+            steps = steps / 2
+    return {"start_version": version, "fitted": {n: float(v) for n, v in zip(names, x)},
+            "objective": best, "max_abs_log_ratio": worst, "band_penalty": BAND_PENALTY,
+            "evaluations": evaluations, "final_steps": dict(zip(names, steps.tolist()))}
+
+
+def cable_law(mrdlab_dir: Path, fit: bool = False) -> dict:
+    """The cable law against the real EndoWrist, on every MRD Lab folder: per folder the real
+    figures, the simulated ones of the default version and of the calibrated one
+    (:data:`CABLE_LAW_VERSIONS`), their comparison and the figures per load level; per figure
+    the real folders' spread and the rule (:func:`cable_law_figures.across_folders`) for each
+    version; on :data:`CABLE_LAW_SESSION` a load-scale sensitivity of the calibrated version.
+    ``fit``: also rerun the calibration (:func:`fit_cable_law`; minutes)."""
     start = time.perf_counter()
-    before = dataclasses.replace(InstrumentParams(), **PREVIOUS_CABLE_DEFAULTS)
-    out = {"mrdlab": shown_path(mrdlab_dir), "checked_session": CABLE_LAW_SESSION,
-           "checked_figures": list(transmission_figures.CHECKED),
-           "previous_defaults": PREVIOUS_CABLE_DEFAULTS,
-           "current_defaults": {k: getattr(InstrumentParams(), k) for k in PREVIOUS_CABLE_DEFAULTS},
-           "sessions": {}}
-    for folder in transmission_figures.sessions(mrdlab_dir):
-        now = transmission_figures.real_vs_sim(folder)
-        old = transmission_figures.real_vs_sim(folder, before)
-        rows = {k: {"real": v["real"], "sim_before": old["comparison"][k]["sim"],
-                    "ratio_before": old["comparison"][k]["ratio"], "sim": v["sim"],
-                    "ratio": v["ratio"], "ok": v["ok"]} for k, v in now["comparison"].items()}
-        out["sessions"][folder.name] = {
-            "load_scale_sim_per_real": now["load_scale_sim_per_real"], "table": rows,
-            "real": _without_runs(now["real"]), "sim": _without_runs(now["sim"]),
-            "sim_before": _without_runs(old["sim"]),
-            "by_load_level": {"real": transmission_figures.by_load_level(now["real"]),
-                              "sim": transmission_figures.by_load_level(now["sim"])}}
-    if CABLE_LAW_SESSION not in out["sessions"]:
+    reals = _real_sessions(mrdlab_dir)
+    if CABLE_LAW_SESSION not in reals:
         raise FileNotFoundError(f"{mrdlab_dir}: no {CABLE_LAW_SESSION} session")
-    checked = out["sessions"][CABLE_LAW_SESSION]["table"]
-    out["rule"] = (f"every {', '.join(transmission_figures.CHECKED)} ratio sim/real within "
-                   f"{list(transmission_figures.RATIO_RANGE)} on {CABLE_LAW_SESSION}")
-    out["cable_law_ok"] = bool(all(r["ok"] for r in checked.values()))
+    default, calibrated = CABLE_LAW_VERSIONS
+    results = {v: _against(reals, versions.instrument(v)) for v in CABLE_LAW_VERSIONS}
+    out = {"mrdlab": shown_path(mrdlab_dir),
+           "command": "python studies/sim_calibration.py --cable-law " + ("--fit " if fit else "")
+                      + "--json results/benchmarks/sim_calibration_cable_law.json",
+           "versions": {v: versions.CHANGES[v] for v in CABLE_LAW_VERSIONS},
+           "default_values": {k: getattr(versions.instrument(default), k)
+                              for k in versions.CHANGES[calibrated]},
+           "default_version": default, "calibrated_version": calibrated,
+           "figures": list(transmission_figures.FIGURES),
+           "checked_figures": list(transmission_figures.CHECKED),
+           "ratio_range": list(transmission_figures.RATIO_RANGE), "sessions": {}}
+    for name, (folder, real) in reals.items():
+        first = results[default][name]
+        table = {}
+        for k in transmission_figures.FIGURES:
+            row = {"real": first["comparison"][k]["real"]}
+            for v in CABLE_LAW_VERSIONS:
+                c = results[v][name]["comparison"][k]
+                row.update({f"sim_{v}": c["sim"], f"ratio_{v}": c["ratio"], f"ok_{v}": c["ok"]})
+            table[k] = row
+        out["sessions"][name] = {
+            "pose": first["pose"], "load_scale_sim_per_real": first["load_scale_sim_per_real"],
+            "runs": len(real["runs"]), "table": table, "real": real,
+            "sim": {v: _without_runs(results[v][name]["sim"]) for v in CABLE_LAW_VERSIONS},
+            "by_load_level": {"real": transmission_figures.by_load_level(real),
+                              **{f"sim_{v}": transmission_figures.by_load_level(
+                                  results[v][name]["sim"]) for v in CABLE_LAW_VERSIONS}}}
+    out["across_folders"] = {v: transmission_figures.across_folders(results[v])
+                             for v in CABLE_LAW_VERSIONS}
+    out["met"] = {v: all(a["met"] is not False for a in out["across_folders"][v].values())
+                  for v in CABLE_LAW_VERSIONS}
+    out["rule"] = (f"per checked figure, every folder's ratio sim/real within "
+                   f"{list(transmission_figures.RATIO_RANGE)}, or, where the real folders "
+                   f"spread wider than max/min = {transmission_figures.RATIO_RANGE[1] / transmission_figures.RATIO_RANGE[0]:.3f}, "
+                   "the sim value within the real min..max")
+    out["cable_law_ok"] = out["met"][calibrated]
     out["load_scale_sensitivity"] = {
         str(f): {k: v["ratio"] for k, v in transmission_figures.real_vs_sim(
-            Path(mrdlab_dir) / CABLE_LAW_SESSION, load_scale_factor=f)["comparison"].items()}
+            reals[CABLE_LAW_SESSION][0], versions.instrument(calibrated), load_scale_factor=f,
+            real=reals[CABLE_LAW_SESSION][1])["comparison"].items()}
         for f in LOAD_SCALE_SENSITIVITY}
+    out["load_scale_sensitivity_version"] = calibrated
+    if fit:
+        out["fit"] = fit_cable_law(reals)
     out["seconds"] = round(time.perf_counter() - start, 1)
     return out
 
 
+def _ratio_cell(r) -> str:
+    return "   n/a" if r is None else f"{r:6.2f}"
+
+
 def _print_cable_law(c: dict) -> None:
-    print(f"\ncable law vs the real EndoWrist (MRD Lab; rule on {c['checked_session']})")
-    print(f"{'session / figure':44s}{'real':>10s}{'sim before':>12s}{'ratio':>8s}{'sim':>10s}"
-          f"{'ratio':>8s}")
-    for name, sess in c["sessions"].items():
-        print(f"{name} (sim load per real load {sess['load_scale_sim_per_real']:.3f})")
-        for k, r in sess["table"].items():
-            print(f"  {k:42s}{r['real']:10.4g}{r['sim_before']:12.4g}{r['ratio_before']:8.3f}"
-                  f"{r['sim']:10.4g}{r['ratio']:8.3f}{'' if r['ok'] else '  outside'}")
-        for k in ("zero_load_friction_fraction", "friction_fraction_at_full_load"):
-            print(f"  {k + ' (not checked)':42s}{sess['real'][k]:10.4g}"
-                  f"{sess['sim_before'][k]:12.4g}{'':8s}{sess['sim'][k]:10.4g}")
-    print(f"load-scale sensitivity (ratios): {c['load_scale_sensitivity']}")
-    print(f"{'rule':22s}{c['rule']}: {'ok' if c['cable_law_ok'] else 'NOT MET'}")
+    default, calibrated = c["default_version"], c["calibrated_version"]
+    print(f"\ncable law vs the real EndoWrist (MRD Lab), ratios sim/real: simulator {default} "
+          f"(default) -> {calibrated} (calibrated)")
+    names = list(c["sessions"])
+    print(f"{'figure':30s}" + "".join(f"{n.replace('Tool_', '').replace('_Maryland_L', ''):>14s}"
+                                      for n in names))
+    for k in c["figures"]:
+        cells = [f"{_ratio_cell(c['sessions'][n]['table'][k][f'ratio_{default}'])}->"
+                 f"{_ratio_cell(c['sessions'][n]['table'][k][f'ratio_{calibrated}']).strip():6s}"
+                 for n in names]
+        print(f"{k:30s}" + "".join(f"{x:>14s}" for x in cells))
+    for k, a in c["across_folders"][calibrated].items():
+        if a["rule"] == "not measurable":
+            continue
+        print(f"  {k:28s} real {a['real_min']:.4g}..{a['real_max']:.4g} (x{a['real_spread']:.2f}),"
+              f" rule {a['rule']}: {'met' if a['met'] else 'NOT MET'} "
+              f"(default {default}: {'met' if c['across_folders'][default][k]['met'] else 'not met'})")
+    print(f"load-scale sensitivity ({c['load_scale_sensitivity_version']}, ratios on "
+          f"{CABLE_LAW_SESSION}): {c['load_scale_sensitivity']}")
+    if "fit" in c:
+        print(f"fit: {c['fit']}")
+    print(f"{'rule':22s}{c['rule']}: {calibrated} {'met' if c['cable_law_ok'] else 'NOT MET'}")
 
 
 def main(argv=None) -> int:
@@ -264,13 +385,16 @@ def main(argv=None) -> int:
                     help="folder of the MRD Lab EndoWrist transmission sessions")
     ap.add_argument("--cable-law", action="store_true",
                     help="only the cable law against the real EndoWrist (no protocol, no WPI)")
+    ap.add_argument("--fit", action="store_true",
+                    help="with the cable law, rerun simulator 2.2's cable-law calibration "
+                         "(minutes) and record it under cable_law.fit")
     args = ap.parse_args(argv)
     if args.cable_law:
         if not (args.mrdlab / CABLE_LAW_SESSION).is_dir():
             print(f"sim_calibration: error: no {CABLE_LAW_SESSION} in {args.mrdlab}",
                   file=sys.stderr)
             return 2
-        c = cable_law(args.mrdlab)
+        c = cable_law(args.mrdlab, fit=args.fit)
         _print_cable_law(c)
         if args.json:
             write_json(args.json, {"cable_law": c})
@@ -289,7 +413,7 @@ def main(argv=None) -> int:
         r["effort_channels"] = f"skipped: no WPI recordings in {args.wpi}"
         print(r["effort_channels"])
     if (args.mrdlab / CABLE_LAW_SESSION).is_dir():
-        r["cable_law"] = cable_law(args.mrdlab)
+        r["cable_law"] = cable_law(args.mrdlab, fit=args.fit)
         _print_cable_law(r["cable_law"])
     else:
         r["cable_law"] = f"skipped: no {CABLE_LAW_SESSION} in {args.mrdlab}"

@@ -172,24 +172,47 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--accept-poor-fit", action="store_true",
                    help="save the prior even when its test Free force RMS exceeds the "
                         "poor-fit threshold (psmforce.identification.prior.POOR_FIT_RMS_N)")
+    p.add_argument("--identify", action="store_true",
+                   help="identification: hold the parameters the identifiability report calls "
+                        "unidentifiable at their design values and refit the rest, naming "
+                        "both (docs/identification.md section 2); default: all 17 free, a "
+                        "curve fit, which the verdict line says")
     p.add_argument("--json", help="write the fit statistics here")
 
     p = add("fit-transmission", offline.fit_transmission_command,
-            "identify one instrument's cable transmission, motor to jaw (CasADi)",
+            "identify an instrument's cable transmission, motor to jaw (CasADi)",
             "Fit the cable-transmission model (psmforce/identification/transmission/model.py: "
-            "capstan pair law, Dahl friction memory, stick hold, backlash, compliance) on a "
-            "session folder of XY.TXT or ZXY.TXT recordings in the MRD Lab layout (motor current "
-            "and encoder in, jaw torque and angle as truth; "
-            "psmforce/identification/transmission/recording.py). Files that fail a data check "
-            "(drive saturation, overspeed, encoder jumps, torque saturation, current excursion; "
-            "psmforce/identification/transmission/checks.py) are left out and named. "
+            "capstan pair law, Dahl friction memory, stick hold, backlash, compliance) on one or "
+            "more session folders of XY.TXT or ZXY.TXT recordings in the MRD Lab layout (motor "
+            "current, command and encoder in, jaw torque and angle as truth; "
+            "psmforce/identification/transmission/recording.py): the instrument's constants once "
+            "over every folder, the per-session parameters (pretension, torque sensor zero, jaw "
+            "encoder zero) per folder. With --recalibrate MODEL, only the per-session "
+            "parameters are fitted, on a short segment of a new session. Files that fail a data "
+            "check (drive saturation, overspeed, encoder jumps, torque saturation, current "
+            "excursion; psmforce/identification/transmission/checks.py) are left out and named. "
             "Writes the model as JSON with the fit's identifiability report.")
-    p.add_argument("session", metavar="DIR", help="folder of XY.TXT / ZXY.TXT files of one "
-                                                  "session")
+    p.add_argument("session", metavar="DIR", nargs="+",
+                   help="folder(s) of XY.TXT / ZXY.TXT files, one session each")
     p.add_argument("--out", required=True, help="model JSON to write")
     p.add_argument("--validation", nargs="*", default=[], metavar="XY",
-                   help="files (by name, e.g. 02 12) held out to choose the hysteresis widths "
-                        "(default: none, the widths are chosen on the fit data)")
+                   help="files held out to choose the hysteresis widths, by name (02 12) or, "
+                        "with several folders, FOLDER/XY (default: none, the widths are "
+                        "chosen on the fit data)")
+    p.add_argument("--recalibrate", metavar="MODEL",
+                   help="a fitted model: keep its constants, fit only the per-session "
+                        "parameters of DIR (a short segment after mounting)")
+    p.add_argument("--current-source", choices=("command", "measured"), default="command",
+                   help="the drive current the law reads: the drive's command times its "
+                        "current gain (default; no sensor offset between sessions) or the "
+                        "measured current")
+    p.add_argument("--fix", action="append", default=[], metavar="NAME=VALUE",
+                   help="hold a torque parameter at a value (repeatable), e.g. "
+                        "position_stiffness=0")
+    p.add_argument("--bootstrap", type=int, default=0, metavar="N",
+                   help="measure identifiability by refitting on N resamplings of the files; "
+                        "a parameter it cannot pin down is fixed at its design value and "
+                        "named (default 0: not measured)")
     p.add_argument("--keep-flagged", action="store_true",
                    help="fit on files that fail a data check too (default: left out, named)")
     p.add_argument("--rate-hz", type=float, default=100.0,

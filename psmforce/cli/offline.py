@@ -126,21 +126,46 @@ def fit_prior_command(args) -> dict:
     print("fitting the internal-force prior (CasADi / IPOPT)", flush=True)
     with progress("fit-prior"):
         report = fit_prior_cli(args.data, args.out, use_loaded=args.use_loaded,
-                               accept_poor_fit=args.accept_poor_fit)
+                               accept_poor_fit=args.accept_poor_fit,
+                               identify=args.identify)
     metrics = report.get("test_free_metrics")
     print(f"fit: {report['solver_status']} in {report['fit_time_s']:.1f} s; test Free "
           + (", ".join(f"{c} RMS {metrics[c]['rms']:.3g}" for c in HEX10_FORCE)
              + " N" if metrics else "not scored (no test/Free recordings)"))
-    missed = report.get("targets_not_met") or []
-    print("verdict: " + ("not scored, no gate applied" if metrics is None else
-                         "POOR FIT" if report.get("poor_fit") else
-                         "passes the gate" + ("" if missed else ", meets its targets"))
-          + (f"; targets NOT met: {'; '.join(missed)}" if missed else ""))
+    from psmforce.identification.prior_report import verdict
+    # identified / fixed / at a bound, then the gate and the targets
+    print("verdict: " + (report.get("verdict") or verdict(report)))
     if report["model"] is None:
         raise ValueError(f"{args.out} not written: {report['model_not_saved_reason']}"
-                         + (" (--accept-poor-fit saves it anyway)" if report.get("poor_fit")
-                            else ""))
+                         + (" (--accept-poor-fit saves it anyway"
+                            + ("; without --identify all 17 parameters are fitted, a curve "
+                               "fit" if args.identify else "") + ")"
+                            if report.get("poor_fit") else ""))
     return report
+
+
+def _fixed_values(items: list[str]) -> dict:
+    """``--fix NAME=VALUE`` items as {name: value}, each a torque parameter and a finite
+    number inside its bounds."""
+    import math
+
+    from psmforce.identification.transmission.model import TORQUE_PARAMETERS
+    bounds = {p[0]: (p[2], p[3]) for p in TORQUE_PARAMETERS}
+    out = {}
+    for item in items:
+        name, sep, text = item.partition("=")
+        if not sep or name not in bounds:
+            raise ValueError(f"--fix: expected NAME=VALUE with NAME one of {list(bounds)}, got "
+                             f"{item!r}")
+        try:
+            value = float(text)
+        except ValueError:
+            raise ValueError(f"--fix {name}: {text!r} is not a number") from None
+        lo, hi = bounds[name]
+        if not (math.isfinite(value) and lo <= value <= hi):
+            raise ValueError(f"--fix {name}: {value} is outside its bounds [{lo:g}, {hi:g}]")
+        out[name] = value
+    return out
 
 
 def fit_transmission_command(args) -> dict:
@@ -148,37 +173,77 @@ def fit_transmission_command(args) -> dict:
     import math
     import warnings
 
+    from psmforce.identification.transmission import roles
     from psmforce.identification.transmission.model import CableTransmission
     from psmforce.identification.transmission.recording import (TransmissionDataWarning,
                                                                 home_session,
                                                                 read_transmission_session)
+    fixed = _fixed_values(args.fix)
+    if args.bootstrap < 0:
+        raise ValueError(f"--bootstrap must be 0 or more, got {args.bootstrap}")
+    base = CableTransmission.load(args.recalibrate) if args.recalibrate else None
+    if base is not None and (fixed or args.bootstrap or args.validation):
+        raise ValueError("--recalibrate fits only the per-session parameters: --fix, "
+                         "--bootstrap and --validation do not apply")
+    if len(set(args.session)) != len(args.session):
+        raise ValueError("a session folder is given twice")
+    recordings = []
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", TransmissionDataWarning)
-        session = home_session(read_transmission_session(args.session, args.rate_hz,
-                                                         keep_flagged=args.keep_flagged))
+        for folder in args.session:
+            recordings += home_session(read_transmission_session(
+                folder, args.rate_hz, keep_flagged=args.keep_flagged))
     left_out = [str(w.message) for w in caught if w.category is TransmissionDataWarning]
     for line in left_out:
         print(f"note: {line} (--keep-flagged fits on them)")
-    names = {r.name.rsplit("/", 1)[-1]: r for r in session}
-    unknown = sorted(set(args.validation) - set(names))
-    if unknown:
-        raise ValueError(f"--validation: no file {unknown[0]}.TXT in {args.session}")
-    validation = [names[n] for n in args.validation]
-    fit_on = [r for n, r in names.items() if n not in args.validation]
+    by_name = {r.name: r for r in recordings}
+    validation = []
+    for name in args.validation:
+        hits = [r for full, r in by_name.items()
+                if full == name or (len(args.session) == 1 and full.rsplit("/", 1)[1] == name)]
+        if not hits:
+            raise ValueError(f"--validation: no file {name}.TXT in {', '.join(args.session)}")
+        validation += hits
+    fit_on = [r for r in recordings if r not in validation]
     if not fit_on:
         raise ValueError("--validation holds every file: nothing left to fit on")
+    report_roles = None
     with progress("fit-transmission"):
-        model = CableTransmission.fit(fit_on, validation=validation)
+        if base is not None:
+            model = base.recalibrate(fit_on)
+        elif args.bootstrap:
+            model, report_roles = roles.identify(fit_on, validation=validation,
+                                                 resamples=args.bootstrap,
+                                                 current_source=args.current_source,
+                                                 declared_fixed=fixed)
+        else:
+            model = CableTransmission.fit(fit_on, validation=validation, fixed=fixed,
+                                          current_source=args.current_source)
     model.save(args.out)
     report = {"model": args.out, "fit_files": [r.name for r in fit_on], "left_out": left_out,
               "validation_files": [r.name for r in validation], **model.to_dict(),
+              "roles": report_roles["roles"] if report_roles else roles.roles_table(model),
+              "bootstrap": report_roles["bootstrap"] if report_roles else None,
               "fit_scores": model.score(fit_on),
               "validation_scores": model.score(validation) if validation else None}
-    ident = model.info["identifiability"]
-    print(f"fit: {model.info['solver_status']} in {model.info['fit_time_s']:.1f} s on "
-          f"{len(fit_on)} files; Fisher condition number "
-          f"{ident['fisher_condition_number']:.3g}"
-          + (f"; {model.info['tied']}" if model.info.get("tied") else ""))
+    if base is not None:
+        fresh = {s: v for s, v in model.sessions.items() if s not in base.sessions}
+        print(f"recalibrated {sorted(fresh) or sorted(model.sessions)} on {len(fit_on)} files; "
+              "constants kept from " + args.recalibrate)
+    else:
+        ident = model.info["identifiability"]
+        print(f"fit: {model.info['solver_status']} in {model.info['fit_time_s']:.1f} s on "
+              f"{len(fit_on)} files of {len({r.session for r in fit_on})} session(s); Fisher "
+              f"condition number {ident['fisher_condition_number']:.3g} (white noise: a "
+              "diagnostic)" + (f"; {model.info['tied']}" if model.info.get("tied") else ""))
+        if report_roles:
+            print(f"identifiability (bootstrap over files, {args.bootstrap} resamples): "
+                  + (f"fixed at design values: {', '.join(report_roles['not_identifiable'])}"
+                     if report_roles["not_identifiable"] else "every shared parameter pinned"))
+        else:
+            print("identifiability: not measured (--bootstrap N measures it)")
+        bound = sorted(set(ident["at_bound"]))
+        print("at a bound: " + (", ".join(bound) if bound else "none"))
     for label in ("fit", "validation"):
         score = report[f"{label}_scores"]
         if score:

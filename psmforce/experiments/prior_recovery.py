@@ -7,6 +7,12 @@ wrench it simulates is, up to sensor noise, a member of the prior's family
 torques plus white noise and current quantisation; :func:`prior_truth` maps the bench's
 parameters onto the prior's. Sensor noise stays on: it is what decides what is identifiable.
 This module reads the simulator's truth for the comparison only; the prior itself does not.
+
+The default bench (:func:`recover_default`, docs/identification.md section 2.1, "On the default
+bench"): ``psmforce simulate`` then ``psmforce fit-prior`` as a user runs them, the fit holding
+what its report calls unidentifiable at design values
+(:mod:`psmforce.identification.prior_selection`), compared with the bench's parameters
+(:func:`default_bench_truth`) by :func:`compare_selection`.
 """
 
 from __future__ import annotations
@@ -158,4 +164,140 @@ def recover(workdir, scale: float = 0.02, seed: int = 1, fixed: dict | None = No
                                                 - instrument.pretension_total_n),
                                  "fitted": float(prior.params[NAMES.index("bias_fz")]
                                                  - prior.params[NAMES.index("pretension_total")])}})
+    return out
+
+
+# ---------------------------------------------------------------- the default bench
+def default_bench_truth(instrument: InstrumentParams | None = None,
+                        psm: PSM | None = None) -> dict[str, float | None]:
+    """The prior's parameters (SI) that a bench with the default effects and ``instrument``
+    (nominal by default) corresponds to, where it has a counterpart in the law; None where it
+    has none. The default bench is outside the family (capstan, pin friction, hysteresis, disc
+    friction and disturbance in the efforts, HEX10 cross-talk and drift, the jaws' mass off the
+    shaft axis), so this is the bench's parameter value, not what an exact fit would return:
+    ``direction_tension`` None (the capstan's direction-dependent friction has no single
+    tension); ``asymmetry_blade`` the blade pairs' mean (the law ties them); ``distal_mass`` body
+    plus jaws and ``distal_com_distance`` their COM along the HEX10 z axis at the straight wrist
+    (the jaws' moves with the wrist angles); ``pitch_path_tension`` = cable stiffness x path
+    mismatch (the bench adds it per blade cable, ``k e (1 - cos pitch)``); the asymmetries 0 under
+    the quadratic pair law (``pair_law``, no linear term); the biases the residual tare offset
+    (``hex10_residual_bias_n``; the moments' 0), without the cross-talk of the rest level."""
+    import numpy as np
+
+    instrument = instrument or InstrumentParams()
+    psm = psm or PSM()
+    q = np.zeros((1, 7))
+    q[0, 2] = 0.1
+    d = psm.rotation(q, "hex10")[0][:, 2]
+    cp = (psm.forward_kinematics(q, "cp")[0, :3, 3] - psm.forward_kinematics(q, "hex10")[0, :3, 3]
+          ) @ d  # the control point's distance from the HEX10 origin along the shaft (m)
+    m_b, m_j = instrument.distal_body_mass_kg, instrument.jaw_mass_kg
+    l_b = psm.hex10_distance - instrument.distal_body_com_m
+    l_j = float(cp) + instrument.jaw_com_m
+    a = instrument.cable_asymmetry
+    linear = instrument.pair_law == "linear"
+    bias = instrument.hex10_residual_bias_n
+    return {
+        "pretension_total": instrument.pretension_total_n,
+        "pulley_radius_pitch": instrument.pulley_radius_pitch_m,
+        "pulley_radius_blade": instrument.pulley_radius_blade_m,
+        "twist_gain": instrument.twist_tension_gain_per_rad2,
+        "direction_tension": None,
+        "asymmetry_pitch": a[0] if linear else 0.0,
+        "asymmetry_blade": 0.5 * (a[1] + a[2]) if linear else 0.0,
+        "pitch_path_tension": instrument.cable_stiffness_n_per_m * instrument.pitch_path_mismatch_m,
+        "distal_mass": m_b + m_j,
+        "distal_com_distance": (m_b * l_b + m_j * l_j) / (m_b + m_j),
+        "cable_radius": instrument.cable_radius_in_section_m,
+        "bias_fx": bias[0], "bias_fy": bias[1], "bias_fz": bias[2],
+        "bias_tx": 0.0, "bias_ty": 0.0, "bias_tz": 0.0,
+    }
+
+
+def crosstalk_of_rest_level(instrument: InstrumentParams) -> dict[str, float]:
+    """What the HEX10's cross-talk (``hex10_crosstalk``, reading = X wrench + offset) makes of
+    the pretension's axial force ``-pretension_total`` (N, straight wrist, no roll) in the other
+    channels (N, Nm): a constant the law can only carry in its biases (the bench's parameters,
+    for the comparison)."""
+    rest = -instrument.pretension_total_n
+    x = instrument.hex10_crosstalk
+    return {f"bias_{c}": float(x[k][2] * rest) for k, c in enumerate(("fx", "fy", "fz", "tx",
+                                                                      "ty", "tz")) if k != 2}
+
+
+def compare_selection(prior: InternalForcePrior, truth: dict) -> dict:
+    """Per parameter of a :func:`~psmforce.identification.prior_selection.fit_identified` prior:
+    truth (None: no counterpart), fitted, relative error (None where the truth is None or 0),
+    ``status`` ("identified": free and not listed; "fixed": held at its design value;
+    "free, not identified": listed on the final fit), ``at_bound`` (the fit's
+    ``bounds_hit``, the rule of :func:`~psmforce.identification.prior_law.at_bound`) and the
+    all-free fit's value. ``misses``: identified parameters more than
+    :data:`RECOVERY_TOLERANCE` off, or with a truth of 0 (no relative accuracy); ``uncompared``:
+    identified ones without a truth."""
+    sel = prior.info["selection"]
+    first = sel["rounds"][0]["parameters"] if sel["rounds"] else {}
+    rows, misses, uncompared = {}, [], []
+    for name, value in zip(NAMES, prior.params):
+        true = truth.get(name)
+        rel = abs(value / true - 1.0) if true not in (None, 0) else None
+        status = ("fixed" if name in sel["fixed"] else
+                  "identified" if name in sel["identified"] else "free, not identified")
+        rows[name] = {"truth": true, "fitted": float(value), "relative_error": rel,
+                      "status": status, "at_bound": name in prior.info["bounds_hit"],
+                      "all_free_fit": first.get(name),
+                      "reason": (sel["fixed"][name]["reason"] if name in sel["fixed"] else
+                                 prior.info["identifiability"]["not_identifiable"].get(name))}
+        if status == "identified":
+            if true is None:
+                uncompared.append(name)
+            elif rel is None or rel > RECOVERY_TOLERANCE:
+                misses.append(name)
+    return {"parameters": rows, "misses": misses, "uncompared": uncompared}
+
+
+def recover_default(workdir, seed: int, scale: float = 1.0,
+                    instrument: InstrumentParams | None = None) -> dict:
+    """``psmforce simulate --seed SEED [--scale SCALE]`` (default effects; ``instrument``
+    nominal unless given: a ``pair_law`` variant, a drawn tool) into ``workdir`` unless its
+    metadata.json exists, then ``psmforce fit-prior`` (:func:`~psmforce.identification.
+    prior_report.fit_prior_cli`: Free trials, what the data cannot identify held at design
+    values) and :func:`compare_selection` with :func:`default_bench_truth`."""
+    from psmforce.identification.prior_report import fit_prior_cli
+    from psmforce.sim import simulate
+
+    instrument = instrument or InstrumentParams()
+    workdir = Path(workdir)
+    meta = workdir / "data" / "metadata.json"
+    if not meta.exists():
+        simulate("automated", scale=scale, seed=seed, out=str(workdir / "data"),
+                 instrument=instrument)
+    elif {k: json.loads(meta.read_text())[k] for k in ("scale", "seed", "instrument")} != {
+            "scale": scale, "seed": seed, "instrument": instrument.to_dict()}:
+        raise ValueError(f"{workdir} holds another bench than scale {scale}, seed {seed}")
+    report = fit_prior_cli(workdir / "data", workdir / "prior.json", identify=True)
+    prior = InternalForcePrior.load(workdir / "prior.json")
+    out = compare_selection(prior, default_bench_truth(instrument))
+    sel = prior.info["selection"]
+    # the all-free fit (the first round) scored on the same held-out trials: the curve fit
+    import numpy as np
+
+    from psmforce.identification.prior import channel_metrics
+    from psmforce.io.recording import HEX10, list_recordings, read_recording
+    test = [read_recording(r.path) for r in list_recordings(workdir / "data")
+            if r.split == "test" and r.condition == "Free"]
+    first = InternalForcePrior(params=np.array([sel["rounds"][0]["parameters"][n] for n in NAMES]))
+    all_free_metrics = channel_metrics(
+        np.concatenate([f[list(HEX10)].to_numpy(dtype=float) for f in test]),
+        np.concatenate([first.predict(f) for f in test])) if test else None
+    out.update({
+        "seed": seed, "scale": scale, "pair_law": instrument.pair_law,
+        "verdict": report["verdict"], "converged": report["converged"],
+        "fit_time_s": report["fit_time_s"], "n_samples": prior.info["n_samples"],
+        "design": sel["design"], "rounds": sel["rounds"],
+        "test_free_metrics": report.get("test_free_metrics"),
+        "all_free_test_free_metrics": all_free_metrics,
+        "crosstalk_of_rest_level": crosstalk_of_rest_level(instrument),
+        "all_free_not_identifiable": sorted(sel["rounds"][0]["not_identifiable"]),
+        "targets_not_met": report.get("targets_not_met"),
+        "identifiability": prior.info["identifiability"]})
     return out

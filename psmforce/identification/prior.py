@@ -52,7 +52,9 @@ predicts as a constant) the weight goes to 0 and the prior stays out of that com
 then reads the raw HEX10 there.
 
 The law (parameters, bounds, the vectorised model) is :mod:`psmforce.identification.prior_law`;
-what the fit reports about identifiability, :mod:`psmforce.identification.prior_identifiability`.
+what the fit reports about identifiability, :mod:`psmforce.identification.prior_identifiability`;
+holding what the data cannot identify at design values and refitting the rest (what
+``psmforce fit-prior`` runs), :mod:`psmforce.identification.prior_selection`.
 
 Size: the prior as one record (law, weights, fit, persistence, strict loading), each part
 short; the law and the identifiability report already live in their own modules.
@@ -75,7 +77,8 @@ from psmforce.identification.insertion import InsertionEffortModel
 from psmforce.identification.model_file import parse_model_json, read_model_json
 from psmforce.identification.prior_identifiability import identifiability
 from psmforce.identification.prior_law import (CABLE_ANGLES_RAD, KAPPA, NAMES,  # noqa: F401
-                                                MIN_SAMPLES, PARAMETERS, _CasadiOps, _model)
+                                                MIN_SAMPLES, PARAMETERS, _CasadiOps, _model,
+                                                at_bound)
 from psmforce.identification.signals import check_finite_2d
 from psmforce.robot.kinematics import PSM
 from psmforce.io.recording import (HEX10, JOINT_POSITIONS, OVERLOAD, TARGETS, joint_column,
@@ -223,7 +226,8 @@ class InternalForcePrior:
     # ------------------------------------------------------------ fit
     @classmethod
     def fit(cls, recordings, *, psm=None, provenance=None, max_iter: int = 500,
-            fixed: dict[str, float] | None = None) -> InternalForcePrior:
+            fixed: dict[str, float] | None = None, initial: dict[str, float] | None = None,
+            report: bool = True) -> InternalForcePrior:
         """Fit on recordings (DataFrames of ``psmforce.io.recording`` or paths).
 
         Where target columns ``ati_fx..ati_fz`` exist, the known external force (HEX10 frame) is
@@ -233,7 +237,12 @@ class InternalForcePrior:
         ``fixed``: parameters (names of :data:`NAMES`, SI values inside their bounds) held at the
         given values instead of fitted: those the data cannot pin down, set from the instrument's
         datasheet (:data:`DATASHEET`). ``info["identifiability"]`` reports which of the others
-        the data do pin down (:func:`identifiability`).
+        the data do pin down (:func:`identifiability`); ``report=False`` skips it (the trial
+        jackknife of :mod:`.prior_selection` refits many times). ``initial``: starting values
+        (SI) for some free parameters instead of :data:`PARAMETERS`' (a warm start).
+        ``info["bounds_hit"]``: the free parameters at a bound by
+        :func:`~psmforce.identification.prior_law.at_bound`, the rule the report uses too.
+        Choosing what to fix from the report: :func:`.prior_selection.fit_identified`.
         """
         import casadi as ca
 
@@ -295,7 +304,9 @@ class InternalForcePrior:
         solver = ca.nlpsol("prior", "ipopt", {"x": z, "f": cost}, {
             "ipopt.print_level": 0, "print_time": False, "ipopt.max_iter": max_iter,
             "ipopt.tol": 1e-9, "ipopt.sb": "yes"})
-        z0 = (np.array([fixed.get(n, p_[4]) for n, p_ in zip(NAMES, PARAMETERS)]) - lo) / scale
+        start = {**(initial or {}), **fixed}
+        z0 = (np.clip([start.get(n, p_[4]) for n, p_ in zip(NAMES, PARAMETERS)], lo, hi) - lo
+              ) / scale
         is_fixed = np.array([n in fixed for n in NAMES])
         sol = solver(x0=z0, lbx=np.where(is_fixed, z0, 0.0), ubx=np.where(is_fixed, z0, 1.0))
         stats = solver.stats()
@@ -309,10 +320,10 @@ class InternalForcePrior:
             "solver": "CasADi IPOPT", "solver_status": stats["return_status"],
             "iterations": int(stats["iter_count"]), "fit_time_s": time.perf_counter() - t0,
             "n_samples": int(len(roll)),
-            "bounds_hit": [n for n, x, a, b in zip(NAMES, params, lo, hi)
-                           if min(x - a, b - x) <= 1e-6 * (b - a) and n not in fixed],
+            "bounds_hit": _bounds_hit(params, fixed),
             "fixed": {n: float(x) for n, x in fixed.items()},
-            "identifiability": identifiability(params, fixed, (pos, e, v, g), y, mask, ch_scale),
+            **({"identifiability": identifiability(params, fixed, (pos, e, v, g), y, mask,
+                                                   ch_scale)} if report else {}),
             "slack_samples_fraction": float(np.mean(_slack_any(prior.params, roll, e))),
             "train_metrics": channel_metrics(y, fitted, mask),
             "provenance": provenance or {"recordings": sources},
@@ -423,6 +434,12 @@ def _check_weights(weights, name: str) -> np.ndarray:
     if not (np.isfinite(w).all() and (w >= 0).all() and (w <= 1).all()):
         raise IdentificationInputError(f"{name} must lie in [0, 1], got {w.tolist()}")
     return w
+
+
+def _bounds_hit(params, fixed) -> list[str]:
+    """The free parameters at a bound, by :func:`~psmforce.identification.prior_law.at_bound`
+    (the rule the identifiability report uses): ``info["bounds_hit"]``."""
+    return [n for n, hit in zip(NAMES, at_bound(params)) if hit and n not in fixed]
 
 
 def _check_fixed(fixed) -> dict[str, float]:

@@ -1,5 +1,7 @@
 """Which parameters of the internal-force prior the fitted data pin down
-(:func:`identifiability`, reported in ``InternalForcePrior.info["identifiability"]``).
+(:func:`identifiability`, reported in ``InternalForcePrior.info["identifiability"]``;
+:func:`add_trial_spread` adds the jackknife over trials that
+:mod:`psmforce.identification.prior_selection` runs, and that module fixes what is listed).
 
 The Fisher information of the scaled residuals gives the standard errors and correlations; it
 treats the wrist efforts as exact, so the shrinkage that their noise causes in the parameters
@@ -11,13 +13,18 @@ from __future__ import annotations
 
 import numpy as np
 
-from psmforce.identification.prior_law import KAPPA, NAMES, PARAMETERS, _model
+from psmforce.identification.prior_law import KAPPA, NAMES, PARAMETERS, _model, at_bound
 from psmforce.identification.prior_law import MIN_SAMPLES as _MIN_SAMPLES
 
 RECOVERY_TOLERANCE = 0.10
 """The relative accuracy :func:`identifiability` asks of a parameter: three standard errors, and
 the shrinkage that input noise causes, within 10 % of its value."""
 MIN_INPUT_RELIABILITY = 1.0 - RECOVERY_TOLERANCE
+MIN_CHANNEL_R2 = -0.05
+"""A channel whose fitted R^2 is below this (a constant at its mean scores 0, so this is "worse
+than a constant", with room for rounding) is not explained by the law on these data; a
+parameter whose Fisher information comes mostly from such channels is listed ("lack of fit")."""
+CHANNELS = ("fx", "fy", "fz", "tx", "ty", "tz")
 
 
 def _pair_differentials(params, e):
@@ -51,7 +58,9 @@ def identifiability(params, fixed, inputs, y, mask, ch_scale, chunk: int = 20000
     ``not_identifiable`` (name -> reason): a parameter at its bound; one correlated beyond
     0.99 with another; 3 standard errors above :data:`RECOVERY_TOLERANCE` of its value (a value
     within 3 standard errors of zero cannot be pinned down relatively at all); a reliability
-    below :data:`MIN_INPUT_RELIABILITY`; pulley radii, pretension, twist gain, bias_fz where fewer
+    below :data:`MIN_INPUT_RELIABILITY`; more than half its Fisher information from channels
+    the law explains worse than a constant (R^2 below :data:`MIN_CHANNEL_R2`: lack of fit, the
+    value then carries what the law misses); pulley radii, pretension, twist gain, bias_fz where fewer
     than 200 samples are slack by more than 3 noise standard deviations (only slack separates
     them; the smooth max's curvature would otherwise "identify" them from noise).
     """
@@ -81,6 +90,10 @@ def identifiability(params, fixed, inputs, y, mask, ch_scale, chunk: int = 20000
             gram[k] += jac[ch == k].T @ jac[ch == k]
             sq[k], n_res[k] = sq[k] + np.sum(r[ch == k] ** 2), n_res[k] + np.sum(ch == k)
     s2 = np.where(n_res > 0, sq / np.maximum(n_res, 1), 1.0)  # residual variance per channel
+    # lack of fit: R^2 of each channel on the fitted samples (a constant scores 0)
+    var_y = np.array([np.var(y[used[:, c], c]) if used[:, c].any() else 0.0 for c in range(6)])
+    r2 = np.where(var_y > 0, 1.0 - s2 * ch_scale ** 2 / np.where(var_y > 0, var_y, 1.0), 1.0)
+    unexplained = r2 < MIN_CHANNEL_R2
     info = np.einsum("kij,k->ij", gram, 1.0 / s2)  # Fisher information
     # the fit weighs channels by ch_scale, not by their residual variance: sandwich covariance
     hess_inv = np.linalg.pinv(gram.sum(axis=0))
@@ -111,12 +124,14 @@ def identifiability(params, fixed, inputs, y, mask, ch_scale, chunk: int = 20000
                  "pulley_radius_blade": n_slack[1] < _MIN_SAMPLES,
                  **dict.fromkeys(("pretension_total", "bias_fz", "twist_gain"),
                                  sum(n_slack) < _MIN_SAMPLES)}
-    lo = np.array([p[2] for p in PARAMETERS])
-    at_bound = np.minimum(params - lo, lo + span - params) <= 1e-3 * span
+    bound = at_bound(params)  # the rule of info["bounds_hit"]
     moments = np.broadcast_to(used[:, 3:4], D.shape)
     rel = {"asymmetry_pitch": reliability([0], taut), "asymmetry_blade": reliability([1, 2], taut),
            "cable_radius": reliability([0, 1, 2], moments)}
 
+    # each parameter's Fisher information from the channels the law does not explain
+    share = (np.einsum("kii,k->ki", gram, 1.0 / s2)[unexplained].sum(axis=0)
+             / np.maximum(np.diag(info), 1e-300))
     reasons = {}
     for k, i in enumerate(free):
         name, unit, value = NAMES[i], PARAMETERS[i][1], params[i]
@@ -124,8 +139,8 @@ def identifiability(params, fixed, inputs, y, mask, ch_scale, chunk: int = 20000
             reasons[name] = "not excited: the fitted samples do not depend on it"
             continue
         why = []
-        if at_bound[i]:
-            why.append("at its bound: set by the bound, not by the data")
+        if bound[i]:
+            why.append(f"at its bound ({value:.4g} {unit}): set by the bound, not by the data")
         if not_slack.get(name):
             why.append(f"slack samples beyond the effort noise: {n_slack[0]} (pitch pair), "
                        f"{n_slack[1]} (blade pairs), fewer than {_MIN_SAMPLES}: without them the "
@@ -143,6 +158,13 @@ def identifiability(params, fixed, inputs, y, mask, ch_scale, chunk: int = 20000
                           f"3 SE are {3 * se[k] / abs(value):.0%} of the value"))
             if partner is not None and 0.9 < abs(corr[k, partner]) <= 0.99:
                 why[-1] += f", correlation {corr[k, partner]:+.3f} with {NAMES[free[partner]]}"
+        if share[k] > 0.5:
+            bad = np.flatnonzero(unexplained)
+            why.append(f"lack of fit: {share[k]:.0%} of its information comes from "
+                       f"{', '.join(CHANNELS[c] for c in bad)}, which the law explains worse "
+                       f"than a constant on the fitted data (R^2 "
+                       f"{', '.join(f'{r2[c]:.3g}' for c in bad)}): its value carries what the "
+                       f"law misses there")
         if name in rel and rel[name] < MIN_INPUT_RELIABILITY:
             why.append(f"errors in variables: the wrist efforts' noise leaves a reliability of "
                        f"{rel[name]:.2f} in its regressor (the pair differentials), so the fit "
@@ -163,6 +185,7 @@ def identifiability(params, fixed, inputs, y, mask, ch_scale, chunk: int = 20000
         "standard_errors": {NAMES[i]: float(x) for i, x in zip(free, se)},
         "correlations_above_0.9": pairs,
         "effort_noise_differential_n": [float(x) for x in np.sqrt(noise_var)],
+        "channel_r2": {c: float(x) for c, x in zip(CHANNELS, r2)},
         "input_reliability": rel,
         "clear_slack_samples": {"pitch": n_slack[0], "blade": n_slack[1]},
         "not_identifiable": reasons,
@@ -170,3 +193,28 @@ def identifiability(params, fixed, inputs, y, mask, ch_scale, chunk: int = 20000
     }
 
 
+
+
+def add_trial_spread(report: dict, params, jackknife_se: dict[str, float], groups: int) -> dict:
+    """Add the trial jackknife to an :func:`identifiability` report, in place, and return it.
+
+    ``jackknife_se``: per free parameter, the delete-a-group jackknife standard error over
+    ``groups`` groups of whole trials (:func:`psmforce.identification.prior_selection.
+    trial_jackknife`). Unlike the sandwich standard errors it needs no noise model: whatever
+    varies between trials (coloured effort disturbance, the discs' stuck state, sensor drift,
+    effects outside the law that each trial excites differently) moves the refits. A parameter
+    whose 3 jackknife standard errors exceed :data:`RECOVERY_TOLERANCE` of its value joins
+    ``not_identifiable`` with that reason (or has it appended)."""
+    reasons = report["not_identifiable"]
+    report["jackknife_standard_errors"] = {n: float(x) for n, x in jackknife_se.items()}
+    report["jackknife_groups"] = int(groups)
+    for name, se in jackknife_se.items():
+        value = float(params[NAMES.index(name)])
+        if 3 * se > RECOVERY_TOLERANCE * abs(value):
+            unit = PARAMETERS[NAMES.index(name)][1]
+            why = (f"varies between groups of trials: {value:.4g} +- {se:.2g} {unit} (1 SE, "
+                   f"jackknife over {groups} groups of trials), "
+                   + ("indistinguishable from zero" if abs(value) <= 3 * se else
+                      f"3 SE are {3 * se / abs(value):.0%} of the value"))
+            reasons[name] = f"{reasons[name]}; {why}" if name in reasons else why
+    return report

@@ -47,6 +47,19 @@ PARAMETERS = (
 NAMES = tuple(p[0] for p in PARAMETERS)
 MIN_SAMPLES = 200
 """Fewest samples (or slack samples) a fit or an identifiability verdict rests on."""
+BOUND_TOLERANCE = 1e-3
+"""A parameter within this fraction of its bounds' span of a bound is "at its bound": the one
+rule of :func:`at_bound`, which the fit's ``info["bounds_hit"]``, the identifiability report and
+the verdict line all use."""
+
+
+def at_bound(params) -> np.ndarray:
+    """(17,) bool: each parameter (SI, :data:`NAMES` order) within :data:`BOUND_TOLERANCE` of its
+    bounds' span of its lower or upper bound."""
+    p = np.asarray(params, dtype=float)
+    lo = np.array([q[2] for q in PARAMETERS])
+    hi = np.array([q[3] for q in PARAMETERS])
+    return np.minimum(p - lo, hi - p) <= BOUND_TOLERANCE * (hi - lo)
 
 
 def _model(p, pos, e, v, g_hex, xp):

@@ -6,6 +6,7 @@ from psmforce.sim.bench import Contact, run_trajectory
 from psmforce.sim.dataset import SimulationConfigError, simulate
 from psmforce.sim.params import Effects, InstrumentParams
 from psmforce.sim.port import PORT_NAMES, PORTS, Port
+from psmforce.sim import versions  # versions.instrument("2.2"): a later version's nominal tool
 
 __all__ = ["simulate", "InstrumentParams", "Effects", "SimulationConfigError", "run_trajectory", "Contact",
-           "Port", "PORTS", "PORT_NAMES"]
+           "Port", "PORTS", "PORT_NAMES", "versions"]

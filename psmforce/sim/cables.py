@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from psmforce.sim.cable_laws import quadratic_pair
 from psmforce.sim.params import Effects, InstrumentParams
 
 BLADE_PITCH_PICKUP = 0.8306 / 1.0186
@@ -136,6 +137,11 @@ def transmission(q: np.ndarray, tau_load_distal: np.ndarray, params: InstrumentP
     ``slack`` mask; ``deflection`` (wrist_pitch, wrist_yaw, jaw) rad with
     true = encoder - deflection; ``effort`` dVRK joint-space efforts of (wrist_pitch, wrist_yaw,
     jaw) in Nm from the motor-side differentials; ``z`` Dahl direction states.
+
+    Load-independent friction (simulator 2.2; ``params.cable_coulomb_n = f`` > 0, with the
+    ``capstan`` effect): the motor-side differential gains ``+ f z`` (N; the motor pulls the
+    moving cable harder by f whatever the load) and the cable run that stretches carries
+    ``share x f z`` of it (``cable_coulomb_stretch_share``); the section's tensions do not.
     """
     g = coupling_matrix(params)
     g_inv_t = np.linalg.inv(g).T
@@ -159,24 +165,32 @@ def transmission(q: np.ndarray, tau_load_distal: np.ndarray, params: InstrumentP
 
     tau_demand = -tau_load_distal
     d_dist = tau_demand @ g_inv_t.T
-    s_sh, d_sh, is_slack = _capstan_pair(d_dist, mu_distal * z, alpha, t0, effects.slack)
+    pair = quadratic_pair if params.pair_law == "quadratic" else _capstan_pair  # cable_laws.py
+    s_sh, d_sh, is_slack = pair(d_dist, mu_distal * z, alpha, t0, effects.slack)
     if effects.pin_friction:
         # Pin friction torque grows with the load the cables put on the pulley pins (~ S).
         tau_pin = params.pin_friction_coefficient * radii * s_sh * z
         tau_demand = tau_demand + tau_pin
         d_dist = tau_demand @ g_inv_t.T
-        s_sh, d_sh, is_slack = _capstan_pair(d_dist, mu_distal * z, alpha, t0, effects.slack)
+        s_sh, d_sh, is_slack = pair(d_dist, mu_distal * z, alpha, t0, effects.slack)
 
+    # Simulator 2.2: the cable path's Coulomb friction proximal of the section (N of pair
+    # differential, along z); off at 0 or with the capstan (the path's friction) switched off.
+    coulomb = (params.cable_coulomb_n * z if params.cable_coulomb_n and effects.capstan
+               else None)
     if effects.elasticity:
         k = params.cable_stiffness_n_per_m
-        e = np.where(is_slack, np.sign(d_sh) * np.maximum(np.abs(d_sh) - t0, 0.0) / k,
-                     d_sh / (2.0 * k))
+        d_run = d_sh if coulomb is None else d_sh + params.cable_coulomb_stretch_share * coulomb
+        e = np.where(is_slack, np.sign(d_run) * np.maximum(np.abs(d_run) - t0, 0.0) / k,
+                     d_run / (2.0 * k))
         deflection = distal_to_joints(e @ np.linalg.inv(g).T)
     else:
         deflection = np.zeros((len(q), 3))
 
     mz = mu_proximal * z
     d_motor = d_sh * np.cosh(mz) + s_sh * np.sinh(mz)
+    if coulomb is not None:
+        d_motor = d_motor + coulomb
     effort = distal_torque_to_joints(d_motor @ g)
     tensions = np.stack([(s_sh + d_sh) / 2.0, (s_sh - d_sh) / 2.0], axis=-1)
     return {"s_shaft": s_sh, "d_shaft": d_sh, "tensions": tensions, "slack": is_slack,

@@ -26,6 +26,11 @@ def _default_crosstalk() -> tuple[tuple[float, ...], ...]:
     return tuple(tuple(float(v) for v in row) for row in c)
 
 
+OMITTED_WHEN_OFF = ("cable_coulomb_n", "cable_coulomb_stretch_share")
+"""Fields added with simulator 2.2 (:mod:`psmforce.sim.versions`) that :meth:`InstrumentParams.to_dict`
+leaves out while they are 0 (off): simulator 2.1's ``metadata.json`` stays what it was."""
+
+
 @dataclass(frozen=True)
 class InstrumentParams:
     """Physical parameters of the modified Cadiere forceps, its HEX10 and the bench sensors.
@@ -186,9 +191,35 @@ class InstrumentParams:
     tangentially (a helical lay, every cable the same hand): each cable then also pulls the
     distal body sideways by T sin(angle) along (-sin phi, cos phi, 0) at its angle phi. 0: the
     cables run along the shaft (the nominal bench; the prior does not model this force)."""
+    pair_law: str = "linear"
+    """The law of each antagonistic cable pair (:mod:`psmforce.sim.cable_laws`): ``"linear"``
+    (linear cables, ``S = 2 T0 + alpha D`` taut; the nominal bench) or ``"quadratic"``
+    (strain-stiffening cables, ``S = 2 T0 + D^2 / (8 T0)`` taut, slack smoothly at
+    ``|D| = 4 T0``; outside the prior's family, for docs/identification.md section 2.1)."""
+    cable_coulomb_n: float = 0.0
+    """Load-independent (Coulomb) friction force of each cable pair's path proximal of the HEX10
+    section (spool bearings, housing idlers, the shaft's cable guides and seal), N of pair
+    differential, in the direction of the pair's motion (Dahl state ``z``): the motor pays it,
+    the section does not see it (:func:`psmforce.sim.cables.transmission`). 0 (simulator 2.1 and
+    before): off. Simulator 2.2 (:mod:`psmforce.sim.versions`) calibrates it on a real
+    EndoWrist's friction at zero load (docs/simulator.md section 12b)."""
+    cable_coulomb_stretch_share: float = 0.0
+    """Share (0..1) of ``cable_coulomb_n`` that the stretching cable run carries (the friction
+    acts part-way along it): adds ``share x cable_coulomb_n x z`` to the differential that
+    stretches the cables, so it widens the loop of motion lost at each reversal by a
+    load-independent amount."""
+
+    def __post_init__(self):
+        from psmforce.sim.cable_laws import PAIR_LAWS
+        if self.pair_law not in PAIR_LAWS:
+            raise ValueError(f"pair_law must be one of {PAIR_LAWS}, got {self.pair_law!r}")
 
     def to_dict(self) -> dict:
-        return {f.name: _jsonable(getattr(self, f.name)) for f in fields(self)}
+        """Every field, except those of :data:`OMITTED_WHEN_OFF` at 0 (so that a bench without
+        them writes the metadata it wrote before they existed; :meth:`from_dict` restores 0)."""
+        return {f.name: _jsonable(getattr(self, f.name)) for f in fields(self)
+                if not (f.name in OMITTED_WHEN_OFF and getattr(self, f.name) == 0.0)
+                and not (f.name == "pair_law" and self.pair_law == "linear")}  # the default law
 
     @classmethod
     def from_dict(cls, d: dict) -> "InstrumentParams":

@@ -21,7 +21,10 @@ def reduced_dataset(tmp_path_factory):
 
 @pytest.mark.slow
 def test_recovers_reduced_class_parameters(reduced_dataset, tmp_path):
-    rep = fit_prior_cli(reduced_dataset, tmp_path / "prior.json", use_loaded=True)
+    # all 17 free (the law's own fit): with identify=True bias_fz, which only 76 % of a 0.1 N
+    # offset separates from the pretension, is held at its design value 0 (test_prior_selection)
+    rep = fit_prior_cli(reduced_dataset, tmp_path / "prior.json", use_loaded=True,
+                        identify=False)
     assert rep["converged"]
     truth = json.loads((reduced_dataset / "metadata.json").read_text())["instrument"]  # comparison only
     p = rep["parameters"]
@@ -90,7 +93,7 @@ def test_free_fit_on_the_calibrated_bench_beats_a_constant(tmp_path):
     from psmforce.sim import simulate
 
     simulate(protocol="automated", scale=0.02, seed=1, out=str(tmp_path / "d"))
-    rep = fit_prior_cli(tmp_path / "d", tmp_path / "prior.json")
+    rep = fit_prior_cli(tmp_path / "d", tmp_path / "prior.json", identify=False)  # curve fit
     prior = InternalForcePrior.load(tmp_path / "prior.json")
     assert rep["converged"] and "bias_fz" not in rep["bounds_hit"]
     train = prior.info["train_metrics"]["fz"]

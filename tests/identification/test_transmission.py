@@ -252,6 +252,24 @@ def test_cli_fits_saves_and_refuses_bad_input(tmp_path, capsys):
     assert main(["fit-transmission", str(tmp_path / "session"), "--out", str(tmp_path / "m3.json"),
                  "--validation", "99"]) == 2
     assert "no file 99.TXT" in capsys.readouterr().err
+    # a new mount: only the per-session parameters, constants kept
+    moved = [replace(r, jaw_torque_nm=r.jaw_torque_nm + 0.01) for r in recs[:2]]
+    _write_session(tmp_path / "mount2", moved)
+    again = tmp_path / "m4.json"
+    assert main(["fit-transmission", str(tmp_path / "mount2"), "--recalibrate", str(out),
+                 "--out", str(again)]) == 0
+    assert "constants kept" in capsys.readouterr().out
+    first, second = CableTransmission.load(out), CableTransmission.load(again)
+    assert np.array_equal(first.torque, second.torque)
+    assert second.sessions["mount2"]["torque_bias"] == pytest.approx(
+        first.sessions["session"]["torque_bias"] + 0.01, abs=2e-3)
+    for bad, says in ((["--fix", "viscous=9"], "outside its bounds"),
+                      (["--fix", "nothing=0"], "NAME=VALUE"),
+                      (["--recalibrate", str(out), "--bootstrap", "3"], "do not apply")):
+        assert main(["fit-transmission", str(tmp_path / "mount2"), "--out",
+                     str(tmp_path / "m5.json"), *bad]) == 2
+        assert says in capsys.readouterr().err
+    assert not (tmp_path / "m5.json").exists()
 
 
 def test_fit_refuses_data_that_cannot_identify():

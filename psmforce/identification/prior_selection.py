@@ -1,0 +1,196 @@
+"""The internal-force prior as an identification: what the data cannot pin down is fixed at its
+design value, named, and the rest refitted (docs/identification.md section 2, "Which
+parameters are fitted").
+
+:func:`fit_identified` fits the prior (:meth:`InternalForcePrior.fit`) with every parameter free,
+reads the identifiability report (:func:`~psmforce.identification.prior_identifiability.
+identifiability`: at a bound, correlated beyond 0.99, too few slack samples, errors in variables,
+sandwich standard errors) extended by a jackknife over groups of whole trials
+(:func:`trial_jackknife`, :func:`~psmforce.identification.prior_identifiability.
+add_trial_spread`: the spread of refits that leave one group of trials out, which sees the
+coloured effort disturbance, the stuck discs and the sensor drift that the white-noise standard
+errors do not), fixes the listed parameters at their values in :data:`DESIGN` and refits, until
+the report lists nothing or :data:`MAX_ROUNDS` rounds have run. Each round fixes one tier of
+reasons (:func:`_tier`): first the structural ones (at a bound, too few slack samples,
+correlation beyond 0.99, errors in variables), and only on a fit without them the statistical
+ones (standard errors, jackknife), then those only tied to a listed parameter: a degenerate fit
+(a pretension at its bound) makes every other estimate wander, and fixing the pretension may
+free bias_fz. The final
+fit's ``info["selection"]`` holds each round, the fixed parameters with the reason and the value
+they had when they were listed, and ``info["verdict"]`` the one line that names the identified,
+the fixed and the at-bound parameters (:func:`verdict_line`; printed by ``psmforce fit-prior``).
+
+Cost: one fit and :data:`JACKKNIFE_GROUPS` warm-started refits per round (2-3 rounds on the
+default bench).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from psmforce.identification.errors import IdentificationInputError
+from psmforce.identification.prior import InternalForcePrior
+from psmforce.identification.prior_identifiability import RECOVERY_TOLERANCE, add_trial_spread
+from psmforce.identification.prior_law import NAMES
+from psmforce.io.recording import read_recording
+
+DESIGN = {
+    "pretension_total": 6.0,        # N: the tensioning specification (docs/simulator.md s. 10)
+    "pulley_radius_pitch": 2.0e-3,  # m: datasheet geometry (s. 6, 10)
+    "pulley_radius_blade": 1.5e-3,  # m: datasheet geometry
+    "twist_gain": 0.03,             # 1/rad^2: nominal (+19 % pretension at 2.5 rad roll, s. 10)
+    "direction_tension": 0.0,       # N: no friction by design
+    "asymmetry_pitch": 0.30,        # 1: nominal pair asymmetry (s. 10)
+    "asymmetry_blade": 0.275,       # 1: nominal blade pairs' (0.25, 0.30), tied by the law
+    "pitch_path_tension": 0.896,    # N: cable stiffness 2.8e5 N/m x path mismatch 3.2 um (s. 10)
+    "distal_mass": 5.5e-3,          # kg: distal body 4 g + jaws 1.5 g (s. 7, 10)
+    "distal_com_distance": 0.0265,  # m: from the HEX10 along z, straight wrist: body 4 g at
+    # 25 - 4 = 21 mm, jaws 1.5 g 7 mm beyond the control point (34.1 mm):
+    # (4 x 21 + 1.5 x 41.1) / 5.5
+    "cable_radius": 1.2e-3,         # m: cables cross the bore at 1.2 mm (s. 7)
+    "bias_fx": 0.0, "bias_fy": 0.0, "bias_fz": 0.0,     # N: the sensor is tared
+    "bias_tx": 0.0, "bias_ty": 0.0, "bias_tz": 0.0,     # Nm: the sensor is tared
+}
+"""The value a parameter is held at when the data cannot pin it down: the instrument's design
+(nominal) values as docs/simulator.md states them, read as a datasheet (SI, :data:`NAMES`). They
+are the nominal tool's, so on a bench simulated with the nominal tool (``psmforce simulate``
+without ``--tool-seed``) the instrument parameters' design values equal the bench's truth by
+construction, and the biases' design value 0 is not their truth (the tare leaves an offset);
+``fixed`` in the report says which were held. A user holds their own instrument's values
+(``fit_identified(design=...)``)."""
+
+MAX_ROUNDS = 6
+"""Fit - report - fix rounds at most; the report lists what is still unidentified after them."""
+JACKKNIFE_GROUPS = 4
+"""Groups of whole trials the jackknife leaves out one at a time (trial k goes to group
+k mod 4, so every group holds every condition)."""
+
+
+def _frames(recordings) -> list:
+    return [read_recording(r) if isinstance(r, (str, Path)) else r for r in recordings]
+
+
+def trial_jackknife(frames, prior: InternalForcePrior, fixed: dict[str, float],
+                    groups: int = JACKKNIFE_GROUPS, psm=None, max_iter: int = 500
+                    ) -> dict[str, float] | None:
+    """Delete-a-group jackknife standard error of each free parameter over ``groups`` groups of
+    whole trials (trial k in group k mod ``groups``): refit without each group, warm-started at
+    ``prior``'s parameters, ``se^2 = (G - 1) / G sum_g (p_g - mean p)^2`` (SI units). None when
+    there are fewer trials than groups."""
+    if len(frames) < groups or groups < 2:
+        return None
+    start = {n: float(x) for n, x in zip(NAMES, prior.params) if n not in fixed}
+    refits = []
+    for g in range(groups):
+        kept = [f for k, f in enumerate(frames) if k % groups != g]
+        refits.append(InternalForcePrior.fit(kept, psm=psm, fixed=fixed, initial=start,
+                                             report=False, max_iter=max_iter).params)
+    p = np.array(refits)
+    se = np.sqrt((groups - 1) / groups * np.sum((p - p.mean(axis=0)) ** 2, axis=0))
+    return {n: float(se[i]) for i, n in enumerate(NAMES) if n not in fixed}
+
+
+def fit_identified(recordings, *, psm=None, provenance=None, design: dict | None = None,
+                   groups: int = JACKKNIFE_GROUPS, max_rounds: int = MAX_ROUNDS,
+                   max_iter: int = 500) -> InternalForcePrior:
+    """Fit the prior with only what the data identify free (module docstring); the rest held at
+    ``design`` (default :data:`DESIGN`; a partial dict overrides some entries)."""
+    design = {**DESIGN, **(design or {})}
+    unknown = sorted(set(design) - set(NAMES))
+    if unknown:
+        raise IdentificationInputError(f"design: unknown parameters {unknown} (one of {NAMES})")
+    frames = _frames(recordings)
+    fixed: dict[str, float] = {}
+    why_fixed: dict[str, dict] = {}
+    rounds = []
+    for round_ in range(max_rounds):
+        prior = InternalForcePrior.fit(frames, psm=psm, provenance=provenance, fixed=fixed,
+                                       max_iter=max_iter)
+        report = prior.info["identifiability"]
+        jack = trial_jackknife(frames, prior, fixed, groups, psm, max_iter)
+        if jack is not None:
+            add_trial_spread(report, prior.params, jack, groups)
+        listed = dict(report["not_identifiable"])
+        rounds.append({"fixed": sorted(fixed), "converged": prior.converged,
+                       "parameters": {n: float(x) for n, x in zip(NAMES, prior.params)},
+                       "bounds_hit": list(prior.info["bounds_hit"]), "not_identifiable": listed})
+        tiers = [{n: r for n, r in listed.items() if _tier(r) == t} for t in range(3)]
+        if "pretension_total" in tiers[0]:  # the data see bias_fz - T_tot and T_tot x g_twist:
+            for name in TIED_TO_PRETENSION:  # judged again once the pretension is held
+                if name in tiers[0]:
+                    tiers[2][name] = tiers[0].pop(name)
+        to_fix = next((t for t in tiers if t), {})
+        if (not to_fix or len(fixed) + len(to_fix) >= len(NAMES)
+                or round_ == max_rounds - 1):  # fix only what a refit follows
+            break
+        for name, reason in to_fix.items():
+            why_fixed[name] = {"value": design[name], "reason": reason,
+                               "fitted_when_listed": float(prior.params[NAMES.index(name)]),
+                               "round": len(rounds)}
+            fixed[name] = design[name]
+    still = sorted(prior.info["identifiability"]["not_identifiable"])
+    free = [n for n in NAMES if n not in fixed]
+    prior.info["selection"] = {
+        "method": "fit, list the parameters the identifiability report (with the trial "
+                  "jackknife) calls not identifiable, hold them at their design values, refit; "
+                  "until nothing is listed",
+        "design": design, "jackknife_groups": groups if len(frames) >= groups else None,
+        "rounds": rounds, "fixed": why_fixed,
+        "identified": [n for n in free if n not in still],
+        "still_not_identifiable": still,
+        "at_bound": list(prior.info["bounds_hit"]),
+    }
+    prior.info["verdict"] = verdict_line(prior.info["selection"])
+    return prior
+
+
+TIED_TO_PRETENSION = ("bias_fz", "twist_gain")
+"""Seen only as ``bias_fz - pretension_total`` and ``pretension_total x twist_gain`` without
+slack samples: left free in a round that fixes the pretension."""
+STRUCTURAL = ("at its bound", "slack samples", "the data see a combination",
+              "errors in variables", "not excited", "lack of fit")
+"""Reasons the data cannot pin a parameter down whatever its value (fixed first: a degenerate
+fit, such as a pretension at its bound, makes every other estimate wander between trials)."""
+
+
+def _tier(reason: str) -> int:
+    """0: a structural reason (:data:`STRUCTURAL`); 1: statistical only (standard errors, the
+    trial jackknife); 2: only tied to a listed parameter. Each round fixes the lowest tier
+    listed; the others are judged again on the refit."""
+    if any(k in reason for k in STRUCTURAL):
+        return 0
+    return 2 if reason.startswith("tied to") else 1
+
+
+def _names(names) -> str:
+    return ", ".join(names) if names else "none"
+
+
+def verdict_line(selection: dict) -> str:
+    """One line: the identified free parameters, those held at design values, those still not
+    identifiable (a fit that ran out of rounds), those at a bound; never "passes" while the
+    report lists a free parameter."""
+    still, bound = selection["still_not_identifiable"], selection["at_bound"]
+    first = selection["rounds"][0]["bounds_hit"] if selection["rounds"] else []
+    line = (f"identified (free, 3 SE within {RECOVERY_TOLERANCE:.0%}): "
+            f"{_names(selection['identified'])}; fixed at design values (not identifiable): "
+            f"{_names(sorted(selection['fixed']))}")
+    if still:
+        line += f"; free but NOT identifiable: {_names(still)}"
+    line += f"; at a bound: {_names(bound)}"
+    if first and first != bound:
+        line += f" (in the all-free fit: {_names(first)})"
+    return line
+
+
+def all_free_line(selection: dict) -> str:
+    """The verdict's first part for a fit with all 17 parameters free (``fit_prior_cli(...,
+    identify=False)``, ``psmforce fit-prior --all-free``): a curve fit, and which of its values
+    its own report does not identify."""
+    return (f"all {len(NAMES)} parameters free (a curve fit: the values listed as not "
+            f"identifiable are not the instrument's): identified: "
+            f"{_names(selection['identified'])}; NOT identifiable: "
+            f"{_names(selection['still_not_identifiable'])}; at a bound: "
+            f"{_names(selection['at_bound'])}")
