@@ -274,6 +274,14 @@ def transmission_transfer_learned_tables(result: dict) -> str:
                         ahead_misses.append(f"{folder} {protocol} {part} ({names[best[1]]} "
                                             f"{best[0]:.1f} against {h:.1f})")
         lines.append("")
+    cut = {}
+    for r in result["records"]:
+        if r["protocol"] == "recalibrated" and r.get("fit", {}).get("stopped_by") == "time_limit":
+            cut[r["model"]] = cut.get(r["model"], 0) + 1
+    if cut:
+        lines.append("Finetunes stopped by the time limit before early stopping (not converged): "
+                     + ", ".join(f"{names[m]} {n} of {len(summary) - 1}"
+                                 for m, n in sorted(cut.items())) + ".")
     lines.append("The hybrid below every learned model on every transfer protocol: "
                  + (f"missed on {'; '.join(ahead_misses)}." if ahead_misses else "met.") + "")
     return "\n".join(lines) + "\n"
