@@ -61,7 +61,7 @@ def _refused(cls, path, message):
 @pytest.mark.parametrize("kind", sorted(MODELS))
 def test_a_saved_model_is_sealed_and_round_trips_identically(kind, tmp_path):
     path, d, cls, version, _ = _saved(kind, tmp_path)
-    assert type(d["format_version"]) is int and d["format_version"] == version == 2
+    assert type(d["format_version"]) is int and d["format_version"] == version
     assert isinstance(d["sha256"], dict) and "all" in d["sha256"]
     again = tmp_path / "again.json"
     cls.load(path).save(again)
@@ -103,10 +103,11 @@ def test_a_model_with_one_field_edited_is_refused_naming_it(kind, field, edit, t
     cls.load(path)
 
 
-@pytest.mark.parametrize("version", ["2", 2.0, True, None, 3])
+@pytest.mark.parametrize("version", ["2", 2.0, True, None, "next"])
 @pytest.mark.parametrize("kind", sorted(MODELS))
 def test_a_model_whose_format_version_is_not_the_integer_is_refused(kind, version, tmp_path):
-    path, d, cls, _, what = _saved(kind, tmp_path)
+    path, d, cls, current, what = _saved(kind, tmp_path)
+    version = current + 1 if version == "next" else version  # a version from the future
     path.write_text(json.dumps(seal({**d, "format_version": version})))  # even resealed
     _refused(cls, path, f"{what} format version")
 

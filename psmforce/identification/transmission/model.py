@@ -405,7 +405,7 @@ class CableTransmission:
         number inside its bounds (per-session values alike), an angle parameter that is not
         finite (the ratio within (0.3, 3)), a width that is not a finite number in its range."""
         d = read_model_json(path, FORMAT, "a CableTransmission")
-        if d.get("format_version") == 2:
+        if type(d.get("format_version")) is int and d["format_version"] == 2:
             raise IdentificationInputError(
                 f"{path}: a format-2 transmission (before per-session parameters); refit it with "
                 "`psmforce fit-transmission SESSION_DIR --out FILE`")
