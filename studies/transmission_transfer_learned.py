@@ -45,7 +45,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from psmforce.core.files import write_json_atomic  # noqa: E402
+from psmforce.core.files import atomic_path, write_json_atomic  # noqa: E402
 from psmforce.experiments.report import shown_path  # noqa: E402
 
 MODELS = ("fcn", "lstm", "transformer", "rocket", "hybrid")
@@ -151,8 +151,9 @@ def run_model(model: str, seed: int, data_dir: str, work: str) -> list[dict]:
         report = (est.fit(tr, va) if model == "rocket" else
                   tm.train(net, settings, tr, va, seed=seed, max_epochs=150, time_limit_s=2400))
         weights.parent.mkdir(parents=True, exist_ok=True)
-        torch.save({"weights": (est.reg if model == "rocket" else net).state_dict(),
-                    "report": report}, weights)
+        with atomic_path(weights) as tmp:  # a killed run never leaves a partial file to resume
+            torch.save({"weights": (est.reg if model == "rocket" else net).state_dict(),
+                        "report": report}, tmp)
     trained = copy.deepcopy((est.reg if model == "rocket" else net).state_dict())
     records = [kept("in_session", lambda: {"model": model, "seed": seed, "folder":
                                            "Tool_4_Maryland_L_4", "protocol": "in_session",
