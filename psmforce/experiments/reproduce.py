@@ -62,10 +62,12 @@ from psmforce.estimators.evaluation.evaluate import (EVAL_START, floor_metrics, 
                                                      score_modes, scored_segment)
 from psmforce.experiments.task_cache import (adopt_earlier_keys, cache_path, cached_result,
                                              run_grid, task)
-from psmforce.estimators.evaluation.metrics import POSTPROCESSING, axis_metrics, lowpass_lag_samples
+from psmforce.estimators.evaluation.metrics import (AXES, POSTPROCESSING, axis_metrics,
+                                                  lowpass_lag_samples)
 from psmforce.estimators.networks.baselines import count_parameters
 from psmforce.experiments.plan import plan
 from psmforce.estimators.networks.recipes import DERIVATIONS, RECIPES, recipe
+from psmforce.experiments.regimes import REGIMES, regime_settings
 from psmforce.estimators.training.resume import clear_state
 from psmforce.estimators.evaluation.tables import results_markdown, spread, verdicts
 from psmforce.estimators.training.train import (TrainConfig, finetune_model, fit_prior, make_setup,
@@ -95,11 +97,13 @@ DATA_FRACTIONS = (0.1, 0.3)
 TELEOP_CONDITIONS = ("Rigid", "Soft", "Free")
 
 
-def _config(budget: str, stage: str, seed: int, device: str, model: str) -> TrainConfig:
-    """Budget caps + the paper's per-model settings (Table S1: automated data for pretraining;
-    teleoperation finetuning uses lr 1e-3, weight decay 1e-4 for every model, and the LSTM keeps
-    its 1000-sample sequences)."""
-    hparams = dict(recipe(model).optimiser)
+def _config(budget: str, stage: str, seed: int, device: str, model: str,
+            optimiser: dict) -> TrainConfig:
+    """Budget caps + the task's optimiser settings (the model's recipe under the run's training
+    regime, :func:`_recipe_params`; the paper's models' own are Table S1: automated data for
+    pretraining; teleoperation finetuning uses lr 1e-3, weight decay 1e-4 for every model, and the
+    LSTM keeps its 1000-sample sequences)."""
+    hparams = dict(optimiser)
     if stage == "finetune":
         hparams = {k: v for k, v in hparams.items() if k not in ("lr", "weight_decay")}
     caps = BUDGETS[budget][stage]   # after the model's settings: a smoke run's caps win
@@ -178,15 +182,16 @@ def _setup(name: str, trials: Sequence[Trial], prior_json: str, variant: str) ->
                       prior_json=prior_json if inputs.uses_prior else None)
 
 
-def _recipe_params(name: str, variant: str) -> dict:
+def _recipe_params(name: str, variant: str, regime: str = "own") -> dict:
     """The part of a model's recipe a training task's result depends on: the variant's inputs
-    and the optimiser settings. They go into the task's parameters, so a recipe change reruns
-    the tasks it reaches instead of reading back what the previous recipe trained (a change of
-    the model's code is not seen: rerun into a new ``out``)."""
+    and the optimiser settings (the recipe's own, or those of a training ``regime``,
+    :mod:`psmforce.experiments.regimes`). They go into the task's parameters, so a recipe
+    change reruns the tasks it reaches instead of reading back what the previous recipe trained
+    (a change of the model's code is not seen: rerun into a new ``out``)."""
     spec = recipe(name)
     features, use_prior = _request(variant)
     return {"inputs": dataclasses.asdict(spec.inputs(features, use_prior)),
-            "optimiser": spec.optimiser}
+            "optimiser": regime_settings(regime, spec)}
 
 
 def task_device(model: str, device: str) -> str:
@@ -205,9 +210,17 @@ def _compute_device(p: dict) -> str:
     return task_device(p["model"], p.get("finish_on") or p["device"])
 
 
+def _regime_parameter(regime: str, model: str) -> dict:
+    """A task's ``regime`` parameter: absent for ``"own"``, so that the tasks of runs made before
+    regimes existed keep their keys, and for a closed-form model, which no regime changes."""
+    return {} if regime == "own" or recipe(model).closed_form else {"regime": regime}
+
+
 def _checkpoint(run_dir: str, p: dict) -> Path:
+    regime = "" if p.get("regime", "own") == "own" else f"_{p['regime']}"
     return (Path(run_dir) / "checkpoints" / f"{p['model']}_{p['variant']}_f{p['fraction']}_"
-                                            f"seed{p['seed']}_{p['budget']}_{p['device']}.pt")
+                                            f"seed{p['seed']}_{p['budget']}_{p['device']}"
+                                            f"{regime}.pt")
 
 
 def _resume_path(checkpoint: Path) -> Path:
@@ -251,7 +264,7 @@ def _pretrain_task(p: dict) -> dict:
     resume = _resume_path(path)
     rep = train_model(setup, train, val,
                       _config(p["budget"], "pretrain", p["seed"], _compute_device(p),
-                              p["model"]),
+                              p["model"], p["recipe"]["optimiser"]),
                       desc=f"{p['model']} seed {p['seed']}", resume=resume)
     setup.provenance = {"reproduce": p, "train_trials": [t.path for t in train],
                         "val_trials": [t.path for t in val], "history": rep["history"]}
@@ -291,11 +304,12 @@ def _finetune_task(p: dict) -> dict:
     tele = _load(p["run_dir"], "teleop", p["seed"], (ckpt.derivation,))
     fold = next(f for f in _teleop_folds(tele) if f["unseen"] == p["fold"])
     ft_train, ft_val = split_validation(fold["train"], 0.25, p["seed"])
+    regime = "" if p.get("regime", "own") == "own" else f"_{p['regime']}"
     resume = Path(p["run_dir"]) / "resume" / (f"finetune_{p['model']}_{p['fold']}_seed{p['seed']}_"
-                                               f"{p['budget']}_{p['device']}.state")
+                                               f"{p['budget']}_{p['device']}{regime}.state")
     rep = finetune_model(ckpt, ft_train, ft_val,
                          _config(p["budget"], "finetune", p["seed"], _compute_device(p),
-                                 p["model"]),
+                                 p["model"], p["recipe"]["optimiser"]),
                          desc=f"finetune {p['model']} {p['fold']}", resume=resume)
     scores = {}
     for which in ("seen", "unseen"):
@@ -401,7 +415,7 @@ def reproduce(out: str | Path, scale: float = 0.1, seeds: Sequence[int] = (1, 2,
               device: str = "cpu", *, budget: str = "full", threads: int = 2,
               finish_on: str | None = None, models: Sequence[str] | None = None,
               ablations: bool = True, efficiency: bool = True, teleop: bool = True,
-              port: str = "none", ray_address: str | None = None,
+              port: str = "none", regime: str = "own", ray_address: str | None = None,
               log: Callable[[str], None] | None = None) -> dict:
     """Run (or resume) the grid into ``out`` and write ``results.md``, ``results.json``,
     ``learning_curves.json`` and figures there. ``out`` must be new, empty, or hold a previous run
@@ -413,10 +427,16 @@ def reproduce(out: str | Path, scale: float = 0.1, seeds: Sequence[int] = (1, 2,
     property of the run: one ``out`` per port. ``finish_on``: the device the tasks still to compute
     run on, when not ``device``: a run started on a GPU whose machine is gone finishes on the CPU,
     every task keeping the key of ``device`` and a training resuming its saved state
-    (:mod:`psmforce.estimators.training.resume`); each training records the devices it ran on."""
+    (:mod:`psmforce.estimators.training.resume`); each training records the devices it ran on.
+    ``regime``: the training regime of every network of the call
+    (:data:`psmforce.experiments.regimes.REGIMES`; ``"own"``: each recipe's settings),
+    which keys its tasks and names its checkpoints, so regimes share one ``out`` and its benches;
+    ``results.json`` is the last call's."""
     say = log or (lambda s: print(s, flush=True))
     if budget not in BUDGETS:
         raise ValueError(f"unknown budget '{budget}'; known: {sorted(BUDGETS)}")
+    if regime not in REGIMES:
+        raise ValueError(f"unknown training regime '{regime}'; known: {list(REGIMES)}")
     models = tuple(RECIPES) if models is None else tuple(models)
     if set(models) - set(RECIPES) or not models:
         raise ValueError(f"models must be among {list(RECIPES)}, got {list(models)}")
@@ -429,7 +449,7 @@ def reproduce(out: str | Path, scale: float = 0.1, seeds: Sequence[int] = (1, 2,
     out = Path(out)
     call = {"scale": scale, "seeds": list(seeds), "device": device, "finish_on": finish_on,
             "budget": budget, "models": list(models), "ablations": ablations,
-            "efficiency": efficiency, "teleop": teleop, "port": port}
+            "efficiency": efficiency, "teleop": teleop, "port": port, "regime": regime}
     floors = prepare_benches(out, scale, seeds, teleop=teleop, port=port,
                              ray_address=ray_address, log=say)
     run_dir, cache = str((out / "work").resolve()), out / "work" / "cache"
@@ -446,7 +466,8 @@ def reproduce(out: str | Path, scale: float = 0.1, seeds: Sequence[int] = (1, 2,
     # Main models over every seed first: an interrupted run has the headline comparison soonest.
     pre_specs = [(_pretrain_task, {**common, "device": task_device(m, device), "seed": s,
                                    "model": m, "variant": v, "fraction": f,
-                                   "recipe": _recipe_params(m, v)})
+                                   "recipe": _recipe_params(m, v, regime),
+                                   **_regime_parameter(regime, m)})
                  for m, v, f in variants for s in seeds]
     pre = run_grid(pre_specs, cache, ray_address=ray_address, log=say)
     pre_by = {(p["model"], p["variant"], p["fraction"], p["seed"]): r
@@ -460,7 +481,8 @@ def reproduce(out: str | Path, scale: float = 0.1, seeds: Sequence[int] = (1, 2,
         folds = [f"config_{k}" for k in range(3)]
         ft_specs = [(_finetune_task, {**common, "device": task_device(m, device), "seed": s,
                                       "model": m, "fold": f,
-                                      "recipe": _recipe_params(m, "full")})
+                                      "recipe": _recipe_params(m, "full", regime),
+                                      **_regime_parameter(regime, m)})
                     for s in seeds for m in models for f in folds]
     ft = run_grid(ft_specs, cache, ray_address=ray_address, log=say)
 
@@ -510,6 +532,9 @@ def _collect(call, seeds, models, variants, pre_by, ft_specs, ft, floors, starte
     main = {plan(m).label: [pre_by[(m, "full", 1.0, s)] for s in seeds] for m in models}
     automated = {mode: {lab: spread([r["test"]["overall"][mode] for r in rs])
                         for lab, rs in main.items()} for mode in POSTPROCESSING}
+    # per seed, in the order of call["seeds"]: what a paired comparison reads
+    per_seed = {mode: {lab: [{a: r["test"]["overall"][mode][a]["nrmse_pct"] for a in AXES}
+                             for r in rs] for lab, rs in main.items()} for mode in POSTPROCESSING}
     conditions = sorted(next(iter(main.values()))[0]["test"]["by_condition"])
     by_condition = {c: {mode: {lab: spread([r["test"]["by_condition"][c][mode] for r in rs])
                                for lab, rs in main.items()} for mode in POSTPROCESSING}
@@ -552,7 +577,8 @@ def _collect(call, seeds, models, variants, pre_by, ft_specs, ft, floors, starte
         and all(t["converged"] for t in ft_training.values()),
         "training": training, "finetune_training": ft_training,
         "causal_lowpass_lag_ms": lowpass_lag_samples() * 10.0,
-        "automated": automated, "automated_by_condition": by_condition, "floor": floor,
+        "automated": automated, "automated_nrmse_pct_per_seed": per_seed,
+        "automated_by_condition": by_condition, "floor": floor,
         "published_nrmse_pct": {plan(m).label: plan(m).published_nrmse_pct for m in models
                                 if plan(m).published_nrmse_pct},
         "ablation": ablation,

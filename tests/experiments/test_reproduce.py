@@ -16,7 +16,9 @@ from psmforce.estimators.data.dataset import FEATURE_SETS, Trial
 from psmforce.estimators.data import hybrid_inputs as hybrid_mod
 from psmforce.estimators.data.hybrid_inputs import hybrid_feature_set
 from psmforce.estimators.networks.recipes import RECIPES
-from psmforce.experiments.reproduce import BUDGETS, _config, _teleop_folds, reproduce, task_device
+from psmforce.experiments.reproduce import (BUDGETS, _checkpoint, _config, _recipe_params,
+                                            _regime_parameter, _teleop_folds, reproduce,
+                                            task_device)
 from psmforce.estimators.evaluation.tables import automated_table, teleop_table, verdicts
 
 
@@ -78,21 +80,41 @@ def test_teleop_folds_leave_one_configuration_out():
         assert not {t.path for t in f["train"]} & {t.path for t in f["seen_test"]}
 
 
+def _own(stage: str, budget: str, model: str, regime: str = "own"):
+    optimiser = _recipe_params(model, "full", regime)["optimiser"]
+    return _config(budget, stage, 0, "cpu", model, optimiser)
+
+
 def test_budgets_keep_the_papers_optimiser_settings():
-    full = _config("full", "pretrain", 0, "cpu", "transformer")
+    full = _own("pretrain", "full", "transformer")
     assert (full.max_epochs, full.lr, full.weight_decay, full.batch_size, full.patience,
             full.lr_patience, full.stride) == (100, 1e-3, 1e-4, 256, 10, 3, 5)
     assert full.max_batches_per_epoch is None and full.max_val_batches is None
-    lstm = _config("cpu", "pretrain", 0, "cpu", "lstm")
+    lstm = _own("pretrain", "cpu", "lstm")
     assert (lstm.lr, lstm.weight_decay, lstm.chunk) == (5e-3, 1e-6, 1000)
-    tele_lstm = _config("full", "finetune", 0, "cpu", "lstm")
+    tele_lstm = _own("finetune", "full", "lstm")
     assert (tele_lstm.lr, tele_lstm.weight_decay, tele_lstm.chunk) == (1e-3, 1e-4, 1000)
-    hybrid = _config("full", "pretrain", 0, "cpu", "hybrid")
+    hybrid = _own("pretrain", "full", "hybrid")
     assert hybrid.max_epochs == 300 and hybrid.max_batches_per_epoch is None
-    assert _config("quick", "pretrain", 0, "cpu", "hybrid").max_epochs == 2   # caps win
+    assert _own("pretrain", "quick", "hybrid").max_epochs == 2   # caps win
     assert set(BUDGETS) == {"full", "cpu", "quick"}
     for stage in BUDGETS["full"].values():   # the published budget caps nothing
         assert not any(k.startswith("max_") for caps in stage.values() for k in caps)
+
+
+def test_a_regime_swaps_the_recipes_and_keys_its_own_tasks():
+    swapped = _own("pretrain", "full", "hybrid", "paper")
+    assert (swapped.chunk_supervised, swapped.chunk_stride, swapped.max_epochs) == (1, 5, 100)
+    dense = _own("pretrain", "full", "transformer", "dense")
+    assert (dense.stride, dense.max_epochs, dense.lr) == (1, 300, 1e-3)
+    assert _regime_parameter("own", "hybrid") == {} and _regime_parameter("dense", "rocket") == {}
+    p = {"model": "hybrid", "variant": "full", "fraction": 1.0, "seed": 1, "budget": "full",
+         "device": "cpu"}
+    own = _checkpoint("run", p)
+    assert _checkpoint("run", {**p, **_regime_parameter("paper", "hybrid")}) != own
+    assert own.name == "hybrid_full_f1.0_seed1_full_cpu.pt"   # runs before regimes keep theirs
+    with pytest.raises(ValueError, match="training regime"):
+        reproduce("unused", regime="fast")
 
 
 def _spread(means: dict) -> dict:

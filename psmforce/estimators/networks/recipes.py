@@ -208,9 +208,12 @@ class Recipe:
 
     @property
     def closed_form(self) -> bool:
-        """Fitted in closed form (a :class:`psmforce.estimators.networks.contract.ClosedFormModel`), not by the
-        training loop."""
+        """Fitted in closed form (a :class:`~.contract.ClosedFormModel`), not by the loop."""
         return isinstance(self._probe, ClosedFormModel)
+
+    @property
+    def kind(self) -> str:  # "window" or "chunk" (psmforce.estimators.networks.contract)
+        return self._probe.kind
 
     @property
     def streams(self) -> bool:

@@ -85,6 +85,11 @@ class TrainConfig:
     """When set, chunks are the model's warm-up window plus this many supervised samples, whatever
     the window (``chunk`` is then not read): a setting that holds when the model's receptive
     field changes."""
+    chunk_stride: int | None = None
+    """Samples between consecutive training chunks of a chunk model (None: the supervised part's
+    length, so every supervised sample is trained on once per epoch). With ``chunk_supervised``
+    1 and stride 5 a chunk model sees the window models' training targets: one every fifth sample
+    (:mod:`psmforce.experiments.regimes`, the paper's regime)."""
     max_batches_per_epoch: int | None = None
     """Smoke-run cap: a seeded random subset of this many batches per epoch (None: all). A run
     with a cap is not converged, whatever its early stopping did."""
@@ -153,8 +158,12 @@ def _window_set(model: nn.Module, trials: Sequence[Trial], setup: TrainedModel, 
                 stride: int | None = None) -> WindowSet:
     if is_chunk(model):
         chunk = _chunk_length(model, trials, cfg)
+        if cfg.chunk_stride is not None and (isinstance(cfg.chunk_stride, bool) or not isinstance(
+                cfg.chunk_stride, int) or cfg.chunk_stride < 1):
+            raise TrainingError(f"chunk_stride must be a positive integer, "
+                                f"got {cfg.chunk_stride!r}")
         return WindowSet(trials, setup.features, setup.input_scaler, setup.target_scaler,
-                         chunk, stride or chunk - model.window, targets="all",
+                         chunk, stride or cfg.chunk_stride or chunk - model.window, targets="all",
                          downsample_free=True, base_columns=setup.base_columns)
     short = [t.path for t in trials if len(t) < model.window]
     if short:

@@ -1,0 +1,32 @@
+"""Which bench seeds may support which claim, declared before any of them is run (issue 45).
+
+A seed looked at while something was designed, chosen or calibrated is a design seed: its
+results may have steered the choice and cannot confirm it. A published comparison runs on seeds
+that nothing was chosen on, named here in advance, so that a rerun cannot pick the seeds that
+favour a model. A seed moves to :data:`DESIGN_SEEDS` once a choice is made on it.
+"""
+
+from __future__ import annotations
+
+DESIGN_SEEDS = frozenset({0, 1, 2, 3, 11, 12, 13, 18, 21, 22})
+"""Seen while designing: 1-3, the learning curve and the hybrid's batches (chosen on their
+validation trials, test scores beside them); 0, the simulator's calibration and the port and
+plateau studies; 11-13, the other tool instances; 18, the independent rerun; 21-22, the prior's
+in-family recovery."""
+
+RECIPE_SWAP_SEEDS = (201, 202, 203)
+"""The training regimes swapped between models (``studies/recipe_swap.py``): a choice the
+published comparison depends on, so it has seeds of its own."""
+
+COMPARISON_SEEDS = {0.1: (101, 102, 103, 104, 105), 0.25: (101, 102, 103, 104, 105),
+                    1.0: (101, 102, 103)}
+"""Per scale, the seeds of the published comparison (at least 5 at 0.1 and 0.25, 3 at the
+paper's budget)."""
+
+
+def check_fresh(seeds, purpose: str) -> None:
+    """Refuse design seeds for a claim (``purpose`` names it in the message)."""
+    used = sorted(set(seeds) & DESIGN_SEEDS)
+    if used:
+        raise ValueError(f"{purpose}: seed(s) {used} were used while designing; a published "
+                         f"figure needs fresh seeds (psmforce/experiments/seeds.py)")
