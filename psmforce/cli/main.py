@@ -325,6 +325,27 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--out", required=True, help="the format 3 checkpoint to write")
     p.add_argument("--json", help="write a summary here")
 
+    p = add("excitation", offline.excitation_command,
+            "design a free-space excitation to calibrate the prior without an ATI",
+            "Design a joint trajectory (Fourier motions of every joint and jaw clenches at "
+            "several grip efforts) chosen for the identifiability of the internal-force prior "
+            "(docs/ati_free.md). Writes OUT/excitation.csv (time_s and each joint's setpoint "
+            "with its unit), OUT/excitation_bag (ROS 2 MCAP: sensor_msgs/JointState on "
+            "/PSM1/servo_jp and /PSM1/jaw/servo_jp) and OUT/excitation.json (segments, the "
+            "parameters each excites, condition numbers against a random and the paper's "
+            "free-space motion, limits).")
+    p.add_argument("--out", required=True, help="output folder (new or empty)")
+    # the bounds are psmforce.cli.excitation's MIN/MAX_MINUTES and _WEIGHT_KG, written
+    # out so that the parser does not load the library; the library checks them again
+    p.add_argument("--minutes", type=options.number_in(0.2, 30.0, low_open=False), default=5.0,
+                   help="duration in minutes, 0.2 to 30 (default 5)")
+    p.add_argument("--seed", type=int, default=0, help="the design's draws (default 0)")
+    p.add_argument("--known-weights", type=options.number_in(0.01, 0.2, low_open=False),
+                   nargs="+", default=[], metavar="KG",
+                   help="masses (kg, 0.01 to 0.2) you can hang at the tip: the report says what "
+                        "each adds in each orientation and how many make the prior identifiable")
+    p.add_argument("--json", help="write the report here as well")
+
     p = add("demo", offline.demo_command, "the main job: a small bench end to end in a few minutes",
             "Simulate a small bench, fit the prior, train the hybrid and a baseline, evaluate "
             "them, print the table and write the plots.")

@@ -26,6 +26,19 @@ def simulate_command(args) -> dict:
                     fmt=args.format)
 
 
+def excitation_command(args) -> dict:
+    from psmforce.cli.excitation import FILES, check_arguments, check_out, excitation_cli
+    check_out(args.out)
+    options.fresh_folder(args.out, "--out")
+    options.seed(args.seed, "--seed")
+    from psmforce.core.files import check_name
+    for name in FILES.values():
+        check_name(Path(args.out) / name)
+    check_arguments(args.minutes, args.seed, args.known_weights)
+    with progress("excitation"):
+        return excitation_cli(args.out, args.minutes, args.seed, args.known_weights)
+
+
 def convert_command(args) -> dict:
     from psmforce.io.bags import convert_bag, convert_csv, summary_line
     options.output_file(args.out, "--out", parents=False)

@@ -126,7 +126,7 @@ def internal_wrench_target(frame) -> tuple[np.ndarray, np.ndarray]:
     them) subtracted from its force channels, and a 0/1 mask of the samples that count: not
     the moments of samples with an external force above 0.05 N (they would need the contact
     point), nothing of an overloaded sample."""
-    y = frame[list(HEX10)].to_numpy(dtype=float)
+    y = frame[list(HEX10)].to_numpy(dtype=float, copy=True)  # a view is read-only (pandas 3)
     mask = np.ones_like(y)
     if all(t in frame.columns for t in TARGETS):
         ext = frame[list(TARGETS)].to_numpy(dtype=float)

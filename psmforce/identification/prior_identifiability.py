@@ -34,6 +34,41 @@ def _pair_differentials(params, e):
     return np.stack([u0 / params[1], tau_b1 / params[2], tau_b2 / params[2]], axis=1)
 
 
+def _prediction(params, inputs, sl) -> np.ndarray:
+    """(n, 6) law's wrench [f; m] on the samples ``sl`` of ``inputs`` (positions, efforts,
+    velocities, g_hex)."""
+    pos, e, v, g = inputs
+    out = _model(params, pos[sl].T, e[sl].T, v[sl].T, g[sl].T, np)
+    return np.stack(np.broadcast_arrays(*out), axis=1)
+
+
+def jacobian_grams(params, free, inputs, mask, ch_scale, chunk: int = 20000, y=None) -> np.ndarray:
+    """(6, F, F) per channel ``J_k^T J_k``: J the derivative of the law's scaled output
+    ``prediction / ch_scale`` over the samples ``mask`` keeps (N, 6) with respect to the ``free``
+    parameters (indices into :data:`NAMES`, physical units), by central differences of 1e-6 of
+    each parameter's bounds' span, at ``params``. The Fisher information is their sum weighted
+    by 1 / (each channel's residual variance in those scaled units): :func:`identifiability`
+    takes the variances from the fit's residuals, a design (:mod:`psmforce.identification.
+    prior_design`) from an assumed sensor noise. ``y`` (N, 6), the readings, only sets the
+    rounding of the differences (the residuals' own, as the fit sees them); None: zero."""
+    params = np.asarray(params, dtype=float)
+    y = np.zeros((len(inputs[0]), 6)) if y is None else y
+    span = np.array([p[3] - p[2] for p in PARAMETERS])
+    used = np.asarray(mask) > 0
+    gram = np.zeros((6, len(free), len(free)))
+    for start in range(0, len(inputs[0]), chunk):
+        sl = slice(start, start + chunk)
+        cols = []
+        for i in free:
+            dp = np.zeros(len(params))
+            dp[i] = 1e-6 * span[i]
+            cols.append(((_prediction(params + dp, inputs, sl) - y[sl]) / ch_scale
+                         - (_prediction(params - dp, inputs, sl) - y[sl]) / ch_scale) / (2 * dp[i]))
+        jac = np.stack(cols, axis=2) * used[sl][:, :, None]  # (n, 6, F), unused samples 0
+        gram += np.einsum("nki,nkj->kij", jac, jac)
+    return gram
+
+
 def identifiability(params, fixed, inputs, y, mask, ch_scale, chunk: int = 20000) -> dict:
     """Which parameters the fitted data pin down, at the optimum ``params``.
 
@@ -69,26 +104,13 @@ def identifiability(params, fixed, inputs, y, mask, ch_scale, chunk: int = 20000
     span = np.array([p[3] - p[2] for p in PARAMETERS])
     used = mask > 0
 
-    def residual(p, sl):
-        out = _model(p, pos[sl].T, e[sl].T, v[sl].T, g[sl].T, np)
-        pred = np.stack(np.broadcast_arrays(*out), axis=1)
-        return ((pred - y[sl]) / ch_scale)[used[sl]]
-
-    gram = np.zeros((6, len(free), len(free)))  # per channel J_k^T J_k
+    gram = jacobian_grams(params, free, inputs, mask, ch_scale, chunk, y)
     sq, n_res = np.zeros(6), np.zeros(6)
-    channel = np.broadcast_to(np.arange(6), y.shape)
     for start in range(0, len(pos), chunk):
         sl = slice(start, start + chunk)
-        r, ch = residual(params, sl), channel[sl][used[sl]]
-        cols = []
-        for i in free:
-            dp = np.zeros(len(params))
-            dp[i] = 1e-6 * span[i]
-            cols.append((residual(params + dp, sl) - residual(params - dp, sl)) / (2 * dp[i]))
-        jac = np.stack(cols, axis=1)
-        for k in range(6):
-            gram[k] += jac[ch == k].T @ jac[ch == k]
-            sq[k], n_res[k] = sq[k] + np.sum(r[ch == k] ** 2), n_res[k] + np.sum(ch == k)
+        r = (_prediction(params, inputs, sl) - y[sl]) / ch_scale
+        sq += np.sum(np.where(used[sl], r, 0.0) ** 2, axis=0)
+        n_res += used[sl].sum(axis=0)
     s2 = np.where(n_res > 0, sq / np.maximum(n_res, 1), 1.0)  # residual variance per channel
     # lack of fit: R^2 of each channel on the fitted samples (a constant scores 0)
     var_y = np.array([np.var(y[used[:, c], c]) if used[:, c].any() else 0.0 for c in range(6)])

@@ -31,7 +31,8 @@ from psmforce.sim.port import Port
 
 @dataclass
 class Contact:
-    """What the jaw tip touches. ``kind``: "free", "traction" or "surface"."""
+    """What the jaw tip touches. ``kind``: "free", "traction", "surface" or "weight" (a mass
+    hung from the jaw tip, at rest: its weight ``mass_kg`` x gravity pulls the tip)."""
 
     kind: str = "free"
     anchor: np.ndarray | None = None
@@ -43,6 +44,8 @@ class Contact:
     normal: np.ndarray | None = None
     """surface: outward normal of the plane (base frame)."""
     material: str = "rigid"
+    mass_kg: float = 0.0
+    """weight: the hung mass (kg)."""
     ati_origin: np.ndarray = field(default_factory=lambda: np.zeros(3))
     """Where the ATI sensing origin is (base frame, m): moments of the raw ATI wrench."""
 
@@ -66,9 +69,11 @@ def _moment_about(axis, origin, point, force):
     return np.einsum("ij,ij->i", axis, np.cross(point - origin, force))
 
 
-def _contact_force(contact: Contact, p_tip, v_tip, effects: Effects) -> np.ndarray:
+def _contact_force(contact: Contact, p_tip, v_tip, effects: Effects, gravity) -> np.ndarray:
     if contact.kind == "free":
         return np.zeros_like(p_tip)
+    if contact.kind == "weight":
+        return np.broadcast_to(contact.mass_kg * np.asarray(gravity, dtype=float), p_tip.shape).copy()
     if contact.kind == "traction":
         return contacts.traction(p_tip, contact.anchor, contact.rest_length)
     if contact.kind == "surface":
@@ -108,16 +113,24 @@ def run_trajectory(q_cmd: np.ndarray, dt: float, contact: Contact, params: Instr
     p_body_com = p_roll - params.distal_body_com_m * d_shaft
     f_jaw, f_body = m_jaw * g[None, :], m_body * g[None, :]
 
+    # Jaw on jaw: commanded past closed, each blade presses on the other with the grip torque
+    # the stretched blade cables hold (cables.jaw_grip_torque); the other blade's push opposes
+    # each one's closing: blade_1 = yaw - jaw/2 closes towards +, blade_2 towards -.
+    t0_blade = cables.pair_pretension(q_cmd[:, 3], q_cmd[:, 4], params, effects)[:, 1]
+    grip = cables.jaw_grip_torque(q_cmd[:, 6], t0_blade, params)
+    tau_grip = np.stack([np.zeros(n), -grip, grip], axis=1)
+
     def distal_load(p_tip, f_ext):
-        """Generalized torques (pitch, blade_1, blade_2) from the tip force and jaw gravity."""
+        """Generalized torques (pitch, blade_1, blade_2) from the tip force, jaw gravity and the
+        grip of a jaw closed on itself."""
         t_pitch = (_moment_about(a_wp, p_roll, p_tip, f_ext)
                    + _moment_about(a_wp, p_roll, p_jaw_com, f_jaw))
         t_yaw = _moment_about(a_wy, p_cp, p_tip, f_ext) + _moment_about(a_wy, p_cp, p_jaw_com, f_jaw)
         # A load on the closed jaw tip is shared by the two blades.
-        return np.stack([t_pitch, 0.5 * t_yaw, 0.5 * t_yaw], axis=1)
+        return np.stack([t_pitch, 0.5 * t_yaw, 0.5 * t_yaw], axis=1) + tau_grip
 
     p_tip = p_tip0
-    f_ext = _contact_force(contact, p_tip, np.gradient(p_tip, dt, axis=0), effects)
+    f_ext = _contact_force(contact, p_tip, np.gradient(p_tip, dt, axis=0), effects, g)
     trans = cables.transmission(q_cmd, distal_load(p_tip, f_ext), params, effects)
     if effects.elasticity:
         # One fixed-point pass: the loaded wrist deflects (true = encoder - deflection), which
@@ -125,7 +138,7 @@ def run_trajectory(q_cmd: np.ndarray, dt: float, contact: Contact, params: Instr
         dp, dy = trans["deflection"][:, 0], trans["deflection"][:, 1]
         p_tip = (p_tip0 - np.cross(a_wp, p_tip0 - p_roll) * dp[:, None]
                  - np.cross(a_wy, p_tip0 - p_cp) * dy[:, None])
-        f_ext = _contact_force(contact, p_tip, np.gradient(p_tip, dt, axis=0), effects)
+        f_ext = _contact_force(contact, p_tip, np.gradient(p_tip, dt, axis=0), effects, g)
         trans = cables.transmission(q_cmd, distal_load(p_tip, f_ext), params, effects)
 
     # --- HEX10: wrench across the section, HEX10 frame ---

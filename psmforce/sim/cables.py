@@ -104,6 +104,40 @@ def pair_pretension(q_roll: np.ndarray, q_pitch: np.ndarray, params: InstrumentP
     return t0
 
 
+JAW_CLOSED_RAD = 0.0
+"""Jaw angle (rad) at which the two blades touch: the dVRK's jaw zero, closed."""
+
+
+def jaw_grip_torque(jaw_cmd: np.ndarray, t0_blade: np.ndarray, params: InstrumentParams) -> np.ndarray:
+    """(N,) grip torque (Nm, >= 0) with which each blade presses on the other when the jaw is
+    commanded past closed (``jaw_cmd`` (N,) rad, motor side, below :data:`JAW_CLOSED_RAD`).
+
+    The blades stop where they touch (taken as rigid: blade on blade is far stiffer than the
+    cables); the motor side goes on to ``jaw_cmd``, so each blade's cable pair is stretched by
+    ``e = r_b (closed - jaw_cmd) / 2`` (m of cable; each blade takes half the jaw angle,
+    blade_1,2 = yaw -+ jaw/2). The pair's differential follows the elastic law of
+    :func:`transmission` (taut: ``e = D / (2 k)``, slack: ``e = (|D| - T0) / k``) with both
+    cables of a pair equally stiff, continuous at ``D = 2 T0``: ``D = min(2 k e, k e + T0)`` (N),
+    ``T0`` = ``t0_blade`` (N,) the blade pairs' per-cable pretension. Grip torque ``r_b D``.
+    The capstan and pin friction between the stretched run and the blades are left out of the
+    grip (the load then passes through :func:`transmission`, which applies them to the cables);
+    so is the jaw joint's own deflection under it. Without the ``pretension`` effect
+    (``T0`` = 0) one cable carries the grip, ``D = k e``. Zero for ``jaw_cmd`` at or above closed.
+    """
+    r_b, k = params.pulley_radius_blade_m, params.cable_stiffness_n_per_m
+    e = 0.5 * r_b * np.maximum(JAW_CLOSED_RAD - np.asarray(jaw_cmd, dtype=float), 0.0)
+    return r_b * np.minimum(2.0 * k * e, k * e + t0_blade)
+
+
+def jaw_command_for_grip(grip_nm, t0_blade, params: InstrumentParams) -> np.ndarray:
+    """The jaw command (rad, at or below closed) that gives grip torque ``grip_nm`` (>= 0):
+    the inverse of :func:`jaw_grip_torque` at per-cable pretension ``t0_blade`` (N)."""
+    r_b, k = params.pulley_radius_blade_m, params.cable_stiffness_n_per_m
+    d = np.asarray(grip_nm, dtype=float) / r_b
+    e = np.where(d <= 2.0 * t0_blade, d / (2.0 * k), (d - t0_blade) / k)
+    return JAW_CLOSED_RAD - 2.0 * e / r_b
+
+
 def _capstan_pair(d_in, mu_z, alpha, t0, slack):
     """Tensions on the shaft side of an idler with capstan factor exp(+-mu_z) on (+, -) cables.
 

@@ -8,7 +8,7 @@ import pytest
 from psmforce.cli.main import main
 
 COMMANDS = ("simulate", "convert", "index", "fit-dynamics", "fit-prior", "train", "finetune",
-            "evaluate", "reproduce", "export", "demo")
+            "evaluate", "reproduce", "export", "demo", "excitation")
 
 
 @pytest.mark.parametrize("command", COMMANDS)

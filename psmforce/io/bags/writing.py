@@ -1,5 +1,6 @@
 """Writing a recording as a ROS 2 bag (MCAP) on the dVRK CRTK topics: the inverse of
-:mod:`.reading`, for the simulated bench (``psmforce simulate --format mcap``).
+:mod:`.reading`, for the simulated bench (``psmforce simulate --format mcap``); and joint
+setpoints on the CRTK servo topics (:func:`write_setpoint_bag`, ``psmforce excitation``).
 
 What goes into the bag is what :mod:`.reading` reads, by the same definitions: topic names from
 :func:`~psmforce.io.bags.reading.default_topics`, message types and columns from
@@ -69,13 +70,7 @@ def write_bag(frame: pd.DataFrame, path: str | Path, *, start_ns: int,
     Raises :class:`~psmforce.io.bags.BagError` naming ``path`` (nothing written).
     """
     path = Path(path)
-    if os.path.lexists(path):  # a link too, dangling or not: never replaced
-        raise BagError(f"{path}: exists already; a bag is written only into a new folder")
-    if not path.parent.is_dir():
-        raise BagError(f"{path}: the output folder {path.parent} does not exist")
-    if isinstance(start_ns, bool) or not isinstance(start_ns, (int, np.integer)) or start_ns <= 0:
-        raise BagError(f"{path}: start_ns must be a positive integer (ns since the epoch), "
-                       f"got {start_ns!r}")
+    _check_target(path, start_ns)
     streams = bag_streams(frame)
     needed = (TIME,) + tuple(c for s in streams for c in stream_columns(s))
     missing = [c for c in needed if c not in frame.columns]
@@ -86,23 +81,76 @@ def write_bag(frame: pd.DataFrame, path: str | Path, *, start_ns: int,
         raise BagError(f"{path}: time must hold at least two strictly increasing samples "
                        f"(ns resolution)")
     topics = {s: t for s, t in resolve_topics(arm, None)[0].items() if s in streams}
-    payloads = {s: _serialize(s, frame, stamps) for s in streams}
-    # receive order: every stream's log times, merged (stable: js before jaw at equal times)
-    log_ns = np.concatenate([stamps + RECEIVE_LATENCY_NS[s] for s in streams])
-    which = np.repeat(np.arange(len(streams)), len(stamps))
-    row = np.tile(np.arange(len(stamps)), len(streams))
-    order = np.argsort(log_ns, kind="stable")
+    _write_mcap(path, [(topics[s], _TYPES[s], stamps + RECEIVE_LATENCY_NS[s],
+                        _serialize(s, frame, stamps)) for s in streams])
+    return topics
 
+
+def _check_target(path: Path, start_ns) -> None:
+    if os.path.lexists(path):  # a link too, dangling or not: never replaced
+        raise BagError(f"{path}: exists already; a bag is written only into a new folder")
+    if not path.parent.is_dir():
+        raise BagError(f"{path}: the output folder {path.parent} does not exist")
+    if isinstance(start_ns, bool) or not isinstance(start_ns, (int, np.integer)) or start_ns <= 0:
+        raise BagError(f"{path}: start_ns must be a positive integer (ns since the epoch), "
+                       f"got {start_ns!r}")
+
+
+def _write_mcap(path: Path, streams: list[tuple[str, str, np.ndarray, list[bytes]]]) -> None:
+    """Write ``streams`` (topic, message type, log times ns, CDR payloads) into a staging
+    folder, messages in receive order (every stream's log times merged, stable: earlier
+    streams first at equal times), and rename it onto ``path``."""
+    log_ns = np.concatenate([s[2] for s in streams])
+    which = np.concatenate([np.full(len(s[2]), k) for k, s in enumerate(streams)])
+    row = np.concatenate([np.arange(len(s[2])) for s in streams])
+    order = np.argsort(log_ns, kind="stable")
     with staging_folder(path) as staging:
         with Writer(staging / path.name, version=9, storage_plugin=StoragePlugin.MCAP) as writer:
-            connections = [writer.add_connection(topics[s], _TYPES[s], typestore=ROS2_TYPESTORE)
-                           for s in streams]
+            connections = [writer.add_connection(topic, msgtype, typestore=ROS2_TYPESTORE)
+                           for topic, msgtype, _, _ in streams]
             for k in order:
-                writer.write(connections[which[k]], int(log_ns[k]),
-                             payloads[streams[which[k]]][row[k]])
+                writer.write(connections[which[k]], int(log_ns[k]), streams[which[k]][3][row[k]])
         if os.path.lexists(path):  # appeared while the bag was written: not replaced
             raise BagError(f"{path}: appeared while the bag was written; left as it is")
         (staging / path.name).rename(path)
+
+
+def setpoint_topics(arm: str = "PSM1") -> dict[str, str]:
+    """The dVRK 2.x (CRTK) servo topics a joint setpoint goes to: the six chain joints on
+    ``/{arm}/servo_jp``, the jaw on ``/{arm}/jaw/servo_jp`` (sensor_msgs/JointState)."""
+    return {"js": f"/{arm}/servo_jp", "jaw": f"/{arm}/jaw/servo_jp"}
+
+
+def write_setpoint_bag(q: np.ndarray, dt: float, path: str | Path, *, start_ns: int,
+                       arm: str = "PSM1") -> dict[str, str]:
+    """Joint setpoints ``q`` (N, 7; dVRK order, rad and m) every ``dt`` s as a ROS 2 MCAP bag
+    folder ``path`` on :func:`setpoint_topics`: sensor_msgs/JointState with positions only
+    (velocity and effort empty, as CRTK's servo_jp takes them), header stamps ``start_ns`` +
+    k dt, logged at their stamps; written whole or not at all (:func:`write_bag`'s rules).
+    Returns the topic of each stream."""
+    path = Path(path)
+    _check_target(path, start_ns)
+    q = np.asarray(q, dtype=float)
+    if q.ndim != 2 or q.shape[1] != 7 or len(q) < 2 or not np.isfinite(q).all() or not dt > 0:
+        raise BagError(f"{path}: setpoints must be finite (N >= 2, 7) with dt > 0")
+    try:
+        from psmforce.io.bags.names import check_namespace
+        topics = setpoint_topics(check_namespace(arm))
+    except ValueError as err:
+        raise BagError(str(err)) from None
+    stamps = int(start_ns) + np.rint(np.arange(len(q)) * dt * 1e9).astype(np.int64)
+    types = ROS2_TYPESTORE.types
+    time_type, header_type = types["builtin_interfaces/msg/Time"], types["std_msgs/msg/Header"]
+    joint_state, empty = types[JOINT_STATE], np.zeros(0)
+    streams = []
+    for stream, names, cols in (("js", list(CHAIN_JOINTS), slice(0, 6)), ("jaw", [JAW_JOINT], slice(6, 7))):
+        payloads = [ROS2_TYPESTORE.serialize_cdr(joint_state(
+            header=header_type(stamp=time_type(sec=int(t // 1_000_000_000),
+                                               nanosec=int(t % 1_000_000_000)), frame_id=""),
+            name=names, position=np.ascontiguousarray(p), velocity=empty, effort=empty), JOINT_STATE)
+            for t, p in zip(stamps.tolist(), q[:, cols])]
+        streams.append((topics[stream], JOINT_STATE, stamps, payloads))
+    _write_mcap(path, streams)
     return topics
 
 

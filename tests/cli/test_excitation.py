@@ -1,0 +1,57 @@
+"""The excitation's report (psmforce.cli.excitation.py): better conditioned than a random
+motion and the paper's free motion, each segment's excited parameters computed from its
+information, and what known weights add."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from psmforce.cli.excitation import build, check_arguments
+from psmforce.identification.prior_law import NAMES
+
+
+@pytest.fixture(scope="module")
+def built():
+    return build(0.5, 2, (0.05,))
+
+
+def test_the_excitation_is_better_conditioned_than_random_and_paper_motion(built):
+    _, report = built
+    cn = report["condition_number"]
+    assert cn["excitation"] < cn["random"]
+    assert cn["excitation"] < cn["paper_free"]
+    assert report["log_det"]["excitation"] > report["log_det"]["random"]
+    assert report["bench"]["min_hex10_fz_n"] > report["bench"]["safe_compression_n"]
+
+
+def test_each_segment_says_what_it_excites_from_its_information(built):
+    exc, report = built
+    shares = np.array([[s["information_share"][n] for n in NAMES] for s in report["segments"]])
+    assert shares.sum(axis=0) == pytest.approx(1.0)
+    clench = [s for s in report["segments"] if s["kind"] == "clench"]
+    # only a clench drives the blade pairs slack: the blade radius is theirs
+    assert any("pulley_radius_blade" in s["excites"] for s in clench)
+    assert all(set(s["excites"]) <= set(NAMES) for s in report["segments"])
+    assert len(report["segments"]) == len(exc.segments)
+
+
+def test_known_weights_pin_down_what_free_motion_cannot(built):
+    _, report = built
+    kw = report["known_weights"]["paper_free"]
+    assert kw["not_identifiable_without"]              # the paper's free motion leaves some
+    assert kw["needed"] != 0
+    # the weights leave fewer parameters unidentified (the radii: pitch and blade loads)
+    assert len(kw["greedy"][-1]["not_identifiable"]) < len(kw["not_identifiable_without"])
+    first = kw["greedy"][0]
+    assert first["log_det_gain"] > 0
+    ratios = [r for gain in kw["each_alone"].values() for r in gain["standard_error_ratio"].values()]
+    assert min(ratios) < 1.0 and max(ratios) <= 1.0 + 1e-9  # information only adds
+
+
+@pytest.mark.parametrize("minutes, seed, weights, option", [
+    (0.1, 0, (), "--minutes"), (31.0, 0, (), "--minutes"), (1.0, -1, (), "--seed"),
+    (1.0, 0, (0.5,), "--known-weights"), (1.0, 0, (0.001,), "--known-weights")])
+def test_bad_arguments_are_refused_naming_the_option(minutes, seed, weights, option):
+    with pytest.raises(ValueError, match=option):
+        check_arguments(minutes, seed, weights)
