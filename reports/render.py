@@ -130,6 +130,7 @@ BLOCKS = (
      (LEARNING_CURVE, PRIOR_ABLATION, PORTS, COMPARISON, PORT_DESIGN, ANOTHER_TOOL),
      results_page.status),
     (RESULTS, "learning-curve", LEARNING_CURVE, results_page.learning_curve),
+    (RESULTS, "bench-against-robot", LEARNING_CURVE, results_page.bench_against_robot),
     (RESULTS, "hybrid-plateau", HYBRID_PLATEAU, _hybrid_plateau_table),
     (RESULTS, "prior-ablation-tables", PRIOR_ABLATION, results_page.prior_ablation_tables),
     (RESULTS, "ports-table", PORTS, results_page.ports_table),

@@ -134,6 +134,54 @@ def learning_curve(curve: dict) -> str:
     return "\n".join(lines)
 
 
+BENCH_ROBOT_BAND = (0.67, 1.5)
+"""Issue 45's band for a model's bench error over its published robot error."""
+
+
+def bench_against_robot(curve: dict) -> str:
+    """At the paper's amount of data (scale 1), on the paper's metric: each model's bench error
+    against the paper's published robot error (Table III), their ratio and whether it lies in
+    :data:`BENCH_ROBOT_BAND`, and the FCN over the transformer laterally on either."""
+    from psmforce.experiments.plan import PLAN
+    point = next((p for p in curve["points"] if p["scale"] == 1.0), None)
+    if point is None:
+        return "\nThe curve has no point at the paper's amount of data yet.\n"
+    published = {PLAN[m].label: PLAN[m].published_nrmse_pct for m in PLAN
+                 if PLAN[m].published_nrmse_pct}
+    low, high = BENCH_ROBOT_BAND
+    lines = ["", f"Paper metric, NRMSE %, scale 1 ({point['training_minutes']:.0f} min of "
+             f"training data, {len(point['seeds'])} bench seeds, simulator "
+             f"{', '.join(point['simulator_versions'])}), against the paper's Table III on the "
+             f"real robot; a bench that imitates the robot puts every ratio in "
+             f"[{low:g}, {high:g}].", "",
+             "| model | bench Fx / Fy / Fz | robot Fx / Fy / Fz | bench over robot | in band |",
+             "|---|---|---|---|---|"]
+    for label, robot in published.items():
+        if label not in point["models"]:
+            lines.append(f"| {label} | not on the curve | "
+                         + " / ".join(f"{robot[a]:.2f}" for a in AXES) + " | | |")
+            continue
+        bench = {a: point["models"][label]["paper"][a]["mean"] for a in AXES}
+        ratio = {a: bench[a] / robot[a] for a in AXES}
+        inside = [a for a in AXES if low <= ratio[a] <= high]
+        lines.append(f"| {label} | " + " / ".join(f"{bench[a]:.2f}" for a in AXES) + " | "
+                     + " / ".join(f"{robot[a]:.2f}" for a in AXES) + " | "
+                     + " / ".join(f"{ratio[a]:.2f}x" for a in AXES) + " | "
+                     + (", ".join(inside) if inside else "none") + " |")
+    unpublished = [label for label in point["models"] if label not in published]
+    fcn, tr = published.get("FCN"), published.get(TRANSFORMER)
+    if fcn and tr and "FCN" in point["models"] and TRANSFORMER in point["models"]:
+        bench = point["models"]
+        lines += ["", "The FCN over the transformer laterally (Fx / Fy): on the robot "
+                  + " / ".join(f"{fcn[a] / tr[a]:.2f}x" for a in LATERAL) + ", on the bench "
+                  + " / ".join(f"{bench['FCN']['paper'][a]['mean'] / bench[TRANSFORMER]['paper'][a]['mean']:.2f}x"
+                               for a in LATERAL) + "."]
+    if unpublished:
+        lines += ["", "No published robot figure for: " + ", ".join(unpublished)
+                  + " (the paper's Table III has none)."]
+    return "\n".join(lines) + "\n"
+
+
 def ports_findings(ports: dict, comparison: dict) -> str:
     """Section 3: who wins each axis without a port and through each one, and the paper metric."""
     lines = [""]
