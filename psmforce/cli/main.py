@@ -259,6 +259,9 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--minutes", type=float, default=5.0,
                    help="minutes of calibration trials to use (default 5: on the simulated bench "
                         "at scale 1, one free-space replay and four traction trials)")
+    p.add_argument("--free-space", action="store_true",
+                   help="calibrate without an ATI: DATA's train/Free recordings only, their "
+                        "external force 0 N by declaration (docs/ati_free.md)")
     training_arguments(p, "the calibration report")
 
     p = add("evaluate", offline.evaluate_command, "evaluate an estimator as in the paper",

@@ -301,7 +301,8 @@ def calibrate_command(args) -> dict:
     options.training_options(args)
     from psmforce.estimators.training.calibrate import calibrate
     result = calibrate(args.checkpoint, args.data, args.out, minutes=args.minutes,
-                       epochs=args.epochs, seed=args.seed, device=args.device)
+                       epochs=args.epochs, seed=args.seed, device=args.device,
+                       free_space=args.free_space)
     record = result["calibration"]
     print(f"calibrated on {len(record['trials'])} trials, {record['minutes_used']:.2f} min "
           f"(Free {record['minutes_by_condition']['Free']:.2f}, Traction "

@@ -183,3 +183,47 @@ def test_calibrate_bad_inputs_are_refused_naming_the_problem(benches, tmp_path, 
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("psmforce calibrate: error: too few minutes")
     assert not out.exists()
+
+
+def _free_dataset(root, forces_n=(0.0, 0.0, 0.0), n: int = 3000):
+    import pandas as pd
+    from psmforce.estimators.data.dataset import Dataset, Trial
+    trials = []
+    for k, force in enumerate(forces_n):
+        frame = pd.DataFrame({"time": np.arange(n) / 100.0, **{c: np.full(n, force)
+                                                               for c in TARGETS}})
+        trials.append(Trial(f"Free/f{k}.csv", "Free", "train", frame))
+    trials.append(Trial("Traction/t.csv", "Traction", "train", trials[0].frame.copy()))
+    return Dataset(root, trials, {})
+
+
+def test_free_space_trials_take_free_recordings_and_declare_zero_force(tmp_path):
+    from psmforce.estimators.training.calibrate import free_space_trials
+    chosen = free_space_trials(_free_dataset(tmp_path, (0.1, 0.2, 0.3)), minutes=1.0)
+    assert [t.path for t in chosen] == ["Free/f0.csv", "Free/f1.csv"]   # 0.5 min each
+    assert all(float(np.abs(t.matrix(TARGETS)).max()) == 0.0 for t in chosen)
+
+
+def test_free_space_calibration_refuses_a_contact_and_too_few_minutes(tmp_path):
+    from psmforce.estimators.training.calibrate import free_space_trials
+    with pytest.raises(CalibrationError, match=r"f1.csv: declared free space, but its ATI reads "
+                                               r"2.00 N"):
+        free_space_trials(_free_dataset(tmp_path, (0.0, 2.0, 0.0)), minutes=1.0)
+    with pytest.raises(CalibrationError, match=r"hold 1 free-space recordings .* give "
+                                               r"--minutes 1"):
+        free_space_trials(_free_dataset(tmp_path), minutes=0.6)
+
+
+@pytest.mark.slow
+def test_calibrate_without_an_ati_refits_the_prior_on_free_space(benches, tmp_path):
+    out = tmp_path / "free.pt"
+    summary = calibrate(benches / "hybrid.pt", benches / "tool", out, minutes=30.0, epochs=1,
+                        train_config=CHEAP, free_space=True)
+    record = summary["calibration"]
+    assert record["reference"].startswith("none") and record["rule"].startswith("train split, "
+                                                                                 "condition Free")
+    assert {t["condition"] for t in record["trials"]} == {"Free"}
+    assert {t["role"] for t in record["trials"]} == {"train", "validation"}
+    assert record["prior_refit"]["refitted_on"]
+    old, new = load_checkpoint(benches / "hybrid.pt"), load_checkpoint(out)
+    assert new.prior_json != old.prior_json

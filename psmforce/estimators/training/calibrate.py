@@ -29,6 +29,16 @@ with early stopping on the validation part
 (:func:`psmforce.estimators.training.train.finetune_model`: the last decoder block of the networks,
 the ridge of ``rocket``), with the pretrained scalers. The new checkpoint's provenance names the
 calibration trials, their roles and minutes, and the prior before / after.
+
+**Without an ATI** (``free_space=True``, ``psmforce calibrate --free-space``; issue 44). The
+calibration trials are the ``train`` split's ``Free`` recordings alone, in ``metadata.json`` order,
+the longest prefix within ``minutes`` (at least :data:`MIN_FREE_SPACE_TRIALS`: one to fit on, one to
+stop on). In free space the external force is zero, so no reference sensor is needed: the targets
+are set to 0 N by that declaration, and a recording that holds ATI columns reading more than
+:data:`MAX_FREE_SPACE_FORCE_N` is refused as not free space. The prior is refitted and the last
+block finetuned as above. What free space cannot excite (the terms that turn a tip load into shaft
+compression) keeps the checkpoint's values; ``psmforce excitation`` designs a motion that excites
+the rest (``docs/ati_free.md``).
 """
 
 from __future__ import annotations
@@ -61,6 +71,15 @@ INSERTION_COLUMNS = tuple(joint_column(INSERTION_JOINT, q) for q in ("velocity",
 VALIDATION_FRACTION = 0.1
 """As in training and finetuning; :func:`split_validation` takes at least one family from every
 condition with two or more."""
+MIN_FREE_SPACE_TRIALS = 2
+"""Free-space calibration: one recording to fit on, one to stop on."""
+MAX_FREE_SPACE_FORCE_N = 0.5
+"""A recording declared free space whose ATI columns (when it has them) read more than this
+(N, any axis, any sample) holds a contact: refused rather than trained towards 0 N."""
+FREE_SPACE_RULE = (
+    "train split, condition Free only, in metadata.json order, longest prefix within the "
+    "requested minutes; external force 0 N by declaration (free space, no ATI); validation "
+    "split by trajectory family (psmforce.estimators.data.dataset.split_validation)")
 CALIBRATION_RULE = (
     "train split, conditions Free and Traction (traction trials sharing a trajectory family with "
     "a free-space trial left out), each in metadata.json order, interleaved by minutes (next "
@@ -120,6 +139,37 @@ def calibration_trials(dataset: Dataset, minutes: float = DEFAULT_MINUTES) -> li
     return chosen
 
 
+def free_space_trials(dataset: Dataset, minutes: float = DEFAULT_MINUTES) -> list[Trial]:
+    """The calibration trials without an ATI (module docstring): copies of the train split's
+    free-space recordings with their targets set to 0 N."""
+    from psmforce.io.recording import TARGETS
+    where = dataset.root
+    if (isinstance(minutes, bool) or not isinstance(minutes, numbers.Real)
+            or not math.isfinite(minutes) or minutes <= 0):
+        raise CalibrationError(f"minutes: must be a finite number > 0, got {minutes!r}")
+    free = dataset.select(split="train", condition="Free")
+    for t in free:
+        present = [c for c in TARGETS if c in t.frame.columns]
+        if present:
+            peak = float(np.nanmax(np.abs(t.frame[present].to_numpy(dtype=float))))
+            if not peak <= MAX_FREE_SPACE_FORCE_N:
+                raise CalibrationError(
+                    f"{where}/{t.path}: declared free space, but its ATI reads {peak:.2f} N "
+                    f"(more than {MAX_FREE_SPACE_FORCE_N} N): not a free-space recording")
+    ends = np.cumsum([trial_minutes(t) for t in free])
+    chosen = free[:int(np.searchsorted(ends, minutes, side="right"))]
+    if len(chosen) < MIN_FREE_SPACE_TRIALS:
+        have = len(free)
+        need = (f"--minutes {math.ceil(ends[MIN_FREE_SPACE_TRIALS - 1] * 100) / 100:g}"
+                if have >= MIN_FREE_SPACE_TRIALS else "more free-space recordings")
+        raise CalibrationError(
+            f"{where}: {minutes:g} min hold {len(chosen)} free-space recordings (train/Free, "
+            f"{have} in all); calibration without an ATI needs {MIN_FREE_SPACE_TRIALS}: give "
+            f"{need}")
+    return [Trial(t.path, t.condition, t.split,
+                  t.frame.assign(**{c: 0.0 for c in TARGETS}), dict(t.params)) for t in chosen]
+
+
 def _order(free: list[Trial], traction: list[Trial]) -> list[Trial]:
     """Free-space and traction trials interleaved by minutes: the next from the condition with
     fewer minutes so far (Free on a tie), each condition in its given order."""
@@ -149,13 +199,14 @@ def _prior_free_error(prior, trials: list[Trial]) -> dict | None:
 
 def calibrate(checkpoint: str | Path, data_dir: str | Path, out: str | Path, *,
               minutes: float = DEFAULT_MINUTES, epochs: int = 100, seed: int = 0,
-              device: str = "cpu", train_config=None) -> dict:
+              device: str = "cpu", train_config=None, free_space: bool = False) -> dict:
     """Calibrate a trained checkpoint to the instrument recorded in ``data_dir`` from its first
     ``minutes`` of calibration trials (module docstring) and write ``out``. ``seed``: the validation
     split and the finetuning's shuffling; ``train_config``: a
     :class:`psmforce.estimators.training.train.TrainConfig` (default: finetuning's). Returns a
     summary: the finetuning report, the calibration trials with their roles and minutes, and for the
-    hybrid the prior's free-space error before and after its refit."""
+    hybrid the prior's free-space error before and after its refit. ``free_space``: calibrate
+    without an ATI, on free-space recordings only (module docstring)."""
     from psmforce.identification import InternalForcePrior
     from psmforce.identification.errors import NotConvergedError
     from psmforce.identification.prior import NAMES
@@ -165,8 +216,8 @@ def calibrate(checkpoint: str | Path, data_dir: str | Path, out: str | Path, *,
         raise TrainingError(f"out {out} is the checkpoint being calibrated: refusing to write "
                             f"over its input (give another file)")
     ckpt = load_checkpoint(checkpoint, device)
-    dataset = load_dataset(data_dir)
-    chosen = calibration_trials(dataset, minutes)
+    dataset = load_dataset(data_dir, require_targets=not free_space)
+    chosen = (free_space_trials if free_space else calibration_trials)(dataset, minutes)
     train_trials, val_trials = split_validation(chosen, VALIDATION_FRACTION, seed)
     calibration = Dataset(dataset.root, chosen, dataset.metadata)
     prior_report = None
@@ -206,7 +257,9 @@ def calibrate(checkpoint: str | Path, data_dir: str | Path, out: str | Path, *,
     roles = {t.path: "train" for t in train_trials} | {t.path: "validation" for t in val_trials}
     record = {
         "data_dir": str(data_dir), "tool": dataset.metadata.get("tool"),
-        "rule": CALIBRATION_RULE, "minutes_requested": float(minutes),
+        "rule": FREE_SPACE_RULE if free_space else CALIBRATION_RULE,
+        "reference": "none: external force 0 N in free space" if free_space else "ATI",
+        "minutes_requested": float(minutes),
         "minutes_used": round(sum(map(trial_minutes, chosen)), 4),
         "minutes_by_condition": {c: round(sum(trial_minutes(t) for t in chosen
                                               if t.condition == c), 4)
