@@ -8,7 +8,7 @@ Each block sits between ``<!-- NAME: rendered by python -m reports -->`` and
 ``<!-- end NAME -->`` (:data:`BLOCKS`: page, JSON or tuple of JSONs, render function; one
 module of render functions per page: :mod:`reports.readme_page`,
 :mod:`reports.identification_page`, :mod:`reports.results_page`,
-:mod:`reports.simulator_page`); nothing outside the
+:mod:`reports.simulator_page`, :mod:`reports.ati_free_page`); nothing outside the
 markers is touched. :data:`WHOLE_PAGES` are rewritten whole. Every block and page ends with a
 visible line naming its JSON and the command that wrote it (:func:`source_line`), so a reader
 finds where a figure came from in one hop.
@@ -28,6 +28,7 @@ sys.path.insert(0, str(ROOT))
 from reports import identification_page  # noqa: E402
 from reports import integrity_page  # noqa: E402
 from reports import readme_page  # noqa: E402
+from reports import ati_free_page  # noqa: E402
 from reports import results_page  # noqa: E402
 from reports import simulator_page  # noqa: E402
 from psmforce.core.files import write_text_atomic  # noqa: E402
@@ -58,6 +59,10 @@ INTEGRITY = ROOT / "docs" / "integrity.md"
 FUZZ = ROOT / "results" / "benchmarks" / "fuzz.json"
 SIM_CABLE_LAW = ROOT / "results" / "benchmarks" / "sim_calibration_cable_law.json"
 SIMULATOR = ROOT / "docs" / "simulator.md"
+REMOUNT = ROOT / "results" / "benchmarks" / "remount.json"
+HEX10_COMPRESSION = ROOT / "results" / "benchmarks" / "hex10_compression.json"
+EXCITATION = ROOT / "results" / "benchmarks" / "excitation.json"
+ATI_FREE = ROOT / "docs" / "ati_free.md"
 
 
 WRITERS = {
@@ -131,6 +136,9 @@ BLOCKS = (
      results_page.status),
     (RESULTS, "learning-curve", LEARNING_CURVE, results_page.learning_curve),
     (RESULTS, "bench-against-robot", LEARNING_CURVE, results_page.bench_against_robot),
+    (ATI_FREE, "excitation-tables", EXCITATION, ati_free_page.excitation_tables),
+    (ATI_FREE, "remount-tables", REMOUNT, ati_free_page.remount_tables),
+    (ATI_FREE, "hex10-compression", HEX10_COMPRESSION, ati_free_page.hex10_compression_table),
     (RESULTS, "hybrid-plateau", HYBRID_PLATEAU, _hybrid_plateau_table),
     (RESULTS, "prior-ablation-tables", PRIOR_ABLATION, results_page.prior_ablation_tables),
     (RESULTS, "ports-table", PORTS, results_page.ports_table),

@@ -4,9 +4,10 @@ docs/simulator.md."""
 
 from psmforce.sim.bench import Contact, run_trajectory
 from psmforce.sim.dataset import SimulationConfigError, simulate
+from psmforce.sim.mounting import Remount  # Remount.draw(seed).apply(params): a re-mounted tool
 from psmforce.sim.params import Effects, InstrumentParams
 from psmforce.sim.port import PORT_NAMES, PORTS, Port
 from psmforce.sim import versions  # versions.instrument("2.2"): a later version's nominal tool
 
 __all__ = ["simulate", "InstrumentParams", "Effects", "SimulationConfigError", "run_trajectory", "Contact",
-           "Port", "PORTS", "PORT_NAMES", "versions"]
+           "Port", "PORTS", "PORT_NAMES", "versions", "Remount"]

@@ -26,9 +26,10 @@ def _default_crosstalk() -> tuple[tuple[float, ...], ...]:
     return tuple(tuple(float(v) for v in row) for row in c)
 
 
-OMITTED_WHEN_OFF = ("cable_coulomb_n", "cable_coulomb_stretch_share")
-"""Fields added with simulator 2.2 (:mod:`psmforce.sim.versions`) that :meth:`InstrumentParams.to_dict`
-leaves out while they are 0 (off): simulator 2.1's ``metadata.json`` stays what it was."""
+OMITTED_WHEN_OFF = ("cable_coulomb_n", "cable_coulomb_stretch_share", "hex10_mount_rotation_rad")
+"""Fields added with simulator 2.2 (:mod:`psmforce.sim.versions`) and with the re-mounting model
+(:mod:`psmforce.sim.mounting`) that :meth:`InstrumentParams.to_dict` leaves out while they are 0
+(off; a tuple when every entry is 0): simulator 2.1's ``metadata.json`` stays what it was."""
 
 
 @dataclass(frozen=True)
@@ -208,6 +209,12 @@ class InstrumentParams:
     acts part-way along it): adds ``share x cable_coulomb_n x z`` to the differential that
     stretches the cables, so it widens the loop of motion lost at each reversal by a
     load-independent amount."""
+    hex10_mount_rotation_rad: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    """Small misalignment left by mounting the instrument (:mod:`psmforce.sim.mounting`): angles
+    (about x, y, z of the HEX10 frame; z = the shaft) of the frame the HEX10 measures in against
+    the frame the bench computes the section wrench in, ``R = Rz(c) Ry(b) Rx(a)``; the sensor
+    reads ``R^T`` of the section's force and moment (:func:`psmforce.sim.sensors.hex10_reading`).
+    All 0 (the nominal bench): the reading is the section wrench's, bit for bit."""
 
     def __post_init__(self):
         from psmforce.sim.cable_laws import PAIR_LAWS
@@ -218,7 +225,7 @@ class InstrumentParams:
         """Every field, except those of :data:`OMITTED_WHEN_OFF` at 0 (so that a bench without
         them writes the metadata it wrote before they existed; :meth:`from_dict` restores 0)."""
         return {f.name: _jsonable(getattr(self, f.name)) for f in fields(self)
-                if not (f.name in OMITTED_WHEN_OFF and getattr(self, f.name) == 0.0)
+                if not (f.name in OMITTED_WHEN_OFF and _is_off(getattr(self, f.name)))
                 and not (f.name == "pair_law" and self.pair_law == "linear")}  # the default law
 
     @classmethod
@@ -328,6 +335,11 @@ class Effects:
 
     def to_dict(self) -> dict:
         return {f.name: getattr(self, f.name) for f in fields(self)}
+
+
+def _is_off(v) -> bool:
+    """A switch-like field at its off value: 0, or a tuple of zeros."""
+    return all(x == 0.0 for x in v) if isinstance(v, tuple) else v == 0.0
 
 
 def _tupled(v):

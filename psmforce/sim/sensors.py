@@ -28,11 +28,17 @@ def hex10_reading(w_section: np.ndarray, dt: float, params: InstrumentParams, ef
     """HEX10 output (N, 6) [fx fy fz tx ty tz] and overload flag (N,) from the physical section
     wrench (N, 6) in the HEX10 frame.
 
-    y = X w (cross-talk); forces beyond the nominal range get an extra gain error
-    g (|y| - F_nom) sign(y); + residual tare bias + random-walk drift + white noise; then every
-    channel is clipped at its overload limit and the flag set where any channel reached it.
+    w is first turned into the frame the sensor measures in, ``R^T`` of its force and moment
+    with ``R = mount_rotation(params.hex10_mount_rotation_rad)`` (skipped while every angle is
+    0, so the nominal bench is unchanged bit for bit); y = X w (cross-talk); forces beyond the
+    nominal range get an extra gain error g (|y| - F_nom) sign(y); + residual tare bias +
+    random-walk drift + white noise; then every channel is clipped at its overload limit and the
+    flag set where any channel reached it.
     """
     n = len(w_section)
+    if any(a != 0.0 for a in params.hex10_mount_rotation_rad):
+        r = mount_rotation(params.hex10_mount_rotation_rad)
+        w_section = np.concatenate([w_section[:, :3] @ r, w_section[:, 3:] @ r], axis=1)
     y = w_section @ np.asarray(params.hex10_crosstalk).T if effects.hex10_crosstalk else w_section.copy()
     if effects.hex10_range_error:
         f = y[:, :3]
@@ -49,6 +55,17 @@ def hex10_reading(w_section: np.ndarray, dt: float, params: InstrumentParams, ef
     limit = np.array([params.hex10_overload_n] * 3 + [params.hex10_overload_moment_nm] * 3)
     overload = (np.abs(y) >= limit).any(axis=1)
     return np.clip(y, -limit, limit), overload
+
+
+def mount_rotation(angles_rad) -> np.ndarray:
+    """(3, 3) ``Rz(c) Ry(b) Rx(a)`` for angles (a, b, c) rad about x, y, z: the orientation of
+    the frame the HEX10 measures in, in the frame the section wrench is computed in (a row
+    vector ``v @ R`` is ``R^T v``)."""
+    a, b, c = (float(x) for x in angles_rad)
+    rx = np.array([[1.0, 0.0, 0.0], [0.0, np.cos(a), -np.sin(a)], [0.0, np.sin(a), np.cos(a)]])
+    ry = np.array([[np.cos(b), 0.0, np.sin(b)], [0.0, 1.0, 0.0], [-np.sin(b), 0.0, np.cos(b)]])
+    rz = np.array([[np.cos(c), -np.sin(c), 0.0], [np.sin(c), np.cos(c), 0.0], [0.0, 0.0, 1.0]])
+    return rz @ ry @ rx
 
 
 def quantise_joints(q: np.ndarray, effects: Effects) -> np.ndarray:
