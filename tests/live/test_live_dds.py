@@ -333,6 +333,36 @@ def test_every_endpoint_of_the_node_carries_its_ros_2_type_hash(tmp_path):
 
 
 @pytest.mark.slow
+def test_a_repeated_stamp_among_the_first_messages_over_dds_is_flagged_not_fatal(tmp_path):
+    """Issue 47, item 4, over real DDS: without --input-rate the node measures the rate from
+    the first HEX10 stamps; one repeated stamp among them (the robot sends sample 3 with
+    sample 2's stamp, on every stream) is flagged TIME_BACKWARDS, the rate is still measured
+    right, and every later message is answered."""
+    import threading
+
+    from psmforce.estimators.runtime.streaming import Flags
+    from psmforce.live.serve import RATE_MESSAGES, DdsNode
+    from psmforce.live.sim_robot import play
+    n = 1000
+    ckpt = checkpoint(tmp_path / "h.pt", rate_hz=100.0)
+    frame = recording(n)
+    frame["time"] = np.arange(n) / 1000.0
+    frame.loc[3, "time"] = frame.loc[2, "time"]
+    assert 3 < RATE_MESSAGES
+    participant = DomainParticipant(100 + (os.getpid() + 55) % 100)
+    node = DdsNode(ckpt, participant, sync=True)
+    robot = threading.Thread(target=play, args=(frame, participant),
+                             kwargs={"start_ns": START_NS})
+    robot.start()
+    report = node.spin(duration_s=60, idle_stop_s=1.0)
+    robot.join(30)
+    assert report["received"]["hex10"] == n, report
+    assert report["input_rate_hz"] == pytest.approx(1000.0), report
+    assert report["flag_counts"].get(Flags.TIME_BACKWARDS.bit_length() - 1, 0) >= 1, report
+    assert report["answers_published"] >= n - 1, report
+
+
+@pytest.mark.slow
 @pytest.mark.e2e
 def test_a_burst_as_fast_as_the_publisher_can_loses_nothing(tmp_path):
     """Issue 47, item 1: a 10x burst lost a third of its messages in the node's keep-last
