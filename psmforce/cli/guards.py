@@ -12,7 +12,7 @@ import time
 from pathlib import Path
 
 _INPUTS = ("checkpoint", "data", "bag", "recording", "dynamics", "prior", "config", "train",
-           "test", "session", "r_ati_psm", "column_map", "sim_recording")
+           "test", "session", "r_ati_psm", "column_map", "sim_recording", "known_loads")
 """Argument names that hold a command's inputs (files or folders), whatever the command."""
 _OUTPUTS = ("out", "json", "model_out")
 """Argument names that hold what a command writes."""

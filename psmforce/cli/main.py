@@ -262,6 +262,11 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--free-space", action="store_true",
                    help="calibrate without an ATI: DATA's train/Free recordings only, their "
                         "external force 0 N by declaration (docs/ati_free.md)")
+    p.add_argument("--known-loads", metavar="LOADS_DIR",
+                   help="with --free-space: also a dataset folder of known masses hung at the "
+                        "tip, each metadata.json trial entry (train/KnownLoad) with its mass as "
+                        "'known_load_kg'; the force is that weight in the HEX10 frame from the "
+                        "recorded joints (docs/ati_free.md)")
     training_arguments(p, "the calibration report")
 
     p = add("evaluate", offline.evaluate_command, "evaluate an estimator as in the paper",

@@ -299,14 +299,21 @@ def finetune_command(args) -> dict:
 
 def calibrate_command(args) -> dict:
     options.training_options(args)
+    if args.known_loads is not None and not args.free_space:
+        raise ValueError("--known-loads: only with --free-space (a calibration with the ATI "
+                         "measures its loads)")
+    if args.known_loads is not None and not Path(args.known_loads).is_dir():
+        raise ValueError(f"--known-loads: {args.known_loads} is not a dataset folder")
     from psmforce.estimators.training.calibrate import calibrate
     result = calibrate(args.checkpoint, args.data, args.out, minutes=args.minutes,
                        epochs=args.epochs, seed=args.seed, device=args.device,
-                       free_space=args.free_space)
+                       free_space=args.free_space, known_loads=args.known_loads)
     record = result["calibration"]
     print(f"calibrated on {len(record['trials'])} trials, {record['minutes_used']:.2f} min "
           f"(Free {record['minutes_by_condition']['Free']:.2f}, Traction "
-          f"{record['minutes_by_condition']['Traction']:.2f})"
+          f"{record['minutes_by_condition']['Traction']:.2f}"
+          + (f", KnownLoad {record['minutes_by_condition']['KnownLoad']:.2f}"
+             if record["known_loads_dir"] else "") + ")"
           + (", prior refitted" if record["prior_refit"] else "")
           + f"; {record['epochs_run']} epochs ({record['stopped_by']}); wrote {args.out}")
     return result

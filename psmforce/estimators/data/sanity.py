@@ -26,9 +26,11 @@ from psmforce.estimators.data.bounds import MAX_FORCE_N
 from psmforce.io.recording import TARGETS
 
 METADATA = "metadata.json"
-CONDITIONS = ("Free", "Traction", "Palpation", "Rigid", "Soft")
+CONDITIONS = ("Free", "Traction", "Palpation", "Rigid", "Soft", "KnownLoad")
 """The conditions of the paper's protocols (automated: free space, traction, palpation;
-teleoperation: rigid, soft, free): what the pipeline's splits, priors and calibrations read."""
+teleoperation: rigid, soft, free): what the pipeline's splits, priors and calibrations read; and
+``KnownLoad``, a known mass hung at the tip, what a calibration without an ATI reads
+(:mod:`psmforce.estimators.training.ati_free`)."""
 SPLITS = ("train", "test")
 
 

@@ -31,25 +31,25 @@ the ridge of ``rocket``), with the pretrained scalers. The new checkpoint's prov
 calibration trials, their roles and minutes, and the prior before / after.
 
 **Without an ATI** (``free_space=True``, ``psmforce calibrate --free-space``; issue 44). The
-calibration trials are the ``train`` split's ``Free`` recordings alone, in ``metadata.json`` order,
-the longest prefix within ``minutes`` (at least :data:`MIN_FREE_SPACE_TRIALS`: one to fit on, one to
-stop on). In free space the external force is zero, so no reference sensor is needed: the targets
-are set to 0 N by that declaration, and a recording that holds ATI columns reading more than
-:data:`MAX_FREE_SPACE_FORCE_N` is refused as not free space. The prior is refitted and the last
-block finetuned as above. What free space cannot excite (the terms that turn a tip load into shaft
-compression) keeps the checkpoint's values; ``psmforce excitation`` designs a motion that excites
-the rest (``docs/ati_free.md``).
+calibration trials are the ``train`` split's ``Free`` recordings (external force 0 N by
+declaration), and with ``known_loads`` (``--known-loads DIR``) the recordings of known masses hung
+at the tip (the weight, in the HEX10 frame, from the kinematics): the selection and its checks are
+:mod:`psmforce.estimators.training.ati_free`'s. The prior is refitted and the last block finetuned
+as above. What the recordings cannot excite keeps the checkpoint's values; ``psmforce excitation``
+designs a motion that excites the rest (``docs/ati_free.md``).
 """
 
 from __future__ import annotations
 
 import dataclasses
 import math
-import numbers
 from pathlib import Path
 
 import numpy as np
 
+from psmforce.estimators.training.ati_free import (  # noqa: F401  (re-exported: the module's API)
+    KNOWN_LOAD_CONDITION, MAX_FREE_SPACE_FORCE_N, MIN_FREE_SPACE_TRIALS, CalibrationError,
+    check_minutes, free_space_trials, known_load_trials, trial_minutes)
 from psmforce.estimators.training.checkpoint import load_checkpoint
 from psmforce.estimators.data.dataset import (Dataset, Trial, load_dataset, split_validation,
                                               trajectory_group)
@@ -71,15 +71,13 @@ INSERTION_COLUMNS = tuple(joint_column(INSERTION_JOINT, q) for q in ("velocity",
 VALIDATION_FRACTION = 0.1
 """As in training and finetuning; :func:`split_validation` takes at least one family from every
 condition with two or more."""
-MIN_FREE_SPACE_TRIALS = 2
-"""Free-space calibration: one recording to fit on, one to stop on."""
-MAX_FREE_SPACE_FORCE_N = 0.5
-"""A recording declared free space whose ATI columns (when it has them) read more than this
-(N, any axis, any sample) holds a contact: refused rather than trained towards 0 N."""
 FREE_SPACE_RULE = (
     "train split, condition Free only, in metadata.json order, longest prefix within the "
     "requested minutes; external force 0 N by declaration (free space, no ATI); validation "
     "split by trajectory family (psmforce.estimators.data.dataset.split_validation)")
+KNOWN_LOADS_RULE = (
+    "; with every train/KnownLoad recording of the known-loads folder, external force = the "
+    "hung mass (metadata known_load_kg) x gravity in the HEX10 frame from the recorded joints")
 CALIBRATION_RULE = (
     "train split, conditions Free and Traction (traction trials sharing a trajectory family with "
     "a free-space trial left out), each in metadata.json order, interleaved by minutes (next "
@@ -87,24 +85,10 @@ CALIBRATION_RULE = (
     "requested minutes; validation split by trajectory family (psmforce.estimators.data.dataset.split_validation)")
 
 
-class CalibrationError(ValueError):
-    """A calibration request that cannot run as asked; the message says why."""
-
-
-def trial_minutes(trial: Trial) -> float:
-    """Duration of a recording in minutes from its ``time`` column (any sample rate)."""
-    t = trial.frame["time"].to_numpy(dtype=float)
-    if len(t) < 2:
-        return 0.0
-    return float((t[-1] - t[0] + np.median(np.diff(t))) / 60.0)
-
-
 def calibration_trials(dataset: Dataset, minutes: float = DEFAULT_MINUTES) -> list[Trial]:
     """The new tool's calibration trials, in the documented order (module docstring)."""
     where = dataset.root
-    if (isinstance(minutes, bool) or not isinstance(minutes, numbers.Real)
-            or not math.isfinite(minutes) or minutes <= 0):
-        raise CalibrationError(f"minutes: must be a finite number > 0, got {minutes!r}")
+    check_minutes(minutes)
     train = dataset.select(split="train")
     if not train:
         raise CalibrationError(f"{where}: no trials in a 'train' split to calibrate on")
@@ -139,37 +123,6 @@ def calibration_trials(dataset: Dataset, minutes: float = DEFAULT_MINUTES) -> li
     return chosen
 
 
-def free_space_trials(dataset: Dataset, minutes: float = DEFAULT_MINUTES) -> list[Trial]:
-    """The calibration trials without an ATI (module docstring): copies of the train split's
-    free-space recordings with their targets set to 0 N."""
-    from psmforce.io.recording import TARGETS
-    where = dataset.root
-    if (isinstance(minutes, bool) or not isinstance(minutes, numbers.Real)
-            or not math.isfinite(minutes) or minutes <= 0):
-        raise CalibrationError(f"minutes: must be a finite number > 0, got {minutes!r}")
-    free = dataset.select(split="train", condition="Free")
-    for t in free:
-        present = [c for c in TARGETS if c in t.frame.columns]
-        if present:
-            peak = float(np.nanmax(np.abs(t.frame[present].to_numpy(dtype=float))))
-            if not peak <= MAX_FREE_SPACE_FORCE_N:
-                raise CalibrationError(
-                    f"{where}/{t.path}: declared free space, but its ATI reads {peak:.2f} N "
-                    f"(more than {MAX_FREE_SPACE_FORCE_N} N): not a free-space recording")
-    ends = np.cumsum([trial_minutes(t) for t in free])
-    chosen = free[:int(np.searchsorted(ends, minutes, side="right"))]
-    if len(chosen) < MIN_FREE_SPACE_TRIALS:
-        have = len(free)
-        need = (f"--minutes {math.ceil(ends[MIN_FREE_SPACE_TRIALS - 1] * 100) / 100:g}"
-                if have >= MIN_FREE_SPACE_TRIALS else "more free-space recordings")
-        raise CalibrationError(
-            f"{where}: {minutes:g} min hold {len(chosen)} free-space recordings (train/Free, "
-            f"{have} in all); calibration without an ATI needs {MIN_FREE_SPACE_TRIALS}: give "
-            f"{need}")
-    return [Trial(t.path, t.condition, t.split,
-                  t.frame.assign(**{c: 0.0 for c in TARGETS}), dict(t.params)) for t in chosen]
-
-
 def _order(free: list[Trial], traction: list[Trial]) -> list[Trial]:
     """Free-space and traction trials interleaved by minutes: the next from the condition with
     fewer minutes so far (Free on a tie), each condition in its given order."""
@@ -199,14 +152,16 @@ def _prior_free_error(prior, trials: list[Trial]) -> dict | None:
 
 def calibrate(checkpoint: str | Path, data_dir: str | Path, out: str | Path, *,
               minutes: float = DEFAULT_MINUTES, epochs: int = 100, seed: int = 0,
-              device: str = "cpu", train_config=None, free_space: bool = False) -> dict:
+              device: str = "cpu", train_config=None, free_space: bool = False,
+              known_loads: str | Path | None = None) -> dict:
     """Calibrate a trained checkpoint to the instrument recorded in ``data_dir`` from its first
     ``minutes`` of calibration trials (module docstring) and write ``out``. ``seed``: the validation
     split and the finetuning's shuffling; ``train_config``: a
     :class:`psmforce.estimators.training.train.TrainConfig` (default: finetuning's). Returns a
     summary: the finetuning report, the calibration trials with their roles and minutes, and for the
     hybrid the prior's free-space error before and after its refit. ``free_space``: calibrate
-    without an ATI, on free-space recordings only (module docstring)."""
+    without an ATI, on free-space recordings only; ``known_loads``: with it, also on the
+    known-load recordings of that folder (module docstring)."""
     from psmforce.identification import InternalForcePrior
     from psmforce.identification.errors import NotConvergedError
     from psmforce.identification.prior import NAMES
@@ -215,9 +170,23 @@ def calibrate(checkpoint: str | Path, data_dir: str | Path, out: str | Path, *,
     if Path(out).resolve() == Path(checkpoint).resolve():
         raise TrainingError(f"out {out} is the checkpoint being calibrated: refusing to write "
                             f"over its input (give another file)")
+    if known_loads is not None and not free_space:
+        raise CalibrationError("known_loads: only without an ATI (free_space=True, "
+                               "--free-space); an ATI calibration reads the loads it measures")
     ckpt = load_checkpoint(checkpoint, device)
     dataset = load_dataset(data_dir, require_targets=not free_space)
     chosen = (free_space_trials if free_space else calibration_trials)(dataset, minutes)
+    loads_root = None
+    if known_loads is not None:
+        loads = load_dataset(known_loads, require_targets=False)
+        loads_root = loads.root
+        known = known_load_trials(loads)
+        taken = {t.path for t in chosen} & {t.path for t in known}
+        if taken:
+            # the checkpoint's provenance and the validation split key trials by path
+            raise CalibrationError(f"{known_loads}: recording path {sorted(taken)[0]} is also "
+                                   f"one of {data_dir}'s: give the known loads their own paths")
+        chosen = chosen + known
     train_trials, val_trials = split_validation(chosen, VALIDATION_FRACTION, seed)
     calibration = Dataset(dataset.root, chosen, dataset.metadata)
     prior_report = None
@@ -231,9 +200,17 @@ def calibrate(checkpoint: str | Path, data_dir: str | Path, out: str | Path, *,
         # otherwise (psmforce.estimators.training.train.fit_prior: every condition, the ATI force subtracted), and
         # the trained insertion model is kept.
         frames = [t.frame.drop(columns=list(INSERTION_COLUMNS)) for t in train_trials]
-        new = dataclasses.replace(
-            InternalForcePrior.fit(frames, provenance={"trials": [t.path for t in train_trials]}),
-            insertion=old.insertion)
+        provenance = {"trials": [t.path for t in train_trials]}
+        fitted = InternalForcePrior.fit(frames, provenance=provenance)
+        held = {}
+        if free_space:
+            # Without an ATI what the recordings cannot excite (the fit's own identifiability
+            # report names it) keeps the checkpoint's value instead of drifting with noise.
+            unseen = fitted.info.get("identifiability", {}).get("not_identifiable", {})
+            held = {n: float(old.params[NAMES.index(n)]) for n in sorted(unseen)}
+            if held:
+                fitted = InternalForcePrior.fit(frames, provenance=provenance, fixed=held)
+        new = dataclasses.replace(fitted, insertion=old.insertion)
         try:
             ckpt.prior_json = prior_to_json(new)
         except NotConvergedError as err:
@@ -247,6 +224,7 @@ def calibrate(checkpoint: str | Path, data_dir: str | Path, out: str | Path, *,
         prior_report = {
             "refitted_on": [t.path for t in train_trials],
             "insertion_model": "kept from the checkpoint (the arm's, not the tool's)",
+            "held_from_checkpoint": held,
             "free_space_rms_n": {r: e for r, e in errors.items() if e["before"] is not None},
             "parameters_before": dict(zip(NAMES, old.params.tolist())),
             "parameters_after": dict(zip(NAMES, new.params.tolist()))}
@@ -257,13 +235,17 @@ def calibrate(checkpoint: str | Path, data_dir: str | Path, out: str | Path, *,
     roles = {t.path: "train" for t in train_trials} | {t.path: "validation" for t in val_trials}
     record = {
         "data_dir": str(data_dir), "tool": dataset.metadata.get("tool"),
-        "rule": FREE_SPACE_RULE if free_space else CALIBRATION_RULE,
-        "reference": "none: external force 0 N in free space" if free_space else "ATI",
+        "known_loads_dir": None if loads_root is None else str(known_loads),
+        "rule": (FREE_SPACE_RULE + (KNOWN_LOADS_RULE if loads_root is not None else "")
+                 if free_space else CALIBRATION_RULE),
+        "reference": ("none: external force 0 N in free space"
+                      + (", the hung weight on known loads" if loads_root is not None else "")
+                      if free_space else "ATI"),
         "minutes_requested": float(minutes),
         "minutes_used": round(sum(map(trial_minutes, chosen)), 4),
         "minutes_by_condition": {c: round(sum(trial_minutes(t) for t in chosen
                                               if t.condition == c), 4)
-                                 for c in CALIBRATION_CONDITIONS},
+                                 for c in CALIBRATION_CONDITIONS + (KNOWN_LOAD_CONDITION,)},
         "trials": [{"path": t.path, "condition": t.condition, "role": roles[t.path],
                     "minutes": round(trial_minutes(t), 4)} for t in chosen],
         "prior_refit": prior_report, "finetune_config": cfg.to_dict(),

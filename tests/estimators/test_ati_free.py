@@ -1,0 +1,129 @@
+"""Calibration without an ATI: known-load targets (m g in the HEX10 frame), their metadata
+checks, the ATI-free bench generator and the CLI's guard on --known-loads."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from psmforce.estimators.data.dataset import Dataset, Trial, load_dataset
+from psmforce.estimators.training.ati_free import (KNOWN_LOAD_CONDITION, KNOWN_LOAD_FIELD,
+                                                   CalibrationError, known_load_force_hex10,
+                                                   known_load_trials)
+from psmforce.io.recording import JOINT_POSITIONS, TARGETS
+from psmforce.robot.kinematics import default_psm
+from psmforce.sim.bench import Contact, run_trajectory
+from psmforce.sim.params import Effects, InstrumentParams
+
+POSE = np.array([0.3, 0.2, 0.15, 0.4, 0.7, -0.3, 0.0])
+
+
+def _hold(mass_kg: float, effects: Effects | None = None, n: int = 200) -> pd.DataFrame:
+    """A weight hung at the tip of a tilted arm with a bent wrist, held still (the bench)."""
+    effects = effects or dataclasses.replace(Effects(), sensor_noise=False,
+                                             encoder_quantisation=False)
+    return run_trajectory(np.repeat(POSE[None], n, 0), 0.01,
+                          Contact(kind="weight", mass_kg=mass_kg), InstrumentParams(), effects,
+                          np.random.default_rng(0))
+
+
+def test_known_load_force_is_the_weight_in_the_hex10_frame():
+    frame = _hold(0.05)
+    q = frame[list(JOINT_POSITIONS)].to_numpy()
+    force = known_load_force_hex10(q, 0.05)
+    # the bench's own force on the tool, through its ATI target (paper eq. 4, noise off)
+    np.testing.assert_allclose(force, frame[list(TARGETS)].to_numpy(), atol=2e-3)
+    # the same weight by hand: R_PSM_HEX10(q)^T (0, 0, -m g)
+    r = default_psm().rotation(q[:1], "hex10")[0]
+    np.testing.assert_allclose(force[0], r.T @ np.array([0.0, 0.0, -0.05 * 9.81]), atol=1e-9)
+    assert np.linalg.norm(force[0]) == pytest.approx(0.05 * 9.81)
+    assert np.linalg.norm(force[0, :2]) > 0.05 and abs(force[0, 2]) > 0.05  # across and along
+
+
+def _loads(root, entries: list[dict], frame: pd.DataFrame, metadata: dict | None = None):
+    trials = [Trial(f"train/KnownLoad/l{k}.csv", e.pop("condition", KNOWN_LOAD_CONDITION),
+                    e.pop("split", "train"), frame.copy(), e) for k, e in enumerate(entries)]
+    return Dataset(root, trials, metadata or {})
+
+
+def test_known_load_trials_set_the_targets_and_keep_the_mass(tmp_path):
+    frame = _hold(0.02).drop(columns=list(TARGETS))
+    chosen = known_load_trials(_loads(tmp_path, [{KNOWN_LOAD_FIELD: 0.02}], frame))
+    expected = known_load_force_hex10(frame[list(JOINT_POSITIONS)].to_numpy(), 0.02)
+    np.testing.assert_allclose(chosen[0].matrix(TARGETS, np.float64), expected)
+
+
+@pytest.mark.parametrize("entry, message", [
+    ({}, "no 'known_load_kg'"),
+    ({KNOWN_LOAD_FIELD: "50 g"}, "must be a number"),
+    ({KNOWN_LOAD_FIELD: True}, "must be a number"),
+    ({KNOWN_LOAD_FIELD: float("nan")}, "must be finite"),
+    ({KNOWN_LOAD_FIELD: float("inf")}, "must be finite"),
+    ({KNOWN_LOAD_FIELD: -0.05}, "must be > 0 kg"),
+    ({KNOWN_LOAD_FIELD: 0.0}, "must be > 0 kg"),
+    ({KNOWN_LOAD_FIELD: 0.05, "condition": "Free"}, "train/KnownLoad recordings only"),
+])
+def test_bad_known_load_metadata_is_refused_naming_the_file(tmp_path, entry, message):
+    frame = _hold(0.05).drop(columns=list(TARGETS))
+    with pytest.raises(CalibrationError, match=message) as err:
+        known_load_trials(_loads(tmp_path, [entry], frame))
+    assert "l0.csv" in str(err.value)
+
+
+def test_known_loads_refuse_an_ati_that_disagrees_and_a_tilted_base(tmp_path):
+    frame = _hold(0.2)   # its ATI reads 0.2 kg
+    with pytest.raises(CalibrationError, match=r"l0.csv: declared a hung 0.05 kg, but its ATI "
+                                               r"differs from that weight by 1\.\d\d N"):
+        known_load_trials(_loads(tmp_path, [{KNOWN_LOAD_FIELD: 0.05}], frame))
+    assert len(known_load_trials(_loads(tmp_path, [{KNOWN_LOAD_FIELD: 0.2}], frame))) == 1
+    with pytest.raises(CalibrationError, match="not the upright base"):
+        known_load_trials(_loads(tmp_path, [{KNOWN_LOAD_FIELD: 0.2}], frame,
+                                 {"gravity_base": [0.0, 9.81, 0.0]}))
+
+
+def test_the_generator_writes_datasets_calibrate_reads(tmp_path):
+    from psmforce.estimators.training.ati_free import free_space_trials
+    from psmforce.sim.ati_free import (FREE_SPACE, KNOWN_LOADS, excitation_chunks,
+                                       simulate_ati_free)
+    from psmforce.sim.ati_free import KNOWN_LOAD_CONDITION as SIM_CONDITION
+    assert SIM_CONDITION == KNOWN_LOAD_CONDITION
+    assert excitation_chunks(7000, 30.0) == [(0, 3000), (3000, 7000)]
+    assert excitation_chunks(8000, 30.0) == [(0, 3000), (3000, 6000), (6000, 8000)]
+    exc = np.repeat(POSE[None], 500, 0)
+    exc[:, 6] = 0.3
+    summary = simulate_ati_free(tmp_path / "g", seed=5, scale=0.01, free_minutes=0.2,
+                                excitation_q=exc, weight_poses={"bent": POSE},
+                                masses_kg=(0.02, 0.05), hold_s=2.0, tool_seed=7)
+    assert summary["minutes"]["paper_free"] == pytest.approx(0.2)
+    free = load_dataset(tmp_path / "g" / FREE_SPACE, require_targets=False)
+    assert not set(TARGETS) & set(free.trials[0].frame.columns)      # no ATI in the lab
+    kinds = [t.params["kind"] for t in free.trials]
+    assert kinds == sorted(kinds, key=["paper_free", "excitation"].index)  # paper motion first
+    chosen = free_space_trials(free, 0.2 + 1e-6)
+    assert {t.params["kind"] for t in chosen} == {"paper_free"}
+    loads = load_dataset(tmp_path / "g" / KNOWN_LOADS, require_targets=False)
+    assert [t.params[KNOWN_LOAD_FIELD] for t in loads.trials] == [0.02, 0.05]
+    meta = json.loads((tmp_path / "g" / KNOWN_LOADS / "metadata.json").read_text())
+    assert meta["tool"] == {"seed": 7, "spread": 1.0}
+    targets = known_load_trials(loads)[1].matrix(TARGETS, np.float64)
+    assert np.linalg.norm(targets, axis=1) == pytest.approx(0.05 * 9.81)
+
+
+def test_cli_refuses_known_loads_without_free_space(tmp_path, capsys):
+    from psmforce.cli.main import main
+    (tmp_path / "loads").mkdir()
+    argv = ["calibrate", str(tmp_path / "m.pt"), "--data", str(tmp_path), "--out",
+            str(tmp_path / "o.pt"), "--known-loads", str(tmp_path / "loads")]
+    assert main(argv) == 2
+    assert "--known-loads: only with --free-space" in capsys.readouterr().err
+    assert main(argv[:-1] + [str(tmp_path / "none"), "--free-space"]) == 2
+    assert "is not a dataset folder" in capsys.readouterr().err
+    # an output inside the known-loads folder is refused before any work
+    (tmp_path / "loads" / "metadata.json").write_text("{}")
+    assert main(argv[:4] + ["--out", str(tmp_path / "loads" / "metadata.json"),
+                            "--known-loads", str(tmp_path / "loads"), "--free-space"]) == 2
+    assert "loads" in capsys.readouterr().err

@@ -1,0 +1,88 @@
+"""studies/ati_free.py's pure parts: which data each arm reads, the pairing against the ATI
+references, the goal check and the prior against the bench's truth."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import pytest
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
+from studies.ati_free import (ATI_FREE, AXES, REFERENCES, arms, goal_misses,  # noqa: E402
+                              paired_table, prior_against_truth, rows, summary)
+
+
+def test_arms_add_the_excitation_then_the_weights():
+    got = arms(1.5, 2.0)
+    assert list(got) == list(ATI_FREE)
+    assert [a["minutes"] for a in got.values()] == [1.5, 3.5, 3.5]
+    assert [a["known_loads"] for a in got.values()] == [False, False, True]
+    names = rows()
+    assert {"network_alone:free", "physics_alone:free+self+weights", *REFERENCES} <= set(names)
+
+
+def _score(fx, fy, fz):
+    return {"nrmse_pct": {m: dict(zip(AXES, (fx, fy, fz))) for m in ("causal", "paper")}}
+
+
+def test_pairing_is_per_seed_and_against_the_reference():
+    records = {201: {"free+self+weights": _score(2.0, 1.0, 3.0),
+                     "ati_same_minutes": _score(1.0, 1.0, 3.0)},
+               202: {"free+self+weights": _score(2.0, 2.0, 3.0),
+                     "ati_same_minutes": _score(1.0, 1.0, 3.0)},
+               203: {"free+self+weights": _score(2.0, 1.0, 3.0),   # no free+self on 203
+                     "ati_same_minutes": _score(1.0, 1.0, 3.0), "free+self": _score(1, 1, 1)}}
+    paired = paired_table(records, "ati_same_minutes")
+    assert set(paired) == {"free+self+weights"}       # a row missing on a seed is left out
+    fx = paired["free+self+weights"]["causal"]["Fx"]
+    assert fx["ratios"] == (2.0, 2.0, 2.0) and fx["mean_ratio"] == pytest.approx(2.0)
+    fy = paired["free+self+weights"]["paper"]["Fy"]
+    assert fy["ratios"] == (1.0, 2.0, 1.0) and fy["verdict"] == "tie" and fy["n"] == 3
+    check = goal_misses(paired)
+    assert check["free+self+weights"]["met"] is False
+    # Fy's geometric mean, 2 ** (1 / 3) = 1.26, is within the 1.3x goal
+    assert {(m["metric"], m["axis"]) for m in check["free+self+weights"]["misses"]} == {
+        ("causal", "Fx"), ("paper", "Fx")}
+    table = summary(records)
+    assert table["free+self+weights"]["causal"]["Fx"][0] == pytest.approx(2.0)
+    assert table["free+self"]["n"] == 1 and table["free+self"]["causal"]["Fx"][1] is None
+
+
+def test_prior_against_truth_names_held_and_unmatched_parameters():
+    after = {"pretension_total": 6.3, "bias_fz": 0.01, "direction_tension": 0.2,
+             "cable_radius": 0.002, "bias_tx": 0.001}
+    truth = {"pretension_total": 6.0, "bias_fz": 0.05, "direction_tension": None,
+             "cable_radius": 0.0012, "bias_tx": 0.0}
+    got = prior_against_truth(after, truth, held={"cable_radius": 0.002})
+    assert got["pretension_total"]["relative_error"] == pytest.approx(0.05)
+    assert got["pretension_total"]["within"] is True and got["bias_fz"]["within"] is False
+    assert got["direction_tension"]["status"] == "no counterpart"
+    assert got["cable_radius"]["status"] == "held" and got["cable_radius"]["within"] is None
+    assert got["bias_tx"]["relative_error"] is None
+    assert got["bias_tx"]["absolute_error"] == pytest.approx(0.001)
+
+
+def test_the_page_renders_every_row_the_goals_and_the_prior():
+    from reports.ati_free_page import ati_free_tables
+    names = rows()
+    records = {s: {n: _score(1.0 + k / 10, 2.0, 3.0 + s - 201) for k, n in enumerate(names)}
+               for s in (201, 202)}
+    prior = prior_against_truth({"pretension_total": 6.3, "cable_radius": 0.002},
+                                {"pretension_total": 6.0, "cable_radius": 0.0012},
+                                {"cable_radius": 0.002})
+    paired = {ref: paired_table(records, ref) for ref in REFERENCES}
+    result = {"label": "converged", "settings": {"scale": 0.05}, "start": "s", "test": "t",
+              "metrics": "m", "summary": summary(records), "paired": paired,
+              "goal_check": {ref: goal_misses(p) for ref, p in paired.items()},
+              "records": {str(s): r for s, r in records.items()},
+              "runs": {str(s): {a: {"prior_against_truth": prior} for a in ATI_FREE}
+                       for s in records},
+              "convergence": {"seed 201: free": True, "seed 202: free": False}}
+    text = ati_free_tables(result)
+    # the scores, the two pairings and its two prior parameters
+    assert text.count("| (c) ATI-free: + known weights |") == 5
+    assert "physics alone, (a)'s prior" in text and "| `cable_radius` | 0.0012 | held, held" in text
+    assert "| `pretension_total` | 6 | fitted, fitted | 0.05, 0.05 | 2 of 2 |" in text
+    assert "**missed**: causal Fx 1." in text or "**met**" in text
+    assert "not converged: seed 202: free." in text
