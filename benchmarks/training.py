@@ -247,7 +247,7 @@ def _converge(scale: float) -> dict:
         ds = load_dataset(Path(tmp) / "bench")
         train, val = split_validation(ds.select(split="train"), 0.1, 1)
         setup = make_setup("transformer", train)
-        cfg = _config("full", "pretrain", 1, "cpu", "transformer")
+        cfg = _config("full", "pretrain", 1, "cpu", "transformer", recipe("transformer").optimiser)
         cfg.progress = True   # a run of tens of minutes: show its epochs
         rep = train_model(setup, train, val, cfg)
         test = ds.select(split="test")

@@ -29,7 +29,7 @@ from psmforce.estimators.data.hybrid_inputs import (COMPENSATED_HEX10, HYBRID_FE
                            HYBRID_FEATURES_PRIOR_FZ, INSERTION_FZ, add_prior_columns, prior_to_json)
 from psmforce.estimators.evaluation.metrics import AXES
 from psmforce.experiments.reproduce import _config, _scores
-from psmforce.estimators.networks.recipes import Inputs
+from psmforce.estimators.networks.recipes import Inputs, recipe
 from psmforce.estimators.training.train import fit_prior, make_setup, train_model
 from psmforce.experiments.report import dataset_arguments, write_json
 
@@ -68,7 +68,7 @@ def main() -> dict:
                                            for a, f, r in zip(AXES, force, resid))
               + f"   (Fz - insertion_fz {axial:.3f})")
 
-    cfg = _config("cpu", "pretrain", args.seed, "cpu", "hybrid")
+    cfg = _config("cpu", "pretrain", args.seed, "cpu", "hybrid", recipe("hybrid").optimiser)
     print(f"hybrid variants (budget {cfg.max_epochs} epochs x {cfg.max_batches_per_epoch} batches)"
           ": NRMSE % Fx / Fy / Fz on validation | test")
     for name, (features, base) in VARIANTS.items():

@@ -193,7 +193,8 @@ def training(change: Variant, seed: int) -> TrainConfig:
     the variant's own change."""
     base = (TrainConfig(**CURVE_HYBRID_TRAINING, seed=seed, progress=False)
             if change.model in ("hybrid", "chunk_fcn")
-            else _config("full", "pretrain", seed, "cpu", change.model))
+            else _config("full", "pretrain", seed, "cpu", change.model,
+                         recipe(change.model).optimiser))
     return dataclasses.replace(base, **change.training)
 
 

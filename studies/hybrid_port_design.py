@@ -40,7 +40,7 @@ from psmforce.estimators.data.hybrid_inputs import (BASE_COLUMNS, HYBRID_FEATURE
                                                     HYBRID_INPUTS, INSERTION_FZ, add_prior_columns,
                                                     prior_to_json)
 from psmforce.estimators.evaluation.metrics import AXES
-from psmforce.estimators.networks.recipes import Inputs
+from psmforce.estimators.networks.recipes import Inputs, recipe
 from psmforce.experiments.reproduce import _config, _scores
 from psmforce.estimators.training.train import fit_prior, make_setup, train_model
 from psmforce.io.recording import joint_column
@@ -109,7 +109,8 @@ def main() -> dict:
                 setup = make_setup("hybrid", train, prior_json=prior_to_json(prior),
                                    inputs=Inputs(features, base, derivation="prior"))
                 rep = train_model(setup, train, val,
-                                  _config("full", "pretrain", init, "cpu", "hybrid"))
+                                  _config("full", "pretrain", init, "cpu", "hybrid",
+                                          recipe("hybrid").optimiser))
                 scores = _scores(setup, val, "cpu")["overall"]
                 runs.append({"epochs": rep["epochs_run"], "converged": rep["converged"],
                              **{mode: [scores[mode][a]["nrmse_pct"] for a in AXES]

@@ -81,7 +81,7 @@ def test_hybrid_variants_change_the_curves_training_not_the_recipes():
         {k: v for k, v in vars(default).items() if k not in ("chunk", "chunk_batch_size")}
     assert training(VARIANTS["fcn_hybrid_inputs_chunks"], 2) == default
     assert training(VARIANTS["fcn_hybrid_inputs"], 2) == _config("full", "pretrain", 2, "cpu",
-                                                                 "fcn")
+                                                                 "fcn", recipe("fcn").optimiser)
     assert set(CURVE_HYBRID_TRAINING) <= set(vars(default))
 
 
