@@ -62,6 +62,7 @@ SIMULATOR = ROOT / "docs" / "simulator.md"
 REMOUNT = ROOT / "results" / "benchmarks" / "remount.json"
 HEX10_COMPRESSION = ROOT / "results" / "benchmarks" / "hex10_compression.json"
 EXCITATION = ROOT / "results" / "benchmarks" / "excitation.json"
+RECIPE_SWAP = ROOT / "results" / "benchmarks" / "recipe_swap.json"
 ATI_FREE = ROOT / "docs" / "ati_free.md"
 
 
@@ -136,6 +137,7 @@ BLOCKS = (
      results_page.status),
     (RESULTS, "learning-curve", LEARNING_CURVE, results_page.learning_curve),
     (RESULTS, "bench-against-robot", LEARNING_CURVE, results_page.bench_against_robot),
+    (RESULTS, "recipe-swap", RECIPE_SWAP, results_page.recipe_swap_tables),
     (ATI_FREE, "excitation-tables", EXCITATION, ati_free_page.excitation_tables),
     (ATI_FREE, "remount-tables", REMOUNT, ati_free_page.remount_tables),
     (ATI_FREE, "hex10-compression", HEX10_COMPRESSION, ati_free_page.hex10_compression_table),

@@ -182,6 +182,45 @@ def bench_against_robot(curve: dict) -> str:
     return "\n".join(lines) + "\n"
 
 
+def recipe_swap_tables(result: dict) -> str:
+    """The training regimes swapped between models (``studies/recipe_swap.py``): each cell's
+    errors per seed-mean with the sample sd, then the paired ratios with their intervals."""
+    cells = result["cells"]
+    lines = [""]
+    if cells:
+        first = next(iter(cells.values()))
+        lines += [f"Scale {first['scale']:g}, fresh bench seeds "
+                  f"{', '.join(str(x) for x in first['seeds'])}, simulator "
+                  f"{', '.join(first['simulator_versions'])}; NRMSE %, mean ± sd over seeds "
+                  "(ddof 1).", "",
+                  "| model | regime | converged | causal Fx / Fy / Fz | paper Fx / Fy / Fz |",
+                  "|---|---|---|---|---|"]
+        from psmforce.experiments.paired import mean_sd
+        for c in cells.values():
+            stats = {m: {a: mean_sd([s[a] for s in c["per_seed"][m]]) for a in AXES}
+                     for m in ("causal", "paper")}
+            lines.append(f"| {c['label']} | {c['regime']} | "
+                         f"{sum(c['converged'])} of {len(c['converged'])} | "
+                         + " | ".join(" / ".join(f"{stats[m][a]['mean']:.2f} ± "
+                                                 f"{stats[m][a]['sd']:.2f}" for a in AXES)
+                                      for m in ("causal", "paper")) + " |")
+    if result["comparisons"]:
+        lines += ["", f"Paired by seed, the first model's error over the second's, "
+                  f"{result['interval']}; a verdict other than tie needs the interval to "
+                  "exclude 1.", "", "| comparison | causal Fx / Fy / Fz | paper Fx / Fy / Fz |",
+                  "|---|---|---|"]
+        for name, row in result["comparisons"].items():
+            lines.append(f"| {name} | " + " | ".join(
+                " / ".join(row[m][a]["text"] for a in AXES) for m in ("causal", "paper"))
+                + " |")
+    if result["missing_cells"]:
+        lines += ["", "Not run yet: " + ", ".join(result["missing_cells"]) + "."]
+    if result["not_converged"]:
+        lines += ["", "Not every training stopped early in: " + ", ".join(result["not_converged"])
+                  + " (left out of the comparisons)."]
+    return "\n".join(lines) + "\n"
+
+
 def ports_findings(ports: dict, comparison: dict) -> str:
     """Section 3: who wins each axis without a port and through each one, and the paper metric."""
     lines = [""]
