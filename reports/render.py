@@ -25,10 +25,11 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+from reports import ati_free_page  # noqa: E402
+from reports import bench_calibration_page  # noqa: E402
 from reports import identification_page  # noqa: E402
 from reports import integrity_page  # noqa: E402
 from reports import readme_page  # noqa: E402
-from reports import ati_free_page  # noqa: E402
 from reports import results_page  # noqa: E402
 from reports import simulator_page  # noqa: E402
 from psmforce.core.files import write_text_atomic  # noqa: E402
@@ -63,6 +64,7 @@ REMOUNT = ROOT / "results" / "benchmarks" / "remount.json"
 HEX10_COMPRESSION = ROOT / "results" / "benchmarks" / "hex10_compression.json"
 EXCITATION = ROOT / "results" / "benchmarks" / "excitation.json"
 RECIPE_SWAP = ROOT / "results" / "benchmarks" / "recipe_swap.json"
+BENCH_PAPER_CALIBRATION = ROOT / "results" / "benchmarks" / "bench_paper_calibration.json"
 ATI_FREE = ROOT / "docs" / "ati_free.md"
 
 
@@ -138,6 +140,8 @@ BLOCKS = (
     (RESULTS, "learning-curve", LEARNING_CURVE, results_page.learning_curve),
     (RESULTS, "bench-against-robot", LEARNING_CURVE, results_page.bench_against_robot),
     (RESULTS, "recipe-swap", RECIPE_SWAP, results_page.recipe_swap_tables),
+    (SIMULATOR, "bench-paper-calibration", BENCH_PAPER_CALIBRATION,
+     bench_calibration_page.bench_paper_calibration),
     (ATI_FREE, "excitation-tables", EXCITATION, ati_free_page.excitation_tables),
     (ATI_FREE, "remount-tables", REMOUNT, ati_free_page.remount_tables),
     (ATI_FREE, "hex10-compression", HEX10_COMPRESSION, ati_free_page.hex10_compression_table),

@@ -130,8 +130,10 @@ def _simulate_task(p: dict) -> dict:
     out = _data_dir(p["run_dir"], p["protocol"], p["seed"])
     if out.exists():
         shutil.rmtree(out)
+    from psmforce.sim.versions import Version
     summary = simulate(p["protocol"], scale=p["scale"], seed=p["seed"], out=out,
-                       port=p.get("port", "none"))
+                       port=p.get("port", "none"),
+                       version=Version.from_dict(p["sim"]) if "sim" in p else None)
     if p["protocol"] == "automated":
         train, val = _automated_split(load_dataset(out), p["seed"])
         prior = fit_prior(train, val)
@@ -363,7 +365,7 @@ def _check_simulated_again(p: dict, result: dict, done: Path, record: bytes | No
 
 
 def prepare_benches(out: str | Path, scale: float, seeds: Sequence[int], *, teleop: bool = True,
-                    port: str = "none", ray_address: str | None = None,
+                    port: str = "none", sim_version=None, ray_address: str | None = None,
                     log: Callable[[str], None] | None = None) -> list[dict]:
     """Simulate (or find cached) each seed's benches of a run in ``out`` (the automated one with
     its fitted prior, and the teleoperation one when ``teleop``) and score their evaluation
@@ -373,18 +375,24 @@ def prepare_benches(out: str | Path, scale: float, seeds: Sequence[int], *, tele
     A run folder moved without its benches (``work/data``, nearly all of its bytes) to another
     machine gets them simulated again from their seeds, so an unfinished run travels light; a
     bench that comes back other files than its first simulation's is refused (ValueError), since
-    the run's cached results were computed on those."""
+    the run's cached results were computed on those. ``sim_version``: the simulator version of
+    the benches (:func:`psmforce.sim.versions.version`: a name, a ``Version`` or None, the
+    default), like the scale a property of the run; a version other than the default keys the
+    benches by its whole definition (``"sim"``), so a changed definition simulates anew."""
+    from psmforce.sim import versions
     from psmforce.sim.dataset import check_scale_and_seed
     from psmforce.sim.port import port_by_name
     say = log or (lambda s: print(s, flush=True))
     port_by_name(port)
+    sim = versions.version(sim_version)
     for s in seeds:  # before anything is written: a bad value must leave no OUT/work behind
         check_scale_and_seed(scale, s, "seeds")
     out = Path(out)
     # Every task is cached by all it depends on; only the benches (scale, port) are shared by
     # name. Without a port the file and the task parameters are those of runs made before the
     # port existed, so their caches stay valid.
-    bench = {"scale": scale} | ({} if port == "none" else {"port": port})
+    bench = ({"scale": scale} | ({} if port == "none" else {"port": port})
+             | ({} if sim == versions.version() else {"sim": sim.to_dict()}))
     call_file = out / "work" / "scale.json"
     if out.exists() and any(out.iterdir()):
         if not call_file.exists() or json.loads(call_file.read_text()) != bench:
@@ -415,7 +423,8 @@ def reproduce(out: str | Path, scale: float = 0.1, seeds: Sequence[int] = (1, 2,
               device: str = "cpu", *, budget: str = "full", threads: int = 2,
               finish_on: str | None = None, models: Sequence[str] | None = None,
               ablations: bool = True, efficiency: bool = True, teleop: bool = True,
-              port: str = "none", regime: str = "own", ray_address: str | None = None,
+              port: str = "none", regime: str = "own", sim_version=None,
+              ray_address: str | None = None,
               log: Callable[[str], None] | None = None) -> dict:
     """Run (or resume) the grid into ``out`` and write ``results.md``, ``results.json``,
     ``learning_curves.json`` and figures there. ``out`` must be new, empty, or hold a previous run
@@ -431,7 +440,8 @@ def reproduce(out: str | Path, scale: float = 0.1, seeds: Sequence[int] = (1, 2,
     ``regime``: the training regime of every network of the call
     (:data:`psmforce.experiments.regimes.REGIMES`; ``"own"``: each recipe's settings),
     which keys its tasks and names its checkpoints, so regimes share one ``out`` and its benches;
-    ``results.json`` is the last call's."""
+    ``results.json`` is the last call's. ``sim_version``: the simulator version of the run's
+    benches (:func:`prepare_benches`; None: the default), one ``out`` per version."""
     say = log or (lambda s: print(s, flush=True))
     if budget not in BUDGETS:
         raise ValueError(f"unknown budget '{budget}'; known: {sorted(BUDGETS)}")
@@ -450,8 +460,11 @@ def reproduce(out: str | Path, scale: float = 0.1, seeds: Sequence[int] = (1, 2,
     call = {"scale": scale, "seeds": list(seeds), "device": device, "finish_on": finish_on,
             "budget": budget, "models": list(models), "ablations": ablations,
             "efficiency": efficiency, "teleop": teleop, "port": port, "regime": regime}
+    if sim_version is not None:
+        from psmforce.sim.versions import version
+        call["sim_version"] = version(sim_version).to_dict()
     floors = prepare_benches(out, scale, seeds, teleop=teleop, port=port,
-                             ray_address=ray_address, log=say)
+                             sim_version=sim_version, ray_address=ray_address, log=say)
     run_dir, cache = str((out / "work").resolve()), out / "work" / "cache"
     common = {"run_dir": run_dir, "budget": budget, "budget_settings": BUDGETS[budget],
               "device": device, "finish_on": finish_on, "threads": threads}

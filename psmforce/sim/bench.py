@@ -19,6 +19,7 @@ import psmforce.sim.contacts as contacts
 import psmforce.sim.drive as drive
 import psmforce.sim.port as port_mod
 import psmforce.sim.sensors as sensors
+import psmforce.sim.shaft as shaft
 
 from psmforce.robot.conventions import GRAVITY_UPRIGHT_MPS2
 from psmforce.robot.frames import ati_force_in_hex10
@@ -99,7 +100,11 @@ def run_trajectory(q_cmd: np.ndarray, dt: float, contact: Contact, params: Instr
         raise ValueError(f"dt must be > 0, got {dt}")
     n = len(q_cmd)
     r_base_ati = np.eye(3) if r_base_ati is None else r_base_ati
-    kin = kinematics(q_cmd)
+    # The physical arm and shaft (simulator 2.3: the shaft trails the roll encoder through the
+    # roll drive's dead band, shaft.py); the encoders, the cables' motor side and the targets
+    # stay on q_cmd. Without roll backlash q_phys is q_cmd itself.
+    q_phys = shaft.distal_joints(q_cmd, params)
+    kin = kinematics(q_phys)
     axes = kin["axes"]
     a_yaw, a_pitch, a_roll, a_wp, a_wy = axes[:, 0], axes[:, 1], axes[:, 3], axes[:, 4], axes[:, 5]
     d_shaft = kin["R_roll"][:, :, 2]
@@ -246,4 +251,6 @@ def run_trajectory(q_cmd: np.ndarray, dt: float, contact: Contact, params: Instr
         cols["sim_wrist_pitch_true"] = true_wrist[:, 0]
         cols["sim_wrist_yaw_true"] = true_wrist[:, 1]
         cols["sim_slack_pairs"] = trans["slack"].sum(axis=1).astype(np.int8)
+        if q_phys is not q_cmd:
+            cols["sim_roll_true"] = q_phys[:, 3]
     return pd.DataFrame(cols)

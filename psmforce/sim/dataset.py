@@ -25,11 +25,13 @@ from pathlib import Path
 import numpy as np
 
 import psmforce.sim.protocols as protocols
+import psmforce.sim.versions as versions
 
 from psmforce.robot.conventions import GRAVITY_UPRIGHT_MPS2
 from psmforce.core.files import folder_is_empty, locked_folder, write_text_atomic
 from psmforce.io.recording import OVERLOAD, TIME, write_recording
 from psmforce.sim.bench import run_trajectory
+from psmforce.sim.mounting import Remount
 from psmforce.sim.params import Effects, InstrumentParams
 from psmforce.sim.port import PORT_NAMES, port_by_name
 
@@ -129,7 +131,7 @@ def _check_tool(tool_seed, tool_spread) -> dict | None:
 def simulate(protocol: str = "automated", scale: float = 1.0, seed: int = 0, out=None,
              instrument: InstrumentParams | None = None, effects: Effects | None = None,
              truth: bool = True, port: str = "none", tool_seed: int | None = None,
-             tool_spread: float = 1.0, fmt: str = "csv") -> dict:
+             tool_spread: float = 1.0, fmt: str = "csv", version=None) -> dict:
     """Simulate a protocol and write the dataset to ``out`` (must not exist or be empty).
 
     ``scale`` shrinks the protocol proportionally (1.0 = the paper's size); ``seed`` makes the run
@@ -140,18 +142,27 @@ def simulate(protocol: str = "automated", scale: float = 1.0, seed: int = 0, out
     when ``instrument`` is None), recorded as ``metadata["tool"]``; None (default) keeps
     ``instrument`` as given and writes no ``tool`` entry, so the default output is unchanged.
     ``fmt``: ``"csv"`` (default) one recording CSV per trial; ``"mcap"`` one ROS 2 MCAP bag per
-    trial on the dVRK topics, to be converted as a real bench's (module docstring). Returns a
+    trial on the dVRK topics, to be converted as a real bench's (module docstring). ``version``:
+    the simulator version (:mod:`psmforce.sim.versions`: a name or a ``Version``; None, the
+    default version): its nominal instrument when ``instrument`` is None, and, where it says so,
+    a re-mount before every trial (``Remount.draw_for_trial(seed, index, spread).zeroed``,
+    recorded in each trial's ``remount``); ``metadata["simulator_version"]`` is its name, and a
+    version other than the default adds its definition as ``metadata["simulator"]``. Returns a
     summary (trials, rows, minutes per split and condition, seconds taken). Raises
     :class:`SimulationConfigError` before writing anything.
     """
     if fmt not in FORMATS:
         raise SimulationConfigError(f"fmt: unknown {fmt!r}, expected one of {FORMATS}")
+    try:
+        sim_version = versions.version(version)
+    except (ValueError, TypeError) as e:
+        raise SimulationConfigError(f"version: {e}") from None
     path = _validate(protocol, scale, seed, out, instrument, effects, port)
     with locked_folder(path):  # a second command on this folder is refused while this one runs
         if not folder_is_empty(path):
             raise SimulationConfigError(f"out: {path} is not empty (refusing to mix datasets)")
         port_params = port_by_name(port)
-        instrument = instrument or InstrumentParams()
+        instrument = instrument or sim_version.instrument()
         tool = _check_tool(tool_seed, tool_spread)
         if tool is not None:
             instrument = instrument.sample(tool_seed, tool_spread)
@@ -162,7 +173,11 @@ def simulate(protocol: str = "automated", scale: float = 1.0, seed: int = 0, out
         bag_start_ns = BAG_SESSION_START_NS
         for index, plan in enumerate(plans):
             rng = np.random.default_rng([seed, 100, index])
-            frame = run_trajectory(plan.q, protocols.DT, plan.contact, instrument, effects, rng,
+            mounted, remount = instrument, None
+            if sim_version.remount_spread > 0:  # the paper's reset before every trial
+                remount = Remount.draw_for_trial(seed, index, sim_version.remount_spread)
+                mounted = remount.zeroed(instrument)
+            frame = run_trajectory(plan.q, protocols.DT, plan.contact, mounted, effects, rng,
                                    r_base_ati=protocols.R_BASE_ATI, truth=truth, port=port_params)
             target = path / plan.path
             target.parent.mkdir(parents=True, exist_ok=True)
@@ -179,9 +194,12 @@ def simulate(protocol: str = "automated", scale: float = 1.0, seed: int = 0, out
             trials.append({"path": target.relative_to(path).as_posix(), "split": plan.split,
                            "condition": plan.condition,
                            "rows": len(frame), "contact": plan.contact.kind,
-                           "hex10_overload_rows": int(frame[OVERLOAD].sum()), **plan.info})
+                           "hex10_overload_rows": int(frame[OVERLOAD].sum()), **plan.info,
+                           **({} if remount is None else {"remount": remount.to_dict()})})
         metadata = {
-            "simulator_version": SIM_VERSION, "software_version": _package_version(),
+            "simulator_version": sim_version.name, "software_version": _package_version(),
+            **({} if sim_version.name == SIM_VERSION and sim_version == versions.version()
+               else {"simulator": sim_version.to_dict()}),
             "protocol": protocol, "scale": float(scale), "seed": int(seed), "sample_rate_hz": 1.0 / protocols.DT,
             "instrument": instrument.to_dict(), **({} if tool is None else {"tool": tool}),
             "effects": effects.to_dict(),

@@ -36,6 +36,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from psmforce.sim.params import InstrumentParams
+from psmforce.sim.sensors import mount_rotation
 
 RANGES = {
     "pretension_change_n": {
@@ -84,9 +85,19 @@ class Remount:
     def draw(cls, seed: int, spread: float = 1.0) -> "Remount":
         """A re-mount drawn inside :data:`RANGES` (bounds times ``spread``), deterministic in
         ``seed``."""
+        return cls._drawn(np.random.default_rng([int(seed), 44]), spread)
+
+    @classmethod
+    def draw_for_trial(cls, bench_seed: int, trial: int, spread: float = 1.0) -> "Remount":
+        """The re-mount before trial number ``trial`` of the bench simulated with ``bench_seed``
+        (simulator 2.3 re-mounts before every trial, :mod:`psmforce.sim.versions`): drawn as
+        :meth:`draw`, from a stream of its own, deterministic in (``bench_seed``, ``trial``)."""
+        return cls._drawn(np.random.default_rng([int(bench_seed), 46, int(trial)]), spread)
+
+    @classmethod
+    def _drawn(cls, rng: np.random.Generator, spread: float) -> "Remount":
         if not (isinstance(spread, (int, float)) and 0.0 <= spread and math.isfinite(spread)):
             raise ValueError(f"spread must be a finite number >= 0, got {spread!r}")
-        rng = np.random.default_rng([int(seed), 44])
         b = {k: spread * v["bound"] for k, v in RANGES.items()}
         pretension = rng.uniform(-1.0, 1.0) * b["pretension_change_n"]
         offset = rng.uniform(-1.0, 1.0, 3) * b["hex10_offset_change_n"]
@@ -121,6 +132,30 @@ class Remount:
                                         zip(params.hex10_residual_bias_n, self.hex10_offset_change_n)),
             hex10_mount_rotation_rad=tuple(float(r + d) for r, d in
                                            zip(params.hex10_mount_rotation_rad, self.rotation_change_rad)))
+
+    def zeroed(self, params: InstrumentParams) -> InstrumentParams:
+        """The instrument after this re-mount and the HEX10's zeroing that follows it (the
+        paper's reset: "removing the instrument, re-attaching it to the PSM, and zeroing the
+        HEX10"): :meth:`apply`, with the change the re-mount makes to the sensor's force reading
+        at rest taken out of ``hex10_residual_bias_n``. At rest (straight wrist, roll 0, no load)
+        the section force is the cables' ``(0, 0, -T)``, ``T = pretension_total_n``, read as
+        ``X R^T (0, 0, -T)`` (``R``: the mount rotation, ``X``: the force block of the
+        cross-talk), so the zero removes ``X (R'^T (0, 0, -T') - R^T (0, 0, -T))`` with the
+        re-mounted ``T'``, ``R'``. What stays: the zero's own residual (``hex10_offset_change_n``)
+        and how the changes act under load and away from the rest pose (a tilt leaks the
+        compression's change from rest into the lateral channels; a turn about the shaft turns
+        the lateral forces). Distal gravity is the same before and after, so it is not part of
+        the change."""
+        after = self.apply(params)
+        x = np.asarray(params.hex10_crosstalk, dtype=float)[:3, :3]
+
+        def rest(p: InstrumentParams) -> np.ndarray:
+            r = mount_rotation(p.hex10_mount_rotation_rad)
+            return x @ (r.T @ np.array([0.0, 0.0, -p.pretension_total_n]))
+
+        change = rest(after) - rest(params)
+        return dataclasses.replace(after, hex10_residual_bias_n=tuple(
+            float(b - c) for b, c in zip(after.hex10_residual_bias_n, change)))
 
     def to_dict(self) -> dict:
         return {"pretension_change_n": self.pretension_change_n,

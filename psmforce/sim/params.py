@@ -26,10 +26,13 @@ def _default_crosstalk() -> tuple[tuple[float, ...], ...]:
     return tuple(tuple(float(v) for v in row) for row in c)
 
 
-OMITTED_WHEN_OFF = ("cable_coulomb_n", "cable_coulomb_stretch_share", "hex10_mount_rotation_rad")
-"""Fields added with simulator 2.2 (:mod:`psmforce.sim.versions`) and with the re-mounting model
-(:mod:`psmforce.sim.mounting`) that :meth:`InstrumentParams.to_dict` leaves out while they are 0
-(off; a tuple when every entry is 0): simulator 2.1's ``metadata.json`` stays what it was."""
+OMITTED_WHEN_OFF = ("cable_coulomb_n", "cable_coulomb_stretch_share", "hex10_mount_rotation_rad",
+                    "roll_backlash_rad", "hex10_thermal_drift_n", "hex10_thermal_time_s",
+                    "hex10_readout_lag_s")
+"""Fields added with simulator 2.2 and 2.3 (:mod:`psmforce.sim.versions`) and with the
+re-mounting model (:mod:`psmforce.sim.mounting`) that :meth:`InstrumentParams.to_dict` leaves out
+while they are 0 (off; a tuple when every entry is 0): simulator 2.1's ``metadata.json`` stays
+what it was."""
 
 
 @dataclass(frozen=True)
@@ -215,6 +218,25 @@ class InstrumentParams:
     the frame the bench computes the section wrench in, ``R = Rz(c) Ry(b) Rx(a)``; the sensor
     reads ``R^T`` of the section's force and moment (:func:`psmforce.sim.sensors.hex10_reading`).
     All 0 (the nominal bench): the reading is the section wrench's, bit for bit."""
+    roll_backlash_rad: float = 0.0
+    """Width (rad of roll) of the dead band of the roll drive between the roll encoder (motor
+    side) and the shaft (:func:`psmforce.sim.shaft.distal_roll`): after a reversal the motor turns
+    this far before the shaft, the HEX10 and everything distal follow, so the shaft lags the
+    encoder by up to half of it, on the side of the last motion. The HEX10 then measures in a
+    frame turned about the shaft against the one the encoders give (the frame the targets are
+    expressed in). 0 (simulator 2.2 and before): off, the shaft turns with the encoder."""
+    hex10_thermal_drift_n: float = 0.0
+    """Std (N, each force axis) of the offset the HEX10 builds up after a recording starts, as a
+    sensor zeroed warm (handled at the re-mount) settles to the bench's temperature:
+    ``A (1 - exp(-t / hex10_thermal_time_s))``, ``A`` drawn per recording and axis
+    (:func:`psmforce.sim.sensors.hex10_reading`). 0 (simulator 2.2 and before): off."""
+    hex10_thermal_time_s: float = 0.0
+    """Time constant (s) of that settling; used only while ``hex10_thermal_drift_n`` > 0."""
+    hex10_readout_lag_s: float = 0.0
+    """Time constant (s) of a first-order low-pass the HEX10's readout puts on all six channels
+    (strain-gauge electronics' anti-alias filtering) before the recorder samples them, so the
+    sensor trails the ATI in time (:func:`psmforce.sim.sensors.readout_lag`). 0 (simulator 2.2
+    and before): off, the reading is instantaneous."""
 
     def __post_init__(self):
         from psmforce.sim.cable_laws import PAIR_LAWS

@@ -28,14 +28,18 @@ def hex10_reading(w_section: np.ndarray, dt: float, params: InstrumentParams, ef
     """HEX10 output (N, 6) [fx fy fz tx ty tz] and overload flag (N,) from the physical section
     wrench (N, 6) in the HEX10 frame.
 
-    w is first turned into the frame the sensor measures in, ``R^T`` of its force and moment
+    Where ``hex10_readout_lag_s`` > 0 the section wrench first passes the readout's low-pass
+    (:func:`readout_lag`). w is then turned into the frame the sensor measures in, ``R^T`` of its force and moment
     with ``R = mount_rotation(params.hex10_mount_rotation_rad)`` (skipped while every angle is
     0, so the nominal bench is unchanged bit for bit); y = X w (cross-talk); forces beyond the
     nominal range get an extra gain error g (|y| - F_nom) sign(y); + residual tare bias +
-    random-walk drift + white noise; then every channel is clipped at its overload limit and the
-    flag set where any channel reached it.
+    random-walk drift (+ the thermal settling of :func:`thermal_offset` where
+    ``hex10_thermal_drift_n`` > 0) + white noise; then every channel is clipped at its overload
+    limit and the flag set where any channel reached it.
     """
     n = len(w_section)
+    if params.hex10_readout_lag_s > 0.0:  # simulator 2.3
+        w_section = readout_lag(w_section, dt, params.hex10_readout_lag_s)
     if any(a != 0.0 for a in params.hex10_mount_rotation_rad):
         r = mount_rotation(params.hex10_mount_rotation_rad)
         w_section = np.concatenate([w_section[:, :3] @ r, w_section[:, 3:] @ r], axis=1)
@@ -49,12 +53,43 @@ def hex10_reading(w_section: np.ndarray, dt: float, params: InstrumentParams, ef
     if effects.hex10_drift:
         step = params.hex10_bias_drift_n_per_sqrt_s * np.sqrt(dt)
         y[:, :3] += np.cumsum(rng.standard_normal((n, 3)), axis=0) * step
+        if params.hex10_thermal_drift_n > 0.0:  # simulator 2.3; no draw while off
+            y[:, :3] += thermal_offset(n, dt, params, rng)
     if effects.sensor_noise:
         y[:, :3] += params.hex10_force_noise_n * rng.standard_normal((n, 3))
         y[:, 3:] += params.hex10_moment_noise_nm * rng.standard_normal((n, 3))
     limit = np.array([params.hex10_overload_n] * 3 + [params.hex10_overload_moment_nm] * 3)
     overload = (np.abs(y) >= limit).any(axis=1)
     return np.clip(y, -limit, limit), overload
+
+
+def readout_lag(w: np.ndarray, dt: float, tau_s: float) -> np.ndarray:
+    """(N, C) ``w`` through a causal first-order low-pass of time constant ``tau_s`` (s), exact
+    for a signal held over each sample: ``y_k = a y_{k-1} + (1 - a) w_k``, ``a = exp(-dt/tau)``,
+    started at rest on the first sample (``y_0 = w_0``). A ramp of slope ``r`` is followed at a
+    constant distance ``r dt a / (1 - a)`` (about ``r tau`` for ``tau`` >> ``dt``)."""
+    from scipy.signal import lfilter, lfiltic
+
+    a = float(np.exp(-dt / tau_s))
+    w = np.asarray(w, dtype=float)
+    zi = np.stack([lfiltic([1.0 - a], [1.0, -a], [w[0, c]], [w[0, c]])
+                   for c in range(w.shape[1])], axis=1)
+    y, _ = lfilter([1.0 - a], [1.0, -a], w, axis=0, zi=zi)
+    return y
+
+
+def thermal_offset(n: int, dt: float, params: InstrumentParams,
+                   rng: np.random.Generator) -> np.ndarray:
+    """(n, 3) force offset (N, HEX10 frame) of a sensor zeroed warm that settles to the bench's
+    temperature over the recording: ``A (1 - exp(-t / tau))`` with ``t = k dt`` from the
+    recording's first sample, ``tau = params.hex10_thermal_time_s`` (s, > 0) and ``A`` (3,) drawn
+    from ``rng`` with std ``params.hex10_thermal_drift_n`` per axis: 0 at the start (the zero),
+    ``A (1 - 1/e)`` after one time constant, ``A`` in the end."""
+    tau = params.hex10_thermal_time_s
+    if not tau > 0.0:
+        raise ValueError(f"hex10_thermal_time_s must be > 0 with a thermal drift, got {tau}")
+    amplitude = params.hex10_thermal_drift_n * rng.standard_normal(3)
+    return -np.expm1(-np.arange(n) * dt / tau)[:, None] * amplitude[None, :]
 
 
 def mount_rotation(angles_rad) -> np.ndarray:

@@ -1,0 +1,333 @@
+"""The bench calibrated to the paper's table (issue 45): simulator candidates against Table III.
+
+For each candidate simulator version (:data:`CANDIDATES`: every setting tried, in the order
+tried, kept as the calibration log; the one retained is ``psmforce.sim.versions`` "2.3"), the
+automated bench is simulated and the calibration models are trained to early stopping with
+``psmforce.experiments.reproduce.reproduce`` (``sim_version=``; main models only, no ablations,
+data efficiency or teleoperation, one torch thread), cached per task and resumable: rerunning
+the same command goes on where it stopped. Scored on the paper's metric (bias over the first
+0.5 s, centred median of 71 samples, NRMSE % over the test set's range) per model and axis,
+against the paper's figure for its family (:data:`PAPER`), their ratio and whether it lies in
+:data:`BAND`.
+
+Rules (the issue's): calibrate on the FCN, the LSTM and MultiRocket-Hydra only, on design
+seeds only (:data:`psmforce.experiments.seeds.DESIGN_SEEDS`); the paper's transformer is the
+held-out check (never trained here: it needs a GPU session, and it must not steer the choice);
+the hybrid is never looked at. The FCN must end worse than the transformer laterally, as on the
+robot: that needs the transformer, so this script records it as not checked.
+
+    python studies/bench_paper_calibration.py --version 2.3 --seeds 1 --models fcn rocket \\
+        --json results/benchmarks/bench_paper_calibration.json
+    python studies/bench_paper_calibration.py --candidates 2.3a 2.3b --scale 0.25 --models fcn \\
+        --json runs/bench_paper_calibration/part.json
+    python studies/bench_paper_calibration.py --merge runs/bench_paper_calibration/part.json \\
+        --json results/benchmarks/bench_paper_calibration.json
+    python studies/bench_paper_calibration.py --render-only --json ...
+
+``--lstm-scale``: the LSTM's epochs are long on one CPU thread (about 80 s at scale 1), so it may
+be trained on a smaller bench; its rows then say the scale, and that it is not the paper's
+budget (:data:`SUBSTITUTES`: a model scored on another candidate's bench, and why). Each
+(candidate, scale) is one ``reproduce`` run under ``--work``; the JSON keeps every row ever
+written (a later call adds or replaces rows of the same candidate, model and scale), and
+``--merge`` folds the rows of partial JSONs (calls run side by side) into it.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from psmforce.experiments.report import write_json  # noqa: E402
+
+AXES = ("Fx", "Fy", "Fz")
+BAND = (0.67, 1.5)
+"""A bench figure imitates the robot's when bench / paper lies in this band."""
+
+PAPER = {
+    "fcn": {"label": "FCN", "nrmse_pct": {"Fx": 1.93, "Fy": 1.59, "Fz": 2.99},
+            "source": "paper, Table III (automated test set)"},
+    "lstm": {"label": "LSTM (Yang et al.)", "nrmse_pct": {"Fx": 4.04, "Fy": 4.39, "Fz": 4.05},
+             "source": "paper, Table III (automated test set)"},
+    "rocket": {"label": "MultiRocket-Hydra", "nrmse_pct": {"Fx": 2.25, "Fy": 2.46, "Fz": 2.71},
+               "source": "given by the issue; no published source found (the paper's Table III "
+                         "has no ROCKET column, nor does its supplement)"},
+    "transformer": {"label": "Transformer (paper)",
+                    "nrmse_pct": {"Fx": 1.45, "Fy": 1.31, "Fz": 2.26},
+                    "source": "paper, Table III (automated test set); held out, not trained here"},
+}
+"""The robot figures per model family (paper metric, NRMSE %)."""
+CALIBRATION_MODELS = ("fcn", "rocket", "lstm")
+
+REFERENCE_21 = {
+    "source": "results/learning_curve/learning_curve.json, scale 1, seeds 1 and 2 (simulator "
+              "2.1, the default)",
+    "nrmse_pct": {"fcn": {"Fx": 0.93, "Fy": 1.02, "Fz": 1.88},
+                  "rocket": {"Fx": 1.70, "Fy": 1.90, "Fz": 3.97},
+                  "transformer": {"Fx": 0.92, "Fy": 1.02, "Fz": 1.38}},
+}
+"""Simulator 2.1 at the paper's budget, as the learning curve measured it (not rerun here)."""
+
+CANDIDATES: dict[str, dict] = {
+    "2.3a": {"changes": {"roll_backlash_rad": 0.046}, "remount_spread": 1.0,
+             "note": "2.2's cable law + roll backlash at the jaw's lost motion + the "
+                     "re-mount before every trial at the ranges of psmforce.sim.mounting"},
+    "2.3a-backlash": {"changes": {"roll_backlash_rad": 0.046}, "remount_spread": 0.0,
+                      "note": "2.3a's roll backlash alone (what it adds)"},
+    "2.3a-remount": {"changes": {}, "remount_spread": 1.0,
+                     "note": "2.3a's re-mount alone (what it adds)"},
+    "2.3b": {"changes": {"roll_backlash_rad": 0.09}, "remount_spread": 2.0,
+             "note": "2.3a with twice the roll backlash and twice the re-mount ranges"},
+    "2.3c": {"changes": {"roll_backlash_rad": 0.046, "cable_crossing_angle_rad": 0.01},
+             "remount_spread": 1.0,
+             "note": "2.3a + the cables crossing the HEX10 section 0.01 rad off the shaft axis "
+                     "(their pair differentials, friction memory included, push laterally)"},
+    "2.3d": {"changes": {"roll_backlash_rad": 0.046, "hex10_readout_lag_s": 0.03},
+             "remount_spread": 1.0,
+             "note": "2.3a + a 30 ms first-order lag of the HEX10 readout"},
+    "2.3e": {"changes": {"roll_backlash_rad": 0.09, "hex10_readout_lag_s": 0.05,
+                         "hex10_thermal_drift_n": 0.05, "hex10_thermal_time_s": 60.0},
+             "remount_spread": 2.0,
+             "note": "2.3b + a 50 ms HEX10 readout lag + a thermal settling of 0.05 N (std) "
+                     "over 60 s after each zeroing"},
+    "2.3f": {"changes": {"roll_backlash_rad": 0.09, "hex10_readout_lag_s": 0.08,
+                         "hex10_thermal_drift_n": 0.05, "hex10_thermal_time_s": 60.0},
+             "remount_spread": 2.0,
+             "note": "2.3e with an 80 ms HEX10 readout lag"},
+    "2.3g": {"changes": {"roll_backlash_rad": 0.09, "hex10_readout_lag_s": 0.1,
+                         "hex10_thermal_drift_n": 0.1, "hex10_thermal_time_s": 60.0},
+             "remount_spread": 2.0,
+             "note": "2.3f with a 100 ms readout lag and a 0.1 N thermal settling, to move "
+                     "the FCN's Fx and Fz off the band's lower edge; registered as simulator "
+                     "2.3 and scored under that name (rows '2.3')"},
+}
+"""Every candidate tried, in order: changes on top of simulator 2.2 (``InstrumentParams``
+fields) and the re-mount spread. The version kept is registered as "2.3" in
+``psmforce.sim.versions``; its row here is the candidate it was taken from."""
+
+
+NOTES = {"2.3": "the version kept, registered in psmforce.sim.versions: candidate 2.3g's "
+                "setting, scored under its own name"}
+"""Headings of registered versions in the rendered block."""
+
+SUBSTITUTES = {"2.3": {"lstm": {
+    "from": "2.3b",
+    "why": "the LSTM's epochs take about a minute each on one shared CPU thread, so it was "
+           "trained once, on candidate 2.3b's bench at scale 0.25, while the HEX10 effects were "
+           "being sized; 2.3 differs from 2.3b only in the HEX10's readout (its lag and thermal "
+           "settling), which the LSTM does not read (it reads the joint states alone), so its "
+           "inputs and targets on 2.3 are drawn from the same law (not the same numbers: the "
+           "thermal draw shifts the noise streams)"}}}
+"""Per version, a calibration model scored on another candidate's bench, and why that stands
+for it; the verdict counts such a row and says so."""
+
+
+def candidate_version(name: str):
+    """The ``psmforce.sim.versions.Version`` of candidate ``name`` (or of a registered
+    version: "2.1", "2.2", "2.3")."""
+    from psmforce.sim import versions
+    if name in versions.VERSIONS:
+        return versions.version(name)
+    c = CANDIDATES[name]
+    return versions.Version(name, {**versions.CHANGES["2.2"], **c["changes"]},
+                            c.get("remount_spread", 0.0))
+
+
+def run_dir(work: Path, name: str, scale: float) -> Path:
+    return work / name / f"scale_{scale:g}"
+
+
+def train(name: str, scale: float, seeds, models, work: Path, threads: int) -> dict:
+    """One ``reproduce`` run of candidate ``name`` at ``scale`` (cached, resumable); its
+    ``results.json``."""
+    from psmforce.experiments.reproduce import reproduce
+    return reproduce(run_dir(work, name, scale), scale=scale, seeds=tuple(seeds),
+                     models=tuple(models), ablations=False, efficiency=False, teleop=False,
+                     threads=threads, sim_version=candidate_version(name))
+
+
+def rows(name: str, scale: float, results: dict) -> list[dict]:
+    """Per model of a ``reproduce`` result: the paper metric per axis (mean over seeds, std,
+    RMSE, range), the robot's figure, the ratio and whether it lies in :data:`BAND`."""
+    out = []
+    paper = results["automated"]["paper"]
+    labels = {PAPER[m]["label"]: m for m in PAPER}
+    for label, axes in paper.items():
+        model = labels.get(label)
+        if model is None or model not in CALIBRATION_MODELS:
+            continue   # never the hybrid; the transformer is not trained here
+        robot = PAPER[model]["nrmse_pct"]
+        bench = {a: axes[a]["nrmse_pct"]["mean"] for a in AXES}
+        ratio = {a: bench[a] / robot[a] for a in AXES}
+        out.append({
+            "candidate": name, "model": model, "label": label, "scale": scale,
+            "paper_budget": scale == 1.0,
+            "seeds": results["call"]["seeds"],
+            "bench_nrmse_pct": bench,
+            "bench_nrmse_std": {a: axes[a]["nrmse_pct"]["std"] for a in AXES},
+            "bench_rmse_n": {a: axes[a]["rmse_n"]["mean"] for a in AXES},
+            "test_range_n": {a: axes[a]["range_n"]["mean"] for a in AXES},
+            "paper_nrmse_pct": robot,
+            "ratio": ratio,
+            "in_band": {a: BAND[0] <= ratio[a] <= BAND[1] for a in AXES},
+            "training": _compact({k: v for k, v in results["training"].items()
+                                  if k.startswith(model + " ")}),
+        })
+    return out
+
+
+TRAINING_KEYS = ("epochs_run", "stopped_by", "converged", "seconds", "train_windows")
+
+
+def _compact(training: dict) -> dict:
+    """Per training task, the few figures the log keeps (no learning curve)."""
+    return {k: {f: v.get(f) for f in TRAINING_KEYS} for k, v in training.items()}
+
+
+def floor_rows(name: str, scale: float, results: dict) -> dict:
+    floor = results["floor"]["automated"]["paper"]
+    return {"candidate": name, "scale": scale,
+            "nrmse_pct": {a: floor[a]["nrmse_pct"]["mean"] for a in AXES},
+            "range_n": {a: floor[a]["range_n"]["mean"] for a in AXES}}
+
+
+def verdict(data: dict, name: str) -> dict:
+    """Whether candidate ``name`` meets the issue's rule on the rows written for it: every
+    calibration model in the band on every axis at the paper's budget (a model trained on a
+    smaller bench is reported but does not count as met), and the transformer checks (held
+    out: not checked here)."""
+    by_model, substituted = {}, {}
+    for r in data["rows"]:
+        sub = SUBSTITUTES.get(name, {}).get(r["model"])
+        if r["candidate"] != name and not (sub and r["candidate"] == sub["from"]):
+            continue
+        if r["candidate"] != name:
+            substituted[r["model"]] = sub
+        best = by_model.get(r["model"])
+        if best is None or r["scale"] > best["scale"]:
+            by_model[r["model"]] = r
+    misses = [f"{m} {a} ({r['ratio'][a]:.2f}x)" for m, r in sorted(by_model.items())
+              for a in AXES if not r["in_band"][a]]
+    not_at_budget = sorted(m for m, r in by_model.items() if not r["paper_budget"])
+    missing = sorted(set(CALIBRATION_MODELS) - set(by_model))
+    return {"models_in_band": not misses and not missing,
+            "misses": misses, "not_at_paper_budget": not_at_budget, "missing": missing,
+            "substituted": substituted,
+            "met_at_paper_budget": not misses and not missing and not not_at_budget,
+            "transformer_held_out": "not checked: the paper's transformer is never trained "
+                                    "while calibrating; its check (within the band of "
+                                    "1.45 / 1.31 / 2.26, and the FCN worse than it on Fx and "
+                                    "Fy) needs a GPU session on this version",
+            "fcn_worse_than_transformer_laterally": "not checked (needs the transformer)"}
+
+
+def merge(data: dict, new_rows: list[dict], floor: dict) -> dict:
+    for r in new_rows:
+        r["training"] = _compact(r.get("training", {}))
+    keep = [r for r in data.get("rows", []) if not any(
+        r["candidate"] == n["candidate"] and r["model"] == n["model"] and r["scale"] == n["scale"]
+        for n in new_rows)]
+    floors = [f for f in data.get("floors", [])
+              if not (f["candidate"] == floor["candidate"] and f["scale"] == floor["scale"])]
+    data["rows"] = keep + new_rows
+    data["floors"] = floors + [floor]
+    return data
+
+
+def main(argv=None) -> None:
+    from psmforce.experiments.seeds import DESIGN_SEEDS
+    from psmforce.sim.mounting import RANGES
+    from psmforce.sim import versions
+
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--version", default=None,
+                    help="a registered simulator version to score (e.g. 2.3)")
+    ap.add_argument("--candidates", nargs="*", default=[], choices=list(CANDIDATES),
+                    help="candidates of the calibration log to score")
+    ap.add_argument("--seeds", type=int, nargs="+", default=[1])
+    ap.add_argument("--scale", type=float, default=1.0)
+    ap.add_argument("--lstm-scale", type=float, default=None,
+                    help="train the LSTM on a bench of this scale (default: --scale)")
+    ap.add_argument("--models", nargs="+", default=list(CALIBRATION_MODELS),
+                    choices=list(CALIBRATION_MODELS))
+    ap.add_argument("--work", default=str(ROOT / "runs" / "bench_paper_calibration"))
+    ap.add_argument("--json", default=str(ROOT / "results" / "benchmarks" /
+                                          "bench_paper_calibration.json"))
+    ap.add_argument("--threads", type=int, default=1)
+    ap.add_argument("--render-only", action="store_true")
+    ap.add_argument("--merge", nargs="*", default=[],
+                    help="fold the rows of these JSONs (partial runs of this script, e.g. "
+                         "candidates screened in parallel) into --json, then render")
+    args = ap.parse_args(argv)
+    path = Path(args.json)
+    data = json.loads(path.read_text()) if path.exists() else {}
+    if args.merge:
+        for other in args.merge:
+            part = json.loads(Path(other).read_text())
+            for floor in part.get("floors", []):
+                data = merge(data, [r for r in part["rows"] if r["candidate"] == floor["candidate"]
+                                    and r["scale"] == floor["scale"]], floor)
+            for key in ("definitions", "benches", "seconds"):
+                data.setdefault(key, {}).update(part.get(key, {}))
+            if part.get("command") not in data.setdefault("commands", []):
+                data["commands"].append(part.get("command"))
+        data["command"] = "python studies/bench_paper_calibration.py " + " ".join(
+            sys.argv[1:] if argv is None else argv)
+        data.update({"band": list(BAND), "paper": PAPER, "reference_2.1": REFERENCE_21,
+                     "substitutes": SUBSTITUTES, "notes": NOTES,
+                     "candidates": CANDIDATES, "remount_ranges": RANGES,
+                     "registered": {v: versions.version(v).to_dict() for v in versions.VERSIONS}})
+        data["verdicts"] = {n: verdict(data, n) for n in
+                            dict.fromkeys(r["candidate"] for r in data["rows"])}
+        write_json(path, data)
+    if args.render_only or args.merge:
+        from reports.bench_calibration_page import bench_paper_calibration
+        print(bench_paper_calibration(data))
+        return
+    fresh = sorted(set(args.seeds) - DESIGN_SEEDS)
+    if fresh:
+        raise SystemExit(f"--seeds {fresh}: calibration runs on design seeds only "
+                         f"(psmforce/experiments/seeds.py DESIGN_SEEDS), never on the seeds "
+                         f"kept for published comparisons")
+    names = list(args.candidates) + ([args.version] if args.version else [])
+    if not names:
+        raise SystemExit("nothing to score: give --version or --candidates")
+    work = Path(args.work)
+    started = time.time()
+    for name in names:
+        plan = {}
+        for m in args.models:
+            s = args.lstm_scale if (m == "lstm" and args.lstm_scale) else args.scale
+            plan.setdefault(s, []).append(m)
+        for scale, models in sorted(plan.items()):
+            print(f"== {name} scale {scale:g}: {', '.join(models)}", flush=True)
+            results = train(name, scale, args.seeds, models, work, args.threads)
+            data = merge(data, rows(name, scale, results), floor_rows(name, scale, results))
+            data.setdefault("definitions", {})[name] = candidate_version(name).to_dict()
+            data.setdefault("benches", {})[f"{name} scale {scale:g}"] = results["benches"]
+            data["command"] = "python studies/bench_paper_calibration.py " + " ".join(
+                sys.argv[1:] if argv is None else argv)
+            data["band"] = list(BAND)
+            data["paper"] = PAPER
+            data["reference_2.1"] = REFERENCE_21
+            data["substitutes"] = SUBSTITUTES
+            data["notes"] = NOTES
+            data["candidates"] = CANDIDATES
+            data["remount_ranges"] = RANGES
+            data["registered"] = {v: versions.version(v).to_dict() for v in versions.VERSIONS}
+            data["verdicts"] = {n: verdict(data, n) for n in
+                                dict.fromkeys(r["candidate"] for r in data["rows"])}
+            data.setdefault("seconds", {})[f"{name} scale {scale:g} {'+'.join(models)}"] = round(
+                time.time() - started, 1)
+            write_json(path, data)
+    from reports.bench_calibration_page import bench_paper_calibration
+    print(bench_paper_calibration(data))
+
+
+if __name__ == "__main__":
+    main()

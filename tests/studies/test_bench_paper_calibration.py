@@ -1,0 +1,47 @@
+"""studies/bench_paper_calibration.py and its block (reports/bench_calibration_page.py): rows,
+verdicts and the rendered table from a reproduce result, without training anything."""
+
+import pytest
+
+from reports.bench_calibration_page import bench_paper_calibration
+from studies import bench_paper_calibration as cal
+
+
+def _result(label_values: dict, seeds=(1,)) -> dict:
+    paper = {}
+    for label, values in label_values.items():
+        paper[label] = {a: {"nrmse_pct": {"mean": v, "std": 0.0, "n": 1},
+                            "rmse_n": {"mean": v / 100 * 8.0, "std": 0.0, "n": 1},
+                            "range_n": {"mean": 8.0, "std": 0.0, "n": 1}}
+                        for a, v in zip(cal.AXES, values)}
+    return {"automated": {"paper": paper}, "call": {"seeds": list(seeds)},
+            "training": {}, "floor": {"automated": {"paper": {
+                a: {"nrmse_pct": {"mean": 0.5}, "range_n": {"mean": 8.0}} for a in cal.AXES}}}}
+
+
+def test_rows_score_the_calibration_models_only_against_their_family():
+    res = _result({"FCN": (1.93, 1.0, 4.6), "Hybrid (ours)": (0.1, 0.1, 0.1),
+                   "Transformer (paper)": (1.0, 1.0, 1.0)})
+    rows = cal.rows("x", 1.0, res)
+    assert [r["model"] for r in rows] == ["fcn"]        # never the hybrid or the transformer
+    r = rows[0]
+    assert r["ratio"]["Fx"] == pytest.approx(1.0)
+    assert r["in_band"] == {"Fx": True, "Fy": False, "Fz": False}   # 1.0/1.59 = 0.63, 4.6/2.99 = 1.54
+
+
+def test_verdict_and_block():
+    data = {}
+    good = _result({"FCN": (1.9, 1.6, 3.0), "MultiRocket-Hydra": (2.2, 2.5, 2.7)})
+    data = cal.merge(data, cal.rows("2.3", 1.0, good), cal.floor_rows("2.3", 1.0, good))
+    lstm = _result({"LSTM (Yang et al.)": (4.0, 4.4, 4.0)})
+    data = cal.merge(data, cal.rows("2.3b", 0.25, lstm), cal.floor_rows("2.3b", 0.25, lstm))
+    v = cal.verdict(data, "2.3")
+    assert v["models_in_band"] and not v["met_at_paper_budget"]
+    assert v["not_at_paper_budget"] == ["lstm"] and "lstm" in v["substituted"]
+    data.update({"paper": cal.PAPER, "band": list(cal.BAND), "verdicts": {"2.3": v},
+                 "substitutes": cal.SUBSTITUTES})
+    text = bench_paper_calibration(data)
+    assert "| LSTM (Yang et al.), on 2.3b's bench | 0.25 (below the paper's budget)" in text
+    assert "no published source" in text
+    with pytest.raises(SystemExit, match="design seeds"):
+        cal.main(["--version", "2.3", "--seeds", "101", "--json", "/nonexistent/x.json"])
