@@ -23,7 +23,7 @@ def simulate_command(args) -> dict:
     spread = 1.0 if args.tool_spread is None else args.tool_spread
     return simulate(protocol=args.protocol, scale=args.scale, seed=args.seed, out=args.out,
                     port=args.port, tool_seed=args.tool_seed, tool_spread=spread,
-                    fmt=args.format)
+                    fmt=args.format, version=args.sim_version)
 
 
 def excitation_command(args) -> dict:

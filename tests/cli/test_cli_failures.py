@@ -3,6 +3,7 @@ left behind, found before the expensive work."""
 
 from __future__ import annotations
 
+import json
 import os
 
 import pandas as pd
@@ -246,3 +247,14 @@ def test_inputs_that_are_not_regular_files_are_refused_not_read(tmp_path, specia
     assert main(["convert", str(tmp_path / "no.mcap"), "--out", str(tmp_path / "o.csv"),
                  "--r-ati-psm", path]) == 2
     assert "not a regular file" in cli_error("convert")
+
+
+def test_simulate_takes_a_simulator_version_and_refuses_an_unknown_one(tmp_path, cli_error):
+    assert main(["simulate", "--scale", "0.01", "--seed", "1", "--sim-version", "2.3",
+                 "--out", str(tmp_path / "v23")]) == 0
+    assert json.loads((tmp_path / "v23" / "metadata.json").read_text())[
+        "simulator_version"] == "2.3"
+    assert main(["simulate", "--scale", "0.01", "--sim-version", "9.9",
+                 "--out", str(tmp_path / "bad")]) == 2
+    assert "unknown simulator version '9.9'" in cli_error("simulate")
+    assert not (tmp_path / "bad").exists()
