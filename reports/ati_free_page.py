@@ -1,6 +1,6 @@
 """The blocks of ``docs/ati_free.md``: the excitation and the known weights, rendered from
 ``results/benchmarks/excitation.json`` (``studies/excitation.py``); the re-mounting section
-("4. Re-mounting") from ``results/benchmarks/remount.json`` (``studies/remount.py``) and
+("3. Re-mounting") from ``results/benchmarks/remount.json`` (``studies/remount.py``) and
 ``results/benchmarks/hex10_compression.json`` (``studies/hex10_compression.py``). Each function
 takes the parsed JSON and returns the block's markdown."""
 
