@@ -76,8 +76,7 @@ def _parser() -> argparse.ArgumentParser:
                    help="with --tool-seed: the draw's spread, 1 = the nominal tool-to-tool "
                         "spread of docs/simulator.md section 10, 2 = twice it (default 1)")
     p.add_argument("--sim-version", default=None, metavar="V",
-                   help="simulator version (psmforce.sim.versions: 2.1, the default; 2.2; 2.3, "
-                        "calibrated towards the paper's table, docs/simulator.md section 12c)")
+                   help="simulator version: 2.1 (default), 2.2, 2.3 (docs/simulator.md)")
     p.add_argument("--format", choices=["csv", "mcap"], default="csv",
                    help="csv (default): one recording CSV per trial; mcap: one ROS 2 MCAP bag "
                         "folder per trial on the dVRK CRTK topics (/PSM1/measured_js, "
