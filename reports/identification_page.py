@@ -23,7 +23,8 @@ def transmission_tables(result: dict) -> str:
              f"Command: `{result['run']['command']}` (resumable; each model and seed cached); "
              f"seeds {result['seeds']} for the learned models (the physics fit is "
              f"deterministic); {result['rate_hz']:g} Hz; causal estimates, no post-filter. "
-             "RMSE mean ± std over seeds, pooled over the protocol's test files; *closing*: the "
+             "RMSE mean ± std over seeds (the sample std, ddof 1; the physics' is 0), pooled "
+             "over the protocol's test files; *closing*: the "
              "samples where the motor drives the jaw against the load, as the 2018 paper scored.",
              ""]
     for protocol, models in result["summary"].items():

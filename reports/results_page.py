@@ -5,7 +5,8 @@ Each function takes the JSON(s) named in :data:`reports.render.BLOCKS` and retur
 Every sentence with a figure in it is built here, so the page's prose between the blocks names none
 (``tests/reports/test_rendered_docs.py`` holds it to that). Verdicts between two models use the
 project's one spread rule (:func:`psmforce.estimators.evaluation.tables.compare`: a win needs mean +
-std below the other's mean - std).
+std below the other's mean - std, std as its JSON holds it; a cell without a spread, one seed,
+shows the mean alone and ties).
 """
 
 from __future__ import annotations
@@ -439,7 +440,8 @@ def prior_ablation_tables(result: dict) -> str:
              f"results/benchmarks/prior_ablation.json` (scale {result['scale']:g}, bench seeds "
              f"{seeds}; crossing bench: cables at {result['crossing_rad']:g} rad; every run "
              f"{'stopped by its patience' if result['all_converged'] else 'NOT all converged'})."
-             " NRMSE % on the test trials, mean ± std over seeds; causal = the raw per-sample "
+             " NRMSE % on the test trials, mean ± std over seeds (the sample std, ddof 1); "
+             "causal = the raw per-sample "
              "estimate a haptic loop gets, paper = the paper's offline post-processing; the "
              "last columns are the validation trials, where the design is chosen.", ""]
     for bench, rows in result["summary"].items():
@@ -545,7 +547,7 @@ def another_tool_table(result: dict) -> str:
              "| paper Fz |", "|---|---|---|---|---|---|---|---|"]
     for model, rows in result["table"].items():
         for tool in (t for t in TOOL_ROWS if t in rows):
-            cells = [f"{rows[tool][m][a][0]:.2f} ± {rows[tool][m][a][1]:.2f}"
+            cells = [spread_cell(_pair(rows[tool][m][a]))
                      for m in ("causal", "paper") for a in ("Fx", "Fy", "Fz")]
             lines.append(f"| {model} | {tool} | " + " | ".join(cells) + " |")
     lines += ["", "Every training and calibration "

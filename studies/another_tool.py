@@ -17,7 +17,8 @@ calibration trials (its train split; the test split is never seen). The nominal 
 calibrated too: calibration also shows the model more of the test bench's protocol, and the
 nominal row separates that from adapting to the tool. NRMSE % per axis by the
 causal metric (raw per-sample estimate, no look-ahead) and the paper's (bias + centred median),
-``psmforce.estimators.evaluation.evaluate``; mean +- std over bench seeds x tool seeds.
+``psmforce.estimators.evaluation.evaluate``; mean +- std over bench seeds x tool seeds (the sample
+std, ddof 1).
 
 ``--pair-tools`` gives the k-th bench seed only the k-th tool seed: one drawn instrument per
 bench seed, so a row's spread is over as many (bench, tool) pairs as seeds, for a third of the
@@ -32,7 +33,6 @@ its JSON says "smoke run, not converged"; its figures compare nothing.
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import time
 from pathlib import Path
@@ -46,8 +46,8 @@ from psmforce.estimators.evaluation.metrics import AXES
 from psmforce.estimators.networks.recipes import RECIPES, recipe
 from psmforce.estimators.training.train import TrainConfig, train
 from psmforce.sim import simulate
-from psmforce.core.files import write_json_atomic
-from psmforce.experiments.report import shown_path, write_json
+from psmforce.estimators.evaluation.tables import spread_text, std_over_seeds
+from psmforce.experiments.report import kept_json, shown_path, write_json
 
 MODES = ("causal", "paper")
 SMOKE = {"max_batches_per_epoch": 2, "max_val_batches": 2}
@@ -71,16 +71,6 @@ def _scores(ckpt: Path, data: Path, out: Path) -> dict:
                                 for m in MODES}}
 
 
-def _kept(path: Path, compute) -> dict:
-    """The JSON at ``path``, or ``compute()`` written there first: a rerun resumes."""
-    if path.is_file():
-        return json.loads(path.read_text())
-    path.parent.mkdir(parents=True, exist_ok=True)
-    result = compute()
-    write_json_atomic(path, result)
-    return result
-
-
 def _bench(path: Path, scale: float, seed: int, **tool) -> Path:
     if not (path / "metadata.json").is_file():   # simulate writes it last: a finished bench
         simulate("automated", scale=scale, seed=seed, out=path, **tool)
@@ -88,14 +78,16 @@ def _bench(path: Path, scale: float, seed: int, **tool) -> Path:
 
 
 def _summary(runs: list[dict], models, rows) -> dict:
-    """{model: {row: {mode: {axis: [mean, std]}}}} over every (bench seed, tool seed)."""
+    """{model: {row: {mode: {axis: [mean, std]}}}} over every (bench seed, tool seed): std the
+    sample standard deviation (ddof 1; None for one pair,
+    :func:`psmforce.estimators.evaluation.tables.std_over_seeds`)."""
     table = {}
     for model in models:
         table[model] = {}
         for row in rows:
             got = [r["nrmse_pct"] for r in runs if r["model"] == model and r["row"] == row]
             table[model][row] = {m: {a: [float(np.mean([g[m][a] for g in got])),
-                                         float(np.std([g[m][a] for g in got]))] for a in AXES}
+                                         std_over_seeds([g[m][a] for g in got])] for a in AXES}
                                  for m in MODES} | {"n": len(got)}
     return table
 
@@ -106,7 +98,8 @@ def _print(table: dict) -> None:
     for model, rows in table.items():
         for row, cell in rows.items():
             print(f"| {model} | {row} | {cell['n']} | " + " | ".join(
-                f"{cell[m][a][0]:.2f} ± {cell[m][a][1]:.2f}" for m in MODES for a in AXES) + " |")
+                spread_text({"mean": cell[m][a][0], "std": cell[m][a][1]})
+                for m in MODES for a in AXES) + " |")
 
 
 def main() -> dict:
@@ -174,7 +167,7 @@ def main() -> dict:
             else:
                 ckpt = work / f"{model}.pt"
                 epochs = args.epochs or _config(model, False).max_epochs
-                report = _kept(work / f"{model}.train.json", lambda: {
+                report = kept_json(work / f"{model}.train.json", lambda: {
                     k: v for k, v in train(nominal, model, ckpt, epochs=epochs, seed=seed,
                                            train_config=_config(model, args.smoke)).items()
                     if k in ("converged", "epochs_run")})
@@ -186,7 +179,7 @@ def main() -> dict:
                         "tool_spread": None if tool is None else tool[1]}
                 label = "nominal" if tool is None else f"{tool[1]:g}x"
                 key = f"{model}_{name.replace(' ', '_')}"
-                runs.append(base | {"row": f"{label} as is", **_kept(
+                runs.append(base | {"row": f"{label} as is", **kept_json(
                     work / "records" / f"{key}.json",
                     lambda: _scores(ckpt, data, work / "eval" / key))})
                 cal = work / f"{key}_cal.pt"
@@ -199,7 +192,7 @@ def main() -> dict:
                         "minutes_used", "minutes_by_condition", "epochs_run", "converged")},
                         **_scores(cal, data, work / "eval" / f"{key}_cal")}
                 runs.append(base | {"row": f"{label} calibrated",
-                                    **_kept(work / "records" / f"{key}_cal.json", calibrated)})
+                                    **kept_json(work / "records" / f"{key}_cal.json", calibrated)})
                 print(f"seed {seed} {model} {name}: as is / calibrated causal NRMSE % "
                       + " / ".join(f"{runs[-2]['nrmse_pct']['causal'][a]:.2f}->"
                                    f"{runs[-1]['nrmse_pct']['causal'][a]:.2f}" for a in AXES),

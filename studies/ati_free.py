@@ -47,11 +47,12 @@ calibration (mechanics only; the JSON says so).
 from __future__ import annotations
 
 import argparse
-import json
 import time
 from pathlib import Path
 
 import numpy as np
+
+from psmforce.experiments.report import kept_json
 
 AXES = ("Fx", "Fy", "Fz")
 METRICS = ("causal", "paper")
@@ -146,17 +147,6 @@ def summary(records: dict[int, dict]) -> dict:
 
 
 # ------------------------------------------------------------------ the runs (not unit-tested)
-def _kept(path: Path, compute) -> dict:
-    """The JSON at ``path``, or ``compute()`` written there first: a rerun resumes."""
-    from psmforce.core.files import write_json_atomic
-    if path.is_file():
-        return json.loads(path.read_text())
-    path.parent.mkdir(parents=True, exist_ok=True)
-    result = compute()
-    write_json_atomic(path, result)
-    return result
-
-
 def _contact_trials(data: Path):
     from psmforce.estimators.data.dataset import Dataset, load_dataset
     ds = load_dataset(data, threads=1)
@@ -208,7 +198,7 @@ def _config(model: str | None, quick: bool):
 def _train(data: Path, out: Path, seed: int, args, use_prior: bool = True) -> dict:
     from psmforce.estimators.training.train import train
     epochs = 1 if args.quick else _config("hybrid", False).max_epochs
-    return _kept(out.with_suffix(".train.json"), lambda: {
+    return kept_json(out.with_suffix(".train.json"), lambda: {
         k: v for k, v in train(data, "hybrid", out, epochs=epochs, seed=seed, use_prior=use_prior,
                                device=args.device,
                                train_config=_config("hybrid", args.quick)).items()
@@ -247,7 +237,7 @@ def _seed(seed: int, args, q_exc: np.ndarray) -> tuple[dict, dict]:
     source = _bench(work / "source", args.scale, seed)
     tool = _bench(work / "tool", args.scale, seed, tool_seed=tool_seed)
     free_dir = work / "ati_free"
-    made = _kept(work / "ati_free.json", lambda: simulate_ati_free(
+    made = kept_json(work / "ati_free.json", lambda: simulate_ati_free(
         free_dir, seed=seed, scale=args.scale, free_minutes=args.free_minutes,
         excitation_q=q_exc, weight_poses=weight_poses(), masses_kg=tuple(args.masses),
         hold_s=args.hold_s, tool_seed=tool_seed))
@@ -256,9 +246,9 @@ def _seed(seed: int, args, q_exc: np.ndarray) -> tuple[dict, dict]:
     runs["source_network"] = _train(source, work / "source_network.pt", seed, args,
                                     use_prior=False)
     runs["ati_full"] = _train(tool, work / "tool_hybrid.pt", seed, args)
-    records = {"source": _kept(work / "records" / "source.json",
+    records = {"source": kept_json(work / "records" / "source.json",
                                lambda: _score(work / "source_hybrid.pt", tool)),
-               "ati_full": _kept(work / "records" / "ati_full.json",
+               "ati_full": kept_json(work / "records" / "ati_full.json",
                                  lambda: _score(work / "tool_hybrid.pt", tool))}
     exc_minutes = made["minutes"]["excitation"] + MINUTES_SLACK
     truth = default_bench_truth(InstrumentParams().sample(tool_seed, 1.0))
@@ -267,13 +257,13 @@ def _seed(seed: int, args, q_exc: np.ndarray) -> tuple[dict, dict]:
         for variant, ckpt in (("", "source_hybrid.pt"), ("network_alone:", "source_network.pt")):
             name = variant + arm
             out = work / "arms" / (name.replace(":", "_").replace("+", "_") + ".pt")
-            runs[name] = _kept(out.with_suffix(".cal.json"), lambda: _calibrate(
+            runs[name] = kept_json(out.with_suffix(".cal.json"), lambda: _calibrate(
                 work / ckpt, free_dir / FREE_SPACE, out, seed, args, spec["minutes"],
                 free_space=True, known_loads=loads))
-            records[name] = _kept(work / "records" / f"{out.stem}.json",
+            records[name] = kept_json(work / "records" / f"{out.stem}.json",
                                   lambda: _score(out, tool))
             if not variant:
-                records["physics_alone:" + arm] = _kept(
+                records["physics_alone:" + arm] = kept_json(
                     work / "records" / f"{out.stem}_physics.json",
                     lambda: _score_physics(out, tool))
                 prior = runs[name]["prior"]
@@ -283,10 +273,10 @@ def _seed(seed: int, args, q_exc: np.ndarray) -> tuple[dict, dict]:
     available = sum(map(_minutes_of, _ati_pool(tool)))
     minutes = min(wanted, available)
     out = work / "arms" / "ati_same_minutes.pt"
-    runs["ati_same_minutes"] = _kept(out.with_suffix(".cal.json"), lambda: _calibrate(
+    runs["ati_same_minutes"] = kept_json(out.with_suffix(".cal.json"), lambda: _calibrate(
         work / "source_hybrid.pt", tool, out, seed, args, minutes - 1e-3) | {
         "minutes_wanted": wanted, "minutes_available": available})
-    records["ati_same_minutes"] = _kept(work / "records" / "ati_same_minutes.json",
+    records["ati_same_minutes"] = kept_json(work / "records" / "ati_same_minutes.json",
                                         lambda: _score(out, tool))
     return records, runs
 

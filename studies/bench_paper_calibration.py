@@ -239,10 +239,26 @@ def merge(data: dict, new_rows: list[dict], floor: dict) -> dict:
     return data
 
 
+def stamped(data: dict, argv=None) -> dict:
+    """``data`` with what every write of the JSON records beside its rows: the command (``argv``,
+    else the process's), the settings this script holds (band, paper figures, the 2.1
+    reference, substitutes, notes, candidates, re-mount ranges, the registered versions) and
+    each candidate's :func:`verdict`."""
+    from psmforce.sim import versions
+    from psmforce.sim.mounting import RANGES
+    data["command"] = "python studies/bench_paper_calibration.py " + " ".join(
+        sys.argv[1:] if argv is None else argv)
+    data.update({"band": list(BAND), "paper": PAPER, "reference_2.1": REFERENCE_21,
+                 "substitutes": SUBSTITUTES, "notes": NOTES, "candidates": CANDIDATES,
+                 "remount_ranges": RANGES,
+                 "registered": {v: versions.version(v).to_dict() for v in versions.VERSIONS}})
+    data["verdicts"] = {n: verdict(data, n) for n in
+                        dict.fromkeys(r["candidate"] for r in data["rows"])}
+    return data
+
+
 def main(argv=None) -> None:
     from psmforce.experiments.seeds import DESIGN_SEEDS
-    from psmforce.sim.mounting import RANGES
-    from psmforce.sim import versions
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--version", default=None,
@@ -276,15 +292,7 @@ def main(argv=None) -> None:
                 data.setdefault(key, {}).update(part.get(key, {}))
             if part.get("command") not in data.setdefault("commands", []):
                 data["commands"].append(part.get("command"))
-        data["command"] = "python studies/bench_paper_calibration.py " + " ".join(
-            sys.argv[1:] if argv is None else argv)
-        data.update({"band": list(BAND), "paper": PAPER, "reference_2.1": REFERENCE_21,
-                     "substitutes": SUBSTITUTES, "notes": NOTES,
-                     "candidates": CANDIDATES, "remount_ranges": RANGES,
-                     "registered": {v: versions.version(v).to_dict() for v in versions.VERSIONS}})
-        data["verdicts"] = {n: verdict(data, n) for n in
-                            dict.fromkeys(r["candidate"] for r in data["rows"])}
-        write_json(path, data)
+        write_json(path, stamped(data, argv))
     if args.render_only or args.merge:
         from reports.bench_calibration_page import bench_paper_calibration
         print(bench_paper_calibration(data))
@@ -310,18 +318,7 @@ def main(argv=None) -> None:
             data = merge(data, rows(name, scale, results), floor_rows(name, scale, results))
             data.setdefault("definitions", {})[name] = candidate_version(name).to_dict()
             data.setdefault("benches", {})[f"{name} scale {scale:g}"] = results["benches"]
-            data["command"] = "python studies/bench_paper_calibration.py " + " ".join(
-                sys.argv[1:] if argv is None else argv)
-            data["band"] = list(BAND)
-            data["paper"] = PAPER
-            data["reference_2.1"] = REFERENCE_21
-            data["substitutes"] = SUBSTITUTES
-            data["notes"] = NOTES
-            data["candidates"] = CANDIDATES
-            data["remount_ranges"] = RANGES
-            data["registered"] = {v: versions.version(v).to_dict() for v in versions.VERSIONS}
-            data["verdicts"] = {n: verdict(data, n) for n in
-                                dict.fromkeys(r["candidate"] for r in data["rows"])}
+            stamped(data, argv)
             data.setdefault("seconds", {})[f"{name} scale {scale:g} {'+'.join(models)}"] = round(
                 time.time() - started, 1)
             write_json(path, data)

@@ -30,7 +30,6 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-import numpy as np  # noqa: E402
 import torch  # noqa: E402
 from torch import nn  # noqa: E402
 
@@ -39,6 +38,7 @@ from studies.learning_curve import AXES, run_dir  # noqa: E402
 from psmforce.estimators.training.checkpoint import load_checkpoint  # noqa: E402
 from psmforce.estimators.data.dataset import NO_BASE  # noqa: E402
 from psmforce.estimators.data.hybrid_inputs import select_base  # noqa: E402
+from psmforce.estimators.evaluation.tables import mean_std, spread_text  # noqa: E402
 from psmforce.estimators.networks.baselines import FCN  # noqa: E402
 from psmforce.estimators.networks.recipes import (RECIPES, Inputs, Recipe, recipe, register)  # noqa: E402
 from psmforce.experiments.reproduce import (  # noqa: E402
@@ -228,15 +228,14 @@ def variant(work: Path, scale: float, seed: int, name: str) -> dict:
 
 
 def _cell(values: list[float]) -> str:
-    if len(values) == 1:
-        return f"{values[0]:.2f}"
-    return f"{np.mean(values):.2f} ± {np.std(values):.2f}"
+    """Mean ± the sample std over seeds (ddof 1), the value alone for one seed."""
+    return spread_text(mean_std(values))
 
 
 def table(result: dict) -> str:
     """The variants as a Markdown table: per scale (largest first), each variant's causal NRMSE %
-    on the validation and the test trials, mean ± std over the seeds measured (the value where
-    one seed was)."""
+    on the validation and the test trials, mean ± std over the seeds measured (the sample std,
+    ddof 1; the value alone where one seed was)."""
     what = EXISTING | {k: v.what for k, v in VARIANTS.items()}
     lines = ["| scale | variant | the change | seeds | validation Fx / Fy / Fz | "
              "test Fx / Fy / Fz |", "|---|---|---|---|---|---|"]

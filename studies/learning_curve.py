@@ -36,7 +36,9 @@ each model's networks trained on, per seed where a training moved, and the table
 
 The JSON holds, per scale, the minutes of training recordings (the automated training split,
 validation included, at the bench's rate), each model's causal and paper NRMSE per axis (mean,
-std and number of seeds), whether every model converged, and, per axis, the verdict of the hybrid
+std and number of seeds, as the run's ``results.json`` holds them: the sample std, ddof 1, since
+issue 45, :func:`psmforce.estimators.evaluation.tables.spread`), whether every model converged,
+and, per axis, the verdict of the hybrid
 against the paper's transformer by the spread rule (a win needs mean + std below the other's
 mean - std); and where each model stands: per axis, the first scale at which the transformer
 matches the hybrid, and the minutes of data the transformer needs to reach the hybrid's error at
@@ -60,7 +62,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from psmforce.experiments.report import shown_path, write_json  # noqa: E402
-from psmforce.estimators.evaluation.tables import compare  # noqa: E402
+from psmforce.estimators.evaluation.tables import compare, has_spread, spread_text  # noqa: E402
 from psmforce.core.files import folder_sha256, write_text_atomic  # noqa: E402
 
 SCALES = (0.05, 0.1, 0.25, 0.5, 1.0)
@@ -419,8 +421,7 @@ def table(curve: dict) -> str:
                   "|---|---|---|---|---|---|---|---|---|"]
         for p in shown:
             for label, r in p["models"].items():
-                cells = " | ".join(f"{r[m][a]['mean']:.2f} ± {r[m][a]['std']:.2f}"
-                                   for a in AXES)
+                cells = " | ".join(spread_text(r[m][a]) for a in AXES)
                 stopped = ", ".join(p.get("stopped", {}).get(label, []))
                 lines.append(f"| {p['scale']:g} | {p['training_minutes']:.1f} | "
                              f"{len(p['seeds'])} | {'yes' if p['all_converged'] else 'NO'} | "
@@ -491,7 +492,8 @@ def _draw_axis(ax, a: str, shown: list[dict], labels: list[str]) -> None:
         pts = [p for p in shown if label in p["models"]]
         x = [p["training_minutes"] for p in pts]
         y = [p["models"][label]["causal"][a]["mean"] for p in pts]
-        e = [p["models"][label]["causal"][a]["std"] for p in pts]
+        e = [c["std"] if has_spread(c) else math.nan  # one seed: no error bar
+             for c in (p["models"][label]["causal"][a] for p in pts)]
         ax.errorbar(x, y, yerr=e, marker="o", capsize=3, label=label)
     # scale 1's own minutes once measured: trial lengths do not shrink exactly with scale
     full = next((p for p in shown if p["scale"] == 1.0), shown[0])

@@ -45,6 +45,7 @@ from psmforce.estimators.data.dataset import load_dataset, split_validation
 from psmforce.estimators.evaluation.evaluate import score
 from psmforce.estimators.data.hybrid_inputs import add_prior_columns
 from psmforce.estimators.evaluation.metrics import AXES
+from psmforce.estimators.evaluation.tables import spread_text, std_over_seeds
 from psmforce.experiments.plan import plan
 from psmforce.identification import InternalForcePrior
 from psmforce.io.recording import TARGETS
@@ -133,12 +134,14 @@ def _channels_of_bench(data_dir: Path, prior_json: Path, seed: int) -> dict[str,
 
 
 def _channels(run: Path, seeds) -> dict[str, dict[str, float]]:
-    """{channel: {mean, std}} over the run's bench seeds (module docstring, ``--channels``)."""
+    """{channel: {mean, std}} over the run's bench seeds (module docstring, ``--channels``); std
+    the sample standard deviation (ddof 1; None for one seed,
+    :func:`psmforce.estimators.evaluation.tables.std_over_seeds`)."""
     per_seed = [_channels_of_bench(run / "work" / "data" / f"automated_seed{s}",
                                    run / "work" / "data" / f"prior_seed{s}.json", s) for s in seeds]
     return {k: [p[k] for p in per_seed] if isinstance(per_seed[0][k], str) else
             {"mean": float(np.mean([p[k] for p in per_seed])),
-             "std": float(np.std([p[k] for p in per_seed]))} for k in per_seed[0]}
+             "std": std_over_seeds([p[k] for p in per_seed])} for k in per_seed[0]}
 
 
 def _targets(tables: dict) -> dict:
@@ -188,7 +191,7 @@ def main() -> dict:
                 a: {"mean": axes[a][0], "std": axes[a][1],
                     "ratio_to_no_port": axes[a][0] / base[a][0] if base else None} for a in AXES}
             print(f"    {label:22s} " + "  ".join(
-                f"{a} {axes[a][0]:6.2f} ± {axes[a][1]:4.2f}"
+                f"{a} {spread_text({'mean': axes[a][0], 'std': axes[a][1]})}"
                 + (f" (x{axes[a][0] / base[a][0]:.2f})" if base and port != "none" else "")
                 for a in AXES))
     targets = _targets(tables)
@@ -208,7 +211,7 @@ def main() -> dict:
             print(f"  port {port}")
             for k, v in ch.items():
                 print(f"    {k:40s} " + (", ".join(v) if isinstance(v, list)
-                                          else f"{v['mean']:.2f} ± {v['std']:.2f}"))
+                                          else spread_text(v)))
     if args.json:
         write_json(args.json, result)
     return result

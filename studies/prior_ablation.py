@@ -31,7 +31,8 @@ Three hybrids per bench and seed, each trained to early stopping with the recipe
 Every variant is scored on the validation trials too (the design is chosen there, not on test).
 
 Scored on the bench's test trials by the causal metric a haptic loop gets and by the paper's offline
-metric (:mod:`psmforce.estimators.evaluation.metrics`), NRMSE % per axis, mean and std over seeds.
+metric (:mod:`psmforce.estimators.evaluation.metrics`), NRMSE % per axis, mean and std over seeds
+(the sample std, ddof 1).
 Each (bench, seed, variant) result is cached under ``--work`` (default ``runs/prior_ablation``) so
 an interrupted run resumes.
 
@@ -66,7 +67,11 @@ from psmforce.estimators.data.hybrid_inputs import (  # noqa: E402
     select_base,
 )
 from psmforce.estimators.networks.recipes import DERIVATIONS, Inputs, recipe  # noqa: E402
-from psmforce.estimators.evaluation.tables import compare  # noqa: E402
+from psmforce.estimators.evaluation.tables import (  # noqa: E402
+    compare,
+    spread_text,
+    std_over_seeds,
+)
 from psmforce.estimators.training.train import (TrainConfig, fit_prior, make_setup, train_model)  # noqa: E402
 from psmforce.core.files import write_text_atomic  # noqa: E402
 from psmforce.sim import simulate  # noqa: E402
@@ -148,6 +153,9 @@ def _task(work: Path, bench: str, seed: int, variant: str, scale: float,
 
 
 def _summary(tasks: list[dict]) -> dict:
+    """{bench: {variant: {metric: {axis: {mean, std, seeds}}, "validation_causal": {axis: {mean,
+    std}}}}} over the seeds: std the sample standard deviation (ddof 1; None for one seed,
+    :func:`psmforce.estimators.evaluation.tables.std_over_seeds`)."""
     out = {}
     for bench in sorted({t["bench"] for t in tasks}):
         out[bench] = {}
@@ -157,19 +165,19 @@ def _summary(tasks: list[dict]) -> dict:
                 continue
             out[bench][variant] = {
                 m: {a: {"mean": float(np.mean([r["test"][m][a] for r in runs])),
-                        "std": float(np.std([r["test"][m][a] for r in runs])),
+                        "std": std_over_seeds([r["test"][m][a] for r in runs]),
                         "seeds": [r["seed"] for r in runs]} for a in AXES} for m in METRICS}
             out[bench][variant]["validation_causal"] = {
                 a: {"mean": float(np.mean([r["validation"]["causal"][a] for r in runs])),
-                    "std": float(np.std([r["validation"]["causal"][a] for r in runs]))}
+                    "std": std_over_seeds([r["validation"]["causal"][a] for r in runs])}
                 for a in AXES}
     return out
 
 
 def _verdicts(summary: dict) -> dict:
     """Per bench, prior variant, metric and axis: the variant against the hybrid without the
-    prior by the spread rule (a win needs mean + std below the other's mean - std; otherwise a
-    tie), with the ratio of means."""
+    prior by the spread rule (a win needs mean + std below the other's mean - std, std the
+    sample std over seeds; otherwise, or with one seed, a tie), with the ratio of means."""
     out = {}
     for bench, rows in summary.items():
         if "no_prior" not in rows:
@@ -275,8 +283,8 @@ def main(argv=None) -> int:
     for bench, rows in summary.items():
         print(f"\n{bench} bench (NRMSE %, mean +- std over seeds {args.seeds})")
         for variant, r in rows.items():
-            cells = "  ".join(f"{m} " + " / ".join(f"{r[m][a]['mean']:.2f}+-{r[m][a]['std']:.2f}"
-                                                   for a in AXES) for m in METRICS)
+            cells = "  ".join(f"{m} " + " / ".join(spread_text(r[m][a]) for a in AXES)
+                              for m in METRICS)
             print(f"  {variant:10s} {cells}")
     if args.json:
         write_json(args.json, figures)

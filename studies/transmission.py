@@ -30,9 +30,11 @@ transformer, MultiRocket-Hydra, hybrid = physics + causal residual transformer
 1,000. Extra row ``fcn+spindle``: the FCN with the input-spindle torque sensor as a 4th input (a
 robot has none; left out of the verdicts). Metrics: RMSE of jaw torque [mNm] and jaw angle [deg],
 NRMSE (% of the truth's range over the protocol's test files), pooled over the test files' samples,
-on whole files and on their closing portions (``rec.closing``); mean +- std (numpy's, ddof 0) over
-seeds. The best model per protocol and metric wins over the runner-up only if mean_a + std_a <
-mean_b - std_b (spread rule), else they tie.
+on whole files and on their closing portions (``rec.closing``); mean +- std over seeds, std the
+sample standard deviation (ddof 1; none for a single seed, 0 for the deterministic physics:
+:func:`summarise`). The best model per protocol and metric wins over the runner-up only if
+mean_a + std_a < mean_b - std_b (the spread rule,
+:func:`psmforce.estimators.evaluation.tables.compare`), else they tie.
 
 Resumable: each (model, seed) keeps its trained weights and its records under ``--work``, in a
 folder named by the loader's hash (the hybrid's files also carry the physics code's hash); a
@@ -59,6 +61,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from psmforce.experiments.report import shown_path  # noqa: E402
+from psmforce.estimators.evaluation.tables import compare, has_spread, mean_std  # noqa: E402
 from psmforce.core.files import atomic_path, write_json_atomic, write_text_atomic
 from psmforce.identification.transmission.model import CableTransmission
 from psmforce.identification.transmission.recording import (
@@ -362,17 +365,23 @@ def run_learned(model: str, seed: int, data_dir: str, quick: bool, work: str) ->
 
 # ---------------------------------------------------------------- summary
 def summarise(records: list[dict]) -> dict:
-    out = {}
+    """{protocol: {model: {part: {metric: {mean, std, n}}}}} over the records' seeds: std the
+    sample standard deviation (ddof 1; None for one seed,
+    :func:`psmforce.estimators.evaluation.tables.std_over_seeds`). A deterministic model's one
+    record (seed None: the physics, one fit) has std 0: every seed would give the same."""
+    out, seeded = {}, {}
     for r in records:
         for part, m in r["metrics"].items():
             for k in METRICS:
                 out.setdefault(r["protocol"], {}).setdefault(r["model"], {}).setdefault(
                     part, {}).setdefault(k, []).append(m[k])
-    for protocol in out.values():
-        for model in protocol.values():
-            for part in model.values():
+        seeded[r["protocol"], r["model"]] = r["seed"] is not None
+    for protocol, models in out.items():
+        for model, parts in models.items():
+            for part in parts.values():
                 for k, v in part.items():
-                    part[k] = {"mean": float(np.mean(v)), "std": float(np.std(v)), "n": len(v)}
+                    part[k] = mean_std(v) if seeded[protocol, model] else {
+                        "mean": float(np.mean(v)), "std": 0.0, "n": len(v)}
     return out
 
 
@@ -390,15 +399,14 @@ def verdicts(summary: dict) -> dict:
                     b = models[ranked[1]][part][k]
                     entry |= {"runner_up": ranked[1], "runner_up_mean": b["mean"],
                               "runner_up_std": b["std"],
-                              "verdict": "win" if a["mean"] + a["std"] < b["mean"] - b["std"]
-                              else "tie"}
+                              "verdict": "win" if compare(a, b) == -1 else "tie"}
                 out.setdefault(protocol, {}).setdefault(part, {})[k] = entry
     return out
 
 
 def table(summary: dict, verdict: dict, fits: dict) -> str:
     def cell(d):
-        return f"{d['mean']:7.2f} +- {d['std']:5.2f}"
+        return f"{d['mean']:7.2f} +- " + (f"{d['std']:5.2f}" if has_spread(d) else "  n/a")
     lines = []
     for protocol, models in summary.items():
         lines += ["", f"{protocol}: {PROTOCOLS[protocol]}",
@@ -470,8 +478,8 @@ def main(argv=None) -> int:
     text = table(summary, verdict, fit_flags(records))
     quick = " (QUICK smoke run: compares nothing)" if args.quick else ""
     header = (f"transmission benchmark{quick}"
-              f"; physics: {PHYSICS_SOURCE}; seeds {args.seeds}; RMSE mean +- std over seeds; "
-              "epochs per seed, ! = not converged")
+              f"; physics: {PHYSICS_SOURCE}; seeds {args.seeds}; RMSE mean +- std over seeds "
+              "(ddof 1); epochs per seed, ! = not converged")
     print(header + text)
     result = {
         "benchmark": "transmission", "quick": args.quick,

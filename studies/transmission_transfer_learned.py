@@ -47,6 +47,7 @@ sys.path.insert(0, str(ROOT))
 
 from psmforce.core.files import atomic_path, write_json_atomic  # noqa: E402
 from psmforce.experiments.report import shown_path  # noqa: E402
+from psmforce.estimators.evaluation.tables import std_over_seeds  # noqa: E402
 
 MODELS = ("fcn", "lstm", "transformer", "rocket", "hybrid")
 INPUTS = ("motor_current_a", "motor_command", "motor_angle_rad", "motor_velocity_rad_s")
@@ -195,7 +196,9 @@ def run_model(model: str, seed: int, data_dir: str, work: str) -> list[dict]:
 
 
 def summarise(records: list[dict]) -> dict:
-    """{folder: {protocol: {model: {part: {metric: {mean, std, seeds}}}}}}."""
+    """{folder: {protocol: {model: {part: {metric: {mean, std, seeds}}}}}}: std the sample
+    standard deviation over the seeds (ddof 1; None for one seed,
+    :func:`psmforce.estimators.evaluation.tables.std_over_seeds`), ``seeds`` how many."""
     out: dict = {}
     for r in records:
         slot = out.setdefault(r["folder"], {}).setdefault(r["protocol"], {}).setdefault(
@@ -208,7 +211,7 @@ def summarise(records: list[dict]) -> dict:
             for model in protocol.values():
                 for part in model.values():
                     for k, v in part.items():
-                        part[k] = {"mean": float(np.mean(v)), "std": float(np.std(v)),
+                        part[k] = {"mean": float(np.mean(v)), "std": std_over_seeds(v),
                                    "seeds": len(v)}
     return out
 

@@ -3,4 +3,5 @@
 calibration against real data (:mod:`.bench_calibration`), prior recovery
 (:mod:`.prior_recovery`), the cable-law figures against the real EndoWrist
 (:mod:`.cable_law_figures`), the transmission networks (:mod:`.transmission_networks`), the
-stream fuzzer (:mod:`.stream_fuzzer`) and the JSON writer the scripts share (:mod:`.report`)."""
+stream fuzzer (:mod:`.stream_fuzzer`) and the JSON writing and resumable steps the scripts
+share (:mod:`.report`)."""

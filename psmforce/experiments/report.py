@@ -1,6 +1,6 @@
 """What the studies, benchmarks and robustness runs share: the options of one on a dataset
-folder, writing its figures as JSON, whole or not at all, and naming paths in them without a
-machine's absolute path."""
+folder, writing its figures as JSON, whole or not at all, keeping a step's JSON so that a rerun
+resumes, and naming paths in them without a machine's absolute path."""
 
 from __future__ import annotations
 
@@ -8,8 +8,9 @@ import argparse
 import json
 import os
 from pathlib import Path
+from typing import Any, Callable
 
-from psmforce.core.files import write_text_atomic
+from psmforce.core.files import write_json_atomic, write_text_atomic
 
 
 def write_json(path: str | Path, figures: dict) -> None:
@@ -19,6 +20,20 @@ def write_json(path: str | Path, figures: dict) -> None:
     path.parent.mkdir(parents=True, exist_ok=True)
     write_text_atomic(path, json.dumps(figures, indent=2, default=float) + "\n")
     print(f"wrote {path}")
+
+
+def kept_json(path: str | Path, compute: Callable[[], Any]) -> Any:
+    """The JSON at ``path``, or ``compute()``'s result written there first (parents created;
+    whole or not at all, NaN refused: :func:`psmforce.core.files.write_json_atomic`) and
+    returned: a study's step that finished is read back, so a rerun of the study resumes after
+    it."""
+    path = Path(path)
+    if path.is_file():
+        return json.loads(path.read_text())
+    path.parent.mkdir(parents=True, exist_ok=True)
+    result = compute()
+    write_json_atomic(path, result)
+    return result
 
 
 def shown_path(path: str | Path, under: str | Path | None = None) -> str:

@@ -15,10 +15,12 @@ The rules (they hold for every model, the hybrid and the baselines alike):
   loop gets (raw, and a causal 5 Hz low-pass), each beside its floor
   (:mod:`psmforce.estimators.evaluation.metrics`).
 * **Seeds and spread.** Each seed is a new bench (simulator seed) and a new initialisation;
-  tables give mean ± std over seeds (teleoperation: over seeds x folds), and a model wins an
-  axis only when its mean plus its std stays below every other model's mean minus that one's
-  std; otherwise the table says tie. The published run uses bench seeds never used while the
-  hybrid was designed (the design used seed 0).
+  tables give mean ± std over seeds (teleoperation: over seeds x folds; std the sample standard
+  deviation, ddof 1, none for a single seed:
+  :func:`psmforce.estimators.evaluation.tables.std_over_seeds`), and a model wins an axis only
+  when its mean plus its std stays below every other model's mean minus that one's std;
+  otherwise, or where one seed gives no std, the table says tie. The published run uses bench
+  seeds never used while the hybrid was designed (the design used seed 0).
 
 What it runs of each model (the label in its tables, the ablations, the data-efficiency fractions,
 the published figures beside it) is the experiment plan, :data:`psmforce.experiments.plan.PLAN`.
@@ -606,7 +608,8 @@ def _curves(specs, results) -> dict:
 
 
 def _timing(checkpoints: dict, reps: int = 300) -> dict:
-    """Batch-1 latency of one force estimate per model on one CPU thread (ms; mean, std, p99).
+    """Batch-1 latency of one force estimate per model on one CPU thread (ms over ``reps``
+    calls: mean, sample std with ddof 1, p99).
     Window models recompute their window; a streaming model runs one step of its numpy backend
     where it has one (the hybrid: key / value cache), else of the torch one; the LSTM one
     recurrent step (state carried). Network only."""
@@ -641,7 +644,7 @@ def _timing(checkpoints: dict, reps: int = 300) -> dict:
                     call()
                     times.append(time.perf_counter() - t0)
             ms = np.array(times) * 1e3
-            out[label] = {"ms_mean": float(ms.mean()), "ms_std": float(ms.std()),
+            out[label] = {"ms_mean": float(ms.mean()), "ms_std": float(ms.std(ddof=1)),
                           "ms_p99": float(np.percentile(ms, 99)), "mode": mode,
                           "parameters": count_parameters(model)}
     finally:

@@ -19,7 +19,9 @@ from psmforce.estimators.networks.recipes import RECIPES
 from psmforce.experiments.reproduce import (BUDGETS, _checkpoint, _config, _recipe_params,
                                             _regime_parameter, _teleop_folds, reproduce,
                                             task_device)
-from psmforce.estimators.evaluation.tables import automated_table, teleop_table, verdicts
+from psmforce.estimators.evaluation.tables import (automated_table, compare, mean_std, spread,
+                                                  spread_table, spread_text, std_over_seeds,
+                                                  teleop_table, verdicts)
 
 
 def _m(v: float) -> dict:
@@ -35,11 +37,39 @@ def test_automated_table_layout_and_bold_best():
     assert lines[4] == "| Fx | 5.00 | 0.200 | 4.00 | 90.00 | 0.100 | **2.00** | 90.00 |"
 
 
-def test_teleop_table_mean_and_std_over_folds():
+def test_teleop_table_mean_and_sample_std_over_folds():
     md = teleop_table({"A": {"Rigid/Unseen": [_m(0.1), _m(0.3)]}})
-    row = md.strip().splitlines()[2]
-    assert row == ("| Rigid | Unseen | Fx | 5.00 ± 0.00 | 0.20 ± 0.10 | 4.00 ± 2.00 | "
+    row = md.strip().splitlines()[2]   # RMSE 0.1, 0.3: sample std 0.1 * sqrt(2)
+    assert row == ("| Rigid | Unseen | Fx | 5.00 ± 0.00 | 0.20 ± 0.14 | 4.00 ± 2.83 | "
                    "90.00 ± 0.00 |")
+    one = teleop_table({"A": {"Rigid/Unseen": [_m(0.1)]}}).strip().splitlines()[2]
+    assert one == "| Rigid | Unseen | Fx | 5.00 | 0.10 | 2.00 | 90.00 |"   # one fold: no ±
+
+
+def test_the_spread_over_seeds_is_the_sample_std_and_one_seed_has_none():
+    assert std_over_seeds([1.0, 3.0]) == pytest.approx(np.sqrt(2.0))   # ddof 1, not 1.0
+    assert std_over_seeds([2.0]) is None
+    assert mean_std([1.0, 3.0]) == {"mean": 2.0, "std": pytest.approx(np.sqrt(2.0)), "n": 2}
+    assert mean_std([2.0]) == {"mean": 2.0, "std": None, "n": 1}
+    s = spread([_m(0.1), _m(0.3)])["Fx"]["rmse_n"]
+    assert s["std"] == pytest.approx(0.1 * np.sqrt(2.0)) and s["n"] == 2
+    assert spread([_m(0.1)])["Fx"]["rmse_n"]["std"] is None
+    assert spread_text({"mean": 2.0, "std": np.sqrt(2.0)}) == "2.00 ± 1.41"
+    assert spread_text({"mean": 2.0, "std": None}) == spread_text({"mean": 2.0, "std": np.nan}) \
+        == "2.00"
+
+
+def test_without_a_spread_the_rule_says_tie():
+    far, near = {"mean": 1.0, "std": 0.1}, {"mean": 9.0, "std": 0.1}
+    assert compare(far, near) == -1 and compare(near, far) == 1
+    for one_seed in ({"mean": 9.0, "std": None}, {"mean": 9.0, "std": np.nan}):
+        assert compare(far, one_seed) == 0 and compare(one_seed, far) == 0
+    v = verdicts(_spread({"A": (1.0, 0.1), "B": (9.0, None), "C": (9.0, 0.1)}))
+    assert v["Fx"] == {"best": "A", "win": False, "tied_with": ["B"]}
+    v = verdicts(_spread({"A": (1.0, None), "B": (9.0, 0.1)}))
+    assert v["Fx"] == {"best": "A", "win": False, "tied_with": ["B"]}
+    table = spread_table(_spread({"A": (1.0, None), "B": (9.0, 0.1)}), None, "t")
+    assert "| A | 1.00 (tie) |" in table and "| B | 9.00 ± 0.10 (tie) |" in table
 
 
 def test_ablations_drop_the_compensated_columns_of_the_removed_sources():

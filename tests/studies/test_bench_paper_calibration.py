@@ -45,3 +45,15 @@ def test_verdict_and_block():
     assert "no published source" in text
     with pytest.raises(SystemExit, match="design seeds"):
         cal.main(["--version", "2.3", "--seeds", "101", "--json", "/nonexistent/x.json"])
+
+
+def test_every_write_stamps_the_command_settings_and_verdicts():
+    good = _result({"FCN": (1.9, 1.6, 3.0)})
+    data = cal.merge({}, cal.rows("2.3", 1.0, good), cal.floor_rows("2.3", 1.0, good))
+    out = cal.stamped(data, ["--render-only", "--json", "x.json"])
+    assert out is data
+    assert data["command"] == "python studies/bench_paper_calibration.py --render-only --json x.json"
+    assert data["band"] == list(cal.BAND) and data["paper"] == cal.PAPER
+    assert {"reference_2.1", "substitutes", "notes", "candidates", "remount_ranges",
+            "registered"} <= set(data)
+    assert data["verdicts"] == {"2.3": cal.verdict(data, "2.3")}

@@ -127,7 +127,7 @@ def test_table_averages_seeds_and_counts_paired_wins():
     rows = [row("existing_hybrid", 1, [0.4, 0.4, 2.0]), row("existing_hybrid", 2, [0.3, 0.3, 2.0]),
             row("fcn_hybrid_inputs", 1, [0.2, 0.3, 3.0]),   # lower laterally
             row("fcn_hybrid_inputs", 2, [0.2, 0.5, 1.0])]   # Fy higher: not counted
-    text = table({"variants": rows})
-    assert "| 0.5 | `existing_hybrid` |" in text and "| 1, 2 | 0.35 ± 0.05 / 0.35 ± 0.05 / 2.00" in text
+    text = table({"variants": rows})   # 0.4, 0.3: the sample std, 0.05 * sqrt(2)
+    assert "| 0.5 | `existing_hybrid` |" in text and "| 1, 2 | 0.35 ± 0.07 / 0.35 ± 0.07 / 2.00" in text
     assert "`fcn_hybrid_inputs` lower on Fx and Fy at scale 0.5 on 1 of 2 seeds (1, 2)." in text
     assert "`short_chunks_64`: not measured beside it yet." in text

@@ -2,12 +2,15 @@
 
 Every figure a table shows comes from the results dictionaries of
 :mod:`psmforce.estimators.evaluation.evaluate` and :mod:`psmforce.experiments.reproduce`; nothing
-here computes a metric. A model wins an axis only when its mean plus its std stays below every other
-model's mean minus that one's std (:func:`verdicts`); otherwise the table says tie.
+here computes a metric, but the spread beside a mean over seeds is formed here, once
+(:func:`std_over_seeds`): the sample standard deviation (ddof 1), none for a single seed. A model
+wins an axis only when its mean plus its std stays below every other model's mean minus that one's
+std (:func:`verdicts`); otherwise the table says tie, and a mean without a spread always ties.
 """
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Mapping, Sequence
 
@@ -69,7 +72,8 @@ def uncertainty_table(block: Mapping[str, Mapping]) -> str:
 
 def teleop_table(results: Mapping[str, Mapping[str, Sequence[Mapping]]]) -> str:
     """The paper's finetuning table: rows (condition, seen/unseen, axis), mean ± std over the
-    cross-validation folds. ``results``: {model label: {"Rigid/Seen": [axis_metrics per fold]}}."""
+    cross-validation folds (:func:`mean_std`: the sample std, none for one fold). ``results``:
+    {model label: {"Rigid/Seen": [axis_metrics per fold]}}."""
     labels = list(results)
     groups = list(results[labels[0]])
     head = ("| Condition | Config | Axis | Range (N) | " + " | ".join(
@@ -77,7 +81,7 @@ def teleop_table(results: Mapping[str, Mapping[str, Sequence[Mapping]]]) -> str:
     rows = [head, "|" + "---|" * (4 + 3 * len(labels))]
 
     def ms(values):
-        return f"{np.mean(values):.2f} ± {np.std(values):.2f}"
+        return spread_text(mean_std(values))
     for g in groups:
         cond, seen = g.split("/")
         for axis in AXES:
@@ -91,16 +95,49 @@ def teleop_table(results: Mapping[str, Mapping[str, Sequence[Mapping]]]) -> str:
     return "\n".join(rows) + "\n"
 
 
+def std_over_seeds(values: Sequence[float]) -> float | None:
+    """The spread shown beside a mean over seeds (or folds): the sample standard deviation of
+    ``values`` (ddof 1, numpy's ``std(ddof=1)``), or None for a single value, from which no
+    spread can be formed. A mean without a spread is shown without ± (:func:`spread_text`) and the
+    spread rule calls it a tie with anything (:func:`compare`, :func:`verdicts`). None rather than
+    NaN so that the JSONs holding it stay standard JSON (``null``)."""
+    x = np.asarray(values, dtype=float)
+    return float(x.std(ddof=1)) if x.size > 1 else None
+
+
+def mean_std(values: Sequence[float]) -> dict:
+    """``{mean, std, n}`` of ``values`` over seeds, ``std`` by :func:`std_over_seeds`."""
+    return {"mean": float(np.mean(values)), "std": std_over_seeds(values), "n": len(values)}
+
+
+def has_spread(d: Mapping) -> bool:
+    """Whether ``d`` (a ``{mean, std}``) holds a spread: a finite ``std``, not None (one seed)
+    nor NaN."""
+    sd = d.get("std")
+    return sd is not None and math.isfinite(sd)
+
+
+def spread_text(d: Mapping, digits: int = 2) -> str:
+    """``{mean, std}`` as ``mean ± std``, or the mean alone where it has no spread
+    (:func:`has_spread`)."""
+    text = f"{d['mean']:.{digits}f}"
+    return f"{text} ± {d['std']:.{digits}f}" if has_spread(d) else text
+
+
 def spread(values: Sequence[dict]) -> dict:
-    """{axis: {key: {mean, std, n}}} over a list of axis_metrics dicts."""
-    return {a: {k: {"mean": float(np.mean([v[a][k] for v in values])),
-                    "std": float(np.std([v[a][k] for v in values])), "n": len(values)}
+    """{axis: {key: {mean, std, n}}} over a list of axis_metrics dicts (:func:`mean_std`: the
+    sample std over them, ddof 1; None for a single one)."""
+    return {a: {k: mean_std([v[a][k] for v in values])
                 for k in ("rmse_n", "nrmse_pct", "r2_pct", "range_n")} for a in AXES}
 
 
-def compare(a: dict, b: dict) -> int:
-    """The spread rule between two ``{mean, std}``: -1 when ``a``'s mean + std lies below
-    ``b``'s mean - std (``a`` wins), 1 when the reverse holds, 0 for a tie."""
+def compare(a: Mapping, b: Mapping) -> int:
+    """The spread rule between two ``{mean, std}``, std the sample standard deviation over seeds
+    (ddof 1, :func:`std_over_seeds`): -1 when ``a``'s mean + std lies below ``b``'s mean - std
+    (``a`` wins), 1 when the reverse holds, 0 for a tie. Where either has no spread (one seed:
+    std None or NaN) nothing can be called, and the rule says tie."""
+    if not (has_spread(a) and has_spread(b)):
+        return 0
     if a["mean"] + a["std"] < b["mean"] - b["std"]:
         return -1
     return 1 if b["mean"] + b["std"] < a["mean"] - a["std"] else 0
@@ -109,30 +146,34 @@ def compare(a: dict, b: dict) -> int:
 def verdicts(by_model: dict, key: str = "nrmse_pct") -> dict:
     """{axis: {"best": label, "win": bool, "tied_with": [labels]}} from {label: spread(...)}:
     the lowest mean wins the axis only when its mean + std lies below every other model's
-    mean - std; otherwise it ties with those whose interval overlaps."""
+    mean - std, std the sample standard deviation over seeds (ddof 1); otherwise it ties with
+    those whose interval overlaps. A model without a spread (one seed, :func:`has_spread`) ties
+    with the best, and the best without one ties with every other model."""
     out = {}
     for a in AXES:
-        stats = {m: (s[a][key]["mean"], s[a][key]["std"]) for m, s in by_model.items()}
-        best = min(stats, key=lambda m: stats[m][0])
-        top = stats[best][0] + stats[best][1]
-        tied = [m for m, (mu, sd) in stats.items() if m != best and mu - sd <= top]
+        cells = {m: s[a][key] for m, s in by_model.items()}
+        best = min(cells, key=lambda m: cells[m]["mean"])
+        top = cells[best]["mean"] + cells[best]["std"] if has_spread(cells[best]) else None
+        tied = [m for m, c in cells.items() if m != best
+                and (top is None or not has_spread(c) or c["mean"] - c["std"] <= top)]
         out[a] = {"best": best, "win": not tied, "tied_with": tied}
     return out
 
 
 def spread_table(by_model: dict, floor: dict | None, title: str, key: str = "nrmse_pct") -> str:
-    """Markdown: one row per model, mean ± std per axis, the winner in bold, ties marked."""
+    """Markdown: one row per model, mean ± std per axis (:func:`spread_text`), the winner in
+    bold, ties marked."""
     v = verdicts(by_model, key)
     unit = {"nrmse_pct": "NRMSE %", "rmse_n": "RMSE N", "r2_pct": "R² %"}[key]
     rows = [f"**{title}** ({unit}, mean ± std over {next(iter(by_model.values()))['Fx'][key]['n']}"
             f" runs)", "", "| Model | Fx | Fy | Fz |", "|---|---|---|---|"]
     if floor:
         rows.append("| *floor (truth post-processed)* | " + " | ".join(
-            f"{floor[a][key]['mean']:.2f} ± {floor[a][key]['std']:.2f}" for a in AXES) + " |")
+            spread_text(floor[a][key]) for a in AXES) + " |")
     for m, s in by_model.items():
         cells = []
         for a in AXES:
-            c = f"{s[a][key]['mean']:.2f} ± {s[a][key]['std']:.2f}"
+            c = spread_text(s[a][key])
             if v[a]["best"] == m:
                 c = f"**{c}**" if v[a]["win"] else f"{c} (tie)"
             elif m in v[a]["tied_with"]:
@@ -194,8 +235,7 @@ def results_markdown(r: dict) -> str:
                   "| paper (real bench) | " + " | ".join(f"{published[a]:.2f}" for a in AXES)
                   + " |",
                   "| ours (simulated bench) | " + " | ".join(
-                      f"{ours[a]['nrmse_pct']['mean']:.2f} ± {ours[a]['nrmse_pct']['std']:.2f}"
-                      for a in AXES) + " |"]
+                      spread_text(ours[a]["nrmse_pct"]) for a in AXES) + " |"]
     lines += ["", "## Training (every pretraining and finetuning)", "",
               "| Run | epochs | stopped by | converged | best val loss | seconds |",
               "|---|---|---|---|---|---|"]
