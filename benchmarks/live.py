@@ -35,13 +35,18 @@ session put on a 1 kHz clock (:func:`psmforce.live.sim_robot.bench_recording`): 
   ``node_added_latency``: per message, the answer's arrival minus the robot's own message's
   arrival in this process (the node's share of the latency, transport excluded);
   ``node_lost``: HEX10 messages the node never received; ``first_answer_ms``: from the robot's
-  first HEX10 write to the first answer taken here;
+  first HEX10 write to the first answer taken here; ``node_residence``: the node's own report of
+  its share, per answer from taking its HEX10 message off the reader to writing the last output
+  (:mod:`psmforce.live.serve`, Residence; the node's clock, no transport in it), against the
+  goal of :data:`RESIDENCE_GOAL_P99_MS` at p99;
 * ``dds_busy_core``: the same for a third of the time while another process keeps one core
   busy;
 * ``dds_rate_measured``: the same for 5 s without ``--input-rate`` (the node measures the rate
   from the first stamps): ``first_answer_ms`` is what a user starting the node sees;
-* ``burst``: 5000 samples published as fast as this process can (several times 1 kHz) to
+* ``burst``: 5000 samples of the 1 kHz stream published at 10 times its rate (10 kHz for 0.5 s,
+  messages encoded before, so the writes alone set the pace; the rate reached is recorded) to
   ``serve`` in another process: what the node received and answered, per stream;
+  ``burst_busy_core``: the same while another process keeps one core busy;
 * ``replay``: ``psmforce replay`` of a 1 kHz bag of the same session, as fast as it goes:
   input messages and answers per second (MCAP written).
 
@@ -72,11 +77,14 @@ from psmforce.estimators.runtime.streaming import Flags, StreamingEstimator  # n
 from psmforce.robot import PSM  # noqa: E402
 from psmforce.io.bags.messages import stream_columns  # noqa: E402
 from psmforce.io.bags.reading import resolve_topics  # noqa: E402
-from psmforce.robot.conventions import CHAIN_JOINTS, JAW_JOINT  # noqa: E402
 
 PERIOD_MS = 1.0
 """The period of a 1 kHz loop: the budget of one message (ms)."""
 TARGET_P99_MS = 1.0
+RESIDENCE_GOAL_P99_MS = 0.3
+"""Issue 47's goal for what the node adds (p99, ms); ``node_residence`` is measured against it."""
+BURST_SPEED = 10.0
+"""A controller's burst after a hiccup: this many times the stream's rate (issue 47)."""
 WARMUP = 500
 START_NS = 1_700_000_000 * 10**9
 BAD = Flags.GAP | Flags.RESET | Flags.INVALID_INPUT
@@ -100,19 +108,16 @@ def _checkpoint(tmp: Path) -> tuple[Path, str]:
 
 def _raw_messages(frame) -> list[tuple[str, bytes]]:
     """The robot's messages, per row, as the CDR bytes it writes
-    (:meth:`psmforce.live.sim_robot.Robot.publish`): arm and jaw JointState, then HEX10
+    (:meth:`psmforce.live.sim_robot.Robot.encode`): arm and jaw JointState, then HEX10
     WrenchStamped."""
-    from psmforce.live import cdr
+    from psmforce.live.sim_robot import Robot
     values = {s: frame[list(stream_columns(s))].to_numpy(np.float64) for s in ("js", "jaw",
                                                                                "hex10")}
     stamps = START_NS + np.rint(frame["time"].to_numpy() * 1e9).astype(np.int64)
     out = []
     for k, stamp in enumerate(stamps):
-        js, jaw, w = values["js"][k], values["jaw"][k], values["hex10"][k]
-        out += [("js", cdr.joint_state(stamp, "", CHAIN_JOINTS, js[0:6], js[6:12], js[12:18])),
-                ("jaw", cdr.joint_state(stamp, "", (JAW_JOINT,), jaw[0:1], jaw[1:2],
-                                        jaw[2:3])),
-                ("hex10", cdr.wrench_stamped(stamp, "hex10", w[:3], w[3:]))]
+        encoded = Robot.encode(int(stamp), {s: v[k] for s, v in values.items()})
+        out += list(zip(("js", "jaw", "hex10"), encoded))
     return out
 
 
@@ -279,6 +284,8 @@ def dds_figures(ckpt: Path, frame, seconds: float, tmp: Path, *, input_rate: boo
             "hex10_sent": n, "node_received": report["received"]["hex10"],
             "node_lost": n - report["received"]["hex10"],
             "node_added_latency": _percentiles(added),
+            "node_residence": report["residence_ms"],
+            "residence_goal_met": report["residence_ms"]["p99_ms"] <= RESIDENCE_GOAL_P99_MS,
             "first_answer_ms": None if first_answer is None else first_answer * 1e-6,
             "answers_published": report["answers_published"], "answers_received": len(latency),
             "lost_fraction": 1.0 - len(latency) / n, "unpaired": report["unpaired"],
@@ -289,36 +296,44 @@ def dds_figures(ckpt: Path, frame, seconds: float, tmp: Path, *, input_rate: boo
             "flag_counts": report["flag_counts"]}
 
 
-def burst_figures(ckpt: Path, frame, tmp: Path, samples: int = 5000) -> dict:
-    """``samples`` of the 1 kHz session published by this process as fast as it can (a burst
-    of several times the stream's rate, as a controller sends after a hiccup) to ``serve`` in
-    another process; what the node received and answered."""
+def burst_figures(ckpt: Path, frame, tmp: Path, samples: int = 5000,
+                  busy_core: bool = False) -> dict:
+    """``samples`` of the 1 kHz session published by this process at :data:`BURST_SPEED` times
+    the stream's rate (as a controller sends after a hiccup) to ``serve`` in another process,
+    optionally while another process keeps one core busy; what the node received and
+    answered."""
     from cyclonedds.domain import DomainParticipant
 
     from psmforce.live.sim_robot import play
-    domain_id = 150 + (os.getpid() + 40) % 80
+    domain_id = 150 + (os.getpid() + 40 + 7 * busy_core) % 80
     env = dict(os.environ, PYTHONPATH=str(ROOT))
     node = subprocess.Popen(
         [sys.executable, "-m", "psmforce.cli.main", "serve", str(ckpt), "--domain-id",
          str(domain_id), "--input-rate", "1000", "--idle-stop", "3", "--duration", "300",
          "--json", str(tmp / "burst.json")], env=env, stdout=subprocess.PIPE,
         stderr=subprocess.PIPE, text=True)
+    burner = None
     try:
         node.stdout.readline()  # listening
+        if busy_core:
+            burner = subprocess.Popen([sys.executable, "-c", "while True: pass"])
         burst = frame.iloc[:samples]
-        started = time.perf_counter()
-        play(burst, DomainParticipant(domain_id), realtime=False, start_ns=START_NS)
-        seconds = time.perf_counter() - started
+        sent = play(burst, DomainParticipant(domain_id), realtime=True, speed=BURST_SPEED,
+                    start_ns=START_NS)["sent_ns"]
+        seconds = (sent[-1] - sent[0]) * 1e-9
         node.communicate(timeout=300)
     finally:
-        if node.poll() is None:
-            node.kill()
+        for process in (node, burner):
+            if process is not None and process.poll() is None:
+                process.kill()
     report = json.loads((tmp / "burst.json").read_text())
-    return {"samples": samples, "seconds": seconds, "rate_hz": samples / seconds,
-            "times_the_stream_rate": samples / seconds / 1000.0,
+    return {"samples": samples, "busy_core": busy_core, "asked_times_the_stream_rate":
+            BURST_SPEED, "seconds": seconds, "rate_hz": (samples - 1) / seconds,
+            "times_the_stream_rate": (samples - 1) / seconds / 1000.0,
             "node_received": report["received"], "node_lost":
                 {s: samples - n for s, n in report["received"].items() if s != "tare"},
-            "answers_published": report["answers_published"]}
+            "answers_published": report["answers_published"],
+            "node_residence": report["residence_ms"]}
 
 
 def replay_figures(ckpt: Path, frame, tmp: Path) -> dict:
@@ -368,6 +383,7 @@ def main() -> tuple[dict, str | None]:
                                               busy_core=True)
         result["dds_rate_measured"] = dds_figures(ckpt, frame, 5.0, tmp, input_rate=False)
         result["burst"] = burst_figures(ckpt, frame, tmp)
+        result["burst_busy_core"] = burst_figures(ckpt, frame, tmp, busy_core=True)
         result["replay"] = replay_figures(ckpt, frame, tmp)
         result["machine"]["load_average_after"] = list(os.getloadavg())
     return result, args.json
@@ -396,19 +412,23 @@ def _print(r: dict) -> None:
           f"{100 * link['node_cpu_fraction']:.0f} % of a core; "
           f"target (p99 <= {TARGET_P99_MS:g} ms, none lost) "
           f"{'met' if link['within_target'] else 'NOT met'}")
-    added = link["node_added_latency"]
+    added, own = link["node_added_latency"], link["node_residence"]
     print(f"node-added latency (answer minus the robot's own message, per message): p50 "
           f"{added['median_ms']:.3f} ms, p99 {added['p99_ms']:.3f} ms, max {added['max_ms']:.2f} ms")
+    print(f"the node's residence (taken to written, its own clock): p50 {own['median_ms']:.3f} "
+          f"ms, p99 {own['p99_ms']:.3f} ms, max {own['max_ms']:.2f} ms (goal p99 <= "
+          f"{RESIDENCE_GOAL_P99_MS:g} ms: {'met' if link['residence_goal_met'] else 'NOT met'})")
     busy = r["dds_busy_core"]
     print(f"one core busy, {busy['seconds']:g} s: {busy['hex10_sent']} sent, node lost "
           f"{busy['node_lost']}, answers lost {100 * busy['lost_fraction']:.3f} %, latency p99 "
           f"{busy['latency']['p99_ms']:.2f} ms")
     print(f"first answer without --input-rate: {r['dds_rate_measured']['first_answer_ms']:.1f} ms "
           f"after the robot's first HEX10 message (with it: {link['first_answer_ms']:.1f} ms)")
-    b = r["burst"]
-    print(f"burst: {b['samples']} samples at {b['rate_hz']:.0f} Hz "
-          f"({b['times_the_stream_rate']:.1f}x), node lost {b['node_lost']}, answered "
-          f"{b['answers_published']}")
+    for name in ("burst", "burst_busy_core"):
+        b = r[name]
+        print(f"{name}: {b['samples']} samples at {b['rate_hz']:.0f} Hz "
+              f"({b['times_the_stream_rate']:.1f}x, asked {b['asked_times_the_stream_rate']:g}x), "
+              f"node lost {b['node_lost']}, answered {b['answers_published']}")
     print(f"replay: {rep['inputs_per_s']:.0f} input messages/s, {rep['answers_per_s']:.0f} "
           f"answers/s ({rep['realtime_factor']:.1f}x real time)")
     print(f"load average before / after: {r['machine']['load_average']} / "

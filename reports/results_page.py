@@ -392,20 +392,36 @@ def latency(streaming: dict, live: dict) -> str:
     if "burst" in live:  # the lab's conditions (issue 47)
         added, busy, b = d["node_added_latency"], live["dds_busy_core"], live["burst"]
         first = live["dds_rate_measured"]["first_answer_ms"]
+
+        def three(t):
+            return f"p50 {t['median_ms']:.2f} ms, p99 {t['p99_ms']:.2f} ms, max {t['max_ms']:.1f} ms"
+
+        def burst(b):
+            return (f"| burst of {b['samples']:,} samples at {b['rate_hz']:,.0f} Hz "
+                    f"({b['times_the_stream_rate']:.1f}x the stream"
+                    + (", one core busy" if b.get("busy_core") else "") + "): messages the "
+                    f"node lost | {sum(b['node_lost'].values()):,} of {3 * b['samples']:,} "
+                    f"({b['answers_published']:,} answered) |")
         lines += ["", "| the node under a lab's conditions | figure |", "|---|---|",
-                  f"| node-added latency per message (answer minus the robot's own message) "
-                  f"| p50 {added['median_ms']:.2f} ms, p99 {added['p99_ms']:.2f} ms, max "
-                  f"{added['max_ms']:.1f} ms |",
-                  f"| steady {live['session']['rate_hz']:.0f} Hz, {d['seconds']:.0f} s: "
+                  f"| transport alone (the robot's own messages, same run) | "
+                  f"{three(d['transport_latency'])} |",
+                  f"| transport through the node | {three(d['latency'])} |",
+                  f"| node-added latency per message (answer minus the robot's own message: "
+                  f"the node and one more hop) | {three(added)} |"]
+        if d.get("node_residence"):
+            own = d["node_residence"]
+            lines += [f"| the node's residence per answer (taken off the reader to last output "
+                      f"written, its own clock; goal p99 <= 0.3 ms) | {three(own)}: goal "
+                      + ("met" if d["residence_goal_met"] else "**not met**") + " |"]
+        lines += [f"| steady {live['session']['rate_hz']:.0f} Hz, {d['seconds']:.0f} s: "
                   f"messages the node lost | {d['node_lost']:,} of {d['hex10_sent']:,} |",
                   f"| one core busy, {busy['seconds']:.0f} s: messages the node lost; "
                   f"latency p99 | {busy['node_lost']:,} of {busy['hex10_sent']:,}; "
                   f"{busy['latency']['p99_ms']:.2f} ms |",
-                  f"| burst: {b['samples']:,} samples at {b['rate_hz']:,.0f} Hz "
-                  f"({b['times_the_stream_rate']:.1f}x the stream): messages the node lost "
-                  f"| {sum(b['node_lost'].values()):,} of {3 * b['samples']:,} "
-                  f"({b['answers_published']:,} answered) |",
-                  f"| first answer after the first HEX10 message, rate measured by the node "
+                  burst(b)]
+        if "burst_busy_core" in live:
+            lines += [burst(live["burst_busy_core"])]
+        lines += [f"| first answer after the first HEX10 message, rate measured by the node "
                   f"(no `--input-rate`) | {first:.0f} ms |"]
     return "\n".join(lines + [""])
 

@@ -26,6 +26,7 @@ Messages (ROS 2 names; what the node means by them: :mod:`psmforce.live.node`):
 
 from __future__ import annotations
 
+import functools
 import struct
 from typing import NamedTuple, Sequence
 
@@ -61,29 +62,56 @@ class _Buffer:
         self.string(frame_id)
 
 
+@functools.lru_cache(maxsize=64)
+def _header_and_float64s(frame_id: str, n: int) -> tuple[struct.Struct, bytes]:
+    """The layout of a message that is a header then ``n`` float64s (the encapsulation, stamp,
+    frame string, padding to 8, the values) as one struct, and the frame's string bytes: one
+    ``pack`` per message, as the node writes several each millisecond."""
+    raw = frame_id.encode() + b"\x00"
+    pad = -(12 + len(raw)) % 8
+    return struct.Struct(f"<4siII{len(raw)}s{pad}x{n}d"), raw
+
+
+def _stamped_float64s(stamp_ns: int, frame_id: str, values: Sequence[float]) -> bytes:
+    layout, raw = _header_and_float64s(frame_id, len(values))
+    sec, nanosec = divmod(int(stamp_ns), 1_000_000_000)
+    return layout.pack(_HEADER, sec, nanosec, len(raw), raw, *values)
+
+
 def wrench_stamped(stamp_ns: int, frame_id: str, force: Sequence[float],
                    torque: Sequence[float] = (0.0, 0.0, 0.0)) -> bytes:
     """geometry_msgs/msg/WrenchStamped: stamp (ns since the epoch), frame, force (N), torque
     (Nm)."""
-    buf = _Buffer()
-    buf.header(stamp_ns, frame_id)
-    buf.float64s([float(v) for v in (*force, *torque)])
-    return bytes(buf.data)
+    return _stamped_float64s(stamp_ns, frame_id, [float(v) for v in (*force, *torque)])
 
 
 def vector3_stamped(stamp_ns: int, frame_id: str, vector: Sequence[float]) -> bytes:
     """geometry_msgs/msg/Vector3Stamped."""
-    buf = _Buffer()
-    buf.header(stamp_ns, frame_id)
-    buf.float64s([float(v) for v in vector])
-    return bytes(buf.data)
+    return _stamped_float64s(stamp_ns, frame_id, [float(v) for v in vector])
 
 
 def uint32(value: int) -> bytes:
     """std_msgs/msg/UInt32."""
-    buf = _Buffer()
-    buf.uint32(int(value))
-    return bytes(buf.data)
+    return _HEADER + struct.pack("<I", int(value))
+
+
+_STAMP = struct.Struct("<iI")
+
+
+def restamp(data: bytes, stamp_ns: int) -> bytearray:
+    """A stamped message's bytes (a Header first) with the stamp replaced: the stamp is the
+    first 8 bytes after the encapsulation, whatever follows."""
+    out = bytearray(data)
+    _STAMP.pack_into(out, 4, *divmod(int(stamp_ns), 1_000_000_000))
+    return out
+
+
+def string_tail(text: str) -> bytes:
+    """A string's bytes (length, text, NUL), to append where a string's length field starts (4
+    bytes aligned after the encapsulation, any padding before it already in place): a message
+    that ends in a string is its bytes up to that field plus these."""
+    raw = text.encode() + b"\x00"
+    return struct.pack("<I", len(raw)) + raw
 
 
 def diagnostic_array(stamp_ns: int, frame_id: str,

@@ -5,7 +5,9 @@
 sensor_msgs/JointState, ``jaw``: the jaw's, ``hex10``: the HEX10 geometry_msgs/WrenchStamped;
 :mod:`psmforce.io.bags.messages`) and, on each new message of its ``trigger`` stream (default the
 HEX10), builds the estimator's sample from the three with
-:func:`psmforce.io.bags.messages.sample_from_messages` (time: the trigger's header stamp) and steps
+:class:`psmforce.io.bags.messages.SampleArray` (the values of
+:func:`psmforce.io.bags.messages.sample_from_messages` as an array; time: the trigger's header
+stamp) and steps
 the :class:`psmforce.estimators.runtime.streaming.StreamingEstimator` once: one answer per trigger
 message, at the input rate, whatever rate the network runs at (the estimator decimates,
 :mod:`psmforce.estimators.data.rates`). Nothing is answered until each stream has delivered a
@@ -67,7 +69,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from psmforce.estimators.runtime.streaming import Flags, StreamingEstimator
-from psmforce.io.bags.messages import MessageError, sample_from_messages, stamp_ns
+from psmforce.io.bags.messages import (MessageError, SampleArray, sample_from_messages,
+                                       stamp_ns)
 from psmforce.io.bags.names import check_namespace
 from psmforce.live import cdr
 
@@ -139,6 +142,11 @@ class ForceNode:
             raise ValueError(f"tare_s must be > 0 s, got {tare_s!r}")
         check_sync_wait(max_wait_s)
         self.estimator = estimator
+        try:
+            self._sample = SampleArray(estimator.columns)
+        except MessageError:  # the messages lack a column: every sample is flagged, as a mapping
+            self._sample = None
+        self._status_body: dict[int, bytes] = {}
         self.trigger = trigger
         self.topics = output_topics(arm)
         self.base_frame_id = f"{arm.strip('/')}_base"
@@ -230,13 +238,17 @@ class ForceNode:
         self.latest[self.trigger] = message
         stamp = stamp_ns(message)
         flags = STALE if stale else 0
+        latest = self.latest
         try:
-            sample = sample_from_messages(self.latest["js"], self.latest["jaw"],
-                                          self.latest["hex10"],
-                                          time_s=stamp * 1e-9 if stamp else None)
+            if self._sample is None:
+                sample = sample_from_messages(latest["js"], latest["jaw"], latest["hex10"],
+                                              time_s=stamp * 1e-9 if stamp else None)
+            else:
+                sample = self._sample(latest["js"], latest["jaw"], latest["hex10"])
         except (MessageError, AttributeError, TypeError, ValueError):
             sample = {}  # refused by the estimator: INVALID_INPUT, the last estimate held
-        out = self.estimator.step(sample, base_frame=True)
+        # no stamp: time None, which the estimator refuses for an array (INVALID_INPUT)
+        out = self.estimator.step(sample, time=stamp * 1e-9 if stamp else None, base_frame=True)
         flags |= out.flags
         raw = out.force_hex10
         if self._tare_left and not out.flags & (Flags.WARMING_UP | Flags.HELD):
@@ -247,7 +259,9 @@ class ForceNode:
         if self._tare_left:
             flags |= TARING
         force = raw - self.offset
-        base = out.force_base - self.estimator.base_rotation() @ self.offset
+        base = out.force_base
+        if self.offset.any():  # the rotation costs a forward kinematics: only with a tare
+            base = base - self.estimator.base_rotation() @ self.offset
         self.answers += 1
         return Answer(int(stamp or 0), force, base, out.std_hex10, int(flags))
 
@@ -255,13 +269,21 @@ class ForceNode:
         """The CDR bytes of each output of ``answer`` (:mod:`psmforce.live.cdr`), by output
         name (``std`` only with a std)."""
         stamp = answer.stamp_ns
-        level, message = status_of(answer.flags)
         out = {"base": cdr.wrench_stamped(stamp, self.base_frame_id, answer.force_base),
                "hex10": cdr.wrench_stamped(stamp, "hex10", answer.force_hex10),
-               "flags": cdr.uint32(answer.flags),
-               "status": cdr.diagnostic_array(stamp, "hex10", [(
-                   level, self._status_name, message, self.base_frame_id.removesuffix("_base"),
-                   [("flags", str(answer.flags)), ("stamp_ns", str(stamp))])])}
+               "flags": cdr.uint32(answer.flags), "status": self._status(stamp, answer.flags)}
         if answer.std_hex10 is not None:
             out["std"] = cdr.vector3_stamped(stamp, "hex10", answer.std_hex10)
         return out
+
+    def _status(self, stamp: int, flags: int) -> bytes:
+        """``status``'s bytes: its one status depends on the flags alone but for the stamp, in
+        the header and in the last value, so the rest is encoded once per flags value."""
+        body = self._status_body.get(flags)
+        if body is None:
+            level, message = status_of(flags)
+            # the last value empty: its length (1, the NUL alone) and NUL are the last 5 bytes
+            body = self._status_body[flags] = cdr.diagnostic_array(0, "hex10", [(
+                level, self._status_name, message, self.base_frame_id.removesuffix("_base"),
+                [("flags", str(flags)), ("stamp_ns", "")])])[:-5]
+        return bytes(cdr.restamp(body, stamp) + cdr.string_tail(str(stamp)))

@@ -7,11 +7,14 @@ in ``convert``) and to the tare topic, and hands every message to a
 published on the node's output topics (:func:`psmforce.live.node.output_topics`) as the
 :mod:`psmforce.live.cdr` bytes.
 
-Order. On each wake-up every reader is emptied, the HEX10's first, and the messages are
-handled in the order they were written (their DDS source timestamps), so each HEX10 message
+Order. The node wakes when a HEX10 or tare message arrives (with ``sync``, any message), and at
+least every 50 ms; on each wake-up every reader is emptied, the HEX10's first, and the messages
+are handled in the order they were written (their DDS source timestamps), so each HEX10 message
 meets the joint states published before it (from one publisher, which delivers in order, as
-the simulated robot; separate publishers, as on the dVRK, race as any subscriber does);
-none is dropped (the readers keep :data:`psmforce.live.dds.DEPTH`).
+the simulated robot; separate publishers, as on the dVRK, race as any subscriber does); a joint
+state that arrives after a HEX10 message is handled before the next one, as it would have
+been had it woken the node; none is dropped (the readers keep
+:data:`psmforce.live.dds.DEPTH`).
 
 Decoding. Messages are taken as their CDR bytes and decoded by :mod:`psmforce.live.cdr`, not by
 the middleware's Python classes (``benchmarks/live.py`` times both). A message whose bytes do not
@@ -28,6 +31,12 @@ answered), the estimator is set to it
 and the held messages are answered in order: the first answer follows the fifth HEX10 message
 by well under a millisecond of work, nothing is lost. A rate the model cannot serve stops the
 node with one line.
+
+Residence. The node's own share of the latency, apart from the transport's: per answer, from
+the moment its HEX10 message was taken from the reader to the moment its last output was
+written (``time.perf_counter_ns``, the node's clock), kept for the last :data:`RESIDENCE_KEPT`
+answers and reported as ``residence_ms`` (median, p99, max): the work of the answer and of the
+messages taken with it ahead of it, none of the transport's or the other processes'.
 
 The domain: ``domain_id``, else ``ROS_DOMAIN_ID``, else 0, as ROS 2 does; the discovery range:
 ``ROS_AUTOMATIC_DISCOVERY_RANGE``, ``ROS_STATIC_PEERS`` and ``ROS_LOCALHOST_ONLY`` read as ROS 2
@@ -51,6 +60,8 @@ from psmforce.live import cdr
 from psmforce.live.node import (OUTPUT_TYPES, TARE_TYPE, ForceNode, check_sync_wait,
                                  output_topics)
 
+RESIDENCE_KEPT = 1 << 17
+"""Answers whose residence time is kept (2 min at 1 kHz), the latest ones."""
 RATE_MESSAGES = 5
 """HEX10 messages held back to measure the input rate (4 ms at 1 kHz): the median of their four
 steps, which one bad stamp cannot move."""
@@ -157,7 +168,7 @@ class DdsNode:
         check_sync_wait(sync_wait_s)  # before subscribing, not once the node is built
         self.sync, self.sync_wait_s = sync, sync_wait_s
         self.node: ForceNode | None = None
-        self._held: list[tuple[str, object]] = []
+        self._held: list[tuple[str, object, int]] = []
         self._estimator = self._build_estimator(input_rate_hz)  # refused now, not at a message
         if input_rate_hz is not None:
             self.node = self._node()
@@ -183,8 +194,12 @@ class DdsNode:
         """What :attr:`watch` said (printed on stderr as it appeared)."""
         self._waitset = WaitSet(participant)
         mask = SampleState.Any | ViewState.Any | InstanceState.Any
-        for reader in self.readers.values():
-            self._waitset.attach(ReadCondition(reader, mask))
+        # woken by the HEX10 and the tare only (module docstring, Order): the joint states it
+        # answers with were published before it and are taken in the same wake-up, a third
+        # of the wake-ups; pairing by stamp waits for late partners, so every reader wakes it
+        for stream, reader in self.readers.items():
+            if sync or stream in ("hex10", "tare"):
+                self._waitset.attach(ReadCondition(reader, mask))
         self._write, self._take = dds.write_raw, dds.take_raw
         self._take_order = ("hex10", "tare", "jaw", "js")
         self._decode = {"js": cdr.decode_joint_state, "jaw": cdr.decode_joint_state,
@@ -193,7 +208,13 @@ class DdsNode:
         self.malformed = {s: 0 for s in sources}
         self.published = 0
         self.last_answer = None
-        self.flag_counts = np.zeros(32, np.int64)
+        self._flag_values: dict[int, int] = {}
+        """Answers per flags value (counted per bit in :meth:`report`)."""
+        self._taken_ns: dict[int, int] = {}
+        """Stamp -> when its HEX10 message was taken, until it is answered (module docstring,
+        Residence)."""
+        self._residence_ns = np.zeros(RESIDENCE_KEPT, np.int64)
+        self._residences = 0
 
     def _build_estimator(self, rate_hz: float | None) -> StreamingEstimator:
         from psmforce.robot import PSM
@@ -207,21 +228,31 @@ class DdsNode:
             node.request_tare()
         return node
 
-    def _handle(self, stream: str, message) -> None:
+    def _handle(self, stream: str, message, taken_ns: int) -> None:
         if stream == "tare":
             self.node.request_tare()
             return
+        if stream == "hex10":
+            self._taken_ns[stamp_ns(message) or 0] = taken_ns
         for answer in self.node.update(stream, message):
             for name, data in self.node.encode(answer).items():
                 self._write(self.writers[name], data)
+            taken = self._taken_ns.pop(answer.stamp_ns, None)
+            if taken is not None:
+                self._residence_ns[self._residences % RESIDENCE_KEPT] = \
+                    time.perf_counter_ns() - taken
+                self._residences += 1
             self.published += 1
             self.last_answer = answer
-            self.flag_counts += (answer.flags >> np.arange(32)) & 1
+            self._flag_values[answer.flags] = self._flag_values.get(answer.flags, 0) + 1
+        if len(self._taken_ns) > RESIDENCE_KEPT:  # stamps never answered (a repeated stamp)
+            self._taken_ns.clear()
 
     def spin_once(self, timeout_s: float = 0.1) -> int:
         """Wait up to ``timeout_s`` for messages and handle all there are; returns how many."""
         from cyclonedds.util import duration
         self._waitset.wait(duration(microseconds=int(timeout_s * 1e6)))
+        taken_ns = time.perf_counter_ns()
         batch = []
         # the trigger's reader first: the messages published before a HEX10 message arrive
         # before it, so they are in the other readers by the time those are emptied
@@ -241,9 +272,9 @@ class DdsNode:
         for _, _, stream, message in batch:
             self.received[stream] += 1
             if self.node is None:
-                self._held.append((stream, message))
+                self._held.append((stream, message, taken_ns))
             else:
-                self._handle(stream, message)
+                self._handle(stream, message, taken_ns)
         if self.node is None:
             self._start()
         return len(batch)
@@ -251,7 +282,7 @@ class DdsNode:
     def _start(self) -> None:
         """Measure the rate once enough HEX10 messages are held, set the estimator to it and
         handle the held messages (module docstring, Rate)."""
-        stamps = [stamp_ns(m) or 0 for s, m in self._held if s == "hex10"]
+        stamps = [stamp_ns(m) or 0 for s, m, _ in self._held if s == "hex10"]
         if len(stamps) < RATE_MESSAGES:
             return
         self._estimator.set_input_rate(stream_rate_hz(stamps, "the HEX10 stream"))
@@ -300,12 +331,31 @@ class DdsNode:
                 f"(base frame) [{fx:+6.2f} {fy:+6.2f} {fz:+6.2f}] N"
                 f"{', ' + status_of(answer.flags)[1] if answer.flags else ''}")
 
+    def flag_counts(self) -> dict[int, int]:
+        """Answers that carried each flag bit, by bit number (bits never set left out)."""
+        counts: dict[int, int] = {}
+        for flags, n in self._flag_values.items():
+            for bit in range(flags.bit_length()):
+                if flags >> bit & 1:
+                    counts[bit] = counts.get(bit, 0) + n
+        return dict(sorted(counts.items()))
+
+    def residence_ms(self) -> dict | None:
+        """Median, p99 and max of the residence times kept (module docstring, Residence), ms,
+        and how many answers they cover; None before the first answer."""
+        n = min(self._residences, RESIDENCE_KEPT)
+        if not n:
+            return None
+        ms = self._residence_ns[:n] * 1e-6
+        return {"median_ms": float(np.median(ms)), "p99_ms": float(np.percentile(ms, 99)),
+                "max_ms": float(ms.max()), "n": int(n)}
+
     def report(self) -> dict:
         node = self.node
         out = {"received": dict(self.received), "malformed": dict(self.malformed),
                "answers_published": self.published, "warnings": list(self.warnings),
                "input_topics": self.input_topics, "output_topics": self.output_topics,
-               "flag_counts": {bit: int(n) for bit, n in enumerate(self.flag_counts) if n}}
+               "flag_counts": self.flag_counts(), "residence_ms": self.residence_ms()}
         if node is not None:
             est = node.estimator
             out.update(input_rate_hz=est.input_rate_hz, model_rate_hz=est.rate_hz,

@@ -5,8 +5,10 @@ HEX10 publish it (``psmforce serve --sim``, the end-to-end test, ``benchmarks/li
 sensor_msgs/JointState (the six chain joints, dVRK >= 2024 names and order), the jaw's (one joint
 ``jaw``) and the HEX10's geometry_msgs/WrenchStamped (``frame_id`` ``hex10``), in that order, on
 the CRTK topics of :func:`psmforce.io.bags.reading.default_topics` (or the ones given), each header
-stamped ``start_ns`` + the row's ``time``; paced in real time by default. Messages are
-encoded by :mod:`psmforce.live.cdr` and written as they are (QoS: :func:`psmforce.live.dds.qos`).
+stamped ``start_ns`` + the row's ``time``; paced in real time by default (``speed``: that many
+times faster, a controller's burst). Messages are encoded by :mod:`psmforce.live.cdr` and written
+as they are (QoS: :func:`psmforce.live.dds.qos`); a recording played once is encoded before the
+first write, so the writes alone set the pace a burst reaches.
 :func:`bench_recording` simulates a short bench session (:mod:`psmforce.sim`) and puts it on the
 clock a dVRK publishes at (linear interpolation onto ``rate_hz``).
 """
@@ -71,27 +73,41 @@ class Robot:
             time.sleep(0.02)
         return False
 
-    def publish(self, stamp_ns: int, values: dict[str, np.ndarray]) -> int:
-        """One sample: js, jaw, hex10 (``values``: each stream's :func:`stream_columns`
-        values); returns the wall time (ns) the HEX10 message was written."""
-        from psmforce.live.dds import write_raw
+    @staticmethod
+    def encode(stamp_ns: int, values: dict[str, np.ndarray]) -> tuple[bytes, bytes, bytes]:
+        """One sample's js, jaw and hex10 messages (``values``: each stream's
+        :func:`stream_columns` values) as their CDR bytes."""
         js, jaw, hex10 = values["js"], values["jaw"], values["hex10"]
-        write_raw(self.writers["js"], cdr.joint_state(stamp_ns, "", CHAIN_JOINTS, js[0:6],
-                                                      js[6:12], js[12:18]))
-        write_raw(self.writers["jaw"], cdr.joint_state(stamp_ns, "", (JAW_JOINT,), jaw[0:1],
-                                                       jaw[1:2], jaw[2:3]))
+        return (cdr.joint_state(stamp_ns, "", CHAIN_JOINTS, js[0:6], js[6:12], js[12:18]),
+                cdr.joint_state(stamp_ns, "", (JAW_JOINT,), jaw[0:1], jaw[1:2], jaw[2:3]),
+                cdr.wrench_stamped(stamp_ns, "hex10", hex10[:3], hex10[3:]))
+
+    def write(self, encoded: tuple[bytes, bytes, bytes]) -> int:
+        """Write one sample's bytes (:meth:`encode`) in stream order; returns the wall time
+        (ns) the HEX10 message was written."""
+        from psmforce.live.dds import write_raw
+        write_raw(self.writers["js"], encoded[0])
+        write_raw(self.writers["jaw"], encoded[1])
         sent = time.time_ns()
-        write_raw(self.writers["hex10"], cdr.wrench_stamped(stamp_ns, "hex10", hex10[:3],
-                                                            hex10[3:]))
+        write_raw(self.writers["hex10"], encoded[2])
         return sent
+
+    def publish(self, stamp_ns: int, values: dict[str, np.ndarray]) -> int:
+        """One sample, encoded and written (:meth:`encode`, :meth:`write`)."""
+        return self.write(self.encode(stamp_ns, values))
 
 
 def play(frame: pd.DataFrame, participant, *, arm: str = "PSM1", topics: dict | None = None,
          start_ns: int | None = None, realtime: bool = True, loop: bool = False,
-         wait_s: float = 10.0, best_effort: bool = False, stop=None) -> dict:
+         wait_s: float = 10.0, best_effort: bool = False, stop=None, speed: float = 1.0
+         ) -> dict:
     """Publish ``frame`` as the robot (module docstring). ``start_ns``: the stamp of ``time``
     0 (default: now). ``loop``: start over at the end (stamps keep increasing) until ``stop``
-    (a ``threading.Event`` or similar) is set. Returns the stamps and HEX10 write times (ns)."""
+    (a ``threading.Event`` or similar) is set. ``speed``: with ``realtime``, the pace is the
+    recording's times ``speed`` (stamps unchanged). Returns the stamps and HEX10 write times
+    (ns)."""
+    if not speed > 0:
+        raise ValueError(f"speed must be > 0, got {speed!r}")
     robot = Robot(participant, arm=arm, topics=topics, best_effort=best_effort)
     if not robot.wait_for_readers(wait_s):
         raise RuntimeError(f"no node subscribed to {sorted(robot.topics.values())} within "
@@ -101,6 +117,9 @@ def play(frame: pd.DataFrame, participant, *, arm: str = "PSM1", topics: dict | 
     period = float(np.median(np.diff(t))) if len(t) > 1 else 0.0
     start_ns = time.time_ns() if start_ns is None else int(start_ns)
     stamps, sent = [], []
+    rows = [{s: v[k] for s, v in values.items()} for k in range(len(t))]
+    once = None if loop else [robot.encode(start_ns + int(round(t[k] * 1e9)), rows[k])
+                              for k in range(len(t))]
     offset, t0 = 0.0, time.monotonic()
     while True:
         for k in range(len(t)):
@@ -108,11 +127,11 @@ def play(frame: pd.DataFrame, participant, *, arm: str = "PSM1", topics: dict | 
                 return {"stamps_ns": stamps, "sent_ns": sent}
             due = offset + t[k]
             if realtime:
-                delay = t0 + due - time.monotonic()
+                delay = t0 + due / speed - time.monotonic()
                 if delay > 0:
                     time.sleep(delay)
             stamp = start_ns + int(round(due * 1e9))
-            sent.append(robot.publish(stamp, {s: v[k] for s, v in values.items()}))
+            sent.append(robot.write(once[k]) if once else robot.publish(stamp, rows[k]))
             stamps.append(stamp)
         if not loop:
             return {"stamps_ns": stamps, "sent_ns": sent}

@@ -38,6 +38,14 @@ def _cases():
            dds.WrenchStamped(dds.header(STAMP, "PSM1_base"),
                              dds.Wrench(dds.Vector3(*force), dds.Vector3(*torque))),
            T["geometry_msgs/msg/WrenchStamped"](header=_ros_header("PSM1_base"), wrench=wrench))
+    for frame_id in ("", "hex10", "a_frame_of_any_length"):  # every padding before the values
+        yield ("geometry_msgs/msg/WrenchStamped",
+               cdr.wrench_stamped(STAMP, frame_id, force),
+               dds.WrenchStamped(dds.header(STAMP, frame_id),
+                                 dds.Wrench(dds.Vector3(*force), dds.Vector3(0.0, 0.0, 0.0))),
+               T["geometry_msgs/msg/WrenchStamped"](
+                   header=_ros_header(frame_id), wrench=T["geometry_msgs/msg/Wrench"](
+                       force=_vector(force), torque=_vector((0.0, 0.0, 0.0)))))
     yield ("geometry_msgs/msg/Vector3Stamped", cdr.vector3_stamped(STAMP, "hex10", std),
            dds.Vector3Stamped(dds.header(STAMP, "hex10"), dds.Vector3(*std)),
            T["geometry_msgs/msg/Vector3Stamped"](header=_ros_header("hex10"),

@@ -17,6 +17,7 @@ from psmforce.estimators.data.hybrid_inputs import hybrid_columns, prior_to_json
 from psmforce.estimators.runtime.streaming import Flags, StreamingEstimator
 from psmforce.robot import PSM
 from psmforce.io.bags import ROS2_TYPESTORE, MessageError, sample_from_messages
+from psmforce.io.bags.messages import SampleArray
 from psmforce.io.bags.writing import write_bag
 from psmforce.identification.prior import InternalForcePrior
 
@@ -173,6 +174,35 @@ def test_sample_from_messages_matches_joints_by_name():
     js.name[0] = "elbow"
     with pytest.raises(MessageError, match="unknown joint names \\['elbow'\\]"):
         sample_from_messages(js, jaw, hex10)
+
+
+def test_the_sample_array_holds_the_sample_mappings_values_in_the_estimators_order(tmp_path):
+    js, jaw, hex10 = _messages()
+    est = StreamingEstimator.from_checkpoint(checkpoint(tmp_path / "h.pt"), psm=PSM())
+    sample = sample_from_messages(js, jaw, hex10)
+    assert SampleArray(est.columns)(js, jaw, hex10).tolist() == [sample[c] for c in est.columns]
+    with pytest.raises(MessageError, match="\\['ati_raw_fx'\\] are not in"):
+        SampleArray(["fx", "ati_raw_fx"])
+    js.name[0] = "elbow"
+    with pytest.raises(MessageError, match="unknown joint names"):
+        SampleArray(est.columns)(js, jaw, hex10)
+
+
+def test_the_nodes_status_bytes_are_the_general_encoders(tmp_path):
+    """The node encodes ``status`` once per flags value and patches the stamp in: the bytes
+    must be those of cdr.diagnostic_array for any flags and any stamp's length."""
+    from psmforce.live import cdr
+    from psmforce.live.node import STALE, TARING, ForceNode, status_of
+    est = StreamingEstimator.from_checkpoint(checkpoint(tmp_path / "h.pt"), psm=PSM())
+    node = ForceNode(est, arm="PSM2")
+    for flags in (0, int(Flags.WARMING_UP), int(Flags.HELD | Flags.GAP), STALE | TARING):
+        for stamp in (0, 7, 999_999_999, START_NS + 123_456_789, (2**31 - 1) * 10**9 + 10**9 - 1):
+            level, message = status_of(flags)
+            want = cdr.diagnostic_array(stamp, "hex10", [(
+                level, "psmforce/PSM2/tool_force", message, "PSM2",
+                [("flags", str(flags)), ("stamp_ns", str(stamp))])])
+            assert node._status(stamp, flags) == want, (flags, stamp)
+            assert isinstance(node._status(stamp, flags), bytes)
 
 
 def node_messages(frame, k, names=None, short=False, arm_lag_ns=0):

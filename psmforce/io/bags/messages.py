@@ -23,7 +23,9 @@ number of names is a :class:`MessageError`. Values are taken as the dVRK publish
 Messages are read by attribute (``msg.name``, ``msg.wrench.force.x``, ``msg.header.stamp.sec``), so
 the ``rosbags`` classes, the ``cyclonedds`` classes of the live node and anything with the same
 fields decode alike. :func:`sample_from_messages` turns the latest arm, jaw and HEX10 messages into
-the sample :meth:`psmforce.estimators.runtime.streaming.StreamingEstimator.step` reads.
+the sample :meth:`psmforce.estimators.runtime.streaming.StreamingEstimator.step` reads;
+:class:`SampleArray` gives the same values as an array in an estimator's column order, without
+the mapping (the live node's path, once per message).
 """
 
 from __future__ import annotations
@@ -167,3 +169,28 @@ def sample_from_messages(js, jaw, hex10, *, time_s: float | None = None) -> dict
             raise MessageError("a HEX10 Wrench without a header: give time_s")
         time_s = stamp * 1e-9
     return dict(zip(SAMPLE_COLUMNS, [float(time_s), *values.tolist()]))
+
+
+class SampleArray:
+    """The values of :func:`sample_from_messages` (time aside) as one float64 array in the order
+    of ``columns`` (an estimator's raw columns, each one of :data:`SAMPLE_COLUMNS`): what
+    ``StreamingEstimator.step`` reads as an array sample, built without a mapping per message.
+    A column the messages do not carry is refused here (:class:`MessageError`), once, not at
+    every message."""
+
+    def __init__(self, columns):
+        carried = SAMPLE_COLUMNS[1:]
+        missing = [c for c in columns if c not in carried]
+        if missing:
+            raise MessageError(f"columns {missing} are not in the arm, jaw and HEX10 messages")
+        self.columns = tuple(columns)
+        self._index = np.array([carried.index(c) for c in columns])
+        self._out = np.empty(len(columns))
+
+    def __call__(self, js, jaw, hex10) -> np.ndarray:
+        """The sample of the latest ``js``, ``jaw`` and ``hex10`` messages (a buffer reused by
+        the next call: copy to keep); raises :class:`MessageError` as
+        :func:`sample_from_messages` does."""
+        values = np.concatenate([_JS(js), _JAW(jaw), wrench_values(hex10)])
+        return np.take(values, self._index, out=self._out)
+
