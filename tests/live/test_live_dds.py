@@ -364,14 +364,15 @@ def test_a_repeated_stamp_among_the_first_messages_over_dds_is_flagged_not_fatal
 
 @pytest.mark.slow
 @pytest.mark.e2e
-def test_a_burst_as_fast_as_the_publisher_can_loses_nothing(tmp_path):
+def test_a_10x_burst_loses_nothing(tmp_path):
     """Issue 47, item 1: a 10x burst lost a third of its messages in the node's keep-last
-    readers while a plain subscriber lost none. 3000 samples of a 1 kHz stream published as
-    fast as one Python process can (several times 1 kHz), to ``serve`` in another process:
-    every message of every stream is received and every HEX10 message answered."""
+    readers while a plain subscriber lost none. 5000 samples of a 1 kHz stream published at 10
+    times its rate (0.5 s; pre-encoded, so the writes set the pace) to ``serve`` in another
+    process: every message of every stream is received and every HEX10 message answered. The
+    rate reached is checked loosely (a shared CI machine); benchmarks/live.py records it."""
     from psmforce.live.sim_robot import play
     domain = 100 + (os.getpid() + 45) % 100
-    n = 3000
+    n = 5000
     ckpt = checkpoint(tmp_path / "h.pt", rate_hz=100.0)
     report = tmp_path / "report.json"
     node = subprocess.Popen([sys.executable, "-m", "psmforce.cli.main", "serve", str(ckpt),
@@ -383,17 +384,18 @@ def test_a_burst_as_fast_as_the_publisher_can_loses_nothing(tmp_path):
         assert "listening on" in node.stdout.readline()
         frame = recording(n)
         frame["time"] = np.arange(n) / 1000.0
-        start = time.perf_counter()
-        play(frame, DomainParticipant(domain), realtime=False, start_ns=START_NS)
-        rate = n / (time.perf_counter() - start)
+        sent = play(frame, DomainParticipant(domain), speed=10.0, start_ns=START_NS)["sent_ns"]
+        rate = (n - 1) / ((sent[-1] - sent[0]) * 1e-9)
         _, err = node.communicate(timeout=120)
     finally:
         node.kill()
     assert node.returncode == 0, err[-2000:]
     result = json.loads(report.read_text())
-    assert rate > 1500, rate  # a burst: faster than the stream's own rate
+    assert 4000 < rate < 10_500, rate  # a burst of several times the stream, paced at 10x
     assert result["received"] == {"js": n, "jaw": n, "hex10": n, "tare": 0}, (rate, result)
     assert result["answers_published"] == n
+    own = result["residence_ms"]  # every answer's residence, taken to written (serve, Residence)
+    assert own["n"] == n and 0 < own["median_ms"] <= own["p99_ms"] <= own["max_ms"], own
 
 
 def test_the_discovery_range_is_read_as_ros_2_jazzy_reads_it(monkeypatch):
