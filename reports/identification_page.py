@@ -4,6 +4,8 @@ benchmark and the prior's parameter recovery on the bench."""
 
 from __future__ import annotations
 
+import math
+
 from reports.cells import spread_cell
 
 MODEL_NAMES = {"physics": "physics alone (`CableTransmission`)", "fcn": "FCN",
@@ -231,6 +233,52 @@ def transmission_transfer_tables(result: dict) -> str:
             lines.append(f"| {folder} | {pair(m['as_is'])} | {pair(m['recalibrated'])} |")
         else:
             lines.append(f"| {folder} (in session) | {pair(m['in_session'])} | |")
+    return "\n".join(lines) + "\n"
+
+
+def transmission_pitch_wrap_table(base: dict, *wraps: dict) -> str:
+    """docs/identification.md section 4.1: the wrist pitch's capstan wrap terms
+    (``--pitch-wrap antagonistic`` / ``symmetric``) against the default (both declared 0), per
+    folder and protocol (jaw torque RMSE, whole / closing), the recalibrated / in-session
+    ratios, and the fitted coefficients (in session: one per fold; then the LOCO fit's)."""
+    def pair(d):
+        return f"{d['whole']['torque_rmse_mNm']:.1f} / {d['closing']['torque_rmse_mNm']:.1f}"
+
+    def coef(d):
+        return "" if not d else f"{d['value']:+.3f} ({d['role']})"
+
+    models = [("default", base)] + [(f"{w['pitch_wrap']} wrap", w) for w in wraps]
+    lines = ["", "Jaw torque RMSE, mNm, whole files / closing portions; *default*: both terms "
+             "declared 0; *antagonistic wrap*: `capstan_mu_pitch` free; *symmetric wrap*: "
+             "`capstan_mu_abs_pitch` free. The freed coefficient (1/rad) is given per in-session "
+             "fold, then for the leave-one-configuration-out (LOCO) fit.", "",
+             "| folder | pitch (deg) | model | as is | recalibrated | in session | LOCO | "
+             "recalibrated / in session | coefficient: in session; LOCO |",
+             "|---|---|---|---|---|---|---|---|---|"]
+    for folder, f0 in base["folders"].items():
+        if "recalibrated" not in f0:
+            continue
+        pitch = next((w["folders"][folder].get("pitch_rad") for w in wraps), 0.0) or 0.0
+        for label, res in models:
+            f, v = res["folders"][folder], res["verdicts"][folder]
+            ratio = " / ".join(f"{v[p]['ratio']:.2f}x" for p in ("whole", "closing"))
+            coefs = ""
+            if res is not base:
+                coefs = ", ".join(coef(d) for d in f.get("in_session_pitch_wrap", []))
+                if f.get("loco_pitch_wrap"):
+                    coefs += "; " + coef(f["loco_pitch_wrap"])
+            lines.append(f"| {folder} | {math.degrees(pitch):.0f} | {label} | "
+                         f"{pair(f['as_is'])} | {pair(f['recalibrated'])} | "
+                         f"{pair(f['in_session'])} | {pair(f['loco']) if 'loco' in f else ''} | "
+                         f"{ratio} | {coefs} |")
+    lines.append("")
+    for label, res in models:
+        misses = [f"{folder} ({p}: {v[p]['ratio']:.2f}x)"
+                  for folder, v in res["verdicts"].items() for p in ("whole", "closing")
+                  if not v[p]["within_goal"]]
+        lines.append(f"- {label}: recalibrated within "
+                     f"{res['goals']['recalibrated_over_in_session']:g}x of in session "
+                     + (f"missed on {', '.join(misses)}." if misses else "on every folder."))
     return "\n".join(lines) + "\n"
 
 

@@ -32,6 +32,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
+import math
 import sys
 import tempfile
 import time
@@ -343,6 +344,40 @@ def cable_law(mrdlab_dir: Path, fit: bool = False) -> dict:
     return out
 
 
+def json_ready(c: dict) -> dict:
+    """The cable-law result as standard JSON: a folder driven at one frequency (the roll folders)
+    has no high / low friction ratio (:func:`cable_law_figures.session_figures` gives NaN), so
+    its ``friction_frequency_ratio`` is written null with the reason in
+    ``friction_frequency_ratio_note`` beside it, in the real figures and in every simulated
+    version's; any other non-finite number is refused (ValueError), never written as ``NaN``."""
+    def clean(obj, where):
+        if isinstance(obj, dict):
+            return {k: clean(v, f"{where}.{k}") for k, v in obj.items()}
+        if isinstance(obj, (list, tuple)):
+            return [clean(v, f"{where}[{i}]") for i, v in enumerate(obj)]
+        if isinstance(obj, float) and not math.isfinite(obj):
+            raise ValueError(f"cable law: {where} is {obj}, not a number JSON can hold")
+        return obj
+
+    out = {**c, "sessions": {}}
+    for name, s in c["sessions"].items():
+        s = dict(s)
+        for key in ("real", "sim"):
+            figs = {key: s[key]} if key == "real" else dict(s[key])
+            for v, f in figs.items():
+                r = f.get("friction_frequency_ratio")
+                if isinstance(r, float) and math.isnan(r):
+                    hz = f.get("frequencies_hz", [])
+                    figs[v] = {**f, "friction_frequency_ratio": None,
+                               "friction_frequency_ratio_note":
+                                   "n/a: one drive frequency in this folder "
+                                   f"({', '.join(f'{h:g}' for h in sorted(set(hz)))} Hz), "
+                                   "no high / low ratio"}
+            s[key] = figs["real"] if key == "real" else figs
+        out["sessions"][name] = s
+    return clean(out, "cable_law")
+
+
 def _ratio_cell(r) -> str:
     return "   n/a" if r is None else f"{r:6.2f}"
 
@@ -397,7 +432,7 @@ def main(argv=None) -> int:
         c = cable_law(args.mrdlab, fit=args.fit)
         _print_cable_law(c)
         if args.json:
-            write_json(args.json, {"cable_law": c})
+            write_json(args.json, {"cable_law": json_ready(c)})
         return 0
     with tempfile.TemporaryDirectory() as tmp:
         out = args.out or Path(tmp) / "sim"
@@ -415,6 +450,7 @@ def main(argv=None) -> int:
     if (args.mrdlab / CABLE_LAW_SESSION).is_dir():
         r["cable_law"] = cable_law(args.mrdlab, fit=args.fit)
         _print_cable_law(r["cable_law"])
+        r["cable_law"] = json_ready(r["cable_law"])
     else:
         r["cable_law"] = f"skipped: no {CABLE_LAW_SESSION} in {args.mrdlab}"
         print(r["cable_law"])

@@ -22,6 +22,18 @@ other stopping positions reach 2 rad beyond L_4's stroke, and even inside it the
 folders got worse); this declaration was made after seeing the roll and pitch folders, which the
 leave-one-configuration-out protocol below then scores with it.
 
+The wrist pitch's capstan wrap (:mod:`.model`: the wrap changes 1:1 with the pitch by design,
+the friction per rad of wrap shared and fitted) is declared fixed at 0 by default (the model's
+own switch, ``CableTransmission.fit(pitch_wrap=...)``, holds it at 0 too);
+``--pitch-wrap antagonistic`` frees ``capstan_mu_pitch`` (one cable +q, its partner -q; the sign
+fitted), ``--pitch-wrap symmetric`` frees ``capstan_mu_abs_pitch`` (both +|q|), each writing its
+own JSON (:data:`PITCH_WRAP_JSON`). Neither can act on the L_4 fit (pitch 0 throughout: "fixed:
+not excited"), so ``as_is`` and ``recalibrated`` are unchanged by them; they are fitted wherever
+pitched files are in the fit: ``loco`` (the other pitched folder among the fit's configurations)
+and ``in_session`` of the pitched folders (their own files). Both were added after seeing this
+table's pitch rows (issue 43); the symmetric one was tried second, after seeing the antagonistic
+one's results on the pitch folders; no constant of either is chosen on any folder.
+
 Protocols, per folder F other than L_4 (scored on F's files outside its calibration):
 
 * ``as_is``: the L_4 model, with the per-session values of L_4;
@@ -69,7 +81,13 @@ SOURCE_FOLDER = "Tool_4_Maryland_L_4"
 CONFIGURATIONS = ("Tool_4_Maryland_L_Roll_1", "Tool_4_Maryland_L_Roll_2",
                   "Tool_4_Maryland_L_Pitch_1", "Tool_4_Maryland_L_Pitch_4")
 SOURCE = "command"
-DECLARED_FIXED = {"position_stiffness": 0.0, "capstan_mu_per_rad": 0.0}
+DECLARED_FIXED = {"position_stiffness": 0.0, "capstan_mu_per_rad": 0.0,
+                  "capstan_mu_pitch": 0.0, "capstan_mu_abs_pitch": 0.0}
+PITCH_WRAP = {"antagonistic": "capstan_mu_pitch", "symmetric": "capstan_mu_abs_pitch"}
+"""``--pitch-wrap`` readings of the routing (:mod:`.model`) and the parameter each frees."""
+PITCH_WRAP_JSON = {
+    "antagonistic": "results/benchmarks/transmission_transfer_pitch_wrap.json",
+    "symmetric": "results/benchmarks/transmission_transfer_pitch_wrap_symmetric.json"}
 CALIBRATION_S = 60.0
 GOAL_RATIO = 1.5
 GOAL_L2_MNM = 8.9
@@ -151,14 +169,24 @@ def _source_split(data: dict, quick: bool) -> tuple[list, list, list]:
             [by[s] for s in sp["a_test"] if s in by])
 
 
-def run(data_dir: Path, quick: bool, resamples: int) -> dict:
+def declared_fixed(pitch_wrap: str | None) -> dict:
+    """The declared-fixed parameters: :data:`DECLARED_FIXED`, less the pitch wrap term that
+    ``pitch_wrap`` (a :data:`PITCH_WRAP` key, or None) frees."""
+    return {k: v for k, v in DECLARED_FIXED.items() if k != PITCH_WRAP.get(pitch_wrap)}
+
+
+def run(data_dir: Path, quick: bool, resamples: int, pitch_wrap: str | None = None) -> dict:
     t0 = time.perf_counter()
+    declared = declared_fixed(pitch_wrap)
     data, checks_report = load(data_dir, quick)
     train, val, test = _source_split(data, quick)
+    free = (PITCH_WRAP[pitch_wrap],) if pitch_wrap else ()
     model, role_report = roles.identify(train, validation=val, resamples=resamples,
-                                        current_source=SOURCE, declared_fixed=DECLARED_FIXED)
-    held = {**DECLARED_FIXED, **{n: roles.FALLBACK[n] for n in model.info["not_identifiable"]}}
-    measured = CableTransmission.fit(train, initial=model, fixed=held, current_source="measured")
+                                        current_source=SOURCE, declared_fixed=declared,
+                                        pitch_wrap=free)
+    held = {**declared, **{n: roles.FALLBACK[n] for n in model.info["not_identifiable"]}}
+    measured = CableTransmission.fit(train, initial=model, fixed=held, current_source="measured",
+                                     pitch_wrap=free)
     folders = {SOURCE_FOLDER: {"in_session": _closing_rmse(model, test),
                                "files_scored": [r.name for r in test],
                                "measured_current": {"in_session": _closing_rmse(measured, test)}}}
@@ -180,24 +208,30 @@ def run(data_dir: Path, quick: bool, resamples: int) -> dict:
                                       "recalibrated": _closing_rmse(measured.recalibrate(calib),
                                                                     scored)},
                  "per_session": model.recalibrate(calib).sessions[recs[0].session]}
-        folds = []
+        folds, wraps = [], []
         for k in (0, 1):
             fold = scored[k::2]
             own = CableTransmission.fit([r for r in recs if r not in fold], initial=model,
-                                        fixed=DECLARED_FIXED, current_source=SOURCE)
+                                        fixed=declared, current_source=SOURCE, pitch_wrap=free)
             folds.append(_closing_rmse(own, fold))
+            wraps.append(_pitch_term(own, pitch_wrap))
         entry["in_session"] = _pooled(folds)
+        entry["pitch_rad"] = recs[0].pitch_rad
+        entry["in_session_pitch_wrap"] = wraps
         if name in CONFIGURATIONS and not quick:
             others = [r for c in CONFIGURATIONS if c != name for r in data[c]]
             shared = CableTransmission.fit(train + others, initial=model, fixed=held,
-                                           current_source=SOURCE)
+                                           current_source=SOURCE, pitch_wrap=free)
             entry["loco"] = _closing_rmse(shared.recalibrate(calib), scored)
+            entry["loco_pitch_wrap"] = _pitch_term(shared, pitch_wrap)
         folders[name] = entry
-    result = {"benchmark": "transmission transfer", "quick": quick,
-              "command": "python studies/transmission_transfer.py --json "
-                         "results/benchmarks/transmission_transfer.json",
+    command = ("python studies/transmission_transfer.py --json "
+               + (f"{PITCH_WRAP_JSON[pitch_wrap]} --pitch-wrap {pitch_wrap}" if pitch_wrap
+                  else "results/benchmarks/transmission_transfer.json"))
+    result = {"benchmark": "transmission transfer", "quick": quick, "command": command,
+              "pitch_wrap": pitch_wrap, "pitch_wrap_parameter": PITCH_WRAP.get(pitch_wrap),
               "source_folder": SOURCE_FOLDER, "current_source": SOURCE,
-              "declared_fixed": DECLARED_FIXED, "calibration_s": CALIBRATION_S,
+              "declared_fixed": declared, "calibration_s": CALIBRATION_S,
               "relative_sd_limit": roles.RELATIVE_SD_LIMIT,
               "goals": {"recalibrated_over_in_session": GOAL_RATIO, "l2_whole_mNm": GOAL_L2_MNM},
               "data_checks": checks_report, "roles": role_report["roles"],
@@ -206,6 +240,16 @@ def run(data_dir: Path, quick: bool, resamples: int) -> dict:
               "folders": folders, "verdicts": verdicts(folders),
               "run": {"seconds": round(time.perf_counter() - t0, 1)}}
     return result
+
+
+def _pitch_term(model: CableTransmission, pitch_wrap: str | None) -> dict:
+    """The freed pitch wrap coefficient of a fit (the antagonistic one when none is freed) and
+    how it was held (fitted, fixed, not excited)."""
+    from psmforce.identification.transmission.model import TORQUE_NAMES
+    name = PITCH_WRAP.get(pitch_wrap, "capstan_mu_pitch")
+    role = ("not excited" if name in model.info.get("unexcited", [])
+            else "fixed" if name in model.fixed else "fitted")
+    return {"name": name, "value": float(model.torque[TORQUE_NAMES.index(name)]), "role": role}
 
 
 def verdicts(folders: dict) -> dict:
@@ -232,13 +276,17 @@ def main(argv=None) -> int:
     ap.add_argument("--json", type=Path, required=True)
     ap.add_argument("--resamples", type=int, default=roles.BOOTSTRAP_RESAMPLES)
     ap.add_argument("--quick", action="store_true", help="6 files a folder: a smoke run")
+    ap.add_argument("--pitch-wrap", choices=sorted(PITCH_WRAP), default=None,
+                    help="free one wrist-pitch capstan wrap term (antagonistic: "
+                         "capstan_mu_pitch, symmetric: capstan_mu_abs_pitch)")
     args = ap.parse_args(argv)
     if not (args.data / SOURCE_FOLDER).is_dir():
         raise SystemExit(f"transmission transfer: {args.data / SOURCE_FOLDER} is missing; pass "
                          "--data with the folder holding the MRD Lab sessions")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", TransmissionDataWarning)
-        result = run(args.data, args.quick, 2 if args.quick else args.resamples)
+        result = run(args.data, args.quick, 2 if args.quick else args.resamples,
+                     args.pitch_wrap)
     write_json_atomic(args.json, result)
     for name, v in result["verdicts"].items():
         f = result["folders"][name]

@@ -20,7 +20,9 @@ from psmforce.identification.transmission.recording import (TransmissionDataErro
 
 MRDLAB = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "mrdlab"
 TRUTH = dict(current_gain=0.65, viscous=0.01, inertia=4e-4, position_stiffness=-0.006,
-             motor_coulomb=0.0, capstan_mu=0.8, capstan_mu_per_rad=-0.3, pretension_torque=0.11,
+             motor_coulomb=0.0, capstan_mu=0.8, capstan_mu_per_rad=-0.3, capstan_mu_pitch=0.0,
+             capstan_mu_abs_pitch=0.0,
+             pretension_torque=0.11,
              pair_asymmetry=0.5, torque_bias=-0.02)
 ANGLE_TRUTH = dict(ratio=0.92, compliance_torque=0.6, compliance_current=0.86, windup=0.063,
                    angle_offset=0.01)
@@ -45,7 +47,7 @@ def test_play_operator_lags_by_its_half_width_after_reversal():
 
 def test_capstan_law_closed_form_in_slack():
     # slack (|tau_s| >> P): jaw torque = -tau_s exp(-mu z), the capstan efficiency
-    p = np.array([1.0, 0, 0, 0, 0, 0.5, 0, 1e-6, 0, 0])
+    p = np.array([1.0, 0, 0, 0, 0, 0.5, 0, 0, 0, 1e-6, 0, 0])
     s = _signals(_synthetic(np.linspace(0, 1, 300), np.full(300, 0.2), "slack"), 0.01)
     law = _torque_law(p, s, np)
     z = s.z[-1]
@@ -103,10 +105,12 @@ def test_parameters_come_back_on_an_in_family_bench():
     fit = CableTransmission.fit(recs[:5], validation=recs[5:])
     ident = fit.info["identifiability"]
     fitted = dict(zip(TORQUE_NAMES, fit.torque))
-    tied = set(fit.fixed)
+    unexcited = set(fit.info["unexcited"])
+    assert unexcited == {"capstan_mu_pitch", "capstan_mu_abs_pitch"}  # no pitch: held at 0
+    tied = set(fit.fixed) - unexcited
     assert tied <= {"motor_coulomb"}
     for name, true in TRUTH.items():
-        if name in tied:
+        if name in tied or name in unexcited:
             continue
         tol = 0.1 * abs(true) if abs(true) > 1e-9 else 1e-3
         assert abs(fitted[name] - true) <= tol, (name, fitted[name], true)
@@ -115,7 +119,8 @@ def test_parameters_come_back_on_an_in_family_bench():
         assert abs(value - true) <= 0.1 * abs(true), (name, value, true)
     assert (fit.presliding_rad, fit.backlash_rad, fit.hold_rad) == (0.04, 0.01, 0.005)
     assert np.isfinite(ident["fisher_condition_number"])
-    assert set(ident["white_noise_relative_sd"]) == {n for n in TORQUE_NAMES if n not in tied}
+    assert set(ident["white_noise_relative_sd"]) == {n for n in TORQUE_NAMES
+                                                      if n not in tied | unexcited}
 
 
 @pytest.mark.slow

@@ -34,3 +34,12 @@ def test_the_verdict_names_a_miss_and_a_loss_to_the_constant():
     assert v["far"]["whole"]["ratio"] > GOAL_RATIO and not v["far"]["whole"]["within_goal"]
     assert not v["worse"]["closing"]["beats_constant"]
     assert "source" not in v
+
+
+def test_the_pitch_wrap_term_is_declared_off_unless_switched_on():
+    from studies.transmission_transfer import DECLARED_FIXED, declared_fixed
+    assert declared_fixed(None) == DECLARED_FIXED
+    assert DECLARED_FIXED["capstan_mu_pitch"] == DECLARED_FIXED["capstan_mu_abs_pitch"] == 0.0
+    for wrap, name in (("antagonistic", "capstan_mu_pitch"),
+                       ("symmetric", "capstan_mu_abs_pitch")):
+        assert set(declared_fixed(wrap)) == set(DECLARED_FIXED) - {name}

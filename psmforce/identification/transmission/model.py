@@ -16,8 +16,8 @@ spindle current gain ``G n``)::
     tau_s = G i - b omega - J alpha - k_theta theta - f_m z   motor torque into the cables
     P_s   = smoothmax(P + a tau_s, |tau_s|)                   pair tension sum x pulley radius:
                                                               taut (asymmetric pair a) or slack
-    m     = mu (1 + mu_theta theta) z                         capstan exponent (wrap grows)
-    tau_c = tau_s cosh m - P_s sinh m                         cable torque on the jaw (capstan)
+    m     = (mu (1 + mu_theta theta) + mu_a |q|) z            capstan exponent (wrap grows)
+    tau_c = exp(-mu_q q z) (tau_s cosh m - P_s sinh m)        cable torque on the jaw (capstan)
     jaw_torque_model = -tau_c + c_0
 
 The pair law is the one the internal-force prior uses for every pair of the Cadiere wrist
@@ -25,6 +25,25 @@ The pair law is the one the internal-force prior uses for every pair of the Cadi
 radius as the pretension torque ``P = 2 T_0 r`` and the pair asymmetry ``a`` of the bench's loop
 closure (``S = 2 T_0 + a D``): the friction grows with the load even while the pair is taut, at
 a different rate closing (``cosh mu - a sinh mu``) and opening (``cosh mu + a sinh mu``).
+
+Wrist pitch (``q``, rad: the recording's configuration, ``TransmissionRecording.pitch_rad``). The
+jaw's two cables pass on opposite sides of the idler pulleys on the wrist's pitch axis (the design
+behind the jaw-pitch coupling of the EndoWrist's coupling matrix): pitching the wrist by ``q``
+wraps one cable ``q`` more and its partner ``q`` less around those idlers, 1:1 (design geometry,
+not fitted). With per-cable exponents ``(mu + mu_q q) z`` (closing cable) and ``(mu - mu_q q) z``
+(opening cable) the exact capstan of the pair, ``T_1 e^{-m_1} - T_2 e^{m_2}``, is the symmetric law
+times ``exp(-mu_q q z)``. ``mu_q`` (``capstan_mu_pitch``, 1/rad) is the cable-on-idler friction
+coefficient signed by which cable the routing wraps more at positive pitch (its sign is not known
+from a drawing here, so it is fitted with the magnitude): a shared constant of the instrument. The
+other reading of the routing (each cable running between idlers on both sides of the axis, as the
+simulator's cable law has it, ``psmforce/sim/cables.py``): pitching either way wraps both cables
+``|q|`` more, 1:1, which adds ``mu_a |q|`` to the pair's exponent (``capstan_mu_abs_pitch``, 1/rad,
+the same friction per rad of wrap, non-negative). Neither has an effect at ``q = 0``;
+:meth:`CableTransmission.fit` holds both at 0 (``info["unexcited"]``) when no recording is pitched,
+since nothing can then pin them down. Measured on the real instrument, neither transfers
+(docs/identification.md section 4.1), so both are behind a switch: :meth:`CableTransmission.fit`
+holds them at 0 unless named in its ``pitch_wrap`` argument (the default model is the model
+without them).
 
 Stick. While the motor does not move, neither end of the transmission slides: the current
 relaxes (the drive's position loop is satisfied) while the gearbox and the cables hold the last
@@ -112,6 +131,8 @@ TORQUE_PARAMETERS = (
     ("motor_coulomb", "Nm", 0.0, 0.3, 0.02),
     ("capstan_mu", "1", 0.0, 2.0, 0.4),
     ("capstan_mu_per_rad", "1/rad", -1.0, 1.0, 0.0),
+    ("capstan_mu_pitch", "1/rad", -1.0, 1.0, 0.0),   # friction per rad of wrap, x wrap sign
+    ("capstan_mu_abs_pitch", "1/rad", 0.0, 1.0, 0.0),  # friction per rad of wrap (both cables)
     ("pretension_torque", "Nm", 0.0, 1.0, 0.1),
     ("pair_asymmetry", "1", -0.95, 0.95, 0.0),
     ("torque_bias", "Nm", -0.3, 0.3, 0.0),
@@ -137,6 +158,15 @@ class _Signals:
     omega: np.ndarray
     alpha: np.ndarray
     z: np.ndarray
+    pitch: np.ndarray
+    abs_pitch: np.ndarray
+
+
+PITCH_TERM = "capstan_mu_pitch"
+ABS_PITCH_TERM = "capstan_mu_abs_pitch"
+PITCH_TERMS = (PITCH_TERM, ABS_PITCH_TERM)
+"""The wrist-pitch wrap terms' parameters (module docstring): antagonistic and symmetric wrap;
+fixed at 0 when no recording of a fit is pitched."""
 
 
 def _signals(rec: TransmissionRecording, presliding_rad: float,
@@ -146,7 +176,9 @@ def _signals(rec: TransmissionRecording, presliding_rad: float,
                else CURRENT_PER_COMMAND_A * rec.motor_command)
     return _Signals(current, rec.motor_angle_rad, omega,
                     np.diff(omega, prepend=omega[:1]) * rec.rate_hz,
-                    dahl_state(rec.motor_angle_rad, presliding_rad))
+                    dahl_state(rec.motor_angle_rad, presliding_rad),
+                    np.full(len(rec.motor_angle_rad), float(rec.pitch_rad)),
+                    np.full(len(rec.motor_angle_rad), abs(float(rec.pitch_rad))))
 
 
 def _concat(sigs: Sequence[_Signals]) -> _Signals:
@@ -157,10 +189,12 @@ def _concat(sigs: Sequence[_Signals]) -> _Signals:
 def _torque_law(p, s, xp):
     """Jaw torque (Nm) before the stick hold; ``p`` in TORQUE_NAMES order (scalars, or
     per-sample columns for per-session parameters); ``xp`` numpy or casadi."""
-    G, b, J, k_th, f_m, mu, mu_th, P, a, c0 = p
+    G, b, J, k_th, f_m, mu, mu_th, mu_q, mu_a, P, a, c0 = p
     tau_s = G * s.current - b * s.omega - J * s.alpha - k_th * s.theta - f_m * s.z
     p_s = tension_sum(P + a * tau_s, tau_s, SMOOTH_MAX_NM, xp)
-    return -capstan(tau_s, p_s, mu * (1.0 + mu_th * s.theta) * s.z, xp) + c0
+    wrap = xp.exp(-mu_q * s.pitch * s.z)  # the pitch idlers' antagonistic wrap (docstring)
+    exponent = (mu * (1.0 + mu_th * s.theta) + mu_a * s.abs_pitch) * s.z
+    return -wrap * capstan(tau_s, p_s, exponent, xp) + c0
 
 
 def at_bound(value: float, lower: float, upper: float) -> bool:
@@ -227,14 +261,18 @@ class CableTransmission:
             validation: Sequence[TransmissionRecording] = (),
             initial: "CableTransmission | None" = None, max_iter: int = 300,
             per_session: Sequence[str] = PER_SESSION, fixed: dict | None = None,
-            current_source: str = "measured") -> "CableTransmission":
+            current_source: str = "measured",
+            pitch_wrap: Sequence[str] = ()) -> "CableTransmission":
         """Identify on ``recordings`` (one or several sessions, ``rec.session``): the shared
         parameters once over all of them, each ``per_session`` parameter once per session. For
         each pre-sliding and hold width the torque law (IPOPT through the hold, every sample),
         then for each backlash width the angle path (exact least squares, driven by the held
         torque estimate). The widths are chosen on ``validation`` when given (else on the fit
         data). ``fixed`` holds torque parameters at given values (names the data cannot pin
-        down). With ``initial``, its widths are kept and its parameters start the solver."""
+        down). With ``initial``, its widths are kept and its parameters start the solver.
+        ``pitch_wrap`` names the wrist-pitch wrap terms (:data:`PITCH_TERMS`) to fit: the switch
+        of the module docstring; the others are held at 0, as are all of them when no recording
+        is pitched (``info["unexcited"]``)."""
         t0 = time.perf_counter()
         recordings = list(recordings)
         if not recordings:
@@ -253,6 +291,13 @@ class CableTransmission:
         if n_samples < 500:
             raise IdentificationInputError(f"{n_samples} samples is too short to fit the "
                                            "transmission (need 500)")
+        pitch_wrap = tuple(pitch_wrap)
+        if set(pitch_wrap) - set(PITCH_TERMS):
+            raise IdentificationInputError(f"pitch_wrap must name terms of {PITCH_TERMS}, got "
+                                           f"{pitch_wrap}")
+        unexcited = [] if any(r.pitch_rad for r in recordings) else list(PITCH_TERMS)
+        fixed.update({n: 0.0 for n in PITCH_TERMS
+                      if (n in unexcited or n not in pitch_wrap) and n not in fixed})
         names = sorted({r.session for r in recordings})
         codes = np.concatenate([np.full(len(r), names.index(r.session)) for r in recordings])
         select_on = list(validation) or recordings
@@ -298,6 +343,7 @@ class CableTransmission:
         model.info.update({"selection": "validation" if validation else "fit data",
                            "width_scores": scores, "fit_time_s": time.perf_counter() - t0,
                            "n_samples": n_samples, "fixed_values": fixed,
+                           "unexcited": unexcited, "pitch_wrap": list(pitch_wrap),
                            "spindle_current_gain_nm_per_a": float(model.torque[0]
                                                                   * model.angle[0]),
                            "recordings": [r.name for r in recordings]})
@@ -421,6 +467,8 @@ class CableTransmission:
         bounds = {n: (lo - 1e-6 * (hi - lo), hi + 1e-6 * (hi - lo))
                   for n, _, lo, hi, _ in TORQUE_PARAMETERS}  # the solver's own tolerance
         torque, angle = d.get("torque"), d.get("angle")
+        if isinstance(torque, dict):  # written before the pitch terms: they were 0
+            torque = {**{n: {"value": 0.0} for n in PITCH_TERMS}, **torque}
         if not isinstance(torque, dict) or set(torque) != set(TORQUE_NAMES):
             raise IdentificationInputError(f"{path}: 'torque' must hold exactly {TORQUE_NAMES}")
         if not isinstance(angle, dict) or set(angle) != set(ANGLE_NAMES):

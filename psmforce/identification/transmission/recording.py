@@ -36,7 +36,9 @@ The encoders are incremental: each session has its own zero on both ends.
 
 File names: ``XY.TXT`` (X the drive frequency index, Y the load index) or, in the roll and pitch
 folders, ``ZXY.TXT`` (Z the jaw's stopping position, whose angle the ``%Yaw_rad=`` header line
-gives). Header lines ``%Yaw_rad=``, ``%Freq_Hz=``, ``%Torque_Pct=`` are kept in ``header`` as
+gives). The folder's ``ReadME.txt`` states the wrist's roll and pitch where they are not 0
+(:func:`read_configuration`: ``roll_rad``, ``pitch_rad``). Header lines ``%Yaw_rad=``,
+``%Freq_Hz=``, ``%Torque_Pct=`` are kept in ``header`` as
 numbers where present (the dataset says its headers were edited by hand: trust the data first).
 
 Every file is checked before it is used (:mod:`.checks`); a session leaves a file with findings
@@ -98,6 +100,8 @@ class TransmissionRecording:
     header: dict = field(default_factory=dict)
     findings: tuple[Finding, ...] = ()
     current_range_a: float = float("nan")
+    pitch_rad: float = 0.0
+    roll_rad: float = 0.0
 
     def __len__(self) -> int:
         return len(self.time_s)
@@ -124,6 +128,21 @@ def _header(lines: list[str]) -> dict:
                 out[key.strip()] = float(value)
             except ValueError:
                 continue
+    return out
+
+
+_CONFIGURATION = re.compile(r"(roll|pitch) of ([+-]?\d+(?:\.\d+)?) degrees", re.IGNORECASE)
+
+
+def read_configuration(folder) -> dict:
+    """The wrist configuration of a session folder from its ``ReadME.txt`` (``This is a roll of
+    -90 degrees ...``, ``This is a pitch of +60 degrees ...``): ``{"roll_rad", "pitch_rad"}``,
+    each 0 where the folder (or the file) does not state it: the dataset's nominal pose."""
+    out = {"roll_rad": 0.0, "pitch_rad": 0.0}
+    readme = Path(folder) / "ReadME.txt"
+    if readme.is_file():
+        for key, value in _CONFIGURATION.findall(readme.read_text(errors="replace")):
+            out[f"{key.lower()}_rad"] = float(np.radians(float(value)))
     return out
 
 
@@ -187,7 +206,8 @@ def read_transmission_file(path, rate_hz: float = 100.0) -> TransmissionRecordin
         spindle_torque_nm=d[take, 2] * FUTEK_NM_PER_COUNT,
         spindle_angle_rad=d[take, 1] * 2 * np.pi / SPINDLE_COUNTS_PER_REV,
         stop_index=None if m.group(1) is None else int(m.group(1)), header=header,
-        findings=findings, current_range_a=float(np.ptp(raw[:, 3])))
+        findings=findings, current_range_a=float(np.ptp(raw[:, 3])),
+        **read_configuration(path.parent))
 
 
 def read_transmission_session(folder, rate_hz: float = 100.0, *,

@@ -14,6 +14,14 @@ decides):
     re-estimated for each session from a short segment (:meth:`.model.CableTransmission.recalibrate`):
     the cable pretension, the torque sensor's zero and the encoders' zero change when an
     instrument is re-mounted.
+``fixed: not excited``
+    a shared parameter whose input never varies in the data: ``capstan_mu_pitch`` and
+    ``capstan_mu_abs_pitch`` (the wrist pitch's wrap, :mod:`.model`) when no recording of the
+    fit is pitched; held at 0
+    by :meth:`.model.CableTransmission.fit` itself (``info["unexcited"]``).
+``fixed: switched off``
+    a wrist-pitch wrap term the fit was not told to fit (``pitch_wrap``, :mod:`.model`): the
+    default model holds both at 0.
 ``fixed``
     a shared parameter the data cannot pin down: its bootstrap relative standard deviation
     exceeds :data:`RELATIVE_SD_LIMIT` (or the Fisher tie of :mod:`.model` fixed it); it is held
@@ -32,8 +40,9 @@ from typing import Sequence
 
 import numpy as np
 
-from psmforce.identification.transmission.model import (TORQUE_NAMES, TORQUE_PARAMETERS,
-                                                        CableTransmission, at_bound)
+from psmforce.identification.transmission.model import (PITCH_TERMS, TORQUE_NAMES,
+                                                        TORQUE_PARAMETERS, CableTransmission,
+                                                        at_bound)
 from psmforce.identification.transmission.recording import TransmissionRecording
 
 DESIGN = {
@@ -43,6 +52,10 @@ DESIGN = {
     "jaw_counts_per_rev": (4000, "counts", "front-end Maxon encoder"),
     "futek_nm_per_count": (0.000039811, "Nm", "both Futek torque sensors"),
     "current_per_command_a": (2.05, "A", "the drive's current gain (.checks)"),
+    "pitch_wrap_per_rad": (1.0, "rad/rad", "each jaw cable's wrap over the pitch idlers changes "
+                           "1:1 with the wrist pitch: +q / -q (antagonistic routing, "
+                           "capstan_mu_pitch) or +|q| each (symmetric, capstan_mu_abs_pitch); "
+                           "the parameter is the friction per rad of that wrap"),
 }
 FALLBACK = {**{p[0]: 0.0 for p in TORQUE_PARAMETERS}, "current_gain": 0.7, "capstan_mu": 0.4}
 """Design values a parameter the data cannot pin down is held at: no term (0) for the
@@ -68,7 +81,8 @@ def bootstrap(model: CableTransmission, recordings: Sequence[TransmissionRecordi
         sample = [recs[k] for recs in by_session.values()
                   for k in rng.integers(0, len(recs), len(recs))]
         refit = CableTransmission.fit(sample, initial=model, per_session=model.per_session,
-                                      fixed=fixed, current_source=model.current_source)
+                                      fixed=fixed, current_source=model.current_source,
+                                      pitch_wrap=model.info.get("pitch_wrap", ()))
         draws.append(_flat(refit))
     values = _flat(model)
     out = {}
@@ -95,14 +109,16 @@ def identify(recordings: Sequence[TransmissionRecording], *,
              validation: Sequence[TransmissionRecording] = (),
              initial: CableTransmission | None = None, resamples: int = BOOTSTRAP_RESAMPLES,
              seed: int = 0, current_source: str = "measured",
-             declared_fixed: dict | None = None) -> tuple[CableTransmission, dict]:
+             declared_fixed: dict | None = None,
+             pitch_wrap: Sequence[str] = ()) -> tuple[CableTransmission, dict]:
     """Fit (``declared_fixed`` held from the start), bootstrap, fix the shared parameters the
     bootstrap cannot pin down at their design values (:data:`FALLBACK`), refit, and bootstrap
     again. Returns the model and its roles report (:func:`roles_table` and both
     bootstraps)."""
     declared = dict(declared_fixed or {})
     model = CableTransmission.fit(recordings, validation=validation, initial=initial,
-                                  fixed=declared, current_source=current_source)
+                                  fixed=declared, current_source=current_source,
+                                  pitch_wrap=pitch_wrap)
     first = bootstrap(model, recordings, resamples=resamples, seed=seed)
     loose = sorted(n for n, b in first["parameters"].items()
                    if n in TORQUE_NAMES and b["relative_sd"] > RELATIVE_SD_LIMIT)
@@ -110,7 +126,8 @@ def identify(recordings: Sequence[TransmissionRecording], *,
         fixed = {**{n: float(v) for n, v in zip(TORQUE_NAMES, model.torque) if n in model.fixed},
                  **{n: FALLBACK[n] for n in loose}}
         model = CableTransmission.fit(recordings, validation=validation, initial=model,
-                                      fixed=fixed, current_source=current_source)
+                                      fixed=fixed, current_source=current_source,
+                                      pitch_wrap=pitch_wrap)
         model.info["not_identifiable"] = loose
         final = bootstrap(model, recordings, resamples=resamples, seed=seed)
     else:
@@ -130,7 +147,11 @@ def roles_table(model: CableTransmission, boot: dict | None = None) -> list[dict
             for n, (v, u, note) in DESIGN.items()]
     boot_p = (boot or {}).get("parameters", {})
     declared = set(model.info.get("declared_fixed", []))
-    tied = set(model.fixed) - set(model.info.get("not_identifiable", [])) - declared
+    unexcited = set(model.info.get("unexcited", [])) - declared
+    switched_off = (((set(PITCH_TERMS) - set(model.info["pitch_wrap"])) & set(model.fixed))
+                    - declared - unexcited if "pitch_wrap" in model.info else set())
+    tied = (set(model.fixed) - set(model.info.get("not_identifiable", [])) - declared
+            - unexcited - switched_off)
     for (name, unit, lo, hi, _), value in zip(TORQUE_PARAMETERS, model.torque):
         if name in model.per_session:
             per = {s: v[name] for s, v in model.sessions.items() if name in v}
@@ -142,6 +163,8 @@ def roles_table(model: CableTransmission, boot: dict | None = None) -> list[dict
             continue
         role = ("fixed: not identifiable" if name in model.info.get("not_identifiable", [])
                 else "fixed: declared" if name in declared
+                else "fixed: not excited" if name in unexcited
+                else "fixed: switched off" if name in switched_off
                 else "fixed: tied" if name in tied else "shared")
         rows.append({"name": name, "role": role, "value": float(value), "unit": unit,
                      "bounds": [lo, hi],
