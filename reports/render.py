@@ -36,6 +36,9 @@ from psmforce.core.files import write_text_atomic  # noqa: E402
 
 TRANSMISSION = ROOT / "results" / "benchmarks" / "transmission.json"
 TRANSMISSION_TRANSFER = ROOT / "results" / "benchmarks" / "transmission_transfer.json"
+TRANSMISSION_PITCH_WRAP = ROOT / "results" / "benchmarks" / "transmission_transfer_pitch_wrap.json"
+TRANSMISSION_PITCH_WRAP_SYMMETRIC = (ROOT / "results" / "benchmarks"
+                                     / "transmission_transfer_pitch_wrap_symmetric.json")
 TRANSMISSION_LEARNED = ROOT / "results" / "benchmarks" / "transmission_transfer_learned.json"
 PRIOR_RECOVERY = ROOT / "results" / "benchmarks" / "prior_recovery.json"
 PRIOR_ABLATION = ROOT / "results" / "benchmarks" / "prior_ablation.json"
@@ -61,6 +64,7 @@ FUZZ = ROOT / "results" / "benchmarks" / "fuzz.json"
 SIM_CABLE_LAW = ROOT / "results" / "benchmarks" / "sim_calibration_cable_law.json"
 SIMULATOR = ROOT / "docs" / "simulator.md"
 REMOUNT = ROOT / "results" / "benchmarks" / "remount.json"
+REMOUNT_FRESH = ROOT / "results" / "benchmarks" / "remount_fresh.json"
 HEX10_COMPRESSION = ROOT / "results" / "benchmarks" / "hex10_compression.json"
 EXCITATION = ROOT / "results" / "benchmarks" / "excitation.json"
 RECIPE_SWAP = ROOT / "results" / "benchmarks" / "recipe_swap.json"
@@ -132,6 +136,9 @@ BLOCKS = (
     (IDENTIFICATION, "transmission-tables", TRANSMISSION, identification_page.transmission_tables),
     (IDENTIFICATION, "transmission-transfer-tables", TRANSMISSION_TRANSFER,
      identification_page.transmission_transfer_tables),
+    (IDENTIFICATION, "transmission-pitch-wrap",
+     (TRANSMISSION_TRANSFER, TRANSMISSION_PITCH_WRAP, TRANSMISSION_PITCH_WRAP_SYMMETRIC),
+     identification_page.transmission_pitch_wrap_table),
     (IDENTIFICATION, "transmission-transfer-learned", TRANSMISSION_LEARNED,
      identification_page.transmission_transfer_learned_tables),
     (RESULTS, "results-status",
@@ -144,6 +151,7 @@ BLOCKS = (
      bench_calibration_page.bench_paper_calibration),
     (ATI_FREE, "excitation-tables", EXCITATION, ati_free_page.excitation_tables),
     (ATI_FREE, "remount-tables", REMOUNT, ati_free_page.remount_tables),
+    (ATI_FREE, "remount-fresh-tables", REMOUNT_FRESH, ati_free_page.remount_tables),
     (ATI_FREE, "hex10-compression", HEX10_COMPRESSION, ati_free_page.hex10_compression_table),
     (RESULTS, "hybrid-plateau", HYBRID_PLATEAU, _hybrid_plateau_table),
     (RESULTS, "prior-ablation-tables", PRIOR_ABLATION, results_page.prior_ablation_tables),
