@@ -47,7 +47,6 @@ from __future__ import annotations
 
 import argparse
 import hashlib
-import json
 import os
 import pickle
 import sys
@@ -60,7 +59,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from psmforce.experiments.report import shown_path  # noqa: E402
+from psmforce.experiments.report import kept_json, shown_path  # noqa: E402
 from psmforce.estimators.evaluation.tables import compare, has_spread, mean_std  # noqa: E402
 from psmforce.core.files import atomic_path, write_json_atomic, write_text_atomic
 from psmforce.identification.transmission.model import CableTransmission
@@ -252,15 +251,6 @@ def physics_records(data: dict, sp: dict, phys: dict) -> list[dict]:
 
 
 # ---------------------------------------------------------------- learned models (workers)
-def _json_kept(path: Path, compute):
-    if path.exists():
-        return json.loads(path.read_text())
-    value = compute()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    write_json_atomic(path, value)
-    return value
-
-
 def run_learned(model: str, seed: int, data_dir: str, quick: bool, work: str) -> list[dict]:
     """Train ``model`` with ``seed`` on (a), score it on every protocol, calibrate it on (c);
     every stage is kept under ``work`` and reused."""
@@ -340,7 +330,7 @@ def run_learned(model: str, seed: int, data_dir: str, quick: bool, work: str) ->
         def record(protocol=protocol):
             return {"model": model, "seed": seed, "protocol": protocol,
                     "metrics": score(protocol), "fit": report}
-        records.append(_json_kept(records_dir / f"{key}_{protocol}.json", record))
+        records.append(kept_json(records_dir / f"{key}_{protocol}.json", record))
 
     def calibrated():
         which = "calibrated"
@@ -359,7 +349,7 @@ def run_learned(model: str, seed: int, data_dir: str, quick: bool, work: str) ->
                 "metrics": score("c_other_tool_calibrated", which), "fit": cal,
                 "pretrained_fit": report}
 
-    records.append(_json_kept(records_dir / f"{key}_c_other_tool_calibrated.json", calibrated))
+    records.append(kept_json(records_dir / f"{key}_c_other_tool_calibrated.json", calibrated))
     return records
 
 
