@@ -447,6 +447,27 @@ def stale_no_prior_arm(result: dict) -> str:
             "arms; the full run (24 trainings) has not been repeated since.")
 
 
+def _ablation_paired(tasks: list[dict], bench: str) -> list[str]:
+    """Rows: each variant's test error over no prior's, paired by seed (95 % t interval on the
+    log ratios, :func:`psmforce.experiments.paired.paired_ratio`); none where a seed lacks
+    either arm."""
+    from psmforce.experiments.paired import paired_by_axis
+    by = {(t["variant"], t["seed"]): t["test"] for t in tasks if t["bench"] == bench}
+    seeds = sorted({seed for _, seed in by})
+    rows = []
+    for variant in PRIOR_VARIANTS:
+        if variant == "no_prior" or not all((v, s) in by for v in (variant, "no_prior")
+                                            for s in seeds):
+            continue
+        cells = []
+        for m in ("causal", "paper"):
+            paired = paired_by_axis([by[variant, s][m] for s in seeds],
+                                    [by["no_prior", s][m] for s in seeds], ("Fx", "Fy", "Fz"))
+            cells += [paired[a].text() for a in ("Fx", "Fy", "Fz")]
+        rows.append(f"| {variant} over no prior, paired by seed | " + " | ".join(cells) + " | |")
+    return rows
+
+
 def prior_ablation_tables(result: dict) -> str:
     """docs/results.md: the hybrid with and without its prior, per bench and axis."""
     seeds = " ".join(str(s) for s in result["seeds"])
@@ -459,7 +480,10 @@ def prior_ablation_tables(result: dict) -> str:
              " NRMSE % on the test trials, mean ± std over seeds (the sample std, ddof 1); "
              "causal = the raw per-sample "
              "estimate a haptic loop gets, paper = the paper's offline post-processing; the "
-             "last columns are the validation trials, where the design is chosen.", ""]
+             "last columns are the validation trials, where the design is chosen. "
+             "\"Paired by seed\": the variant's error over no prior's on the same seeds, the "
+             "geometric mean with a 95 % t interval on the log ratios; \"ahead\" only where the "
+             "interval lies below 1.", ""]
     for bench, rows in result["summary"].items():
         lines += [f"**{bench} bench**", "",
                   "| hybrid | causal Fx | causal Fy | causal Fz | paper Fx | paper Fy | paper Fz "
@@ -479,6 +503,7 @@ def prior_ablation_tables(result: dict) -> str:
                      for m in ("causal", "paper") for a in ("Fx", "Fy", "Fz")]
             lines.append(f"| {variant} against no prior, spread rule | " + " | ".join(cells)
                          + " | |")
+        lines += _ablation_paired(result["tasks"], bench)
         weights = [t["axis_weights"] for t in result["tasks"]
                    if t["bench"] == bench and t["variant"] == "weighted"]
         if weights:

@@ -1,6 +1,8 @@
 """Does the internal-force prior earn its place, axis by axis? The hybrid with and without it.
 
-Two benches, each at three bench seeds (simulator seed = split seed = initialisation seed):
+Two benches, each at three bench seeds (simulator seed = split seed = initialisation seed; by
+default the fresh seeds declared for this study, ``PRIOR_ABLATION_SEEDS`` in
+:mod:`psmforce.experiments.seeds`: the first run chose the shipped inputs on seeds 1-3):
 
 * ``standard``: the nominal instrument (its cable law lies in the prior's family, apart from the
   effects docs/simulator.md lists);
@@ -8,7 +10,7 @@ Two benches, each at three bench seeds (simulator seed = split seed = initialisa
   ``--crossing-rad`` (default 0.03 rad, ``InstrumentParams.cable_crossing_angle_rad``): an
   internal lateral force the prior does not model.
 
-Three hybrids per bench and seed, each trained to early stopping with the recipe's settings
+Four hybrids per bench and seed, each trained to early stopping with the recipe's settings
 (the same as ``psmforce reproduce --budget full``), on the same trials:
 
 * ``weighted``: the hybrid as it ships, the prior fitted on the training trials and weighted
@@ -55,6 +57,7 @@ import torch
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from psmforce.experiments.report import shown_path, write_json  # noqa: E402
+from psmforce.experiments.seeds import PRIOR_ABLATION_SEEDS  # noqa: E402
 from psmforce.estimators.data.dataset import load_dataset, split_validation  # noqa: E402
 from psmforce.estimators.evaluation.evaluate import predict_trial, score_modes  # noqa: E402
 from psmforce.estimators.data.hybrid_inputs import (  # noqa: E402
@@ -221,7 +224,9 @@ def _shipped() -> str:
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--seeds", type=int, nargs="+", default=[1, 2, 3])
+    ap.add_argument("--seeds", type=int, nargs="+", default=list(PRIOR_ABLATION_SEEDS),
+                    help="bench seeds (default: the fresh seeds declared for this study, "
+                         "psmforce/experiments/seeds.py)")
     ap.add_argument("--benches", nargs="+", default=["standard", "crossing"],
                     choices=["standard", "crossing"])
     ap.add_argument("--variants", nargs="+", default=list(VARIANTS), choices=VARIANTS)

@@ -18,6 +18,11 @@ RECIPE_SWAP_SEEDS = (201, 202, 203)
 """The training regimes swapped between models (``studies/recipe_swap.py``): a choice the
 published comparison depends on, so it has seeds of its own."""
 
+PRIOR_ABLATION_SEEDS = (301, 302, 303)
+"""The prior's ablation rerun with the insertion base kept in both arms
+(``studies/prior_ablation.py``): its first run chose the shipped inputs on seeds 1-3, so the
+rerun that confirms it has seeds of its own."""
+
 COMPARISON_SEEDS = {0.1: (101, 102, 103, 104, 105), 0.25: (101, 102, 103, 104, 105),
                     1.0: (101, 102, 103)}
 """Per scale, the seeds of the published comparison (at least 5 at 0.1 and 0.25, 3 at the
