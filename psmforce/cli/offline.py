@@ -316,6 +316,10 @@ def calibrate_command(args) -> dict:
              if record["known_loads_dir"] else "") + ")"
           + (", prior refitted" if record["prior_refit"] else "")
           + f"; {record['epochs_run']} epochs ({record['stopped_by']}); wrote {args.out}")
+    held = (record["prior_refit"] or {}).get("held_from_checkpoint")
+    if held:  # without an ATI: what these recordings could not pin down (docs/ati_free.md)
+        print(f"not identifiable from these recordings, held at the checkpoint's values: "
+              f"{', '.join(sorted(held))}")
     return result
 
 

@@ -127,3 +127,24 @@ def test_cli_refuses_known_loads_without_free_space(tmp_path, capsys):
     assert main(argv[:4] + ["--out", str(tmp_path / "loads" / "metadata.json"),
                             "--known-loads", str(tmp_path / "loads"), "--free-space"]) == 2
     assert "loads" in capsys.readouterr().err
+
+
+def test_cli_names_what_the_free_space_recordings_could_not_pin_down(tmp_path, capsys,
+                                                                      monkeypatch):
+    """docs/ati_free.md section 5, step 6: the command says which prior parameters it held at
+    the checkpoint's values, not only the provenance."""
+    from psmforce.cli.main import main
+    from psmforce.estimators.training import calibrate as calibration
+    record = {"trials": [{}], "minutes_used": 3.0, "known_loads_dir": None,
+              "minutes_by_condition": {"Free": 3.0, "Traction": 0.0, "KnownLoad": 0.0},
+              "epochs_run": 4, "stopped_by": "patience",
+              "prior_refit": {"held_from_checkpoint": {"twist_gain": 0.03, "cable_radius": 1e-4}}}
+    monkeypatch.setattr(calibration, "calibrate", lambda *a, **k: {"calibration": record})
+    (tmp_path / "data").mkdir()
+    argv = ["calibrate", str(tmp_path / "m.pt"), "--data", str(tmp_path / "data"), "--out",
+            str(tmp_path / "o.pt"), "--free-space"]
+    assert main(argv) == 0
+    out = capsys.readouterr().out
+    assert "held at the checkpoint's values: cable_radius, twist_gain" in out
+    record["prior_refit"]["held_from_checkpoint"] = {}
+    assert main(argv) == 0 and "held at" not in capsys.readouterr().out
