@@ -205,7 +205,7 @@ def headline(curve: dict) -> str:
     lines.append("| hybrid / transformer | " + " | ".join(
         f"{vs[m][a]['ratio']:.2f}x ({vs[m][a]['verdict']})" for m in ("causal", "paper")
         for a in AXES) + " | |")
-    lines += ["", "NRMSE % of the force on the tool (HEX10 frame), mean ± std over bench seeds, "
+    lines += ["", "NRMSE % of the force on the tool (HEX10 frame), mean ± std over bench seeds (the sample std, ddof 1), "
               "lower is better; causal: the raw per-sample estimate, paper: the paper's offline "
               "post-processing (bias removed, centred median). Every scale, model and metric: "
               "`docs/results.md`.", "",

@@ -100,7 +100,7 @@ def status(curve: dict, ablation: dict, ports: dict, comparison: dict, design: d
 def learning_curve(curve: dict) -> str:
     """Section 1: the hybrid against the paper transformer per scale, both metrics, and where
     each model stands."""
-    lines = ["", "NRMSE % on the test trials, mean ± std over bench seeds; causal = the raw "
+    lines = ["", "NRMSE % on the test trials, mean ± std over bench seeds (the sample std, ddof 1); causal = the raw "
              "per-sample estimate a haptic loop gets, paper = the paper's offline "
              "post-processing; every model in `results/learning_curve/README.md`.", "",
              "| scale | minutes of training data | seeds | converged | metric | Hybrid (ours) "

@@ -62,7 +62,8 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from psmforce.experiments.report import shown_path, write_json  # noqa: E402
-from psmforce.estimators.evaluation.tables import compare, has_spread, spread_text  # noqa: E402
+from psmforce.estimators.evaluation.tables import (SPREAD, compare, has_spread,  # noqa: E402
+                                                   spread_text)
 from psmforce.core.files import folder_sha256, write_text_atomic  # noqa: E402
 
 SCALES = (0.05, 0.1, 0.25, 0.5, 1.0)
@@ -157,6 +158,25 @@ def bench_digests(out: Path, seeds) -> dict[str, str]:
             for seed in seeds}
 
 
+def _sample_std(cell: dict) -> dict:
+    """``{mean, std, n}`` with the population std (ddof 0) a run wrote as the sample std (ddof 1):
+    exactly ``std * sqrt(n / (n - 1))``; none for one seed."""
+    n, std = cell["n"], cell["std"]
+    return {**cell, "std": None if n < 2 or std is None else std * math.sqrt(n / (n - 1))}
+
+
+def sample_spread(p: dict) -> dict:
+    """A point whose spreads are the sample std over seeds (:data:`SPREAD`): one assembled from
+    runs that wrote the population std (no ``spread`` entry) converted exactly
+    (:func:`_sample_std`), and its verdicts, which the spread rule draws from those stds, drawn
+    again."""
+    if p.get("spread") == SPREAD:
+        return p
+    models = {label: {m: {a: _sample_std(c) for a, c in axes.items()} for m, axes in by.items()}
+              for label, by in p["models"].items()}
+    return {**p, "models": models, "hybrid_vs_transformer": _verdicts(models), "spread": SPREAD}
+
+
 def point(out: Path) -> dict:
     """One finished run's point of the curve (or its part, when the run holds some models of
     the curve only: ``model_names``)."""
@@ -175,7 +195,8 @@ def point(out: Path) -> dict:
             "all_converged": results["all_converged"], "models": models,
             "stopped": _stopped(results.get("training", {})),
             "optimiser": _optimiser(out, results),
-            "hybrid_vs_transformer": _verdicts(models), "run": shown_path(out)}
+            "hybrid_vs_transformer": _verdicts(models), "run": shown_path(out),
+            "spread": results.get("spread")}
 
 
 def _trained_on(results: dict) -> dict:
@@ -560,10 +581,10 @@ def assemble(work: Path, scales, json_path: Path, models=MODELS) -> dict:
     table and the figures, and its scale stays missing."""
     scales = sorted(set(SCALES) | set(scales))
     old = json.loads(json_path.read_text()) if json_path.exists() else {}
-    kept = {p["scale"]: p for p in old.get("points", []) + old.get("partial", [])}
+    kept = {p["scale"]: sample_spread(p) for p in old.get("points", []) + old.get("partial", [])}
     points, partial = [], []
     for s in scales:
-        here = point(run_dir(work, s)) if finished(run_dir(work, s)) else None
+        here = sample_spread(point(run_dir(work, s))) if finished(run_dir(work, s)) else None
         p = _combined(kept.get(s), here, models)
         if p is not None:
             (points if complete(p, models) else partial).append(p)

@@ -71,7 +71,7 @@ from psmforce.experiments.plan import plan
 from psmforce.estimators.networks.recipes import DERIVATIONS, RECIPES, recipe
 from psmforce.experiments.regimes import REGIMES, regime_settings
 from psmforce.estimators.training.resume import clear_state
-from psmforce.estimators.evaluation.tables import results_markdown, spread, verdicts
+from psmforce.estimators.evaluation.tables import SPREAD, results_markdown, spread, verdicts
 from psmforce.estimators.training.train import (TrainConfig, finetune_model, fit_prior, make_setup,
                                                 train_model)
 from psmforce.core.files import folder_sha256, write_bytes_atomic, write_text_atomic
@@ -592,7 +592,7 @@ def _collect(call, seeds, models, variants, pre_by, ft_specs, ft, floors, starte
         and all(t["converged"] for t in ft_training.values()),
         "training": training, "finetune_training": ft_training,
         "causal_lowpass_lag_ms": lowpass_lag_samples() * 10.0,
-        "automated": automated, "automated_nrmse_pct_per_seed": per_seed,
+        "spread": SPREAD, "automated": automated, "automated_nrmse_pct_per_seed": per_seed,
         "automated_by_condition": by_condition, "floor": floor,
         "published_nrmse_pct": {plan(m).label: plan(m).published_nrmse_pct for m in models
                                 if plan(m).published_nrmse_pct},

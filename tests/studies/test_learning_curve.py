@@ -28,6 +28,7 @@ from studies.learning_curve import (  # noqa: E402
     standing,
 )
 from psmforce.experiments.plan import plan  # noqa: E402
+from psmforce.estimators.evaluation.tables import SPREAD  # noqa: E402
 
 
 def _spread(mean, std):
@@ -36,7 +37,7 @@ def _spread(mean, std):
 
 def _finished_run(out: Path, scale: float, hybrid_fx: float, transformer_fx: float,
                   seeds=(1, 2), models=MODELS, hybrid_optimiser=None,
-                  device="cpu") -> None:
+                  device="cpu", spread=SPREAD) -> None:
     for seed in seeds:
         data = out / "work" / "data" / f"automated_seed{seed}"
         data.mkdir(parents=True)
@@ -51,7 +52,7 @@ def _finished_run(out: Path, scale: float, hybrid_fx: float, transformer_fx: flo
         "call": {"scale": scale, "seeds": list(seeds), "models": list(models),
                  "device": device},
         "benches": {"a": "2.1", "b": "2.1"},
-        "all_converged": True,
+        "all_converged": True, **({"spread": spread} if spread else {}),
         "training": {f"{m} full 1.0 seed {s}": {
             "stopped_by": "patience", "epochs_run": 10 + s, "converged": True,
             "optimiser": hybrid_optimiser if m == "hybrid" else {}}
@@ -92,6 +93,23 @@ def test_the_curve_holds_finished_scales_their_minutes_and_the_spread_rule(tmp_p
     assert curve["points"][0]["stopped"][HYBRID] == ["11 epochs", "12 epochs"]
     assert sorted(p.name for p in out.parent.glob("*.png")) == ["Fx.png", "Fy.png", "Fz.png",
                                                                "learning_curve.png"]
+
+
+def test_a_point_with_the_population_std_is_converted_exactly_and_judged_again(tmp_path):
+    """Runs before issue 45 wrote the population std (no ``spread`` entry): the curve shows the
+    sample std, std * sqrt(n / (n - 1)), and draws its verdicts from it; today's runs are kept."""
+    from studies.learning_curve import point, sample_spread
+    _finished_run(tmp_path / "old", 0.05, hybrid_fx=0.4, transformer_fx=0.52, spread=None)
+    _finished_run(tmp_path / "new", 0.05, hybrid_fx=0.4, transformer_fx=0.52)
+    old, new = point(tmp_path / "old"), point(tmp_path / "new")
+    assert new["spread"] == SPREAD and sample_spread(new) == new
+    converted = sample_spread(old)
+    cell = converted["models"][HYBRID]["causal"]["Fx"]
+    assert cell["std"] == pytest.approx(0.05 * 2 ** 0.5) and cell["n"] == 2
+    # 0.4 + 0.05 < 0.52 - 0.05: ahead with the population std; with the sample std a tie
+    assert old["hybrid_vs_transformer"]["causal"]["Fx"]["verdict"] == "hybrid ahead"
+    assert converted["hybrid_vs_transformer"]["causal"]["Fx"]["verdict"] == "tie"
+    assert converted["spread"] == SPREAD and sample_spread(converted) == converted
 
 
 @pytest.mark.slow

@@ -95,6 +95,11 @@ def teleop_table(results: Mapping[str, Mapping[str, Sequence[Mapping]]]) -> str:
     return "\n".join(rows) + "\n"
 
 
+SPREAD = "sample std over seeds (ddof 1)"
+"""How :func:`std_over_seeds` forms a spread, as results files record it (``spread``), so that a
+reader tells it from the population std (ddof 0) that files without the entry hold."""
+
+
 def std_over_seeds(values: Sequence[float]) -> float | None:
     """The spread shown beside a mean over seeds (or folds): the sample standard deviation of
     ``values`` (ddof 1, numpy's ``std(ddof=1)``), or None for a single value, from which no
