@@ -40,10 +40,9 @@ N_FEATURES = 21
 WARMUP = 200
 
 
-def with_subnormals(share: float, seed: int = 0) -> torch.nn.Module:
-    """The default hybrid network with ``share`` of its weights made subnormal."""
-    torch.manual_seed(seed)
-    model = build_model("hybrid", N_FEATURES).eval()
+def make_subnormal(model: torch.nn.Module, share: float, seed: int = 0) -> torch.nn.Module:
+    """``model`` (in place, returned) with ``share`` of its weights replaced by subnormal values
+    of either sign, as a GPU training's weight decay leaves them."""
     gen = torch.Generator().manual_seed(seed)
     tiny = torch.finfo(torch.float32).tiny
     with torch.no_grad():
@@ -52,6 +51,12 @@ def with_subnormals(share: float, seed: int = 0) -> torch.nn.Module:
             sign = torch.where(torch.rand(p.shape, generator=gen) < 0.5, -1.0, 1.0)
             p[pick] = (sign * tiny * torch.rand(p.shape, generator=gen) * 0.9)[pick]
     return model
+
+
+def with_subnormals(share: float, seed: int = 0) -> torch.nn.Module:
+    """The default hybrid network with ``share`` of its weights made subnormal."""
+    torch.manual_seed(seed)
+    return make_subnormal(build_model("hybrid", N_FEATURES).eval(), share, seed)
 
 
 def time_steps(stepper, x: np.ndarray) -> tuple[dict, np.ndarray]:

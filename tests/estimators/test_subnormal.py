@@ -5,6 +5,8 @@ rounding, and the ONNX graph free of them."""
 from __future__ import annotations
 
 import io
+import sys
+from pathlib import Path
 
 import numpy as np
 import onnx
@@ -12,33 +14,23 @@ import onnx.numpy_helper
 import pytest
 import torch
 
-from psmforce.estimators.networks.causal import CausalTransformer
-from psmforce.estimators.runtime.steppers import (TorchStepper, flush_subnormal, make_backend,
-                                                  step_onnx_bytes, subnormal_count)
+sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
+
+from benchmarks.subnormal_streaming import make_subnormal  # noqa: E402
+from psmforce.estimators.networks.causal import CausalTransformer  # noqa: E402
+from psmforce.estimators.runtime.steppers import (TorchStepper, flush_subnormal,  # noqa: E402
+                                                  make_backend, step_onnx_bytes, subnormal_count)
+
+from tests.estimators.test_streaming import one_thread  # noqa: E402,F401  (autouse fixture)
 
 TINY = torch.finfo(torch.float32).tiny
 
 
-@pytest.fixture(autouse=True)
-def one_thread():
-    before = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(before)
-
-
 def with_subnormals(share: float = 0.1, seed: int = 0) -> CausalTransformer:
-    """A small hybrid network with ``share`` of its weights replaced by subnormal values of
-    either sign, as a GPU training's weight decay leaves them."""
+    """A small hybrid network with ``share`` of its weights subnormal."""
     torch.manual_seed(seed)
     model = CausalTransformer(9, d_model=16, n_heads=2, d_ff=32, attention_window=8).eval()
-    gen = torch.Generator().manual_seed(seed)
-    with torch.no_grad():
-        for p in model.parameters():
-            pick = torch.rand(p.shape, generator=gen) < share
-            sign = torch.where(torch.rand(p.shape, generator=gen) < 0.5, -1.0, 1.0)
-            p[pick] = (sign * TINY * torch.rand(p.shape, generator=gen) * 0.9)[pick]
-    return model
+    return make_subnormal(model, share, seed)
 
 
 def test_flushing_copies_zeroes_the_subnormals_and_leaves_the_callers_model():
