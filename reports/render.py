@@ -65,6 +65,7 @@ SIM_CABLE_LAW = ROOT / "results" / "benchmarks" / "sim_calibration_cable_law.jso
 SIMULATOR = ROOT / "docs" / "simulator.md"
 REMOUNT = ROOT / "results" / "benchmarks" / "remount.json"
 REMOUNT_FRESH = ROOT / "results" / "benchmarks" / "remount_fresh.json"
+ATI_FREE_RESULT = ROOT / "results" / "benchmarks" / "ati_free.json"
 HEX10_COMPRESSION = ROOT / "results" / "benchmarks" / "hex10_compression.json"
 EXCITATION = ROOT / "results" / "benchmarks" / "excitation.json"
 RECIPE_SWAP = ROOT / "results" / "benchmarks" / "recipe_swap.json"
@@ -152,6 +153,7 @@ BLOCKS = (
     (ATI_FREE, "excitation-tables", EXCITATION, ati_free_page.excitation_tables),
     (ATI_FREE, "remount-tables", REMOUNT, ati_free_page.remount_tables),
     (ATI_FREE, "remount-fresh-tables", REMOUNT_FRESH, ati_free_page.remount_tables),
+    (ATI_FREE, "ati-free-tables", ATI_FREE_RESULT, ati_free_page.ati_free_tables),
     (ATI_FREE, "hex10-compression", HEX10_COMPRESSION, ati_free_page.hex10_compression_table),
     (RESULTS, "hybrid-plateau", HYBRID_PLATEAU, _hybrid_plateau_table),
     (RESULTS, "prior-ablation-tables", PRIOR_ABLATION, results_page.prior_ablation_tables),

@@ -47,6 +47,7 @@ calibration (mechanics only; the JSON says so).
 from __future__ import annotations
 
 import argparse
+import sys
 import time
 from pathlib import Path
 
@@ -348,6 +349,9 @@ def main(argv=None) -> dict:
     flags = _flags(runs)
     converged = all(v is True for v in flags.values())
     figures = {
+        "command": "python studies/ati_free.py " + " ".join(
+            a if not args.json or a != str(args.json) else shown_path(args.json)
+            for a in (argv if argv is not None else sys.argv[1:])),
         "label": ("quick run, not converged: mechanics only, the figures compare nothing"
                   if args.quick else "converged" if converged
                   else "NOT converged: some run did not early-stop"),
