@@ -40,6 +40,8 @@ from pathlib import Path
 
 import numpy as np
 
+from psmforce.identification.prior_remount import FORCE_PER_MOUNT
+
 RATIO_RULE = 1.2
 FORCE_AXES = ("fx", "fy", "fz")
 AXES = ("fx", "fy", "fz", "tx", "ty", "tz")
@@ -47,12 +49,11 @@ RECALIBRATION_S = 120.0
 TARE_S = 0.5
 MODES = ("identify", "all-free")
 TILT = ("mount_about_x", "mount_about_y")
-FORCE_OFFSETS = ("pretension_total", "bias_fx", "bias_fy", "bias_fz")
 VARIANTS = {"pretension + offsets": ((), "paper", None),
             "pretension + offsets + tilt": (TILT, "paper", None),
             "pretension + offsets + tilt, on the excitation": (TILT, "excitation", None),
             "pretension + force offsets + tilt, on the excitation": (TILT, "excitation",
-                                                                     FORCE_OFFSETS)}
+                                                                     FORCE_PER_MOUNT)}
 """The recalibrations compared: which mount angles are re-estimated with the per-mount law
 parameters (the turn about the shaft is held in every one: prior_remount.TILT), on which 2
 minutes of free space (module docstring), and which per-mount law parameters (None: all of

@@ -43,6 +43,10 @@ BIASES = ("bias_fx", "bias_fy", "bias_fz", "bias_tx", "bias_ty", "bias_tz")
 PER_MOUNT = ("pretension_total",) + BIASES
 """Law parameters a re-mount changes (re-seated discs: the pretension; re-zeroed sensor: the
 offsets); every other name of :data:`NAMES` is shared by every mount of the instrument."""
+FORCE_PER_MOUNT = ("pretension_total", "bias_fx", "bias_fy", "bias_fz")
+"""The per-mount set to re-estimate on the excitation's clenches (docs/ati_free.md section 3): the
+pretension and the force offsets; the moment offsets held, since the law's moment terms misread
+the clench loads and free offsets absorb that misfit."""
 MOUNT_ANGLES = ("mount_about_x", "mount_about_y", "mount_about_z")
 """The mount's misalignment (rad): the HEX10 measures in ``R = Rz(c) Ry(b) Rx(a)`` of the law's
 frame, z the shaft; x and y are the tilt."""

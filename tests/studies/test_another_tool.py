@@ -227,3 +227,24 @@ def test_calibrate_without_an_ati_refits_the_prior_on_free_space(benches, tmp_pa
     assert record["prior_refit"]["refitted_on"]
     old, new = load_checkpoint(benches / "hybrid.pt"), load_checkpoint(out)
     assert new.prior_json != old.prior_json
+
+
+@pytest.mark.slow
+def test_a_per_mount_refit_moves_only_the_pretension_and_force_offsets(benches, tmp_path):
+    """prior_refit="per_mount" (docs/ati_free.md section 3): the checkpoint's prior with only
+    FORCE_PER_MOUNT re-estimated on the free-space recordings; refused with an ATI."""
+    from psmforce.identification.prior_law import NAMES
+    from psmforce.identification.prior_remount import FORCE_PER_MOUNT
+    out = tmp_path / "mount.pt"
+    summary = calibrate(benches / "hybrid.pt", benches / "tool", out, minutes=30.0, epochs=1,
+                        train_config=CHEAP, free_space=True, prior_refit="per_mount")
+    refit = summary["calibration"]["prior_refit"]
+    assert refit["refit"] == "per_mount"
+    assert set(refit["held_from_checkpoint"]) == set(NAMES) - set(FORCE_PER_MOUNT)
+    old, new = load_checkpoint(benches / "hybrid.pt").prior(), load_checkpoint(out).prior()
+    moved = {n for n, a, b in zip(NAMES, old.params, new.params) if a != b}
+    assert moved and moved <= set(FORCE_PER_MOUNT)
+    with pytest.raises(CalibrationError, match="per_mount' only without an ATI"):
+        calibrate(benches / "hybrid.pt", benches / "tool", tmp_path / "x.pt",
+                  prior_refit="per_mount")
+

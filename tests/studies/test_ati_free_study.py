@@ -9,8 +9,8 @@ from pathlib import Path
 import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
-from studies.ati_free import (ATI_FREE, AXES, REFERENCES, arms, goal_misses,  # noqa: E402
-                              paired_table, prior_against_truth, rows, summary)
+from studies.ati_free import (ATI_FREE, AXES, PER_MOUNT_ARM, REFERENCES, arms,  # noqa: E402
+                              goal_misses, paired_table, prior_against_truth, rows, summary)
 
 
 def test_arms_add_the_excitation_then_the_weights():
@@ -76,12 +76,13 @@ def test_the_page_renders_every_row_the_goals_and_the_prior():
               "metrics": "m", "summary": summary(records), "paired": paired,
               "goal_check": {ref: goal_misses(p) for ref, p in paired.items()},
               "records": {str(s): r for s, r in records.items()},
-              "runs": {str(s): {a: {"prior_against_truth": prior} for a in ATI_FREE}
-                       for s in records},
+              "runs": {str(s): {a: {"prior_against_truth": prior}
+                                for a in (*ATI_FREE, PER_MOUNT_ARM)} for s in records},
               "convergence": {"seed 201: free": True, "seed 202: free": False}}
     text = ati_free_tables(result)
     # the scores, the two pairings and its two prior parameters
     assert text.count("| (c) ATI-free: + known weights |") == 5
+    assert text.count("| (b') as (b), the prior refitted per mount only |") == 5
     assert "physics alone, (a)'s prior" in text and "| `cable_radius` | 0.0012 | held, held" in text
     assert "| `pretension_total` | 6 | fitted, fitted | 0.05, 0.05 | 2 of 2 |" in text
     assert "**missed**: causal Fx 1." in text or "**met**" in text

@@ -150,10 +150,14 @@ def _prior_free_error(prior, trials: list[Trial]) -> dict | None:
             if axis in ("fx", "fy", "fz")}
 
 
+PRIOR_REFITS = ("all", "per_mount")
+"""How :func:`calibrate` refits the hybrid's prior without an ATI (its ``prior_refit``)."""
+
+
 def calibrate(checkpoint: str | Path, data_dir: str | Path, out: str | Path, *,
               minutes: float = DEFAULT_MINUTES, epochs: int = 100, seed: int = 0,
               device: str = "cpu", train_config=None, free_space: bool = False,
-              known_loads: str | Path | None = None) -> dict:
+              known_loads: str | Path | None = None, prior_refit: str = "all") -> dict:
     """Calibrate a trained checkpoint to the instrument recorded in ``data_dir`` from its first
     ``minutes`` of calibration trials (module docstring) and write ``out``. ``seed``: the validation
     split and the finetuning's shuffling; ``train_config``: a
@@ -161,7 +165,12 @@ def calibrate(checkpoint: str | Path, data_dir: str | Path, out: str | Path, *,
     summary: the finetuning report, the calibration trials with their roles and minutes, and for the
     hybrid the prior's free-space error before and after its refit. ``free_space``: calibrate
     without an ATI, on free-space recordings only; ``known_loads``: with it, also on the
-    known-load recordings of that folder (module docstring)."""
+    known-load recordings of that folder (module docstring). ``prior_refit`` (without an ATI):
+    ``"all"``, the prior's law refitted, what the recordings cannot pin down held at the
+    checkpoint's values; ``"per_mount"``, only the pretension and the force offsets
+    (:data:`~psmforce.identification.prior_remount.FORCE_PER_MOUNT`) re-estimated on the
+    free-space recordings, every other parameter the checkpoint's, as after a re-mount
+    (docs/ati_free.md section 3)."""
     from psmforce.identification import InternalForcePrior
     from psmforce.identification.errors import NotConvergedError
     from psmforce.identification.prior import NAMES
@@ -170,6 +179,9 @@ def calibrate(checkpoint: str | Path, data_dir: str | Path, out: str | Path, *,
     if Path(out).resolve() == Path(checkpoint).resolve():
         raise TrainingError(f"out {out} is the checkpoint being calibrated: refusing to write "
                             f"over its input (give another file)")
+    if prior_refit not in PRIOR_REFITS or (prior_refit != "all" and not free_space):
+        raise CalibrationError(f"prior_refit must be one of {PRIOR_REFITS} ('per_mount' only "
+                               f"without an ATI, free_space=True), got {prior_refit!r}")
     if known_loads is not None and not free_space:
         raise CalibrationError("known_loads: only without an ATI (free_space=True, "
                                "--free-space); an ATI calibration reads the loads it measures")
@@ -201,9 +213,20 @@ def calibrate(checkpoint: str | Path, data_dir: str | Path, out: str | Path, *,
         # the trained insertion model is kept.
         frames = [t.frame.drop(columns=list(INSERTION_COLUMNS)) for t in train_trials]
         provenance = {"trials": [t.path for t in train_trials]}
-        fitted = InternalForcePrior.fit(frames, provenance=provenance)
         held = {}
-        if free_space:
+        if prior_refit == "per_mount":
+            from psmforce.identification.errors import IdentificationInputError
+            from psmforce.identification.prior_remount import FORCE_PER_MOUNT, recalibrate
+            free = [f for f, t in zip(frames, train_trials) if t.condition == "Free"]
+            try:
+                fitted = recalibrate(old, free, per_mount=FORCE_PER_MOUNT, angles=()).prior
+            except IdentificationInputError as err:
+                raise CalibrationError(f"{data_dir}: {err}") from None
+            held = {n: float(old.params[NAMES.index(n)]) for n in NAMES
+                    if n not in FORCE_PER_MOUNT}
+        else:
+            fitted = InternalForcePrior.fit(frames, provenance=provenance)
+        if free_space and prior_refit == "all":
             # Without an ATI what the recordings cannot excite (the fit's own identifiability
             # report names it) keeps the checkpoint's value instead of drifting with noise.
             unseen = fitted.info.get("identifiability", {}).get("not_identifiable", {})
@@ -224,7 +247,7 @@ def calibrate(checkpoint: str | Path, data_dir: str | Path, out: str | Path, *,
         prior_report = {
             "refitted_on": [t.path for t in train_trials],
             "insertion_model": "kept from the checkpoint (the arm's, not the tool's)",
-            "held_from_checkpoint": held,
+            "held_from_checkpoint": held, "refit": prior_refit,
             "free_space_rms_n": {r: e for r, e in errors.items() if e["before"] is not None},
             "parameters_before": dict(zip(NAMES, old.params.tolist())),
             "parameters_after": dict(zip(NAMES, new.params.tolist()))}
