@@ -288,11 +288,13 @@ def session_figures(runs: list[TransmissionRun]) -> dict:
 
 def compare(real: dict, sim: dict, figures=FIGURES) -> dict:
     """Per figure: real, sim, ratio sim / real and whether it lies in :data:`RATIO_RANGE`;
-    ``measurable`` False (ratio and ok None) where either side is NaN or the real one is 0 (the
-    frequency ratio of a session driven at one frequency)."""
+    ``measurable`` False (ratio and ok None) where either side is NaN or None or the real one is
+    0 (the frequency ratio of a session driven at one frequency)."""
     rows = {}
     for k in figures:
-        measurable = bool(np.isfinite(real[k]) and np.isfinite(sim[k]) and real[k] != 0)
+        # None: a figure a JSON holds as null (no frequency ratio for one drive frequency)
+        measurable = bool(real[k] is not None and sim[k] is not None and np.isfinite(real[k])
+                          and np.isfinite(sim[k]) and real[k] != 0)
         ratio = float(sim[k] / real[k]) if measurable else None
         rows[k] = {"real": _finite(real[k]), "sim": _finite(sim[k]), "ratio": ratio,
                    "ok": bool(RATIO_RANGE[0] <= ratio <= RATIO_RANGE[1]) if measurable else None,
@@ -300,8 +302,8 @@ def compare(real: dict, sim: dict, figures=FIGURES) -> dict:
     return rows
 
 
-def _finite(v: float) -> float | None:
-    return float(v) if np.isfinite(v) else None
+def _finite(v: float | None) -> float | None:
+    return float(v) if v is not None and np.isfinite(v) else None
 
 
 def across_folders(results: dict[str, dict], figures=CHECKED) -> dict:
