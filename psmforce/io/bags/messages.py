@@ -157,12 +157,17 @@ SAMPLE_COLUMNS = (TIME,) + stream_columns("js") + stream_columns("jaw") + HEX10
 """The keys of :func:`sample_from_messages`' sample."""
 
 
+def _stream_values(js, jaw, hex10) -> np.ndarray:
+    """The values of :data:`SAMPLE_COLUMNS` after ``time``, from the three messages."""
+    return np.concatenate([_JS(js), _JAW(jaw), wrench_values(hex10)])
+
+
 def sample_from_messages(js, jaw, hex10, *, time_s: float | None = None) -> dict[str, float]:
     """The estimator's sample from the latest arm JointState ``js``, jaw JointState ``jaw`` and
     HEX10 WrenchStamped ``hex10``: every column they carry (:data:`SAMPLE_COLUMNS`), plus
     ``time`` (s): ``time_s`` when given, else the HEX10 message's header stamp. Raises
     :class:`MessageError` for a message that does not decode."""
-    values = np.concatenate([_JS(js), _JAW(jaw), wrench_values(hex10)])
+    values = _stream_values(js, jaw, hex10)
     if time_s is None:
         stamp = stamp_ns(hex10)
         if stamp is None:
@@ -191,6 +196,5 @@ class SampleArray:
         """The sample of the latest ``js``, ``jaw`` and ``hex10`` messages (a buffer reused by
         the next call: copy to keep); raises :class:`MessageError` as
         :func:`sample_from_messages` does."""
-        values = np.concatenate([_JS(js), _JAW(jaw), wrench_values(hex10)])
-        return np.take(values, self._index, out=self._out)
+        return np.take(_stream_values(js, jaw, hex10), self._index, out=self._out)
 
