@@ -285,6 +285,7 @@ def dds_figures(ckpt: Path, frame, seconds: float, tmp: Path, *, input_rate: boo
             "node_lost": n - report["received"]["hex10"],
             "node_added_latency": _percentiles(added),
             "node_residence": report["residence_ms"],
+            "residence_goal_p99_ms": RESIDENCE_GOAL_P99_MS,
             "residence_goal_met": report["residence_ms"]["p99_ms"] <= RESIDENCE_GOAL_P99_MS,
             "first_answer_ms": None if first_answer is None else first_answer * 1e-6,
             "answers_published": report["answers_published"], "answers_received": len(latency),

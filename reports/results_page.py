@@ -410,8 +410,10 @@ def latency(streaming: dict, live: dict) -> str:
                   f"the node and one more hop) | {three(added)} |"]
         if d.get("node_residence"):
             own = d["node_residence"]
+            goal = d.get("residence_goal_p99_ms")
+            goal = "" if goal is None else f"; goal p99 <= {goal:g} ms"
             lines += [f"| the node's residence per answer (taken off the reader to last output "
-                      f"written, its own clock; goal p99 <= 0.3 ms) | {three(own)}: goal "
+                      f"written, its own clock{goal}) | {three(own)}: goal "
                       + ("met" if d["residence_goal_met"] else "**not met**") + " |"]
         lines += [f"| steady {live['session']['rate_hz']:.0f} Hz, {d['seconds']:.0f} s: "
                   f"messages the node lost | {d['node_lost']:,} of {d['hex10_sent']:,} |",
