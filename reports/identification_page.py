@@ -113,8 +113,11 @@ def prior_default_recovery_table(result: dict) -> str:
     values), relative error, free / fixed, at a bound; the verdict and held-out fz per run."""
     from psmforce.identification.prior_law import PARAMETERS
     unit = {p[0]: p[1] for p in PARAMETERS}
+    fit = ("`psmforce fit-prior --identify --use-loaded --load-path` (Free, Traction and "
+           "Palpation training trials; the cables read from the known tip force)"
+           if result.get("load_path") else "`psmforce fit-prior --identify` (Free training trials)")
     lines = ["", f"`{result['command']}`: `psmforce simulate --seed S --scale "
-             f"{result['scale']:g}` then `psmforce fit-prior --identify` (Free training trials). "
+             f"{result['scale']:g}` then {fit}. "
              "*fixed*: held at its design value (the value shown) because the report lists it "
              "on the fit before; *identified*: free and not listed on the final fit; "
              "**MISS**: identified but more than 10 % from the truth (or a truth of 0); "
@@ -153,6 +156,23 @@ def prior_default_recovery_table(result: dict) -> str:
                      "the biases can carry (bench parameters): " + ", ".join(
                          f"{n} {x:+.3g}" for n, x in run["crosstalk_of_rest_level"].items())
                      + "."), ""]
+        loaded = run.get("test_loaded_internal_metrics")
+        if loaded:
+            first = run["all_free_test_loaded_internal_metrics"]
+            lines[-1:-1] = [
+                "", "Held-out loaded trials (Traction, Palpation), the internal wrench with the known "
+                "force subtracted, RMS final fit / all-free fit: " + ", ".join(
+                    f"{c} {loaded[c]['rms']:.3g} / {first[c]['rms']:.3g} "
+                    f"{'N' if c.startswith('f') else 'Nm'}" for c in ("fx", "fy", "fz", "tz")
+                    if c in loaded) + "."]
+            truth = run.get("truth_law_test_loaded_internal_metrics")
+            if truth:
+                lines[-1:-1] = [
+                    "", "The law at the bench's own parameters on the same trials, read from the "
+                    "motor efforts / from the load path: " + ", ".join(
+                        f"{c} {truth['efforts'][c]['rms']:.3g} / {truth['load_path'][c]['rms']:.3g}"
+                        f" {'N' if c.startswith('f') else 'Nm'}" for c in ("fx", "fy", "fz", "tz")
+                        if c in truth["efforts"]) + "."]
     return "\n".join(lines)
 
 

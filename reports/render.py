@@ -43,6 +43,7 @@ TRANSMISSION_LEARNED = ROOT / "results" / "benchmarks" / "transmission_transfer_
 PRIOR_RECOVERY = ROOT / "results" / "benchmarks" / "prior_recovery.json"
 PRIOR_ABLATION = ROOT / "results" / "benchmarks" / "prior_ablation.json"
 PRIOR_RECOVERY_DEFAULT = ROOT / "results" / "benchmarks" / "prior_recovery_default.json"
+PRIOR_RECOVERY_LOAD_PATH = ROOT / "results" / "benchmarks" / "prior_recovery_load_path.json"
 COMPARISON = ROOT / "results" / "ports" / "none" / "results.json"
 PORTS = ROOT / "results" / "benchmarks" / "port_comparison.json"
 ANOTHER_TOOL = ROOT / "results" / "benchmarks" / "another_tool.json"
@@ -133,6 +134,8 @@ BLOCKS = (
     (IDENTIFICATION, "prior-recovery-table", PRIOR_RECOVERY,
      identification_page.prior_recovery_table),
     (IDENTIFICATION, "prior-default-recovery-table", PRIOR_RECOVERY_DEFAULT,
+     identification_page.prior_default_recovery_table),
+    (IDENTIFICATION, "prior-load-path-recovery-table", PRIOR_RECOVERY_LOAD_PATH,
      identification_page.prior_default_recovery_table),
     (IDENTIFICATION, "transmission-tables", TRANSMISSION, identification_page.transmission_tables),
     (IDENTIFICATION, "transmission-transfer-tables", TRANSMISSION_TRANSFER,

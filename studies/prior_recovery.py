@@ -19,6 +19,14 @@ the fit holds). Per parameter: truth, all-free fit, final fit, relative error, f
 bound::
 
     python studies/prior_recovery.py --default-bench --json results/benchmarks/prior_recovery_default.json
+
+``--load-path`` (with ``--default-bench``): ``psmforce fit-prior --use-loaded --load-path``
+instead, every training trial with the cables read from the known tip force
+(:mod:`psmforce.identification.load_path`); its seeds default to the nominal tool's design seed
+21 and :data:`~psmforce.experiments.seeds.LOAD_PATH_SEEDS`, at scale 0.25::
+
+    python studies/prior_recovery.py --default-bench --load-path \
+        --json results/benchmarks/prior_recovery_load_path.json
 """
 
 from __future__ import annotations
@@ -62,7 +70,8 @@ def default_bench(args) -> None:
             if args.cases and case not in args.cases:
                 continue
             with tempfile.TemporaryDirectory() as tmp:
-                rep = recover_default(Path(tmp), seed, args.scale, _instrument(case, seed))
+                rep = recover_default(Path(tmp), seed, args.scale, _instrument(case, seed),
+                                      load_path=args.load_path)
             runs.append({"case": case, **rep})
             print(f"seed {seed}, {case}: {rep['fit_time_s']:.0f} s, misses {rep['misses']}\n"
                   f"  verdict: {rep['verdict']}", flush=True)
@@ -73,8 +82,10 @@ def default_bench(args) -> None:
                       f"{'  AT BOUND' if row['at_bound'] else ''}", flush=True)
     if args.json:
         write_json(args.json, {"command": "python studies/prior_recovery.py --default-bench "
-                                          f"--scale {args.scale:g} --seeds "
+                                          + ("--load-path " if args.load_path else "")
+                                          + f"--scale {args.scale:g} --seeds "
                                           + " ".join(map(str, args.seeds)),
+                               "load_path": args.load_path,
                                "scale": args.scale, "seeds": args.seeds, "design": DESIGN,
                                "runs": runs, "seconds": time.time() - t0})
 
@@ -91,11 +102,14 @@ def main() -> None:
     ap.add_argument("--default-bench", action="store_true")
     ap.add_argument("--cases", nargs="+", choices=DEFAULT_CASES, default=None,
                     help="with --default-bench: only these cases")
+    ap.add_argument("--load-path", action="store_true",
+                    help="with --default-bench: fit-prior --use-loaded --load-path")
     ap.add_argument("--json", type=Path)
     args = ap.parse_args()
     if args.default_bench:
-        args.scale = 1.0 if args.scale is None else args.scale
-        args.seeds = args.seeds or [21, 22]
+        from psmforce.experiments.seeds import LOAD_PATH_SEEDS
+        args.scale = (0.25 if args.load_path else 1.0) if args.scale is None else args.scale
+        args.seeds = args.seeds or ([21, *LOAD_PATH_SEEDS] if args.load_path else [21, 22])
         default_bench(args)
         return
     args.scale = 0.02 if args.scale is None else args.scale

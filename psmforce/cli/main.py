@@ -21,8 +21,7 @@ import sys
 import traceback
 
 from psmforce import __version__
-from psmforce.cli import guards, offline, options
-
+from psmforce.cli import guards, offline, options, remount
 
 
 def training_arguments(p: argparse.ArgumentParser, report: str) -> None:
@@ -168,17 +167,17 @@ def _parser() -> argparse.ArgumentParser:
             "force) on the free-space recordings of a dataset folder; writes the model as JSON.")
     p.add_argument("--data", required=True, help="dataset folder (as written by simulate)")
     p.add_argument("--out", required=True, help="prior JSON to write")
-    p.add_argument("--use-loaded", action="store_true",
-                   help="also fit on Traction/Palpation trials with the known ATI force "
-                        "subtracted (excites the pulley radii: tip-load amplification)")
-    p.add_argument("--accept-poor-fit", action="store_true",
-                   help="save the prior even when its test Free force RMS exceeds the "
-                        "poor-fit threshold (psmforce.identification.prior.POOR_FIT_RMS_N)")
-    p.add_argument("--identify", action="store_true",
-                   help="identification: hold the parameters the identifiability report calls "
-                        "unidentifiable at their design values and refit the rest, naming "
-                        "both (docs/identification.md section 2); default: all 17 free, a "
-                        "curve fit, which the verdict line says")
+    p.add_argument("--use-loaded", action="store_true", help="also fit on Traction/Palpation "
+                   "trials with the known ATI force subtracted (excites the pulley radii)")
+    p.add_argument("--load-path", action="store_true", help="read the cables from the trials' "
+                   "known tip force, not the motor efforts (an identification of the "
+                   "instrument; no estimator runs on it): docs/identification.md section 2.3")
+    p.add_argument("--accept-poor-fit", action="store_true", help="save the prior even when its "
+                   "test Free force RMS exceeds the poor-fit threshold (prior_report.POOR_FIT_RMS_N)")
+    p.add_argument("--identify", action="store_true", help="identification: hold the parameters "
+                   "the identifiability report calls unidentifiable at their design values and "
+                   "refit the rest, naming both (docs/identification.md section 2); default: "
+                   "all 17 free, a curve fit, which the verdict line says")
     p.add_argument("--json", help="write the fit statistics here")
 
     p = add("fit-transmission", offline.fit_transmission_command,
@@ -248,12 +247,12 @@ def _parser() -> argparse.ArgumentParser:
     training_arguments(p, "finetuning statistics")
 
     p = add("calibrate", offline.calibrate_command, "calibrate an estimator to another instrument",
-            "Few-shot calibration to a new tool from the first --minutes of its calibration "
-            "trials: the train split's Free and Traction recordings of DATA, interleaved by "
-            "minutes in metadata.json order (psmforce/estimators/training/calibrate.py states the rule). The hybrid's "
-            "internal-force prior is refitted on them; every model's last block is finetuned on "
-            "them (rocket: its ridge), with early stopping on a validation split of the same "
-            "trials. The checkpoint's provenance names the trials and minutes.")
+            "Few-shot calibration to a new tool from the first --minutes of its calibration trials: "
+            "the train split's Free and Traction recordings of DATA, interleaved by minutes in metadata.json "
+            "order (psmforce/estimators/training/calibrate.py states the rule). The hybrid's internal-force "
+            "prior is refitted on them; every model's last block is finetuned on them (rocket: its "
+            "ridge), with early stopping on a validation split of the same trials. The checkpoint's "
+            "provenance names the trials and minutes. The same tool re-mounted: psmforce remount.")
     p.add_argument("checkpoint", help="trained checkpoint (the old tool)")
     p.add_argument("--data", required=True, metavar="NEW_TOOL_DIR",
                    help="dataset folder recorded with the new tool")
@@ -270,6 +269,7 @@ def _parser() -> argparse.ArgumentParser:
                         "'known_load_kg'; the force is that weight in the HEX10 frame from the "
                         "recorded joints (docs/ati_free.md)")
     training_arguments(p, "the calibration report")
+    remount.add_remount_command(add)  # after a re-mount: the prior's per-mount values only
 
     p = add("evaluate", offline.evaluate_command, "evaluate an estimator as in the paper",
             "Score RMSE / NRMSE / R^2 per axis on the test recordings of a dataset folder, by "

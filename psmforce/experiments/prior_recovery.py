@@ -214,6 +214,16 @@ def default_bench_truth(instrument: InstrumentParams | None = None,
     }
 
 
+def _truth_law_metrics(truth: dict, score) -> dict:
+    """``score`` (held-out metrics of a prior) of the law at the bench's own parameters (those
+    without a counterpart at 0), read from the motor efforts and from the load path: what each
+    reading leaves when no fit is to blame."""
+    import numpy as np
+    params = np.array([truth[n] if truth[n] is not None else 0.0 for n in NAMES])
+    return {inputs: score(InternalForcePrior(params=params, info={"inputs": inputs}))
+            for inputs in ("efforts", "load_path")}
+
+
 def crosstalk_of_rest_level(instrument: InstrumentParams) -> dict[str, float]:
     """What the HEX10's cross-talk (``hex10_crosstalk``, reading = X wrench + offset) makes of
     the pretension's axial force ``-pretension_total`` (N, straight wrist, no roll) in the other
@@ -256,12 +266,15 @@ def compare_selection(prior: InternalForcePrior, truth: dict) -> dict:
 
 
 def recover_default(workdir, seed: int, scale: float = 1.0,
-                    instrument: InstrumentParams | None = None) -> dict:
+                    instrument: InstrumentParams | None = None, load_path: bool = False) -> dict:
     """``psmforce simulate --seed SEED [--scale SCALE]`` (default effects; ``instrument``
     nominal unless given: a ``pair_law`` variant, a drawn tool) into ``workdir`` unless its
     metadata.json exists, then ``psmforce fit-prior`` (:func:`~psmforce.identification.
     prior_report.fit_prior_cli`: Free trials, what the data cannot identify held at design
-    values) and :func:`compare_selection` with :func:`default_bench_truth`."""
+    values) and :func:`compare_selection` with :func:`default_bench_truth`. ``load_path``:
+    ``fit-prior --use-loaded --load-path`` (every training trial, the cables read from the known
+    tip force: :mod:`psmforce.identification.load_path`). Both are scored on the held-out
+    Free trials and, with their known force, on the held-out loaded trials."""
     from psmforce.identification.prior_report import fit_prior_cli
     from psmforce.sim import simulate
 
@@ -274,7 +287,9 @@ def recover_default(workdir, seed: int, scale: float = 1.0,
     elif {k: json.loads(meta.read_text())[k] for k in ("scale", "seed", "instrument")} != {
             "scale": scale, "seed": seed, "instrument": instrument.to_dict()}:
         raise ValueError(f"{workdir} holds another bench than scale {scale}, seed {seed}")
-    report = fit_prior_cli(workdir / "data", workdir / "prior.json", identify=True)
+    inputs = "load_path" if load_path else "efforts"
+    report = fit_prior_cli(workdir / "data", workdir / "prior.json", identify=True,
+                           use_loaded=load_path, inputs=inputs)
     prior = InternalForcePrior.load(workdir / "prior.json")
     out = compare_selection(prior, default_bench_truth(instrument))
     sel = prior.info["selection"]
@@ -283,14 +298,31 @@ def recover_default(workdir, seed: int, scale: float = 1.0,
 
     from psmforce.identification.prior import channel_metrics
     from psmforce.io.recording import HEX10, list_recordings, read_recording
+    from psmforce.identification.prior import internal_wrench_target
     test = [read_recording(r.path) for r in list_recordings(workdir / "data")
             if r.split == "test" and r.condition == "Free"]
-    first = InternalForcePrior(params=np.array([sel["rounds"][0]["parameters"][n] for n in NAMES]))
+    loaded = [read_recording(r.path) for r in list_recordings(workdir / "data")
+              if r.split == "test" and r.condition != "Free"]
+    first = InternalForcePrior(params=np.array([sel["rounds"][0]["parameters"][n] for n in NAMES]),
+                               info={"inputs": inputs})
     all_free_metrics = channel_metrics(
         np.concatenate([f[list(HEX10)].to_numpy(dtype=float) for f in test]),
         np.concatenate([first.predict(f) for f in test])) if test else None
+
+    def internal_metrics(model):  # the held-out loaded trials' internal wrench, force known
+        if not loaded:
+            return None
+        targets = [internal_wrench_target(f) for f in loaded]
+        return channel_metrics(np.concatenate([y for y, _ in targets]),
+                               np.concatenate([model.predict(f) for f in loaded]),
+                               np.concatenate([m for _, m in targets]))
     out.update({
-        "seed": seed, "scale": scale, "pair_law": instrument.pair_law,
+        "seed": seed, "scale": scale, "pair_law": instrument.pair_law, "inputs": inputs,
+        "conditions": report["conditions"],
+        "test_loaded_internal_metrics": internal_metrics(prior),
+        "all_free_test_loaded_internal_metrics": internal_metrics(first),
+        "truth_law_test_loaded_internal_metrics": _truth_law_metrics(
+            default_bench_truth(instrument), internal_metrics),
         "verdict": report["verdict"], "converged": report["converged"],
         "fit_time_s": report["fit_time_s"], "n_samples": prior.info["n_samples"],
         "design": sel["design"], "rounds": sel["rounds"],

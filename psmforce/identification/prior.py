@@ -137,6 +137,25 @@ def internal_wrench_target(frame) -> tuple[np.ndarray, np.ndarray]:
     return y, mask
 
 
+INPUTS = ("efforts", "load_path")
+"""What a prior reads as the wrist torques that load its cables (:attr:`InternalForcePrior.inputs`)."""
+
+
+def _fit_arrays(frame, inputs: str, psm=None, targets: bool = True):
+    """(model inputs, target, mask) of one recording for a prior reading ``inputs``
+    (:data:`INPUTS`); ``targets=False`` skips the target (None, None)."""
+    a = arrays_from_frame(frame, psm)
+    y, mask = internal_wrench_target(frame) if targets else (None, None)
+    if inputs == "load_path":
+        from psmforce.identification.load_path import load_path_inputs
+        efforts, tip_moment = load_path_inputs(frame, psm)
+        a = {**a, "efforts": efforts}
+        if targets:  # the tip force's moment is known: every sample's moments count
+            y[:, 3:] -= tip_moment
+            mask[:, 3:] = mask[:, :1]
+    return a, y, mask
+
+
 def _check_arrays(positions, efforts, velocities, g_hex):
     pos = check_finite_2d(positions, "positions (roll, wrist_pitch)", width=2)
     n = len(pos)
@@ -187,10 +206,17 @@ class InternalForcePrior:
 
     def predict(self, frame_or_arrays, psm=None) -> np.ndarray:
         """(N,6) prediction for a recording DataFrame or a dict of :func:`arrays_from_frame`."""
-        arrays = frame_or_arrays if isinstance(frame_or_arrays, dict) else arrays_from_frame(
-            frame_or_arrays, psm)
+        arrays = frame_or_arrays if isinstance(frame_or_arrays, dict) else _fit_arrays(
+            frame_or_arrays, self.inputs, psm, targets=False)[0]
         return self.predict_arrays(arrays["positions"], arrays["efforts"], arrays["velocities"],
                                    arrays["g_hex"])
+
+    @property
+    def inputs(self) -> str:
+        """What the law reads as wrist torques (:data:`INPUTS`): ``"efforts"`` (the motor
+        efforts, what a streaming estimator has) or ``"load_path"`` (those the known tip force
+        demands; :meth:`predict` on a recording then reads its ``ati_*`` force)."""
+        return self.info.get("inputs", "efforts")
 
     def predict_one(self, positions, efforts, velocities, g_hex) -> tuple:
         """Per-sample fast path (pure Python floats): 6-tuple wrench from 2-, 3-, 3-, 3-sequences."""
@@ -227,7 +253,7 @@ class InternalForcePrior:
     @classmethod
     def fit(cls, recordings, *, psm=None, provenance=None, max_iter: int = 500,
             fixed: dict[str, float] | None = None, initial: dict[str, float] | None = None,
-            report: bool = True) -> InternalForcePrior:
+            report: bool = True, inputs: str = "efforts") -> InternalForcePrior:
         """Fit on recordings (DataFrames of ``psmforce.io.recording`` or paths).
 
         Where target columns ``ati_fx..ati_fz`` exist, the known external force (HEX10 frame) is
@@ -243,8 +269,16 @@ class InternalForcePrior:
         ``info["bounds_hit"]``: the free parameters at a bound by
         :func:`~psmforce.identification.prior_law.at_bound`, the rule the report uses too.
         Choosing what to fix from the report: :func:`.prior_selection.fit_identified`.
+        ``inputs`` (:data:`INPUTS`): ``"load_path"`` reads the cables from the known tip force
+        instead of the motor efforts, and fits the moments of loaded samples too, with the tip
+        force's moment subtracted (:mod:`psmforce.identification.load_path`; every recording
+        must carry ``ati_fx..ati_fz``).
         """
         import casadi as ca
+
+        if inputs not in INPUTS:
+            raise IdentificationInputError(f"unknown prior inputs {inputs!r}; known: "
+                                           f"{', '.join(INPUTS)}")
 
         t0 = time.perf_counter()
         if len(recordings) == 0:
@@ -258,8 +292,7 @@ class InternalForcePrior:
                 rec = read_recording(rec)
             else:
                 sources.append("<DataFrame>")
-            a = arrays_from_frame(rec, psm)
-            y, mask = internal_wrench_target(rec)
+            a, y, mask = _fit_arrays(rec, inputs, psm)
             parts.append((a, y, mask))
             if all(t in rec.columns for t in TARGETS) and \
                     {_INSERTION_VELOCITY, _INSERTION_EFFORT} <= set(rec.columns):
@@ -322,6 +355,7 @@ class InternalForcePrior:
             "n_samples": int(len(roll)),
             "bounds_hit": _bounds_hit(params, fixed),
             "fixed": {n: float(x) for n, x in fixed.items()},
+            "inputs": inputs,
             **({"identifiability": identifiability(params, fixed, (pos, e, v, g), y, mask,
                                                    ch_scale)} if report else {}),
             "slack_samples_fraction": float(np.mean(_slack_any(prior.params, roll, e))),
@@ -411,6 +445,9 @@ class InternalForcePrior:
         except IdentificationInputError as err:
             raise IdentificationInputError(f"{path}: {err}") from None
         info = d.get("info", {})
+        if isinstance(info, dict) and info.get("inputs", "efforts") not in INPUTS:
+            raise IdentificationInputError(f"{path}: 'info.inputs' must be one of {INPUTS}, "
+                                           f"got {info.get('inputs')!r}")
         return cls(params=np.array(params), converged=bool(d.get("converged")),
                    info=info if isinstance(info, dict) else {}, insertion=insertion,
                    axis_weights=weights)

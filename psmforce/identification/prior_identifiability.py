@@ -136,7 +136,8 @@ def identifiability(params, fixed, inputs, y, mask, ch_scale, chunk: int = 20000
 
     def reliability(pairs, sel):
         var = [np.var(D[sel[:, i], i]) for i in pairs if sel[:, i].sum() > 1]
-        return float(1.0 - np.mean(noise_var[list(pairs)]) / np.mean(var)) if var else 0.0
+        spread = float(np.mean(var)) if var else 0.0  # 0: nothing moves the pairs (not excited)
+        return float(1.0 - np.mean(noise_var[list(pairs)]) / spread) if spread > 0 else 0.0
 
     # slack samples beyond the effort noise: what separates the pretension from bias_fz (the
     # threshold) and pins the pulley radii (fz = -|D| there)

@@ -39,7 +39,8 @@ far beyond. R^2 is no gate: on a channel that is pure noise a good fit has R^2 n
 
 
 def fit_prior_cli(data_dir, out_json, *, use_loaded: bool = False,
-                  accept_poor_fit: bool = True, identify: bool = False) -> dict:
+                  accept_poor_fit: bool = True, identify: bool = False,
+                  inputs: str = "efforts") -> dict:
     """What ``psmforce fit-prior`` runs: fit on the dataset's train split (Free trials; with
     ``use_loaded`` also Traction and Palpation with the known force subtracted, which excites the
     slack regime and so the pulley radii), evaluate on test/Free, save the JSON if converged.
@@ -57,7 +58,10 @@ def fit_prior_cli(data_dir, out_json, *, use_loaded: bool = False,
     (the library's default, a predictor for the hybrid as before) fits all 17, and the verdict
     says it is a curve fit and which values its report does not identify. ``verdict``: one line naming the
     identified, the fixed and the at-bound parameters, then the held-out figures against the
-    gate and the targets (what ``psmforce fit-prior`` prints)."""
+    gate and the targets (what ``psmforce fit-prior`` prints). ``inputs="load_path"``
+    (``--load-path``): the law reads the cables from the trials' known tip force, not from the
+    motor efforts (:mod:`psmforce.identification.load_path`): an identification of the
+    instrument, not a prior an estimator can run on."""
     data_dir = Path(data_dir)
     conds = (FREE_SPACE, "Traction", "Palpation") if use_loaded else (FREE_SPACE,)
     train = _dataset_trials(data_dir, "train", conds)
@@ -70,15 +74,16 @@ def fit_prior_cli(data_dir, out_json, *, use_loaded: bool = False,
     frames = [read_recording(p) for p in train]
     t0 = time.perf_counter()
     if identify:
-        prior = fit_identified(frames, psm=psm, provenance=provenance)
+        prior = fit_identified(frames, psm=psm, provenance=provenance, inputs=inputs)
         selection = prior.info["selection"]
     else:
-        prior = InternalForcePrior.fit(frames, psm=psm, provenance=provenance)
+        prior = InternalForcePrior.fit(frames, psm=psm, provenance=provenance, inputs=inputs)
         listed = sorted(prior.info["identifiability"]["not_identifiable"])
         selection = {"identified": [n for n in NAMES if n not in listed], "fixed": {},
                      "still_not_identifiable": listed, "at_bound": prior.info["bounds_hit"],
                      "rounds": []}
-    report = {"data_dir": str(data_dir), "conditions": list(conds), "converged": prior.converged,
+    report = {"data_dir": str(data_dir), "conditions": list(conds), "inputs": inputs,
+              "converged": prior.converged,
               "solver_status": prior.info["solver_status"],
               "fit_time_s": time.perf_counter() - t0,
               "parameters": dict(zip(NAMES, prior.params.tolist())),

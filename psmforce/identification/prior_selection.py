@@ -73,8 +73,8 @@ def _frames(recordings) -> list:
 
 
 def trial_jackknife(frames, prior: InternalForcePrior, fixed: dict[str, float],
-                    groups: int = JACKKNIFE_GROUPS, psm=None, max_iter: int = 500
-                    ) -> dict[str, float] | None:
+                    groups: int = JACKKNIFE_GROUPS, psm=None, max_iter: int = 500,
+                    inputs: str = "efforts") -> dict[str, float] | None:
     """Delete-a-group jackknife standard error of each free parameter over ``groups`` groups of
     whole trials (trial k in group k mod ``groups``): refit without each group, warm-started at
     ``prior``'s parameters, ``se^2 = (G - 1) / G sum_g (p_g - mean p)^2`` (SI units). None when
@@ -86,7 +86,8 @@ def trial_jackknife(frames, prior: InternalForcePrior, fixed: dict[str, float],
     for g in range(groups):
         kept = [f for k, f in enumerate(frames) if k % groups != g]
         refits.append(InternalForcePrior.fit(kept, psm=psm, fixed=fixed, initial=start,
-                                             report=False, max_iter=max_iter).params)
+                                             report=False, max_iter=max_iter,
+                                             inputs=inputs).params)
     p = np.array(refits)
     se = np.sqrt((groups - 1) / groups * np.sum((p - p.mean(axis=0)) ** 2, axis=0))
     return {n: float(se[i]) for i, n in enumerate(NAMES) if n not in fixed}
@@ -94,9 +95,10 @@ def trial_jackknife(frames, prior: InternalForcePrior, fixed: dict[str, float],
 
 def fit_identified(recordings, *, psm=None, provenance=None, design: dict | None = None,
                    groups: int = JACKKNIFE_GROUPS, max_rounds: int = MAX_ROUNDS,
-                   max_iter: int = 500) -> InternalForcePrior:
+                   max_iter: int = 500, inputs: str = "efforts") -> InternalForcePrior:
     """Fit the prior with only what the data identify free (module docstring); the rest held at
-    ``design`` (default :data:`DESIGN`; a partial dict overrides some entries)."""
+    ``design`` (default :data:`DESIGN`; a partial dict overrides some entries). ``inputs``: what
+    the law reads as wrist torques (:meth:`InternalForcePrior.fit`)."""
     design = {**DESIGN, **(design or {})}
     unknown = sorted(set(design) - set(NAMES))
     if unknown:
@@ -107,9 +109,9 @@ def fit_identified(recordings, *, psm=None, provenance=None, design: dict | None
     rounds = []
     for round_ in range(max_rounds):
         prior = InternalForcePrior.fit(frames, psm=psm, provenance=provenance, fixed=fixed,
-                                       max_iter=max_iter)
+                                       max_iter=max_iter, inputs=inputs)
         report = prior.info["identifiability"]
-        jack = trial_jackknife(frames, prior, fixed, groups, psm, max_iter)
+        jack = trial_jackknife(frames, prior, fixed, groups, psm, max_iter, inputs)
         if jack is not None:
             add_trial_spread(report, prior.params, jack, groups)
         listed = dict(report["not_identifiable"])

@@ -1,8 +1,8 @@
 """The declared seeds: a claim's seeds are fresh, and sets of different purposes do not overlap."""
 import pytest
 
-from psmforce.experiments.seeds import (COMPARISON_SEEDS, DESIGN_SEEDS, PRIOR_ABLATION_SEEDS,
-                                        RECIPE_SWAP_SEEDS, check_fresh)
+from psmforce.experiments.seeds import (COMPARISON_SEEDS, DESIGN_SEEDS, LOAD_PATH_SEEDS,
+                                        PRIOR_ABLATION_SEEDS, RECIPE_SWAP_SEEDS, check_fresh)
 
 
 def test_declared_seeds_are_fresh_and_disjoint():
@@ -11,6 +11,8 @@ def test_declared_seeds_are_fresh_and_disjoint():
     assert not comparison & set(RECIPE_SWAP_SEEDS)
     ablation = set(PRIOR_ABLATION_SEEDS)
     assert not ablation & (DESIGN_SEEDS | comparison | set(RECIPE_SWAP_SEEDS))
+    assert not set(LOAD_PATH_SEEDS) & (DESIGN_SEEDS | comparison | set(RECIPE_SWAP_SEEDS)
+                                       | ablation)
     assert all(len(COMPARISON_SEEDS[s]) >= 5 for s in (0.1, 0.25))
     assert len(COMPARISON_SEEDS[1.0]) >= 3
 

@@ -175,6 +175,7 @@ def compensated_hex10(frame: pd.DataFrame, prior) -> dict[str, np.ndarray]:
     """{comp_fx .. comp_tz, prior_fx .. prior_tz[, insertion_fz]: (N,)} for a whole recording:
     HEX10 reading minus ``prior.predict``, the prior's internal wrench, and where the prior has
     an insertion model, the axial force from the insertion effort (:data:`PRIOR_COLUMNS`)."""
+    _check_reads_efforts(prior)
     internal = np.asarray(prior.predict(frame), dtype=np.float64)
     if internal.shape != (len(frame), 6):
         raise HybridInputError(f"prior.predict returned shape {internal.shape}, expected "
@@ -185,6 +186,17 @@ def compensated_hex10(frame: pd.DataFrame, prior) -> dict[str, np.ndarray]:
     if getattr(prior, "insertion", None) is not None:
         comp[INSERTION_FZ] = prior.insertion_axial_force(frame)
     return comp
+
+
+def _check_reads_efforts(prior) -> None:
+    """A prior that reads the cables from the known tip force (``inputs == "load_path"``,
+    :mod:`psmforce.identification.load_path`) would hand the network the target it should
+    estimate: refused."""
+    if getattr(prior, "inputs", "efforts") != "efforts":
+        raise HybridInputError(
+            f"this prior reads its wrist torques from the known tip force (inputs "
+            f"{prior.inputs!r}): an estimator needs one that reads the motor efforts (fit it "
+            f"without --load-path)")
 
 
 def add_prior_columns(dataset, prior) -> None:
@@ -248,6 +260,7 @@ class SamplePrior:
     def __init__(self, prior, psm=None):
         from psmforce.robot import PSM
         from psmforce.robot.conventions import GRAVITY_MPS2
+        _check_reads_efforts(prior)
         self.prior, self.psm = prior, psm or PSM()
         self._rotation = HexRotation(self.psm)
         self._gravity = -GRAVITY_MPS2

@@ -1,0 +1,93 @@
+"""The load path: the cable differentials a known tip force demands, for the internal-force prior.
+
+The prior's law (:mod:`psmforce.identification.prior_law`) turns wrist torques into pair
+differentials ``D = K^-T tau / r`` and tensions. Read from the motor efforts, those torques carry
+what tensions no cable at the HEX10: the instrument discs' friction with stiction (several N of
+``D`` at 1.5-2 mm pulleys), the arm's disturbance, re-mounting offsets (docs/identification.md
+section 2). Where the tip force is known (an ATI during calibration, a hung weight, zero in free
+space) the torques the cables must supply are known without them: the tip force's moments about
+the wrist axes. This module computes those torques and the tip force's own moment at the HEX10,
+so a fit can read the cables from the load instead of the currents.
+
+Frames, units, signs (one place):
+
+* ``f_hex`` (N, 3): the force the environment applies on the tool at the jaw tip, in the HEX10
+  frame (the recording's ``ati_fx..ati_fz``), N.
+* :func:`wrist_efforts_for_tip_force` (N, 3): dVRK joint-space efforts (wrist_pitch, wrist_yaw,
+  jaw), Nm, what the motors apply to hold that force with ideal cables: ``-J^T F`` over the wrist
+  columns of the jaw tip's Jacobian (base frame, the velocity of the jaw tip), ``F = R_hex f_hex``.
+  Jaw 0: a force at the closed tip is shared by the two blades and opens nothing. This is the
+  bench's ideal transmission (docs/simulator.md section 6, tested there against ``-J^T F``).
+* :func:`tip_force_moment` (N, 3): the tip force's moment about the HEX10 origin in the HEX10
+  frame, Nm, ``(R^T (p_tip - p_hex)) x f_hex``; the HEX10 reads it besides the cables' moments.
+* The contact is taken at the jaw tip (``PSM.jaw_length`` from cp): where the paper's fixture and
+  the simulated bench load the tool. A load elsewhere along the jaws changes both by its lever.
+
+The grip of jaws clenched on an object or on each other is internal to the jaws: no tip force
+shows it. Recordings with a clench carry it in the jaw effort only; this module leaves it out.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from psmforce.identification.errors import IdentificationInputError
+from psmforce.io.recording import JOINT_POSITIONS, TARGETS
+from psmforce.robot import PSM
+
+CONTACT_FRAME = "jaw_tip"
+"""Where the tip force is taken to act (:class:`psmforce.robot.PSM` frame)."""
+_WRIST_COLUMNS = (4, 5)
+"""Columns of wrist_pitch and wrist_yaw in the arm's 6-joint Jacobian (yaw .. wrist_yaw)."""
+
+
+def _arm_q(q) -> np.ndarray:
+    q = np.asarray(q, dtype=float)
+    if q.ndim != 2 or q.shape[1] < 6 or not np.isfinite(q[:, :6]).all():
+        raise IdentificationInputError(f"joint positions must be finite (N, 6|7), got {q.shape}")
+    return q[:, :6]
+
+
+def _force(f_hex, n: int) -> np.ndarray:
+    f = np.asarray(f_hex, dtype=float)
+    if f.shape != (n, 3) or not np.isfinite(f).all():
+        raise IdentificationInputError(f"tip force must be finite ({n}, 3) N, got {f.shape}")
+    return f
+
+
+def wrist_efforts_for_tip_force(q, f_hex, psm: PSM | None = None) -> np.ndarray:
+    """(N, 3) efforts (wrist_pitch, wrist_yaw, jaw), Nm, that hold tip force ``f_hex`` (N, 3,
+    HEX10 frame, N) at joint positions ``q`` (N, 6|7): module docstring."""
+    psm = psm or PSM()
+    q6 = _arm_q(q)
+    f = _force(f_hex, len(q6))
+    f_base = np.einsum("nij,nj->ni", psm.rotation(q6, "hex10"), f)
+    jac = psm.jacobian(q6, CONTACT_FRAME, "base_at_frame")[:, :3, list(_WRIST_COLUMNS)]
+    out = np.zeros((len(q6), 3))
+    out[:, :2] = -np.einsum("nji,nj->ni", jac, f_base)
+    return out
+
+
+def tip_force_moment(q, f_hex, psm: PSM | None = None) -> np.ndarray:
+    """(N, 3) moment (Nm, HEX10 frame) of tip force ``f_hex`` about the HEX10 origin."""
+    psm = psm or PSM()
+    q6 = _arm_q(q)
+    f = _force(f_hex, len(q6))
+    tip = psm.forward_kinematics(q6, CONTACT_FRAME)[:, :3, 3]
+    hex10 = psm.forward_kinematics(q6, "hex10")
+    lever = np.einsum("nji,nj->ni", hex10[:, :3, :3], tip - hex10[:, :3, 3])
+    return np.cross(lever, f)
+
+
+def load_path_inputs(frame, psm: PSM | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """From a recording with its known tip force (``ati_fx..ati_fz``): the wrist efforts the
+    load path demands (N, 3) and the tip force's moment at the HEX10 (N, 3)."""
+    missing = [c for c in TARGETS if c not in frame.columns]
+    if missing:
+        raise IdentificationInputError(
+            f"reading the cables from the load path needs the known tip force; the recording "
+            f"has no {', '.join(missing)} (free space: write zeros; a hung weight: its force)")
+    q = frame[list(JOINT_POSITIONS)].to_numpy(dtype=float)
+    f = frame[list(TARGETS)].to_numpy(dtype=float)
+    psm = psm or PSM()
+    return wrist_efforts_for_tip_force(q, f, psm), tip_force_moment(q, f, psm)
