@@ -212,7 +212,9 @@ def folder_sha256(folder: str | Path) -> str:
     folder = Path(folder)
     total = hashlib.sha256()
     for f in sorted(q for q in folder.rglob("*") if q.is_file()):
+        one = hashlib.sha256()  # by chunks: hashlib.file_digest is Python 3.11+ only
         with open(f, "rb") as fh:
-            total.update(f.relative_to(folder).as_posix().encode() + b"\0"
-                         + hashlib.file_digest(fh, "sha256").digest())
+            for chunk in iter(lambda: fh.read(1 << 20), b""):
+                one.update(chunk)
+        total.update(f.relative_to(folder).as_posix().encode() + b"\0" + one.digest())
     return total.hexdigest()
