@@ -42,7 +42,10 @@ cable at the sensor) and a disturbance of the real arm's size (docs/simulator.md
 An effort error of 0.01 Nm on wrist pitch is 5 N of pair differential at a 2 mm pulley, which in
 the slack regime is 5 N of axial force: the fit then trades the effort-dependent terms against
 the rest level, and T_tot and bias_fz stop being physical (their difference, the rest level, is).
-What that leaves on the bench: docs/identification.md section 2.
+What that leaves on the bench: docs/identification.md section 2. Where the tip force is known
+(an ATI, a hung weight, free space), ``fit(..., inputs="load_path")`` reads the cables from the
+torques that force demands instead (:mod:`psmforce.identification.load_path`): an
+identification of the instrument, which an estimator, not knowing the force, cannot run on.
 
 **Axis weights.** A prediction is ``w * law`` per component, ``w``
 (:attr:`InternalForcePrior.axis_weights`, ones as fitted) set on recordings the fit did not see by
