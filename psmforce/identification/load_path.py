@@ -34,6 +34,7 @@ import numpy as np
 from psmforce.identification.errors import IdentificationInputError
 from psmforce.io.recording import JOINT_POSITIONS, TARGETS
 from psmforce.robot import PSM
+from psmforce.robot.frames import hex10_to_base
 
 CONTACT_FRAME = "jaw_tip"
 """Where the tip force is taken to act (:class:`psmforce.robot.PSM` frame)."""
@@ -61,7 +62,7 @@ def wrist_efforts_for_tip_force(q, f_hex, psm: PSM | None = None) -> np.ndarray:
     psm = psm or PSM()
     q6 = _arm_q(q)
     f = _force(f_hex, len(q6))
-    f_base = np.einsum("nij,nj->ni", psm.rotation(q6, "hex10"), f)
+    f_base = hex10_to_base(f, q6, psm)
     jac = psm.jacobian(q6, CONTACT_FRAME, "base_at_frame")[:, :3, list(_WRIST_COLUMNS)]
     out = np.zeros((len(q6), 3))
     out[:, :2] = -np.einsum("nji,nj->ni", jac, f_base)
