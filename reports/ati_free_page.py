@@ -292,3 +292,57 @@ def ati_free_tables(result: dict) -> str:
     lines += ["", "Convergence: " + ("every training and calibration stopped early."
                                      if not late else "not converged: " + ", ".join(late) + ".")]
     return "\n".join(lines) + "\n"
+
+
+_MARKS = {"fixed": "*fixed*", "identified": "identified", "free, not identified": "free, NOT id."}
+
+
+def instrument_identification_tables(result: dict) -> str:
+    """The instrument identified without an ATI through the load path
+    (``studies/ati_free_identification.py``): per seed, each parameter's truth and, per case
+    (weights and poses), the final value with its relative error and status; the all-free fit of
+    the last case beside them; the verdicts, the capstan against its mean over the
+    configurations."""
+    from psmforce.identification.prior_law import PARAMETERS
+    unit = {p[0]: p[1] for p in PARAMETERS}
+    cases = list(result["cases"])
+    last = cases[-1]
+    lines = ["", f"`{result['command']}` (simulator {result['simulator_version']}; scale "
+             f"{result['settings']['scale']:g}; seed {result['design_seed']} is the design seed, "
+             "the others fresh). Per case, the final fit of `psmforce calibrate --free-space "
+             "--known-loads`'s identification (`calibrate.identify_instrument`): its value, its "
+             "error against the drawn tool's truth, and *fixed* (held at the design value: the "
+             "report or the jackknife over trial groups lists it), identified (free, not "
+             "listed), **MISS** (identified, more than 10 % off or a truth of 0). The last "
+             f"column is the all-free fit of \"{last}\" (its first round).", ""]
+    by_seed: dict = {}
+    for run in result["runs"]:
+        by_seed.setdefault(run["seed"], {})[run["case"]] = run
+    for seed, runs in by_seed.items():
+        lines += [f"**seed {seed}**" + (" (design)" if seed == result["design_seed"] else "")
+                  + ":", "", "| parameter | unit | truth | " + " | ".join(cases)
+                  + f" | all-free, {last} |", "|---|---|---|" + "---|" * (len(cases) + 1)]
+        for name in runs[cases[0]]["parameters"]:
+            truth = runs[cases[0]]["parameters"][name]["truth"]
+            cells = []
+            for case in cases:
+                r = runs[case]["parameters"][name]
+                rel = "" if r["relative_error"] is None else f" ({100 * r['relative_error']:.0f} %)"
+                mark = ("identified, **MISS**" if name in runs[case]["misses"]
+                        else _MARKS.get(r["status"], r["status"]))
+                cells.append(f"{r['fitted']:.4g}{rel} {mark}")
+            first = runs[last]["parameters"][name]["all_free_fit"]
+            rel = ("" if truth in (None, 0) or first is None
+                   else f" ({100 * abs(first / truth - 1):.0f} %)")
+            lines.append(f"| {name} | {unit[name]} | {'—' if truth is None else f'{truth:.4g}'} | "
+                         + " | ".join(cells) + f" | {'—' if first is None else f'{first:.4g}'}"
+                         f"{rel} |")
+        lines.append("")
+        for case in cases:
+            run = runs[case]
+            lines.append(f"- {case} ({', '.join(f'{k} {v:.2f} min' for k, v in run['minutes'].items())}"
+                         f"; {run['n_samples']} samples, {run['fit_time_s']:.0f} s): "
+                         f"{run['verdict']}. The bench's capstan averaged over these "
+                         f"recordings' configurations: {run['capstan_mu_over_training']:.3g}.")
+        lines.append("")
+    return "\n".join(lines)

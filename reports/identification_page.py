@@ -155,7 +155,13 @@ def prior_default_recovery_table(result: dict) -> str:
                      " The sensor's cross-talk of the pretension's axial force, a constant only "
                      "the biases can carry (bench parameters): " + ", ".join(
                          f"{n} {x:+.3g}" for n, x in run["crosstalk_of_rest_level"].items())
-                     + "."), ""]
+                     + ".")
+                  + ("" if "capstan_mu_over_training" not in run else
+                     " The bench's wrist capstan is "
+                     f"{_num(rows['capstan_mu']['truth'])} at the straight wrist and grows with "
+                     "|wrist pitch| and |roll|; averaged over the training samples' configurations "
+                     f"it is {run['capstan_mu_over_training']:.3g}, the law's one constant "
+                     f"{_num(rows['capstan_mu']['fitted'])}."), ""]
         loaded = run.get("test_loaded_internal_metrics")
         if loaded:
             first = run["all_free_test_loaded_internal_metrics"]

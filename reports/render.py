@@ -44,6 +44,7 @@ PRIOR_RECOVERY = ROOT / "results" / "benchmarks" / "prior_recovery.json"
 PRIOR_ABLATION = ROOT / "results" / "benchmarks" / "prior_ablation.json"
 PRIOR_RECOVERY_DEFAULT = ROOT / "results" / "benchmarks" / "prior_recovery_default.json"
 PRIOR_RECOVERY_LOAD_PATH = ROOT / "results" / "benchmarks" / "prior_recovery_load_path.json"
+ATI_FREE_IDENTIFICATION = ROOT / "results" / "benchmarks" / "ati_free_identification.json"
 COMPARISON = ROOT / "results" / "ports" / "none" / "results.json"
 PORTS = ROOT / "results" / "benchmarks" / "port_comparison.json"
 ANOTHER_TOOL = ROOT / "results" / "benchmarks" / "another_tool.json"
@@ -157,6 +158,8 @@ BLOCKS = (
     (ATI_FREE, "remount-tables", REMOUNT, ati_free_page.remount_tables),
     (ATI_FREE, "remount-fresh-tables", REMOUNT_FRESH, ati_free_page.remount_tables),
     (ATI_FREE, "ati-free-tables", ATI_FREE_RESULT, ati_free_page.ati_free_tables),
+    (ATI_FREE, "instrument-identification-tables", ATI_FREE_IDENTIFICATION,
+     ati_free_page.instrument_identification_tables),
     (ATI_FREE, "hex10-compression", HEX10_COMPRESSION, ati_free_page.hex10_compression_table),
     (RESULTS, "hybrid-plateau", HYBRID_PLATEAU, _hybrid_plateau_table),
     (RESULTS, "prior-ablation-tables", PRIOR_ABLATION, results_page.prior_ablation_tables),

@@ -45,6 +45,15 @@ WEIGHT_WRIST_POSES = ((0.0, 0.0, 0.0), (0.0, 0.7, 0.0), (0.0, -0.7, 0.0), (0.0, 
                       (0.0, 0.0, -0.7), (1.57, 0.7, 0.0), (-1.57, 0.0, 0.7), (0.0, 0.7, 0.7))
 """(roll, wrist_pitch, wrist_yaw) rad of the orientations a weight is hung in, jaw closed on
 the string: a bent wrist turns the weight's pull into wrist-pitch and -yaw torques."""
+WEIGHT_WRIST_POSES_PAIRED = tuple(
+    pose for r, p, y in ((0.0, 0.7, 0.0), (0.0, 0.0, 0.7), (1.57, 0.7, 0.0), (-1.57, 0.0, 0.7),
+                         (0.0, 0.7, 0.7), (0.0, 0.7, -0.7), (1.57, 0.0, 0.7), (-1.57, 0.7, 0.0))
+    for pose in ((r, p, y), (r, 0.0 - p, 0.0 - y)))
+"""Sixteen orientations in sign pairs (each bend and its opposite, one after the other): every
+pair loads each cable pair's other side too, so the poses are redundant. With
+:data:`WEIGHT_WRIST_POSES` (one negative pitch) the fit through the load path rests on single
+poses, and a jackknife that leaves them out moves every parameter
+(``studies/ati_free_identification.py``)."""
 
 
 def check_out(out) -> None:
@@ -139,10 +148,11 @@ def build(minutes: float, seed: int, weights_kg=(), params: InstrumentParams | N
     return exc, report
 
 
-def weight_poses() -> dict[str, np.ndarray]:
-    """Orientation label -> the (7,) pose a weight hangs in (:data:`WEIGHT_WRIST_POSES`)."""
+def weight_poses(poses=WEIGHT_WRIST_POSES) -> dict[str, np.ndarray]:
+    """Orientation label -> the (7,) pose a weight hangs in, for each (roll, wrist_pitch,
+    wrist_yaw) of ``poses`` (:data:`WEIGHT_WRIST_POSES` or :data:`WEIGHT_WRIST_POSES_PAIRED`)."""
     return {f"roll {r:+.2f} pitch {p:+.2f} yaw {y:+.2f}": np.r_[WEIGHT_ARM_POSE, r, p, y, 0.0]
-            for r, p, y in WEIGHT_WRIST_POSES}
+            for r, p, y in poses}
 
 
 def known_weights(weights_kg, bases: dict[str, np.ndarray], params: InstrumentParams | None = None

@@ -177,7 +177,8 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--identify", action="store_true", help="identification: hold the parameters "
                    "the identifiability report calls unidentifiable at their design values and "
                    "refit the rest, naming both (docs/identification.md section 2); default: "
-                   "all 17 free, a curve fit, which the verdict line says")
+                   "every parameter free but the capstan, which the efforts reading holds at 0 "
+                   "(with --load-path it is free too): a curve fit, which the verdict line says")
     p.add_argument("--json", help="write the fit statistics here")
 
     p = add("fit-transmission", offline.fit_transmission_command,

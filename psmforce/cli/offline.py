@@ -152,8 +152,8 @@ def fit_prior_command(args) -> dict:
     if report["model"] is None:
         raise ValueError(f"{args.out} not written: {report['model_not_saved_reason']}"
                          + (" (--accept-poor-fit saves it anyway"
-                            + ("; without --identify all 17 parameters are fitted, a curve "
-                               "fit" if args.identify else "") + ")"
+                            + ("; without --identify every parameter its reading does not hold "
+                               "is fitted, a curve fit" if args.identify else "") + ")"
                             if report.get("poor_fit") else ""))
     return report
 
@@ -321,6 +321,9 @@ def calibrate_command(args) -> dict:
     if held:  # without an ATI: what these recordings could not pin down (docs/ati_free.md)
         print(f"not identifiable from these recordings, held at the checkpoint's values: "
               f"{', '.join(sorted(held))}")
+    instrument = record.get("instrument_identification")
+    if instrument:  # with known loads: the instrument read through the load path
+        print(f"instrument (load path): {instrument['verdict']}")
     return result
 
 

@@ -108,6 +108,7 @@ def prior_truth(instrument: InstrumentParams, psm: PSM | None = None) -> dict[st
         "cable_radius": instrument.cable_radius_in_section_m,
         "bias_fx": bias[0], "bias_fy": bias[1], "bias_fz": bias[2],
         "bias_tx": 0.0, "bias_ty": 0.0, "bias_tz": 0.0,  # the bench's tare offset is forces only
+        "capstan_mu": 0.0,                              # capstan off
     }
 
 
@@ -181,7 +182,10 @@ def default_bench_truth(instrument: InstrumentParams | None = None,
     (the jaws' moves with the wrist angles); ``pitch_path_tension`` = cable stiffness x path
     mismatch (the bench adds it per blade cable, ``k e (1 - cos pitch)``); the asymmetries 0 under
     the quadratic pair law (``pair_law``, no linear term); the biases the residual tare offset
-    (``hex10_residual_bias_n``; the moments' 0), without the cross-talk of the rest level."""
+    (``hex10_residual_bias_n``; the moments' 0), without the cross-talk of the rest level;
+    ``capstan_mu`` the wrist idlers' ``capstan_mu_wrap_distal`` at the straight wrist without
+    roll (the bench's grows with |wrist pitch| on the blade pairs and with |roll|; its friction
+    state is driven by cable travel with a pre-sliding of ``presliding_length_m``)."""
     import numpy as np
 
     instrument = instrument or InstrumentParams()
@@ -211,6 +215,7 @@ def default_bench_truth(instrument: InstrumentParams | None = None,
         "cable_radius": instrument.cable_radius_in_section_m,
         "bias_fx": bias[0], "bias_fy": bias[1], "bias_fz": bias[2],
         "bias_tx": 0.0, "bias_ty": 0.0, "bias_tz": 0.0,
+        "capstan_mu": instrument.capstan_mu_wrap_distal,
     }
 
 
@@ -222,6 +227,20 @@ def _truth_law_metrics(truth: dict, score) -> dict:
     params = np.array([truth[n] if truth[n] is not None else 0.0 for n in NAMES])
     return {inputs: score(InternalForcePrior(params=params, info={"inputs": inputs}))
             for inputs in ("efforts", "load_path")}
+
+
+def bench_capstan_over(frames, instrument: InstrumentParams) -> float:
+    """The bench's distal capstan exponent (``sim.cables.capstan_exponents``, default effects)
+    averaged over the pairs and the samples of ``frames`` (recordings): the one constant the
+    law's ``capstan_mu`` stands for where the bench's grows with |wrist pitch| and |roll|
+    (:func:`default_bench_truth` gives its value at the straight wrist)."""
+    import numpy as np
+
+    from psmforce.io.recording import JOINT_POSITIONS
+    from psmforce.sim.cables import capstan_exponents
+    q = np.concatenate([f[list(JOINT_POSITIONS)].to_numpy(dtype=float) for f in frames])
+    mu = capstan_exponents(q[:, 3], q[:, 4], instrument, Effects())[0]
+    return float(np.broadcast_to(mu, (len(q), 3)).mean())
 
 
 def crosstalk_of_rest_level(instrument: InstrumentParams) -> dict[str, float]:
@@ -316,8 +335,11 @@ def recover_default(workdir, seed: int, scale: float = 1.0,
         return channel_metrics(np.concatenate([y for y, _ in targets]),
                                np.concatenate([model.predict(f) for f in loaded]),
                                np.concatenate([m for _, m in targets]))
+    train = [read_recording(r.path) for r in list_recordings(workdir / "data")
+             if r.split == "train" and r.condition in report["conditions"]]
     out.update({
         "seed": seed, "scale": scale, "pair_law": instrument.pair_law, "inputs": inputs,
+        "capstan_mu_over_training": bench_capstan_over(train, instrument),
         "conditions": report["conditions"],
         "test_loaded_internal_metrics": internal_metrics(prior),
         "all_free_test_loaded_internal_metrics": internal_metrics(first),

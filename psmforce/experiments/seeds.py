@@ -26,6 +26,10 @@ rerun that confirms it has seeds of its own."""
 LOAD_PATH_SEEDS = (401, 402, 403)
 """The prior read through the load path (``studies/prior_recovery.py --default-bench
 --load-path``): designed on seed 21 (scale 0.1), confirmed on these."""
+ATI_FREE_IDENTIFICATION_SEEDS = (431, 432, 433)
+"""The instrument identified without an ATI through the load path
+(``studies/ati_free_identification.py``): tried on seed 201's ATI-free recordings, confirmed on
+these."""
 COMPARISON_SEEDS = {0.1: (101, 102, 103, 104, 105), 0.25: (101, 102, 103, 104, 105),
                     1.0: (101, 102, 103)}
 """Per scale, the seeds of the published comparison (at least 5 at 0.1 and 0.25, 3 at the

@@ -24,7 +24,9 @@ Frames, units, signs (one place):
   the simulated bench load the tool. A load elsewhere along the jaws changes both by its lever.
 
 The grip of jaws clenched on an object or on each other is internal to the jaws: no tip force
-shows it. Recordings with a clench carry it in the jaw effort only; this module leaves it out.
+shows it, yet it loads the blade pairs. Recordings with a clench carry it in the jaw effort only,
+which also carries the discs' friction; :func:`clenched` marks those samples (the jaw below
+:data:`~psmforce.robot.conventions.JAW_CLOSED_RAD`) and a load-path fit leaves them out.
 """
 
 from __future__ import annotations
@@ -34,6 +36,7 @@ import numpy as np
 from psmforce.identification.errors import IdentificationInputError
 from psmforce.io.recording import JOINT_POSITIONS, TARGETS
 from psmforce.robot import PSM
+from psmforce.robot.conventions import JAW_CLOSED_RAD, JAW_JOINT, JOINTS
 from psmforce.robot.frames import hex10_to_base
 
 CONTACT_FRAME = "jaw_tip"
@@ -78,6 +81,15 @@ def tip_force_moment(q, f_hex, psm: PSM | None = None) -> np.ndarray:
     hex10 = psm.forward_kinematics(q6, "hex10")
     lever = np.einsum("nji,nj->ni", hex10[:, :3, :3], tip - hex10[:, :3, 3])
     return np.cross(lever, f)
+
+
+def clenched(frame) -> np.ndarray:
+    """(N,) bool: samples of a recording whose jaw is below closed (the blades pressed on each
+    other, an unknown grip the load path does not see)."""
+    return frame[JOINT_POSITIONS[_JAW]].to_numpy(dtype=float) < JAW_CLOSED_RAD
+
+
+_JAW = JOINTS.index(JAW_JOINT)
 
 
 def load_path_inputs(frame, psm: PSM | None = None) -> tuple[np.ndarray, np.ndarray]:

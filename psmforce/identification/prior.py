@@ -9,20 +9,34 @@ HEX10 sign convention (compression negative fz). Inputs per sample:
   (Nm, dVRK joint space, what the motors apply); wrist velocities ``v`` (rad/s, same joints);
 * ``g_hex`` (m/s^2): gravity in the HEX10 frame, ``R_PSM_HEX10(q)^T (0, 0, -9.81)`` with the
   rotation from ``PSM.rotation(q, "hex10")`` (base frame upright).
+* ``direction`` (in [-1, 1]): each pair's friction direction, a Dahl state over the recording's
+  wrist positions (:func:`~psmforce.identification.prior_law.friction_direction`; a stream
+  carries it with :meth:`InternalForcePrior.friction_state`).
 
 Model::
 
-    tau_d  = (e_wp, e_wy/2 - e_jaw, e_wy/2 + e_jaw)      generalized torques on (pitch, blade1,
-    blade2) u      = K^-T tau_d,  K = [[1,0,0],[k,1,0],[k,0,1]], k = 0.8306/1.0186   (dVRK coupling)
-    D_i    = u_i / r_i,   r = (r_pitch, r_blade, r_blade)     pair differential tension (N) T0     =
-    T_tot/6 * (1 + g_twist roll^2)                  per-cable pretension with roll twist S_i    =
-    smoothmax(2 T0 + a_i D_i, |D_i|) + c_dir tanh(dx_i / v_eps)   pair tension sum
-             (the pair law of psmforce.identification.cable_pair, shared with the transmission):
-             taut with pair asymmetry a_i, or slack (|D_i|); direction-dependent tension
-             (capstan friction along the cable path) with dx = K v the cable-coordinate velocity
-    S_path = 4 c_pm (1 - cos wrist_pitch)        blade cables' path change over the pitch pulleys
+    tau_d  = (e_wp, e_wy/2 - e_jaw, e_wy/2 + e_jaw)   generalized torques on (pitch, blade1, blade2)
+    u      = K^-T tau_d,  K = [[1,0,0],[k,1,0],[k,0,1]], k = 0.8306/1.0186    (dVRK coupling)
+    D_i    = u_i / r_i,   r = (r_pitch, r_blade, r_blade)   pair differential at the pulleys (N)
+    T0     = T_tot/6 * (1 + g_twist roll^2)           per-cable pretension with roll twist
+    c_i, s_i = cosh(mu z_i), sinh(mu z_i)             the capstan over the wrist idlers, z_i the
+                                                      pair's friction direction (a Dahl state)
+    P_i    = smoothmax((2 T0 + D_i (a_i c_i - s_i)) / (c_i - a_i s_i), |D_i|)
+             pair sum at the pulleys: taut, the loop closed at the section (S_i - a_i E_i = 2 T0,
+             pair asymmetry a_i), or slack (the pair law of
+             psmforce.identification.cable_pair, shared with the transmission)
+    S_i    = P_i c_i + D_i s_i + c_dir tanh(dx_i / v_eps)
+             pair sum at the section (T+ and T- gain exp(+mu z_i) and exp(-mu z_i) across the
+             idlers), plus a direction-dependent tension along the path, dx = K v the
+             cable-coordinate velocity
+    E_i    = D_i c_i + P_i s_i                        pair differential at the section
+    S_path = 4 c_pm (1 - cos wrist_pitch)             blade cables' path over the pitch pulleys
     f      = m_d g_hex - (0, 0, S_path + sum_i S_i) + b_f
-    t      = sum_i rho (-sin phi_i, cos phi_i, 0) D_i + l_d e_z x (m_d g_hex) + b_t
+    t      = sum_i rho (-sin phi_i, cos phi_i, 0) E_i + l_d e_z x (m_d g_hex) + b_t
+
+With ``mu = 0`` (``capstan_mu``: what priors written before it load with, and what the efforts
+reading holds, :data:`HELD_BY_READING`), ``S_i = smoothmax(2 T0 + a_i D_i, |D_i|) + ...`` and
+``E_i = D_i``: the law before the capstan.
 
 with the cable angles phi = (0, 60, 120) deg of the pairs' "+" cables (datasheet). Parameters
 (:data:`PARAMETERS`) have physical bounds. What the data pin down is reported with every fit
@@ -81,19 +95,26 @@ from psmforce.identification.model_file import parse_model_json, read_model_json
 from psmforce.identification.prior_identifiability import identifiability
 from psmforce.identification.prior_law import (CABLE_ANGLES_RAD, KAPPA, NAMES,  # noqa: F401
                                                 MIN_SAMPLES, PARAMETERS, _CasadiOps, _model,
-                                                at_bound)
+                                                FrictionDirection, at_bound,
+                                                friction_direction)
 from psmforce.identification.signals import check_finite_2d
 from psmforce.robot.kinematics import PSM
 from psmforce.io.recording import (HEX10, JOINT_POSITIONS, OVERLOAD, TARGETS, joint_column,
                                  read_recording)
 
 FORMAT = "psmforce.identification.InternalForcePrior/1"
-FORMAT_VERSION = 2
-"""2: the integrity envelope (:mod:`psmforce.core.integrity`: a SHA-256 over every field) and this
-integer; a file with neither was written before them and still loads (its parameters checked
-against their bounds, as every prior's are)."""
+FORMAT_VERSION = 3
+"""3: the law's capstan (``capstan_mu``, the 18th parameter). 2: the integrity envelope
+(:mod:`psmforce.core.integrity`: a SHA-256 over every field) and this integer; a file with
+neither was written before them and still loads (its parameters checked against their bounds,
+as every prior's are). Files before 3 have no capstan and load with ``capstan_mu`` 0, the law
+they were fitted with."""
+_BEFORE_CAPSTAN = {"capstan_mu": 0.0}
+"""What a file written before version 3 lacks, and the value that gives its law."""
 
 _MIN_SAMPLES = MIN_SAMPLES
+_CAPSTAN = NAMES.index("capstan_mu")
+_NO_DIRECTION = (0.0, 0.0, 0.0)
 _WRIST_EFFORTS = tuple(joint_column(j, "effort") for j in WRIST_JOINTS)
 _WRIST_VELOCITIES = tuple(joint_column(j, "velocity") for j in WRIST_JOINTS)
 _INSERTION_VELOCITY = joint_column(INSERTION_JOINT, "velocity")
@@ -112,14 +133,16 @@ def _gravity_in_frame(r_base_frame: np.ndarray) -> np.ndarray:
 
 def arrays_from_frame(frame, psm=None) -> dict:
     """Model inputs (positions (N,2) roll and wrist_pitch, efforts (N,3), velocities (N,3),
-    g_hex (N,3)) from a recording frame, and ``d_shaft`` (N,3): the HEX10 z axis (the shaft,
-    towards the tip) in the base frame, for the insertion model."""
+    g_hex (N,3), direction (N,3) the pairs' friction direction states of
+    :func:`~psmforce.identification.prior_law.friction_direction`) from a recording frame, and
+    ``d_shaft`` (N,3): the HEX10 z axis (the shaft, towards the tip) in the base frame, for the
+    insertion model."""
     q = frame[list(JOINT_POSITIONS)].to_numpy(dtype=float)
     e = frame[list(_WRIST_EFFORTS)].to_numpy(dtype=float)
     v = frame[list(_WRIST_VELOCITIES)].to_numpy(dtype=float)
     r = (psm or PSM()).rotation(q, "hex10")
     return {"positions": q[:, [3, 4]], "efforts": e, "velocities": v,
-            "g_hex": _gravity_in_frame(r),
+            "g_hex": _gravity_in_frame(r), "direction": friction_direction(q[:, 4:7]),
             "d_shaft": r[:, :, 2]}
 
 
@@ -142,6 +165,14 @@ def internal_wrench_target(frame) -> tuple[np.ndarray, np.ndarray]:
 
 INPUTS = ("efforts", "load_path")
 """What a prior reads as the wrist torques that load its cables (:attr:`InternalForcePrior.inputs`)."""
+HELD_BY_READING = {"efforts": {"capstan_mu": 0.0}, "load_path": {}}
+"""Parameters each reading holds (SI) unless the caller fixes them otherwise. The capstan
+(``capstan_mu``) turns the differential the wrist's pulleys demand into the section's; the load
+path gives that demand, but the motor efforts are the differential at the motor, after the
+proximal path's own capstan and the discs' friction, which the law does not model: read from
+them, the term only bends the curve fit, so it stays at 0 (the law before it)."""
+HELD_BY_READING_REASON = ("held by the reading: the motor efforts are the differential after "
+                          "the proximal path and the discs, not the wrist's demand")
 
 
 def _fit_arrays(frame, inputs: str, psm=None, targets: bool = True):
@@ -150,20 +181,25 @@ def _fit_arrays(frame, inputs: str, psm=None, targets: bool = True):
     a = arrays_from_frame(frame, psm)
     y, mask = internal_wrench_target(frame) if targets else (None, None)
     if inputs == "load_path":
-        from psmforce.identification.load_path import load_path_inputs
+        from psmforce.identification.load_path import clenched, load_path_inputs
         efforts, tip_moment = load_path_inputs(frame, psm)
         a = {**a, "efforts": efforts}
         if targets:  # the tip force's moment is known: every sample's moments count
             y[:, 3:] -= tip_moment
             mask[:, 3:] = mask[:, :1]
+            mask[clenched(frame)] = 0.0  # an unknown grip loads the blade pairs
     return a, y, mask
 
 
-def _check_arrays(positions, efforts, velocities, g_hex):
+def _check_arrays(positions, efforts, velocities, g_hex, direction=None):
+    """The law's input arrays checked (finite, widths, one length); ``direction`` None gives
+    zeros (no capstan friction), otherwise it is checked too."""
     pos = check_finite_2d(positions, "positions (roll, wrist_pitch)", width=2)
     n = len(pos)
     arrs = []
-    for x, name in ((efforts, "efforts"), (velocities, "velocities"), (g_hex, "g_hex")):
+    direction = np.zeros((n, 3)) if direction is None else direction
+    for x, name in ((efforts, "efforts"), (velocities, "velocities"), (g_hex, "g_hex"),
+                    (direction, "direction (friction states)")):
         a = check_finite_2d(x, name, width=3)
         if len(a) != n:
             raise IdentificationInputError(f"{name} has {len(a)} samples but positions has {n}")
@@ -197,22 +233,42 @@ class InternalForcePrior:
                                           frame[_INSERTION_EFFORT].to_numpy(dtype=float))
 
     # ------------------------------------------------------------ prediction
-    def predict_arrays(self, positions, efforts, velocities, g_hex) -> np.ndarray:
-        """(N,6) HEX10 wrench [fx, fy, fz, tx, ty, tz] (N, Nm) from (N,2) and (N,3) arrays."""
-        pos, e, v, g = _check_arrays(positions, efforts, velocities, g_hex)
-        return self.law_arrays(pos, e, v, g) * self.axis_weights
+    def predict_arrays(self, positions, efforts, velocities, g_hex, direction=None) -> np.ndarray:
+        """(N,6) HEX10 wrench [fx, fy, fz, tx, ty, tz] (N, Nm) from (N,2) and (N,3) arrays;
+        ``direction`` (N,3) the pairs' friction states (:func:`friction_direction` of the
+        recording), needed only when the law has a capstan (:meth:`_needs_direction`)."""
+        self._needs_direction(direction)
+        pos, e, v, g, z = _check_arrays(positions, efforts, velocities, g_hex, direction)
+        return self.law_arrays(pos, e, v, g, z) * self.axis_weights
 
-    def law_arrays(self, positions, efforts, velocities, g_hex) -> np.ndarray:
+    def law_arrays(self, positions, efforts, velocities, g_hex, direction=None) -> np.ndarray:
         """(N,6) the fitted law's output before :attr:`axis_weights` (checked arrays)."""
-        out = _model(self.params, positions.T, efforts.T, velocities.T, g_hex.T, np)
+        self._needs_direction(direction)
+        z = np.zeros((len(positions), 3)) if direction is None else direction
+        out = _model(self.params, positions.T, efforts.T, velocities.T, g_hex.T, z.T, np)
         return np.stack([np.broadcast_to(c, (len(positions),)) for c in out], axis=1)
+
+    def friction_state(self) -> FrictionDirection | None:
+        """A fresh :class:`~psmforce.identification.prior_law.FrictionDirection` for a stream
+        (its :meth:`step` gives :meth:`predict_one`'s ``direction``), or None when the law has
+        no capstan and needs none."""
+        return FrictionDirection() if self.params[_CAPSTAN] != 0.0 else None
+
+    def _needs_direction(self, direction) -> None:
+        """A law with a capstan (``capstan_mu`` > 0) depends on the friction direction's
+        history: refused without it rather than evaluated as if the wrist had never moved."""
+        if direction is None and self.params[_CAPSTAN] != 0.0:
+            raise IdentificationInputError(
+                f"this prior has a capstan (capstan_mu {self.params[_CAPSTAN]:.4g}): pass the "
+                "pairs' friction direction states (prior_law.friction_direction of the "
+                "recording's wrist positions)")
 
     def predict(self, frame_or_arrays, psm=None) -> np.ndarray:
         """(N,6) prediction for a recording DataFrame or a dict of :func:`arrays_from_frame`."""
         arrays = frame_or_arrays if isinstance(frame_or_arrays, dict) else _fit_arrays(
             frame_or_arrays, self.inputs, psm, targets=False)[0]
         return self.predict_arrays(arrays["positions"], arrays["efforts"], arrays["velocities"],
-                                   arrays["g_hex"])
+                                   arrays["g_hex"], arrays.get("direction"))
 
     @property
     def inputs(self) -> str:
@@ -221,9 +277,13 @@ class InternalForcePrior:
         demands; :meth:`predict` on a recording then reads its ``ati_*`` force)."""
         return self.info.get("inputs", "efforts")
 
-    def predict_one(self, positions, efforts, velocities, g_hex) -> tuple:
-        """Per-sample fast path (pure Python floats): 6-tuple wrench from 2-, 3-, 3-, 3-sequences."""
-        out = _model(self._plist, positions, efforts, velocities, g_hex, math)
+    def predict_one(self, positions, efforts, velocities, g_hex, direction=None) -> tuple:
+        """Per-sample fast path (pure Python floats): 6-tuple wrench from 2-, 3-, 3-, 3-sequences
+        and the pairs' friction states (3; the caller carries :func:`friction_direction`'s
+        recursion, as :class:`~psmforce.estimators.data.hybrid_inputs.SamplePrior` does)."""
+        self._needs_direction(direction)
+        out = _model(self._plist, positions, efforts, velocities, g_hex,
+                     _NO_DIRECTION if direction is None else direction, math)
         if self._unweighted:
             return out
         return tuple(w * x for w, x in zip(self._wlist, out))
@@ -286,7 +346,7 @@ class InternalForcePrior:
         t0 = time.perf_counter()
         if len(recordings) == 0:
             raise IdentificationInputError("no recordings to fit the prior on")
-        fixed = _check_fixed(fixed)
+        fixed = _check_fixed({**HELD_BY_READING[inputs], **(fixed or {})})
         parts, axial = [], []
         sources = []
         for rec in recordings:
@@ -306,9 +366,10 @@ class InternalForcePrior:
         e = np.concatenate([p[0]["efforts"] for p in parts])
         v = np.concatenate([p[0]["velocities"] for p in parts])
         g = np.concatenate([p[0]["g_hex"] for p in parts])
+        zd = np.concatenate([p[0]["direction"] for p in parts])
         y = np.concatenate([p[1] for p in parts])
         mask = np.concatenate([p[2] for p in parts])
-        pos, e, v, g = _check_arrays(pos, e, v, g)
+        pos, e, v, g, zd = _check_arrays(pos, e, v, g, zd)
         roll = pos[:, 0]
         check_finite_2d(y, "HEX10 readings", width=6)
         if len(roll) < _MIN_SAMPLES:
@@ -327,8 +388,9 @@ class InternalForcePrior:
         cols = [ca.DM(x) for x in (e.T.tolist())]
         vcols = [ca.DM(x) for x in (v.T.tolist())]
         gcols = [ca.DM(x) for x in (g.T.tolist())]
-        pred = _model([p[i] for i in range(len(PARAMETERS))], [ca.DM(pos[:, 0]), ca.DM(pos[:, 1])], cols, vcols, gcols,
-                      _CasadiOps())
+        zcols = [ca.DM(x) for x in (zd.T.tolist())]
+        pred = _model([p[i] for i in range(len(PARAMETERS))], [ca.DM(pos[:, 0]), ca.DM(pos[:, 1])],
+                      cols, vcols, gcols, zcols, _CasadiOps())
         ch_scale = np.sqrt(np.sum(mask * (y - (y * mask).sum(0) / np.maximum(mask.sum(0), 1)) ** 2,
                                   axis=0) / np.maximum(mask.sum(0), 1))
         ch_scale = np.maximum(ch_scale, [0.02] * 3 + [2e-4] * 3)  # noise floors, N and Nm
@@ -351,7 +413,7 @@ class InternalForcePrior:
         insertion = (InsertionEffortModel.fit(*map(list, zip(*axial)))
                      if len(axial) == len(parts) else None)
         prior = cls(params=params, converged=bool(stats["success"]), insertion=insertion)
-        fitted = prior.predict_arrays(pos, e, v, g)
+        fitted = prior.predict_arrays(pos, e, v, g, zd)
         prior.info = {
             "solver": "CasADi IPOPT", "solver_status": stats["return_status"],
             "iterations": int(stats["iter_count"]), "fit_time_s": time.perf_counter() - t0,
@@ -359,7 +421,7 @@ class InternalForcePrior:
             "bounds_hit": _bounds_hit(params, fixed),
             "fixed": {n: float(x) for n, x in fixed.items()},
             "inputs": inputs,
-            **({"identifiability": identifiability(params, fixed, (pos, e, v, g), y, mask,
+            **({"identifiability": identifiability(params, fixed, (pos, e, v, g, zd), y, mask,
                                                    ch_scale)} if report else {}),
             "slack_samples_fraction": float(np.mean(_slack_any(prior.params, roll, e))),
             "train_metrics": channel_metrics(y, fitted, mask),
@@ -372,7 +434,8 @@ class InternalForcePrior:
         return {"format": FORMAT, "converged": bool(self.converged),
                 "frames_and_units": "output: HEX10 wrench [fx,fy,fz,tx,ty,tz] in N, Nm, HEX10 frame, "
                                     "compression negative fz; inputs: roll and wrist_pitch rad, wrist efforts Nm "
-                                    "(dVRK joints), wrist velocities rad/s, gravity in HEX10 m/s^2",
+                                    "(dVRK joints), wrist velocities rad/s, gravity in HEX10 m/s^2, "
+                                    "pair friction directions in [-1, 1]",
                 "model": "see psmforce/identification/prior.py module docstring",
                 "parameters": {n: {"value": float(x), "unit": u, "lower": lo, "upper": hi}
                                for (n, u, lo, hi, _), x in zip(PARAMETERS, self.params)},
@@ -417,12 +480,14 @@ class InternalForcePrior:
         """The checks of :meth:`load` on the parsed JSON ``d``; ``path`` names its source."""
         if "format_version" in d or "sha256" in d:  # a file without both predates them
             from psmforce.core.integrity import check_version, verify
-            check_version(d.get("format_version"), (FORMAT_VERSION,), str(path), "prior",
+            check_version(d.get("format_version"), (2, FORMAT_VERSION), str(path), "prior",
                           IdentificationInputError)
             verify(d, str(path), "prior", IdentificationInputError)
         entries = d.get("parameters")
         if not isinstance(entries, dict):
             raise IdentificationInputError(f"{path}: no 'parameters' object")
+        if d.get("format_version") != FORMAT_VERSION:
+            entries = {**{n: {"value": x} for n, x in _BEFORE_CAPSTAN.items()}, **entries}
         missing = [n for n in NAMES if n not in entries]
         if missing:
             raise IdentificationInputError(f"{path}: missing parameters {missing}")

@@ -1,5 +1,6 @@
 """Design of experiments for the internal-force prior: what a recording would tell about the
-prior's 17 parameters before anyone fits it (docs/ati_free.md).
+prior's parameters before anyone fits it (docs/ati_free.md): those the efforts reading fits
+(:data:`DESIGNED`; an estimator's prior reads the efforts).
 
 The measure is the Fisher information of the law's wrench (:mod:`.prior_law`, through
 :func:`~psmforce.identification.prior_identifiability.jacobian_grams`) with respect to the
@@ -13,7 +14,7 @@ samples and over recordings, and the standard errors it gives are lower bounds: 
 efforts are read as exact (their errors, the fit's errors in variables, are not in it;
 :func:`~psmforce.identification.prior_identifiability.identifiability` measures those on data).
 
-Criteria, each from one information matrix F (physical units, :data:`NAMES` order):
+Criteria, each from one information matrix F (physical units, :data:`DESIGNED` order):
 :func:`log_det` of F scaled by each parameter's bounds' span (D-optimality, unit free);
 :func:`condition_number` of F normalised to a unit diagonal (identifiability's measure: 1 for
 orthogonal parameters, large where a combination is barely seen); :func:`standard_errors` from
@@ -28,14 +29,19 @@ from __future__ import annotations
 
 import numpy as np
 
-from psmforce.identification.prior import arrays_from_frame, internal_wrench_target
+from psmforce.identification.prior import (HELD_BY_READING, arrays_from_frame,
+                                           internal_wrench_target)
 from psmforce.identification.prior_identifiability import RECOVERY_TOLERANCE, jacobian_grams
 from psmforce.identification.prior_law import NAMES, PARAMETERS
 from psmforce.identification.prior_selection import DESIGN
 
+DESIGNED = tuple(n for n in NAMES if n not in HELD_BY_READING["efforts"])
+"""The parameters a design informs, in :data:`NAMES` order: every one the efforts reading fits
+(the capstan it holds at 0 is left out). Every matrix and vector here is in this order."""
+_INDEX = [NAMES.index(n) for n in DESIGNED]
 DESIGN_PARAMS = np.array([DESIGN[n] for n in NAMES])
-"""The parameters the information is evaluated at (SI, :data:`NAMES` order)."""
-SPAN = np.array([p[3] - p[2] for p in PARAMETERS])
+"""The law's parameters the information is evaluated at (SI, all of :data:`NAMES`)."""
+SPAN = np.array([PARAMETERS[i][3] - PARAMETERS[i][2] for i in _INDEX])
 MAX_CORRELATION = 0.99
 """The identifiability report's limit on a parameter's correlation with another."""
 ZERO_VALUE_SPAN = 0.01
@@ -48,16 +54,17 @@ A parameter every sample sees alike (a bias) is excited by none in particular.""
 
 
 def fisher_information(frame, channel_noise, params=DESIGN_PARAMS, psm=None) -> np.ndarray:
-    """(17, 17) Fisher information (physical units) of a recording ``frame`` (the recording
+    """(F, F) Fisher information (physical units) of a recording ``frame`` (the recording
     layout; a simulated one, or a plan run through the bench) about the prior's parameters at
-    ``params``, each HEX10 channel [fx fy fz tx ty tz] with white noise ``channel_noise`` (6,)
-    (N, Nm). Additive: the information of two recordings is the sum of theirs."""
+    ``params`` (all of :data:`NAMES`), about the :data:`DESIGNED` ones (F), each HEX10 channel
+    [fx fy fz tx ty tz] with white noise ``channel_noise`` (6,) (N, Nm). Additive: the
+    information of two recordings is the sum of theirs."""
     arrays = arrays_from_frame(frame, psm)
     _, mask = internal_wrench_target(frame)
-    inputs = (arrays["positions"], arrays["efforts"], arrays["velocities"], arrays["g_hex"])
+    inputs = (arrays["positions"], arrays["efforts"], arrays["velocities"], arrays["g_hex"],
+              arrays["direction"])
     noise = np.asarray(channel_noise, dtype=float)
-    return jacobian_grams(np.asarray(params, float), list(range(len(NAMES))), inputs, mask,
-                          noise).sum(axis=0)
+    return jacobian_grams(np.asarray(params, float), _INDEX, inputs, mask, noise).sum(axis=0)
 
 
 def _scaled(info: np.ndarray) -> np.ndarray:
@@ -97,16 +104,16 @@ def not_identifiable(info: np.ndarray, params=DESIGN_PARAMS) -> dict[str, str]:
     se = np.sqrt(np.maximum(np.diag(cov), 0.0))
     corr = cov / np.outer(np.where(se > 0, se, 1.0), np.where(se > 0, se, 1.0))
     np.fill_diagonal(corr, 0.0)
-    value = np.asarray(params, dtype=float)
+    value = np.asarray(params, dtype=float)[_INDEX]
     allowed = np.where(value != 0.0, RECOVERY_TOLERANCE * np.abs(value), ZERO_VALUE_SPAN * SPAN)
     reasons = {}
-    for i, name in enumerate(NAMES):
+    for i, name in enumerate(DESIGNED):
         why = []
         if not np.isfinite(se[i]) or 3 * se[i] > allowed[i]:
-            why.append(f"3 SE = {3 * se[i]:.3g} {PARAMETERS[i][1]} > {allowed[i]:.3g}")
+            why.append(f"3 SE = {3 * se[i]:.3g} {PARAMETERS[_INDEX[i]][1]} > {allowed[i]:.3g}")
         j = int(np.argmax(np.abs(corr[i])))
         if abs(corr[i, j]) > MAX_CORRELATION:
-            why.append(f"correlation {corr[i, j]:+.4f} with {NAMES[j]}")
+            why.append(f"correlation {corr[i, j]:+.4f} with {DESIGNED[j]}")
         if why:
             reasons[name] = "; ".join(why)
     return reasons
@@ -117,7 +124,7 @@ def summary(info: np.ndarray, params=DESIGN_PARAMS) -> dict:
     se = standard_errors(info)
     finite = lambda x: float(x) if np.isfinite(x) else None  # noqa: E731
     return {"log_det": finite(log_det(info)), "condition_number": finite(condition_number(info)),
-            "standard_errors": {n: finite(x) for n, x in zip(NAMES, se)},
+            "standard_errors": {n: finite(x) for n, x in zip(DESIGNED, se)},
             "not_identifiable": not_identifiable(info, params)}
 
 
@@ -130,8 +137,9 @@ def segment_shares(infos: list[np.ndarray], durations_s) -> list[dict]:
     time_share = np.asarray(durations_s, dtype=float) / float(np.sum(durations_s))
     out = []
     for row, t in zip(share, time_share):
-        out.append({"information_share": {n: float(x) for n, x in zip(NAMES, row)},
-                    "excites": [n for n, x in zip(NAMES, row) if x >= EXCITE_RATIO * t and x > 0]})
+        out.append({"information_share": {n: float(x) for n, x in zip(DESIGNED, row)},
+                    "excites": [n for n, x in zip(DESIGNED, row)
+                                if x >= EXCITE_RATIO * t and x > 0]})
     return out
 
 
@@ -147,11 +155,11 @@ def known_weight_gains(base: np.ndarray, candidates: dict[str, np.ndarray],
     weak = list(not_identifiable(base, params))
     se0 = standard_errors(base)
     ld0 = log_det(base)
-    idx = [NAMES.index(n) for n in weak]
+    idx = [DESIGNED.index(n) for n in weak]
 
     def gain(info):
         return {"log_det_gain": log_det(info) - ld0,
-                "standard_error_ratio": {NAMES[i]: float(x) for i, x in
+                "standard_error_ratio": {DESIGNED[i]: float(x) for i, x in
                                          zip(idx, standard_errors(info)[idx] / se0[idx])}}
 
     alone = {label: gain(base + f) for label, f in candidates.items()}

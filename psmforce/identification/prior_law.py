@@ -43,10 +43,20 @@ PARAMETERS = (
     ("bias_tx", "Nm", -0.5, 0.5, 0.0),
     ("bias_ty", "Nm", -0.5, 0.5, 0.0),
     ("bias_tz", "Nm", -0.5, 0.5, 0.0),
+    # Last, so that the 17 before keep their indices in files written before it (they load with
+    # 0, the law without it). Friction coefficient x wrap angle over the wrist idlers between
+    # the pulleys and the HEX10 section (a capstan); 1 is a wrap of 1 rad at mu = 1.
+    ("capstan_mu", "1", 0.0, 1.0, 0.0),
 )
 NAMES = tuple(p[0] for p in PARAMETERS)
 MIN_SAMPLES = 200
 """Fewest samples (or slack samples) a fit or an identifiability verdict rests on."""
+PRESLIDING_RAD = 0.02
+"""Travel (rad of distal coordinate: cable travel over the pulley radius) over which the capstan's
+friction reverses after a reversal of motion (the Dahl model's pre-sliding length,
+:func:`friction_direction`). Assumed, not fitted: about 40 um of cable on a 1.5-2 mm pulley, the
+pre-sliding of a braided cable on a steel pulley; the fit cannot separate it from the capstan's
+coefficient at the rates the wrist moves."""
 BOUND_TOLERANCE = 1e-3
 """A parameter within this fraction of its bounds' span of a bound is "at its bound": the one
 rule of :func:`at_bound`, which the fit's ``info["bounds_hit"]``, the identifiability report and
@@ -62,10 +72,59 @@ def at_bound(params) -> np.ndarray:
     return np.minimum(p - lo, hi - p) <= BOUND_TOLERANCE * (hi - lo)
 
 
-def _model(p, pos, e, v, g_hex, xp):
-    """Vectorised model; ``xp`` is numpy or a CasADi-like namespace (see ``_CasadiOps``)."""
+def friction_direction(wrist_positions) -> np.ndarray:
+    """(N, 3) friction direction state ``z`` in [-1, 1] of each pair (pitch, blade 1, blade 2)
+    over a recording, from its wrist joint positions (N, 3) (wrist_pitch, wrist_yaw, jaw; rad,
+    dVRK joints, in time order).
+
+    The pairs' cable travel over their pulley radius is ``K p`` (rad), ``p = (pitch, yaw - jaw/2,
+    yaw + jaw/2)`` and ``K`` the coupling of the module docstring. Dahl model (exponent 1,
+    rate independent) per pair: ``dz/dx = (1 - z sgn dx) / x_c``, ``x_c`` =
+    :data:`PRESLIDING_RAD`, solved exactly for piecewise-linear motion,
+    ``z_k = a_k z_(k-1) + (1 - a_k) sgn(dx_k)``, ``a_k = exp(-|dx_k| / x_c)``, from ``z = 0``:
+    the direction of the last motion, remembered while the wrist is at rest, which a
+    velocity's sign is not (at rest it is 0).
+    """
+    q = np.asarray(wrist_positions, dtype=float)
+    blades = np.stack([q[:, 1] - 0.5 * q[:, 2], q[:, 1] + 0.5 * q[:, 2]], axis=1)
+    x = np.column_stack([q[:, 0], KAPPA * q[:, :1] + blades])
+    dx = np.diff(x, axis=0, prepend=x[:1])
+    a = np.exp(-np.abs(dx) / PRESLIDING_RAD)
+    b = (1.0 - a) * np.sign(dx)
+    z = np.empty_like(x)
+    state = np.zeros(3)
+    for k in range(len(x)):  # a recursion over time; about 1 us a sample
+        state = a[k] * state + b[k]
+        z[k] = state
+    return z
+
+
+class FrictionDirection:
+    """:func:`friction_direction`'s recursion one sample at a time (pure Python floats), for a
+    streaming estimator: :meth:`step` takes one sample's (wrist_pitch, wrist_yaw, jaw) (rad)
+    and returns the three states after it, the same values the batch function gives."""
+
+    def __init__(self):
+        self._x = None
+        self._z = [0.0, 0.0, 0.0]
+
+    def step(self, wrist_pitch: float, wrist_yaw: float, jaw: float) -> list[float]:
+        x = (wrist_pitch, KAPPA * wrist_pitch + wrist_yaw - 0.5 * jaw,
+             KAPPA * wrist_pitch + wrist_yaw + 0.5 * jaw)
+        if self._x is not None:
+            for i in range(3):
+                dx = x[i] - self._x[i]
+                a = math.exp(-abs(dx) / PRESLIDING_RAD)
+                self._z[i] = a * self._z[i] + (1.0 - a) * ((dx > 0) - (dx < 0))
+        self._x = x
+        return self._z
+
+
+def _model(p, pos, e, v, g_hex, z, xp):
+    """Vectorised model; ``xp`` is numpy or a CasADi-like namespace (see ``_CasadiOps``);
+    ``z`` the pairs' friction direction states (:func:`friction_direction`)."""
     (T_tot, r_p, r_b, g_tw, c_dir, a_p, a_b, c_pm, m_d, l_d, rho,
-     bfx, bfy, bfz, btx, bty, btz) = [p[i] for i in range(17)]
+     bfx, bfy, bfz, btx, bty, btz, mu) = [p[i] for i in range(18)]
     roll, wrist_pitch = pos[0], pos[1]
     tau_p, tau_b1, tau_b2 = e[0], 0.5 * e[1] - e[2], 0.5 * e[1] + e[2]
     # u = K^-T tau_d: K^T = [[1,k,k],[0,1,0],[0,0,1]] -> u1 = tau_b1, u2 = tau_b2, u0 = tau_p - k(u1+u2)
@@ -81,10 +140,15 @@ def _model(p, pos, e, v, g_hex, xp):
     tx = 0.0
     ty = 0.0
     for i in range(3):
-        S_sum = S_sum + tension_sum(two_t0 + asym[i] * D[i], D[i], SMOOTH_MAX_N, xp)
+        # the capstan between the wrist's pulleys (D) and the section: T+- gain exp(+-mu z)
+        c, s = xp.cosh(mu * z[i]), xp.sinh(mu * z[i])
+        taut = (two_t0 + D[i] * (asym[i] * c - s)) / (c - asym[i] * s)  # section closes the loop
+        s_pulley = tension_sum(taut, D[i], SMOOTH_MAX_N, xp)
+        d_section = D[i] * c + s_pulley * s
+        S_sum = S_sum + s_pulley * c + D[i] * s
         S_sum = S_sum + c_dir * xp.tanh(dx[i] / DIRECTION_VELOCITY)
-        tx = tx - rho * math.sin(CABLE_ANGLES_RAD[i]) * D[i]
-        ty = ty + rho * math.cos(CABLE_ANGLES_RAD[i]) * D[i]
+        tx = tx - rho * math.sin(CABLE_ANGLES_RAD[i]) * d_section
+        ty = ty + rho * math.cos(CABLE_ANGLES_RAD[i]) * d_section
     gx, gy, gz = g_hex[0], g_hex[1], g_hex[2]
     fx = m_d * gx + bfx
     fy = m_d * gy + bfy
@@ -98,3 +162,4 @@ class _CasadiOps:
         import casadi as ca
 
         self.sqrt, self.tanh, self.cos = ca.sqrt, ca.tanh, ca.cos
+        self.cosh, self.sinh = ca.cosh, ca.sinh

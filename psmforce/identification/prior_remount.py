@@ -77,13 +77,13 @@ def mount_rotation(angles_rad) -> np.ndarray:
     return rz @ ry @ rx
 
 
-def _mounted_law(params, angles, pos, e, v, g) -> np.ndarray:
+def _mounted_law(params, angles, pos, e, v, g, z) -> np.ndarray:
     """(N, 6) the law without its offsets, turned into the mounted sensor's frame, plus the
     offsets. With every angle 0 it is the law's output exactly (same operations, same order)."""
     p = np.array(params, dtype=float)
     bias = p[[NAMES.index(n) for n in BIASES]].copy()
     p[[NAMES.index(n) for n in BIASES]] = 0.0
-    out = _model(p, pos.T, e.T, v.T, g.T, np)
+    out = _model(p, pos.T, e.T, v.T, g.T, z.T, np)
     w = np.stack([np.broadcast_to(c, (len(pos),)) for c in out], axis=1)
     if any(a != 0.0 for a in angles):
         r = mount_rotation(angles)
@@ -102,15 +102,18 @@ class MountedPrior:
     angles_rad: tuple[float, float, float] = (0.0, 0.0, 0.0)
     info: dict = field(default_factory=dict)
 
-    def predict_arrays(self, positions, efforts, velocities, g_hex) -> np.ndarray:
-        pos, e, v, g = _check_arrays(positions, efforts, velocities, g_hex)
-        return _mounted_law(self.prior.params, self.angles_rad, pos, e, v, g) * self.prior.axis_weights
+    def predict_arrays(self, positions, efforts, velocities, g_hex, direction=None) -> np.ndarray:
+        self.prior._needs_direction(direction)
+        pos, e, v, g, z = _check_arrays(positions, efforts, velocities, g_hex, direction)
+        return (_mounted_law(self.prior.params, self.angles_rad, pos, e, v, g, z)
+                * self.prior.axis_weights)
 
     def predict(self, frame_or_arrays, psm=None) -> np.ndarray:
         """(N, 6) for a recording frame or a dict of :func:`~.prior.arrays_from_frame`."""
         a = frame_or_arrays if isinstance(frame_or_arrays, dict) else arrays_from_frame(
             frame_or_arrays, psm)
-        return self.predict_arrays(a["positions"], a["efforts"], a["velocities"], a["g_hex"])
+        return self.predict_arrays(a["positions"], a["efforts"], a["velocities"], a["g_hex"],
+                                   a.get("direction"))
 
     def per_mount(self) -> dict[str, float]:
         """This mount's values: the per-mount law parameters and the angles (SI)."""
@@ -139,7 +142,8 @@ def _stack(recordings, psm):
             raise IdentificationInputError(f"recording {k}: missing column {err}") from None
         parts.append((a, y, mask, t - t[0]))
     cat = {k: np.concatenate([p[0][k] for p in parts]) for k in ("positions", "efforts",
-                                                                 "velocities", "g_hex")}
+                                                                 "velocities", "g_hex",
+                                                                 "direction")}
     return (cat, np.concatenate([p[1] for p in parts]), np.concatenate([p[2] for p in parts]),
             [p[3] for p in parts])
 
@@ -207,7 +211,8 @@ def recalibrate(prior: InternalForcePrior | MountedPrior, recordings, *, psm=Non
         raise IdentificationInputError("no recordings to recalibrate the prior on (give about "
                                        "two minutes of free-space wrist motion of the new mount)")
     a, y, mask, times = _stack(recordings, psm)
-    pos, e, v, g = _check_arrays(a["positions"], a["efforts"], a["velocities"], a["g_hex"])
+    pos, e, v, g, z = _check_arrays(a["positions"], a["efforts"], a["velocities"], a["g_hex"],
+                                    a["direction"])
     if not np.isfinite(y).all():
         raise IdentificationInputError("HEX10 readings have non-finite values")
     usable = mask.any(axis=1)
@@ -252,7 +257,7 @@ def recalibrate(prior: InternalForcePrior | MountedPrior, recordings, *, psm=Non
 
     def residual(x):
         p, ang, ramps = unpack(x)
-        w = _mounted_law(p, ang, pos, e, v, g)
+        w = _mounted_law(p, ang, pos, e, v, g, z)
         if any(a != 0.0 for a in ang):
             # What a tilt leaks into the lateral channels is the true axial force, which the
             # reading shows (less its offset) and the law only approximates: the leak is fitted

@@ -12,7 +12,8 @@ from pathlib import Path
 import numpy as np
 
 from psmforce.identification.errors import IdentificationInputError
-from psmforce.identification.prior import NAMES, InternalForcePrior, channel_metrics
+from psmforce.identification.prior import (HELD_BY_READING_REASON, NAMES, InternalForcePrior,
+                                           channel_metrics)
 from psmforce.identification.prior_selection import all_free_line, fit_identified, verdict_line
 from psmforce.robot.kinematics import PSM
 from psmforce.io.recording import FREE_SPACE, HEX10, HEX10_FORCE, list_recordings, read_recording
@@ -55,7 +56,8 @@ def fit_prior_cli(data_dir, out_json, *, use_loaded: bool = False,
     ``identify`` (what ``psmforce fit-prior`` passes unless ``--all-free``): the fit holds at
     their design values the parameters its identifiability report calls not identifiable, and
     refits the rest (:func:`psmforce.identification.prior_selection.fit_identified`); ``False``
-    (the library's default, a predictor for the hybrid as before) fits all 17, and the verdict
+    (the library's default, a predictor for the hybrid as before) fits every parameter its
+    reading does not hold (:data:`~psmforce.identification.prior.HELD_BY_READING`), and the verdict
     says it is a curve fit and which values its report does not identify. ``verdict``: one line naming the
     identified, the fixed and the at-bound parameters, then the held-out figures against the
     gate and the targets (what ``psmforce fit-prior`` prints). ``inputs="load_path"``
@@ -79,7 +81,10 @@ def fit_prior_cli(data_dir, out_json, *, use_loaded: bool = False,
     else:
         prior = InternalForcePrior.fit(frames, psm=psm, provenance=provenance, inputs=inputs)
         listed = sorted(prior.info["identifiability"]["not_identifiable"])
-        selection = {"identified": [n for n in NAMES if n not in listed], "fixed": {},
+        held = prior.info["fixed"]  # by the reading (HELD_BY_READING)
+        selection = {"identified": [n for n in NAMES if n not in listed and n not in held],
+                     "fixed": {n: {"value": x, "reason": HELD_BY_READING_REASON}
+                               for n, x in held.items()},
                      "still_not_identifiable": listed, "at_bound": prior.info["bounds_hit"],
                      "rounds": []}
     report = {"data_dir": str(data_dir), "conditions": list(conds), "inputs": inputs,

@@ -31,7 +31,8 @@ from pathlib import Path
 import numpy as np
 
 from psmforce.identification.errors import IdentificationInputError
-from psmforce.identification.prior import InternalForcePrior
+from psmforce.identification.prior import (HELD_BY_READING, HELD_BY_READING_REASON,
+                                           InternalForcePrior)
 from psmforce.identification.prior_identifiability import RECOVERY_TOLERANCE, add_trial_spread
 from psmforce.identification.prior_law import NAMES
 from psmforce.io.recording import read_recording
@@ -52,6 +53,7 @@ DESIGN = {
     "cable_radius": 1.2e-3,         # m: cables cross the bore at 1.2 mm (s. 7)
     "bias_fx": 0.0, "bias_fy": 0.0, "bias_fz": 0.0,     # N: the sensor is tared
     "bias_tx": 0.0, "bias_ty": 0.0, "bias_tz": 0.0,     # Nm: the sensor is tared
+    "capstan_mu": 0.0,              # 1: no friction by design
 }
 """The value a parameter is held at when the data cannot pin it down: the instrument's design
 (nominal) values as docs/simulator.md states them, read as a datasheet (SI, :data:`NAMES`). They
@@ -74,17 +76,27 @@ def _frames(recordings) -> list:
 
 def trial_jackknife(frames, prior: InternalForcePrior, fixed: dict[str, float],
                     groups: int = JACKKNIFE_GROUPS, psm=None, max_iter: int = 500,
-                    inputs: str = "efforts") -> dict[str, float] | None:
+                    inputs: str = "efforts", labels=None) -> dict[str, float] | None:
     """Delete-a-group jackknife standard error of each free parameter over ``groups`` groups of
-    whole trials (trial k in group k mod ``groups``): refit without each group, warm-started at
-    ``prior``'s parameters, ``se^2 = (G - 1) / G sum_g (p_g - mean p)^2`` (SI units). None when
-    there are fewer trials than groups."""
+    whole trials (trial k in group k mod ``groups``, or in group ``labels[k]``): refit without
+    each group, warm-started at ``prior``'s parameters, ``se^2 = (G - 1) / G sum_g (p_g -
+    mean p)^2`` (SI units). None when there are fewer trials than groups.
+
+    ``labels`` (one int in [0, groups) per trial) is for a designed experiment whose trials are
+    not exchangeable: k mod G on holds ordered by pose removes the same poses in every
+    replicate, so a group's refit measures a design with poses missing, not the noise
+    (:func:`design_groups`)."""
     if len(frames) < groups or groups < 2:
         return None
+    labels = [k % groups for k in range(len(frames))] if labels is None else list(labels)
+    if len(labels) != len(frames) or not all(isinstance(g, int) and 0 <= g < groups
+                                             for g in labels):
+        raise IdentificationInputError(f"jackknife labels must be {len(frames)} integers in "
+                                       f"[0, {groups}), one per recording")
     start = {n: float(x) for n, x in zip(NAMES, prior.params) if n not in fixed}
     refits = []
     for g in range(groups):
-        kept = [f for k, f in enumerate(frames) if k % groups != g]
+        kept = [f for f, label in zip(frames, labels) if label != g]
         refits.append(InternalForcePrior.fit(kept, psm=psm, fixed=fixed, initial=start,
                                              report=False, max_iter=max_iter,
                                              inputs=inputs).params)
@@ -93,25 +105,46 @@ def trial_jackknife(frames, prior: InternalForcePrior, fixed: dict[str, float],
     return {n: float(se[i]) for i, n in enumerate(NAMES) if n not in fixed}
 
 
+def design_groups(replicates, groups: int = JACKKNIFE_GROUPS) -> list[int]:
+    """Jackknife labels (:func:`trial_jackknife`) for trials of which some are replicates of a
+    design: ``replicates[k]`` None for an ordinary trial (in group k' mod ``groups``, k' its rank
+    among those), else the replicate it belongs to (any hashable, a known load's mass, say: every
+    mass hangs in every pose), the replicates' groups taken in order of first appearance, mod
+    ``groups``. A group then removes whole replicates, never one pose from all of them."""
+    order: dict = {}
+    labels, plain = [], 0
+    for r in replicates:
+        if r is None:
+            labels.append(plain % groups)
+            plain += 1
+        else:
+            labels.append(order.setdefault(r, len(order)) % groups)
+    return labels
+
+
 def fit_identified(recordings, *, psm=None, provenance=None, design: dict | None = None,
                    groups: int = JACKKNIFE_GROUPS, max_rounds: int = MAX_ROUNDS,
-                   max_iter: int = 500, inputs: str = "efforts") -> InternalForcePrior:
+                   max_iter: int = 500, inputs: str = "efforts",
+                   jackknife_labels=None) -> InternalForcePrior:
     """Fit the prior with only what the data identify free (module docstring); the rest held at
     ``design`` (default :data:`DESIGN`; a partial dict overrides some entries). ``inputs``: what
-    the law reads as wrist torques (:meth:`InternalForcePrior.fit`)."""
+    the law reads as wrist torques (:meth:`InternalForcePrior.fit`); ``jackknife_labels``: each
+    recording's jackknife group (:func:`trial_jackknife`, :func:`design_groups`)."""
     design = {**DESIGN, **(design or {})}
     unknown = sorted(set(design) - set(NAMES))
     if unknown:
         raise IdentificationInputError(f"design: unknown parameters {unknown} (one of {NAMES})")
     frames = _frames(recordings)
-    fixed: dict[str, float] = {}
-    why_fixed: dict[str, dict] = {}
+    fixed = dict(HELD_BY_READING[inputs])
+    why_fixed = {n: {"value": x, "reason": HELD_BY_READING_REASON, "fitted_when_listed": None,
+                     "round": 0} for n, x in fixed.items()}
     rounds = []
     for round_ in range(max_rounds):
         prior = InternalForcePrior.fit(frames, psm=psm, provenance=provenance, fixed=fixed,
                                        max_iter=max_iter, inputs=inputs)
         report = prior.info["identifiability"]
-        jack = trial_jackknife(frames, prior, fixed, groups, psm, max_iter, inputs)
+        jack = trial_jackknife(frames, prior, fixed, groups, psm, max_iter, inputs,
+                               jackknife_labels)
         if jack is not None:
             add_trial_spread(report, prior.params, jack, groups)
         listed = dict(report["not_identifiable"])
@@ -188,10 +221,13 @@ def verdict_line(selection: dict) -> str:
 
 
 def all_free_line(selection: dict) -> str:
-    """The verdict's first part for a fit with all 17 parameters free (``fit_prior_cli(...,
-    identify=False)``, ``psmforce fit-prior --all-free``): a curve fit, and which of its values
-    its own report does not identify."""
-    return (f"all {len(NAMES)} parameters free (a curve fit: the values listed as not "
+    """The verdict's first part for a fit with every parameter free that its reading does not
+    hold (``fit_prior_cli(..., identify=False)``, ``psmforce fit-prior --all-free``): a curve
+    fit, and which of its values its own report does not identify."""
+    held = sorted(selection["fixed"])
+    return (f"all {len(NAMES) - len(held)} parameters free"
+            + (f" ({_names(held)} held by the reading)" if held else "")
+            + " (a curve fit: the values listed as not "
             f"identifiable are not the instrument's): identified: "
             f"{_names(selection['identified'])}; NOT identifiable: "
             f"{_names(selection['still_not_identifiable'])}; at a bound: "

@@ -26,6 +26,10 @@ CHAIN_JOINTS = JOINTS[:6]
 """The six joints of the serial chain; the jaw (7th) moves no chain frame."""
 JAW_JOINT = JOINTS[6]
 """The opening angle between the two jaw blades (rad)."""
+JAW_CLOSED_RAD = 0.0
+"""Jaw angle (rad) at which the two blades touch: the dVRK's jaw zero, closed. Below it (the
+motor side driven past closed) the blades press on each other: a clench, its grip internal to
+the jaws."""
 INSERTION_JOINT = JOINTS[2]
 """The one prismatic joint (m, m/s, N); the others are revolute (rad, rad/s, Nm)."""
 WRIST_JOINTS = JOINTS[4:]

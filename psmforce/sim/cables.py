@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from psmforce.robot.conventions import JAW_CLOSED_RAD as CONVENTIONS_JAW_CLOSED_RAD
 from psmforce.sim.cable_laws import quadratic_pair
 from psmforce.sim.params import Effects, InstrumentParams
 
@@ -104,8 +105,8 @@ def pair_pretension(q_roll: np.ndarray, q_pitch: np.ndarray, params: InstrumentP
     return t0
 
 
-JAW_CLOSED_RAD = 0.0
-"""Jaw angle (rad) at which the two blades touch: the dVRK's jaw zero, closed."""
+JAW_CLOSED_RAD = CONVENTIONS_JAW_CLOSED_RAD
+"""Jaw angle (rad) at which the two blades touch (:data:`psmforce.robot.conventions.JAW_CLOSED_RAD`)."""
 
 
 def jaw_grip_torque(jaw_cmd: np.ndarray, t0_blade: np.ndarray, params: InstrumentParams) -> np.ndarray:
@@ -158,6 +159,21 @@ def _capstan_pair(d_in, mu_z, alpha, t0, slack):
     return s_sh, d_sh, is_slack
 
 
+def capstan_exponents(q_roll: np.ndarray, q_pitch: np.ndarray, params: InstrumentParams,
+                      effects: Effects) -> tuple[np.ndarray, np.ndarray]:
+    """(mu_distal (N, 3), mu_proximal (N, 1)): friction coefficient x wrap angle of each pair over
+    the wrist idlers (the blade pairs' wrap grows with |wrist pitch|) and along the proximal
+    path, both raised by roll twist; zeros (N, 1) without the ``capstan`` effect."""
+    n = len(q_roll)
+    if not effects.capstan:
+        return np.zeros((n, 1)), np.zeros((n, 1))
+    twist = (1.0 + params.twist_friction_gain_per_rad * np.abs(q_roll) if effects.roll_twist
+             else np.ones(n))[:, None]
+    wrap = np.ones((n, 3))
+    wrap[:, 1:] += params.capstan_wrap_pitch_gain * np.abs(q_pitch)[:, None]
+    return params.capstan_mu_wrap_distal * wrap * twist, params.capstan_mu_wrap_proximal * twist
+
+
 def transmission(q: np.ndarray, tau_load_distal: np.ndarray, params: InstrumentParams,
                  effects: Effects) -> dict[str, np.ndarray]:
     """Static cable forces for a whole recording.
@@ -185,15 +201,7 @@ def transmission(q: np.ndarray, tau_load_distal: np.ndarray, params: InstrumentP
     roll, pitch = q[:, 3], q[:, 4]
     t0 = pair_pretension(roll, pitch, params, effects)
     alpha = np.array(params.cable_asymmetry) if effects.cable_asymmetry else np.zeros(3)
-    if effects.capstan:
-        twist = (1.0 + params.twist_friction_gain_per_rad * np.abs(roll) if effects.roll_twist
-                 else np.ones(len(q)))[:, None]
-        wrap = np.ones((len(q), 3))
-        wrap[:, 1:] += params.capstan_wrap_pitch_gain * np.abs(pitch)[:, None]
-        mu_distal = params.capstan_mu_wrap_distal * wrap * twist
-        mu_proximal = params.capstan_mu_wrap_proximal * twist
-    else:
-        mu_distal = mu_proximal = np.zeros((len(q), 1))
+    mu_distal, mu_proximal = capstan_exponents(roll, pitch, params, effects)
     radii = np.array([params.pulley_radius_pitch_m, params.pulley_radius_blade_m,
                       params.pulley_radius_blade_m])
 

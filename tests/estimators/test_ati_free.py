@@ -148,3 +148,45 @@ def test_cli_names_what_the_free_space_recordings_could_not_pin_down(tmp_path, c
     assert "held at the checkpoint's values: cable_radius, twist_gain" in out
     record["prior_refit"]["held_from_checkpoint"] = {}
     assert main(argv) == 0 and "held at" not in capsys.readouterr().out
+    # with known loads, the instrument identified through the load path: its verdict line
+    record["instrument_identification"] = {"verdict": "identified (free, 3 SE within 10%): "
+                                                      "cable_radius; fixed at design values"}
+    assert main(argv) == 0
+    assert "instrument (load path): identified (free, 3 SE within 10%): cable_radius" in (
+        capsys.readouterr().out)
+
+
+@pytest.mark.slow
+def test_known_loads_identify_the_instrument_through_the_load_path(tmp_path):
+    """calibrate's instrument identification (with --known-loads): free space (0 N) and weights
+    in the sixteen paired poses read through the load path; its all-free round finds the nominal
+    tool's pretension, pulley and cable radii within 10 %, where the efforts' reading of the
+    same recordings (the estimator's prior) puts the pretension far off."""
+    from psmforce.cli.excitation import WEIGHT_WRIST_POSES_PAIRED, weight_poses
+    from psmforce.estimators.training.calibrate import identify_instrument, instrument_report
+    from psmforce.experiments.prior_recovery import default_bench_truth
+    from psmforce.identification.prior import NAMES, InternalForcePrior
+    from psmforce.sim.ati_free import FREE_SPACE, KNOWN_LOADS, simulate_ati_free
+    simulate_ati_free(tmp_path / "g", seed=5, scale=0.01, free_minutes=0.3,
+                      weight_poses=weight_poses(WEIGHT_WRIST_POSES_PAIRED), masses_kg=(0.1, 0.2),
+                      hold_s=3.0)
+    from psmforce.estimators.training.ati_free import free_space_trials
+    trials = (free_space_trials(load_dataset(tmp_path / "g" / FREE_SPACE,
+                                             require_targets=False), 0.3)
+              + known_load_trials(load_dataset(tmp_path / "g" / KNOWN_LOADS,
+                                               require_targets=False)))
+    prior = identify_instrument(trials)
+    truth = default_bench_truth()
+    first = prior.info["selection"]["rounds"][0]["parameters"]
+    for name in ("pretension_total", "pulley_radius_pitch", "pulley_radius_blade",
+                 "cable_radius"):
+        assert abs(first[name] / truth[name] - 1) < 0.1, (name, first[name], truth[name])
+    assert prior.inputs == "load_path"
+    efforts = InternalForcePrior.fit([t.frame for t in trials], report=False)
+    assert abs(efforts.params[NAMES.index("pretension_total")] / truth["pretension_total"]
+               - 1) > 0.5
+    report = instrument_report(prior)
+    assert list(report["parameters"]) == list(NAMES) and report["verdict"] == prior.info[
+        "verdict"]
+    assert set(report["identified"]).isdisjoint(report["fixed"])
+    assert all(f["reason"] for f in report["fixed"].values())

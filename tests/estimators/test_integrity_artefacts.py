@@ -228,7 +228,7 @@ def test_a_prior_with_one_field_edited_is_refused_naming_it(tmp_path, field, edi
     assert str(path) in str(err.value)
 
 
-@pytest.mark.parametrize("version", ["2", 2.0, True, None, 3])
+@pytest.mark.parametrize("version", ["2", 2.0, True, None, 1, 4])
 def test_a_prior_whose_format_version_is_not_the_integer_is_refused(tmp_path, version):
     from psmforce.identification.errors import IdentificationInputError
     from psmforce.identification.prior import InternalForcePrior

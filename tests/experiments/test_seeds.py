@@ -1,8 +1,9 @@
 """The declared seeds: a claim's seeds are fresh, and sets of different purposes do not overlap."""
 import pytest
 
-from psmforce.experiments.seeds import (COMPARISON_SEEDS, DESIGN_SEEDS, LOAD_PATH_SEEDS,
-                                        PRIOR_ABLATION_SEEDS, RECIPE_SWAP_SEEDS, check_fresh)
+from psmforce.experiments.seeds import (ATI_FREE_IDENTIFICATION_SEEDS, COMPARISON_SEEDS,
+                                        DESIGN_SEEDS, LOAD_PATH_SEEDS, PRIOR_ABLATION_SEEDS,
+                                        RECIPE_SWAP_SEEDS, check_fresh)
 
 
 def test_declared_seeds_are_fresh_and_disjoint():
@@ -13,6 +14,8 @@ def test_declared_seeds_are_fresh_and_disjoint():
     assert not ablation & (DESIGN_SEEDS | comparison | set(RECIPE_SWAP_SEEDS))
     assert not set(LOAD_PATH_SEEDS) & (DESIGN_SEEDS | comparison | set(RECIPE_SWAP_SEEDS)
                                        | ablation)
+    assert not set(ATI_FREE_IDENTIFICATION_SEEDS) & (
+        DESIGN_SEEDS | comparison | set(RECIPE_SWAP_SEEDS) | ablation | set(LOAD_PATH_SEEDS))
     assert all(len(COMPARISON_SEEDS[s]) >= 5 for s in (0.1, 0.25))
     assert len(COMPARISON_SEEDS[1.0]) >= 3
 

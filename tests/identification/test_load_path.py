@@ -7,7 +7,7 @@ import pytest
 from psmforce.identification.errors import IdentificationInputError
 from psmforce.identification.load_path import (CONTACT_FRAME, tip_force_moment,
                                                wrist_efforts_for_tip_force)
-from psmforce.identification.prior import InternalForcePrior
+from psmforce.identification.prior import NAMES, InternalForcePrior
 from psmforce.robot import PSM
 
 
@@ -73,9 +73,11 @@ def test_the_load_path_recovers_what_the_efforts_cannot(default_bench, tmp_path)
     """On the default bench (every effect on) the motor efforts carry the discs' friction and
     the arm's disturbance: read as cable torques, the all-free fit puts the pretension at several
     times the bench's 6 N and the cable radius near 0. Read from the known tip force, the cable
-    radius comes back within 10 % and the pretension near the truth (the capstan and pin friction,
-    outside the law, keep it from 10 % at this scale: docs/identification.md section 2.3).
-    Switching the load path off fails this test."""
+    radius and both pulley radii come back within 10 % and the pretension near the truth (pin
+    friction and the bench's configuration-dependent capstan, outside the law, keep it from 10 %
+    in this all-free fit at this scale: docs/identification.md section 2.3). Switching the load
+    path off fails this test; so does holding the law's capstan at 0: the capstan's gain on the
+    slack side is then read as a smaller blade pulley."""
     from psmforce.experiments.prior_recovery import default_bench_truth
     from psmforce.identification.prior_report import fit_prior_cli
     from psmforce.sim.params import InstrumentParams
@@ -88,8 +90,16 @@ def test_the_load_path_recovers_what_the_efforts_cannot(default_bench, tmp_path)
     def error(fit, name):
         return abs(fit[name] / truth[name] - 1)
 
-    assert error(load, "cable_radius") < 0.1 and error(load, "pretension_total") < 0.25, load
+    for name in ("cable_radius", "pulley_radius_pitch", "pulley_radius_blade"):
+        assert error(load, name) < 0.1, (name, load)
+    assert error(load, "pretension_total") < 0.25, load
     assert error(efforts, "cable_radius") > 0.5 and error(efforts, "pretension_total") > 1.0
+    from psmforce.io.recording import list_recordings, read_recording
+    frames = [read_recording(r.path) for r in list_recordings(default_bench)
+              if r.split == "train"]
+    no_capstan = InternalForcePrior.fit(frames, inputs="load_path", fixed={"capstan_mu": 0.0},
+                                        report=False)
+    assert error(dict(zip(NAMES, no_capstan.params)), "pulley_radius_blade") > 0.1
     prior = InternalForcePrior.load(tmp_path / "load_path.json")
     assert prior.inputs == "load_path" and fits["load_path"]["inputs"] == "load_path"
 
@@ -122,3 +132,25 @@ def test_a_recording_without_its_tip_force_is_refused_by_name():
     frame = pd.DataFrame(np.zeros((3, len(JOINT_POSITIONS))), columns=list(JOINT_POSITIONS))
     with pytest.raises(IdentificationInputError, match="ati_fx, ati_fy, ati_fz"):
         load_path_inputs(frame)
+
+
+def test_clenched_samples_are_left_out_of_a_load_path_fit():
+    """A clench's grip (the jaw driven past closed) loads the blade pairs with no tip force to
+    show it: the load path's fit masks those samples; the efforts reading keeps them."""
+    import pandas as pd
+
+    from psmforce.identification.load_path import clenched
+    from psmforce.identification.prior import _fit_arrays
+    from psmforce.io.recording import HEX10, JOINT_EFFORTS, JOINT_POSITIONS, JOINT_VELOCITIES
+    n = 6
+    q = _configurations(n)
+    q[:, 6] = [0.3, 0.0, -0.05, -0.2, 0.1, -1e-4]  # the jaw: open, closed, clenched ...
+    cols = {c: q[:, k] for k, c in enumerate(JOINT_POSITIONS)}
+    cols.update({c: np.zeros(n) for c in JOINT_VELOCITIES + JOINT_EFFORTS + HEX10})
+    cols.update({c: np.zeros(n) for c in ("ati_fx", "ati_fy", "ati_fz")})
+    frame = pd.DataFrame(cols)
+    assert clenched(frame).tolist() == [False, False, True, True, False, True]
+    _, _, mask = _fit_arrays(frame, "load_path")
+    assert (mask.sum(axis=1) == 0).tolist() == clenched(frame).tolist()
+    _, _, kept = _fit_arrays(frame, "efforts")
+    assert kept[:, :3].all()

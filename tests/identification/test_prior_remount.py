@@ -18,7 +18,7 @@ TRUE = dict(pretension_total=6.0, pulley_radius_pitch=2e-3, pulley_radius_blade=
             twist_gain=0.03, direction_tension=0.0, asymmetry_pitch=0.3, asymmetry_blade=0.27,
             pitch_path_tension=0.9, distal_mass=5.5e-3, distal_com_distance=0.026,
             cable_radius=1.2e-3, bias_fx=0.05, bias_fy=-0.08, bias_fz=0.1, bias_tx=0.0,
-            bias_ty=0.0, bias_tz=0.0)
+            bias_ty=0.0, bias_tz=0.0, capstan_mu=0.0)
 
 
 def _prior(values=TRUE):
@@ -49,7 +49,7 @@ def _frame(n=3000, seed=0):
 def _with_reading(frame, values, angles, noise=0.0, seed=1):
     a = arrays_from_frame(frame)
     w = _mounted_law(np.array([values[n] for n in NAMES]), angles, a["positions"], a["efforts"],
-                     a["velocities"], a["g_hex"])
+                     a["velocities"], a["g_hex"], a["direction"])
     w = w + noise * np.random.default_rng(seed).standard_normal(w.shape) * [1, 1, 1, 0.01, 0.01, 0.01]
     out = frame.copy()
     for k, c in enumerate(HEX10):

@@ -40,7 +40,7 @@ def _synthetic(n=400, seed=0):
     g = rng.standard_normal((n, 3))
     g *= 9.81 / np.linalg.norm(g, axis=1, keepdims=True)
     y = InternalForcePrior().law_arrays(pos, e, v, g) + 0.02 * rng.standard_normal((n, 6))
-    return (pos, e, v, g), y
+    return (pos, e, v, g, np.zeros((n, 3))), y
 
 
 def test_bounds_hit_and_the_report_use_one_rule():
@@ -48,6 +48,7 @@ def test_bounds_hit_and_the_report_use_one_rule():
     call it at its bound (the fit's rule was 1e-6 of the span, the report's 1e-3: the issue's
     "bounds_hit is empty while the report says a radius is at its bound")."""
     params = InternalForcePrior().params.copy()
+    params[NAMES.index("capstan_mu")] = 0.2  # the default, 0, sits on its lower bound
     k = NAMES.index("pulley_radius_pitch")
     lo, hi = PARAMETERS[k][2], PARAMETERS[k][3]
     params[k] = hi - 0.5 * BOUND_TOLERANCE * (hi - lo)
@@ -96,7 +97,9 @@ def test_unidentifiable_parameters_are_fixed_at_design_and_named(free_frames):
     prior = fit_identified(free_frames)
     sel = prior.info["selection"]
     first = sel["rounds"][0]
-    assert first["fixed"] == [] and "pretension_total" in first["not_identifiable"]
+    # the efforts reading holds the capstan (HELD_BY_READING); everything else starts free
+    assert first["fixed"] == ["capstan_mu"] and "pretension_total" in first["not_identifiable"]
+    assert "held by the reading" in sel["fixed"]["capstan_mu"]["reason"]
     assert first["bounds_hit"]  # the all-free fit sits at a bound
     for name in first["bounds_hit"] + ["pretension_total"]:
         assert name in sel["fixed"], name
@@ -121,7 +124,8 @@ def test_the_verdict_names_fixed_and_bound_parameters_and_never_just_passes(smal
     assert rep["bounds_hit"] == [] and "at a bound: none" in rep["verdict"]
     assert ("POOR FIT" in rep["verdict"]) == rep["poor_fit"]
     free = fit_prior_cli(small_bench, tmp_path / "q.json", identify=False)
-    assert free["fixed"] == {} and "curve fit" in free["verdict"]
+    assert free["fixed"] == {"capstan_mu": 0.0} and "curve fit" in free["verdict"]
+    assert "capstan_mu held by the reading" in free["verdict"]
     assert "passes" not in free["verdict"]
     listed = free["not_identifiable"]
     assert listed and all(n in free["verdict"].split("NOT identifiable: ")[1] for n in listed)
@@ -142,5 +146,31 @@ def test_the_verdict_line_of_a_fit_that_ran_out_of_rounds_says_so():
 def test_a_fit_out_of_rounds_holds_nothing_it_did_not_refit(free_frames):
     prior = fit_identified(free_frames, max_rounds=1)
     sel = prior.info["selection"]
-    assert sel["fixed"] == {} and prior.info["fixed"] == {} and len(sel["rounds"]) == 1
+    held = {"capstan_mu": 0.0}  # by the efforts reading, before any round (HELD_BY_READING)
+    assert {n: f["value"] for n, f in sel["fixed"].items()} == held == prior.info["fixed"]
+    assert len(sel["rounds"]) == 1
     assert sel["still_not_identifiable"] and "free but NOT identifiable" in prior.info["verdict"]
+
+
+def test_design_groups_keep_replicates_whole_and_the_jackknife_uses_them(monkeypatch):
+    """Holds of known masses in a designed order (every mass in every pose): k mod 4 would
+    remove the same poses from every mass; design_groups removes whole masses instead, and
+    trial_jackknife refits without exactly the labelled groups."""
+    from psmforce.identification.prior_selection import design_groups
+    reps = [None, None, None, 0.05, 0.05, 0.1, 0.1, 0.2, 0.2, None, 0.3]
+    assert design_groups(reps) == [0, 1, 2, 0, 0, 1, 1, 2, 2, 3, 3]
+    assert design_groups([None] * 5) == [0, 1, 2, 3, 0]  # the default rule, k mod 4
+    seen = []
+
+    class Spy(InternalForcePrior):
+        @classmethod
+        def fit(cls, frames, **kwargs):
+            seen.append(sorted(f for f in frames))
+            return InternalForcePrior()
+    from psmforce.identification import prior_selection
+    from psmforce.identification.errors import IdentificationInputError
+    monkeypatch.setattr(prior_selection, "InternalForcePrior", Spy)
+    trial_jackknife(list("abcdef"), InternalForcePrior(), {}, 2, labels=[0, 0, 0, 1, 1, 1])
+    with pytest.raises(IdentificationInputError, match="jackknife labels"):
+        trial_jackknife(list("abcdef"), InternalForcePrior(), {}, 2, labels=[0, 2, 0, 1, 1, 1])
+    assert seen == [list("def"), list("abc")]

@@ -266,6 +266,7 @@ class SamplePrior:
         self._gravity = -GRAVITY_MPS2
         self._q = np.zeros(len(JOINT_POSITIONS))
         self._out = np.zeros(7)
+        self._direction = prior.friction_state()  # carried sample by sample; None: not needed
 
     @property
     def insertion(self):
@@ -284,8 +285,11 @@ class SamplePrior:
         # gravity (0, 0, -g) of the upright base, in the HEX10 frame: R^T e_z is R's third row
         g_hex = (r[2] * self._gravity).tolist()
         v = values.tolist()
+        z = (None if self._direction is None else
+             self._direction.step(v[self._WRIST_PITCH], v[self._WRIST_PITCH + 1],
+                                  v[self._WRIST_PITCH + 2]))
         self._out[:6] = self.prior.predict_one((v[self._ROLL], v[self._WRIST_PITCH]),
-                                               v[n:n + 3], v[n + 3:n + 6], g_hex)
+                                               v[n:n + 3], v[n + 3:n + 6], g_hex, z)
         if self.prior.insertion is not None:  # the shaft (HEX10 z) in the base frame: R's third column
             self._out[6] = self.prior.insertion.axial_force_one(r[:, 2].tolist(), v[n + 6], v[n + 7])
         return self._out

@@ -37,6 +37,15 @@ at the tip (the weight, in the HEX10 frame, from the kinematics): the selection 
 :mod:`psmforce.estimators.training.ati_free`'s. The prior is refitted and the last block finetuned
 as above. What the recordings cannot excite keeps the checkpoint's values; ``psmforce excitation``
 designs a motion that excites the rest (``docs/ati_free.md``).
+
+**The instrument identified** (with ``known_loads``). The estimator's prior reads the motor
+efforts, which carry the discs' friction: its values are a curve fit, not the instrument's. Where
+the external force is known (zero in free space, the weight on a known load) the cables can be
+read from the load path instead (:mod:`psmforce.identification.load_path`): every calibration
+recording is fitted that way too, what the data cannot pin down held at the design values
+(:func:`psmforce.identification.prior_selection.fit_identified`, clenched samples left out), and
+the report's ``instrument_identification`` names what came back. It identifies the instrument;
+the checkpoint's prior stays the efforts' one, which a streaming estimator can run.
 """
 
 from __future__ import annotations
@@ -48,7 +57,8 @@ from pathlib import Path
 import numpy as np
 
 from psmforce.estimators.training.ati_free import (  # noqa: F401  (re-exported: the module's API)
-    KNOWN_LOAD_CONDITION, MAX_FREE_SPACE_FORCE_N, MIN_FREE_SPACE_TRIALS, CalibrationError,
+    KNOWN_LOAD_CONDITION, KNOWN_LOAD_FIELD, MAX_FREE_SPACE_FORCE_N, MIN_FREE_SPACE_TRIALS,
+    CalibrationError,
     check_minutes, free_space_trials, known_load_trials, trial_minutes)
 from psmforce.estimators.training.checkpoint import load_checkpoint
 from psmforce.estimators.data.dataset import (Dataset, Trial, load_dataset, split_validation,
@@ -150,6 +160,36 @@ def _prior_free_error(prior, trials: list[Trial]) -> dict | None:
             if axis in ("fx", "fy", "fz")}
 
 
+def identify_instrument(trials: list[Trial]):
+    """The instrument identified from recordings whose external force is known (module
+    docstring, "The instrument identified"): the load path's
+    :func:`~psmforce.identification.prior_selection.fit_identified` on every trial, the
+    insertion joint's columns left out (the arm's, not the instrument's); the jackknife over
+    trial groups removes whole masses (each hung in every pose) and quarters of the free-space
+    recordings (:func:`~psmforce.identification.prior_selection.design_groups`). Returns the
+    :class:`~psmforce.identification.InternalForcePrior` (``inputs`` "load_path")."""
+    from psmforce.identification.prior_selection import design_groups, fit_identified
+    frames = [t.frame.drop(columns=list(INSERTION_COLUMNS), errors="ignore") for t in trials]
+    masses = [t.params.get(KNOWN_LOAD_FIELD) if t.condition == KNOWN_LOAD_CONDITION else None
+              for t in trials]  # each mass hangs in every pose: a replicate of the design
+    return fit_identified(frames, inputs="load_path", jackknife_labels=design_groups(masses),
+                          provenance={"trials": [t.path for t in trials]})
+
+
+def instrument_report(prior) -> dict:
+    """JSON-ready summary of :func:`identify_instrument`'s prior: parameters (SI), identified,
+    fixed at design values with the reason, at a bound, the verdict line."""
+    from psmforce.identification.prior import NAMES
+    sel = prior.info["selection"]
+    return {"reading": "load path (the known external force's moments; clenched samples out)",
+            "converged": prior.converged,
+            "parameters": {n: float(x) for n, x in zip(NAMES, prior.params)},
+            "identified": list(sel["identified"]),
+            "fixed": {n: {"value": f["value"], "reason": f["reason"]}
+                      for n, f in sel["fixed"].items()},
+            "at_bound": list(sel["at_bound"]), "verdict": prior.info["verdict"]}
+
+
 PRIOR_REFITS = ("all", "per_mount")
 """How :func:`calibrate` refits the hybrid's prior without an ATI (its ``prior_refit``)."""
 
@@ -199,6 +239,14 @@ def calibrate(checkpoint: str | Path, data_dir: str | Path, out: str | Path, *,
             raise CalibrationError(f"{known_loads}: recording path {sorted(taken)[0]} is also "
                                    f"one of {data_dir}'s: give the known loads their own paths")
         chosen = chosen + known
+    instrument = None
+    if loads_root is not None:
+        from psmforce.identification.errors import IdentificationInputError
+        try:
+            instrument = instrument_report(identify_instrument(chosen))
+        except IdentificationInputError as err:
+            raise CalibrationError(f"{known_loads}: identifying the instrument through the "
+                                   f"load path: {err}") from None
     train_trials, val_trials = split_validation(chosen, VALIDATION_FRACTION, seed)
     calibration = Dataset(dataset.root, chosen, dataset.metadata)
     prior_report = None
@@ -271,7 +319,9 @@ def calibrate(checkpoint: str | Path, data_dir: str | Path, out: str | Path, *,
                                  for c in CALIBRATION_CONDITIONS + (KNOWN_LOAD_CONDITION,)},
         "trials": [{"path": t.path, "condition": t.condition, "role": roles[t.path],
                     "minutes": round(trial_minutes(t), 4)} for t in chosen],
-        "prior_refit": prior_report, "finetune_config": cfg.to_dict(),
+        "prior_refit": prior_report,
+        "instrument_identification": instrument,
+        "finetune_config": cfg.to_dict(),
         "trainable_parameters": report["trainable_parameters"],
         "epochs_run": report["epochs_run"], "stopped_by": report["stopped_by"],
         "converged": report["converged"], "best_val_loss": report["best_val_loss"]}
