@@ -343,6 +343,10 @@ def instrument_identification_tables(result: dict) -> str:
             lines.append(f"- {case} ({', '.join(f'{k} {v:.2f} min' for k, v in run['minutes'].items())}"
                          f"; {run['n_samples']} samples, {run['fit_time_s']:.0f} s): "
                          f"{run['verdict']}. The bench's capstan averaged over these "
-                         f"recordings' configurations: {run['capstan_mu_over_training']:.3g}.")
+                         f"recordings' configurations: {run['capstan_mu_over_training']:.3g}."
+                         + ("" if "all_free_residual" not in run else
+                            " The all-free fit's residual on its own recordings, RMS fz "
+                            f"{run['all_free_residual']['fz']['rms']:.3g} N, tx "
+                            f"{run['all_free_residual']['tx']['rms']:.3g} Nm."))
         lines.append("")
     return "\n".join(lines)

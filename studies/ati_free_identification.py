@@ -51,6 +51,24 @@ WEIGHT_WRIST_POSES_PAIRED`)."""
 DESIGN_SEED = 201
 
 
+def all_free_residual(prior, trials) -> dict:
+    """Per HEX10 channel, RMS and R^2 of the all-free round's law (the selection's first round)
+    on the recordings it was fitted on, through the load path with the fit's sample mask: how
+    much of the data the law's family leaves unexplained, before anything is held."""
+    import numpy as np
+
+    from psmforce.identification.prior import (InternalForcePrior, _fit_arrays,
+                                               channel_metrics)
+    from psmforce.identification.prior_law import NAMES
+    first = prior.info["selection"]["rounds"][0]["parameters"]
+    law = InternalForcePrior(params=np.array([first[n] for n in NAMES]),
+                             info={"inputs": "load_path"})
+    parts = [_fit_arrays(t.frame, "load_path") for t in trials]
+    return channel_metrics(np.concatenate([y for _, y, _ in parts]),
+                           np.concatenate([law.predict(a) for a, _, _ in parts]),
+                           np.concatenate([m for _, _, m in parts]))
+
+
 def _seed(seed: int, args, q_exc) -> list[dict]:
     from psmforce.cli.excitation import (WEIGHT_WRIST_POSES, WEIGHT_WRIST_POSES_PAIRED,
                                          weight_poses)
@@ -91,7 +109,8 @@ def _seed(seed: int, args, q_exc) -> list[dict]:
             "converged": prior.converged, "fit_time_s": time.perf_counter() - started,
             "n_samples": prior.info["n_samples"], "rounds": prior.info["selection"]["rounds"],
             "capstan_mu_over_training": bench_capstan_over([t.frame for t in free + loads],
-                                                           tool)})
+                                                           tool),
+            "all_free_residual": all_free_residual(prior, free + loads)})
         rows.append(row)
         print(f"seed {seed}, {label}: {row['fit_time_s']:.0f} s, misses {row['misses']}\n"
               f"  verdict: {row['verdict']}", flush=True)
