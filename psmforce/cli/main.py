@@ -176,9 +176,8 @@ def _parser() -> argparse.ArgumentParser:
                    "test Free force RMS exceeds the poor-fit threshold (prior_report.POOR_FIT_RMS_N)")
     p.add_argument("--identify", action="store_true", help="identification: hold the parameters "
                    "the identifiability report calls unidentifiable at their design values and "
-                   "refit the rest, naming both (docs/identification.md section 2); default: "
-                   "every parameter free but the capstan, which the efforts reading holds at 0 "
-                   "(with --load-path it is free too): a curve fit, which the verdict line says")
+                   "refit the rest, naming both (docs/identification.md section 2); default: all "
+                   "free but what the reading holds: a curve fit, which the verdict line says")
     p.add_argument("--json", help="write the fit statistics here")
 
     p = add("fit-transmission", offline.fit_transmission_command,

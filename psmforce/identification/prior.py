@@ -281,9 +281,12 @@ class InternalForcePrior:
         """Per-sample fast path (pure Python floats): 6-tuple wrench from 2-, 3-, 3-, 3-sequences
         and the pairs' friction states (3; the caller carries :func:`friction_direction`'s
         recursion, as :class:`~psmforce.estimators.data.hybrid_inputs.SamplePrior` does)."""
-        self._needs_direction(direction)
-        out = _model(self._plist, positions, efforts, velocities, g_hex,
-                     _NO_DIRECTION if direction is None else direction, math)
+        plist = self._plist
+        if direction is None:  # the hot path of a stream: plain floats, no numpy
+            if plist[_CAPSTAN] != 0.0:
+                self._needs_direction(direction)
+            direction = _NO_DIRECTION
+        out = _model(plist, positions, efforts, velocities, g_hex, direction, math)
         if self._unweighted:
             return out
         return tuple(w * x for w, x in zip(self._wlist, out))

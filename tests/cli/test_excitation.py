@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from psmforce.cli.excitation import build, check_arguments
-from psmforce.identification.prior_law import NAMES
+from psmforce.identification.prior_design import DESIGNED as NAMES  # what a design informs
 
 
 @pytest.fixture(scope="module")

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from psmforce.identification.errors import IdentificationInputError
-from psmforce.identification.prior import NAMES, InternalForcePrior
+from psmforce.identification.prior import HELD_BY_READING, NAMES, InternalForcePrior
 from psmforce.experiments.prior_recovery import (compare, in_family_instrument, prior_truth,
                                                      recover)
 
@@ -53,7 +53,7 @@ def test_report_names_the_non_identifiable_with_the_reason(bench):
         assert name in reasons
     assert np.isfinite(ident["condition_number"]) and ident["condition_number"] > 1
     assert min(ident["clear_slack_samples"].values()) >= 200
-    assert set(ident["standard_errors"]) == set(NAMES)
+    assert set(ident["standard_errors"]) == set(NAMES) - set(HELD_BY_READING["efforts"])
 
 
 def test_the_comparison_fails_on_a_wrong_truth(bench):
@@ -91,7 +91,7 @@ def test_fixed_parameters_are_held_and_checked(bench):
     assert rep["parameters"]["pulley_radius_pitch"] == {
         **rep["parameters"]["pulley_radius_pitch"], "fitted": 2.1e-3, "status": "fixed"}
     assert "pulley_radius_pitch" not in rep["identifiability"]["standard_errors"]
-    assert rep["fixed"] == {"pulley_radius_pitch": 2.1e-3}
+    assert rep["fixed"] == {**HELD_BY_READING["efforts"], "pulley_radius_pitch": 2.1e-3}
     frames = [object()]  # refused before any recording is read
     for fixed, match in (({"pulley_radius": 1e-3}, "unknown parameter"),
                          ({"cable_radius": -1e-3}, "cable_radius' must be"),
