@@ -68,8 +68,10 @@ def channel_noise(params: InstrumentParams) -> np.ndarray:
     return np.array([params.hex10_force_noise_n] * 3 + [params.hex10_moment_noise_nm] * 3)
 
 
-def check_arguments(minutes: float, seed: int, weights_kg) -> None:
+def check_arguments(minutes: float, seed: int, weights_kg, paired_poses: bool = False) -> None:
     """ValueError in one line for arguments :func:`build` refuses, before any work."""
+    if paired_poses and not weights_kg:
+        raise ValueError("--paired-poses: only with --known-weights (it sets where they hang)")
     if not (isinstance(minutes, (int, float)) and MIN_MINUTES <= minutes <= MAX_MINUTES):
         raise ValueError(f"--minutes: must be in [{MIN_MINUTES:g}, {MAX_MINUTES:g}], got {minutes}")
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or not 0 <= seed < 2 ** 32:
@@ -96,12 +98,13 @@ def _limit_use(q: np.ndarray, limits: ex.Limits) -> dict:
                                   np.abs(acc).max(axis=0) / limits.acceleration)}
 
 
-def build(minutes: float, seed: int, weights_kg=(), params: InstrumentParams | None = None
-          ) -> tuple[ex.Excitation, dict]:
+def build(minutes: float, seed: int, weights_kg=(), params: InstrumentParams | None = None,
+          poses=WEIGHT_WRIST_POSES) -> tuple[ex.Excitation, dict]:
     """The excitation (:func:`psmforce.sim.excitation.design`) and its report: segments with the
     parameters each excites, the criteria of the excitation against a random motion of the same
     duration within the same limits and against the paper's free-space motion, the limits and
-    their use, and with ``weights_kg`` what known weights add (:func:`known_weights`)."""
+    their use, and with ``weights_kg`` what known weights add in each of ``poses``
+    (:func:`known_weights`)."""
     check_arguments(minutes, seed, weights_kg)
     params = params or InstrumentParams()
     fisher = _fisher(params)
@@ -144,7 +147,7 @@ def build(minutes: float, seed: int, weights_kg=(), params: InstrumentParams | N
     if weights_kg:
         report["known_weights"] = known_weights(weights_kg, {"excitation": motions["excitation"],
                                                              "paper_free": motions["paper_free"]},
-                                                params)
+                                                params, poses)
     return exc, report
 
 
@@ -155,9 +158,10 @@ def weight_poses(poses=WEIGHT_WRIST_POSES) -> dict[str, np.ndarray]:
             for r, p, y in poses}
 
 
-def known_weights(weights_kg, bases: dict[str, np.ndarray], params: InstrumentParams | None = None
-                  ) -> dict:
-    """Each mass (kg, the user's) hung at the jaw tip in each of :func:`weight_poses` for
+def known_weights(weights_kg, bases: dict[str, np.ndarray], params: InstrumentParams | None = None,
+                  poses=WEIGHT_WRIST_POSES) -> dict:
+    """Each mass (kg, the user's) hung at the jaw tip in each orientation of ``poses``
+    (:func:`weight_poses`; :data:`WEIGHT_WRIST_POSES` or :data:`WEIGHT_WRIST_POSES_PAIRED`) for
     :data:`WEIGHT_HOLD_S` on the noise-free bench (the weight's pull along gravity, known from
     the kinematics, subtracted from the forces as the fit does); per base information (the
     excitation's, the paper's free motion's) what each adds and how many make every parameter
@@ -167,7 +171,7 @@ def known_weights(weights_kg, bases: dict[str, np.ndarray], params: InstrumentPa
     fisher = _fisher(params)
     cands, unsafe = {}, []
     for mass in weights_kg:
-        for label, pose in weight_poses().items():
+        for label, pose in weight_poses(poses).items():
             q = np.repeat(pose[None], int(round(WEIGHT_HOLD_S / ex.DT)), 0)
             frame = ex.simulate_excitation(q, params=params, effects=ex.QUIET,
                                            contact=Contact(kind="weight", mass_kg=float(mass)))
@@ -178,6 +182,7 @@ def known_weights(weights_kg, bases: dict[str, np.ndarray], params: InstrumentPa
             cands[name] = fisher(frame)
     return {"masses_kg": [float(m) for m in weights_kg], "hold_s": WEIGHT_HOLD_S,
             "arm_pose": WEIGHT_ARM_POSE.tolist(), "left_out_unsafe": unsafe,
+            "orientations": list(weight_poses(poses)),
             **{base: pd_.known_weight_gains(info, cands) for base, info in bases.items()}}
 
 
@@ -208,10 +213,13 @@ def write(out, exc: ex.Excitation, report: dict) -> dict[str, str]:
     return {k: str(p) for k, p in paths.items()}
 
 
-def excitation_cli(out, minutes: float, seed: int, weights_kg=()) -> dict:
+def excitation_cli(out, minutes: float, seed: int, weights_kg=(), paired_poses: bool = False
+                   ) -> dict:
     """``psmforce excitation``: :func:`build`, then :func:`write`; the report, with one line
-    per figure printed."""
-    exc, report = build(minutes, seed, tuple(weights_kg))
+    per figure printed. ``paired_poses``: the weights in :data:`WEIGHT_WRIST_POSES_PAIRED`
+    (what identifying the instrument through the load path needs, docs/ati_free.md 4.1)."""
+    exc, report = build(minutes, seed, tuple(weights_kg),
+                        poses=WEIGHT_WRIST_POSES_PAIRED if paired_poses else WEIGHT_WRIST_POSES)
     write(out, exc, report)
     cn = report["condition_number"]
     print(f"wrote {out}: {report['duration_s']:.0f} s, segments "

@@ -12,6 +12,9 @@ line, ``psmforce <command>: internal error: <type>: <reason>``, exit 3; ``psmfor
 <command> ...`` prints the traceback as well. Ctrl-C exits 130. Before any work, no output may
 be one of the command's inputs or a file inside an input folder, and no two outputs may be the
 same file (:func:`psmforce.cli.guards.outputs_spare_inputs`).
+
+Size: one parser for every command, each command's options beside its help, so that ``--help``
+and the code agree; the commands' work is in :mod:`.offline`, :mod:`.live` and :mod:`.remount`.
 """
 
 from __future__ import annotations
@@ -354,6 +357,10 @@ def _parser() -> argparse.ArgumentParser:
                    nargs="+", default=[], metavar="KG",
                    help="masses (kg, 0.01 to 0.2) you can hang at the tip: the report says what "
                         "each adds in each orientation and how many make the prior identifiable")
+    p.add_argument("--paired-poses", action="store_true",
+                   help="with --known-weights: sixteen orientations in sign pairs (each bend and "
+                        "its opposite), what identifying the instrument through the load path "
+                        "needs (docs/ati_free.md section 4.1); default: eight")
     p.add_argument("--json", help="write the report here as well")
 
     p = add("demo", offline.demo_command, "the main job: a small bench end to end in a few minutes",

@@ -34,9 +34,10 @@ def excitation_command(args) -> dict:
     from psmforce.core.files import check_name
     for name in FILES.values():
         check_name(Path(args.out) / name)
-    check_arguments(args.minutes, args.seed, args.known_weights)
+    check_arguments(args.minutes, args.seed, args.known_weights, args.paired_poses)
     with progress("excitation"):
-        return excitation_cli(args.out, args.minutes, args.seed, args.known_weights)
+        return excitation_cli(args.out, args.minutes, args.seed, args.known_weights,
+                              args.paired_poses)
 
 
 def convert_command(args) -> dict:
@@ -321,9 +322,8 @@ def calibrate_command(args) -> dict:
     if held:  # without an ATI: what these recordings could not pin down (docs/ati_free.md)
         print(f"not identifiable from these recordings, held at the checkpoint's values: "
               f"{', '.join(sorted(held))}")
-    instrument = record.get("instrument_identification")
-    if instrument:  # with known loads: the instrument read through the load path
-        print(f"instrument (load path): {instrument['verdict']}")
+    if record.get("instrument_identification"):  # with known loads, through the load path
+        print(f"instrument (load path): {record['instrument_identification']['verdict']}")
     return result
 
 

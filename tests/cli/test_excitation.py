@@ -55,3 +55,17 @@ def test_known_weights_pin_down_what_free_motion_cannot(built):
 def test_bad_arguments_are_refused_naming_the_option(minutes, seed, weights, option):
     with pytest.raises(ValueError, match=option):
         check_arguments(minutes, seed, weights)
+
+
+def test_paired_poses_hang_each_bend_and_its_opposite():
+    """``--paired-poses``: sixteen orientations, each followed by its opposite bend (what the
+    load path's identification needs, docs/ati_free.md 4.1); the report names them."""
+    from psmforce.cli.excitation import (WEIGHT_WRIST_POSES, WEIGHT_WRIST_POSES_PAIRED,
+                                         known_weights)
+    poses = np.array(WEIGHT_WRIST_POSES_PAIRED)
+    assert len(poses) == 16 and len({tuple(p) for p in poses}) == 16
+    assert np.array_equal(poses[1::2, 1:], -poses[0::2, 1:])  # pitch and yaw mirrored
+    assert np.array_equal(poses[1::2, 0], poses[0::2, 0])     # at the same roll
+    report = known_weights((0.05,), {}, poses=WEIGHT_WRIST_POSES_PAIRED)
+    assert len(report["orientations"]) == 16 and not report["left_out_unsafe"]
+    assert len(known_weights((0.05,), {})["orientations"]) == len(WEIGHT_WRIST_POSES)

@@ -101,3 +101,11 @@ def test_an_out_that_is_a_link_is_refused_and_not_written_through(tmp_path, cli_
     assert main(["excitation", "--out", str(tmp_path / "link"), "--minutes", "0.3"]) == 2
     assert "symbolic link" in cli_error("excitation")
     assert list(real.iterdir()) == []
+
+
+def test_paired_poses_need_known_weights(tmp_path, capsys):
+    out = tmp_path / "out"
+    assert main(["excitation", "--out", str(out), "--minutes", "0.3", "--paired-poses"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--paired-poses: only with --known-weights" in err[0]
+    assert not out.exists() or not any(out.iterdir())
