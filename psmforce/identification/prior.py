@@ -391,9 +391,12 @@ class InternalForcePrior:
         cols = [ca.DM(x) for x in (e.T.tolist())]
         vcols = [ca.DM(x) for x in (v.T.tolist())]
         gcols = [ca.DM(x) for x in (g.T.tolist())]
-        zcols = [ca.DM(x) for x in (zd.T.tolist())]
-        pred = _model([p[i] for i in range(len(PARAMETERS))], [ca.DM(pos[:, 0]), ca.DM(pos[:, 1])],
-                      cols, vcols, gcols, zcols, _CasadiOps())
+        # a capstan held at 0 enters as the number, so the law's graph is the one without it
+        no_capstan = fixed.get(NAMES[_CAPSTAN]) == 0.0
+        law_p = [0.0 if i == _CAPSTAN and no_capstan else p[i] for i in range(len(PARAMETERS))]
+        zcols = None if no_capstan else [ca.DM(x) for x in (zd.T.tolist())]
+        pred = _model(law_p, [ca.DM(pos[:, 0]), ca.DM(pos[:, 1])], cols, vcols, gcols, zcols,
+                      _CasadiOps())
         ch_scale = np.sqrt(np.sum(mask * (y - (y * mask).sum(0) / np.maximum(mask.sum(0), 1)) ** 2,
                                   axis=0) / np.maximum(mask.sum(0), 1))
         ch_scale = np.maximum(ch_scale, [0.02] * 3 + [2e-4] * 3)  # noise floors, N and Nm
