@@ -131,18 +131,20 @@ def _gravity_in_frame(r_base_frame: np.ndarray) -> np.ndarray:
     return np.einsum("nji,j->ni", r_base_frame, np.array(GRAVITY_UPRIGHT_MPS2))
 
 
-def arrays_from_frame(frame, psm=None) -> dict:
+def arrays_from_frame(frame, psm=None, direction: bool = True) -> dict:
     """Model inputs (positions (N,2) roll and wrist_pitch, efforts (N,3), velocities (N,3),
     g_hex (N,3), direction (N,3) the pairs' friction direction states of
     :func:`~psmforce.identification.prior_law.friction_direction`) from a recording frame, and
     ``d_shaft`` (N,3): the HEX10 z axis (the shaft, towards the tip) in the base frame, for the
-    insertion model."""
+    insertion model. ``direction=False``: ``direction`` None (zeros to the law), for a law
+    without a capstan, which does not read it."""
     q = frame[list(JOINT_POSITIONS)].to_numpy(dtype=float)
     e = frame[list(_WRIST_EFFORTS)].to_numpy(dtype=float)
     v = frame[list(_WRIST_VELOCITIES)].to_numpy(dtype=float)
     r = (psm or PSM()).rotation(q, "hex10")
     return {"positions": q[:, [3, 4]], "efforts": e, "velocities": v,
-            "g_hex": _gravity_in_frame(r), "direction": friction_direction(q[:, 4:7]),
+            "g_hex": _gravity_in_frame(r),
+            "direction": friction_direction(q[:, 4:7]) if direction else None,
             "d_shaft": r[:, :, 2]}
 
 
@@ -175,10 +177,11 @@ HELD_BY_READING_REASON = ("held by the reading: the motor efforts are the differ
                           "the proximal path and the discs, not the wrist's demand")
 
 
-def _fit_arrays(frame, inputs: str, psm=None, targets: bool = True):
+def _fit_arrays(frame, inputs: str, psm=None, targets: bool = True, direction: bool = True):
     """(model inputs, target, mask) of one recording for a prior reading ``inputs``
-    (:data:`INPUTS`); ``targets=False`` skips the target (None, None)."""
-    a = arrays_from_frame(frame, psm)
+    (:data:`INPUTS`); ``targets=False`` skips the target (None, None); ``direction``: as
+    :func:`arrays_from_frame`."""
+    a = arrays_from_frame(frame, psm, direction)
     y, mask = internal_wrench_target(frame) if targets else (None, None)
     if inputs == "load_path":
         from psmforce.identification.load_path import clenched, load_path_inputs
@@ -266,7 +269,8 @@ class InternalForcePrior:
     def predict(self, frame_or_arrays, psm=None) -> np.ndarray:
         """(N,6) prediction for a recording DataFrame or a dict of :func:`arrays_from_frame`."""
         arrays = frame_or_arrays if isinstance(frame_or_arrays, dict) else _fit_arrays(
-            frame_or_arrays, self.inputs, psm, targets=False)[0]
+            frame_or_arrays, self.inputs, psm, targets=False,
+            direction=self.params[_CAPSTAN] != 0.0)[0]
         return self.predict_arrays(arrays["positions"], arrays["efforts"], arrays["velocities"],
                                    arrays["g_hex"], arrays.get("direction"))
 
@@ -350,6 +354,7 @@ class InternalForcePrior:
         if len(recordings) == 0:
             raise IdentificationInputError("no recordings to fit the prior on")
         fixed = _check_fixed({**HELD_BY_READING[inputs], **(fixed or {})})
+        no_capstan = fixed.get(NAMES[_CAPSTAN]) == 0.0  # the law then reads no friction state
         parts, axial = [], []
         sources = []
         for rec in recordings:
@@ -358,7 +363,7 @@ class InternalForcePrior:
                 rec = read_recording(rec)
             else:
                 sources.append("<DataFrame>")
-            a, y, mask = _fit_arrays(rec, inputs, psm)
+            a, y, mask = _fit_arrays(rec, inputs, psm, direction=not no_capstan)
             parts.append((a, y, mask))
             if all(t in rec.columns for t in TARGETS) and \
                     {_INSERTION_VELOCITY, _INSERTION_EFFORT} <= set(rec.columns):
@@ -369,7 +374,8 @@ class InternalForcePrior:
         e = np.concatenate([p[0]["efforts"] for p in parts])
         v = np.concatenate([p[0]["velocities"] for p in parts])
         g = np.concatenate([p[0]["g_hex"] for p in parts])
-        zd = np.concatenate([p[0]["direction"] for p in parts])
+        zd = np.concatenate([np.zeros((len(p[0]["positions"]), 3)) if no_capstan
+                             else p[0]["direction"] for p in parts])
         y = np.concatenate([p[1] for p in parts])
         mask = np.concatenate([p[2] for p in parts])
         pos, e, v, g, zd = _check_arrays(pos, e, v, g, zd)
@@ -392,7 +398,6 @@ class InternalForcePrior:
         vcols = [ca.DM(x) for x in (v.T.tolist())]
         gcols = [ca.DM(x) for x in (g.T.tolist())]
         # a capstan held at 0 enters as the number, so the law's graph is the one without it
-        no_capstan = fixed.get(NAMES[_CAPSTAN]) == 0.0
         law_p = [0.0 if i == _CAPSTAN and no_capstan else p[i] for i in range(len(PARAMETERS))]
         zcols = None if no_capstan else [ca.DM(x) for x in (zd.T.tolist())]
         pred = _model(law_p, [ca.DM(pos[:, 0]), ca.DM(pos[:, 1])], cols, vcols, gcols, zcols,
