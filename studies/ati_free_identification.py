@@ -57,16 +57,12 @@ def all_free_residual(prior, trials) -> dict:
     much of the data the law's family leaves unexplained, before anything is held."""
     import numpy as np
 
-    from psmforce.identification.prior import (InternalForcePrior, _fit_arrays,
-                                               channel_metrics)
+    from psmforce.identification.prior import InternalForcePrior
     from psmforce.identification.prior_law import NAMES
     first = prior.info["selection"]["rounds"][0]["parameters"]
     law = InternalForcePrior(params=np.array([first[n] for n in NAMES]),
                              info={"inputs": "load_path"})
-    parts = [_fit_arrays(t.frame, "load_path") for t in trials]
-    return channel_metrics(np.concatenate([y for _, y, _ in parts]),
-                           np.concatenate([law.predict(a) for a, _, _ in parts]),
-                           np.concatenate([m for _, _, m in parts]))
+    return law.fit_metrics([t.frame for t in trials])
 
 
 def _seed(seed: int, args, q_exc) -> list[dict]:

@@ -255,12 +255,18 @@ class InternalForcePrior:
         """A fresh :class:`~psmforce.identification.prior_law.FrictionDirection` for a stream
         (its :meth:`step` gives :meth:`predict_one`'s ``direction``), or None when the law has
         no capstan and needs none."""
-        return FrictionDirection() if self.params[_CAPSTAN] != 0.0 else None
+        return FrictionDirection() if self.has_capstan else None
+
+    @property
+    def has_capstan(self) -> bool:
+        """Whether the law has a capstan (``capstan_mu`` > 0) and so reads the pairs' friction
+        states; without one it is the law before the term, and skips them."""
+        return bool(self.params[_CAPSTAN] != 0.0)
 
     def _needs_direction(self, direction) -> None:
         """A law with a capstan (``capstan_mu`` > 0) depends on the friction direction's
         history: refused without it rather than evaluated as if the wrist had never moved."""
-        if direction is None and self.params[_CAPSTAN] != 0.0:
+        if direction is None and self.has_capstan:
             raise IdentificationInputError(
                 f"this prior has a capstan (capstan_mu {self.params[_CAPSTAN]:.4g}): pass the "
                 "pairs' friction direction states (prior_law.friction_direction of the "
@@ -270,9 +276,20 @@ class InternalForcePrior:
         """(N,6) prediction for a recording DataFrame or a dict of :func:`arrays_from_frame`."""
         arrays = frame_or_arrays if isinstance(frame_or_arrays, dict) else _fit_arrays(
             frame_or_arrays, self.inputs, psm, targets=False,
-            direction=self.params[_CAPSTAN] != 0.0)[0]
+            direction=self.has_capstan)[0]
         return self.predict_arrays(arrays["positions"], arrays["efforts"], arrays["velocities"],
                                    arrays["g_hex"], arrays.get("direction"))
+
+    def fit_metrics(self, recordings, psm=None) -> dict:
+        """Per HEX10 channel, RMS and R^2 (:func:`channel_metrics`) of the law (before
+        :attr:`axis_weights`) on recording frames read as its fit reads them (:attr:`inputs`,
+        the fit's sample mask): the figure ``info["train_metrics"]`` holds, on any
+        recordings."""
+        parts = [_fit_arrays(f, self.inputs, psm, direction=self.has_capstan) for f in recordings]
+        law = [self.law_arrays(*_check_arrays(a["positions"], a["efforts"], a["velocities"],
+                                              a["g_hex"], a["direction"])) for a, _, _ in parts]
+        return channel_metrics(np.concatenate([y for _, y, _ in parts]), np.concatenate(law),
+                               np.concatenate([m for _, _, m in parts]))
 
     @property
     def inputs(self) -> str:
@@ -287,7 +304,7 @@ class InternalForcePrior:
         recursion, as :class:`~psmforce.estimators.data.hybrid_inputs.SamplePrior` does)."""
         plist = self._plist
         if direction is None:  # the hot path of a stream: plain floats, no numpy
-            if plist[_CAPSTAN] != 0.0:
+            if plist[_CAPSTAN] != 0.0:  # has_capstan, on the cached floats
                 self._needs_direction(direction)
             direction = _NO_DIRECTION
         out = _model(plist, positions, efforts, velocities, g_hex, direction, math)

@@ -11,6 +11,7 @@ import math
 import numpy as np
 
 from psmforce.identification.cable_pair import tension_sum
+from psmforce.robot.dahl import DahlState, dahl_states
 
 KAPPA = 0.8306 / 1.0186
 CABLE_ANGLES_RAD = np.deg2rad([0.0, 60.0, 120.0])
@@ -72,54 +73,35 @@ def at_bound(params) -> np.ndarray:
     return np.minimum(p - lo, hi - p) <= BOUND_TOLERANCE * (hi - lo)
 
 
+def _pair_travel(wrist_pitch, wrist_yaw, jaw):
+    """The pairs' cable travel over their pulley radius (rad): ``K p``, ``p = (pitch, yaw - jaw/2,
+    yaw + jaw/2)``, ``K`` the coupling of the module docstring (arrays or floats)."""
+    return (wrist_pitch, KAPPA * wrist_pitch + wrist_yaw - 0.5 * jaw,
+            KAPPA * wrist_pitch + wrist_yaw + 0.5 * jaw)
+
+
 def friction_direction(wrist_positions) -> np.ndarray:
     """(N, 3) friction direction state ``z`` in [-1, 1] of each pair (pitch, blade 1, blade 2)
     over a recording, from its wrist joint positions (N, 3) (wrist_pitch, wrist_yaw, jaw; rad,
-    dVRK joints, in time order).
-
-    The pairs' cable travel over their pulley radius is ``K p`` (rad), ``p = (pitch, yaw - jaw/2,
-    yaw + jaw/2)`` and ``K`` the coupling of the module docstring. Dahl model (exponent 1,
-    rate independent) per pair: ``dz/dx = (1 - z sgn dx) / x_c``, ``x_c`` =
-    :data:`PRESLIDING_RAD`, solved exactly for piecewise-linear motion,
-    ``z_k = a_k z_(k-1) + (1 - a_k) sgn(dx_k)``, ``a_k = exp(-|dx_k| / x_c)``, from ``z = 0``:
-    the direction of the last motion, remembered while the wrist is at rest, which a
-    velocity's sign is not (at rest it is 0).
+    dVRK joints, in time order): the Dahl state (:mod:`psmforce.robot.dahl`) of each pair's
+    cable travel over its pulley radius, pre-sliding :data:`PRESLIDING_RAD`, from ``z = 0``.
+    It remembers the direction of the last motion while the wrist is at rest, which a
+    velocity's sign does not.
     """
     q = np.asarray(wrist_positions, dtype=float)
-    blades = np.stack([q[:, 1] - 0.5 * q[:, 2], q[:, 1] + 0.5 * q[:, 2]], axis=1)
-    x = np.column_stack([q[:, 0], KAPPA * q[:, :1] + blades])
-    dx = np.diff(x, axis=0, prepend=x[:1])
-    a = np.exp(-np.abs(dx) / PRESLIDING_RAD)
-    b = (1.0 - a) * np.sign(dx)
-    z = np.empty_like(x)
-    for c in range(3):  # a recursion over time, on plain floats: about 0.1 us a step
-        out, state = [], 0.0
-        for ak, bk in zip(a[:, c].tolist(), b[:, c].tolist()):
-            state = ak * state + bk
-            out.append(state)
-        z[:, c] = out
-    return z
+    return dahl_states(np.column_stack(_pair_travel(q[:, 0], q[:, 1], q[:, 2])), PRESLIDING_RAD)
 
 
 class FrictionDirection:
-    """:func:`friction_direction`'s recursion one sample at a time (pure Python floats), for a
-    streaming estimator: :meth:`step` takes one sample's (wrist_pitch, wrist_yaw, jaw) (rad)
-    and returns the three states after it, the same values the batch function gives."""
+    """:func:`friction_direction` one sample at a time (pure Python floats), for a streaming
+    estimator: :meth:`step` takes one sample's (wrist_pitch, wrist_yaw, jaw) (rad) and returns
+    the three states after it, the values the batch function gives."""
 
     def __init__(self):
-        self._x = None
-        self._z = [0.0, 0.0, 0.0]
+        self._state = DahlState(3, PRESLIDING_RAD)
 
     def step(self, wrist_pitch: float, wrist_yaw: float, jaw: float) -> list[float]:
-        x = (wrist_pitch, KAPPA * wrist_pitch + wrist_yaw - 0.5 * jaw,
-             KAPPA * wrist_pitch + wrist_yaw + 0.5 * jaw)
-        if self._x is not None:
-            for i in range(3):
-                dx = x[i] - self._x[i]
-                a = math.exp(-abs(dx) / PRESLIDING_RAD)
-                self._z[i] = a * self._z[i] + (1.0 - a) * ((dx > 0) - (dx < 0))
-        self._x = x
-        return self._z
+        return self._state.step(_pair_travel(wrist_pitch, wrist_yaw, jaw))
 
 
 def _model(p, pos, e, v, g_hex, z, xp):

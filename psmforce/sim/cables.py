@@ -21,6 +21,7 @@ from __future__ import annotations
 import numpy as np
 
 from psmforce.robot.conventions import JAW_CLOSED_RAD as CONVENTIONS_JAW_CLOSED_RAD
+from psmforce.robot.dahl import dahl_states
 from psmforce.sim.cable_laws import quadratic_pair
 from psmforce.sim.params import Effects, InstrumentParams
 
@@ -55,35 +56,16 @@ def distal_torque_to_joints(tau_p: np.ndarray) -> np.ndarray:
     return np.stack([tau_p[:, 0], tau_p[:, 1] + tau_p[:, 2], 0.5 * (tau_p[:, 2] - tau_p[:, 1])], axis=-1)
 
 
-def _linear_recurrence(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """y_k = a_k y_{k-1} + b_k with y_{-1} = 0, for 1-D arrays.
-
-    A per-sample loop over Python floats (about 0.1 us a step): the only recursion in the
-    simulator, on one small state per channel.
-    """
-    out = [0.0] * len(a)
-    y = 0.0
-    for k, (ak, bk) in enumerate(zip(a.tolist(), b.tolist())):
-        y = ak * y + bk
-        out[k] = y
-    return np.asarray(out)
-
-
 def dahl_direction(x: np.ndarray, presliding_length: float, hysteresis: bool) -> np.ndarray:
-    """Friction direction state z in [-1, 1] per column of ``x`` (N, C), driven by displacement.
-
-    Dahl model (exponent 1), rate independent: dz/dx = (1 - z sgn(dx)) / x_c, solved exactly per
-    sample for piecewise-linear motion: z_k = a_k z_{k-1} + (1 - a_k) sgn(dx_k),
-    a_k = exp(-|dx_k| / x_c). After reversal the friction passes through zero over a few x_c of
-    travel (pre-sliding), so the state remembers the last direction while the cable is at rest.
-    Without ``hysteresis`` z = tanh(dx / x_c): the direction of the current motion, no memory.
+    """Friction direction state z in [-1, 1] per column of ``x`` (N, C), driven by displacement:
+    the Dahl state of :mod:`psmforce.robot.dahl` (after a reversal the friction passes through
+    zero over a few ``x_c`` of travel, and the state remembers the last direction while the
+    cable is at rest). Without ``hysteresis`` z = tanh(dx / x_c): the direction of the current
+    motion, no memory.
     """
-    dx = np.diff(x, axis=0, prepend=x[:1])
     if not hysteresis:
-        return np.tanh(dx / presliding_length)
-    a = np.exp(-np.abs(dx) / presliding_length)
-    b = (1.0 - a) * np.sign(dx)
-    return np.stack([_linear_recurrence(a[:, c], b[:, c]) for c in range(x.shape[1])], axis=1)
+        return np.tanh(np.diff(x, axis=0, prepend=x[:1]) / presliding_length)
+    return dahl_states(x, presliding_length)
 
 
 def pair_pretension(q_roll: np.ndarray, q_pitch: np.ndarray, params: InstrumentParams,

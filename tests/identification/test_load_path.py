@@ -102,6 +102,12 @@ def test_the_load_path_recovers_what_the_efforts_cannot(default_bench, tmp_path)
     assert error(dict(zip(NAMES, no_capstan.params)), "pulley_radius_blade") > 0.1
     prior = InternalForcePrior.load(tmp_path / "load_path.json")
     assert prior.inputs == "load_path" and fits["load_path"]["inputs"] == "load_path"
+    # the law read back over its training recordings gives the fit's own figure, capstan or not
+    for law in (no_capstan, prior):
+        again, stored = law.fit_metrics(frames), law.info["train_metrics"]
+        assert law is no_capstan or law.has_capstan
+        for channel in ("fz", "tx", "ty"):
+            assert again[channel]["rms"] == pytest.approx(stored[channel]["rms"], rel=1e-9)
 
 
 def test_an_estimator_refuses_a_prior_that_reads_the_tip_force():
