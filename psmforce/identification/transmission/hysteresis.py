@@ -1,7 +1,7 @@
 """Hysteresis with memory, driven by displacement (rate independent), for whole recordings:
 
-* :func:`dahl_state`: the Dahl friction-direction state in [-1, 1] (exact solution for
-  piecewise-linear motion; the bench's ``psmforce/sim/cables.py`` uses the same family);
+* :func:`dahl_state`: the Dahl friction-direction state in [-1, 1] of one coordinate
+  (:mod:`psmforce.robot.dahl`, the recursion the bench's cables and the prior's capstan read);
 * :func:`play`: the backlash (play) operator;
 * :func:`hold`: a first-order hold that follows its input only while the driving coordinate
   moves (a Maxwell-slip element with one slip width).
@@ -13,13 +13,14 @@ from __future__ import annotations
 
 import numpy as np
 
+from psmforce.robot.dahl import dahl_states
+
 
 def dahl_state(theta: np.ndarray, presliding_rad: float) -> np.ndarray:
     """z_k = a_k z_{k-1} + (1 - a_k) sgn(dtheta_k), a_k = exp(-|dtheta_k| / phi): the exact
-    rate-independent Dahl solution for piecewise-linear motion (z_0 = 0)."""
-    dx = np.diff(theta, prepend=theta[:1])
-    a = np.exp(-np.abs(dx) / presliding_rad)
-    return _recurrence(a, (1.0 - a) * np.sign(dx), 0.0)
+    rate-independent Dahl solution for piecewise-linear motion (z_0 = 0), of the 1-D
+    ``theta``."""
+    return dahl_states(np.asarray(theta, dtype=float)[:, None], presliding_rad)[:, 0]
 
 
 def play(theta: np.ndarray, half_width_rad: float) -> np.ndarray:
