@@ -50,7 +50,8 @@ SWITCHES = {
     "pin_friction": "off: not in the family",
     "pitch_path_mismatch": "off: the bench adds it to the blade pretension (it moves the slack "
                            "threshold), the prior outside the max (truth 0)",
-    "hex10_crosstalk": "off: the prior has no cross-talk",
+    "hex10_crosstalk": "off: the prior's cross-talk is the axial force's into the lateral forces "
+                       "alone, and the efforts reading holds it",
     "hex10_drift": "off: a random walk, not a constant bias",
     "hex10_range_error": "off: not in the family (and |f| < 25 N mostly)",
     "drive_friction": "off: the wrist discs' friction is proximal of the HEX10: in the efforts, "
@@ -109,6 +110,7 @@ def prior_truth(instrument: InstrumentParams, psm: PSM | None = None) -> dict[st
         "bias_fx": bias[0], "bias_fy": bias[1], "bias_fz": bias[2],
         "bias_tx": 0.0, "bias_ty": 0.0, "bias_tz": 0.0,  # the bench's tare offset is forces only
         "capstan_mu": 0.0,                              # capstan off
+        "crosstalk_fx": 0.0, "crosstalk_fy": 0.0,       # hex10_crosstalk off
     }
 
 
@@ -182,7 +184,9 @@ def default_bench_truth(instrument: InstrumentParams | None = None,
     (the jaws' moves with the wrist angles); ``pitch_path_tension`` = cable stiffness x path
     mismatch (the bench adds it per blade cable, ``k e (1 - cos pitch)``); the asymmetries 0 under
     the quadratic pair law (``pair_law``, no linear term); the biases the residual tare offset
-    (``hex10_residual_bias_n``; the moments' 0), without the cross-talk of the rest level;
+    (``hex10_residual_bias_n``; the moments' 0); ``crosstalk_fx``, ``crosstalk_fy`` the
+    cross-talk matrix's entries of the axial force (``hex10_crosstalk``; its other entries,
+    the moments' leaks included, have no counterpart);
     ``capstan_mu`` the wrist idlers' ``capstan_mu_wrap_distal`` at the straight wrist without
     roll (the bench's grows with |wrist pitch| on the blade pairs and with |roll|; its friction
     state is driven by cable travel with a pre-sliding of ``presliding_length_m``)."""
@@ -216,6 +220,8 @@ def default_bench_truth(instrument: InstrumentParams | None = None,
         "bias_fx": bias[0], "bias_fy": bias[1], "bias_fz": bias[2],
         "bias_tx": 0.0, "bias_ty": 0.0, "bias_tz": 0.0,
         "capstan_mu": instrument.capstan_mu_wrap_distal,
+        "crosstalk_fx": instrument.hex10_crosstalk[0][2],
+        "crosstalk_fy": instrument.hex10_crosstalk[1][2],
     }
 
 
@@ -246,8 +252,9 @@ def bench_capstan_over(frames, instrument: InstrumentParams) -> float:
 def crosstalk_of_rest_level(instrument: InstrumentParams) -> dict[str, float]:
     """What the HEX10's cross-talk (``hex10_crosstalk``, reading = X wrench + offset) makes of
     the pretension's axial force ``-pretension_total`` (N, straight wrist, no roll) in the other
-    channels (N, Nm): a constant the law can only carry in its biases (the bench's parameters,
-    for the comparison)."""
+    channels (N, Nm): a constant the law carries in its biases where it has no cross-talk
+    term (the moments) or holds it (the efforts reading) (the bench's parameters, for the
+    comparison)."""
     rest = -instrument.pretension_total_n
     x = instrument.hex10_crosstalk
     return {f"bias_{c}": float(x[k][2] * rest) for k, c in enumerate(("fx", "fy", "fz", "tx",

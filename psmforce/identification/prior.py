@@ -31,12 +31,15 @@ Model::
              cable-coordinate velocity
     E_i    = D_i c_i + P_i s_i                        pair differential at the section
     S_path = 4 c_pm (1 - cos wrist_pitch)             blade cables' path over the pitch pulleys
-    f      = m_d g_hex - (0, 0, S_path + sum_i S_i) + b_f
+    F_ax   = m_d g_hex_z - S_path - sum_i S_i        the section's axial force
+    f      = (m_d g_hex_x + x_x F_ax, m_d g_hex_y + x_y F_ax, F_ax) + b_f
+             the sensor's cross-talk x of the axial force into its lateral forces
     t      = sum_i rho (-sin phi_i, cos phi_i, 0) E_i + l_d e_z x (m_d g_hex) + b_t
 
 With ``mu = 0`` (``capstan_mu``: what priors written before it load with, and what the efforts
 reading holds, :data:`HELD_BY_READING`), ``S_i = smoothmax(2 T0 + a_i D_i, |D_i|) + ...`` and
-``E_i = D_i``: the law before the capstan.
+``E_i = D_i``: the law before the capstan; with ``x = 0`` (``crosstalk_fx``, ``crosstalk_fy``,
+held and loaded the same way) the law before the cross-talk.
 
 with the cable angles phi = (0, 60, 120) deg of the pairs' "+" cables (datasheet). Parameters
 (:data:`PARAMETERS`) have physical bounds. What the data pin down is reported with every fit
@@ -93,24 +96,25 @@ from psmforce.identification.errors import IdentificationInputError, NotConverge
 from psmforce.identification.insertion import InsertionEffortModel
 from psmforce.identification.model_file import parse_model_json, read_model_json
 from psmforce.identification.prior_identifiability import identifiability
-from psmforce.identification.prior_law import (CABLE_ANGLES_RAD, KAPPA, NAMES,  # noqa: F401
-                                                MIN_SAMPLES, PARAMETERS, _CasadiOps, _model,
-                                                FrictionDirection, at_bound,
-                                                friction_direction)
+from psmforce.identification.prior_law import (ADDED_TERMS, CABLE_ANGLES_RAD,  # noqa: F401
+                                                KAPPA, NAMES, MIN_SAMPLES, PARAMETERS,
+                                                _CasadiOps, _model, FrictionDirection,
+                                                at_bound, friction_direction)
 from psmforce.identification.signals import check_finite_2d
 from psmforce.robot.kinematics import PSM
 from psmforce.io.recording import (HEX10, JOINT_POSITIONS, OVERLOAD, TARGETS, joint_column,
                                  read_recording)
 
 FORMAT = "psmforce.identification.InternalForcePrior/1"
-FORMAT_VERSION = 3
-"""3: the law's capstan (``capstan_mu``, the 18th parameter). 2: the integrity envelope
-(:mod:`psmforce.core.integrity`: a SHA-256 over every field) and this integer; a file with
-neither was written before them and still loads (its parameters checked against their bounds,
-as every prior's are). Files before 3 have no capstan and load with ``capstan_mu`` 0, the law
-they were fitted with."""
-_BEFORE_CAPSTAN = {"capstan_mu": 0.0}
-"""What a file written before version 3 lacks, and the value that gives its law."""
+FORMAT_VERSION = 4
+"""4: the sensor's cross-talk of the axial force (``crosstalk_fx``, ``crosstalk_fy``). 3: the
+law's capstan (``capstan_mu``). 2: the integrity envelope (:mod:`psmforce.core.integrity`: a
+SHA-256 over every field) and this integer; a file with neither was written before them and
+still loads (its parameters checked against their bounds, as every prior's are). A file lacks
+the terms added after it was written (:data:`_ADDED_IN`) and loads with them at 0, the law it
+was fitted with."""
+_ADDED_IN = {3: {"capstan_mu": 0.0}, 4: {"crosstalk_fx": 0.0, "crosstalk_fy": 0.0}}
+"""Format version -> the parameters it added, with the value that gives the law before them."""
 
 _MIN_SAMPLES = MIN_SAMPLES
 _CAPSTAN = NAMES.index("capstan_mu")
@@ -167,14 +171,24 @@ def internal_wrench_target(frame) -> tuple[np.ndarray, np.ndarray]:
 
 INPUTS = ("efforts", "load_path")
 """What a prior reads as the wrist torques that load its cables (:attr:`InternalForcePrior.inputs`)."""
-HELD_BY_READING = {"efforts": {"capstan_mu": 0.0}, "load_path": {}}
-"""Parameters each reading holds (SI) unless the caller fixes them otherwise. The capstan
+HELD_BY_READING = {"efforts": {"capstan_mu": 0.0, "crosstalk_fx": 0.0, "crosstalk_fy": 0.0},
+                   "load_path": {}}
+"""Parameters each reading holds (SI) unless the caller fixes them otherwise, at the value that
+gives the law before them (:data:`HELD_BY_READING_REASON` says why). The capstan
 (``capstan_mu``) turns the differential the wrist's pulleys demand into the section's; the load
 path gives that demand, but the motor efforts are the differential at the motor, after the
 proximal path's own capstan and the discs' friction, which the law does not model: read from
-them, the term only bends the curve fit, so it stays at 0 (the law before it)."""
-HELD_BY_READING_REASON = ("held by the reading: the motor efforts are the differential after "
-                          "the proximal path and the discs, not the wrist's demand")
+them, the term only bends the curve fit. The cross-talk (``crosstalk_fx``, ``crosstalk_fy``)
+scales the law's axial force; read from the efforts that force is not the section's (their
+disc friction and disturbance, docs/simulator.md section 8), and the coefficients would carry
+its misfit into the lateral channels."""
+HELD_BY_READING_REASON = {
+    "capstan_mu": "held by the reading: the motor efforts are the differential after the "
+                  "proximal path and the discs, not the wrist's demand",
+    "crosstalk_fx": "held by the reading: the axial force read from the motor efforts is not "
+                    "the section's, whose cross-talk this is",
+    "crosstalk_fy": "held by the reading: the axial force read from the motor efforts is not "
+                    "the section's, whose cross-talk this is"}
 
 
 def _fit_arrays(frame, inputs: str, psm=None, targets: bool = True, direction: bool = True):
@@ -414,8 +428,9 @@ class InternalForcePrior:
         cols = [ca.DM(x) for x in (e.T.tolist())]
         vcols = [ca.DM(x) for x in (v.T.tolist())]
         gcols = [ca.DM(x) for x in (g.T.tolist())]
-        # a capstan held at 0 enters as the number, so the law's graph is the one without it
-        law_p = [0.0 if i == _CAPSTAN and no_capstan else p[i] for i in range(len(PARAMETERS))]
+        # an added term held at 0 enters as the number: the law's graph is the one without it
+        law_p = [0.0 if name in ADDED_TERMS and fixed.get(name) == 0.0 else p[i]
+                 for i, name in enumerate(NAMES)]
         zcols = None if no_capstan else [ca.DM(x) for x in (zd.T.tolist())]
         pred = _model(law_p, [ca.DM(pos[:, 0]), ca.DM(pos[:, 1])], cols, vcols, gcols, zcols,
                       _CasadiOps())
@@ -508,14 +523,17 @@ class InternalForcePrior:
         """The checks of :meth:`load` on the parsed JSON ``d``; ``path`` names its source."""
         if "format_version" in d or "sha256" in d:  # a file without both predates them
             from psmforce.core.integrity import check_version, verify
-            check_version(d.get("format_version"), (2, FORMAT_VERSION), str(path), "prior",
-                          IdentificationInputError)
+            check_version(d.get("format_version"), range(2, FORMAT_VERSION + 1), str(path),
+                          "prior", IdentificationInputError)
             verify(d, str(path), "prior", IdentificationInputError)
         entries = d.get("parameters")
         if not isinstance(entries, dict):
             raise IdentificationInputError(f"{path}: no 'parameters' object")
-        if d.get("format_version") != FORMAT_VERSION:
-            entries = {**{n: {"value": x} for n, x in _BEFORE_CAPSTAN.items()}, **entries}
+        version = d.get("format_version") or 1
+        if version != FORMAT_VERSION:
+            absent = {n: {"value": x} for v, added in _ADDED_IN.items() if v > version
+                      for n, x in added.items()}
+            entries = {**absent, **entries}
         missing = [n for n in NAMES if n not in entries]
         if missing:
             raise IdentificationInputError(f"{path}: missing parameters {missing}")

@@ -48,8 +48,19 @@ PARAMETERS = (
     # 0, the law without it). Friction coefficient x wrap angle over the wrist idlers between
     # the pulleys and the HEX10 section (a capstan); 1 is a wrap of 1 rad at mu = 1.
     ("capstan_mu", "1", 0.0, 1.0, 0.0),
+    # The HEX10's cross-talk of the section's axial force into its lateral force channels (N per
+    # N of axial force): the axial force is the one large internal load (tens of N, from the
+    # pretension and the cables' differentials), so a 1 % leak moves the lateral readings by
+    # tenths of a newton, with the load. A miniature six-axis cell's uncompensated cross-talk is
+    # a few %; +-5 % bounds it. Added after the capstan, for the same reason.
+    ("crosstalk_fx", "1", -0.05, 0.05, 0.0),
+    ("crosstalk_fy", "1", -0.05, 0.05, 0.0),
 )
 NAMES = tuple(p[0] for p in PARAMETERS)
+ADDED_TERMS = ("capstan_mu", "crosstalk_fx", "crosstalk_fy")
+"""The terms added to the law after its first 17 parameters. Each is 0 in the law before it,
+and one held at exactly 0 enters the fit's graph as the number (:func:`_model` then leaves the
+term out): a fit that holds them is the fit it was before they existed."""
 MIN_SAMPLES = 200
 """Fewest samples (or slack samples) a fit or an identifiability verdict rests on."""
 PRESLIDING_RAD = 0.02
@@ -65,7 +76,7 @@ the verdict line all use."""
 
 
 def at_bound(params) -> np.ndarray:
-    """(17,) bool: each parameter (SI, :data:`NAMES` order) within :data:`BOUND_TOLERANCE` of its
+    """(P,) bool: each parameter (SI, :data:`NAMES` order) within :data:`BOUND_TOLERANCE` of its
     bounds' span of its lower or upper bound."""
     p = np.asarray(params, dtype=float)
     lo = np.array([q[2] for q in PARAMETERS])
@@ -108,7 +119,7 @@ def _model(p, pos, e, v, g_hex, z, xp):
     """Vectorised model; ``xp`` is numpy or a CasADi-like namespace (see ``_CasadiOps``);
     ``z`` the pairs' friction direction states (:func:`friction_direction`)."""
     (T_tot, r_p, r_b, g_tw, c_dir, a_p, a_b, c_pm, m_d, l_d, rho,
-     bfx, bfy, bfz, btx, bty, btz, mu) = [p[i] for i in range(18)]
+     bfx, bfy, bfz, btx, bty, btz, mu, x_fx, x_fy) = [p[i] for i in range(len(PARAMETERS))]
     roll, wrist_pitch = pos[0], pos[1]
     tau_p, tau_b1, tau_b2 = e[0], 0.5 * e[1] - e[2], 0.5 * e[1] + e[2]
     # u = K^-T tau_d: K^T = [[1,k,k],[0,1,0],[0,0,1]] -> u1 = tau_b1, u2 = tau_b2, u0 = tau_p - k(u1+u2)
@@ -123,8 +134,8 @@ def _model(p, pos, e, v, g_hex, z, xp):
     asym = (a_p, a_b, a_b)
     tx = 0.0
     ty = 0.0
-    # a capstan held at 0 (a plain number: the efforts reading's) costs nothing in the fit's graph
-    no_capstan = isinstance(mu, (int, float)) and mu == 0.0
+    # a term held at 0 (a plain number: the efforts reading's) costs nothing in the fit's graph
+    no_capstan = _is_zero(mu)
     for i in range(3):
         if no_capstan:
             d_section = D[i]
@@ -140,11 +151,20 @@ def _model(p, pos, e, v, g_hex, z, xp):
         tx = tx - rho * math.sin(CABLE_ANGLES_RAD[i]) * d_section
         ty = ty + rho * math.cos(CABLE_ANGLES_RAD[i]) * d_section
     gx, gy, gz = g_hex[0], g_hex[1], g_hex[2]
+    axial = m_d * gz - S_sum  # the section's axial force, before the sensor's offset
     fx = m_d * gx + bfx
     fy = m_d * gy + bfy
-    fz = m_d * gz - S_sum + bfz
+    if not (_is_zero(x_fx) and _is_zero(x_fy)):  # the sensor's cross-talk of it
+        fx = fx + x_fx * axial
+        fy = fy + x_fy * axial
+    fz = axial + bfz
     # moment of the distal weight at l_d e_z: (0,0,l) x (m g) = l m (-gy, gx, 0)
     return fx, fy, fz, tx - l_d * m_d * gy + btx, ty + l_d * m_d * gx + bty, 0.0 * gz + btz
+
+
+def _is_zero(x) -> bool:
+    """A parameter given as the plain number 0 (not a symbol): its term is left out."""
+    return isinstance(x, (int, float)) and x == 0.0
 
 
 class _CasadiOps:

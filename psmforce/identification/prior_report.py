@@ -83,7 +83,7 @@ def fit_prior_cli(data_dir, out_json, *, use_loaded: bool = False,
         listed = sorted(prior.info["identifiability"]["not_identifiable"])
         held = prior.info["fixed"]  # by the reading (HELD_BY_READING)
         selection = {"identified": [n for n in NAMES if n not in listed and n not in held],
-                     "fixed": {n: {"value": x, "reason": HELD_BY_READING_REASON}
+                     "fixed": {n: {"value": x, "reason": HELD_BY_READING_REASON[n]}
                                for n, x in held.items()},
                      "still_not_identifiable": listed, "at_bound": prior.info["bounds_hit"],
                      "rounds": []}

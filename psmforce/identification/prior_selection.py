@@ -54,6 +54,7 @@ DESIGN = {
     "bias_fx": 0.0, "bias_fy": 0.0, "bias_fz": 0.0,     # N: the sensor is tared
     "bias_tx": 0.0, "bias_ty": 0.0, "bias_tz": 0.0,     # Nm: the sensor is tared
     "capstan_mu": 0.0,              # 1: no friction by design
+    "crosstalk_fx": 0.0, "crosstalk_fy": 0.0,  # 1: the sensor's calibration decouples it
 }
 """The value a parameter is held at when the data cannot pin it down: the instrument's design
 (nominal) values as docs/simulator.md states them, read as a datasheet (SI, :data:`NAMES`). They
@@ -136,7 +137,7 @@ def fit_identified(recordings, *, psm=None, provenance=None, design: dict | None
         raise IdentificationInputError(f"design: unknown parameters {unknown} (one of {NAMES})")
     frames = _frames(recordings)
     fixed = dict(HELD_BY_READING[inputs])
-    why_fixed = {n: {"value": x, "reason": HELD_BY_READING_REASON, "fitted_when_listed": None,
+    why_fixed = {n: {"value": x, "reason": HELD_BY_READING_REASON[n], "fitted_when_listed": None,
                      "round": 0} for n, x in fixed.items()}
     rounds = []
     for round_ in range(max_rounds):

@@ -228,11 +228,13 @@ def test_a_prior_with_one_field_edited_is_refused_naming_it(tmp_path, field, edi
     assert str(path) in str(err.value)
 
 
-@pytest.mark.parametrize("version", ["2", 2.0, True, None, 1, 4])
+@pytest.mark.parametrize("version", ["2", 2.0, True, None, 1, "next"])
 def test_a_prior_whose_format_version_is_not_the_integer_is_refused(tmp_path, version):
     from psmforce.identification.errors import IdentificationInputError
     from psmforce.identification.prior import InternalForcePrior
+    from psmforce.identification.prior import FORMAT_VERSION
     path, d = _prior_file(tmp_path)
+    version = FORMAT_VERSION + 1 if version == "next" else version  # a later version's file
     path.write_text(json.dumps(seal({**d, "format_version": version})))  # even resealed
     with pytest.raises(IdentificationInputError, match="prior format version") as err:
         InternalForcePrior.load(path)

@@ -77,7 +77,8 @@ def test_the_load_path_recovers_what_the_efforts_cannot(default_bench, tmp_path)
     friction and the bench's configuration-dependent capstan, outside the law, keep it from 10 %
     in this all-free fit at this scale: docs/identification.md section 2.3). Switching the load
     path off fails this test; so does holding the law's capstan at 0: the capstan's gain on the
-    slack side is then read as a smaller blade pulley."""
+    slack side is then read as a smaller blade pulley. The HEX10's cross-talk of the axial force
+    into the lateral forces comes back through the load path too."""
     from psmforce.experiments.prior_recovery import default_bench_truth
     from psmforce.identification.prior_report import fit_prior_cli
     from psmforce.sim.params import InstrumentParams
@@ -94,6 +95,11 @@ def test_the_load_path_recovers_what_the_efforts_cannot(default_bench, tmp_path)
         assert error(load, name) < 0.1, (name, load)
     assert error(load, "pretension_total") < 0.25, load
     assert error(efforts, "cable_radius") > 0.5 and error(efforts, "pretension_total") > 1.0
+    # the sensor's cross-talk of the axial force: the load path frees it and it comes back; the
+    # efforts reading holds it, and its lateral bias carries the leak's mean instead
+    for name in ("crosstalk_fx", "crosstalk_fy"):
+        assert error(load, name) < 0.1 and efforts[name] == 0.0, (name, load)
+    assert error(load, "bias_fy") < 0.15 and error(efforts, "bias_fy") > 1.0
     from psmforce.io.recording import list_recordings, read_recording
     frames = [read_recording(r.path) for r in list_recordings(default_bench)
               if r.split == "train"]

@@ -158,5 +158,5 @@ def test_files_before_the_capstan_load_without_it_and_new_ones_need_it():
 
 
 def test_the_efforts_reading_holds_the_capstan_and_the_load_path_frees_it():
-    assert HELD_BY_READING["efforts"] == {"capstan_mu": 0.0}
+    assert HELD_BY_READING["efforts"]["capstan_mu"] == 0.0
     assert "capstan_mu" not in HELD_BY_READING["load_path"]

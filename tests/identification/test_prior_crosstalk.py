@@ -1,0 +1,81 @@
+"""The prior law's HEX10 cross-talk of the axial force into the lateral forces (prior_law.py):
+its closed form in numpy, CasADi and the per-sample path; held by the efforts reading, freed by
+the load path; files written before it load as the law they were fitted with."""
+import math
+
+import numpy as np
+import pytest
+
+from psmforce.core.integrity import seal
+from psmforce.identification.errors import IdentificationInputError
+from psmforce.identification.prior import (HELD_BY_READING, HELD_BY_READING_REASON,
+                                           InternalForcePrior)
+from psmforce.identification.prior_law import ADDED_TERMS, NAMES, _CasadiOps, _model
+
+
+def _params(**values):
+    base = dict.fromkeys(NAMES, 0.0)
+    base.update(pretension_total=6.0, pulley_radius_pitch=2e-3, pulley_radius_blade=1.5e-3,
+                cable_radius=1.2e-3, distal_mass=5.5e-3, bias_fx=0.05, bias_fz=0.1)
+    base.update(values)
+    return np.array([base[n] for n in NAMES])
+
+
+def _inputs(n=50, seed=0):
+    rng = np.random.default_rng(seed)
+    pos = rng.uniform(-1.0, 1.0, (2, n))
+    e = rng.normal(0.0, 0.02, (3, n))
+    v = rng.normal(0.0, 0.5, (3, n))
+    g = rng.normal(0.0, 5.0, (3, n))
+    return pos, e, v, g, np.zeros((3, n))
+
+
+def test_the_lateral_forces_gain_the_axial_force_times_the_cross_talk():
+    args = _inputs()
+    plain = np.array(_model(_params(), *args, np))
+    leaky = np.array(_model(_params(crosstalk_fx=0.006, crosstalk_fy=-0.009), *args, np))
+    axial = plain[2] - 0.1  # the section's axial force: the reading's fz less its offset
+    assert np.ptp(axial) > 1.0  # the pairs' loads move it
+    assert np.allclose(leaky[0] - plain[0], 0.006 * axial, atol=1e-12, rtol=0)
+    assert np.allclose(leaky[1] - plain[1], -0.009 * axial, atol=1e-12, rtol=0)
+    assert np.array_equal(leaky[2:], plain[2:])  # nothing else moves
+
+
+def test_numpy_casadi_and_the_per_sample_path_agree():
+    import casadi as ca
+    p = _params(crosstalk_fx=0.01, crosstalk_fy=0.02)
+    pos, e, v, g, z = _inputs(5, seed=1)
+    numpy_out = np.array(_model(p, pos, e, v, g, z, np))
+    sym = ca.MX.sym("p", len(NAMES))
+    f = ca.Function("law", [sym], [ca.vertcat(*[ca.vec(c) for c in _model(
+        [sym[i] for i in range(len(NAMES))], [ca.DM(r) for r in pos], [ca.DM(r) for r in e],
+        [ca.DM(r) for r in v], [ca.DM(r) for r in g], [ca.DM(r) for r in z], _CasadiOps())])])
+    assert np.allclose(np.array(f(p)).reshape(6, 5), numpy_out, atol=1e-12, rtol=0)
+    prior = InternalForcePrior(params=p)
+    one = prior.predict_one(pos[:, 0], e[:, 0], v[:, 0], g[:, 0])
+    assert np.allclose(one, numpy_out[:, 0], atol=1e-12, rtol=0)
+    assert math.isclose(one[0] - InternalForcePrior(params=_params()).predict_one(
+        pos[:, 0], e[:, 0], v[:, 0], g[:, 0])[0], 0.01 * (numpy_out[2, 0] - 0.1), abs_tol=1e-12)
+
+
+def test_the_efforts_reading_holds_it_and_says_why():
+    for name in ("crosstalk_fx", "crosstalk_fy"):
+        assert name in ADDED_TERMS and HELD_BY_READING["efforts"][name] == 0.0
+        assert name not in HELD_BY_READING["load_path"]
+        assert "axial force" in HELD_BY_READING_REASON[name]
+
+
+def test_files_before_it_load_without_it_and_new_ones_need_it():
+    v3 = InternalForcePrior(converged=True, params=_params(capstan_mu=0.2)).to_dict()
+    for name in ("crosstalk_fx", "crosstalk_fy"):
+        del v3["parameters"][name]
+    old = InternalForcePrior.from_dict(seal({**v3, "format_version": 3}), "v3.json")
+    assert old.params[NAMES.index("capstan_mu")] == 0.2
+    assert old.params[NAMES.index("crosstalk_fx")] == old.params[NAMES.index("crosstalk_fy")] == 0
+    with pytest.raises(IdentificationInputError, match="missing parameters.*crosstalk_fx"):
+        InternalForcePrior.from_dict(seal({**v3, "format_version": 4}), "v4.json")
+    d = InternalForcePrior(converged=True, params=_params(crosstalk_fy=0.02)).to_dict()
+    assert InternalForcePrior.from_dict(d, "p.json").params[NAMES.index("crosstalk_fy")] == 0.02
+    d["parameters"]["crosstalk_fx"]["value"] = 0.2  # beyond its +-5 % bounds
+    with pytest.raises(IdentificationInputError, match="crosstalk_fx"):
+        InternalForcePrior.from_dict(seal({**d, "format_version": 4}), "p.json")
