@@ -103,6 +103,23 @@ def prior_recovery_table(result: dict) -> str:
     return "\n".join(lines)
 
 
+def _rest_level_leak(run: dict) -> str:
+    """The sentence on the HEX10's cross-talk of the pretension's axial force: into the channels
+    whose law has no cross-talk term (a load-path law fits fx's and fy's), a constant only the
+    biases carry."""
+    if "crosstalk_of_rest_level" not in run:
+        return ""
+    fitted = [c for c in ("fx", "fy") if f"crosstalk_{c}" in run["parameters"]
+              and run.get("inputs") == "load_path"]
+    leaks = {n: x for n, x in run["crosstalk_of_rest_level"].items()
+             if n.removeprefix("bias_") not in fitted}
+    return (" The sensor's cross-talk of the pretension's axial force, a constant only the biases "
+            "can carry" + (f" where the law has no cross-talk term (it has one for "
+                           f"{' and '.join(fitted)})" if fitted else "")
+            + " (bench parameters): " + ", ".join(f"{n} {x:+.3g}" for n, x in leaks.items())
+            + ".")
+
+
 def _num(x) -> str:
     return "—" if x is None else f"{x:.4g}"
 
@@ -151,11 +168,7 @@ def prior_default_recovery_table(result: dict) -> str:
                   f"{fz.get('rms', float('nan')):.3g} N, all-free fit "
                   f"{fz0.get('rms', float('nan')):.3g} N (R^2 {fz.get('r2', float('nan')):.3g} / "
                   f"{fz0.get('r2', float('nan')):.3g}); fit-prior rounds: {len(run['rounds'])}."
-                  + ("" if "crosstalk_of_rest_level" not in run else
-                     " The sensor's cross-talk of the pretension's axial force, a constant only "
-                     "the biases can carry (bench parameters): " + ", ".join(
-                         f"{n} {x:+.3g}" for n, x in run["crosstalk_of_rest_level"].items())
-                     + ".")
+                  + _rest_level_leak(run)
                   + ("" if "capstan_mu_over_training" not in run else
                      " The bench's wrist capstan is "
                      f"{_num(rows['capstan_mu']['truth'])} at the straight wrist and grows with "
