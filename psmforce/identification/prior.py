@@ -31,9 +31,10 @@ Model::
              cable-coordinate velocity
     E_i    = D_i c_i + P_i s_i                        pair differential at the section
     S_path = 4 c_pm (1 - cos wrist_pitch)             blade cables' path over the pitch pulleys
-    F_ax   = m_d g_hex_z - S_path - sum_i S_i        the section's axial force
-    f      = (m_d g_hex_x + x_x F_ax, m_d g_hex_y + x_y F_ax, F_ax) + b_f
-             the sensor's cross-talk x of the axial force into its lateral forces
+    f      = m_d g_hex - (0, 0, S_path + sum_i S_i) + b_f + (x_x, x_y, 0) (fz_read - b_fz)
+             the last term the sensor's cross-talk x of the axial force it reads (fz_read, its
+             own fz channel: the section's internal and external axial force alike) into its
+             lateral forces
     t      = sum_i rho (-sin phi_i, cos phi_i, 0) E_i + l_d e_z x (m_d g_hex) + b_t
 
 With ``mu = 0`` (``capstan_mu``: what priors written before it load with, and what the efforts
@@ -118,6 +119,7 @@ _ADDED_IN = {3: {"capstan_mu": 0.0}, 4: {"crosstalk_fx": 0.0, "crosstalk_fy": 0.
 
 _MIN_SAMPLES = MIN_SAMPLES
 _CAPSTAN = NAMES.index("capstan_mu")
+_CROSSTALK = [NAMES.index("crosstalk_fx"), NAMES.index("crosstalk_fy")]
 _NO_DIRECTION = (0.0, 0.0, 0.0)
 _WRIST_EFFORTS = tuple(joint_column(j, "effort") for j in WRIST_JOINTS)
 _WRIST_VELOCITIES = tuple(joint_column(j, "velocity") for j in WRIST_JOINTS)
@@ -141,7 +143,8 @@ def arrays_from_frame(frame, psm=None, direction: bool = True) -> dict:
     :func:`~psmforce.identification.prior_law.friction_direction`) from a recording frame, and
     ``d_shaft`` (N,3): the HEX10 z axis (the shaft, towards the tip) in the base frame, for the
     insertion model. ``direction=False``: ``direction`` None (zeros to the law), for a law
-    without a capstan, which does not read it."""
+    without a capstan, which does not read it. ``hex10_fz`` (N,): the HEX10's fz reading (N),
+    which the law's cross-talk terms read (None where the frame has no HEX10 columns)."""
     q = frame[list(JOINT_POSITIONS)].to_numpy(dtype=float)
     e = frame[list(_WRIST_EFFORTS)].to_numpy(dtype=float)
     v = frame[list(_WRIST_VELOCITIES)].to_numpy(dtype=float)
@@ -149,6 +152,8 @@ def arrays_from_frame(frame, psm=None, direction: bool = True) -> dict:
     return {"positions": q[:, [3, 4]], "efforts": e, "velocities": v,
             "g_hex": _gravity_in_frame(r),
             "direction": friction_direction(q[:, 4:7]) if direction else None,
+            "hex10_fz": frame[HEX10[2]].to_numpy(dtype=float) if HEX10[2] in frame.columns
+            else None,
             "d_shaft": r[:, :, 2]}
 
 
@@ -179,16 +184,15 @@ gives the law before them (:data:`HELD_BY_READING_REASON` says why). The capstan
 path gives that demand, but the motor efforts are the differential at the motor, after the
 proximal path's own capstan and the discs' friction, which the law does not model: read from
 them, the term only bends the curve fit. The cross-talk (``crosstalk_fx``, ``crosstalk_fy``)
-scales the law's axial force; read from the efforts that force is not the section's (their
-disc friction and disturbance, docs/simulator.md section 8), and the coefficients would carry
-its misfit into the lateral channels."""
+is the sensor's, and reads its own fz, so any reading could fit it; the efforts reading is the
+estimators' prior, and what freeing it there does to their estimates is not measured yet, so
+it holds it: every efforts prior stays the law it was."""
+_CROSSTALK_HELD = ("held by the reading: the estimators' prior, in which the sensor's cross-talk "
+                   "is not measured yet (the load path fits it)")
 HELD_BY_READING_REASON = {
     "capstan_mu": "held by the reading: the motor efforts are the differential after the "
                   "proximal path and the discs, not the wrist's demand",
-    "crosstalk_fx": "held by the reading: the axial force read from the motor efforts is not "
-                    "the section's, whose cross-talk this is",
-    "crosstalk_fy": "held by the reading: the axial force read from the motor efforts is not "
-                    "the section's, whose cross-talk this is"}
+    "crosstalk_fx": _CROSSTALK_HELD, "crosstalk_fy": _CROSSTALK_HELD}
 
 
 def _fit_arrays(frame, inputs: str, psm=None, targets: bool = True, direction: bool = True):
@@ -206,6 +210,18 @@ def _fit_arrays(frame, inputs: str, psm=None, targets: bool = True, direction: b
             mask[:, 3:] = mask[:, :1]
             mask[clenched(frame)] = 0.0  # an unknown grip loads the blade pairs
     return a, y, mask
+
+
+def _check_reading(hex10_fz, n: int) -> np.ndarray:
+    """The HEX10's fz reading (N,) checked (finite, ``n`` samples); None gives zeros, which only
+    a law without cross-talk may read."""
+    if hex10_fz is None:
+        return np.zeros(n)
+    fz = check_finite_2d(np.asarray(hex10_fz, dtype=float).reshape(-1, 1), "hex10_fz (the "
+                         "HEX10's fz reading)", width=1)[:, 0]
+    if len(fz) != n:
+        raise IdentificationInputError(f"hex10_fz has {len(fz)} samples but positions has {n}")
+    return fz
 
 
 def _check_arrays(positions, efforts, velocities, g_hex, direction=None):
@@ -250,19 +266,27 @@ class InternalForcePrior:
                                           frame[_INSERTION_EFFORT].to_numpy(dtype=float))
 
     # ------------------------------------------------------------ prediction
-    def predict_arrays(self, positions, efforts, velocities, g_hex, direction=None) -> np.ndarray:
+    def predict_arrays(self, positions, efforts, velocities, g_hex, direction=None,
+                       hex10_fz=None) -> np.ndarray:
         """(N,6) HEX10 wrench [fx, fy, fz, tx, ty, tz] (N, Nm) from (N,2) and (N,3) arrays;
         ``direction`` (N,3) the pairs' friction states (:func:`friction_direction` of the
-        recording), needed only when the law has a capstan (:meth:`_needs_direction`)."""
+        recording), needed only when the law has a capstan (:meth:`_needs_direction`);
+        ``hex10_fz`` (N,) the HEX10's fz reading, needed only when it has a cross-talk
+        (:meth:`_needs_reading`)."""
         self._needs_direction(direction)
+        self._needs_reading(hex10_fz)
         pos, e, v, g, z = _check_arrays(positions, efforts, velocities, g_hex, direction)
-        return self.law_arrays(pos, e, v, g, z) * self.axis_weights
+        return self.law_arrays(pos, e, v, g, z, _check_reading(hex10_fz, len(pos))) \
+            * self.axis_weights
 
-    def law_arrays(self, positions, efforts, velocities, g_hex, direction=None) -> np.ndarray:
+    def law_arrays(self, positions, efforts, velocities, g_hex, direction=None,
+                   hex10_fz=None) -> np.ndarray:
         """(N,6) the fitted law's output before :attr:`axis_weights` (checked arrays)."""
         self._needs_direction(direction)
+        self._needs_reading(hex10_fz)
         z = np.zeros((len(positions), 3)) if direction is None else direction
-        out = _model(self.params, positions.T, efforts.T, velocities.T, g_hex.T, z.T, np)
+        out = _model(self.params, positions.T, efforts.T, velocities.T, g_hex.T, z.T, np,
+                     hex10_fz)
         return np.stack([np.broadcast_to(c, (len(positions),)) for c in out], axis=1)
 
     def friction_state(self) -> FrictionDirection | None:
@@ -276,6 +300,20 @@ class InternalForcePrior:
         """Whether the law has a capstan (``capstan_mu`` > 0) and so reads the pairs' friction
         states; without one it is the law before the term, and skips them."""
         return bool(self.params[_CAPSTAN] != 0.0)
+
+    @property
+    def has_crosstalk(self) -> bool:
+        """Whether the law has the sensor's cross-talk (``crosstalk_fx`` or ``crosstalk_fy``
+        not 0) and so reads the HEX10's fz; without it, it is the law before the terms."""
+        return bool(np.any(self.params[_CROSSTALK] != 0.0))
+
+    def _needs_reading(self, hex10_fz) -> None:
+        """A law with the sensor's cross-talk reads the HEX10's fz: refused without it."""
+        if hex10_fz is None and self.has_crosstalk:
+            raise IdentificationInputError(
+                "this prior has the HEX10's cross-talk (crosstalk_fx "
+                f"{self.params[_CROSSTALK[0]]:.4g}, crosstalk_fy {self.params[_CROSSTALK[1]]:.4g}):"
+                " pass the HEX10's fz reading (hex10_fz)")
 
     def _needs_direction(self, direction) -> None:
         """A law with a capstan (``capstan_mu`` > 0) depends on the friction direction's
@@ -292,7 +330,8 @@ class InternalForcePrior:
             frame_or_arrays, self.inputs, psm, targets=False,
             direction=self.has_capstan)[0]
         return self.predict_arrays(arrays["positions"], arrays["efforts"], arrays["velocities"],
-                                   arrays["g_hex"], arrays.get("direction"))
+                                   arrays["g_hex"], arrays.get("direction"),
+                                   arrays.get("hex10_fz"))
 
     def fit_metrics(self, recordings, psm=None) -> dict:
         """Per HEX10 channel, RMS and R^2 (:func:`channel_metrics`) of the law (before
@@ -301,7 +340,9 @@ class InternalForcePrior:
         recordings."""
         parts = [_fit_arrays(f, self.inputs, psm, direction=self.has_capstan) for f in recordings]
         law = [self.law_arrays(*_check_arrays(a["positions"], a["efforts"], a["velocities"],
-                                              a["g_hex"], a["direction"])) for a, _, _ in parts]
+                                              a["g_hex"], a["direction"]),
+                               a["hex10_fz"] if self.has_crosstalk else None)
+               for a, _, _ in parts]
         return channel_metrics(np.concatenate([y for _, y, _ in parts]), np.concatenate(law),
                                np.concatenate([m for _, _, m in parts]))
 
@@ -312,16 +353,20 @@ class InternalForcePrior:
         demands; :meth:`predict` on a recording then reads its ``ati_*`` force)."""
         return self.info.get("inputs", "efforts")
 
-    def predict_one(self, positions, efforts, velocities, g_hex, direction=None) -> tuple:
+    def predict_one(self, positions, efforts, velocities, g_hex, direction=None,
+                    hex10_fz=None) -> tuple:
         """Per-sample fast path (pure Python floats): 6-tuple wrench from 2-, 3-, 3-, 3-sequences
         and the pairs' friction states (3; the caller carries :func:`friction_direction`'s
-        recursion, as :class:`~psmforce.estimators.data.hybrid_inputs.SamplePrior` does)."""
+        recursion, as :class:`~psmforce.estimators.data.hybrid_inputs.SamplePrior` does), and
+        the HEX10's fz reading where the law has a cross-talk."""
         plist = self._plist
         if direction is None:  # the hot path of a stream: plain floats, no numpy
             if plist[_CAPSTAN] != 0.0:  # has_capstan, on the cached floats
                 self._needs_direction(direction)
             direction = _NO_DIRECTION
-        out = _model(plist, positions, efforts, velocities, g_hex, direction, math)
+        if hex10_fz is None and (plist[_CROSSTALK[0]] != 0.0 or plist[_CROSSTALK[1]] != 0.0):
+            self._needs_reading(hex10_fz)
+        out = _model(plist, positions, efforts, velocities, g_hex, direction, math, hex10_fz)
         if self._unweighted:
             return out
         return tuple(w * x for w, x in zip(self._wlist, out))
@@ -386,6 +431,7 @@ class InternalForcePrior:
             raise IdentificationInputError("no recordings to fit the prior on")
         fixed = _check_fixed({**HELD_BY_READING[inputs], **(fixed or {})})
         no_capstan = fixed.get(NAMES[_CAPSTAN]) == 0.0  # the law then reads no friction state
+        no_crosstalk = all(fixed.get(NAMES[i]) == 0.0 for i in _CROSSTALK)  # nor the fz reading
         parts, axial = [], []
         sources = []
         for rec in recordings:
@@ -407,6 +453,11 @@ class InternalForcePrior:
         g = np.concatenate([p[0]["g_hex"] for p in parts])
         zd = np.concatenate([np.zeros((len(p[0]["positions"]), 3)) if no_capstan
                              else p[0]["direction"] for p in parts])
+        if not no_crosstalk and any(p[0]["hex10_fz"] is None for p in parts):
+            raise IdentificationInputError("a fit of the HEX10's cross-talk reads its fz: every "
+                                           "recording must carry the HEX10 columns")
+        fz_read = None if no_crosstalk else _check_reading(
+            np.concatenate([p[0]["hex10_fz"] for p in parts]), len(zd))
         y = np.concatenate([p[1] for p in parts])
         mask = np.concatenate([p[2] for p in parts])
         pos, e, v, g, zd = _check_arrays(pos, e, v, g, zd)
@@ -433,7 +484,7 @@ class InternalForcePrior:
                  for i, name in enumerate(NAMES)]
         zcols = None if no_capstan else [ca.DM(x) for x in (zd.T.tolist())]
         pred = _model(law_p, [ca.DM(pos[:, 0]), ca.DM(pos[:, 1])], cols, vcols, gcols, zcols,
-                      _CasadiOps())
+                      _CasadiOps(), None if no_crosstalk else ca.DM(fz_read))
         ch_scale = np.sqrt(np.sum(mask * (y - (y * mask).sum(0) / np.maximum(mask.sum(0), 1)) ** 2,
                                   axis=0) / np.maximum(mask.sum(0), 1))
         ch_scale = np.maximum(ch_scale, [0.02] * 3 + [2e-4] * 3)  # noise floors, N and Nm
@@ -456,7 +507,7 @@ class InternalForcePrior:
         insertion = (InsertionEffortModel.fit(*map(list, zip(*axial)))
                      if len(axial) == len(parts) else None)
         prior = cls(params=params, converged=bool(stats["success"]), insertion=insertion)
-        fitted = prior.predict_arrays(pos, e, v, g, zd)
+        fitted = prior.predict_arrays(pos, e, v, g, zd, fz_read)
         prior.info = {
             "solver": "CasADi IPOPT", "solver_status": stats["return_status"],
             "iterations": int(stats["iter_count"]), "fit_time_s": time.perf_counter() - t0,
@@ -464,8 +515,8 @@ class InternalForcePrior:
             "bounds_hit": _bounds_hit(params, fixed),
             "fixed": {n: float(x) for n, x in fixed.items()},
             "inputs": inputs,
-            **({"identifiability": identifiability(params, fixed, (pos, e, v, g, zd), y, mask,
-                                                   ch_scale)} if report else {}),
+            **({"identifiability": identifiability(params, fixed, (pos, e, v, g, zd, fz_read),
+                                                   y, mask, ch_scale)} if report else {}),
             "slack_samples_fraction": float(np.mean(_slack_any(prior.params, roll, e))),
             "train_metrics": channel_metrics(y, fitted, mask),
             "provenance": provenance or {"recordings": sources},

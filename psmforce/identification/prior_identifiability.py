@@ -36,9 +36,10 @@ def _pair_differentials(params, e):
 
 def _prediction(params, inputs, sl) -> np.ndarray:
     """(n, 6) law's wrench [f; m] on the samples ``sl`` of ``inputs`` (positions, efforts,
-    velocities, g_hex, direction)."""
-    pos, e, v, g, z = inputs
-    out = _model(params, pos[sl].T, e[sl].T, v[sl].T, g[sl].T, z[sl].T, np)
+    velocities, g_hex, direction[, hex10_fz: the cross-talk's reading])."""
+    pos, e, v, g, z, *reading = inputs
+    fz = reading[0][sl] if reading and reading[0] is not None else None
+    out = _model(params, pos[sl].T, e[sl].T, v[sl].T, g[sl].T, z[sl].T, np, fz)
     return np.stack(np.broadcast_arrays(*out), axis=1)
 
 
@@ -72,7 +73,8 @@ def jacobian_grams(params, free, inputs, mask, ch_scale, chunk: int = 20000, y=N
 def identifiability(params, fixed, inputs, y, mask, ch_scale, chunk: int = 20000) -> dict:
     """Which parameters the fitted data pin down, at the optimum ``params``.
 
-    ``inputs`` = (positions, efforts, velocities, g_hex, direction); ``y``, ``mask``, ``ch_scale``: the
+    ``inputs`` = (positions, efforts, velocities, g_hex, direction[, hex10_fz]); ``y``, ``mask``,
+    ``ch_scale``: the
     fit's readings (external force removed), sample mask and channel scales, so the residuals
     are the fit's own scaled residuals r. J = dr/dp (central differences, physical units) over
     the free parameters; Fisher information sum_k J_k^T J_k / s_k^2 with s_k^2 the residual
@@ -99,7 +101,7 @@ def identifiability(params, fixed, inputs, y, mask, ch_scale, chunk: int = 20000
     than 200 samples are slack by more than 3 noise standard deviations (only slack separates
     them; the smooth max's curvature would otherwise "identify" them from noise).
     """
-    pos, e, v, g, _ = inputs
+    pos, e, v, g = inputs[:4]
     free = [i for i, n in enumerate(NAMES) if n not in fixed]
     span = np.array([p[3] - p[2] for p in PARAMETERS])
     used = mask > 0

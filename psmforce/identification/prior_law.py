@@ -48,11 +48,12 @@ PARAMETERS = (
     # 0, the law without it). Friction coefficient x wrap angle over the wrist idlers between
     # the pulleys and the HEX10 section (a capstan); 1 is a wrap of 1 rad at mu = 1.
     ("capstan_mu", "1", 0.0, 1.0, 0.0),
-    # The HEX10's cross-talk of the section's axial force into its lateral force channels (N per
-    # N of axial force): the axial force is the one large internal load (tens of N, from the
-    # pretension and the cables' differentials), so a 1 % leak moves the lateral readings by
-    # tenths of a newton, with the load. A miniature six-axis cell's uncompensated cross-talk is
-    # a few %; +-5 % bounds it. Added after the capstan, for the same reason.
+    # The HEX10's cross-talk of the axial force it reads into its lateral force channels (N per
+    # N): the axial force is the one large load on the section (tens of N of cable compression,
+    # and the tip's push), so a 1 % leak moves the lateral readings by tenths of a newton, with
+    # the load. A miniature six-axis cell's uncompensated cross-talk is a few %; +-5 % bounds it.
+    # The law reads the sensor's own fz for it (a sensor term, not a cable one): the internal
+    # and the external axial force leak alike. Added after the capstan, for the same reason.
     ("crosstalk_fx", "1", -0.05, 0.05, 0.0),
     ("crosstalk_fy", "1", -0.05, 0.05, 0.0),
 )
@@ -115,9 +116,10 @@ class FrictionDirection:
         return self._state.step(_pair_travel(wrist_pitch, wrist_yaw, jaw))
 
 
-def _model(p, pos, e, v, g_hex, z, xp):
+def _model(p, pos, e, v, g_hex, z, xp, hex10_fz=None):
     """Vectorised model; ``xp`` is numpy or a CasADi-like namespace (see ``_CasadiOps``);
-    ``z`` the pairs' friction direction states (:func:`friction_direction`)."""
+    ``z`` the pairs' friction direction states (:func:`friction_direction`); ``hex10_fz`` the
+    HEX10's fz reading (N), which only the cross-talk terms read (None: they must be 0)."""
     (T_tot, r_p, r_b, g_tw, c_dir, a_p, a_b, c_pm, m_d, l_d, rho,
      bfx, bfy, bfz, btx, bty, btz, mu, x_fx, x_fy) = [p[i] for i in range(len(PARAMETERS))]
     roll, wrist_pitch = pos[0], pos[1]
@@ -151,13 +153,15 @@ def _model(p, pos, e, v, g_hex, z, xp):
         tx = tx - rho * math.sin(CABLE_ANGLES_RAD[i]) * d_section
         ty = ty + rho * math.cos(CABLE_ANGLES_RAD[i]) * d_section
     gx, gy, gz = g_hex[0], g_hex[1], g_hex[2]
-    axial = m_d * gz - S_sum  # the section's axial force, before the sensor's offset
     fx = m_d * gx + bfx
     fy = m_d * gy + bfy
-    if not (_is_zero(x_fx) and _is_zero(x_fy)):  # the sensor's cross-talk of it
+    if not (_is_zero(x_fx) and _is_zero(x_fy)):  # the sensor's cross-talk of its axial reading
+        if hex10_fz is None:
+            raise ValueError("the law's cross-talk terms read the HEX10's fz: pass hex10_fz")
+        axial = hex10_fz - bfz
         fx = fx + x_fx * axial
         fy = fy + x_fy * axial
-    fz = axial + bfz
+    fz = m_d * gz - S_sum + bfz
     # moment of the distal weight at l_d e_z: (0,0,l) x (m g) = l m (-gy, gx, 0)
     return fx, fy, fz, tx - l_d * m_d * gy + btx, ty + l_d * m_d * gx + bty, 0.0 * gz + btz
 

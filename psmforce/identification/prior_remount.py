@@ -104,6 +104,7 @@ class MountedPrior:
 
     def predict_arrays(self, positions, efforts, velocities, g_hex, direction=None) -> np.ndarray:
         self.prior._needs_direction(direction)
+        self.prior._needs_reading(None)  # a mounted law turns no cross-talk (an efforts prior's)
         pos, e, v, g, z = _check_arrays(positions, efforts, velocities, g_hex, direction)
         return (_mounted_law(self.prior.params, self.angles_rad, pos, e, v, g, z)
                 * self.prior.axis_weights)
@@ -199,6 +200,7 @@ def recalibrate(prior: InternalForcePrior | MountedPrior, recordings, *, psm=Non
             f"prior: expected an InternalForcePrior or a MountedPrior, got {type(prior).__name__}")
     if len(np.shape(base.params)) != 1 or len(base.params) != len(NAMES):
         raise IdentificationInputError(f"prior: expected {len(NAMES)} parameters")
+    base._needs_reading(None)  # the mounted law turns no cross-talk: an efforts prior's
     per_mount, angles = tuple(per_mount), tuple(angles)
     wrong = [n for n in per_mount if n not in PER_MOUNT] + [n for n in angles
                                                              if n not in MOUNT_ANGLES]

@@ -1,6 +1,7 @@
-"""The prior law's HEX10 cross-talk of the axial force into the lateral forces (prior_law.py):
-its closed form in numpy, CasADi and the per-sample path; held by the efforts reading, freed by
-the load path; files written before it load as the law they were fitted with."""
+"""The prior law's HEX10 cross-talk of the axial force it reads into its lateral forces
+(prior_law.py): its closed form in numpy, CasADi and the per-sample path, refused without the
+reading; held by the efforts reading, freed by the load path; files written before it load as
+the law they were fitted with."""
 import math
 
 import numpy as np
@@ -30,39 +31,49 @@ def _inputs(n=50, seed=0):
     return pos, e, v, g, np.zeros((3, n))
 
 
-def test_the_lateral_forces_gain_the_axial_force_times_the_cross_talk():
+def test_the_lateral_forces_gain_the_read_axial_force_times_the_cross_talk():
     args = _inputs()
+    fz_read = np.random.default_rng(7).uniform(-40.0, 5.0, 50)  # internal and external alike
     plain = np.array(_model(_params(), *args, np))
-    leaky = np.array(_model(_params(crosstalk_fx=0.006, crosstalk_fy=-0.009), *args, np))
-    axial = plain[2] - 0.1  # the section's axial force: the reading's fz less its offset
-    assert np.ptp(axial) > 1.0  # the pairs' loads move it
+    leaky = np.array(_model(_params(crosstalk_fx=0.006, crosstalk_fy=-0.009), *args, np,
+                            fz_read))
+    axial = fz_read - 0.1  # the reading's fz less the sensor's offset
     assert np.allclose(leaky[0] - plain[0], 0.006 * axial, atol=1e-12, rtol=0)
     assert np.allclose(leaky[1] - plain[1], -0.009 * axial, atol=1e-12, rtol=0)
     assert np.array_equal(leaky[2:], plain[2:])  # nothing else moves
+    with pytest.raises(ValueError, match="hex10_fz"):  # the term cannot run without its reading
+        _model(_params(crosstalk_fx=0.006), *args, np)
+    with pytest.raises(IdentificationInputError, match="HEX10's fz reading"):
+        InternalForcePrior(params=_params(crosstalk_fy=0.01)).predict_arrays(
+            *(x.T for x in args[:4]))
 
 
 def test_numpy_casadi_and_the_per_sample_path_agree():
     import casadi as ca
     p = _params(crosstalk_fx=0.01, crosstalk_fy=0.02)
     pos, e, v, g, z = _inputs(5, seed=1)
-    numpy_out = np.array(_model(p, pos, e, v, g, z, np))
+    fz = np.array([-20.0, -12.0, 3.0, -6.5, -30.0])
+    numpy_out = np.array(_model(p, pos, e, v, g, z, np, fz))
     sym = ca.MX.sym("p", len(NAMES))
     f = ca.Function("law", [sym], [ca.vertcat(*[ca.vec(c) for c in _model(
         [sym[i] for i in range(len(NAMES))], [ca.DM(r) for r in pos], [ca.DM(r) for r in e],
-        [ca.DM(r) for r in v], [ca.DM(r) for r in g], [ca.DM(r) for r in z], _CasadiOps())])])
+        [ca.DM(r) for r in v], [ca.DM(r) for r in g], [ca.DM(r) for r in z], _CasadiOps(),
+        ca.DM(fz))])])
     assert np.allclose(np.array(f(p)).reshape(6, 5), numpy_out, atol=1e-12, rtol=0)
     prior = InternalForcePrior(params=p)
-    one = prior.predict_one(pos[:, 0], e[:, 0], v[:, 0], g[:, 0])
+    one = prior.predict_one(pos[:, 0], e[:, 0], v[:, 0], g[:, 0], hex10_fz=float(fz[0]))
     assert np.allclose(one, numpy_out[:, 0], atol=1e-12, rtol=0)
     assert math.isclose(one[0] - InternalForcePrior(params=_params()).predict_one(
-        pos[:, 0], e[:, 0], v[:, 0], g[:, 0])[0], 0.01 * (numpy_out[2, 0] - 0.1), abs_tol=1e-12)
+        pos[:, 0], e[:, 0], v[:, 0], g[:, 0])[0], 0.01 * (fz[0] - 0.1), abs_tol=1e-12)
+    with pytest.raises(IdentificationInputError, match="HEX10's fz reading"):
+        prior.predict_one(pos[:, 0], e[:, 0], v[:, 0], g[:, 0])
 
 
 def test_the_efforts_reading_holds_it_and_says_why():
     for name in ("crosstalk_fx", "crosstalk_fy"):
         assert name in ADDED_TERMS and HELD_BY_READING["efforts"][name] == 0.0
         assert name not in HELD_BY_READING["load_path"]
-        assert "axial force" in HELD_BY_READING_REASON[name]
+        assert "load path fits it" in HELD_BY_READING_REASON[name]
 
 
 def test_files_before_it_load_without_it_and_new_ones_need_it():
