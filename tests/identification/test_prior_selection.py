@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from psmforce.identification.prior import InternalForcePrior, _bounds_hit
+from psmforce.identification.prior import HELD_BY_READING, InternalForcePrior, _bounds_hit
 from psmforce.identification.prior_identifiability import add_trial_spread, identifiability
 from psmforce.identification.prior_law import BOUND_TOLERANCE, NAMES, PARAMETERS, at_bound
 from psmforce.identification.prior_report import fit_prior_cli
@@ -98,8 +98,9 @@ def test_unidentifiable_parameters_are_fixed_at_design_and_named(free_frames):
     sel = prior.info["selection"]
     first = sel["rounds"][0]
     # the efforts reading holds the capstan (HELD_BY_READING); everything else starts free
-    assert first["fixed"] == ["capstan_mu"] and "pretension_total" in first["not_identifiable"]
-    assert "held by the reading" in sel["fixed"]["capstan_mu"]["reason"]
+    held = sorted(HELD_BY_READING["efforts"])  # the capstan and the cross-talk
+    assert first["fixed"] == held and "pretension_total" in first["not_identifiable"]
+    assert all("held by the reading" in sel["fixed"][n]["reason"] for n in held)
     assert first["bounds_hit"]  # the all-free fit sits at a bound
     for name in first["bounds_hit"] + ["pretension_total"]:
         assert name in sel["fixed"], name
@@ -124,8 +125,8 @@ def test_the_verdict_names_fixed_and_bound_parameters_and_never_just_passes(smal
     assert rep["bounds_hit"] == [] and "at a bound: none" in rep["verdict"]
     assert ("POOR FIT" in rep["verdict"]) == rep["poor_fit"]
     free = fit_prior_cli(small_bench, tmp_path / "q.json", identify=False)
-    assert free["fixed"] == {"capstan_mu": 0.0} and "curve fit" in free["verdict"]
-    assert "capstan_mu held by the reading" in free["verdict"]
+    assert free["fixed"] == HELD_BY_READING["efforts"] and "curve fit" in free["verdict"]
+    assert "capstan_mu, crosstalk_fx, crosstalk_fy held by the reading" in free["verdict"]
     assert "passes" not in free["verdict"]
     listed = free["not_identifiable"]
     assert listed and all(n in free["verdict"].split("NOT identifiable: ")[1] for n in listed)
@@ -146,7 +147,7 @@ def test_the_verdict_line_of_a_fit_that_ran_out_of_rounds_says_so():
 def test_a_fit_out_of_rounds_holds_nothing_it_did_not_refit(free_frames):
     prior = fit_identified(free_frames, max_rounds=1)
     sel = prior.info["selection"]
-    held = {"capstan_mu": 0.0}  # by the efforts reading, before any round (HELD_BY_READING)
+    held = dict(HELD_BY_READING["efforts"])  # before any round
     assert {n: f["value"] for n, f in sel["fixed"].items()} == held == prior.info["fixed"]
     assert len(sel["rounds"]) == 1
     assert sel["still_not_identifiable"] and "free but NOT identifiable" in prior.info["verdict"]
