@@ -212,11 +212,11 @@ def _fit_arrays(frame, inputs: str, psm=None, targets: bool = True, direction: b
     return a, y, mask
 
 
-def _check_reading(hex10_fz, n: int) -> np.ndarray:
-    """The HEX10's fz reading (N,) checked (finite, ``n`` samples); None gives zeros, which only
-    a law without cross-talk may read."""
+def _check_reading(hex10_fz, n: int) -> np.ndarray | None:
+    """The HEX10's fz reading (N,) checked (finite, ``n`` samples); None stays None (a law
+    without cross-talk reads none)."""
     if hex10_fz is None:
-        return np.zeros(n)
+        return None
     fz = check_finite_2d(np.asarray(hex10_fz, dtype=float).reshape(-1, 1), "hex10_fz (the "
                          "HEX10's fz reading)", width=1)[:, 0]
     if len(fz) != n:
@@ -453,9 +453,6 @@ class InternalForcePrior:
         g = np.concatenate([p[0]["g_hex"] for p in parts])
         zd = np.concatenate([np.zeros((len(p[0]["positions"]), 3)) if no_capstan
                              else p[0]["direction"] for p in parts])
-        if not no_crosstalk and any(p[0]["hex10_fz"] is None for p in parts):
-            raise IdentificationInputError("a fit of the HEX10's cross-talk reads its fz: every "
-                                           "recording must carry the HEX10 columns")
         fz_read = None if no_crosstalk else _check_reading(
             np.concatenate([p[0]["hex10_fz"] for p in parts]), len(zd))
         y = np.concatenate([p[1] for p in parts])

@@ -74,9 +74,8 @@ def identifiability(params, fixed, inputs, y, mask, ch_scale, chunk: int = 20000
     """Which parameters the fitted data pin down, at the optimum ``params``.
 
     ``inputs`` = (positions, efforts, velocities, g_hex, direction[, hex10_fz]); ``y``, ``mask``,
-    ``ch_scale``: the
-    fit's readings (external force removed), sample mask and channel scales, so the residuals
-    are the fit's own scaled residuals r. J = dr/dp (central differences, physical units) over
+    ``ch_scale``: the fit's readings (external force removed), sample mask and channel scales,
+    so the residuals are the fit's own scaled residuals r. J = dr/dp (central differences, physical units) over
     the free parameters; Fisher information sum_k J_k^T J_k / s_k^2 with s_k^2 the residual
     variance of channel k; its condition number once normalised to a unit diagonal (scale free:
     1 for orthogonal parameters, large where a combination is barely seen). Standard errors and

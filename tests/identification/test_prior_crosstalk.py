@@ -90,3 +90,15 @@ def test_files_before_it_load_without_it_and_new_ones_need_it():
     d["parameters"]["crosstalk_fx"]["value"] = 0.2  # beyond its +-5 % bounds
     with pytest.raises(IdentificationInputError, match="crosstalk_fx"):
         InternalForcePrior.from_dict(seal({**d, "format_version": 4}), "p.json")
+
+
+def test_a_remount_refuses_a_law_with_cross_talk():
+    """The mounted law turns the wrench into a tilted sensor's frame with no reading of its fz:
+    a prior with cross-talk (a load-path identification) is refused, not evaluated without it."""
+    from psmforce.identification.prior_remount import MountedPrior, recalibrate
+    prior = InternalForcePrior(converged=True, params=_params(crosstalk_fx=0.01))
+    with pytest.raises(IdentificationInputError, match="HEX10's fz reading"):
+        recalibrate(prior, [])
+    pos, e, v, g, _ = _inputs(5)
+    with pytest.raises(IdentificationInputError, match="HEX10's fz reading"):
+        MountedPrior(prior).predict_arrays(pos.T, e.T, v.T, g.T)
