@@ -6,6 +6,8 @@ takes the parsed JSON and returns the block's markdown."""
 
 from __future__ import annotations
 
+from reports.cells import miss_rule
+
 FORCE_AXES = ("fx", "fy", "fz")
 
 
@@ -313,7 +315,7 @@ def instrument_identification_tables(result: dict) -> str:
              "--known-loads`'s identification (`calibrate.identify_instrument`): its value, its "
              "error against the drawn tool's truth, and *fixed* (held at the design value: the "
              "report or the jackknife over trial groups lists it), identified (free, not "
-             "listed), **MISS** (identified, more than 10 % off or a truth of 0). The last "
+             f"listed), **MISS** (identified, {miss_rule(result['runs'][0])}). The last "
              f"column is the all-free fit of \"{last}\" (its first round).", ""]
     by_seed: dict = {}
     for run in result["runs"]:

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import math
 
-from reports.cells import spread_cell
+from reports.cells import miss_rule, spread_cell
 
 MODEL_NAMES = {"physics": "physics alone (`CableTransmission`)", "fcn": "FCN",
                "lstm": "LSTM", "transformer": "paper transformer",
@@ -105,14 +105,16 @@ def prior_recovery_table(result: dict) -> str:
 
 def _rest_level_leak(run: dict) -> str:
     """The sentence on the HEX10's cross-talk of the pretension's axial force: into the channels
-    whose law has no cross-talk term (a load-path law fits fx's and fy's), a constant only the
-    biases carry."""
+    whose law has no cross-talk term (a load-path law fits fx's and fy's, since prior format 5
+    the moments' too), a constant only the biases carry; nothing where there is none."""
     if "crosstalk_of_rest_level" not in run:
         return ""
-    fitted = [c for c in ("fx", "fy") if f"crosstalk_{c}" in run["parameters"]
+    fitted = [c for c in ("fx", "fy", "tx", "ty", "tz") if f"crosstalk_{c}" in run["parameters"]
               and run.get("inputs") == "load_path"]
     leaks = {n: x for n, x in run["crosstalk_of_rest_level"].items()
              if n.removeprefix("bias_") not in fitted}
+    if not leaks:  # the law has a cross-talk term for every channel
+        return ""
     return (" The sensor's cross-talk of the pretension's axial force, a constant only the biases "
             "can carry" + (f" where the law has no cross-talk term (it has one for "
                            f"{' and '.join(fitted)})" if fitted else "")
@@ -137,7 +139,7 @@ def prior_default_recovery_table(result: dict) -> str:
              f"{result['scale']:g}` then {fit}. "
              "*fixed*: held at its design value (the value shown) because the report lists it "
              "on the fit before; *identified*: free and not listed on the final fit; "
-             "**MISS**: identified but more than 10 % from the truth (or a truth of 0); "
+             f"**MISS**: identified but {miss_rule(result['runs'][0])}; "
              "*B*: at a bound (the one rule of `bounds_hit` and the report).", ""]
     for run in result["runs"]:
         rows = run["parameters"]

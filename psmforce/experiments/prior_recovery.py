@@ -22,7 +22,9 @@ import json
 from pathlib import Path
 
 from psmforce.identification.prior import NAMES, InternalForcePrior
-from psmforce.identification.prior_identifiability import RECOVERY_TOLERANCE
+from psmforce.identification.prior_law import CROSSTALK
+from psmforce.identification.prior_identifiability import (OFFSET_RESOLUTION, RECOVERY_TOLERANCE,
+                                                           recovered)
 from psmforce.robot.kinematics import PSM
 from psmforce.sim.params import Effects, InstrumentParams
 
@@ -50,8 +52,8 @@ SWITCHES = {
     "pin_friction": "off: not in the family",
     "pitch_path_mismatch": "off: the bench adds it to the blade pretension (it moves the slack "
                            "threshold), the prior outside the max (truth 0)",
-    "hex10_crosstalk": "off: the prior's cross-talk is the axial force's into the lateral forces "
-                       "alone, and the efforts reading holds it",
+    "hex10_crosstalk": "off: the prior's cross-talk is the axial force's alone (the matrix's fz "
+                       "column), and the efforts reading holds it",
     "hex10_drift": "off: a random walk, not a constant bias",
     "hex10_range_error": "off: not in the family (and |f| < 25 N mostly)",
     "drive_friction": "off: the wrist discs' friction is proximal of the HEX10: in the efforts, "
@@ -110,14 +112,16 @@ def prior_truth(instrument: InstrumentParams, psm: PSM | None = None) -> dict[st
         "bias_fx": bias[0], "bias_fy": bias[1], "bias_fz": bias[2],
         "bias_tx": 0.0, "bias_ty": 0.0, "bias_tz": 0.0,  # the bench's tare offset is forces only
         "capstan_mu": 0.0,                              # capstan off
-        "crosstalk_fx": 0.0, "crosstalk_fy": 0.0,       # hex10_crosstalk off
+        **{n: 0.0 for n in CROSSTALK},                  # hex10_crosstalk off
     }
 
 
 def compare(prior: InternalForcePrior, truth: dict[str, float]) -> dict:
     """Per parameter: truth, fitted, relative error, and whether it is identifiable (not fixed,
     not in the report's ``not_identifiable``); ``failures``: the identifiable parameters off by
-    more than :data:`RECOVERY_TOLERANCE` of the truth."""
+    more than :data:`RECOVERY_TOLERANCE` of the truth (an offset more than
+    :data:`~psmforce.identification.prior_identifiability.OFFSET_RESOLUTION`:
+    :func:`~psmforce.identification.prior_identifiability.recovered`)."""
     report = prior.info["identifiability"]
     rows, failures = {}, []
     for name, value in zip(NAMES, prior.params):
@@ -127,7 +131,7 @@ def compare(prior: InternalForcePrior, truth: dict[str, float]) -> dict:
                   "not identifiable" if name in report["not_identifiable"] else "identifiable")
         rows[name] = {"truth": true, "fitted": float(value), "relative_error": rel,
                       "standard_error": report["standard_errors"].get(name), "status": status}
-        if status == "identifiable" and (rel is None or rel > RECOVERY_TOLERANCE):
+        if status == "identifiable" and not recovered(name, float(value), true):
             failures.append(name)
     return {"parameters": rows, "failures": failures}
 
@@ -184,9 +188,9 @@ def default_bench_truth(instrument: InstrumentParams | None = None,
     (the jaws' moves with the wrist angles); ``pitch_path_tension`` = cable stiffness x path
     mismatch (the bench adds it per blade cable, ``k e (1 - cos pitch)``); the asymmetries 0 under
     the quadratic pair law (``pair_law``, no linear term); the biases the residual tare offset
-    (``hex10_residual_bias_n``; the moments' 0); ``crosstalk_fx``, ``crosstalk_fy`` the
-    cross-talk matrix's entries of the axial force (``hex10_crosstalk``; its other entries,
-    the moments' leaks included, have no counterpart);
+    (``hex10_residual_bias_n``; the moments' 0); ``crosstalk_fx`` ... ``crosstalk_tz`` the
+    cross-talk matrix's entries of the axial force (``hex10_crosstalk``'s fz column; its other
+    entries have no counterpart);
     ``capstan_mu`` the wrist idlers' ``capstan_mu_wrap_distal`` at the straight wrist without
     roll (the bench's grows with |wrist pitch| on the blade pairs and with |roll|; its friction
     state is driven by cable travel with a pre-sliding of ``presliding_length_m``)."""
@@ -220,8 +224,7 @@ def default_bench_truth(instrument: InstrumentParams | None = None,
         "bias_fx": bias[0], "bias_fy": bias[1], "bias_fz": bias[2],
         "bias_tx": 0.0, "bias_ty": 0.0, "bias_tz": 0.0,
         "capstan_mu": instrument.capstan_mu_wrap_distal,
-        "crosstalk_fx": instrument.hex10_crosstalk[0][2],
-        "crosstalk_fy": instrument.hex10_crosstalk[1][2],
+        **{n: instrument.hex10_crosstalk[row][2] for n, row in zip(CROSSTALK, (0, 1, 3, 4, 5))},
     }
 
 
@@ -252,9 +255,8 @@ def bench_capstan_over(frames, instrument: InstrumentParams) -> float:
 def crosstalk_of_rest_level(instrument: InstrumentParams) -> dict[str, float]:
     """What the HEX10's cross-talk (``hex10_crosstalk``, reading = X wrench + offset) makes of
     the pretension's axial force ``-pretension_total`` (N, straight wrist, no roll) in the other
-    channels (N, Nm): a constant the law carries in its biases where it has no cross-talk
-    term (the moments) or holds it (the efforts reading) (the bench's parameters, for the
-    comparison)."""
+    channels (N, Nm): a constant the law carries in its biases where it holds its cross-talk
+    terms (the efforts reading) (the bench's parameters, for the comparison)."""
     rest = -instrument.pretension_total_n
     x = instrument.hex10_crosstalk
     return {f"bias_{c}": float(x[k][2] * rest) for k, c in enumerate(("fx", "fy", "fz", "tx",
@@ -268,8 +270,10 @@ def compare_selection(prior: InternalForcePrior, truth: dict) -> dict:
     "free, not identified": listed on the final fit), ``at_bound`` (the fit's
     ``bounds_hit``, the rule of :func:`~psmforce.identification.prior_law.at_bound`) and the
     all-free fit's value. ``misses``: identified parameters more than
-    :data:`RECOVERY_TOLERANCE` off, or with a truth of 0 (no relative accuracy); ``uncompared``:
-    identified ones without a truth."""
+    :data:`RECOVERY_TOLERANCE` off, or with a truth of 0 (no relative accuracy), an offset more
+    than its resolution off (:func:`~psmforce.identification.prior_identifiability.recovered`);
+    ``uncompared``:
+    identified ones without a truth; the two tolerances the misses are judged by."""
     sel = prior.info["selection"]
     first = sel["rounds"][0]["parameters"] if sel["rounds"] else {}
     rows, misses, uncompared = {}, [], []
@@ -286,9 +290,10 @@ def compare_selection(prior: InternalForcePrior, truth: dict) -> dict:
         if status == "identified":
             if true is None:
                 uncompared.append(name)
-            elif rel is None or rel > RECOVERY_TOLERANCE:
+            elif not recovered(name, float(value), true):
                 misses.append(name)
-    return {"parameters": rows, "misses": misses, "uncompared": uncompared}
+    return {"parameters": rows, "misses": misses, "uncompared": uncompared,
+            "recovery_tolerance": RECOVERY_TOLERANCE, "offset_resolution": OFFSET_RESOLUTION}
 
 
 def recover_default(workdir, seed: int, scale: float = 1.0,

@@ -36,10 +36,11 @@ Model::
              own fz channel: the section's internal and external axial force alike) into its
              lateral forces
     t      = sum_i rho (-sin phi_i, cos phi_i, 0) E_i + l_d e_z x (m_d g_hex) + b_t
+             + (x_tx, x_ty, x_tz) (fz_read - b_fz)     the same leak into the moments (m)
 
 With ``mu = 0`` (``capstan_mu``: what priors written before it load with, and what the efforts
 reading holds, :data:`HELD_BY_READING`), ``S_i = smoothmax(2 T0 + a_i D_i, |D_i|) + ...`` and
-``E_i = D_i``: the law before the capstan; with ``x = 0`` (``crosstalk_fx``, ``crosstalk_fy``,
+``E_i = D_i``: the law before the capstan; with ``x = 0`` (``crosstalk_fx`` ... ``crosstalk_tz``,
 held and loaded the same way) the law before the cross-talk.
 
 with the cable angles phi = (0, 60, 120) deg of the pairs' "+" cables (datasheet). Parameters
@@ -98,7 +99,7 @@ from psmforce.identification.insertion import InsertionEffortModel
 from psmforce.identification.model_file import parse_model_json, read_model_json
 from psmforce.identification.prior_identifiability import identifiability
 from psmforce.identification.prior_law import (ADDED_TERMS, CABLE_ANGLES_RAD,  # noqa: F401
-                                                KAPPA, NAMES, MIN_SAMPLES, PARAMETERS,
+                                                CROSSTALK, KAPPA, NAMES, MIN_SAMPLES, PARAMETERS,
                                                 _CasadiOps, _model, FrictionDirection,
                                                 at_bound, friction_direction)
 from psmforce.identification.signals import check_finite_2d
@@ -107,19 +108,22 @@ from psmforce.io.recording import (HEX10, JOINT_POSITIONS, OVERLOAD, TARGETS, jo
                                  read_recording)
 
 FORMAT = "psmforce.identification.InternalForcePrior/1"
-FORMAT_VERSION = 4
-"""4: the sensor's cross-talk of the axial force (``crosstalk_fx``, ``crosstalk_fy``). 3: the
+FORMAT_VERSION = 5
+"""5: the axial force's cross-talk into the moments (``crosstalk_tx``, ``crosstalk_ty``,
+``crosstalk_tz``). 4: the sensor's cross-talk of the axial force (``crosstalk_fx``,
+``crosstalk_fy``). 3: the
 law's capstan (``capstan_mu``). 2: the integrity envelope (:mod:`psmforce.core.integrity`: a
 SHA-256 over every field) and this integer; a file with neither was written before them and
 still loads (its parameters checked against their bounds, as every prior's are). A file lacks
 the terms added after it was written (:data:`_ADDED_IN`) and loads with them at 0, the law it
 was fitted with."""
-_ADDED_IN = {3: {"capstan_mu": 0.0}, 4: {"crosstalk_fx": 0.0, "crosstalk_fy": 0.0}}
+_ADDED_IN = {3: {"capstan_mu": 0.0}, 4: {"crosstalk_fx": 0.0, "crosstalk_fy": 0.0},
+             5: {"crosstalk_tx": 0.0, "crosstalk_ty": 0.0, "crosstalk_tz": 0.0}}
 """Format version -> the parameters it added, with the value that gives the law before them."""
 
 _MIN_SAMPLES = MIN_SAMPLES
 _CAPSTAN = NAMES.index("capstan_mu")
-_CROSSTALK = [NAMES.index("crosstalk_fx"), NAMES.index("crosstalk_fy")]
+_CROSSTALK = [NAMES.index(n) for n in CROSSTALK]
 _NO_DIRECTION = (0.0, 0.0, 0.0)
 _WRIST_EFFORTS = tuple(joint_column(j, "effort") for j in WRIST_JOINTS)
 _WRIST_VELOCITIES = tuple(joint_column(j, "velocity") for j in WRIST_JOINTS)
@@ -176,14 +180,14 @@ def internal_wrench_target(frame) -> tuple[np.ndarray, np.ndarray]:
 
 INPUTS = ("efforts", "load_path")
 """What a prior reads as the wrist torques that load its cables (:attr:`InternalForcePrior.inputs`)."""
-HELD_BY_READING = {"efforts": {"capstan_mu": 0.0, "crosstalk_fx": 0.0, "crosstalk_fy": 0.0},
+HELD_BY_READING = {"efforts": {"capstan_mu": 0.0, **{n: 0.0 for n in CROSSTALK}},
                    "load_path": {}}
 """Parameters each reading holds (SI) unless the caller fixes them otherwise, at the value that
 gives the law before them (:data:`HELD_BY_READING_REASON` says why). The capstan
 (``capstan_mu``) turns the differential the wrist's pulleys demand into the section's; the load
 path gives that demand, but the motor efforts are the differential at the motor, after the
 proximal path's own capstan and the discs' friction, which the law does not model: read from
-them, the term only bends the curve fit. The cross-talk (``crosstalk_fx``, ``crosstalk_fy``)
+them, the term only bends the curve fit. The cross-talk (:data:`~.prior_law.CROSSTALK`)
 is the sensor's, and reads its own fz, so any reading could fit it; the efforts reading is the
 estimators' prior, and what freeing it there does to their estimates is not measured yet, so
 it holds it: every efforts prior stays the law it was."""
@@ -192,7 +196,7 @@ _CROSSTALK_HELD = ("held by the reading: the estimators' prior, in which the sen
 HELD_BY_READING_REASON = {
     "capstan_mu": "held by the reading: the motor efforts are the differential after the "
                   "proximal path and the discs, not the wrist's demand",
-    "crosstalk_fx": _CROSSTALK_HELD, "crosstalk_fy": _CROSSTALK_HELD}
+    **{n: _CROSSTALK_HELD for n in CROSSTALK}}
 
 
 def _fit_arrays(frame, inputs: str, psm=None, targets: bool = True, direction: bool = True):
@@ -303,17 +307,17 @@ class InternalForcePrior:
 
     @property
     def has_crosstalk(self) -> bool:
-        """Whether the law has the sensor's cross-talk (``crosstalk_fx`` or ``crosstalk_fy``
+        """Whether the law has the sensor's cross-talk (a :data:`~.prior_law.CROSSTALK` term
         not 0) and so reads the HEX10's fz; without it, it is the law before the terms."""
         return bool(np.any(self.params[_CROSSTALK] != 0.0))
 
     def _needs_reading(self, hex10_fz) -> None:
         """A law with the sensor's cross-talk reads the HEX10's fz: refused without it."""
         if hex10_fz is None and self.has_crosstalk:
-            raise IdentificationInputError(
-                "this prior has the HEX10's cross-talk (crosstalk_fx "
-                f"{self.params[_CROSSTALK[0]]:.4g}, crosstalk_fy {self.params[_CROSSTALK[1]]:.4g}):"
-                " pass the HEX10's fz reading (hex10_fz)")
+            terms = ", ".join(f"{NAMES[i]} {self.params[i]:.4g}" for i in _CROSSTALK
+                              if self.params[i] != 0.0)
+            raise IdentificationInputError(f"this prior has the HEX10's cross-talk ({terms}): "
+                                           f"pass the HEX10's fz reading (hex10_fz)")
 
     def _needs_direction(self, direction) -> None:
         """A law with a capstan (``capstan_mu`` > 0) depends on the friction direction's
@@ -364,7 +368,7 @@ class InternalForcePrior:
             if plist[_CAPSTAN] != 0.0:  # has_capstan, on the cached floats
                 self._needs_direction(direction)
             direction = _NO_DIRECTION
-        if hex10_fz is None and (plist[_CROSSTALK[0]] != 0.0 or plist[_CROSSTALK[1]] != 0.0):
+        if hex10_fz is None and any(plist[i] != 0.0 for i in _CROSSTALK):
             self._needs_reading(hex10_fz)
         out = _model(plist, positions, efforts, velocities, g_hex, direction, math, hex10_fz)
         if self._unweighted:

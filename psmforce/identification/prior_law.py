@@ -56,9 +56,18 @@ PARAMETERS = (
     # and the external axial force leak alike. Added after the capstan, for the same reason.
     ("crosstalk_fx", "1", -0.05, 0.05, 0.0),
     ("crosstalk_fy", "1", -0.05, 0.05, 0.0),
+    # The same leak into the moment channels (Nm per N, a lever in m): a miniature cell's moment
+    # full scale over its force full scale is about 10 mm (the HEX10's 0.25 Nm / 25 N), so a
+    # few % of it is a fraction of a millimetre; +-2 mm bounds it. Added after the force ones.
+    ("crosstalk_tx", "m", -2e-3, 2e-3, 0.0),
+    ("crosstalk_ty", "m", -2e-3, 2e-3, 0.0),
+    ("crosstalk_tz", "m", -2e-3, 2e-3, 0.0),
 )
 NAMES = tuple(p[0] for p in PARAMETERS)
-ADDED_TERMS = ("capstan_mu", "crosstalk_fx", "crosstalk_fy")
+CROSSTALK = ("crosstalk_fx", "crosstalk_fy", "crosstalk_tx", "crosstalk_ty", "crosstalk_tz")
+"""The sensor's cross-talk of its axial reading into its other five channels (fx, fy, tx, ty,
+tz, in that order): the fz column of its cross-talk matrix."""
+ADDED_TERMS = ("capstan_mu", *CROSSTALK)
 """The terms added to the law after its first 17 parameters. Each is 0 in the law before it,
 and one held at exactly 0 enters the fit's graph as the number (:func:`_model` then leaves the
 term out): a fit that holds them is the fit it was before they existed."""
@@ -121,7 +130,7 @@ def _model(p, pos, e, v, g_hex, z, xp, hex10_fz=None):
     ``z`` the pairs' friction direction states (:func:`friction_direction`); ``hex10_fz`` the
     HEX10's fz reading (N), which only the cross-talk terms read (None: they must be 0)."""
     (T_tot, r_p, r_b, g_tw, c_dir, a_p, a_b, c_pm, m_d, l_d, rho,
-     bfx, bfy, bfz, btx, bty, btz, mu, x_fx, x_fy) = [p[i] for i in range(len(PARAMETERS))]
+     bfx, bfy, bfz, btx, bty, btz, mu, *leak) = [p[i] for i in range(len(PARAMETERS))]
     roll, wrist_pitch = pos[0], pos[1]
     tau_p, tau_b1, tau_b2 = e[0], 0.5 * e[1] - e[2], 0.5 * e[1] + e[2]
     # u = K^-T tau_d: K^T = [[1,k,k],[0,1,0],[0,0,1]] -> u1 = tau_b1, u2 = tau_b2, u0 = tau_p - k(u1+u2)
@@ -153,17 +162,16 @@ def _model(p, pos, e, v, g_hex, z, xp, hex10_fz=None):
         tx = tx - rho * math.sin(CABLE_ANGLES_RAD[i]) * d_section
         ty = ty + rho * math.cos(CABLE_ANGLES_RAD[i]) * d_section
     gx, gy, gz = g_hex[0], g_hex[1], g_hex[2]
-    fx = m_d * gx + bfx
-    fy = m_d * gy + bfy
-    if not (_is_zero(x_fx) and _is_zero(x_fy)):  # the sensor's cross-talk of its axial reading
+    # moment of the distal weight at l_d e_z: (0,0,l) x (m g) = l m (-gy, gx, 0)
+    wrench = [m_d * gx + bfx, m_d * gy + bfy, tx - l_d * m_d * gy + btx,
+              ty + l_d * m_d * gx + bty, 0.0 * gz + btz]  # fx, fy, tx, ty, tz: CROSSTALK's order
+    if not all(_is_zero(x) for x in leak):  # the sensor's cross-talk of its axial reading
         if hex10_fz is None:
             raise ValueError("the law's cross-talk terms read the HEX10's fz: pass hex10_fz")
         axial = hex10_fz - bfz
-        fx = fx + x_fx * axial
-        fy = fy + x_fy * axial
+        wrench = [w if _is_zero(x) else w + x * axial for w, x in zip(wrench, leak)]
     fz = m_d * gz - S_sum + bfz
-    # moment of the distal weight at l_d e_z: (0,0,l) x (m g) = l m (-gy, gx, 0)
-    return fx, fy, fz, tx - l_d * m_d * gy + btx, ty + l_d * m_d * gx + bty, 0.0 * gz + btz
+    return wrench[0], wrench[1], fz, wrench[2], wrench[3], wrench[4]
 
 
 def _is_zero(x) -> bool:

@@ -55,6 +55,7 @@ DESIGN = {
     "bias_tx": 0.0, "bias_ty": 0.0, "bias_tz": 0.0,     # Nm: the sensor is tared
     "capstan_mu": 0.0,              # 1: no friction by design
     "crosstalk_fx": 0.0, "crosstalk_fy": 0.0,  # 1: the sensor's calibration decouples it
+    "crosstalk_tx": 0.0, "crosstalk_ty": 0.0, "crosstalk_tz": 0.0,  # m: likewise
 }
 """The value a parameter is held at when the data cannot pin it down: the instrument's design
 (nominal) values as docs/simulator.md states them, read as a datasheet (SI, :data:`NAMES`). They
@@ -210,7 +211,8 @@ def verdict_line(selection: dict) -> str:
     report lists a free parameter."""
     still, bound = selection["still_not_identifiable"], selection["at_bound"]
     first = selection["rounds"][0]["bounds_hit"] if selection["rounds"] else []
-    line = (f"identified (free, 3 SE within {RECOVERY_TOLERANCE:.0%}): "
+    line = (f"identified (free, 3 SE within {RECOVERY_TOLERANCE:.0%}, an offset's within its "
+            f"resolution): "
             f"{_names(selection['identified'])}; fixed at design values (not identifiable): "
             f"{_names(sorted(selection['fixed']))}")
     if still:

@@ -1,4 +1,4 @@
-"""The prior law's HEX10 cross-talk of the axial force it reads into its lateral forces
+"""The prior law's HEX10 cross-talk of the axial force it reads into its other channels
 (prior_law.py): its closed form in numpy, CasADi and the per-sample path, refused without the
 reading; held by the efforts reading, freed by the load path; files written before it load as
 the law they were fitted with."""
@@ -11,7 +11,8 @@ from psmforce.core.integrity import seal
 from psmforce.identification.errors import IdentificationInputError
 from psmforce.identification.prior import (HELD_BY_READING, HELD_BY_READING_REASON,
                                            InternalForcePrior)
-from psmforce.identification.prior_law import ADDED_TERMS, NAMES, _CasadiOps, _model
+from psmforce.identification.prior_law import (ADDED_TERMS, CROSSTALK, NAMES, _CasadiOps,
+                                                _model)
 
 
 def _params(**values):
@@ -31,16 +32,26 @@ def _inputs(n=50, seed=0):
     return pos, e, v, g, np.zeros((3, n))
 
 
-def test_the_lateral_forces_gain_the_read_axial_force_times_the_cross_talk():
+LEAK = {"crosstalk_fx": 0.006, "crosstalk_fy": -0.009, "crosstalk_tx": 4e-4,
+        "crosstalk_ty": -3e-4, "crosstalk_tz": 2e-4}
+CHANNEL = {"crosstalk_fx": 0, "crosstalk_fy": 1, "crosstalk_tx": 3, "crosstalk_ty": 4,
+           "crosstalk_tz": 5}  # the wrench's (fx, fy, fz, tx, ty, tz) index each term adds to
+
+
+def test_each_channel_gains_the_read_axial_force_times_its_cross_talk():
     args = _inputs()
     fz_read = np.random.default_rng(7).uniform(-40.0, 5.0, 50)  # internal and external alike
     plain = np.array(_model(_params(), *args, np))
-    leaky = np.array(_model(_params(crosstalk_fx=0.006, crosstalk_fy=-0.009), *args, np,
-                            fz_read))
     axial = fz_read - 0.1  # the reading's fz less the sensor's offset
-    assert np.allclose(leaky[0] - plain[0], 0.006 * axial, atol=1e-12, rtol=0)
-    assert np.allclose(leaky[1] - plain[1], -0.009 * axial, atol=1e-12, rtol=0)
-    assert np.array_equal(leaky[2:], plain[2:])  # nothing else moves
+    assert tuple(LEAK) == CROSSTALK
+    for name, x in LEAK.items():  # one term at a time: it moves its own channel only
+        leaky = np.array(_model(_params(**{name: x}), *args, np, fz_read))
+        k = CHANNEL[name]
+        assert np.allclose(leaky[k] - plain[k], x * axial, atol=1e-12, rtol=0), name
+        others = [c for c in range(6) if c != k]
+        assert np.array_equal(leaky[others], plain[others]), name
+    every = np.array(_model(_params(**LEAK), *args, np, fz_read))
+    assert np.array_equal(every[2], plain[2])  # the axial channel itself never leaks into itself
     with pytest.raises(ValueError, match="hex10_fz"):  # the term cannot run without its reading
         _model(_params(crosstalk_fx=0.006), *args, np)
     with pytest.raises(IdentificationInputError, match="HEX10's fz reading"):
@@ -50,7 +61,7 @@ def test_the_lateral_forces_gain_the_read_axial_force_times_the_cross_talk():
 
 def test_numpy_casadi_and_the_per_sample_path_agree():
     import casadi as ca
-    p = _params(crosstalk_fx=0.01, crosstalk_fy=0.02)
+    p = _params(**LEAK)
     pos, e, v, g, z = _inputs(5, seed=1)
     fz = np.array([-20.0, -12.0, 3.0, -6.5, -30.0])
     numpy_out = np.array(_model(p, pos, e, v, g, z, np, fz))
@@ -63,14 +74,18 @@ def test_numpy_casadi_and_the_per_sample_path_agree():
     prior = InternalForcePrior(params=p)
     one = prior.predict_one(pos[:, 0], e[:, 0], v[:, 0], g[:, 0], hex10_fz=float(fz[0]))
     assert np.allclose(one, numpy_out[:, 0], atol=1e-12, rtol=0)
-    assert math.isclose(one[0] - InternalForcePrior(params=_params()).predict_one(
-        pos[:, 0], e[:, 0], v[:, 0], g[:, 0])[0], 0.01 * (fz[0] - 0.1), abs_tol=1e-12)
-    with pytest.raises(IdentificationInputError, match="HEX10's fz reading"):
-        prior.predict_one(pos[:, 0], e[:, 0], v[:, 0], g[:, 0])
+    plain = InternalForcePrior(params=_params()).predict_one(pos[:, 0], e[:, 0], v[:, 0], g[:, 0])
+    for name, x in LEAK.items():
+        assert math.isclose(one[CHANNEL[name]] - plain[CHANNEL[name]], x * (fz[0] - 0.1),
+                            abs_tol=1e-12), name
+    for name in CROSSTALK:  # any one term needs the reading, and the refusal names it
+        with pytest.raises(IdentificationInputError, match=f"{name}.*HEX10's fz reading"):
+            InternalForcePrior(params=_params(**{name: LEAK[name]})).predict_one(
+                pos[:, 0], e[:, 0], v[:, 0], g[:, 0])
 
 
 def test_the_efforts_reading_holds_it_and_says_why():
-    for name in ("crosstalk_fx", "crosstalk_fy"):
+    for name in CROSSTALK:
         assert name in ADDED_TERMS and HELD_BY_READING["efforts"][name] == 0.0
         assert name not in HELD_BY_READING["load_path"]
         assert "load path fits it" in HELD_BY_READING_REASON[name]
@@ -78,25 +93,36 @@ def test_the_efforts_reading_holds_it_and_says_why():
 
 def test_files_before_it_load_without_it_and_new_ones_need_it():
     v3 = InternalForcePrior(converged=True, params=_params(capstan_mu=0.2)).to_dict()
-    for name in ("crosstalk_fx", "crosstalk_fy"):
+    for name in CROSSTALK:
         del v3["parameters"][name]
     old = InternalForcePrior.from_dict(seal({**v3, "format_version": 3}), "v3.json")
     assert old.params[NAMES.index("capstan_mu")] == 0.2
-    assert old.params[NAMES.index("crosstalk_fx")] == old.params[NAMES.index("crosstalk_fy")] == 0
+    assert all(old.params[NAMES.index(n)] == 0 for n in CROSSTALK)
     with pytest.raises(IdentificationInputError, match="missing parameters.*crosstalk_fx"):
         InternalForcePrior.from_dict(seal({**v3, "format_version": 4}), "v4.json")
-    d = InternalForcePrior(converged=True, params=_params(crosstalk_fy=0.02)).to_dict()
-    assert InternalForcePrior.from_dict(d, "p.json").params[NAMES.index("crosstalk_fy")] == 0.02
+    v4 = InternalForcePrior(converged=True, params=_params(crosstalk_fx=0.01)).to_dict()
+    for name in ("crosstalk_tx", "crosstalk_ty", "crosstalk_tz"):
+        del v4["parameters"][name]
+    old = InternalForcePrior.from_dict(seal({**v4, "format_version": 4}), "v4.json")
+    assert old.params[NAMES.index("crosstalk_fx")] == 0.01 and not old.params[-3:].any()
+    with pytest.raises(IdentificationInputError, match="missing parameters.*crosstalk_tx"):
+        InternalForcePrior.from_dict(seal({**v4, "format_version": 5}), "v5.json")
+    d = InternalForcePrior(converged=True, params=_params(crosstalk_tz=2e-4)).to_dict()
+    assert InternalForcePrior.from_dict(d, "p.json").params[NAMES.index("crosstalk_tz")] == 2e-4
     d["parameters"]["crosstalk_fx"]["value"] = 0.2  # beyond its +-5 % bounds
     with pytest.raises(IdentificationInputError, match="crosstalk_fx"):
-        InternalForcePrior.from_dict(seal({**d, "format_version": 4}), "p.json")
+        InternalForcePrior.from_dict(seal({**d, "format_version": 5}), "p.json")
+    d["parameters"]["crosstalk_fx"]["value"] = 0.0
+    d["parameters"]["crosstalk_ty"]["value"] = 0.01  # a 10 mm lever: beyond its +-2 mm bounds
+    with pytest.raises(IdentificationInputError, match="crosstalk_ty"):
+        InternalForcePrior.from_dict(seal({**d, "format_version": 5}), "p.json")
 
 
 def test_a_remount_refuses_a_law_with_cross_talk():
     """The mounted law turns the wrench into a tilted sensor's frame with no reading of its fz:
     a prior with cross-talk (a load-path identification) is refused, not evaluated without it."""
     from psmforce.identification.prior_remount import MountedPrior, recalibrate
-    prior = InternalForcePrior(converged=True, params=_params(crosstalk_fx=0.01))
+    prior = InternalForcePrior(converged=True, params=_params(crosstalk_tz=2e-4))
     with pytest.raises(IdentificationInputError, match="HEX10's fz reading"):
         recalibrate(prior, [])
     pos, e, v, g, _ = _inputs(5)

@@ -18,7 +18,8 @@ TRUE = dict(pretension_total=6.0, pulley_radius_pitch=2e-3, pulley_radius_blade=
             twist_gain=0.03, direction_tension=0.0, asymmetry_pitch=0.3, asymmetry_blade=0.27,
             pitch_path_tension=0.9, distal_mass=5.5e-3, distal_com_distance=0.026,
             cable_radius=1.2e-3, bias_fx=0.05, bias_fy=-0.08, bias_fz=0.1, bias_tx=0.0,
-            bias_ty=0.0, bias_tz=0.0, capstan_mu=0.0, crosstalk_fx=0.0, crosstalk_fy=0.0)
+            bias_ty=0.0, bias_tz=0.0, capstan_mu=0.0, crosstalk_fx=0.0, crosstalk_fy=0.0,
+            crosstalk_tx=0.0, crosstalk_ty=0.0, crosstalk_tz=0.0)
 
 
 def _prior(values=TRUE):

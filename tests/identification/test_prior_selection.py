@@ -68,10 +68,10 @@ def test_the_trial_jackknife_lists_what_varies_between_trials():
     report = {"not_identifiable": {"cable_radius": "errors in variables: ..."}}
     m = NAMES.index("distal_mass")
     add_trial_spread(report, params, {"distal_mass": 0.05 * params[m],
-                                      "bias_fx": 1e-3, "cable_radius": 1e-3}, 4)
+                                      "bias_fx": 0.01, "cable_radius": 1e-3}, 4)
     listed = report["not_identifiable"]
     assert "varies between groups of trials" in listed["distal_mass"]  # 3 SE = 15 % of it
-    assert "indistinguishable from zero" in listed["bias_fx"]          # its value is 0
+    assert "offset's resolution of 0.02" in listed["bias_fx"]          # 3 SE = 0.03 N
     assert listed["cable_radius"].startswith("errors in variables") and "groups" in listed[
         "cable_radius"]
     report = {"not_identifiable": {}}
@@ -80,6 +80,26 @@ def test_the_trial_jackknife_lists_what_varies_between_trials():
     assert _tier("at its bound (60 N): set by the bound") == 0
     assert _tier("varies between groups of trials: 1 +- 1") == 1
     assert _tier("tied to pretension_total, which is not identifiable") == 2
+
+
+def test_an_offset_is_judged_against_the_sensor_resolution_not_its_own_value():
+    """An offset's truth may be 0, where a relative accuracy means nothing: it is pinned down
+    when 3 SE are within a reading's noise and recovered within that of the truth."""
+    from psmforce.identification.prior_identifiability import (OFFSET_RESOLUTION,
+                                                               precision_needed, recovered)
+    params = InternalForcePrior().params
+    params[NAMES.index("bias_tz")] = 1e-5  # 3 SE = 3e-5 Nm is 300 % of it, within 0.2 mNm
+    params[NAMES.index("bias_fx")] = 0.05
+    report = {"not_identifiable": {}}
+    add_trial_spread(report, params, {"bias_tz": 1e-5, "bias_fx": 0.0028}, 4)
+    assert report["not_identifiable"] == {}  # a relative rule would list both
+    add_trial_spread(report, params, {"bias_tz": 1e-4}, 4)  # 3 SE = 0.3 mNm
+    assert "offset's resolution of 0.0002" in report["not_identifiable"]["bias_tz"]
+    assert precision_needed("bias_fy", -0.08) == OFFSET_RESOLUTION["N"] == 0.02
+    assert precision_needed("distal_mass", 0.005) == pytest.approx(5e-4)
+    assert recovered("bias_tz", 1.5e-4, 0.0) and not recovered("bias_tz", 3e-4, 0.0)
+    assert recovered("bias_fx", 0.069, 0.05) and not recovered("bias_fx", 0.071, 0.05)
+    assert recovered("crosstalk_tz", 2.1e-4, 2e-4) and not recovered("crosstalk_tz", 1e-6, 0.0)
 
 
 def test_design_values_lie_inside_the_bounds():
