@@ -59,7 +59,6 @@ AXES = ("Fx", "Fy", "Fz")
 METRICS = ("causal", "paper")
 CONTACT = ("Palpation", "Traction")
 TOOL_SEED_OFFSET = 1000
-RELATIVE_TOLERANCE = 0.10
 GOALS = {"free+self+weights": 1.3, "free+self": 1.5, "per_mount:free+self": 1.5}
 """Arm -> the largest error ratio against an ATI-trained hybrid the issue accepts, per axis."""
 ATI_FREE = ("free", "free+self", "free+self+weights")
@@ -128,18 +127,21 @@ def prior_against_truth(after: dict[str, float], truth: dict[str, float | None],
                         held: dict[str, float]) -> dict:
     """Per parameter: truth (None: no counterpart on the bench), fitted, relative error (None
     where the truth is None or 0), status (``held`` from the checkpoint: not identifiable from
-    the data; ``no counterpart``; ``fitted``) and whether a fitted one is within
-    :data:`RELATIVE_TOLERANCE`."""
+    the data; ``no counterpart``; ``fitted``) and whether a fitted one recovers the truth
+    (:func:`~psmforce.identification.prior_identifiability.recovered`: within
+    10 %, an offset within the sensor's resolution; None for a constant
+    whose truth is 0)."""
+    from psmforce.identification.prior_identifiability import is_offset, recovered
     table = {}
     for name, value in after.items():
         true = truth.get(name)
         rel = abs(value / true - 1.0) if true not in (None, 0.0) else None
         status = ("held" if name in held else "no counterpart" if true is None else "fitted")
+        judged = status == "fitted" and (rel is not None or is_offset(name))
         table[name] = {"truth": true, "fitted": float(value), "relative_error": rel,
                        "absolute_error": None if true is None else abs(value - true),
                        "status": status,
-                       "within": (rel <= RELATIVE_TOLERANCE) if (status == "fitted"
-                                                                 and rel is not None) else None}
+                       "within": recovered(name, float(value), true) if judged else None}
     return table
 
 

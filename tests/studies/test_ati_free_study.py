@@ -51,9 +51,9 @@ def test_pairing_is_per_seed_and_against_the_reference():
 
 def test_prior_against_truth_names_held_and_unmatched_parameters():
     after = {"pretension_total": 6.3, "bias_fz": 0.01, "direction_tension": 0.2,
-             "cable_radius": 0.002, "bias_tx": 0.001}
+             "cable_radius": 0.002, "bias_tx": 0.001, "bias_ty": 1e-4, "pitch_path_tension": 0.1}
     truth = {"pretension_total": 6.0, "bias_fz": 0.05, "direction_tension": None,
-             "cable_radius": 0.0012, "bias_tx": 0.0}
+             "cable_radius": 0.0012, "bias_tx": 0.0, "bias_ty": 0.0, "pitch_path_tension": 0.0}
     got = prior_against_truth(after, truth, held={"cable_radius": 0.002})
     assert got["pretension_total"]["relative_error"] == pytest.approx(0.05)
     assert got["pretension_total"]["within"] is True and got["bias_fz"]["within"] is False
@@ -61,6 +61,10 @@ def test_prior_against_truth_names_held_and_unmatched_parameters():
     assert got["cable_radius"]["status"] == "held" and got["cable_radius"]["within"] is None
     assert got["bias_tx"]["relative_error"] is None
     assert got["bias_tx"]["absolute_error"] == pytest.approx(0.001)
+    # an offset is judged against the sensor's resolution (0.2 mNm), even where its truth is 0;
+    # a constant whose truth is 0 has no relative accuracy and is not judged
+    assert got["bias_tx"]["within"] is False and got["bias_ty"]["within"] is True
+    assert got["pitch_path_tension"]["within"] is None
 
 
 def test_the_page_renders_every_row_the_goals_and_the_prior():
