@@ -82,7 +82,8 @@ def prior_recovery_table(result: dict) -> str:
     first = runs[0]["parameters"]
     lines = ["", f"`python studies/prior_recovery.py --scale {result['scale']:g} --seeds "
              + " ".join(str(r["seed"]) for r in runs) + "`; `*` = listed not identifiable, with "
-             "the relative error where the truth is not zero:", "",
+             "the relative error where the truth is not zero; *held*: held by the efforts "
+             "reading, not fitted:", "",
              "| parameter | unit | truth | " + " | ".join(f"seed {r['seed']}" for r in runs)
              + " | SE (seed " + str(runs[0]["seed"]) + ") |",
              "|---|---|---|" + "---|" * len(runs) + "---|"]
@@ -90,7 +91,7 @@ def prior_recovery_table(result: dict) -> str:
         cells = []
         for r in runs:
             p = r["parameters"][name]
-            mark = "" if p["status"] == "identifiable" else " *"
+            mark = {"identifiable": "", "fixed": " *held*"}.get(p["status"], " *")
             rel = (f" ({100 * p['relative_error']:.1f} %)" if p["truth"] != 0
                    and p.get("relative_error") is not None else "")
             cells.append(f"{p['fitted']:.4g}{rel}{mark}")
@@ -99,7 +100,8 @@ def prior_recovery_table(result: dict) -> str:
                      + f" | {'' if se is None else f'{se:.2g}'} |")
     conds = " / ".join(f"{r['identifiability']['condition_number']:.3g}" for r in runs)
     lines += ["", f"Fisher condition number {conds}; {sum(len(r['failures']) for r in runs)} "
-              "identifiable parameters off by more than 10 %.", ""]
+              "identifiable parameters off by more than 10 % (an offset: by more than its "
+              "resolution).", ""]
     return "\n".join(lines)
 
 
@@ -171,7 +173,8 @@ def prior_default_recovery_table(result: dict) -> str:
                   f"{fz0.get('rms', float('nan')):.3g} N (R^2 {fz.get('r2', float('nan')):.3g} / "
                   f"{fz0.get('r2', float('nan')):.3g}); fit-prior rounds: {len(run['rounds'])}."
                   + _rest_level_leak(run)
-                  + ("" if "capstan_mu_over_training" not in run else
+                  + ("" if "capstan_mu_over_training" not in run
+                     or rows["capstan_mu"]["status"] == "fixed" else
                      " The bench's wrist capstan is "
                      f"{_num(rows['capstan_mu']['truth'])} at the straight wrist and grows with "
                      "|wrist pitch| and |roll|; averaged over the training samples' configurations "
