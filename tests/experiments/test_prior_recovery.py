@@ -11,6 +11,7 @@ import pytest
 
 from psmforce.identification.errors import IdentificationInputError
 from psmforce.identification.prior import HELD_BY_READING, NAMES, InternalForcePrior
+from psmforce.identification.prior_identifiability import recovered
 from psmforce.experiments.prior_recovery import (compare, in_family_instrument, prior_truth,
                                                      recover)
 
@@ -34,8 +35,8 @@ def test_identifiable_parameters_within_10_percent(bench):
     identifiable = {n for n, r in rows.items() if r["status"] == "identifiable"}
     assert set(CORE) <= identifiable, sorted(set(CORE) - identifiable)
     assert rep["failures"] == [], {n: rows[n] for n in rep["failures"]}
-    for name in identifiable:
-        assert abs(rows[name]["fitted"] / rows[name]["truth"] - 1) <= 0.10, rows[name]
+    for name in identifiable:  # within 10 %, an offset within the sensor's resolution
+        assert recovered(name, rows[name]["fitted"], rows[name]["truth"]), rows[name]
     # the rest level bias_fz - pretension_total, which the split's error cancels in, to 0.05 N
     assert abs(rep["rest_level_n"]["fitted"] - rep["rest_level_n"]["truth"]) < 0.05
 

@@ -146,7 +146,8 @@ def test_the_verdict_names_fixed_and_bound_parameters_and_never_just_passes(smal
     assert ("POOR FIT" in rep["verdict"]) == rep["poor_fit"]
     free = fit_prior_cli(small_bench, tmp_path / "q.json", identify=False)
     assert free["fixed"] == HELD_BY_READING["efforts"] and "curve fit" in free["verdict"]
-    assert "capstan_mu, crosstalk_fx, crosstalk_fy held by the reading" in free["verdict"]
+    assert ("capstan_mu, crosstalk_fx, crosstalk_fy, crosstalk_tx, crosstalk_ty, crosstalk_tz "
+            "held by the reading") in free["verdict"]
     assert "passes" not in free["verdict"]
     listed = free["not_identifiable"]
     assert listed and all(n in free["verdict"].split("NOT identifiable: ")[1] for n in listed)

@@ -232,9 +232,12 @@ def test_a_signal_ends_serve_with_its_report_written(tmp_path, signum):
     ckpt = checkpoint(tmp_path / "h.pt", rate_hz=100.0)
     for wait_s in (0.5, 5.0):  # while it starts, and once the robot's messages flow
         report = tmp_path / f"report_{wait_s}.json"
+        # as from a terminal: a suite run as a background job (``pytest &``) would hand the
+        # node an ignored SIGINT, which serve rightly leaves ignored
         node = subprocess.Popen([sys.executable, "-m", "psmforce.cli.main", "serve", str(ckpt),
                                  "--sim", "--json", str(report)], env=_env(),
-                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                                preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
         try:
             assert "listening on" in node.stdout.readline()
             time.sleep(wait_s)
