@@ -287,6 +287,21 @@ def test_fit_refuses_data_that_cannot_identify():
         CableTransmission.fit([_synthetic(np.zeros(100), np.zeros(100), "short")])
 
 
+def test_the_reader_parses_values_as_python_does(tmp_path):
+    """The file parser (numpy's) gives the values ``float`` gives, bit for bit, on decimals
+    that round awkwardly, exponents and signs."""
+    from psmforce.identification.transmission.recording import _parse
+    rng = np.random.default_rng(3)
+    values = rng.normal(0.0, 1.0, (2500, 10)) * 10.0 ** rng.integers(-9, 5, (2500, 10))
+    values[:, 0] = np.arange(2500) / 1000.0
+    text = ["%.17g" % v if k % 3 else repr(float(v)) for k, v in enumerate(values.ravel())]
+    lines = [",".join(text[r * 10:(r + 1) * 10]) for r in range(2500)]
+    path = tmp_path / "01.TXT"
+    path.write_text("% header\n" + "\n".join(lines) + "\n")
+    data, _ = _parse(path)
+    assert np.array_equal(data, np.array([[float(x) for x in line.split(",")] for line in lines]))
+
+
 def test_reader_refuses_bad_files(tmp_path):
     bad = tmp_path / "05.TXT"
     bad.write_text("% header\n" + "0.000,1,2,3\n" * 3000)

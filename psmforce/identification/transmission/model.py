@@ -310,16 +310,20 @@ class CableTransmission:
         y = np.concatenate([r.jaw_torque_nm for r in recordings])
         y_angle = np.concatenate([r.jaw_angle_rad for r in recordings])
         best, scores = None, []
+        by_presliding: dict = {}  # the signals depend on the pre-sliding width only
         for phi, hold_rad in widths:
-            sigs = [_signals(r, phi, current_source) for r in recordings]
-            s = _concat(sigs)
+            if phi not in by_presliding:
+                sigs = [_signals(r, phi, current_source) for r in recordings]
+                by_presliding[phi] = (sigs, _concat(sigs), {})
+            sigs, s, columns = by_presliding[phi]
             if np.sum(np.abs(s.omega) > OMEGA_MOVING) < 200:
                 raise IdentificationInputError("the motor hardly moves: fewer than 200 samples "
                                                f"faster than {OMEGA_MOVING} rad/s")
             hold_a = np.concatenate([hold_coefficients(x.theta, hold_rad) for x in sigs])
             start = initial.torque if initial is not None else None
             torque, per, tied, info = _solve_torque(s, y, hold_a, codes, len(names), start,
-                                                    max_iter, fixed, per_session)
+                                                    max_iter, fixed, per_session,
+                                                    columns=columns)
             sessions = {n: dict(zip([q for q in per_session if q in TORQUE_NAMES], per[k]))
                         for k, n in enumerate(names)}
             for h in backlashes:
@@ -508,13 +512,15 @@ class CableTransmission:
 
 def _solve_torque(s: _Signals, y: np.ndarray, hold_a: np.ndarray, codes: np.ndarray,
                   n_sessions: int, start, max_iter: int, fixed: dict,
-                  per_session: tuple[str, ...], check_tie: bool = True):
+                  per_session: tuple[str, ...], check_tie: bool = True,
+                  columns: dict | None = None):
     """IPOPT through the hold on every sample. Returns (instrument values in TORQUE_NAMES order,
     with per-session entries at their mean; per-session values (n_sessions, k) in the order of
     the torque names in ``per_session``; names the tie fixed; info with the white-noise Fisher
     diagnostics). ``codes`` (N,) the session index of each sample. When the information cannot
     split the motor Coulomb friction from the pretension term, refits with the former fixed at
-    0 (module docstring)."""
+    0 (module docstring). ``columns``: a dict kept by the caller for as long as ``s`` and ``y``
+    stay the same, where their CasADi copies are kept between calls (the width grid's)."""
     import casadi as ca
     from scipy import sparse
 
@@ -543,9 +549,13 @@ def _solve_torque(s: _Signals, y: np.ndarray, hold_a: np.ndarray, codes: np.ndar
         p.append(ca.mtimes(one_hot, value) if count > 1 else value)
     u_all = ca.vertcat(*variables)
     hold_matrix = ca.DM(sparse.csc_matrix(sparse.eye(n) - sparse.diags(hold_a[1:], -1)))
-    cols = _Signals(*(ca.DM(getattr(s, f)) for f in _Signals.__dataclass_fields__))
-    held = ca.solve(hold_matrix, ca.DM(1.0 - hold_a) * _torque_law(p, cols, ca), "csparse")
-    resid = held - ca.DM(y)
+    columns = {} if columns is None else columns
+    if not columns:
+        columns["s"] = _Signals(*(ca.DM(getattr(s, f)) for f in _Signals.__dataclass_fields__))
+        columns["y"] = ca.DM(y)
+    held = ca.solve(hold_matrix, ca.DM(1.0 - hold_a) * _torque_law(p, columns["s"], ca),
+                    "csparse")
+    resid = held - columns["y"]
     cost = ca.sumsqr(resid) / n / 1e-6  # in mNm^2: O(1)-O(100) numbers for IPOPT
     solver = ca.nlpsol("transmission", "ipopt", {"x": u_all, "f": cost}, {
         "ipopt.print_level": 0, "print_time": False, "ipopt.max_iter": max_iter,
@@ -579,7 +589,8 @@ def _solve_torque(s: _Signals, y: np.ndarray, hold_a: np.ndarray, codes: np.ndar
                if k.startswith(pair[0] + "|") and pair[1] in k), default=0.0)
     if check_tie and pair[0] not in fixed and tie > TIE_CORRELATION:
         params, per, _, info = _solve_torque(s, y, hold_a, codes, n_sessions, params, max_iter,
-                                             {**fixed, pair[0]: 0.0}, per_session)
+                                             {**fixed, pair[0]: 0.0}, per_session,
+                                             columns=columns)
         info["tied"] = (f"{pair[0]} fixed at 0: the data cannot split it from {pair[1]} "
                         f"(correlation {tie:.3f}); the load-independent friction is carried "
                         "by the pretension term")
