@@ -296,6 +296,45 @@ def ati_free_tables(result: dict) -> str:
     return "\n".join(lines) + "\n"
 
 
+def crosstalk_effect_table(held: dict, fitted: dict) -> str:
+    """Each row of the ATI-free study with the HEX10's cross-talk fitted in every hybrid's prior
+    (``fitted``, ``--prior-crosstalk``) over the same row with it held (``held``), paired on
+    the bench seeds both ran: geometric mean ratio [95 % t interval on log ratios] per axis and
+    metric, and the verdict; then the cross-talk each arm's calibrated prior holds."""
+    from psmforce.experiments.paired import paired_by_axis
+    same = ("scale", "free_minutes", "excitation_minutes", "excitation_seed", "masses", "hold_s",
+            "calibration_epochs", "quick")
+    differ = [k for k in same if held["settings"].get(k) != fitted["settings"].get(k)]
+    if differ or fitted["settings"].get("prior_crosstalk") is not True \
+            or held["settings"].get("prior_crosstalk", False) is not False:
+        raise ValueError(f"the two ATI-free studies do not pair: settings {differ} differ, or "
+                         "the second does not fit the cross-talk where the first holds it")
+    seeds = [k for k in fitted["records"] if k in held["records"]]
+    lines = ["", f"Error with the cross-talk fitted over the error with it held, the same row "
+             f"on the same bench seeds ({', '.join(seeds)}): geometric mean [95 % t interval on "
+             "log ratios]; below 1: the term helps.", "",
+             "| row | causal Fx | causal Fy | causal Fz | paper Fx | paper Fy | paper Fz |",
+             "|---|---|---|---|---|---|---|"]
+    verdicts = {}
+    for key, label in ATI_FREE_ROWS.items():
+        if not all(key in held["records"][k] and key in fitted["records"][k] for k in seeds):
+            continue
+        cells = []
+        for m in ("causal", "paper"):
+            ratios = paired_by_axis([fitted["records"][k][key]["nrmse_pct"][m] for k in seeds],
+                                    [held["records"][k][key]["nrmse_pct"][m] for k in seeds],
+                                    ERROR_AXES)
+            cells += [_paired(r.to_dict()) for r in ratios.values()]
+            for a, r in ratios.items():
+                verdicts.setdefault(r.verdict, []).append(f"{label}, {m} {a}")
+        lines.append(f"| {label} | " + " | ".join(cells) + " |")
+    lines += ["", "Intervals wholly below 1 (the term helps): "
+              + ("; ".join(verdicts.get("ahead", [])) or "none") + ".", "",
+              "Intervals wholly above 1 (the term hurts): "
+              + ("; ".join(verdicts.get("behind", [])) or "none") + "."]
+    return "\n".join(lines) + "\n"
+
+
 _MARKS = {"fixed": "*fixed*", "identified": "identified", "free, not identified": "free, NOT id."}
 
 

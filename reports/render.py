@@ -68,6 +68,7 @@ SIMULATOR = ROOT / "docs" / "simulator.md"
 REMOUNT = ROOT / "results" / "benchmarks" / "remount.json"
 REMOUNT_FRESH = ROOT / "results" / "benchmarks" / "remount_fresh.json"
 ATI_FREE_RESULT = ROOT / "results" / "benchmarks" / "ati_free.json"
+ATI_FREE_CROSSTALK = ROOT / "results" / "benchmarks" / "ati_free_crosstalk.json"
 HEX10_COMPRESSION = ROOT / "results" / "benchmarks" / "hex10_compression.json"
 EXCITATION = ROOT / "results" / "benchmarks" / "excitation.json"
 RECIPE_SWAP = ROOT / "results" / "benchmarks" / "recipe_swap.json"
@@ -158,6 +159,9 @@ BLOCKS = (
     (ATI_FREE, "remount-tables", REMOUNT, ati_free_page.remount_tables),
     (ATI_FREE, "remount-fresh-tables", REMOUNT_FRESH, ati_free_page.remount_tables),
     (ATI_FREE, "ati-free-tables", ATI_FREE_RESULT, ati_free_page.ati_free_tables),
+    (ATI_FREE, "ati-free-crosstalk-tables", ATI_FREE_CROSSTALK, ati_free_page.ati_free_tables),
+    (ATI_FREE, "ati-free-crosstalk-effect", (ATI_FREE_RESULT, ATI_FREE_CROSSTALK),
+     ati_free_page.crosstalk_effect_table),
     (ATI_FREE, "instrument-identification-tables", ATI_FREE_IDENTIFICATION,
      ati_free_page.instrument_identification_tables),
     (ATI_FREE, "hex10-compression", HEX10_COMPRESSION, ati_free_page.hex10_compression_table),

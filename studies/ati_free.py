@@ -124,10 +124,11 @@ def goal_misses(paired: dict) -> dict:
 
 
 def prior_against_truth(after: dict[str, float], truth: dict[str, float | None],
-                        held: dict[str, float]) -> dict:
+                        held: dict[str, float], by_reading=()) -> dict:
     """Per parameter: truth (None: no counterpart on the bench), fitted, relative error (None
     where the truth is None or 0), status (``held`` from the checkpoint: not identifiable from
-    the data; ``no counterpart``; ``fitted``) and whether a fitted one recovers the truth
+    the data; ``held by the reading``: ``by_reading``, the law's term the fit never frees, such
+    as the cross-talk without ``--prior-crosstalk``; ``no counterpart``; ``fitted``) and whether a fitted one recovers the truth
     (:func:`~psmforce.identification.prior_identifiability.recovered`: within
     10 %, an offset within the sensor's resolution; None for a constant
     whose truth is 0)."""
@@ -136,7 +137,8 @@ def prior_against_truth(after: dict[str, float], truth: dict[str, float | None],
     for name, value in after.items():
         true = truth.get(name)
         rel = abs(value / true - 1.0) if true not in (None, 0.0) else None
-        status = ("held" if name in held else "no counterpart" if true is None else "fitted")
+        status = ("held" if name in held else "held by the reading" if name in by_reading
+                  else "no counterpart" if true is None else "fitted")
         judged = status == "fitted" and (rel is not None or is_offset(name))
         table[name] = {"truth": true, "fitted": float(value), "relative_error": rel,
                        "absolute_error": None if true is None else abs(value - true),
@@ -213,6 +215,7 @@ def _train(data: Path, out: Path, seed: int, args, use_prior: bool = True) -> di
     return kept_json(out.with_suffix(".train.json"), lambda: {
         k: v for k, v in train(data, "hybrid", out, epochs=epochs, seed=seed, use_prior=use_prior,
                                device=args.device,
+                               prior_crosstalk=args.prior_crosstalk and use_prior,
                                train_config=_config("hybrid", args.quick)).items()
         if k in ("converged", "epochs_run", "stopped_by")})
 
@@ -226,7 +229,8 @@ def _calibrate(ckpt: Path, data: Path, out: Path, seed: int, args, minutes: floa
     return {"calibration": {k: record[k] for k in ("minutes_used", "minutes_by_condition",
                                                    "epochs_run", "converged", "stopped_by")},
             "prior": None if prior is None else {
-                k: prior[k] for k in ("parameters_after", "held_from_checkpoint")}}
+                k: prior[k] for k in ("parameters_after", "held_from_checkpoint",
+                                      "held_by_reading")}}
 
 
 def _excitation(work: Path, args) -> np.ndarray:
@@ -280,7 +284,8 @@ def _seed(seed: int, args, q_exc: np.ndarray) -> tuple[dict, dict]:
                     lambda: _score_physics(out, tool))
                 prior = runs[name]["prior"]
                 runs[name]["prior_against_truth"] = prior_against_truth(
-                    prior["parameters_after"], truth, prior["held_from_checkpoint"])
+                    prior["parameters_after"], truth, prior["held_from_checkpoint"],
+                    prior["held_by_reading"])
     out = work / "arms" / "per_mount_free_self.pt"
     spec = arms(args.free_minutes + MINUTES_SLACK, exc_minutes)["free+self"]
     runs[PER_MOUNT_ARM] = kept_json(out.with_suffix(".cal.json"), lambda: _calibrate(
@@ -290,7 +295,8 @@ def _seed(seed: int, args, q_exc: np.ndarray) -> tuple[dict, dict]:
                                        lambda: _score(out, tool))
     prior = runs[PER_MOUNT_ARM]["prior"]
     runs[PER_MOUNT_ARM]["prior_against_truth"] = prior_against_truth(
-        prior["parameters_after"], truth, prior["held_from_checkpoint"])
+        prior["parameters_after"], truth, prior["held_from_checkpoint"],
+        prior["held_by_reading"])
     wanted = runs["free+self+weights"]["calibration"]["minutes_used"]
     available = sum(map(_minutes_of, _ati_pool(tool)))
     minutes = min(wanted, available)
@@ -349,12 +355,18 @@ def main(argv=None) -> dict:
     ap.add_argument("--calibration-epochs", type=int, default=500)
     ap.add_argument("--quick", action="store_true",
                     help="one capped epoch per training and calibration: mechanics only")
-    ap.add_argument("--work", type=Path, default=Path("runs/ati_free"))
+    ap.add_argument("--prior-crosstalk", action="store_true",
+                    help="every hybrid's prior also fits the HEX10's cross-talk (psmforce train "
+                         "--prior-crosstalk; calibrate refits the law its checkpoint has)")
+    ap.add_argument("--work", type=Path, default=None,
+                    help="runs/ati_free, or runs/ati_free_crosstalk with --prior-crosstalk")
     ap.add_argument("--threads", type=int, default=1)
     ap.add_argument("--device", default="cpu", choices=["cpu", "cuda"],
                     help="where trainings and calibrations run (scores on the CPU)")
     ap.add_argument("--json", type=Path)
     args = ap.parse_args(argv)
+    if args.work is None:
+        args.work = Path("runs/ati_free_crosstalk" if args.prior_crosstalk else "runs/ati_free")
     torch.set_num_threads(args.threads)
     if args.quick:
         args.work = args.work / "quick"

@@ -233,6 +233,10 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--features", help="feature set name (default: the model's own inputs, the "
                                        "paper's for most)")
     p.add_argument("--prior", help="prior JSON (hybrid; default: fit one on the data's free space)")
+    p.add_argument("--prior-crosstalk", action="store_true",
+                   help="the fitted prior also fits the HEX10's cross-talk of fz into the other "
+                        "channels (docs/identification.md; default: held at 0, as every "
+                        "committed comparison was trained)")
     p.add_argument("--config", metavar="JSON",
                    help="the model constructor's keyword arguments as a JSON object, inline or "
                         "a file holding one, e.g. '{\"uncertainty\": true}' for a hybrid that "

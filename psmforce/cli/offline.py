@@ -289,7 +289,8 @@ def train_command(args) -> dict:
     config = options.json_object(args.config, "--config")
     from psmforce.estimators.training.train import (train)  # checks the config builds the model before reading data
     return train(args.data, args.model, args.out, features=args.features, epochs=args.epochs,
-                 seed=args.seed, device=args.device, prior=args.prior, config=config)
+                 seed=args.seed, device=args.device, prior=args.prior, config=config,
+                 prior_crosstalk=args.prior_crosstalk)
 
 
 def finetune_command(args) -> dict:

@@ -188,15 +188,34 @@ gives the law before them (:data:`HELD_BY_READING_REASON` says why). The capstan
 path gives that demand, but the motor efforts are the differential at the motor, after the
 proximal path's own capstan and the discs' friction, which the law does not model: read from
 them, the term only bends the curve fit. The cross-talk (:data:`~.prior_law.CROSSTALK`)
-is the sensor's, and reads its own fz, so any reading could fit it; the efforts reading is the
-estimators' prior, and what freeing it there does to their estimates is not measured yet, so
-it holds it: every efforts prior stays the law it was."""
-_CROSSTALK_HELD = ("held by the reading: the estimators' prior, in which the sensor's cross-talk "
-                   "is not measured yet (the load path fits it)")
+is the sensor's, and reads its own fz, so any reading can fit it; the efforts reading is the
+estimators' prior, and every committed comparison was trained with it held, so it holds it
+unless asked (``crosstalk=True``, :func:`held_by_reading`): the default efforts prior stays
+the law it was."""
+_CROSSTALK_HELD = ("held by the reading: the estimators' prior holds the sensor's cross-talk "
+                   "unless asked to fit it (crosstalk=True; the load path fits it)")
 HELD_BY_READING_REASON = {
     "capstan_mu": "held by the reading: the motor efforts are the differential after the "
                   "proximal path and the discs, not the wrist's demand",
     **{n: _CROSSTALK_HELD for n in CROSSTALK}}
+
+
+def held_by_reading(inputs: str, crosstalk: bool | None = None) -> dict[str, float]:
+    """What a fit reading ``inputs`` holds (name -> SI value): :data:`HELD_BY_READING`, with the
+    sensor's cross-talk (:data:`~.prior_law.CROSSTALK`) fitted when ``crosstalk`` is True,
+    held at 0 when False, as the reading has it when None."""
+    if inputs not in INPUTS:
+        raise IdentificationInputError(f"unknown prior inputs {inputs!r}; known: "
+                                       f"{', '.join(INPUTS)}")
+    if crosstalk not in (None, True, False):
+        raise IdentificationInputError(f"crosstalk must be True, False or None, got "
+                                       f"{crosstalk!r}")
+    held = dict(HELD_BY_READING[inputs])
+    if crosstalk is True:
+        held = {n: x for n, x in held.items() if n not in CROSSTALK}
+    elif crosstalk is False:
+        held.update({n: 0.0 for n in CROSSTALK})
+    return held
 
 
 def _fit_arrays(frame, inputs: str, psm=None, targets: bool = True, direction: bool = True):
@@ -403,7 +422,8 @@ class InternalForcePrior:
     @classmethod
     def fit(cls, recordings, *, psm=None, provenance=None, max_iter: int = 500,
             fixed: dict[str, float] | None = None, initial: dict[str, float] | None = None,
-            report: bool = True, inputs: str = "efforts") -> InternalForcePrior:
+            report: bool = True, inputs: str = "efforts",
+            crosstalk: bool | None = None) -> InternalForcePrior:
         """Fit on recordings (DataFrames of ``psmforce.io.recording`` or paths).
 
         Where target columns ``ati_fx..ati_fz`` exist, the known external force (HEX10 frame) is
@@ -422,18 +442,16 @@ class InternalForcePrior:
         ``inputs`` (:data:`INPUTS`): ``"load_path"`` reads the cables from the known tip force
         instead of the motor efforts, and fits the moments of loaded samples too, with the tip
         force's moment subtracted (:mod:`psmforce.identification.load_path`; every recording
-        must carry ``ati_fx..ati_fz``).
+        must carry ``ati_fx..ati_fz``). ``crosstalk``: fit the sensor's cross-talk (True), hold
+        it at 0 (False), or as the reading does (None: :func:`held_by_reading`).
         """
         import casadi as ca
 
-        if inputs not in INPUTS:
-            raise IdentificationInputError(f"unknown prior inputs {inputs!r}; known: "
-                                           f"{', '.join(INPUTS)}")
-
+        held = held_by_reading(inputs, crosstalk)
         t0 = time.perf_counter()
         if len(recordings) == 0:
             raise IdentificationInputError("no recordings to fit the prior on")
-        fixed = _check_fixed({**HELD_BY_READING[inputs], **(fixed or {})})
+        fixed = _check_fixed({**held, **(fixed or {})})
         no_capstan = fixed.get(NAMES[_CAPSTAN]) == 0.0  # the law then reads no friction state
         no_crosstalk = all(fixed.get(NAMES[i]) == 0.0 for i in _CROSSTALK)  # nor the fz reading
         parts, axial = [], []

@@ -31,7 +31,7 @@ from pathlib import Path
 import numpy as np
 
 from psmforce.identification.errors import IdentificationInputError
-from psmforce.identification.prior import (HELD_BY_READING, HELD_BY_READING_REASON,
+from psmforce.identification.prior import (HELD_BY_READING_REASON, held_by_reading,
                                            InternalForcePrior)
 from psmforce.identification.prior_identifiability import RECOVERY_TOLERANCE, add_trial_spread
 from psmforce.identification.prior_law import NAMES
@@ -80,7 +80,8 @@ def trial_jackknife(frames, prior: InternalForcePrior, fixed: dict[str, float],
                     groups: int = JACKKNIFE_GROUPS, psm=None, max_iter: int = 500,
                     inputs: str = "efforts", labels=None) -> dict[str, float] | None:
     """Delete-a-group jackknife standard error of each free parameter over ``groups`` groups of
-    whole trials (trial k in group k mod ``groups``, or in group ``labels[k]``): refit without
+    whole trials; ``fixed``: every parameter the fit of ``prior`` held, the reading's included
+    (the refits hold exactly these) (trial k in group k mod ``groups``, or in group ``labels[k]``): refit without
     each group, warm-started at ``prior``'s parameters, ``se^2 = (G - 1) / G sum_g (p_g -
     mean p)^2`` (SI units). None when there are fewer trials than groups.
 
@@ -101,7 +102,7 @@ def trial_jackknife(frames, prior: InternalForcePrior, fixed: dict[str, float],
         kept = [f for f, label in zip(frames, labels) if label != g]
         refits.append(InternalForcePrior.fit(kept, psm=psm, fixed=fixed, initial=start,
                                              report=False, max_iter=max_iter,
-                                             inputs=inputs).params)
+                                             inputs=inputs, crosstalk=True).params)
     p = np.array(refits)
     se = np.sqrt((groups - 1) / groups * np.sum((p - p.mean(axis=0)) ** 2, axis=0))
     return {n: float(se[i]) for i, n in enumerate(NAMES) if n not in fixed}
@@ -127,23 +128,24 @@ def design_groups(replicates, groups: int = JACKKNIFE_GROUPS) -> list[int]:
 def fit_identified(recordings, *, psm=None, provenance=None, design: dict | None = None,
                    groups: int = JACKKNIFE_GROUPS, max_rounds: int = MAX_ROUNDS,
                    max_iter: int = 500, inputs: str = "efforts",
-                   jackknife_labels=None) -> InternalForcePrior:
+                   jackknife_labels=None, crosstalk: bool | None = None) -> InternalForcePrior:
     """Fit the prior with only what the data identify free (module docstring); the rest held at
     ``design`` (default :data:`DESIGN`; a partial dict overrides some entries). ``inputs``: what
     the law reads as wrist torques (:meth:`InternalForcePrior.fit`); ``jackknife_labels``: each
-    recording's jackknife group (:func:`trial_jackknife`, :func:`design_groups`)."""
+    recording's jackknife group (:func:`trial_jackknife`, :func:`design_groups`);
+    ``crosstalk``: as :meth:`InternalForcePrior.fit`."""
     design = {**DESIGN, **(design or {})}
     unknown = sorted(set(design) - set(NAMES))
     if unknown:
         raise IdentificationInputError(f"design: unknown parameters {unknown} (one of {NAMES})")
     frames = _frames(recordings)
-    fixed = dict(HELD_BY_READING[inputs])
+    fixed = held_by_reading(inputs, crosstalk)
     why_fixed = {n: {"value": x, "reason": HELD_BY_READING_REASON[n], "fitted_when_listed": None,
                      "round": 0} for n, x in fixed.items()}
     rounds = []
     for round_ in range(max_rounds):
         prior = InternalForcePrior.fit(frames, psm=psm, provenance=provenance, fixed=fixed,
-                                       max_iter=max_iter, inputs=inputs)
+                                       max_iter=max_iter, inputs=inputs, crosstalk=True)
         report = prior.info["identifiability"]
         jack = trial_jackknife(frames, prior, fixed, groups, psm, max_iter, inputs,
                                jackknife_labels)

@@ -118,13 +118,66 @@ def test_files_before_it_load_without_it_and_new_ones_need_it():
         InternalForcePrior.from_dict(seal({**d, "format_version": 5}), "p.json")
 
 
-def test_a_remount_refuses_a_law_with_cross_talk():
-    """The mounted law turns the wrench into a tilted sensor's frame with no reading of its fz:
-    a prior with cross-talk (a load-path identification) is refused, not evaluated without it."""
-    from psmforce.identification.prior_remount import MountedPrior, recalibrate
-    prior = InternalForcePrior(converged=True, params=_params(crosstalk_tz=2e-4))
+def test_a_mounted_law_turns_the_cables_not_the_sensors_cross_talk():
+    """The mount turns the law's wrench into a tilted sensor's frame; the cross-talk is the
+    sensor's own (its reading, its channels): added after the turn, unturned, and refused
+    without the reading."""
+    from psmforce.identification.prior_remount import MountedPrior, mount_rotation
+    prior = InternalForcePrior(converged=True, params=_params(**LEAK))
+    pos, e, v, g, _ = _inputs(40)
+    fz_read = np.random.default_rng(3).uniform(-30.0, 5.0, 40)
+    args = (pos.T, e.T, v.T, g.T)
+    straight = MountedPrior(prior).predict_arrays(*args, hex10_fz=fz_read)
+    assert np.allclose(straight, prior.predict_arrays(*args, hex10_fz=fz_read), atol=1e-12)
+    angles = (0.02, -0.03, 0.01)
+    tilted = MountedPrior(prior, angles).predict_arrays(*args, hex10_fz=fz_read)
+    plain = InternalForcePrior(converged=True, params=_params()).predict_arrays(*args)
+    bias = np.array([0.05, 0.0, 0.1, 0.0, 0.0, 0.0])
+    r = mount_rotation(angles)
+    turned = np.concatenate([(plain - bias)[:, :3] @ r, (plain - bias)[:, 3:] @ r], axis=1) + bias
+    leak = np.zeros((40, 6))
+    for name, x in LEAK.items():
+        leak[:, CHANNEL[name]] = x * (fz_read - 0.1)
+    assert np.allclose(tilted, turned + leak, atol=1e-12)
     with pytest.raises(IdentificationInputError, match="HEX10's fz reading"):
-        recalibrate(prior, [])
-    pos, e, v, g, _ = _inputs(5)
-    with pytest.raises(IdentificationInputError, match="HEX10's fz reading"):
-        MountedPrior(prior).predict_arrays(pos.T, e.T, v.T, g.T)
+        MountedPrior(prior).predict_arrays(*args)
+
+
+def test_the_efforts_reading_fits_the_cross_talk_when_asked():
+    """``crosstalk`` overrides the reading's hold both ways and names nothing else."""
+    from psmforce.identification.prior import held_by_reading
+    assert held_by_reading("efforts") == HELD_BY_READING["efforts"]
+    assert held_by_reading("efforts", crosstalk=True) == {"capstan_mu": 0.0}
+    assert held_by_reading("load_path", crosstalk=False) == dict.fromkeys(CROSSTALK, 0.0)
+    assert held_by_reading("load_path") == {}
+    with pytest.raises(IdentificationInputError, match="crosstalk must be"):
+        held_by_reading("efforts", crosstalk="yes")
+    with pytest.raises(IdentificationInputError, match="unknown prior inputs"):
+        held_by_reading("currents")
+
+
+def test_a_cross_talk_prior_streams_its_reading_sample_by_sample():
+    """The streaming path (SamplePrior) reads the HEX10's fz for a law with cross-talk and gives
+    the batch prediction of the frame; without the term it reads the columns it always did."""
+    import pandas as pd
+
+    from psmforce.estimators.data.hybrid_inputs import SamplePrior
+    from psmforce.io.recording import HEX10, JOINT_POSITIONS
+
+    assert HEX10[2] not in SamplePrior(InternalForcePrior()).input_columns
+    prior = InternalForcePrior(converged=True, params=_params(**LEAK))
+    sp = SamplePrior(prior)
+    assert sp.input_columns[-1] == HEX10[2]
+    rng = np.random.default_rng(2)
+    n = 120
+    cols = {c: 0.02 * rng.standard_normal(n) for c in sp.input_columns}
+    cols[JOINT_POSITIONS[2]] = np.full(n, 0.12)
+    cols[JOINT_POSITIONS[3]] = rng.uniform(-1.0, 1.0, n)
+    cols[HEX10[2]] = rng.uniform(-30.0, 5.0, n)
+    frame = pd.DataFrame(cols)
+    batch = prior.predict(frame)
+    values = frame[list(sp.input_columns)].to_numpy(dtype=float)
+    streamed = np.array([sp.predict_sample(row)[:6].copy() for row in values])
+    assert np.allclose(streamed, batch, atol=1e-9, rtol=0)
+    plain = InternalForcePrior(converged=True, params=_params()).predict(frame)
+    assert not np.allclose(batch[:, 1], plain[:, 1])  # the reading moved fy

@@ -91,3 +91,12 @@ def test_the_page_renders_every_row_the_goals_and_the_prior():
     assert "| `pretension_total` | 6 | fitted, fitted | 0.05, 0.05 | 2 of 2 |" in text
     assert "**missed**: causal Fx 1." in text or "**met**" in text
     assert "not converged: seed 202: free." in text
+
+
+def test_a_term_the_reading_holds_is_named_so_and_not_judged():
+    after = {"crosstalk_fy": 0.0, "capstan_mu": 0.0, "crosstalk_fx": 0.005}
+    truth = {"crosstalk_fy": 0.02, "capstan_mu": 0.3, "crosstalk_fx": 0.0058}
+    got = prior_against_truth(after, truth, held={}, by_reading=("crosstalk_fy", "capstan_mu"))
+    assert got["crosstalk_fy"]["status"] == got["capstan_mu"]["status"] == "held by the reading"
+    assert got["crosstalk_fy"]["within"] is None
+    assert got["crosstalk_fx"]["status"] == "fitted" and got["crosstalk_fx"]["within"] is False

@@ -246,8 +246,9 @@ class SamplePrior:
     Reads the columns of ``psmforce.identification.prior.arrays_from_frame``: the seven joint
     positions (gravity in the HEX10 frame and the shaft direction, through :class:`HexRotation`;
     roll and wrist pitch), the wrist efforts and the wrist velocities, then the insertion
-    velocity and effort. :meth:`predict_sample` returns the internal wrench (6) and
-    :data:`INSERTION_FZ` (0 without an insertion model).
+    velocity and effort, and for a law with the sensor's cross-talk the HEX10's fz, which it
+    reads. :meth:`predict_sample` returns the internal wrench (6) and :data:`INSERTION_FZ` (0
+    without an insertion model).
     """
 
     input_columns = (JOINT_POSITIONS
@@ -267,6 +268,9 @@ class SamplePrior:
         self._q = np.zeros(len(JOINT_POSITIONS))
         self._out = np.zeros(7)
         self._direction = prior.friction_state()  # carried sample by sample; None: not needed
+        self._crosstalk = prior.has_crosstalk
+        if self._crosstalk:
+            self.input_columns = SamplePrior.input_columns + (HEX10[2],)
 
     @property
     def insertion(self):
@@ -289,7 +293,8 @@ class SamplePrior:
              self._direction.step(v[self._WRIST_PITCH], v[self._WRIST_PITCH + 1],
                                   v[self._WRIST_PITCH + 2]))
         self._out[:6] = self.prior.predict_one((v[self._ROLL], v[self._WRIST_PITCH]),
-                                               v[n:n + 3], v[n + 3:n + 6], g_hex, z)
+                                               v[n:n + 3], v[n + 3:n + 6], g_hex, z,
+                                               v[n + 8] if self._crosstalk else None)
         if self.prior.insertion is not None:  # the shaft (HEX10 z) in the base frame: R's third column
             self._out[6] = self.prior.insertion.axial_force_one(r[:, 2].tolist(), v[n + 6], v[n + 7])
         return self._out

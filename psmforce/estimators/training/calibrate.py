@@ -272,15 +272,17 @@ def calibrate(checkpoint: str | Path, data_dir: str | Path, out: str | Path, *,
                 raise CalibrationError(f"{data_dir}: {err}") from None
             held = {n: float(old.params[NAMES.index(n)]) for n in NAMES
                     if n not in FORCE_PER_MOUNT}
-        else:
-            fitted = InternalForcePrior.fit(frames, provenance=provenance)
+        else:  # the law the checkpoint was trained with: with or without the cross-talk
+            fitted = InternalForcePrior.fit(frames, provenance=provenance,
+                                            crosstalk=old.has_crosstalk)
         if free_space and prior_refit == "all":
             # Without an ATI what the recordings cannot excite (the fit's own identifiability
             # report names it) keeps the checkpoint's value instead of drifting with noise.
             unseen = fitted.info.get("identifiability", {}).get("not_identifiable", {})
             held = {n: float(old.params[NAMES.index(n)]) for n in sorted(unseen)}
             if held:
-                fitted = InternalForcePrior.fit(frames, provenance=provenance, fixed=held)
+                fitted = InternalForcePrior.fit(frames, provenance=provenance, fixed=held,
+                                                crosstalk=old.has_crosstalk)
         new = dataclasses.replace(fitted, insertion=old.insertion)
         try:
             ckpt.prior_json = prior_to_json(new)
@@ -292,10 +294,14 @@ def calibrate(checkpoint: str | Path, data_dir: str | Path, out: str | Path, *,
         errors = {role: {"before": _prior_free_error(old, trials),
                          "after": _prior_free_error(new, trials)}
                   for role, trials in (("train", train_trials), ("validation", val_trials))}
+        from psmforce.identification.prior import held_by_reading
+        reading = (held_by_reading(new.inputs, old.has_crosstalk) if prior_refit == "all"
+                   else {})
         prior_report = {
             "refitted_on": [t.path for t in train_trials],
             "insertion_model": "kept from the checkpoint (the arm's, not the tool's)",
             "held_from_checkpoint": held, "refit": prior_refit,
+            "held_by_reading": sorted(n for n in reading if n not in held),
             "free_space_rms_n": {r: e for r, e in errors.items() if e["before"] is not None},
             "parameters_before": dict(zip(NAMES, old.params.tolist())),
             "parameters_after": dict(zip(NAMES, new.params.tolist()))}

@@ -470,15 +470,18 @@ def finetune_model(setup: TrainedModel, train_trials: Sequence[Trial],
 
 # --------------------------------------------------------------------------- file-level API
 
-def fit_prior(train_trials: Sequence[Trial], validation_trials: Sequence[Trial] = (), psm=None):
+def fit_prior(train_trials: Sequence[Trial], validation_trials: Sequence[Trial] = (), psm=None,
+              crosstalk: bool = False):
     """The internal-force prior fitted on training trials (all conditions: the fit removes the
     known ATI force from the HEX10 reading), :mod:`psmforce.identification.prior`; with
     ``validation_trials``, weighted per component by what they support
     (:mod:`psmforce.identification.prior_support`: the prior stays out of a component whose
-    held-out internal wrench its law does not explain)."""
+    held-out internal wrench its law does not explain). ``crosstalk``: the law also fits the
+    HEX10's cross-talk of fz into the other channels (``prior_law.CROSSTALK``), which the
+    efforts reading otherwise holds at 0."""
     from psmforce.identification import InternalForcePrior
     from psmforce.identification.prior_support import weigh_prior
-    prior = InternalForcePrior.fit([t.frame for t in train_trials], psm=psm,
+    prior = InternalForcePrior.fit([t.frame for t in train_trials], psm=psm, crosstalk=crosstalk,
                                    provenance={"trials": [t.path for t in train_trials]})
     if validation_trials:
         prior = weigh_prior(prior, [t.frame for t in validation_trials], psm)
@@ -517,7 +520,8 @@ def check_config(model: str, config: dict | None, features: Features = None,
 def train(data_dir: str | Path, model: str, out_checkpoint: str | Path, *,
           features: Features = None, epochs: int = 100, seed: int = 0, device: str = "cpu",
           prior=None, use_prior: bool = True, config: dict | None = None,
-          train_config: TrainConfig | None = None, resume: str | Path | None = None) -> dict:
+          train_config: TrainConfig | None = None, resume: str | Path | None = None,
+          prior_crosstalk: bool = False) -> dict:
     """Train ``model`` (a name of :data:`psmforce.estimators.networks.recipes.RECIPES`) on the ``train`` split of the
     dataset in ``data_dir`` (10 % of its trials per condition held out for validation, seeded) and
     write a checkpoint. ``features``: a name of
@@ -529,6 +533,7 @@ def train(data_dir: str | Path, model: str, out_checkpoint: str | Path, *,
     :mod:`psmforce.estimators.networks.uncertainty`), checked before the data is read
     (:func:`check_config`). ``train_config`` defaults to the recipe's optimiser settings.
     ``resume``: a file for the loop's state (:func:`fit`), removed once the checkpoint is written.
+    ``prior_crosstalk``: the fitted prior also fits the HEX10's cross-talk (:func:`fit_prior`).
     Returns a summary (losses, epochs, windows, seconds, checkpoint path)."""
     spec = recipe(model)
     _epochs(epochs)
@@ -537,6 +542,9 @@ def train(data_dir: str | Path, model: str, out_checkpoint: str | Path, *,
     if prior is not None and not inputs.uses_prior:
         raise TrainingError(f"a prior was given, but the '{model}' model "
                             f"{'is trained without one' if spec.uses_prior else 'uses none'}")
+    if prior_crosstalk and (prior is not None or not inputs.uses_prior):
+        raise TrainingError("prior_crosstalk: the prior is fitted here only for a model that "
+                            "uses one and when no prior is given")
     cfg = train_config or TrainConfig(**spec.optimiser)
     cfg = TrainConfig(**{**cfg.to_dict(), "max_epochs": epochs, "seed": seed, "device": device})
     given_prior = _load_prior(prior) if inputs.uses_prior else None  # before the data is read
@@ -548,7 +556,8 @@ def train(data_dir: str | Path, model: str, out_checkpoint: str | Path, *,
     train_trials, val_trials = split_validation(trials, 0.1, seed)
     prior_json = None
     if inputs.uses_prior:
-        prior_json = prior_to_json(given_prior or fit_prior(train_trials, val_trials))
+        prior_json = prior_to_json(given_prior or fit_prior(train_trials, val_trials,
+                                                            crosstalk=prior_crosstalk))
     DERIVATIONS[inputs.derivation](dataset, prior_json)
     setup = make_setup(model, train_trials, features=features, use_prior=use_prior,
                        prior_json=prior_json, config=config)

@@ -1,0 +1,37 @@
+"""The ATI-free page's cross-talk block (reports/ati_free_page.py): each row's error with the
+term fitted over the same row with it held, paired by seed, and refused for studies that do not
+pair."""
+
+import pytest
+
+from reports.ati_free_page import crosstalk_effect_table
+
+SETTINGS = {"scale": 0.05, "free_minutes": 1.5, "excitation_minutes": 1.5, "excitation_seed": 0,
+            "masses": [0.05], "hold_s": 10.0, "calibration_epochs": 500, "quick": False}
+
+
+def _study(errors_by_seed: dict, crosstalk: bool) -> dict:
+    return {"settings": {**SETTINGS, "prior_crosstalk": crosstalk},
+            "records": {s: {"ati_full": {"nrmse_pct": {m: {"Fx": e, "Fy": 2 * e, "Fz": 3.0}
+                                                        for m in ("causal", "paper")}}}
+                        for s, e in errors_by_seed.items()}}
+
+
+def test_the_ratio_is_paired_by_seed_and_its_verdict_named():
+    held = _study({"201": 1.0, "202": 2.0, "203": 4.0}, crosstalk=False)
+    fitted = _study({"201": 0.5, "202": 1.0, "203": 2.1, "204": 9.0}, crosstalk=True)
+    text = crosstalk_effect_table(held, fitted)
+    assert "(201, 202, 203)" in text                     # the seed only one study ran is left out
+    row = next(line for line in text.splitlines() if line.startswith("| (e) ATI: full data"))
+    assert row.count("0.51x [") == 4 and row.count("1.00x") == 2   # Fx, Fy halved; Fz equal
+    assert "(e) ATI: full data, causal Fx" in text.split("the term helps): ")[1].split("\n")[0]
+
+
+def test_studies_that_do_not_pair_are_refused():
+    held = _study({"201": 1.0, "202": 2.0}, crosstalk=False)
+    fitted = _study({"201": 0.5, "202": 1.0}, crosstalk=True)
+    fitted["settings"]["scale"] = 0.1
+    with pytest.raises(ValueError, match=r"\['scale'\]"):
+        crosstalk_effect_table(held, fitted)
+    with pytest.raises(ValueError, match="does not fit the cross-talk"):
+        crosstalk_effect_table(held, _study({"201": 1.0}, crosstalk=False))
