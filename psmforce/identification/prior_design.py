@@ -19,9 +19,10 @@ Criteria, each from one information matrix F (physical units, :data:`DESIGNED` o
 :func:`condition_number` of F normalised to a unit diagonal (identifiability's measure: 1 for
 orthogonal parameters, large where a combination is barely seen); :func:`standard_errors` from
 F^-1; :func:`not_identifiable` by the identifiability report's rules that a design can apply (3
-standard errors within :data:`~psmforce.identification.prior_identifiability.RECOVERY_TOLERANCE`
-of the design value, or of :data:`ZERO_VALUE_SPAN` of the bounds' span for a parameter designed
-at 0; no correlation beyond :data:`MAX_CORRELATION`). :func:`segment_shares` says which
+standard errors within what
+:func:`~psmforce.identification.prior_identifiability.precision_needed` asks, 10 % of the
+design value or an offset's resolution, or within :data:`ZERO_VALUE_SPAN` of the bounds' span
+for another parameter designed at 0; no correlation beyond :data:`MAX_CORRELATION`). :func:`segment_shares` says which
 parameters a part of a recording excites; :func:`known_weight_gains` what known masses add.
 """
 
@@ -31,7 +32,8 @@ import numpy as np
 
 from psmforce.identification.prior import (HELD_BY_READING, arrays_from_frame,
                                            internal_wrench_target)
-from psmforce.identification.prior_identifiability import RECOVERY_TOLERANCE, jacobian_grams
+from psmforce.identification.prior_identifiability import (is_offset, jacobian_grams,
+                                                            precision_needed)
 from psmforce.identification.prior_law import NAMES, PARAMETERS
 from psmforce.identification.prior_selection import DESIGN
 
@@ -45,8 +47,9 @@ SPAN = np.array([PARAMETERS[i][3] - PARAMETERS[i][2] for i in _INDEX])
 MAX_CORRELATION = 0.99
 """The identifiability report's limit on a parameter's correlation with another."""
 ZERO_VALUE_SPAN = 0.01
-"""A parameter whose design value is 0 (the biases, the direction tension) cannot be asked for a
-relative accuracy: 3 standard errors within this fraction of its bounds' span instead."""
+"""A parameter other than an offset whose design value is 0 (the direction tension) cannot be
+asked for a relative accuracy: 3 standard errors within this fraction of its bounds' span
+instead. (An offset is asked for the sensor's resolution, whatever its value.)"""
 EXCITE_RATIO = 2.0
 """A segment "excites" a parameter when its share of the parameter's information is at least
 this many times its share of the duration: it tells more about it than an average second does.
@@ -105,7 +108,8 @@ def not_identifiable(info: np.ndarray, params=DESIGN_PARAMS) -> dict[str, str]:
     corr = cov / np.outer(np.where(se > 0, se, 1.0), np.where(se > 0, se, 1.0))
     np.fill_diagonal(corr, 0.0)
     value = np.asarray(params, dtype=float)[_INDEX]
-    allowed = np.where(value != 0.0, RECOVERY_TOLERANCE * np.abs(value), ZERO_VALUE_SPAN * SPAN)
+    allowed = np.array([precision_needed(n, x) if is_offset(n) or x != 0.0
+                        else ZERO_VALUE_SPAN * span for n, x, span in zip(DESIGNED, value, SPAN)])
     reasons = {}
     for i, name in enumerate(DESIGNED):
         why = []

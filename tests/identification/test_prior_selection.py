@@ -196,3 +196,20 @@ def test_design_groups_keep_replicates_whole_and_the_jackknife_uses_them(monkeyp
     with pytest.raises(IdentificationInputError, match="jackknife labels"):
         trial_jackknife(list("abcdef"), InternalForcePrior(), {}, 2, labels=[0, 2, 0, 1, 1, 1])
     assert seen == [list("def"), list("abc")]
+
+
+def test_a_design_judges_an_offset_by_the_sensors_resolution():
+    """``prior_design.not_identifiable`` applies the report's one rule to an offset: 3 standard
+    errors within its resolution (0.02 N), whatever its design value."""
+    from psmforce.identification.prior_design import DESIGNED, not_identifiable
+    from psmforce.identification.prior_identifiability import OFFSET_RESOLUTION
+
+    def listed(se_bias_fx):
+        se = np.full(len(DESIGNED), 1e-7)  # every other parameter well pinned down
+        se[DESIGNED.index("bias_fx")] = se_bias_fx
+        return not_identifiable(np.diag(1.0 / se ** 2))
+
+    resolution = OFFSET_RESOLUTION["N"]
+    assert "bias_fx" not in listed(0.9 * resolution / 3)
+    assert "bias_fx" in listed(1.1 * resolution / 3)
+    assert set(listed(0.9 * resolution / 3)) == set()
