@@ -244,13 +244,12 @@ def identifiability(params, fixed, inputs, y, mask, ch_scale, chunk: int = 20000
     }
 
 
-
-
 def _imprecision(name: str, value: float, se: float) -> str:
     """Why 3 ``se`` do not pin ``name`` down (:func:`precision_needed`)."""
     if is_offset(name):
-        return (f"3 SE exceed the offset's resolution of "
-                f"{OFFSET_RESOLUTION[PARAMETERS[NAMES.index(name)][1]]:g}")
+        unit = PARAMETERS[NAMES.index(name)][1]
+        return (f"3 SE = {3 * se:.3g} {unit} exceed the offset's resolution of "
+                f"{OFFSET_RESOLUTION[unit]:g} {unit}")
     return ("indistinguishable from zero" if abs(value) <= 3 * se else
             f"3 SE are {3 * se / abs(value):.0%} of the value")
 

@@ -71,7 +71,7 @@ def test_the_trial_jackknife_lists_what_varies_between_trials():
                                       "bias_fx": 0.01, "cable_radius": 1e-3}, 4)
     listed = report["not_identifiable"]
     assert "varies between groups of trials" in listed["distal_mass"]  # 3 SE = 15 % of it
-    assert "offset's resolution of 0.02" in listed["bias_fx"]          # 3 SE = 0.03 N
+    assert "3 SE = 0.03 N exceed the offset's resolution of 0.02 N" in listed["bias_fx"]
     assert listed["cable_radius"].startswith("errors in variables") and "groups" in listed[
         "cable_radius"]
     report = {"not_identifiable": {}}
