@@ -48,6 +48,10 @@ def test_calibrations_refit_the_law_the_checkpoint_has(bench, tmp_path):
                         epochs=1, train_config=CHEAP, free_space=True)
     refit = summary["calibration"]["prior_refit"]
     assert refit["held_by_reading"] == ["capstan_mu"]
+    # the sensor is zeroed at every mount: an offset the data cannot pin down is still this
+    # mount's, refitted, never the checkpoint's (on this bench every offset is listed)
+    assert refit["offsets_refitted_although_listed"]
+    assert not [n for n in refit["held_from_checkpoint"] if n.startswith("bias_")]
     new = load_checkpoint(tmp_path / "free.pt").prior()
     held = set(refit["held_from_checkpoint"])
     for name in CROSSTALK:  # each either refitted, or held at the checkpoint's fitted value

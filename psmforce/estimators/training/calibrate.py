@@ -36,7 +36,12 @@ declaration), and with ``known_loads`` (``--known-loads DIR``) the recordings of
 at the tip (the weight, in the HEX10 frame, from the kinematics): the selection and its checks are
 :mod:`psmforce.estimators.training.ati_free`'s. The prior is refitted and the last block finetuned
 as above. What the recordings cannot excite keeps the checkpoint's values; ``psmforce excitation``
-designs a motion that excites the rest (``docs/ati_free.md``).
+designs a motion that excites the rest (``docs/ati_free.md``). The sensor's offsets are the
+exception: they are per mount (the sensor is zeroed again at every mount,
+:data:`psmforce.identification.prior_remount.PER_MOUNT`), so a checkpoint's offset is never this
+mount's, and one held at it is carried by whatever shared term it is confounded with (the
+cross-talk, which multiplies a large mean axial reading, takes a held lateral offset's error and
+carries it into contact). They are always refitted.
 
 **The instrument identified** (with ``known_loads``). The estimator's prior reads the motor
 efforts, which carry the discs' friction: its values are a curve fit, not the instrument's. Where
@@ -214,6 +219,7 @@ def calibrate(checkpoint: str | Path, data_dir: str | Path, out: str | Path, *,
     from psmforce.identification import InternalForcePrior
     from psmforce.identification.errors import NotConvergedError
     from psmforce.identification.prior import NAMES
+    from psmforce.identification.prior_identifiability import is_offset
     if isinstance(epochs, bool) or not isinstance(epochs, int) or epochs < 1:
         raise TrainingError(f"epochs must be an integer >= 1, got {epochs!r}")
     if Path(out).resolve() == Path(checkpoint).resolve():
@@ -261,7 +267,7 @@ def calibrate(checkpoint: str | Path, data_dir: str | Path, out: str | Path, *,
         # the trained insertion model is kept.
         frames = [t.frame.drop(columns=list(INSERTION_COLUMNS)) for t in train_trials]
         provenance = {"trials": [t.path for t in train_trials]}
-        held = {}
+        held, unseen = {}, {}
         if prior_refit == "per_mount":
             from psmforce.identification.errors import IdentificationInputError
             from psmforce.identification.prior_remount import FORCE_PER_MOUNT, recalibrate
@@ -277,9 +283,11 @@ def calibrate(checkpoint: str | Path, data_dir: str | Path, out: str | Path, *,
                                             crosstalk=old.has_crosstalk)
         if free_space and prior_refit == "all":
             # Without an ATI what the recordings cannot excite (the fit's own identifiability
-            # report names it) keeps the checkpoint's value instead of drifting with noise.
+            # report names it) keeps the checkpoint's value instead of drifting with noise; an
+            # offset is this mount's, never the checkpoint's (module docstring).
             unseen = fitted.info.get("identifiability", {}).get("not_identifiable", {})
-            held = {n: float(old.params[NAMES.index(n)]) for n in sorted(unseen)}
+            held = {n: float(old.params[NAMES.index(n)]) for n in sorted(unseen)
+                    if not is_offset(n)}
             if held:
                 fitted = InternalForcePrior.fit(frames, provenance=provenance, fixed=held,
                                                 crosstalk=old.has_crosstalk)
@@ -302,6 +310,7 @@ def calibrate(checkpoint: str | Path, data_dir: str | Path, out: str | Path, *,
             "insertion_model": "kept from the checkpoint (the arm's, not the tool's)",
             "held_from_checkpoint": held, "refit": prior_refit,
             "held_by_reading": sorted(n for n in reading if n not in held),
+            "offsets_refitted_although_listed": sorted(n for n in unseen if is_offset(n)),
             "free_space_rms_n": {r: e for r, e in errors.items() if e["before"] is not None},
             "parameters_before": dict(zip(NAMES, old.params.tolist())),
             "parameters_after": dict(zip(NAMES, new.params.tolist()))}
