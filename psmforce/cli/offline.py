@@ -264,8 +264,7 @@ def fit_transmission_command(args) -> dict:
         if score:
             print(f"{label}: jaw torque RMSE {1e3 * score['jaw_torque_rmse_nm']:.2f} mNm, jaw "
                   f"angle RMSE {math.degrees(score['jaw_angle_rmse_rad']):.2f} deg")
-    # the one gate this fit has is convergence (a fit that does not converge raises and writes
-    # nothing); the verdict says so on the console, as every fit's does
+    # its one gate is convergence (a fit that does not converge raises and writes nothing)
     print(f"verdict: converged ({model.info['solver_status']}), the only gate of this fit; "
           + ("judge it by the validation RMSE above" if validation else
              "no held-out files (--validation), so scored on its own fit data only"))
@@ -287,7 +286,7 @@ def train_command(args) -> dict:
     options.training_options(args)
     _models([args.model], "--model")
     config = options.json_object(args.config, "--config")
-    from psmforce.estimators.training.train import (train)  # checks the config builds the model before reading data
+    from psmforce.estimators.training.train import train  # checks the config before the data
     return train(args.data, args.model, args.out, features=args.features, epochs=args.epochs,
                  seed=args.seed, device=args.device, prior=args.prior, config=config,
                  prior_crosstalk=args.prior_crosstalk)

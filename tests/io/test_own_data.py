@@ -7,7 +7,7 @@ import pandas as pd
 import pytest
 
 from psmforce.identification import recordings
-from psmforce.identification import DynamicsFitOptions, fit_dynamics_cli
+from psmforce.identification import DynamicsFitOptions
 from psmforce.identification.signals import zero_phase_lowpass
 from psmforce.io.recording import list_recordings, read_recording, write_recording
 from psmforce.cli.main import main
@@ -33,15 +33,31 @@ def bench(tmp_path_factory):
 
 
 @pytest.fixture(scope="module")
-def sharp_model(bench, tmp_path_factory):
-    """Dynamics fitted from Python with keyword arguments on the bench's free-space training
-    recordings, gravity known (the bench's mounting) and the default options (their sharp
-    Coulomb transition suits the bench's free-space recordings, which dwell a lot)."""
+def cli_fit(bench, tmp_path_factory):
+    """``psmforce fit-dynamics --data --gravity`` on the bench's free-space training recordings,
+    gravity known (the bench's mounting) and the default options (their sharp Coulomb transition
+    suits the bench's free-space recordings, which dwell a lot): (model, report JSON, what it
+    printed). One fit, shared: the CLI test checks it, the wrench tests use its model."""
+    import contextlib
+    import io
     data, gravity = bench
-    model = tmp_path_factory.mktemp("sharp") / "arm.json"
-    rep = fit_dynamics_cli(data=data, model_out=model, gravity=gravity,
-                           options=DynamicsFitOptions())
-    assert rep["converged"]
+    folder = tmp_path_factory.mktemp("sharp")
+    model, report = folder / "arm.json", folder / "report.json"
+    printed = io.StringIO()
+    with contextlib.redirect_stdout(printed):
+        # no --format: our layout is the default
+        code = main(["fit-dynamics", "--data", str(data), "--gravity", *map(str, gravity),
+                     "--model-out", str(model), "--json", str(report)])
+    return code, model, report, printed.getvalue()
+
+
+@pytest.fixture(scope="module")
+def sharp_model(cli_fit):
+    """The dynamics :func:`cli_fit` fitted (it used to be fitted a second time from Python,
+    ``fit_dynamics_cli(data=, gravity=, options=DynamicsFitOptions())``: the same call the CLI
+    makes, options None meaning the defaults, so the same fit)."""
+    code, model, report, _ = cli_fit
+    assert code == 0 and json.loads(report.read_text())["converged"]
     return model
 
 
@@ -53,13 +69,10 @@ def _one_line_error(capsys, command):
 
 
 @pytest.mark.slow
-def test_fit_dynamics_on_a_simulated_folder_reports(bench, tmp_path, capsys):
+def test_fit_dynamics_on_a_simulated_folder_reports(bench, cli_fit):
     data, gravity = bench
-    model, report = tmp_path / "arm.json", tmp_path / "report.json"
-    # no --format: our layout is the default
-    assert main(["fit-dynamics", "--data", str(data), "--gravity", *map(str, gravity),
-                 "--model-out", str(model), "--json", str(report)]) == 0
-    printed = capsys.readouterr().out
+    code, model, report, printed = cli_fit
+    assert code == 0
     assert "test relative torque error %: yaw" in printed
     rep = json.loads(report.read_text())
     assert rep["converged"] and rep["physically_consistent"] and rep["model"] == str(model)

@@ -230,8 +230,8 @@ def test_a_signal_ends_serve_with_its_report_written(tmp_path, signum):
     built, and write the report and --json."""
     import signal
     ckpt = checkpoint(tmp_path / "h.pt", rate_hz=100.0)
-    for wait_s in (0.5, 5.0):  # while it starts, and once the robot's messages flow
-        report = tmp_path / f"report_{wait_s}.json"
+    for flowing in (False, True):  # while it starts, and once the robot's messages flow
+        report = tmp_path / f"report_{flowing}.json"
         # as from a terminal: a suite run as a background job (``pytest &``) would hand the
         # node an ignored SIGINT, which serve rightly leaves ignored
         node = subprocess.Popen([sys.executable, "-m", "psmforce.cli.main", "serve", str(ckpt),
@@ -240,7 +240,13 @@ def test_a_signal_ends_serve_with_its_report_written(tmp_path, signum):
                                 preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
         try:
             assert "listening on" in node.stdout.readline()
-            time.sleep(wait_s)
+            if flowing:  # its first progress line with answers (one a second), not a fixed 5 s
+                deadline, line = time.monotonic() + 60, ""
+                while "answers/s" not in line:
+                    line = node.stdout.readline()
+                    assert line and time.monotonic() < deadline, "no answer from serve --sim"
+            else:
+                time.sleep(0.5)
             node.send_signal(getattr(signal, signum))
             _, err = node.communicate(timeout=60)
         finally:
@@ -248,7 +254,7 @@ def test_a_signal_ends_serve_with_its_report_written(tmp_path, signum):
         assert node.returncode == 0, err[-1000:]
         assert f"{signum}: stopping" in err and "Traceback" not in err
         received = json.loads(report.read_text())["received"]["hex10"]
-        assert received > 0 or wait_s < 1
+        assert received > 0 or not flowing
 
 
 def test_serve_refuses_a_checkpoint_before_it_subscribes(tmp_path, capsys):
@@ -275,16 +281,25 @@ def test_serve_says_which_peer_qos_cannot_match_and_which_topic_has_no_publisher
                                            dds.WrenchStamped), qos=sensor_qos)
     reliable = DataReader(participant, Topic(participant, dds.dds_topic(
         "/PSM1/tool_force/base"), dds.WrenchStamped), qos=dds.qos(False))
+    # the two nodes run at the same time (they used to run in turn): neither has a reader or a
+    # writer on a topic the other serves (inputs and tare read, outputs written), so each sees
+    # only the test's peers, and each still runs its whole --duration
     runs = {}
     for name, extra in (("default", []), ("best_effort_writers", ["--writer-qos",
                                                                    "best-effort"])):
-        report = tmp_path / f"{name}.json"
-        runs[name] = subprocess.run(
+        runs[name] = subprocess.Popen(
             [sys.executable, "-m", "psmforce.cli.main", "serve", str(ckpt), "--domain-id",
-             str(domain), "--duration", "7", "--json", str(report), *extra], env=_env(),
-            capture_output=True, text=True, timeout=120)
-        assert runs[name].returncode == 0, runs[name].stderr[-2000:]
-        runs[name] = (runs[name].stderr, json.loads(report.read_text())["warnings"])
+             str(domain), "--duration", "7", "--json", str(tmp_path / f"{name}.json"), *extra],
+            env=_env(), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        for name, node in runs.items():
+            _, err = node.communicate(timeout=120)
+            assert node.returncode == 0, err[-2000:]
+            runs[name] = (err, json.loads((tmp_path / f"{name}.json").read_text())["warnings"])
+    finally:
+        for node in runs.values():
+            if isinstance(node, subprocess.Popen):
+                node.kill()
     err, warnings = runs["default"]
     assert "a publisher of /hex10/measured_cf offers QoS this node's reader cannot match: " \
            "RELIABILITY" in err and "--reader-qos best-effort" in err
@@ -429,31 +444,45 @@ def test_the_discovery_range_is_read_as_ros_2_jazzy_reads_it(monkeypatch):
 @pytest.mark.e2e
 def test_a_node_with_discovery_off_sees_no_other_process_and_localhost_does(tmp_path):
     """Between processes on one machine: LOCALHOST on both sides finds the robot; OFF finds
-    nothing, as a ROS 2 node with that range would."""
+    nothing, as a ROS 2 node with that range would. Both nodes listen on the one domain at the
+    same time, the OFF one from before the robot starts until after it has finished: the robot's
+    messages are on the domain, and answered by the LOCALHOST node, all the while the OFF node
+    listens (each node used to run a fixed 10 s in turn: the same check, run once, in parallel)."""
+    import signal
     domain = 100 + (os.getpid() + 55) % 100
     ckpt = checkpoint(tmp_path / "h.pt", rate_hz=100.0)
     rec = tmp_path / "rec.csv"
     frame = recording(300)
     frame["time"] = np.arange(300) / 100.0
     write_recording(frame, rec)
-    received = {}
-    for node_range in ("LOCALHOST", "OFF"):
-        env = dict(_env(), ROS_AUTOMATIC_DISCOVERY_RANGE=node_range)
-        report = tmp_path / f"{node_range}.json"
-        node = subprocess.Popen([sys.executable, "-m", "psmforce.cli.main", "serve", str(ckpt),
-                                 "--domain-id", str(domain), "--duration", "10", "--quiet",
-                                 "--json", str(report)], env=env, stdout=subprocess.PIPE,
-                                stderr=subprocess.PIPE, text=True)
-        assert "listening on" in node.stdout.readline()  # subscribed: the robot may start
+    nodes, robot = {}, None
+    try:
+        for node_range, ending in (("OFF", []), ("LOCALHOST", ["--idle-stop", "1"])):
+            # OFF is stopped by a signal once the robot is done (serve then writes its report);
+            # LOCALHOST stops 1 s after its last message; --duration 60 is only a ceiling
+            nodes[node_range] = subprocess.Popen(
+                [sys.executable, "-m", "psmforce.cli.main", "serve", str(ckpt), "--domain-id",
+                 str(domain), "--duration", "60", *ending, "--quiet", "--json",
+                 str(tmp_path / f"{node_range}.json")],
+                env=dict(_env(), ROS_AUTOMATIC_DISCOVERY_RANGE=node_range),
+                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        for node in nodes.values():  # subscribed, both: the robot may start
+            assert "listening on" in node.stdout.readline()
         robot = subprocess.Popen([sys.executable, "-m", "psmforce.live.sim_robot", str(rec),
-                                  "--domain-id", str(domain), "--duration", "5"],
+                                  "--domain-id", str(domain)],  # plays it once: 3 s
                                  env=dict(_env(), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST"),
                                  stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-        try:
-            node.communicate(timeout=60)
-            robot.communicate(timeout=60)
-        finally:
-            node.kill()
-            robot.kill()
-        received[node_range] = json.loads(report.read_text())["received"]["hex10"]
+        _, err = robot.communicate(timeout=60)
+        assert robot.returncode == 0, err[-2000:]  # it found a node (LOCALHOST) and played
+        _, err = nodes["LOCALHOST"].communicate(timeout=60)
+        assert nodes["LOCALHOST"].returncode == 0, err[-2000:]
+        nodes["OFF"].send_signal(signal.SIGTERM)
+        _, err = nodes["OFF"].communicate(timeout=60)
+        assert nodes["OFF"].returncode == 0, err[-2000:]
+    finally:
+        for process in (robot, *nodes.values()):
+            if process is not None:
+                process.kill()
+    received = {name: json.loads((tmp_path / f"{name}.json").read_text())["received"]["hex10"]
+                for name in nodes}
     assert received["LOCALHOST"] > 0 and received["OFF"] == 0, received

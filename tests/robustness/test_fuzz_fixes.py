@@ -186,8 +186,32 @@ def noise(tmp_path_factory):
     return path
 
 
+@pytest.fixture
+def fit_once(monkeypatch):
+    """The test below fits one file with the same options three times (the CLI refusing, the
+    CLI accepting, the library): the first fit is kept and each later call gets it instead of
+    a refit of the same input. What is under test is what the CLI and the library do with a
+    poor fit; the fit itself is deterministic, so each call still sees the fit it would have
+    computed (identical arrays and options are asserted through the key)."""
+    import hashlib
+
+    from psmforce.identification import wpi_report
+    real, kept = wpi_report.fit_arm_dynamics, {}
+
+    def once(q, dq, tau, **kwargs):
+        key = (hashlib.sha256(b"".join(np.ascontiguousarray(a).tobytes()
+                                       for a in (q, dq, tau))).hexdigest(),
+               repr(sorted(kwargs.items(), key=lambda kv: kv[0])))
+        if key not in kept:
+            kept[key] = real(q, dq, tau, **kwargs)
+        return kept[key]
+
+    monkeypatch.setattr(wpi_report, "fit_arm_dynamics", once)
+    return kept
+
+
 @pytest.mark.slow
-def test_fit_dynamics_refuses_a_poor_fit_unless_accepted(noise, tmp_path, capsys):
+def test_fit_dynamics_refuses_a_poor_fit_unless_accepted(noise, tmp_path, capsys, fit_once):
     model = tmp_path / "arm.json"
     argv = ["fit-dynamics", "--format", "wpi", "--train", str(noise), "--test", str(noise),
             "--model-out", str(model)]
@@ -200,6 +224,7 @@ def test_fit_dynamics_refuses_a_poor_fit_unless_accepted(noise, tmp_path, capsys
     report = fit_dynamics_cli(noise, noise, "wpi", model_out=tmp_path / "lib.json")
     assert report["poor_fit"] and report["model"] == str(tmp_path / "lib.json")  # library: saves
     assert min(report["test_relative_error_percent"]) > POOR_FIT_RELATIVE_ERROR_PERCENT
+    assert len(fit_once) == 1  # the three calls fitted the one input
 
 
 @pytest.mark.parametrize("signal, flagged", [
