@@ -1,7 +1,14 @@
 """The calibration without an ATI measured against the ATI (issue 44, items 3, 5 and 6).
 
-    python studies/ati_free.py --seeds 201 202 203 --scale 0.05 --json results/benchmarks/ati_free.json
-    python studies/ati_free.py --quick --seeds 201 --scale 0.02 --json /tmp/ati_free_smoke.json
+    python studies/ati_free.py --scale 0.05 --threads 1 --json results/benchmarks/ati_free.json
+    python studies/ati_free.py --scale 0.05 --threads 1 --prior-crosstalk \
+        --json results/benchmarks/ati_free_crosstalk.json
+    python studies/ati_free.py --quick --seeds 201 --scale 0.02 --free-minutes 1 \
+        --json /tmp/ati_free_smoke.json
+
+``--prior-crosstalk``: every hybrid's prior also fits the HEX10's cross-talk (``psmforce train
+--prior-crosstalk``; a calibration refits the law its checkpoint has), in its own work folder;
+docs/ati_free.md section 4.2 pairs the two runs.
 
 **Where an ATI-free model starts.** A lab without an ATI cannot train the hybrid; it takes a
 hybrid trained with an ATI on another instrument (the published model: here the nominal tool's

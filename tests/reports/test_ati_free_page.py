@@ -35,3 +35,24 @@ def test_studies_that_do_not_pair_are_refused():
         crosstalk_effect_table(held, fitted)
     with pytest.raises(ValueError, match="does not fit the cross-talk"):
         crosstalk_effect_table(held, _study({"201": 1.0}, crosstalk=False))
+
+
+def test_the_fresh_seeds_goals_mark_a_miss_per_seed():
+    from reports.ati_free_page import _fresh_seed_goals
+    from studies.ati_free import FRESH_SEEDS, GOALS
+
+    def score(fx):
+        return {"nrmse_pct": {m: {"Fx": fx, "Fy": 1.0, "Fz": 1.0} for m in ("causal", "paper")}}
+
+    first, second = (str(s) for s in FRESH_SEEDS)
+    worse = GOALS["free+self+weights"] + 0.1
+    result = {"records": {"201": {}, first: {"free+self+weights": score(worse),
+                                             "ati_same_minutes": score(1.0),
+                                             "ati_full": score(1.0)},
+                          second: {"free+self+weights": score(1.0),
+                                   "ati_same_minutes": score(1.0), "ati_full": score(1.0)}}}
+    lines = _fresh_seed_goals(result)
+    row = next(line for line in lines if line.startswith("| (c) ATI-free: + known weights | (d)"))
+    assert f"{worse:.2f}x (paper Fx) **miss**" in row or f"{worse:.2f}x (causal Fx) **miss**" in row
+    assert row.count("**miss**") == 1 and "| 1.00x" in row
+    assert _fresh_seed_goals({"records": {"201": {}}}) == []   # a study run before fresh seeds
