@@ -22,8 +22,9 @@ F^-1; :func:`not_identifiable` by the identifiability report's rules that a desi
 standard errors within what
 :func:`~psmforce.identification.prior_identifiability.precision_needed` asks, 10 % of the
 design value or an offset's resolution, or within :data:`ZERO_VALUE_SPAN` of the bounds' span
-for another parameter designed at 0; no correlation beyond :data:`MAX_CORRELATION`). :func:`segment_shares` says which
-parameters a part of a recording excites; :func:`known_weight_gains` what known masses add.
+for another parameter designed at 0; no correlation beyond :data:`MAX_CORRELATION`).
+:func:`segment_shares` says which parameters a part of a recording excites;
+:func:`known_weight_gains` what known masses add.
 """
 
 from __future__ import annotations

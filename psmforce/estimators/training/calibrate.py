@@ -218,7 +218,7 @@ def calibrate(checkpoint: str | Path, data_dir: str | Path, out: str | Path, *,
     (docs/ati_free.md section 3)."""
     from psmforce.identification import InternalForcePrior
     from psmforce.identification.errors import NotConvergedError
-    from psmforce.identification.prior import NAMES
+    from psmforce.identification.prior import NAMES, held_by_reading
     from psmforce.identification.prior_identifiability import is_offset
     if isinstance(epochs, bool) or not isinstance(epochs, int) or epochs < 1:
         raise TrainingError(f"epochs must be an integer >= 1, got {epochs!r}")
@@ -302,7 +302,6 @@ def calibrate(checkpoint: str | Path, data_dir: str | Path, out: str | Path, *,
         errors = {role: {"before": _prior_free_error(old, trials),
                          "after": _prior_free_error(new, trials)}
                   for role, trials in (("train", train_trials), ("validation", val_trials))}
-        from psmforce.identification.prior import held_by_reading
         reading = (held_by_reading(new.inputs, old.has_crosstalk) if prior_refit == "all"
                    else {})
         prior_report = {
