@@ -80,5 +80,6 @@ def test_the_option_is_refused_where_no_prior_is_fitted(tmp_path):
     with pytest.raises(TrainingError, match="prior_crosstalk"):
         train(tmp_path / "absent", "hybrid", tmp_path / "h.pt", prior_crosstalk=True,
               use_prior=False)
-    with pytest.raises(TrainingError, match="prior_crosstalk"):
+    with pytest.raises(TrainingError, match=r"--prior-crosstalk.*'fcn', which is trained "
+                                             r"without a prior"):
         train(tmp_path / "absent", "fcn", tmp_path / "f.pt", prior_crosstalk=True)

@@ -543,8 +543,10 @@ def train(data_dir: str | Path, model: str, out_checkpoint: str | Path, *,
         raise TrainingError(f"a prior was given, but the '{model}' model "
                             f"{'is trained without one' if spec.uses_prior else 'uses none'}")
     if prior_crosstalk and (prior is not None or not inputs.uses_prior):
-        raise TrainingError("prior_crosstalk: the prior is fitted here only for a model that "
-                            "uses one and when no prior is given")
+        raise TrainingError(f"prior_crosstalk (--prior-crosstalk): the prior is fitted here "
+                            f"only for a model that uses one and when no prior is given "
+                            f"('{model}'" + (", with a prior given)" if prior is not None
+                                             else ", which is trained without a prior)"))
     cfg = train_config or TrainConfig(**spec.optimiser)
     cfg = TrainConfig(**{**cfg.to_dict(), "max_epochs": epochs, "seed": seed, "device": device})
     given_prior = _load_prior(prior) if inputs.uses_prior else None  # before the data is read
