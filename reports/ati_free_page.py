@@ -331,7 +331,8 @@ def crosstalk_effect_table(held: dict, fitted: dict) -> str:
     """Each row of the ATI-free study with the HEX10's cross-talk fitted in every hybrid's prior
     (``fitted``, ``--prior-crosstalk``) over the same row with it held (``held``), paired on
     the bench seeds both ran: geometric mean ratio [95 % t interval on log ratios] per axis and
-    metric, and the verdict; then the cross-talk each arm's calibrated prior holds."""
+    metric, then the cells whose interval lies wholly below or above 1. Refused for studies
+    whose settings differ."""
     from psmforce.experiments.paired import paired_by_axis
     same = ("scale", "free_minutes", "excitation_minutes", "excitation_seed", "masses", "hold_s",
             "calibration_epochs", "quick")

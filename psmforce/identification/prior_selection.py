@@ -80,10 +80,10 @@ def trial_jackknife(frames, prior: InternalForcePrior, fixed: dict[str, float],
                     groups: int = JACKKNIFE_GROUPS, psm=None, max_iter: int = 500,
                     inputs: str = "efforts", labels=None) -> dict[str, float] | None:
     """Delete-a-group jackknife standard error of each free parameter over ``groups`` groups of
-    whole trials; ``fixed``: every parameter the fit of ``prior`` held, the reading's included
-    (the refits hold exactly these) (trial k in group k mod ``groups``, or in group ``labels[k]``): refit without
+    whole trials (trial k in group k mod ``groups``, or in group ``labels[k]``): refit without
     each group, warm-started at ``prior``'s parameters, ``se^2 = (G - 1) / G sum_g (p_g -
-    mean p)^2`` (SI units). None when there are fewer trials than groups.
+    mean p)^2`` (SI units). None when there are fewer trials than groups. ``fixed``: every
+    parameter the fit of ``prior`` held, the reading's included; the refits hold exactly these.
 
     ``labels`` (one int in [0, groups) per trial) is for a designed experiment whose trials are
     not exchangeable: k mod G on holds ordered by pose removes the same poses in every
