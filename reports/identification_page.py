@@ -280,6 +280,52 @@ def transmission_transfer_tables(result: dict) -> str:
     return "\n".join(lines) + "\n"
 
 
+def transmission_per_session_table(result: dict) -> str:
+    """docs/identification.md section 4.1: the per-session sets tried side by side (recalibrated
+    / in session on every folder, and the lab's leave-one-calibration-file-out error), then the
+    kept set's values per folder with those at a bound named."""
+    cands = result.get("per_session_candidates")
+    if not cands:
+        raise ValueError("transmission_transfer.json has no per_session_candidates: rerun "
+                         "`python studies/transmission_transfer.py --json "
+                         "results/benchmarks/transmission_transfer.json`")
+    folders = [f for f in result["folders"] if "recalibrated" in result["folders"][f]]
+    lines = ["", "Jaw torque RMSE, mNm, whole files / closing portions. *recalibrated / in "
+             "session*: on the folder's scored files, each set re-estimated on its 60 s; "
+             "*calibration, leave one file out*: what a lab can compute without those files, "
+             "each of the three calibration files scored after the other two recalibrate.", "",
+             "| per-session set | " + " | ".join(folders) + " | worst ratio |",
+             "|---|" + "---|" * (len(folders) + 1)]
+    for label, c in cands.items():
+        ratios, cells, lofo = [], [], []
+        for f in folders:
+            row, ins = c["folders"][f], result["folders"][f]["in_session"]
+            r = [row["recalibrated"][p]["torque_rmse_mNm"] / ins[p]["torque_rmse_mNm"]
+                 for p in ("whole", "closing")]
+            ratios += r
+            cells.append(f"{r[0]:.2f}x / {r[1]:.2f}x")
+            left_out = row["calibration_leave_one_file_out"]
+            lofo.append(" / ".join(f"{left_out[p]['torque_rmse_mNm']:.1f}"
+                                   for p in ("whole", "closing")))
+        extra = [n for n in c["per_session"]
+                 if n not in ("pretension_torque", "torque_bias", "angle_offset")]
+        what = "+ " + ", ".join(extra) if extra else "pretension and the two zeros"
+        lines.append(f"| {label}: {what} (recalibrated / in session) | "
+                     + " | ".join(cells) + f" | {max(ratios):.2f}x |")
+        lines.append(f"| {label}: calibration, leave one file out | " + " | ".join(lofo) + " | |")
+    kept = result["model"]["per_session"]
+    lines += ["", f"Per-session values of the kept set ({', '.join(kept)}), re-estimated on "
+              "each folder's 60 s; *at a bound*: the one rule of the roles table:", "",
+              "| folder | " + " | ".join(kept) + " | at a bound |",
+              "|---|" + "---|" * (len(kept) + 1)]
+    for f in folders:
+        entry = result["folders"][f]
+        vals = entry["per_session"]
+        lines.append(f"| {f} | " + " | ".join(f"{vals[n]:.4g}" for n in kept)
+                     + f" | {', '.join(entry.get('per_session_at_bound', [])) or 'none'} |")
+    return "\n".join(lines) + "\n"
+
+
 def transmission_pitch_wrap_table(base: dict, *wraps: dict) -> str:
     """docs/identification.md section 4.1: the wrist pitch's capstan wrap terms
     (``--pitch-wrap antagonistic`` / ``symmetric``) against the default (both declared 0), per

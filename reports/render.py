@@ -142,6 +142,8 @@ BLOCKS = (
     (IDENTIFICATION, "transmission-tables", TRANSMISSION, identification_page.transmission_tables),
     (IDENTIFICATION, "transmission-transfer-tables", TRANSMISSION_TRANSFER,
      identification_page.transmission_transfer_tables),
+    (IDENTIFICATION, "transmission-per-session", TRANSMISSION_TRANSFER,
+     identification_page.transmission_per_session_table),
     (IDENTIFICATION, "transmission-pitch-wrap",
      (TRANSMISSION_TRANSFER, TRANSMISSION_PITCH_WRAP, TRANSMISSION_PITCH_WRAP_SYMMETRIC),
      identification_page.transmission_pitch_wrap_table),

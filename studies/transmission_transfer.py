@@ -13,9 +13,11 @@ left out of every fit and score.
 Model: :class:`CableTransmission` with the roles of
 :mod:`psmforce.identification.transmission.roles`: shared parameters fitted once on
 ``Tool_4_Maryland_L_4``'s training files (the split of ``studies/transmission.py``: test =
-frequency 2 or load 5, validation = load 2), per session the pretension, the torque sensor's
-zero and the jaw encoder's zero. The law reads the drive's commanded current (:data:`SOURCE`;
-the measured current is scored too, as ``physics (measured current)``). The two
+frequency 2 or load 5, validation = load 2), per session the pretension, the pair's asymmetry,
+the torque sensor's zero and the jaw encoder's zero (:data:`.model.PER_SESSION`; the sets tried
+are scored side by side, :data:`PER_SESSION_CANDIDATES`). The law reads the drive's commanded
+current (:data:`SOURCE`; the measured current is scored too, as ``physics (measured
+current)``). The two
 position-dependent terms (``position_stiffness``, ``capstan_mu_per_rad``) are declared fixed at
 0 (:data:`DECLARED_FIXED`): fitted on L_4 they raised the error of every other folder (the
 other stopping positions reach 2 rad beyond L_4's stroke, and even inside it the pitched
@@ -72,7 +74,9 @@ sys.path.insert(0, str(ROOT))
 from psmforce.core.files import write_json_atomic  # noqa: E402
 from psmforce.experiments.report import shown_path  # noqa: E402
 from psmforce.identification.transmission import roles  # noqa: E402
-from psmforce.identification.transmission.model import CableTransmission  # noqa: E402
+from psmforce.identification.transmission.model import (PER_SESSION,  # noqa: E402
+                                                        TORQUE_PARAMETERS, CableTransmission,
+                                                        at_bound)
 from psmforce.identification.transmission.recording import (  # noqa: E402
     TransmissionDataWarning, check_session, home_session)
 from studies.transmission import splits  # noqa: E402
@@ -88,6 +92,16 @@ PITCH_WRAP = {"antagonistic": "capstan_mu_pitch", "symmetric": "capstan_mu_abs_p
 PITCH_WRAP_JSON = {
     "antagonistic": "results/benchmarks/transmission_transfer_pitch_wrap.json",
     "symmetric": "results/benchmarks/transmission_transfer_pitch_wrap_symmetric.json"}
+PER_SESSION_CANDIDATES = {
+    "before": ("pretension_torque", "torque_bias", "angle_offset"),
+    "kept": PER_SESSION,
+    "current gain": ("pretension_torque", "current_gain", "torque_bias", "angle_offset"),
+    "capstan friction": ("pretension_torque", "capstan_mu", "torque_bias", "angle_offset"),
+}
+"""Per-session sets tried, in the order tried, scored by :func:`per_session_candidates`: the set
+before issue 43's last change, the one kept (:data:`.model.PER_SESSION`, the pair's asymmetry
+added), and two other single additions. The kept one was chosen on Tool_4_Maryland_L_2 (the
+session transfer) after every folder's row had been seen."""
 CALIBRATION_S = 60.0
 GOAL_RATIO = 1.5
 GOAL_L2_MNM = 8.9
@@ -208,6 +222,7 @@ def run(data_dir: Path, quick: bool, resamples: int, pitch_wrap: str | None = No
                                       "recalibrated": _closing_rmse(measured.recalibrate(calib),
                                                                     scored)},
                  "per_session": model.recalibrate(calib).sessions[recs[0].session]}
+        entry["per_session_at_bound"] = _at_bound(entry["per_session"])
         folds, wraps = [], []
         for k in (0, 1):
             fold = scored[k::2]
@@ -225,6 +240,8 @@ def run(data_dir: Path, quick: bool, resamples: int, pitch_wrap: str | None = No
             entry["loco"] = _closing_rmse(shared.recalibrate(calib), scored)
             entry["loco_pitch_wrap"] = _pitch_term(shared, pitch_wrap)
         folders[name] = entry
+    candidates = (per_session_candidates(model, data) if pitch_wrap is None and not quick
+                  else None)
     command = ("python studies/transmission_transfer.py --json "
                + (f"{PITCH_WRAP_JSON[pitch_wrap]} --pitch-wrap {pitch_wrap}" if pitch_wrap
                   else "results/benchmarks/transmission_transfer.json"))
@@ -238,8 +255,46 @@ def run(data_dir: Path, quick: bool, resamples: int, pitch_wrap: str | None = No
               "not_identifiable": role_report["not_identifiable"],
               "bootstrap": role_report["bootstrap"], "model": model.to_dict(),
               "folders": folders, "verdicts": verdicts(folders),
+              "per_session_candidates": candidates,
               "run": {"seconds": round(time.perf_counter() - t0, 1)}}
     return result
+
+
+def _at_bound(values: dict) -> list[str]:
+    """The per-session values at a bound of their range (the one rule, :func:`.model.at_bound`)."""
+    bounds = {n: (lo, hi) for n, _, lo, hi, _ in TORQUE_PARAMETERS}
+    return sorted(n for n, v in values.items() if n in bounds and at_bound(v, *bounds[n]))
+
+
+def per_session_candidates(model: CableTransmission, data: dict) -> dict:
+    """Each set of :data:`PER_SESSION_CANDIDATES` on ``model``'s shared values (a parameter the
+    set does not re-estimate held at the source session's value): per folder, the recalibrated
+    error on the scored files, and what a lab can compute without them, the error on each of
+    its three calibration files when the other two recalibrate (leave one file out: two of the
+    three folds extrapolate to a load outside the two)."""
+    import dataclasses
+    source_values, _ = model.parameters(data[SOURCE_FOLDER][0].session)
+    out = {}
+    for label, chosen in PER_SESSION_CANDIDATES.items():
+        m = dataclasses.replace(model, torque=source_values.copy(), per_session=chosen,
+                                fixed=tuple(n for n in model.fixed if n not in chosen),
+                                sessions={})
+        rows = {}
+        for name, recs in data.items():
+            if name == SOURCE_FOLDER:
+                continue
+            calib = calibration_files(recs)
+            scored = [r for r in recs if r not in calib]
+            recal = m.recalibrate(calib)
+            lofo = _pooled([_closing_rmse(m.recalibrate([c for j, c in enumerate(calib)
+                                                         if j != k]), [calib[k]])
+                            for k in range(len(calib))])
+            values = recal.sessions[recs[0].session]
+            rows[name] = {"recalibrated": _closing_rmse(recal, scored),
+                          "calibration_leave_one_file_out": lofo,
+                          "values": values, "at_bound": _at_bound(values)}
+        out[label] = {"per_session": list(chosen), "folders": rows}
+    return out
 
 
 def _pitch_term(model: CableTransmission, pitch_wrap: str | None) -> dict:

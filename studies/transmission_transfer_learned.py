@@ -27,6 +27,16 @@ Per folder, on the files outside its calibration (the transfer study's ``calibra
 
 Metrics as in the transfer study (torque mNm, angle deg, whole and closing). One seed gives no
 spread: with one seed a difference is reported, never a win by the spread rule.
+
+Only the hybrid reads the physics, so when the physics changes (``transmission_transfer.json``
+regenerated) only the hybrid needs training again::
+
+    python studies/transmission_transfer_learned.py --seeds 1 --models hybrid \
+        --reuse results/benchmarks/transmission_transfer_learned.json \
+        --json results/benchmarks/transmission_transfer_learned.json
+
+``--reuse`` copies the records of every model not in ``--models`` from an earlier JSON of this
+study, refused unless its inputs, seeds and finetuning settings are this run's.
 """
 
 from __future__ import annotations
@@ -216,6 +226,36 @@ def summarise(records: list[dict]) -> dict:
     return out
 
 
+def reused_records(path: Path, models: list[str], seeds: list[int]) -> tuple[list[dict], list]:
+    """The records of the models not in ``models`` from an earlier JSON of this study, and which
+    models they are. Refused (ValueError naming the difference) unless that run's inputs, seeds
+    and finetuning settings are this run's, or when it lacks a model it should give."""
+    try:
+        old = json.loads(Path(path).read_text())
+    except (OSError, ValueError) as exc:
+        raise ValueError(f"--reuse {path}: not a readable JSON ({exc})") from None
+    if not isinstance(old, dict) or not isinstance(old.get("records"), list):
+        raise ValueError(f"--reuse {path}: not a JSON of this study (no 'records' list)")
+    mine = {"inputs": list(INPUTS), "seeds": seeds, "finetune": _finetune_settings()}
+    for key, value in mine.items():
+        if old.get(key) != value:
+            raise ValueError(f"--reuse {path}: its {key} {old.get(key)!r} differ from this "
+                             f"run's {value!r}")
+    taken = [m for m in old.get("models", []) if m not in models]
+    missing = [m for m in MODELS if m not in models and m not in taken]
+    if missing:
+        raise ValueError(f"--reuse {path}: it has no records of {', '.join(missing)}")
+    keep = {"hybrid_physics_recalibrated_only"} if "hybrid" in models else set()
+    records = [r for r in old["records"]
+               if r.get("model") in taken and r.get("model") not in keep]
+    return records, taken
+
+
+def _finetune_settings() -> dict:
+    return {"epochs": FINETUNE_EPOCHS, "time_limit_s": FINETUNE_LIMIT_S, "lr": 1e-4,
+            "validation_fraction": CALIBRATION_VAL_FRACTION}
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--data", type=Path, default=ROOT.parent / "shared" / "data" / "mrdlab")
@@ -224,13 +264,24 @@ def main(argv=None) -> int:
     ap.add_argument("--seeds", type=int, nargs="+", default=[1])
     ap.add_argument("--models", nargs="+", choices=MODELS, default=list(MODELS))
     ap.add_argument("--jobs", type=int, default=1)
+    ap.add_argument("--reuse", type=Path, default=None,
+                    help="an earlier JSON of this study: the records of the models not in "
+                         "--models are taken from it")
     args = ap.parse_args(argv)
     t0 = time.perf_counter()
+    reused, models = [], list(args.models)
+    if args.reuse is not None:
+        try:
+            reused, taken = reused_records(args.reuse, models, args.seeds)
+        except ValueError as exc:
+            print(f"error: {exc}", file=sys.stderr)
+            return 2
+        models = [m for m in MODELS if m in models or m in taken]
     jobs = [(m, s) for s in args.seeds for m in args.models]
     with ProcessPoolExecutor(max_workers=args.jobs) as pool:
         done = list(pool.map(run_model, *zip(*jobs), [str(args.data)] * len(jobs),
                              [str(args.work)] * len(jobs)))
-    records = [r for rs in done for r in rs]
+    records = reused + [r for rs in done for r in rs]
     transfer = json.loads(TRANSFER_JSON.read_text())
     summary = summarise(records)
     for folder, f in transfer["folders"].items():  # the physics rows, from the transfer study
@@ -243,11 +294,15 @@ def main(argv=None) -> int:
                     for part in ("whole", "closing")}
     result = {"benchmark": "transmission transfer, learned models and the hybrid",
               "command": "python studies/transmission_transfer_learned.py --seeds "
-                         + " ".join(map(str, args.seeds)) + " --json "
-                         "results/benchmarks/transmission_transfer_learned.json",
-              "inputs": list(INPUTS), "seeds": args.seeds, "models": args.models,
-              "finetune": {"epochs": FINETUNE_EPOCHS, "time_limit_s": FINETUNE_LIMIT_S,
-                           "lr": 1e-4, "validation_fraction": CALIBRATION_VAL_FRACTION},
+                         + " ".join(map(str, args.seeds))
+                         + (" --models " + " ".join(args.models) + " --reuse "
+                            + shown_path(args.reuse) if args.reuse is not None else "")
+                         + " --json results/benchmarks/transmission_transfer_learned.json",
+              "inputs": list(INPUTS), "seeds": args.seeds, "models": models,
+              "reused": ({"from": shown_path(args.reuse),
+                          "models": [m for m in models if m not in args.models]}
+                         if args.reuse is not None else None),
+              "finetune": _finetune_settings(),
               "summary": summary, "records": records,
               "run": {"seconds": round(time.perf_counter() - t0, 1)}}
     write_json_atomic(args.json, result)

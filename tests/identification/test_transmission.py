@@ -266,7 +266,7 @@ def test_cli_fits_saves_and_refuses_bad_input(tmp_path, capsys):
                  "--validation", "99"]) == 2
     assert "no file 99.TXT" in capsys.readouterr().err
     # a new mount: only the per-session parameters, constants kept
-    moved = [replace(r, jaw_torque_nm=r.jaw_torque_nm + 0.01) for r in recs[:2]]
+    moved = [replace(r, jaw_torque_nm=r.jaw_torque_nm + 0.01) for r in recs]  # spans the loads
     _write_session(tmp_path / "mount2", moved)
     again = tmp_path / "m4.json"
     assert main(["fit-transmission", str(tmp_path / "mount2"), "--recalibrate", str(out),

@@ -77,5 +77,6 @@ def test_what_sits_at_a_bound_is_named_in_the_fit_and_the_roles_alike():
 
 
 def test_per_session_parameters_are_declared_once():
-    assert set(PER_SESSION) == {"pretension_torque", "torque_bias", "angle_offset"}
+    assert set(PER_SESSION) == {"pretension_torque", "pair_asymmetry", "torque_bias",
+                                "angle_offset"}
     assert TRUTH.keys() == set(TORQUE_NAMES)

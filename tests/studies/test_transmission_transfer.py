@@ -43,3 +43,32 @@ def test_the_pitch_wrap_term_is_declared_off_unless_switched_on():
     for wrap, name in (("antagonistic", "capstan_mu_pitch"),
                        ("symmetric", "capstan_mu_abs_pitch")):
         assert set(declared_fixed(wrap)) == set(DECLARED_FIXED) - {name}
+
+
+def test_reused_records_come_only_from_a_matching_run(tmp_path):
+    import json
+
+    import pytest
+
+    from studies.transmission_transfer_learned import (INPUTS, MODELS, _finetune_settings,
+                                                       reused_records)
+    records = [{"model": m, "seed": 1} for m in MODELS]
+    records.append({"model": "hybrid_physics_recalibrated_only", "seed": 1})
+    run = {"inputs": list(INPUTS), "seeds": [1], "finetune": _finetune_settings(),
+           "models": list(MODELS), "records": records}
+    path = tmp_path / "old.json"
+    path.write_text(json.dumps(run))
+    kept, taken = reused_records(path, ["hybrid"], [1])
+    assert taken == [m for m in MODELS if m != "hybrid"]
+    assert {r["model"] for r in kept} == set(taken)      # the hybrid's rows are all rerun
+    with pytest.raises(ValueError, match="seeds"):
+        reused_records(path, ["hybrid"], [1, 2])
+    path.write_text(json.dumps({**run, "finetune": {**run["finetune"], "time_limit_s": 1.0}}))
+    with pytest.raises(ValueError, match="finetune"):
+        reused_records(path, ["hybrid"], [1])
+    path.write_text(json.dumps({**run, "models": ["hybrid", "fcn"]}))
+    with pytest.raises(ValueError, match="no records of lstm"):
+        reused_records(path, ["hybrid"], [1])
+    path.write_text("{not json")
+    with pytest.raises(ValueError, match="not a readable JSON"):
+        reused_records(path, ["hybrid"], [1])

@@ -79,13 +79,13 @@ Identifiability (stated, and checked from the fit's Fisher information in :attr:
   motor's datasheet range.
 
 Sessions. A parameter is a constant of the instrument (shared by every session and
-configuration) or re-estimated per session (:data:`PER_SESSION`: the pretension, the jaw torque
-sensor's zero and the jaw encoder's zero, which re-mounting changes). :meth:`CableTransmission.fit`
-takes recordings of several sessions (``rec.session``) and fits the shared parameters once and
-the per-session ones per session; :meth:`CableTransmission.recalibrate` re-estimates only the
-per-session ones on a short segment of a new session. Which parameters the data pin down is
-measured by a bootstrap over files in :mod:`.roles`; the Fisher figures here assume white
-residuals and stay diagnostics.
+configuration) or re-estimated per session (:data:`PER_SESSION`: the pretension and the pair's
+asymmetry, the jaw torque sensor's zero and the jaw encoder's zero, which re-mounting changes).
+:meth:`CableTransmission.fit` takes recordings of several sessions (``rec.session``) and fits the
+shared parameters once and the per-session ones per session;
+:meth:`CableTransmission.recalibrate` re-estimates only the per-session ones on a short segment
+of a new session. Which parameters the data pin down is measured by a bootstrap over files in
+:mod:`.roles`; the Fisher figures here assume white residuals and stay diagnostics.
 
 Size: the law, its fit through the hold (one solver shared by the full fit and the
 recalibration), the angle path and the strict file reader form one model; splitting them would
@@ -139,10 +139,14 @@ TORQUE_PARAMETERS = (
 )
 TORQUE_NAMES = tuple(p[0] for p in TORQUE_PARAMETERS)
 ANGLE_NAMES = ("ratio", "compliance_torque", "compliance_current", "windup", "angle_offset")
-PER_SESSION = ("pretension_torque", "torque_bias", "angle_offset")
-"""The parameters a session re-estimates (re-mounting changes the cable pretension, the torque
-sensor's zero and the encoders' zero); every other parameter is a constant of the instrument,
-shared by all its sessions and configurations."""
+PER_SESSION = ("pretension_torque", "pair_asymmetry", "torque_bias", "angle_offset")
+"""The parameters a session re-estimates; every other parameter is a constant of the
+instrument, shared by all its sessions and configurations. Re-mounting re-seats the discs and
+re-tensions the cables: the pretension changes, and with it how the pair's tension sum grows with
+the load it carries (the asymmetry ``a`` of the loop closure ``S = 2 T_0 + a D``, set by how the
+two runs share the stretch); it also moves the torque sensor's zero and the encoders' zero. The
+asymmetry joined the set after the real instrument's sessions asked for it (docs/identification.md
+section 4.1, the per-session sets tried)."""
 CURRENT_SOURCES = ("measured", "command")
 """The drive current the law reads: the measured current, or the drive's command times its
 current gain (:data:`.checks.CURRENT_PER_COMMAND_A`), the current the drive was told to make."""

@@ -12,8 +12,8 @@ decides):
     a constant of the instrument, fitted once over every recording and configuration given.
 ``per_session``
     re-estimated for each session from a short segment (:meth:`.model.CableTransmission.recalibrate`):
-    the cable pretension, the torque sensor's zero and the encoders' zero change when an
-    instrument is re-mounted.
+    the cable pretension and the pair's asymmetry, the torque sensor's zero and the encoders'
+    zero change when an instrument is re-mounted.
 ``fixed: not excited``
     a shared parameter whose input never varies in the data: ``capstan_mu_pitch`` and
     ``capstan_mu_abs_pitch`` (the wrist pitch's wrap, :mod:`.model`) when no recording of the
