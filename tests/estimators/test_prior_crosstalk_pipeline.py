@@ -57,6 +57,8 @@ def test_calibrations_refit_the_law_the_checkpoint_has(bench, tmp_path):
     for name in CROSSTALK:  # each either refitted, or held at the checkpoint's fitted value
         i = NAMES.index(name)
         assert name in held and new.params[i] == old.params[i] or name not in held
+    refitted = refit["offsets_refitted_although_listed"]   # a refit that moves nothing holds
+    assert all(new.params[NAMES.index(n)] != old.params[NAMES.index(n)] for n in refitted)
     assert new.has_crosstalk
     mounted = calibrate(bench / "h.pt", bench / "bench", tmp_path / "mount.pt", minutes=30.0,
                         epochs=1, train_config=CHEAP, free_space=True, prior_refit="per_mount")
