@@ -64,6 +64,14 @@ INPUTS = ("motor_current_a", "motor_command", "motor_angle_rad", "motor_velocity
 FINETUNE_EPOCHS = 1000
 FINETUNE_LIMIT_S = 180.0
 CALIBRATION_VAL_FRACTION = 0.2
+FINETUNE_VALIDATION = {
+    "tail": "the last 20 % of each calibration file (the first 80 % trains)",
+    "file": "the middle load's calibration file, whole (the other two train)",
+}
+"""What a finetune stops early on (``--finetune-validation``). ``tail`` is the first protocol;
+``file`` was added after the roll folders' rows showed every finetune doing worse than the
+model as is there, since a file's own tail cannot tell a fit to that file from one that holds on
+another grasp (every model gets the same)."""
 TRANSFER_JSON = ROOT / "results" / "benchmarks" / "transmission_transfer.json"
 
 
@@ -89,9 +97,11 @@ def _physics(train: list, transfer: dict):
                                  current_source=m["current_source"])
 
 
-def run_model(model: str, seed: int, data_dir: str, work: str) -> list[dict]:
-    """Train ``model`` on L_4, score it on every folder as is and recalibrated; every record
-    kept under ``work`` and reused."""
+def run_model(model: str, seed: int, data_dir: str, work: str,
+              validation: str = "tail") -> list[dict]:
+    """Train ``model`` on L_4, score it on every folder as is and recalibrated (the finetune
+    early-stopped on :data:`FINETUNE_VALIDATION` ``validation``); every record kept under
+    ``work`` and reused."""
     import torch
 
     from psmforce.experiments import transmission_networks as tm
@@ -187,7 +197,10 @@ def run_model(model: str, seed: int, data_dir: str, work: str) -> list[dict]:
 
         def finetuned():
             cal_train, cal_val = [], []
-            for rec in calib:
+            for k, rec in enumerate(calib):
+                if validation == "file":  # the middle load's file held out whole
+                    (cal_val if k == 1 else cal_train).append(series(rec, phys_cal))
+                    continue
                 cut = round(len(rec) * (1 - CALIBRATION_VAL_FRACTION))
                 cal_train.append(series(rec, phys_cal, 0, cut))
                 cal_val.append(series(rec, phys_cal, mask_from=cut))
@@ -226,7 +239,8 @@ def summarise(records: list[dict]) -> dict:
     return out
 
 
-def reused_records(path: Path, models: list[str], seeds: list[int]) -> tuple[list[dict], list]:
+def reused_records(path: Path, models: list[str], seeds: list[int],
+                   validation: str = "tail") -> tuple[list[dict], list]:
     """The records of the models not in ``models`` from an earlier JSON of this study, and which
     models they are. Refused (ValueError naming the difference) unless that run's inputs, seeds
     and finetuning settings are this run's, or when it lacks a model it should give."""
@@ -236,7 +250,9 @@ def reused_records(path: Path, models: list[str], seeds: list[int]) -> tuple[lis
         raise ValueError(f"--reuse {path}: not a readable JSON ({exc})") from None
     if not isinstance(old, dict) or not isinstance(old.get("records"), list):
         raise ValueError(f"--reuse {path}: not a JSON of this study (no 'records' list)")
-    mine = {"inputs": list(INPUTS), "seeds": seeds, "finetune": _finetune_settings()}
+    mine = {"inputs": list(INPUTS), "seeds": seeds, "finetune": _finetune_settings(validation)}
+    if isinstance(old.get("finetune"), dict):  # written before the option: the tail
+        old["finetune"] = {"validation": "tail", **old["finetune"]}
     for key, value in mine.items():
         if old.get(key) != value:
             raise ValueError(f"--reuse {path}: its {key} {old.get(key)!r} differ from this "
@@ -251,9 +267,9 @@ def reused_records(path: Path, models: list[str], seeds: list[int]) -> tuple[lis
     return records, taken
 
 
-def _finetune_settings() -> dict:
+def _finetune_settings(validation: str = "tail") -> dict:
     return {"epochs": FINETUNE_EPOCHS, "time_limit_s": FINETUNE_LIMIT_S, "lr": 1e-4,
-            "validation_fraction": CALIBRATION_VAL_FRACTION}
+            "validation_fraction": CALIBRATION_VAL_FRACTION, "validation": validation}
 
 
 def main(argv=None) -> int:
@@ -264,6 +280,8 @@ def main(argv=None) -> int:
     ap.add_argument("--seeds", type=int, nargs="+", default=[1])
     ap.add_argument("--models", nargs="+", choices=MODELS, default=list(MODELS))
     ap.add_argument("--jobs", type=int, default=1)
+    ap.add_argument("--finetune-validation", choices=list(FINETUNE_VALIDATION),
+                    default="tail", help="what a finetune stops early on")
     ap.add_argument("--reuse", type=Path, default=None,
                     help="an earlier JSON of this study: the records of the models not in "
                          "--models are taken from it")
@@ -272,7 +290,8 @@ def main(argv=None) -> int:
     reused, models = [], list(args.models)
     if args.reuse is not None:
         try:
-            reused, taken = reused_records(args.reuse, models, args.seeds)
+            reused, taken = reused_records(args.reuse, models, args.seeds,
+                                           args.finetune_validation)
         except ValueError as exc:
             print(f"error: {exc}", file=sys.stderr)
             return 2
@@ -280,7 +299,8 @@ def main(argv=None) -> int:
     jobs = [(m, s) for s in args.seeds for m in args.models]
     with ProcessPoolExecutor(max_workers=args.jobs) as pool:
         done = list(pool.map(run_model, *zip(*jobs), [str(args.data)] * len(jobs),
-                             [str(args.work)] * len(jobs)))
+                             [str(args.work)] * len(jobs),
+                             [args.finetune_validation] * len(jobs)))
     records = reused + [r for rs in done for r in rs]
     transfer = json.loads(TRANSFER_JSON.read_text())
     summary = summarise(records)
@@ -297,12 +317,14 @@ def main(argv=None) -> int:
                          + " ".join(map(str, args.seeds))
                          + (" --models " + " ".join(args.models) + " --reuse "
                             + shown_path(args.reuse) if args.reuse is not None else "")
-                         + " --json results/benchmarks/transmission_transfer_learned.json",
+                         + (f" --finetune-validation {args.finetune_validation}"
+                            if args.finetune_validation != "tail" else "")
+                         + " --json " + shown_path(args.json),
               "inputs": list(INPUTS), "seeds": args.seeds, "models": models,
               "reused": ({"from": shown_path(args.reuse),
                           "models": [m for m in models if m not in args.models]}
                          if args.reuse is not None else None),
-              "finetune": _finetune_settings(),
+              "finetune": _finetune_settings(args.finetune_validation),
               "summary": summary, "records": records,
               "run": {"seconds": round(time.perf_counter() - t0, 1)}}
     write_json_atomic(args.json, result)
