@@ -75,7 +75,8 @@ def lines(result: dict) -> list[str]:
                 "| model | scale | seeds | bench Fx / Fy / Fz | paper Fx / Fy / Fz | "
                 "bench / paper | in band | RMSE (N) | test range (N) |",
                 "|---|---|---|---|---|---|---|---|---|"]
-        subs = result.get("substitutes", {}).get(name, {})
+        v = result.get("verdicts", {}).get(name)
+        subs = (v or {}).get("substituted", result.get("substitutes", {}).get(name, {}))
         mine = [r for r in result["rows"] if r["candidate"] == name
                 or (r["model"] in subs and r["candidate"] == subs[r["model"]]["from"])]
         mine.sort(key=lambda r: (MODEL_ORDER.index(r["model"]) if r["model"] in MODEL_ORDER
@@ -90,7 +91,6 @@ def lines(result: dict) -> list[str]:
                        f"{_fmt(r['paper_nrmse_pct'])} | {_fmt(r['ratio'], '{:.2f}x')} | "
                        f"{shown} | {_fmt(r['bench_rmse_n'], '{:.3f}')} | "
                        f"{_fmt(r['test_range_n'])} |")
-        v = result.get("verdicts", {}).get(name)
         if v:
             out += ["", _verdict_line(v)]
         for model, sub in subs.items():

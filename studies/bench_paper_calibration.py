@@ -124,7 +124,8 @@ SUBSTITUTES = {"2.3": {"lstm": {
            "inputs and targets on 2.3 are drawn from the same law (not the same numbers: the "
            "thermal draw shifts the noise streams)"}}}
 """Per version, a calibration model scored on another candidate's bench, and why that stands
-for it; the verdict counts such a row and says so."""
+for it; the verdict counts such a row and says so, unless the version's own row is at least as
+large a bench (2.3's LSTM: trained on 2.3 at the paper's budget since)."""
 
 
 def candidate_version(name: str):
@@ -201,16 +202,18 @@ def verdict(data: dict, name: str) -> dict:
     calibration model in the band on every axis at the paper's budget (a model trained on a
     smaller bench is reported but does not count as met), and the transformer checks (held
     out: not checked here)."""
-    by_model, substituted = {}, {}
+    by_model = {}
     for r in data["rows"]:
         sub = SUBSTITUTES.get(name, {}).get(r["model"])
         if r["candidate"] != name and not (sub and r["candidate"] == sub["from"]):
             continue
-        if r["candidate"] != name:
-            substituted[r["model"]] = sub
         best = by_model.get(r["model"])
-        if best is None or r["scale"] > best["scale"]:
+        # the version's own row wins at an equal scale; a larger scale wins over either
+        if (best is None or r["scale"] > best["scale"]
+                or (r["scale"] == best["scale"] and r["candidate"] == name)):
             by_model[r["model"]] = r
+    substituted = {m: SUBSTITUTES[name][m] for m, r in by_model.items()
+                   if r["candidate"] != name}
     misses = [f"{m} {a} ({r['ratio'][a]:.2f}x)" for m, r in sorted(by_model.items())
               for a in AXES if not r["in_band"][a]]
     not_at_budget = sorted(m for m, r in by_model.items() if not r["paper_budget"])

@@ -43,6 +43,13 @@ def test_verdict_and_block():
     text = bench_paper_calibration(data)
     assert "| LSTM (Yang et al.), on 2.3b's bench | 0.25 (below the paper's budget)" in text
     assert "no published source" in text
+    # the version's own row at the paper's budget replaces the substitute, in verdict and table
+    own = _result({"LSTM (Yang et al.)": (5.0, 5.0, 3.0)})
+    data = cal.merge(data, cal.rows("2.3", 1.0, own), cal.floor_rows("2.3", 1.0, own))
+    v = cal.verdict(data, "2.3")
+    assert v["met_at_paper_budget"] and v["substituted"] == {}
+    text = bench_paper_calibration({**data, "verdicts": {"2.3": v}})
+    assert "on 2.3b's bench" not in text and "| LSTM (Yang et al.) | 1 |" in text
     with pytest.raises(SystemExit, match="design seeds"):
         cal.main(["--version", "2.3", "--seeds", "101", "--json", "/nonexistent/x.json"])
 
