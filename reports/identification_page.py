@@ -372,6 +372,13 @@ def transmission_pitch_wrap_table(base: dict, *wraps: dict) -> str:
     return "\n".join(lines) + "\n"
 
 
+_FINETUNE_VALIDATION = {
+    "tail": "the last 20 % of each calibration file",
+    "file": "the middle load's calibration file held out whole (a finetune that never improves "
+            "on it keeps the weights it started from)",
+}
+
+
 def transmission_transfer_learned_tables(result: dict) -> str:
     """docs/identification.md section 4.1: every model on every folder, as is and recalibrated
     (jaw torque RMSE, whole / closing), and whether the hybrid is ahead of every learned
@@ -382,8 +389,9 @@ def transmission_transfer_learned_tables(result: dict) -> str:
     seeds = result["seeds"]
     lines = ["", f"Seeds {seeds} (one seed: differences, not wins by the spread rule); inputs "
              f"{', '.join(result['inputs'])}; finetuning at most {result['finetune']['epochs']} "
-             f"epochs or {result['finetune']['time_limit_s']:g} s. Jaw torque RMSE, mNm, whole "
-             "files / closing portions.", ""]
+             f"epochs or {result['finetune']['time_limit_s']:g} s, early-stopped on "
+             + _FINETUNE_VALIDATION[result["finetune"].get("validation", "tail")]
+             + ". Jaw torque RMSE, mNm, whole files / closing portions.", ""]
     summary = result["summary"]
     learned = [m for m in ("fcn", "lstm", "transformer", "rocket") if m in result["models"]]
     ahead_misses = []

@@ -40,6 +40,8 @@ TRANSMISSION_PITCH_WRAP = ROOT / "results" / "benchmarks" / "transmission_transf
 TRANSMISSION_PITCH_WRAP_SYMMETRIC = (ROOT / "results" / "benchmarks"
                                      / "transmission_transfer_pitch_wrap_symmetric.json")
 TRANSMISSION_LEARNED = ROOT / "results" / "benchmarks" / "transmission_transfer_learned.json"
+TRANSMISSION_LEARNED_FILE = (ROOT / "results" / "benchmarks"
+                             / "transmission_transfer_learned_file.json")
 PRIOR_RECOVERY = ROOT / "results" / "benchmarks" / "prior_recovery.json"
 PRIOR_ABLATION = ROOT / "results" / "benchmarks" / "prior_ablation.json"
 PRIOR_RECOVERY_DEFAULT = ROOT / "results" / "benchmarks" / "prior_recovery_default.json"
@@ -148,6 +150,8 @@ BLOCKS = (
      (TRANSMISSION_TRANSFER, TRANSMISSION_PITCH_WRAP, TRANSMISSION_PITCH_WRAP_SYMMETRIC),
      identification_page.transmission_pitch_wrap_table),
     (IDENTIFICATION, "transmission-transfer-learned", TRANSMISSION_LEARNED,
+     identification_page.transmission_transfer_learned_tables),
+    (IDENTIFICATION, "transmission-transfer-learned-file", TRANSMISSION_LEARNED_FILE,
      identification_page.transmission_transfer_learned_tables),
     (RESULTS, "results-status",
      (LEARNING_CURVE, PRIOR_ABLATION, PORTS, COMPARISON, PORT_DESIGN, ANOTHER_TOOL),

@@ -261,9 +261,10 @@ def reused_records(path: Path, models: list[str], seeds: list[int],
     missing = [m for m in MODELS if m not in models and m not in taken]
     if missing:
         raise ValueError(f"--reuse {path}: it has no records of {', '.join(missing)}")
-    keep = {"hybrid_physics_recalibrated_only"} if "hybrid" in models else set()
+    rows_of = {m: {m, "hybrid_physics_recalibrated_only"} if m == "hybrid" else {m}
+               for m in taken}  # the hybrid's records include its physics-only rows
     records = [r for r in old["records"]
-               if r.get("model") in taken and r.get("model") not in keep]
+               if any(r.get("model") in rows for rows in rows_of.values())]
     return records, taken
 
 

@@ -61,6 +61,9 @@ def test_reused_records_come_only_from_a_matching_run(tmp_path):
     kept, taken = reused_records(path, ["hybrid"], [1])
     assert taken == [m for m in MODELS if m != "hybrid"]
     assert {r["model"] for r in kept} == set(taken)      # the hybrid's rows are all rerun
+    kept, taken = reused_records(path, [m for m in MODELS if m != "hybrid"], [1])
+    assert taken == ["hybrid"]                           # with its physics-only rows
+    assert {r["model"] for r in kept} == {"hybrid", "hybrid_physics_recalibrated_only"}
     with pytest.raises(ValueError, match="seeds"):
         reused_records(path, ["hybrid"], [1, 2])
     path.write_text(json.dumps({**run, "finetune": {**run["finetune"], "time_limit_s": 1.0}}))
