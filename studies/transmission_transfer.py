@@ -61,6 +61,7 @@ of the in-session error on every folder and never worse than the constant; L_4 t
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import sys
 import time
 import warnings
@@ -272,7 +273,6 @@ def per_session_candidates(model: CableTransmission, data: dict) -> dict:
     error on the scored files, and what a lab can compute without them, the error on each of
     its three calibration files when the other two recalibrate (leave one file out: two of the
     three folds extrapolate to a load outside the two)."""
-    import dataclasses
     source_values, _ = model.parameters(data[SOURCE_FOLDER][0].session)
     out = {}
     for label, chosen in PER_SESSION_CANDIDATES.items():

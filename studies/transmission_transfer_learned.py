@@ -261,10 +261,8 @@ def reused_records(path: Path, models: list[str], seeds: list[int],
     missing = [m for m in MODELS if m not in models and m not in taken]
     if missing:
         raise ValueError(f"--reuse {path}: it has no records of {', '.join(missing)}")
-    rows_of = {m: {m, "hybrid_physics_recalibrated_only"} if m == "hybrid" else {m}
-               for m in taken}  # the hybrid's records include its physics-only rows
-    records = [r for r in old["records"]
-               if any(r.get("model") in rows for rows in rows_of.values())]
+    wanted = set(taken) | ({"hybrid_physics_recalibrated_only"} if "hybrid" in taken else set())
+    records = [r for r in old["records"] if r.get("model") in wanted]
     return records, taken
 
 
