@@ -69,9 +69,9 @@ FINETUNE_VALIDATION = {
     "file": "the middle load's calibration file, whole (the other two train)",
 }
 """What a finetune stops early on (``--finetune-validation``). ``tail`` is the first protocol;
-``file`` was added after the roll folders' rows showed every finetune doing worse than the
-model as is there, since a file's own tail cannot tell a fit to that file from one that holds on
-another grasp (every model gets the same)."""
+``file`` was added after the roll folders' rows showed every finetuned model far behind the
+recalibrated physics there, since a file's own tail cannot tell a fit to that file from one that
+holds on another grasp (every model gets the same)."""
 TRANSFER_JSON = ROOT / "results" / "benchmarks" / "transmission_transfer.json"
 
 
