@@ -11,8 +11,9 @@ import pytest
 
 from psmforce.identification.errors import IdentificationInputError
 from psmforce.identification.transmission.hysteresis import dahl_state, hold, play
-from psmforce.identification.transmission.model import (ANGLE_NAMES, TORQUE_NAMES,
-                                                        CableTransmission, _signals, _torque_law)
+from psmforce.identification.transmission.model import (ANGLE_NAMES, PER_SESSION,
+                                                        TORQUE_NAMES, CableTransmission,
+                                                        _signals, _torque_law)
 from psmforce.identification.transmission.recording import (TransmissionDataError,
                                                             TransmissionRecording, home_session,
                                                             read_transmission_file,
@@ -172,6 +173,24 @@ def test_shared_and_per_session_parameters_come_back_and_a_recalibration_finds_a
     assert again.sessions["mount_c"]["torque_bias"] == pytest.approx(0.03, abs=3e-3)
     assert np.array_equal(again.torque, fit.torque)          # nothing shared moved
     assert again.score(c[2:])["jaw_torque_rmse_nm"] < 0.5 * before
+
+
+@pytest.mark.slow
+def test_the_pair_asymmetry_comes_back_per_session():
+    # re-mounting re-tensions the cables: each session's own asymmetry is fitted, and a
+    # recalibration on a new mount's load range finds that mount's
+    assert "pair_asymmetry" in PER_SESSION
+    base = _in_family_bench(0)
+    a = _session(base[:4], "mount_a", pair_asymmetry=0.3)
+    b = _session(base[2:6], "mount_b", pair_asymmetry=0.7)
+    fit = CableTransmission.fit(a + b, initial=CableTransmission(
+        presliding_rad=0.04, hold_rad=0.005, backlash_rad=0.01))
+    assert fit.sessions["mount_a"]["pair_asymmetry"] == pytest.approx(0.3, rel=0.1)
+    assert fit.sessions["mount_b"]["pair_asymmetry"] == pytest.approx(0.7, rel=0.1)
+    c = _session(base, "mount_c", pair_asymmetry=0.15, pretension_torque=0.09)  # not the mean
+    again = fit.recalibrate(c[:4])                       # four loads across the range
+    assert again.sessions["mount_c"]["pair_asymmetry"] == pytest.approx(0.15, rel=0.1)
+    assert again.sessions["mount_c"]["pretension_torque"] == pytest.approx(0.09, rel=0.15)
 
 
 @pytest.fixture(scope="module")
