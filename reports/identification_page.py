@@ -385,7 +385,8 @@ def transmission_transfer_learned_tables(result: dict) -> str:
     model."""
     names = {"physics": "physics", "fcn": "FCN", "lstm": "LSTM", "transformer": "paper transformer",
              "rocket": "MultiRocket-Hydra", "hybrid": "hybrid",
-             "hybrid_physics_recalibrated_only": "hybrid, physics recalibrated only"}
+             "hybrid_physics_recalibrated_only": "hybrid, physics recalibrated only",
+             "hybrid_selected": "hybrid, residual kept where it helps"}
     seeds = result["seeds"]
     lines = ["", f"Seeds {seeds} (one seed: differences, not wins by the spread rule); inputs "
              f"{', '.join(result['inputs'])}; finetuning at most {result['finetune']['epochs']} "
@@ -394,7 +395,7 @@ def transmission_transfer_learned_tables(result: dict) -> str:
              + ". Jaw torque RMSE, mNm, whole files / closing portions.", ""]
     summary = result["summary"]
     learned = [m for m in ("fcn", "lstm", "transformer", "rocket") if m in result["models"]]
-    ahead_misses = []
+    ahead_misses = {"hybrid": [], "hybrid_selected": []}
     for protocol, title in (("in_session", "in session (L_4's held-out files)"),
                             ("as_is", "as is"), ("recalibrated", "recalibrated on 60 s")):
         models = [m for m in names if any(m in summary[f].get(protocol, {}) for f in summary)]
@@ -412,14 +413,18 @@ def transmission_transfer_learned_tables(result: dict) -> str:
                 w, c = row[m]["whole"]["torque_rmse_mNm"], row[m]["closing"]["torque_rmse_mNm"]
                 cells.append(f"{w['mean']:.1f} / {c['mean']:.1f}")
             lines.append(f"| {folder} | " + " | ".join(cells) + " |")
-            if "hybrid" in row and protocol != "in_session":
+            for hybrid, misses in ahead_misses.items():
+                # as is there is nothing to select on: the selected hybrid is the hybrid
+                shown = hybrid if protocol == "recalibrated" else "hybrid"
+                if shown not in row or protocol == "in_session":
+                    continue
                 for part in ("whole", "closing"):
-                    h = row["hybrid"][part]["torque_rmse_mNm"]["mean"]
+                    h = row[shown][part]["torque_rmse_mNm"]["mean"]
                     best = min(((row[m][part]["torque_rmse_mNm"]["mean"], m) for m in learned
                                 if m in row), default=None)
                     if best and h >= best[0]:
-                        ahead_misses.append(f"{folder} {protocol} {part} ({names[best[1]]} "
-                                            f"{best[0]:.1f} against {h:.1f})")
+                        misses.append(f"{folder} {protocol} {part} ({names[best[1]]} "
+                                      f"{best[0]:.1f} against {h:.1f})")
         lines.append("")
     cut = {}
     for r in result["records"]:
@@ -429,6 +434,17 @@ def transmission_transfer_learned_tables(result: dict) -> str:
         lines.append("Finetunes stopped by the time limit before early stopping (not converged): "
                      + ", ".join(f"{names[m]} {n} of {len(summary) - 1}"
                                  for m, n in sorted(cut.items())) + ".")
-    lines.append("The hybrid below every learned model on every transfer protocol: "
-                 + (f"missed on {'; '.join(ahead_misses)}." if ahead_misses else "met.") + "")
+    kept = [(r["folder"], r["selection"]["kept"]) for r in result["records"]
+            if r["model"] == "hybrid_selected"]
+    for hybrid, title in (("hybrid", "The hybrid"),
+                          ("hybrid_selected", "The hybrid with its residual kept where it "
+                                              "helps (as is, the hybrid)")):
+        if hybrid == "hybrid_selected" and not kept:
+            continue
+        misses = ahead_misses[hybrid]
+        lines.append(f"{title} below every learned model on every transfer protocol: "
+                     + (f"missed on {'; '.join(misses)}." if misses else "met.") + "")
+    if kept:
+        lines += ["", "Kept by the recalibration (" + result["selection"] + "): "
+                  + "; ".join(f"{folder} {what}" for folder, what in kept) + "."]
     return "\n".join(lines) + "\n"

@@ -23,7 +23,11 @@ Per folder, on the files outside its calibration (the transfer study's ``calibra
   head); the hybrid's physics is recalibrated first (its per-session parameters), then its
   network finetuned on the new residual;
 * ``hybrid, physics recalibrated only``: the hybrid's network as is on the recalibrated physics
-  (the cheap procedure: no training at the robot).
+  (the cheap procedure: no training at the robot);
+* ``hybrid, residual kept where it helps``: the recalibrated hybrid, or the recalibrated physics
+  alone where the finetune's validation data say the network does not help (:data:`SELECTION`).
+  Every finetune already keeps its starting weights when no epoch improves on that data; a zero
+  residual is the one further choice only the hybrid has.
 
 Metrics as in the transfer study (torque mNm, angle deg, whole and closing). One seed gives no
 spread: with one seed a difference is reported, never a win by the spread rule.
@@ -195,7 +199,7 @@ def run_model(model: str, seed: int, data_dir: str, work: str,
                 "protocol": "recalibrated",
                 "metrics": _closing_rmse(Scored(phys_cal), scored)}))
 
-        def finetuned():
+        def calibration_split():
             cal_train, cal_val = [], []
             for k, rec in enumerate(calib):
                 if validation == "file":  # the middle load's file held out whole
@@ -204,6 +208,10 @@ def run_model(model: str, seed: int, data_dir: str, work: str,
                 cut = round(len(rec) * (1 - CALIBRATION_VAL_FRACTION))
                 cal_train.append(series(rec, phys_cal, 0, cut))
                 cal_val.append(series(rec, phys_cal, mask_from=cut))
+            return cal_train, cal_val
+
+        def finetuned():
+            cal_train, cal_val = calibration_split()
             if model == "rocket":
                 fit = est.fit(cal_train, cal_val, refit=True)
             else:
@@ -215,7 +223,38 @@ def run_model(model: str, seed: int, data_dir: str, work: str,
             return out
 
         records.append(kept(f"{folder}_recalibrated", finetuned))
+        if physics:
+            def physics_val_loss():  # _val_loss's definition, for a zero residual
+                zero = ys(np.zeros((1, 2)))
+                return float(np.concatenate(
+                    [((zero - s.y) ** 2)[s.mask] for s in calibration_split()[1]]).mean())
+
+            records.append(kept(f"{folder}_selected", lambda: selected(
+                records[-1], _closing_rmse(phys_cal, scored), physics_val_loss())))
     return records
+
+
+SELECTION = ("the hybrid's recalibration keeps its residual network only where it helps: on the "
+             "data its finetune stops early on, the finetuned network's "
+             "best loss against the physics alone's (a zero residual), the lower kept")
+"""``hybrid_selected``, added after the L_2 and Tool_5 rows showed the recalibrated physics alone
+ahead of the hybrid. The finetuned network's loss is the minimum over the epochs on that data
+(its early stopping's), so the choice leans towards keeping the network."""
+
+
+def selected(finetuned: dict, physics_alone: dict, physics_val_loss: float) -> dict:
+    """The ``hybrid_selected`` record of one folder: the finetuned hybrid's metrics or the
+    recalibrated physics alone's (``physics_alone``), whichever scored the lower loss on the
+    finetune's validation data (:data:`SELECTION`); which was kept and both losses are
+    recorded."""
+    network_loss = float(finetuned["fit"]["best_val_loss"])
+    keep = network_loss <= physics_val_loss
+    return {"model": "hybrid_selected", "seed": finetuned["seed"], "folder": finetuned["folder"],
+            "protocol": "recalibrated",
+            "metrics": finetuned["metrics"] if keep else physics_alone,
+            "selection": {"kept": "residual network" if keep else "physics alone",
+                          "network_val_loss": network_loss,
+                          "physics_alone_val_loss": physics_val_loss}}
 
 
 def summarise(records: list[dict]) -> dict:
@@ -261,7 +300,8 @@ def reused_records(path: Path, models: list[str], seeds: list[int],
     missing = [m for m in MODELS if m not in models and m not in taken]
     if missing:
         raise ValueError(f"--reuse {path}: it has no records of {', '.join(missing)}")
-    wanted = set(taken) | ({"hybrid_physics_recalibrated_only"} if "hybrid" in taken else set())
+    wanted = set(taken) | ({"hybrid_physics_recalibrated_only", "hybrid_selected"}
+                           if "hybrid" in taken else set())
     records = [r for r in old["records"] if r.get("model") in wanted]
     return records, taken
 
@@ -318,12 +358,15 @@ def main(argv=None) -> int:
                             + shown_path(args.reuse) if args.reuse is not None else "")
                          + (f" --finetune-validation {args.finetune_validation}"
                             if args.finetune_validation != "tail" else "")
+                         + (" --work " + shown_path(args.work)
+                            if args.work != ap.get_default("work") else "")
                          + " --json " + shown_path(args.json),
               "inputs": list(INPUTS), "seeds": args.seeds, "models": models,
               "reused": ({"from": shown_path(args.reuse),
                           "models": [m for m in models if m not in args.models]}
                          if args.reuse is not None else None),
               "finetune": _finetune_settings(args.finetune_validation),
+              "selection": SELECTION if "hybrid" in models else None,
               "summary": summary, "records": records,
               "run": {"seconds": round(time.perf_counter() - t0, 1)}}
     write_json_atomic(args.json, result)

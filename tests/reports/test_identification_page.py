@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import pytest
 
-from reports.identification_page import transmission_per_session_table
+from reports.identification_page import (transmission_per_session_table,
+                                         transmission_transfer_learned_tables)
 
 
 def _score(v):
@@ -43,3 +44,30 @@ def test_a_json_without_the_candidates_is_refused_with_the_command():
     result["per_session_candidates"] = None
     with pytest.raises(ValueError, match="rerun `python studies/transmission_transfer.py"):
         transmission_per_session_table(result)
+
+
+def _learned(selected_kept: str):
+    def rmse(v):
+        return {part: {"torque_rmse_mNm": {"mean": v, "std": None, "seeds": 1}}
+                for part in ("whole", "closing")}
+    chosen = 5.0 if selected_kept == "physics alone" else 7.0
+    summary = {"other": {"as_is": {"hybrid": rmse(9.0), "transformer": rmse(10.0)},
+                         "recalibrated": {"physics": rmse(5.0), "transformer": rmse(6.0),
+                                          "hybrid": rmse(7.0), "hybrid_selected": rmse(chosen)}}}
+    records = [{"model": "hybrid_selected", "folder": "other", "protocol": "recalibrated",
+                "selection": {"kept": selected_kept}}]
+    return {"seeds": [1], "inputs": ["motor_current_a"], "models": ["transformer", "hybrid"],
+            "finetune": {"epochs": 10, "time_limit_s": 1.0, "validation": "file"},
+            "selection": "the lower kept", "summary": summary, "records": records}
+
+
+def test_the_selected_hybrid_is_judged_on_its_own_line_with_what_it_kept():
+    text = transmission_transfer_learned_tables(_learned("physics alone"))
+    plain = next(x for x in text.splitlines() if x.startswith("The hybrid below"))
+    chosen = next(x for x in text.splitlines() if x.startswith("The hybrid with its residual"))
+    assert "other recalibrated whole (paper transformer 6.0 against 7.0)" in plain
+    assert chosen.endswith("met.")                 # 5.0, the physics alone, beats 6.0
+    assert "other physics alone." in text
+    text = transmission_transfer_learned_tables(_learned("residual network"))
+    chosen = next(x for x in text.splitlines() if x.startswith("The hybrid with its residual"))
+    assert "other recalibrated closing (paper transformer 6.0 against 7.0)" in chosen

@@ -53,7 +53,8 @@ def test_reused_records_come_only_from_a_matching_run(tmp_path):
     from studies.transmission_transfer_learned import (INPUTS, MODELS, _finetune_settings,
                                                        reused_records)
     records = [{"model": m, "seed": 1} for m in MODELS]
-    records.append({"model": "hybrid_physics_recalibrated_only", "seed": 1})
+    records += [{"model": "hybrid_physics_recalibrated_only", "seed": 1},
+                {"model": "hybrid_selected", "seed": 1}]
     run = {"inputs": list(INPUTS), "seeds": [1], "finetune": _finetune_settings(),
            "models": list(MODELS), "records": records}
     path = tmp_path / "old.json"
@@ -63,7 +64,8 @@ def test_reused_records_come_only_from_a_matching_run(tmp_path):
     assert {r["model"] for r in kept} == set(taken)      # the hybrid's rows are all rerun
     kept, taken = reused_records(path, [m for m in MODELS if m != "hybrid"], [1])
     assert taken == ["hybrid"]                           # with its physics-only rows
-    assert {r["model"] for r in kept} == {"hybrid", "hybrid_physics_recalibrated_only"}
+    assert {r["model"] for r in kept} == {"hybrid", "hybrid_physics_recalibrated_only",
+                                          "hybrid_selected"}
     with pytest.raises(ValueError, match="seeds"):
         reused_records(path, ["hybrid"], [1, 2])
     path.write_text(json.dumps({**run, "finetune": {**run["finetune"], "time_limit_s": 1.0}}))
@@ -75,3 +77,18 @@ def test_reused_records_come_only_from_a_matching_run(tmp_path):
     path.write_text("{not json")
     with pytest.raises(ValueError, match="not a readable JSON"):
         reused_records(path, ["hybrid"], [1])
+
+
+def test_the_recalibration_keeps_the_residual_only_where_its_validation_loss_is_lower():
+    from studies.transmission_transfer_learned import selected
+
+    network = {"model": "hybrid", "seed": 3, "folder": "f", "protocol": "recalibrated",
+               "metrics": {"whole": {"torque_rmse_mNm": 7.0}}, "fit": {"best_val_loss": 0.2}}
+    physics_alone = {"whole": {"torque_rmse_mNm": 5.0}}
+    off = selected(network, physics_alone, physics_val_loss=0.1)
+    assert off["selection"]["kept"] == "physics alone" and off["metrics"] is physics_alone
+    assert (off["model"], off["seed"], off["folder"]) == ("hybrid_selected", 3, "f")
+    on = selected(network, physics_alone, physics_val_loss=0.3)
+    assert on["selection"]["kept"] == "residual network"
+    assert on["metrics"] == network["metrics"]
+    assert on["selection"]["network_val_loss"] == 0.2
