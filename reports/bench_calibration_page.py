@@ -9,7 +9,7 @@ Block name: ``bench-paper-calibration``."""
 from __future__ import annotations
 
 AXES = ("Fx", "Fy", "Fz")
-MODEL_ORDER = ("fcn", "lstm", "rocket")
+MODEL_ORDER = ("fcn", "lstm", "rocket", "transformer")
 
 
 def _fmt(values: dict, pattern: str = "{:.2f}") -> str:
@@ -52,6 +52,27 @@ def _verdict_line(v: dict) -> str:
     return f"Verdict: {state}."
 
 
+def _held_out_line(v: dict, paper: dict) -> str:
+    check, lateral = v["transformer_held_out"], v["fcn_worse_than_transformer_laterally"]
+    if isinstance(check, str):
+        return f"The paper's transformer (held out): {check}."
+    budget = "" if check["paper_budget"] else " (below the paper's budget: not met at it)"
+    state = ("in band on every axis" if not check["misses"]
+             else "outside the band: " + ", ".join(check["misses"]))
+    line = (f"The paper's transformer (held out, scale {check['scale']:g}{budget}, seeds "
+            f"{', '.join(map(str, check['seeds']))}): {_fmt(check['ratio'], '{:.2f}x')}, "
+            f"{state}. ")
+    if isinstance(lateral, str):
+        return line + f"The FCN worse than it laterally: {lateral}."
+    ratio = lateral["fcn_over_transformer"]
+    robot = {a: paper["fcn"]["nrmse_pct"][a] / paper["transformer"]["nrmse_pct"][a]
+             for a in ("Fx", "Fy")}
+    return line + (f"The FCN over the transformer, Fx / Fy: {ratio['Fx']:.2f}x / "
+                   f"{ratio['Fy']:.2f}x (the robot's {robot['Fx']:.2f}x / {robot['Fy']:.2f}x): "
+                   + ("worse laterally, as on the robot." if lateral["met"] else
+                      "not worse on both lateral axes, unlike the robot."))
+
+
 def lines(result: dict) -> list[str]:
     """The block's markdown lines: per version tried (in the order tried), a table model x
     scale: bench, paper, ratio, in band, RMSE and test range; its verdict; the 2.1 reference
@@ -86,19 +107,23 @@ def lines(result: dict) -> list[str]:
             budget = "" if r["paper_budget"] else " (below the paper's budget)"
             shown = "all" if len(inside) == len(AXES) else (", ".join(inside) or "none")
             where = "" if r["candidate"] == name else f", on {r['candidate']}'s bench"
-            out.append(f"| {r['label']}{where} | {r['scale']:g}{budget} | "
+            held = " (held out)" if r.get("role") == "held_out" else ""
+            out.append(f"| {r['label']}{held}{where} | {r['scale']:g}{budget} | "
                        f"{', '.join(map(str, r['seeds']))} | {_fmt(r['bench_nrmse_pct'])} | "
                        f"{_fmt(r['paper_nrmse_pct'])} | {_fmt(r['ratio'], '{:.2f}x')} | "
                        f"{shown} | {_fmt(r['bench_rmse_n'], '{:.3f}')} | "
                        f"{_fmt(r['test_range_n'])} |")
         if v:
             out += ["", _verdict_line(v)]
+            if isinstance(v.get("transformer_held_out"), dict):
+                out += ["", _held_out_line(v, paper)]
         for model, sub in subs.items():
             label = result["paper"][model]["label"]
             out += ["", f"{label} on {sub['from']}'s bench: {sub['why']}."]
-    v = next(iter(result.get("verdicts", {}).values()), None)
-    if v:
-        out += ["", f"The paper's transformer (held out): {v['transformer_held_out']}."]
+    checked = [v for v in result.get("verdicts", {}).values()
+               if isinstance(v.get("transformer_held_out"), dict)]
+    if not checked and result.get("verdicts"):
+        out += ["", _held_out_line(next(iter(result["verdicts"].values())), paper)]
     ref = result.get("reference_2.1")
     if ref:
         out += ["", f"Reference, simulator 2.1 ({ref['source']}): "

@@ -23,7 +23,8 @@ def test_rows_score_the_calibration_models_only_against_their_family():
     res = _result({"FCN": (1.93, 1.0, 4.6), "Hybrid (ours)": (0.1, 0.1, 0.1),
                    "Transformer (paper)": (1.0, 1.0, 1.0)})
     rows = cal.rows("x", 1.0, res)
-    assert [r["model"] for r in rows] == ["fcn"]        # never the hybrid or the transformer
+    assert [r["model"] for r in rows] == ["fcn", "transformer"]        # never the hybrid
+    assert [r["role"] for r in rows] == ["calibration", "held_out"]
     r = rows[0]
     assert r["ratio"]["Fx"] == pytest.approx(1.0)
     assert r["in_band"] == {"Fx": True, "Fy": False, "Fz": False}   # 1.0/1.59 = 0.63, 4.6/2.99 = 1.54
@@ -64,3 +65,34 @@ def test_every_write_stamps_the_command_settings_and_verdicts():
     assert {"reference_2.1", "substitutes", "notes", "candidates", "remount_ranges",
             "registered"} <= set(data)
     assert data["verdicts"] == {"2.3": cal.verdict(data, "2.3")}
+
+
+def test_the_held_out_transformer_is_checked_but_never_enters_the_band_rule():
+    fcn = _result({"FCN": (1.9, 1.6, 3.0), "MultiRocket-Hydra": (2.2, 2.5, 2.7),
+                   "LSTM (Yang et al.)": (4.0, 4.4, 4.0)})
+    data = cal.merge({}, cal.rows("2.3", 1.0, fcn), cal.floor_rows("2.3", 1.0, fcn))
+    v = cal.verdict(data, "2.3")
+    assert v["met_at_paper_budget"] and v["transformer_held_out"].startswith("not checked")
+    # far outside the band: reported as a miss of the check, the calibration verdict unchanged
+    tr = _result({"Transformer (paper)": (0.5, 1.3, 2.2)})
+    data = cal.merge(data, cal.rows("2.3", 1.0, tr), cal.floor_rows("2.3", 1.0, tr))
+    v = cal.verdict(data, "2.3")
+    assert v["met_at_paper_budget"] and v["misses"] == []
+    check = v["transformer_held_out"]
+    assert check["misses"] == ["Fx (0.34x)"] and not check["met"]
+    lateral = v["fcn_worse_than_transformer_laterally"]
+    assert lateral["fcn_over_transformer"]["Fx"] == pytest.approx(3.8)
+    assert lateral["fcn_over_transformer"]["Fy"] == pytest.approx(1.6 / 1.3)
+    assert lateral["met"]
+    data.update({"paper": cal.PAPER, "band": list(cal.BAND), "verdicts": {"2.3": v}})
+    text = bench_paper_calibration(data)
+    assert "| Transformer (paper) (held out) | 1 |" in text
+    assert "outside the band: Fx (0.34x)" in text
+    assert "(the robot's 1.33x / 1.21x): worse laterally, as on the robot." in text
+    # the FCN level with it laterally: not as on the robot
+    tr = _result({"Transformer (paper)": (1.9, 1.7, 2.2)})
+    data = cal.merge(data, cal.rows("2.3", 1.0, tr), cal.floor_rows("2.3", 1.0, tr))
+    assert not cal.verdict(data, "2.3")["fcn_worse_than_transformer_laterally"]["met"]
+    with pytest.raises(SystemExit, match="never on candidates"):
+        cal.main(["--candidates", "2.3a", "--models", "transformer", "--json",
+                  "/nonexistent/x.json"])
