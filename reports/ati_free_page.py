@@ -6,7 +6,7 @@ takes the parsed JSON and returns the block's markdown."""
 
 from __future__ import annotations
 
-from reports.cells import miss_rule
+from reports.cells import as_held, miss_rule, rescored_note
 
 FORCE_AXES = ("fx", "fy", "fz")
 
@@ -380,7 +380,8 @@ def instrument_identification_tables(result: dict) -> str:
     unit = {p[0]: p[1] for p in PARAMETERS}
     cases = list(result["cases"])
     last = cases[-1]
-    lines = ["", f"`{result['command']}` (simulator {result['simulator_version']}; scale "
+    lines = ["", f"`{result['command']}`{rescored_note(result)} (simulator "
+             f"{result['simulator_version']}; scale "
              f"{result['settings']['scale']:g}; seed {result['design_seed']} is the design seed, "
              "the others fresh). Per case, the final fit of `psmforce calibrate --free-space "
              "--known-loads`'s identification (`calibrate.identify_instrument`): its value, its "
@@ -403,7 +404,7 @@ def instrument_identification_tables(result: dict) -> str:
                 rel = "" if r["relative_error"] is None else f" ({100 * r['relative_error']:.0f} %)"
                 mark = ("identified, **MISS**" if name in runs[case]["misses"]
                         else _MARKS.get(r["status"], r["status"]))
-                cells.append(f"{r['fitted']:.4g}{rel} {mark}")
+                cells.append(f"{r['fitted']:.4g}{rel}{as_held(r)} {mark}")
             first = runs[last]["parameters"][name]["all_free_fit"]
             rel = ("" if truth in (None, 0) or first is None
                    else f" ({100 * abs(first / truth - 1):.0f} %)")

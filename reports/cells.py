@@ -17,4 +17,22 @@ def miss_rule(run: dict) -> str:
     if res:
         rule += (f", an offset (`bias_*`) more than its resolution ({res['N']:g} N, "
                  f"{res['Nm']:g} Nm) from it")
+    if run.get("truth_as_held"):
+        rule += ("; where a cross-talk term is held off the bench's, the bias of its channel is "
+                 "judged against the truth as the law holds it (the bench's offset plus the held "
+                 "cross-talk's share of the rest axial force, shown as \"as held\")")
     return rule
+
+
+def as_held(row: dict) -> str:
+    """`` (X as held)`` for an identified parameter judged against an effective truth
+    (``experiments.prior_recovery.judge``), else nothing."""
+    eff = row.get("effective_truth")
+    return "" if eff is None or row["status"] != "identified" else f" ({eff:.4g} as held)"
+
+
+def rescored_note(result: dict) -> str:
+    """``, misses judged again by `COMMAND` (the fits untouched)`` for a study JSON rescored by
+    ``experiments.prior_recovery.rescore``, else nothing."""
+    r = result.get("rescored")
+    return "" if not r else f"; misses judged again by `{r['command']}` (the fits untouched)"

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import math
 
-from reports.cells import miss_rule, spread_cell
+from reports.cells import as_held, miss_rule, rescored_note, spread_cell
 
 MODEL_NAMES = {"physics": "physics alone (`CableTransmission`)", "fcn": "FCN",
                "lstm": "LSTM", "transformer": "paper transformer",
@@ -137,8 +137,8 @@ def prior_default_recovery_table(result: dict) -> str:
     fit = ("`psmforce fit-prior --identify --use-loaded --load-path` (Free, Traction and "
            "Palpation training trials; the cables read from the known tip force)"
            if result.get("load_path") else "`psmforce fit-prior --identify` (Free training trials)")
-    lines = ["", f"`{result['command']}`: `psmforce simulate --seed S --scale "
-             f"{result['scale']:g}` then {fit}. "
+    lines = ["", f"`{result['command']}`{rescored_note(result)}: `psmforce simulate --seed S "
+             f"--scale {result['scale']:g}` then {fit}. "
              "*fixed*: held at its design value (the value shown) because the report lists it "
              "on the fit before; *identified*: free and not listed on the final fit; "
              f"**MISS**: identified but {miss_rule(result['runs'][0])}; "
@@ -159,7 +159,7 @@ def prior_default_recovery_table(result: dict) -> str:
             elif status == "identified" and name in run["uncompared"]:
                 status = "identified (no truth to compare)"
             bound_first = name in run["rounds"][0]["bounds_hit"]
-            lines.append(f"| {name} | {unit[name]} | {_num(r['truth'])} | "
+            lines.append(f"| {name} | {unit[name]} | {_num(r['truth'])}{as_held(r)} | "
                          f"{_num(r['all_free_fit'])}{' *B*' if bound_first else ''} | "
                          f"{_num(r['fitted'])}{' *B*' if r['at_bound'] else ''} | {rel} | "
                          f"{status} |")

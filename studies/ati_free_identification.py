@@ -22,7 +22,8 @@ trained. Usage::
 Seeds: 201 is the design seed (the load path with known weights was tried on its ATI-free
 recordings before this study existed); ``ATI_FREE_IDENTIFICATION_SEEDS`` in
 ``psmforce/experiments/seeds.py`` are fresh, declared before the run. Resumable: the recordings
-are kept under ``--work`` and reused.
+are kept under ``--work`` and reused. ``--rescore --json PATH`` judges a written JSON's misses
+again by today's rule (:func:`psmforce.experiments.prior_recovery.judge`), the fits untouched.
 """
 
 from __future__ import annotations
@@ -118,6 +119,26 @@ def _seed(seed: int, args, q_exc) -> list[dict]:
     return rows
 
 
+def _rescore(path: Path | None) -> dict:
+    import json
+
+    from psmforce.experiments.prior_recovery import rescore
+    from psmforce.experiments.report import shown_path, write_json
+    if path is None:
+        raise SystemExit("--rescore needs --json: the study's JSON to judge again")
+    try:
+        result = json.loads(path.read_text())
+        if not all("parameters" in r and "misses" in r for r in result["runs"]):
+            raise KeyError("parameters")
+    except (OSError, ValueError, KeyError, TypeError) as exc:
+        raise SystemExit(f"--rescore --json {path}: not a JSON of this study "
+                         f"({type(exc).__name__}: {exc})") from None
+    rescore(result, f"python studies/ati_free_identification.py --rescore --json "
+                    f"{shown_path(path)}")
+    write_json(path, result)
+    return result
+
+
 def main(argv=None) -> dict:
     from psmforce.experiments.report import shown_path, write_json
     from psmforce.experiments.seeds import ATI_FREE_IDENTIFICATION_SEEDS
@@ -135,7 +156,12 @@ def main(argv=None) -> dict:
     ap.add_argument("--hold-s", type=float, default=10.0)
     ap.add_argument("--work", type=Path, default=Path("runs/ati_free_identification"))
     ap.add_argument("--json", type=Path)
+    ap.add_argument("--rescore", action="store_true",
+                    help="judge the misses of --json again by today's rule "
+                         "(experiments.prior_recovery.judge), the fits untouched; rewrites it")
     args = ap.parse_args(argv)
+    if args.rescore:
+        return _rescore(args.json)
     started = time.perf_counter()
     q_exc = _excitation(args.work, args)
     runs = [row for seed in args.seeds for row in _seed(seed, args, q_exc)]

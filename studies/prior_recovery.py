@@ -27,6 +27,9 @@ instead, every training trial with the cables read from the known tip force
 
     python studies/prior_recovery.py --default-bench --load-path \
         --json results/benchmarks/prior_recovery_load_path.json
+
+``--rescore JSON``: the misses of a written ``--default-bench`` JSON judged again by today's rule
+(:func:`psmforce.experiments.prior_recovery.judge`), the fits untouched; the JSON records it.
 """
 
 from __future__ import annotations
@@ -90,6 +93,27 @@ def default_bench(args) -> None:
                                "runs": runs, "seconds": time.time() - t0})
 
 
+def _rescore(path: Path) -> None:
+    import json
+
+    from psmforce.experiments.prior_recovery import rescore
+    from psmforce.experiments.report import shown_path
+    try:
+        result = json.loads(path.read_text())
+        runs = result["runs"]
+        if not all(isinstance(r, dict) and "parameters" in r and "misses" in r for r in runs):
+            raise KeyError("parameters")
+    except (OSError, ValueError, KeyError, TypeError) as exc:
+        raise SystemExit(f"--rescore {path}: not a --default-bench JSON of this study "
+                         f"({type(exc).__name__}: {exc})") from None
+    rescore(result, f"python studies/prior_recovery.py --rescore {shown_path(path)}")
+    write_json(path, result)
+    for change in result["rescored"]["changed"]:
+        run = runs[change["run"]]
+        print(f"{run['case']}, seed {run['seed']}: misses {change['misses_before']} -> "
+              f"{change['misses']}")
+
+
 def main() -> None:
     from psmforce.identification.prior import DATASHEET
     from psmforce.experiments.prior_recovery import IN_FAMILY_EFFECTS, SWITCHES, recover
@@ -105,7 +129,13 @@ def main() -> None:
     ap.add_argument("--load-path", action="store_true",
                     help="with --default-bench: fit-prior --use-loaded --load-path")
     ap.add_argument("--json", type=Path)
+    ap.add_argument("--rescore", type=Path, default=None, metavar="JSON",
+                    help="judge the misses of a --default-bench JSON again by today's rule "
+                         "(experiments.prior_recovery.judge), the fits untouched; rewrites it")
     args = ap.parse_args()
+    if args.rescore is not None:
+        _rescore(args.rescore)
+        return
     if args.default_bench:
         from psmforce.experiments.seeds import LOAD_PATH_SEEDS
         args.scale = (0.25 if args.load_path else 1.0) if args.scale is None else args.scale

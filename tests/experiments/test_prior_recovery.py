@@ -114,3 +114,36 @@ def test_every_effect_switch_of_the_in_family_bench_is_stated():
 
     assert set(SWITCHES) == {f.name for f in fields(Effects)}
     assert all(why.startswith(("on:", "off:")) for why in SWITCHES.values())
+
+
+def _rows(**changes):
+    """compare_selection rows: a 6 N pretension, the cross-talk into tz 0.2 mm held at 0."""
+    rows = {"pretension_total": {"truth": 6.0, "fitted": 6.0, "status": "fixed"},
+            "crosstalk_tz": {"truth": 2e-4, "fitted": 0.0, "status": "fixed"},
+            "bias_tz": {"truth": 0.0, "fitted": -1.25e-3, "status": "identified"},
+            "bias_fx": {"truth": 0.05, "fitted": 0.05, "status": "identified"},
+            "crosstalk_fx": {"truth": 6e-3, "fitted": 6e-3, "status": "identified"}}
+    for name, row in changes.items():
+        rows[name] = {**rows[name], **row}
+    return rows
+
+
+def test_a_bias_is_judged_against_the_truth_as_the_law_holds_it():
+    from psmforce.experiments.prior_recovery import judge, rescore
+    rows = _rows()
+    verdict = judge(rows)
+    # the held cross-talk leaves 2e-4 m x (-6 N) = -1.2 mNm in tz: -1.25 is within 0.2 mNm of it
+    assert rows["bias_tz"]["effective_truth"] == pytest.approx(-1.2e-3)
+    assert verdict["misses"] == [] and "effective_truth" not in rows["bias_fx"]
+    # judged against the bench's offset alone it would be a miss: the shift is what passes it
+    assert not recovered("bias_tz", -1.25e-3, 0.0)
+    assert judge(_rows(bias_tz={"fitted": 0.0}))["misses"] == ["bias_tz"]
+    # a cross-talk term the fit frees (or holds at its truth) shifts nothing
+    rows = _rows(crosstalk_tz={"status": "identified", "fitted": 2e-4})
+    assert judge(rows)["misses"] == ["bias_tz"] and "effective_truth" not in rows["bias_tz"]
+    assert judge(_rows(crosstalk_tz={"fitted": 2e-4}))["misses"] == ["bias_tz"]
+    stored = {"runs": [{"parameters": _rows(), "misses": ["bias_tz"], "uncompared": []}]}
+    rescore(stored, "python x --rescore")
+    assert stored["runs"][0]["misses"] == []
+    assert stored["rescored"]["changed"] == [{"run": 0, "misses_before": ["bias_tz"],
+                                              "misses": []}]
