@@ -1,0 +1,50 @@
+"""studies/comparison.py: the point and its table from a reproduce result (nothing trained), and
+the seeds it refuses."""
+
+import pytest
+
+from studies import comparison
+
+
+def _results(errors: dict, converged=None) -> dict:
+    """A reproduce result: per model, per seed, one causal error per axis (the paper metric
+    twice it)."""
+    from psmforce.experiments.plan import plan
+    seeds = [101, 102, 103]
+    per_seed = {mt: {plan(m).label: [{a: k * v for a in comparison.AXES} for v in vals]
+                     for m, vals in errors.items()} for mt, k in (("causal", 1), ("paper", 2))}
+    training = {f"{m} full 1.0 seed {s}": {"epochs_run": 30, "converged": (converged or {}).get(
+        m, True), "stopped_by": "patience"} for m in errors for s in seeds}
+    return {"automated_nrmse_pct_per_seed": per_seed, "training": training,
+            "call": {"models": list(errors), "seeds": seeds, "device": "cpu"},
+            "benches": {f"automated seed {s}": "2.3" for s in seeds}}
+
+
+def test_the_point_pairs_the_hybrid_with_each_model_and_keeps_the_unconverged_out():
+    res = _results({"hybrid": [1.0, 2.0, 1.5], "transformer": [2.0, 4.1, 2.9],
+                    "fcn": [1.0, 2.1, 1.4]}, converged={"fcn": False})
+    p = comparison.point(res, "2.3", 0.1, 1.0)
+    hybrid = p["models"]["hybrid"]["summary"]["causal"]["Fx"]
+    assert hybrid["mean"] == pytest.approx(1.5) and hybrid["sd"] == pytest.approx(0.5)  # ddof 1
+    t = p["paired"]["transformer"]["causal"]["Fx"]
+    assert t["verdict"] == "ahead" and t["high"] < 1.0            # about 0.5x on every seed
+    assert p["not_converged"] == ["fcn"] and "fcn" not in p["paired"]
+    assert p["not_compared"] == ["fcn"]
+    text = comparison.table({"points": {"2.3 scale 0.1": p}})
+    assert "| hybrid / Transformer (paper) | 0.5" in text and "| FCN |" in text
+    assert "| NO |" in text and "Not compared" in text
+
+
+def test_a_tie_when_the_interval_holds_one():
+    res = _results({"hybrid": [1.0, 2.0, 1.5], "transformer": [0.8, 2.5, 1.5]})
+    p = comparison.point(res, "2.3", 0.1, 1.0)
+    r = p["paired"]["transformer"]["causal"]["Fx"]
+    assert r["low"] < 1.0 < r["high"] and r["verdict"] == "tie"
+
+
+def test_design_and_undeclared_seeds_are_refused(tmp_path):
+    for seeds in (["1", "101"], ["999"]):
+        with pytest.raises(SystemExit):
+            comparison.main(["--scale", "0.1", "--seeds", *seeds, "--json",
+                             str(tmp_path / "c.json"), "--work", str(tmp_path)])
+    assert not (tmp_path / "c.json").exists()
