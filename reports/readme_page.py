@@ -212,3 +212,56 @@ def headline(curve: dict) -> str:
               f"![The learning curve: causal NRMSE against minutes of training data, per axis]"
               f"({FIGURE})", ""]
     return "\n".join(lines)
+
+
+def _bench_over_robot(calibration: dict, version: str) -> str:
+    """What the bench calibration (``studies/bench_paper_calibration.py``) measured of
+    ``version`` against the paper's robot: each calibration model's ratios and the held-out
+    transformer's status."""
+    rows = [r for r in calibration.get("rows", []) if r["candidate"] == version
+            and r["paper_budget"]]
+    if not rows:
+        return ""
+    text = "; ".join(f"{r['label']} " + " / ".join(f"{r['ratio'][a]:.2f}x" for a in AXES)
+                     for r in rows)
+    held = calibration["verdicts"][version]["transformer_held_out"]
+    if isinstance(held, dict):
+        ratios = " / ".join(f"{held['ratio'][a]:.2f}x" for a in AXES)
+        held = f"the held-out paper transformer {ratios}"
+    else:
+        held = "the paper's transformer, its held-out check, not run yet"
+    seeds = sorted({s for r in rows for s in r["seeds"]})
+    return (f" On simulator {version} at the paper's amount of data (design seed"
+            f"{'s' if len(seeds) > 1 else ''} {', '.join(map(str, seeds))}), the paper's models "
+            f"score against their published robot errors (Fx / Fy / Fz): {text}; {held}.")
+
+
+def fresh_comparison(result: dict, calibration: dict | None = None) -> str:
+    """README's first screen, under the headline: the published comparison on fresh seeds
+    (``studies/comparison.py``), per point the hybrid's error over each model's, paired by seed,
+    with its interval and verdict, causal and paper metric, and the bench against the robot
+    (``calibration``: the bench calibration's JSON)."""
+    points = sorted(result.get("points", {}).values(), key=lambda p: (p["version"], p["scale"]))
+    if not points:
+        return "\nNo comparison on fresh seeds yet (`studies/comparison.py`).\n"
+    lines = [""]
+    for p in points:
+        parts = []
+        for m, pr in p["paired"].items():
+            label = p["models"][m]["label"]
+            parts.append(f"over the {label}'s, causal " + ", ".join(
+                f"{a} {pr['causal'][a]['text']}" for a in AXES) + "; paper metric " + ", ".join(
+                f"{a} {pr['paper'][a]['text']}" for a in AXES))
+        left = ([f"Not compared (a training did not stop early): "
+                 f"{', '.join(p['not_compared'])}"] if p["not_compared"] else [])
+        trained = ("every model trained to early stopping" if not p["not_converged"] else
+                   f"NOT converged: {', '.join(p['not_converged'])}")
+        lines.append(
+            f"On fresh bench seeds ({', '.join(map(str, p['seeds']))}, declared before they were "
+            f"run; simulator {p['version']}, scale {p['scale']:g}; {trained}), "
+            f"the hybrid's error over each model's, paired by seed (geometric mean "
+            f"and 95 % t interval; \"ahead\" only when the interval lies below 1): "
+            + "; ".join(parts) + "." + (f" {'; '.join(left)}." if left else "")
+            + (_bench_over_robot(calibration, p["version"]) if calibration else ""))
+        lines.append("")
+    return "\n".join(lines)

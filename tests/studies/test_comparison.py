@@ -48,3 +48,19 @@ def test_design_and_undeclared_seeds_are_refused(tmp_path):
             comparison.main(["--scale", "0.1", "--seeds", *seeds, "--json",
                              str(tmp_path / "c.json"), "--work", str(tmp_path)])
     assert not (tmp_path / "c.json").exists()
+
+
+def test_the_first_screen_states_each_point_with_its_interval_and_the_bench_against_the_robot():
+    from reports.readme_page import fresh_comparison
+    res = _results({"hybrid": [1.0, 2.0, 1.5], "transformer": [0.8, 2.5, 1.5],
+                    "fcn": [1.0, 2.1, 1.4]}, converged={"fcn": False})
+    p = comparison.point(res, "2.3", 0.1, 1.0)
+    calibration = {"rows": [{"candidate": "2.3", "paper_budget": True, "label": "FCN",
+                             "seeds": [1], "ratio": {"Fx": 0.8, "Fy": 1.1, "Fz": 0.9}}],
+                   "verdicts": {"2.3": {"transformer_held_out": "not checked"}}}
+    text = fresh_comparison({"points": {"2.3 scale 0.1": p}}, calibration)
+    assert "Fx 1.00x [" in text and "] tie" in text            # the interval holds 1
+    assert "NOT converged: fcn" in text and "Not compared (a training did not stop early): fcn" \
+        in text
+    assert "FCN 0.80x / 1.10x / 0.90x" in text and "held-out check, not run yet" in text
+    assert "No comparison on fresh seeds yet" in fresh_comparison({"points": {}})
