@@ -13,6 +13,10 @@ bench"): ``psmforce simulate`` then ``psmforce fit-prior`` as a user runs them, 
 what its report calls unidentifiable at design values
 (:mod:`psmforce.identification.prior_selection`), compared with the bench's parameters
 (:func:`default_bench_truth`) by :func:`compare_selection`.
+
+Size: the two benches (in-family and default) share the comparison with the truth (the truth
+maps, the rule a miss is judged by, :func:`judge`), so they stay in one module rather than two
+that would import each other's halves.
 """
 
 from __future__ import annotations
