@@ -147,13 +147,14 @@ def run_dir(work: Path, name: str, scale: float) -> Path:
     return work / name / f"scale_{scale:g}"
 
 
-def train(name: str, scale: float, seeds, models, work: Path, threads: int) -> dict:
-    """One ``reproduce`` run of candidate ``name`` at ``scale`` (cached, resumable); its
-    ``results.json``."""
+def train(name: str, scale: float, seeds, models, work: Path, threads: int,
+          device: str = "cpu") -> dict:
+    """One ``reproduce`` run of candidate ``name`` at ``scale`` on ``device`` (cached,
+    resumable); its ``results.json``."""
     from psmforce.experiments.reproduce import reproduce
     return reproduce(run_dir(work, name, scale), scale=scale, seeds=tuple(seeds),
                      models=tuple(models), ablations=False, efficiency=False, teleop=False,
-                     threads=threads, sim_version=candidate_version(name))
+                     threads=threads, device=device, sim_version=candidate_version(name))
 
 
 def rows(name: str, scale: float, results: dict) -> list[dict]:
@@ -308,6 +309,9 @@ def main(argv=None) -> None:
     ap.add_argument("--json", default=str(ROOT / "results" / "benchmarks" /
                                           "bench_paper_calibration.json"))
     ap.add_argument("--threads", type=int, default=1)
+    ap.add_argument("--device", default="cpu",
+                    help="where the networks train (cuda on a lent GPU: the held-out "
+                         "transformer at the paper's budget needs one)")
     ap.add_argument("--render-only", action="store_true")
     ap.add_argument("--merge", nargs="*", default=[],
                     help="fold the rows of these JSONs (partial runs of this script, e.g. "
@@ -350,7 +354,7 @@ def main(argv=None) -> None:
             plan.setdefault(s, []).append(m)
         for scale, models in sorted(plan.items()):
             print(f"== {name} scale {scale:g}: {', '.join(models)}", flush=True)
-            results = train(name, scale, args.seeds, models, work, args.threads)
+            results = train(name, scale, args.seeds, models, work, args.threads, args.device)
             data = merge(data, rows(name, scale, results), floor_rows(name, scale, results))
             data.setdefault("definitions", {})[name] = candidate_version(name).to_dict()
             data.setdefault("benches", {})[f"{name} scale {scale:g}"] = results["benches"]
