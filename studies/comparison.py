@@ -62,7 +62,8 @@ def point(results: dict, version: str, scale: float, seconds: float) -> dict:
             "summary": {mt: {a: mean_sd([s[a] for s in per_seed[mt][label]]) for a in AXES}
                         for mt in METRICS},
             "converged": all(bool(t["converged"]) for t in training),
-            "stopped": [f"{t['epochs_run']} epochs, {t['stopped_by']}" for t in training]}
+            "stopped": [f"{t['epochs_run']} epochs, {t['stopped_by']}" for t in training],
+            "training_seconds": [t.get("seconds") for t in training]}
     paired = {}
     hybrid = models.get("hybrid")
     for m, other in models.items():
