@@ -49,7 +49,7 @@ def point(results: dict, version: str, scale: float, seconds: float) -> dict:
     """The comparison of one ``reproduce`` result: per model its per-seed NRMSE, mean and sd
     (ddof 1) per metric and axis, convergence and stops; the hybrid over each other model,
     paired by seed, per metric and axis (only between models that all converged)."""
-    from psmforce.experiments.paired import mean_sd, paired_by_axis
+    from psmforce.experiments.paired import mean_sd, paired_record
     from psmforce.experiments.plan import plan
     per_seed = results["automated_nrmse_pct_per_seed"]
     models = {}
@@ -69,8 +69,8 @@ def point(results: dict, version: str, scale: float, seconds: float) -> dict:
     for m, other in models.items():
         if m == "hybrid" or hybrid is None or not (hybrid["converged"] and other["converged"]):
             continue
-        paired[m] = {mt: {a: r.to_dict() | {"text": r.text()} for a, r in paired_by_axis(
-            hybrid["per_seed"][mt], other["per_seed"][mt], AXES).items()} for mt in METRICS}
+        paired[m] = {mt: paired_record(hybrid["per_seed"][mt], other["per_seed"][mt], AXES)
+                     for mt in METRICS}
     return {"version": version, "scale": scale, "seeds": results["call"]["seeds"],
             "device": results["call"]["device"],
             "simulator_versions": sorted(set(results["benches"].values())),

@@ -86,9 +86,8 @@ def run_cell(work: Path, scale: float, seeds, cell: str, threads: int, device: s
 
 
 def _pair(a: dict, b: dict, metric: str) -> dict:
-    from psmforce.experiments.paired import paired_by_axis
-    out = paired_by_axis(a["per_seed"][metric], b["per_seed"][metric], AXES)
-    return {ax: r.to_dict() | {"text": r.text()} for ax, r in out.items()}
+    from psmforce.experiments.paired import paired_record
+    return paired_record(a["per_seed"][metric], b["per_seed"][metric], AXES)
 
 
 def comparisons(cells: dict) -> dict:

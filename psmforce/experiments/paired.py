@@ -126,3 +126,12 @@ def paired_by_axis(per_seed_a: Sequence[Mapping[str, float]],
     """:func:`paired_ratio` per axis of two models' per-seed ``{axis: error}`` lists."""
     return {a: paired_ratio([s[a] for s in per_seed_a], [s[a] for s in per_seed_b], **kwargs)
             for a in axes}
+
+
+def paired_record(per_seed_a: Sequence[Mapping[str, float]],
+                  per_seed_b: Sequence[Mapping[str, float]], axes: Sequence[str], **kwargs
+                  ) -> dict[str, dict]:
+    """:func:`paired_by_axis` as a JSON record: per axis the ratio's fields and its ``text``
+    (the cell a page prints)."""
+    return {a: r.to_dict() | {"text": r.text()}
+            for a, r in paired_by_axis(per_seed_a, per_seed_b, axes, **kwargs).items()}

@@ -7,7 +7,7 @@ import pytest
 from scipy import stats
 
 from psmforce.experiments.paired import (PairedError, mean_sd, paired_by_axis,
-                                                   paired_ratio, verdict)
+                                         paired_ratio, paired_record, verdict)
 
 
 def test_verdict_refuses_ahead_when_the_interval_includes_one():
@@ -80,3 +80,12 @@ def test_by_axis_pairs_each_axis_on_its_own():
     b = [{"Fx": 1.0, "Fz": 2.0}, {"Fx": 1.1, "Fz": 2.1}, {"Fx": 1.05, "Fz": 2.0}]
     out = paired_by_axis(a, b, ("Fx", "Fz"))
     assert out["Fx"].verdict == "ahead" and out["Fz"].verdict == "tie"
+
+
+def test_the_record_is_the_ratio_with_the_text_a_page_prints():
+    a = [{"Fx": 0.5}, {"Fx": 0.6}, {"Fx": 0.55}]
+    b = [{"Fx": 1.0}, {"Fx": 1.1}, {"Fx": 1.05}]
+    ratio = paired_by_axis(a, b, ("Fx",))["Fx"]
+    record = paired_record(a, b, ("Fx",))["Fx"]
+    assert record == ratio.to_dict() | {"text": ratio.text()}
+    assert "ahead" in record["text"] and record["verdict"] == "ahead"
