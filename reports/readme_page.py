@@ -130,8 +130,9 @@ def status_table(result: dict) -> str:
     return "\n".join(lines)
 
 
-FIGURE = "results/learning_curve/learning_curve.png"
-"""The learning curve's three-axis figure (drawn by ``studies/learning_curve.py``)."""
+FIGURE = "../results/learning_curve/learning_curve.png"
+"""The learning curve's three-axis figure (drawn by ``studies/learning_curve.py``), as
+``docs/results.md`` links it."""
 
 
 def _by_verdict(ratios: dict) -> str:
@@ -170,9 +171,10 @@ def _against_robot(point: dict) -> str:
 
 
 def headline(curve: dict) -> str:
-    """README's first screen: the hybrid against every model at the paper's amount of data on
-    today's simulator, one sentence and one table, both metrics (ties stated as ties, the seed
-    paper's published robot figures beside), and the learning curve's figure."""
+    """``docs/results.md`` section 1's opening (the README's first screen until the comparison on
+    fresh seeds replaced it): the hybrid against every model at the paper's amount of data on
+    the learning curve's simulator, one sentence and one table, both metrics (ties stated as
+    ties, the seed paper's published robot figures beside), and the learning curve's figure."""
     at = [p for p in curve["points"] if p["scale"] == PAPER_SCALE]
     if not at:
         return ("\nAt the paper's amount of training data nothing is measured yet, so nothing is "
@@ -207,8 +209,7 @@ def headline(curve: dict) -> str:
         for a in AXES) + " | |")
     lines += ["", "NRMSE % of the force on the tool (HEX10 frame), mean ± std over bench seeds (the sample std, ddof 1), "
               "lower is better; causal: the raw per-sample estimate, paper: the paper's offline "
-              "post-processing (bias removed, centred median). Every scale, model and metric: "
-              "`docs/results.md`.", "",
+              "post-processing (bias removed, centred median). Every scale: the tables below.", "",
               f"![The learning curve: causal NRMSE against minutes of training data, per axis]"
               f"({FIGURE})", ""]
     return "\n".join(lines)
@@ -236,32 +237,62 @@ def _bench_over_robot(calibration: dict, version: str) -> str:
             f"score against their published robot errors (Fx / Fy / Fz): {text}; {held}.")
 
 
+def _paired_words(point: dict) -> str:
+    """The paired verdicts of one comparison point in words, model by model ("ahead on Fz,
+    tied on Fy, behind on Fx"), both metrics at once where they agree."""
+    word = {"ahead": "ahead", "tie": "tied", "behind": "behind"}
+
+    def phrase(cells: dict) -> str:
+        groups: dict[str, list[str]] = {}
+        for a in AXES:
+            groups.setdefault(cells[a]["verdict"], []).append(a)
+        return ", ".join(f"{word.get(v, v)} on "
+                         + ("every axis" if len(axes) == len(AXES) else " and ".join(axes))
+                         for v, axes in groups.items())
+    out = []
+    for m, pr in point["paired"].items():
+        causal, paper = phrase(pr["causal"]), phrase(pr["paper"])
+        said = (f"{causal} on both metrics" if causal == paper
+                else f"causal {causal}; paper metric {paper}")
+        out.append(f"against the {point['models'][m]['label']} {said}")
+    return ("The hybrid is " + "; ".join(out) + ".") if out else ""
+
+
 def fresh_comparison(result: dict, calibration: dict | None = None) -> str:
-    """README's first screen, under the headline: the published comparison on fresh seeds
-    (``studies/comparison.py``), per point the hybrid's error over each model's, paired by seed,
-    with its interval and verdict, causal and paper metric, and the bench against the robot
+    """README's first screen: the published comparison on fresh seeds
+    (``studies/comparison.py``), per point one sentence and one table: each model's NRMSE (mean
+    ± sd over seeds, ddof 1) and the hybrid's error over each model's, paired by seed, with its
+    interval and verdict, causal and paper metric; then the bench against the robot
     (``calibration``: the bench calibration's JSON)."""
     points = sorted(result.get("points", {}).values(), key=lambda p: (p["version"], p["scale"]))
     if not points:
         return "\nNo comparison on fresh seeds yet (`studies/comparison.py`).\n"
     lines = [""]
     for p in points:
-        parts = []
-        for m, pr in p["paired"].items():
-            label = p["models"][m]["label"]
-            parts.append(f"over the {label}'s, causal " + ", ".join(
-                f"{a} {pr['causal'][a]['text']}" for a in AXES) + "; paper metric " + ", ".join(
-                f"{a} {pr['paper'][a]['text']}" for a in AXES))
-        left = ([f"Not compared (a training did not stop early): "
-                 f"{', '.join(p['not_compared'])}"] if p["not_compared"] else [])
         trained = ("every model trained to early stopping" if not p["not_converged"] else
                    f"NOT converged: {', '.join(p['not_converged'])}")
-        lines.append(
-            f"On fresh bench seeds ({', '.join(map(str, p['seeds']))}, declared before they were "
-            f"run; simulator {p['version']}, scale {p['scale']:g}; {trained}), "
-            f"the hybrid's error over each model's, paired by seed (geometric mean "
-            f"and 95 % t interval; \"ahead\" only when the interval lies below 1): "
-            + "; ".join(parts) + "." + (f" {'; '.join(left)}." if left else "")
-            + (_bench_over_robot(calibration, p["version"]) if calibration else ""))
-        lines.append("")
+        lines += [f"On fresh bench seeds ({', '.join(map(str, p['seeds']))}, declared before "
+                  f"they were run; simulator {p['version']}, scale {p['scale']:g} of the paper's "
+                  f"training data; {trained}): each model's error, and the hybrid's error over "
+                  f"each model's, paired by seed (geometric mean [{p['interval']}]; \"ahead\" "
+                  "only when the interval lies below 1, \"behind\" above 1, a tie otherwise). "
+                  + _paired_words(p), "",
+                  "| model | causal Fx | causal Fy | causal Fz | paper Fx | paper Fy | paper Fz |",
+                  "|---|---|---|---|---|---|---|"]
+        for v in p["models"].values():
+            lines.append(f"| {v['label']}{'' if v['converged'] else ' (NOT converged)'} | "
+                         + " | ".join(spread_cell({"mean": v["summary"][mt][a]["mean"],
+                                                  "std": v["summary"][mt][a]["sd"]})
+                                      for mt in ("causal", "paper") for a in AXES) + " |")
+        for m, pr in p["paired"].items():
+            lines.append(f"| hybrid / {p['models'][m]['label']} | "
+                         + " | ".join(pr[mt][a]["text"] for mt in ("causal", "paper")
+                                      for a in AXES) + " |")
+        left = ([f"Not compared (a training did not stop early): "
+                 f"{', '.join(p['not_compared'])}."] if p["not_compared"] else [])
+        lines += ["", "NRMSE % of the force on the tool (HEX10 frame), mean ± sd over seeds "
+                  "(ddof 1), lower is better; causal: the raw per-sample estimate a haptic loop "
+                  "gets, paper: the paper's offline post-processing (bias removed, centred "
+                  "median)." + (f" {' '.join(left)}" if left else "")
+                  + (_bench_over_robot(calibration, p["version"]) if calibration else ""), ""]
     return "\n".join(lines)

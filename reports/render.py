@@ -75,6 +75,7 @@ HEX10_COMPRESSION = ROOT / "results" / "benchmarks" / "hex10_compression.json"
 EXCITATION = ROOT / "results" / "benchmarks" / "excitation.json"
 RECIPE_SWAP = ROOT / "results" / "benchmarks" / "recipe_swap.json"
 BENCH_PAPER_CALIBRATION = ROOT / "results" / "benchmarks" / "bench_paper_calibration.json"
+FRESH_COMPARISON = ROOT / "results" / "benchmarks" / "comparison.json"
 ATI_FREE = ROOT / "docs" / "ati_free.md"
 
 
@@ -131,8 +132,14 @@ def _hybrid_plateau_table(result: dict) -> str:
     return "\n" + table(result) + "\n"
 
 
+def _fresh_comparison_table(result: dict) -> str:
+    from studies.comparison import table
+    return table(result)
+
+
 BLOCKS = (
-    (README, "headline", LEARNING_CURVE, readme_page.headline),
+    (README, "fresh-comparison", (FRESH_COMPARISON, BENCH_PAPER_CALIBRATION),
+     readme_page.fresh_comparison),
     (README, "transmission-summary", TRANSMISSION, readme_page.transmission_summary),
     (README, "prior-ablation-summary", PRIOR_ABLATION, readme_page.prior_ablation_summary),
     (IDENTIFICATION, "prior-recovery-table", PRIOR_RECOVERY,
@@ -156,9 +163,11 @@ BLOCKS = (
     (RESULTS, "results-status",
      (LEARNING_CURVE, PRIOR_ABLATION, PORTS, COMPARISON, PORT_DESIGN, ANOTHER_TOOL),
      results_page.status),
+    (RESULTS, "headline", LEARNING_CURVE, readme_page.headline),
     (RESULTS, "learning-curve", LEARNING_CURVE, results_page.learning_curve),
     (RESULTS, "bench-against-robot", LEARNING_CURVE, results_page.bench_against_robot),
     (RESULTS, "recipe-swap", RECIPE_SWAP, results_page.recipe_swap_tables),
+    (RESULTS, "comparison-fresh-seeds", FRESH_COMPARISON, _fresh_comparison_table),
     (SIMULATOR, "bench-paper-calibration", BENCH_PAPER_CALIBRATION,
      bench_calibration_page.bench_paper_calibration),
     (ATI_FREE, "excitation-tables", EXCITATION, ati_free_page.excitation_tables),

@@ -59,8 +59,21 @@ def test_the_first_screen_states_each_point_with_its_interval_and_the_bench_agai
                              "seeds": [1], "ratio": {"Fx": 0.8, "Fy": 1.1, "Fz": 0.9}}],
                    "verdicts": {"2.3": {"transformer_held_out": "not checked"}}}
     text = fresh_comparison({"points": {"2.3 scale 0.1": p}}, calibration)
-    assert "Fx 1.00x [" in text and "] tie" in text            # the interval holds 1
+    assert "| hybrid / Transformer (paper) | 1.00x [" in text and "] tie" in text  # holds 1
+    assert "| hybrid / FCN" not in text and "| FCN (NOT converged) |" in text
+    assert "The hybrid is against the Transformer (paper) tied on every axis on both metrics." \
+        in text
     assert "NOT converged: fcn" in text and "Not compared (a training did not stop early): fcn" \
         in text
     assert "FCN 0.80x / 1.10x / 0.90x" in text and "held-out check, not run yet" in text
     assert "No comparison on fresh seeds yet" in fresh_comparison({"points": {}})
+
+
+def test_the_first_screen_words_each_verdict_by_axis_and_metric():
+    from reports.readme_page import fresh_comparison
+    res = _results({"hybrid": [1.0, 2.0, 1.5], "transformer": [2.0, 4.1, 2.9]})
+    p = comparison.point(res, "2.3", 0.1, 1.0)
+    p["paired"]["transformer"]["paper"]["Fy"]["verdict"] = "behind"
+    text = fresh_comparison({"points": {"2.3 scale 0.1": p}})
+    assert ("against the Transformer (paper) causal ahead on every axis; paper metric ahead on "
+            "Fx and Fz, behind on Fy.") in text
