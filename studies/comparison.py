@@ -48,7 +48,9 @@ def run_dir(work: Path, version: str, scale: float) -> Path:
 def point(results: dict, version: str, scale: float, seconds: float) -> dict:
     """The comparison of one ``reproduce`` result: per model its per-seed NRMSE, mean and sd
     (ddof 1) per metric and axis, convergence and stops; the hybrid over each other model,
-    paired by seed, per metric and axis (only between models that all converged)."""
+    paired by seed, per metric and axis (only between models that all converged); per test
+    condition each model's causal RMSE (N), mean and sd over seeds, to show where the errors
+    come from (no pairing: ``reproduce`` keeps per-seed errors overall only)."""
     from psmforce.experiments.paired import mean_sd, paired_record
     from psmforce.experiments.plan import plan
     per_seed = results["automated_nrmse_pct_per_seed"]
@@ -71,7 +73,13 @@ def point(results: dict, version: str, scale: float, seconds: float) -> dict:
             continue
         paired[m] = {mt: paired_record(hybrid["per_seed"][mt], other["per_seed"][mt], AXES)
                      for mt in METRICS}
+    by_condition = {
+        cond: {m: {a: {"mean": v["causal"][models[m]["label"]][a]["rmse_n"]["mean"],
+                       "sd": v["causal"][models[m]["label"]][a]["rmse_n"]["std"]}
+                   for a in AXES} for m in models}
+        for cond, v in results.get("automated_by_condition", {}).items()}
     return {"version": version, "scale": scale, "seeds": results["call"]["seeds"],
+            "by_condition": by_condition, "spread": results.get("spread"),
             "device": results["call"]["device"],
             "simulator_versions": sorted(set(results["benches"].values())),
             "models": models, "paired": paired,
@@ -79,6 +87,10 @@ def point(results: dict, version: str, scale: float, seconds: float) -> dict:
             "not_compared": [m for m in models if m != "hybrid" and m not in paired],
             "interval": "95 % Student t on the log of the per-seed ratios (ddof 1), mapped back",
             "call_seconds": round(seconds, 1)}
+
+
+def _mean_sd(d: dict) -> str:
+    return f"{d['mean']:.3f}" + (f" ± {d['sd']:.3f}" if d.get("sd") is not None else "")
 
 
 def table(result: dict) -> str:
@@ -101,6 +113,17 @@ def table(result: dict) -> str:
             for m, pr in p["paired"].items():
                 lines.append(f"| hybrid / {p['models'][m]['label']} | "
                              + " | ".join(pr[mt][a]["text"] for a in AXES) + " | |")
+            lines.append("")
+        if p.get("by_condition"):
+            lines += ["Where the errors come from: causal RMSE in N per test condition, mean ± sd "
+                      "over seeds (Free: no contact, the true force is zero).", "",
+                      "| model | " + " | ".join(f"{c} {a}" for c in p["by_condition"]
+                                              for a in AXES) + " |",
+                      "|---|" + "---|" * (len(AXES) * len(p["by_condition"]))]
+            for m, v in p["models"].items():
+                lines.append(f"| {v['label']} | " + " | ".join(
+                    _mean_sd(p["by_condition"][c][m][a]) for c in p["by_condition"]
+                    for a in AXES) + " |")
             lines.append("")
         if p["not_compared"]:
             lines += [f"Not compared (a training did not stop early, or no hybrid): "
