@@ -295,4 +295,13 @@ def fresh_comparison(result: dict, calibration: dict | None = None) -> str:
                   "gets, paper: the paper's offline post-processing (bias removed, centred "
                   "median)." + (f" {' '.join(left)}" if left else "")
                   + (_bench_over_robot(calibration, p["version"]) if calibration else ""), ""]
+    from psmforce.experiments.seeds import COMPARISON_SEEDS
+    for v in sorted({p["version"] for p in points}):
+        missing = sorted(set(COMPARISON_SEEDS) - {p["scale"] for p in points
+                                                   if p["version"] == v})
+        if missing:
+            lines += [f"Declared for simulator {v} and not measured yet, so nothing is claimed "
+                      f"there: scale {', '.join(f'{x:g}' for x in missing)} (their seeds are "
+                      f"declared in `psmforce/experiments/seeds.py`; `studies/comparison.py "
+                      f"--scale S` runs them).", ""]
     return "\n".join(lines)

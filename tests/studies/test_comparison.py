@@ -72,6 +72,7 @@ def test_the_first_screen_states_each_point_with_its_interval_and_the_bench_agai
     assert "NOT converged: fcn" in text and "Not compared (a training did not stop early): fcn" \
         in text
     assert "FCN 0.80x / 1.10x / 0.90x" in text and "held-out check, not run yet" in text
+    assert "not measured yet, so nothing is claimed there: scale 0.25, 1 (" in text
     assert "No comparison on fresh seeds yet" in fresh_comparison({"points": {}})
 
 
