@@ -34,6 +34,7 @@ sys.path.insert(0, str(ROOT))
 
 from psmforce.experiments.report import shown_path, write_json  # noqa: E402
 from psmforce.experiments.seeds import COMPARISON_SEEDS, check_fresh  # noqa: E402
+from psmforce.estimators.evaluation.tables import spread_text  # noqa: E402
 
 MODELS = ("hybrid", "transformer", "fcn", "rocket", "lstm")
 """In the table's order; the hybrid is compared with each of the others."""
@@ -89,8 +90,9 @@ def point(results: dict, version: str, scale: float, seconds: float) -> dict:
             "call_seconds": round(seconds, 1)}
 
 
-def _mean_sd(d: dict) -> str:
-    return f"{d['mean']:.3f}" + (f" ± {d['sd']:.3f}" if d.get("sd") is not None else "")
+def _mean_sd_text(d: dict) -> str:
+    """A point's ``{mean, sd}`` (the key its JSON uses) in the tables' ``mean ± sd`` form."""
+    return spread_text({"mean": d["mean"], "std": d.get("sd")}, digits=3)
 
 
 def table(result: dict) -> str:
@@ -122,7 +124,7 @@ def table(result: dict) -> str:
                       "|---|" + "---|" * (len(AXES) * len(p["by_condition"]))]
             for m, v in p["models"].items():
                 lines.append(f"| {v['label']} | " + " | ".join(
-                    _mean_sd(p["by_condition"][c][m][a]) for c in p["by_condition"]
+                    _mean_sd_text(p["by_condition"][c][m][a]) for c in p["by_condition"]
                     for a in AXES) + " |")
             lines.append("")
         if p["not_compared"]:
