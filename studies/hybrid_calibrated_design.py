@@ -99,6 +99,40 @@ def _train_variant(name: str, work: Path, seed: int, threads: int) -> dict:
             "seconds": round(time.time() - t0, 1)}
 
 
+LABELS = {"default": "hybrid (as compared)", "prior_crosstalk": "hybrid, prior with cross-talk",
+          "paper_width": "hybrid, the paper transformer's width",
+          "transformer": "paper transformer (reference)"}
+
+
+def table(result: dict) -> str:
+    """The markdown of every point in ``result`` (the ``hybrid-calibrated-design`` block)."""
+    lines = [""]
+    for key, p in sorted(result.get("points", {}).items()):
+        rows = p["variants"]
+        conditions = sorted({c for v in rows.values()
+                             for c in v["validation_causal_rmse_n_by_condition"]})
+        lines += [f"**Simulator {p['version']}, scale {p['scale']:g}, design seed {p['seed']}** "
+                  "(one seed: differences, not verdicts). Validation trials, causal: NRMSE % per "
+                  "axis, then RMSE N per condition (Fx / Fy / Fz); test NRMSE beside, for "
+                  "information only.", "",
+                  "| variant | parameters | epochs (stopped by) | validation Fx | Fy | Fz | "
+                  + " | ".join(f"{c} (N)" for c in conditions) + " | test Fx / Fy / Fz |",
+                  "|---|---|---|---|---|---|" + "---|" * len(conditions) + "---|"]
+        for name in [n for n in VARIANTS if n in rows]:
+            v = rows[name]
+            by_c = v["validation_causal_rmse_n_by_condition"]
+            lines.append(
+                f"| {LABELS[name]} | {v['parameters']} | {v['epochs']} ({v['stopped_by']}) | "
+                + " | ".join(f"{v['validation_causal_nrmse_pct'][a]:.2f}" for a in AXES) + " | "
+                + " | ".join(" / ".join(f"{by_c[c][a]:.3f}" for a in AXES) if c in by_c else ""
+                             for c in conditions) + " | "
+                + " / ".join(f"{v['test_causal_nrmse_pct'][a]:.2f}" for a in AXES) + " |")
+        lines.append("")
+    if len(lines) == 1:
+        lines += ["No point yet.", ""]
+    return "\n".join(lines)
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--seed", type=int, default=1)

@@ -19,3 +19,22 @@ def test_each_hybrid_variant_changes_one_thing_from_the_default():
     for name, (model, config, crosstalk) in study.VARIANTS.items():
         if model == "hybrid" and name != "default":
             assert (config != {}) + (crosstalk != default[2]) == 1, name
+
+
+def _variant(fx: float) -> dict:
+    return {"parameters": 100, "epochs": 3, "stopped_by": "patience",
+            "validation_causal_nrmse_pct": {"Fx": fx, "Fy": 2.0, "Fz": 3.0},
+            "validation_causal_rmse_n_by_condition": {"Free": {"Fx": 0.01, "Fy": 0.02, "Fz": 0.03}},
+            "test_causal_nrmse_pct": {"Fx": 1.0, "Fy": 1.0, "Fz": 1.0}}
+
+
+def test_the_table_lists_the_variants_in_their_declared_order_with_their_figures():
+    result = {"points": {"p": {"version": "2.3", "scale": 0.1, "seed": 1, "variants": {
+        "transformer": _variant(1.25), "default": _variant(1.75)}}}}
+    text = study.table(result)
+    rows = [line for line in text.splitlines() if line.startswith("| hybrid") or
+            line.startswith("| paper")]
+    assert rows[0].startswith("| hybrid (as compared) | 100 | 3 (patience) | 1.75 |")
+    assert rows[1].startswith("| paper transformer (reference) |") and "| 1.25 |" in rows[1]
+    assert "0.010 / 0.020 / 0.030" in rows[0] and "design seed 1" in text
+    assert study.table({}).strip() == "No point yet."
