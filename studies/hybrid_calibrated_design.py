@@ -24,7 +24,8 @@ causal NRMSE beside it for information only.
         --json results/benchmarks/hybrid_calibrated_design.json      # resumable
 
 The bench is ``psmforce reproduce``'s (simulated once under ``--work``); every variant finished
-is kept in the JSON as it ends, and a killed training resumes from its saved state.
+is kept under ``--work`` as it ends (and the JSON assembled from them), and a killed training
+resumes from its saved state, so several processes may run, one seed each.
 """
 
 from __future__ import annotations
@@ -152,19 +153,27 @@ def main(argv=None) -> int:
 
     work = args.work / f"seed{args.seed}_scale{args.scale:g}"
     prepare_benches(work, args.scale, (args.seed,), teleop=False, sim_version=version(VERSION))
-    result = json.loads(args.json.read_text()) if args.json.exists() else {}
-    key = f"{VERSION} scale {args.scale:g} seed {args.seed}"
-    point = result.setdefault("points", {}).setdefault(
-        key, {"version": VERSION, "scale": args.scale, "seed": args.seed, "variants": {}})
     for name in args.variants:
-        if name in point["variants"]:
-            continue
-        point["variants"][name] = _train_variant(name, work, args.seed, args.threads)
-        result["command"] = ("python studies/hybrid_calibrated_design.py --seed S --scale X "
-                             f"--json {shown_path(args.json)}")
-        write_json(args.json, result)
-        print(name, json.dumps(point["variants"][name]["validation_causal_nrmse_pct"]), flush=True)
+        record = work / "variants" / f"{name}.json"
+        if not record.exists():
+            write_json(record, _train_variant(name, work, args.seed, args.threads))
+        write_json(args.json, assemble(args.work, args.json))
     return 0
+
+
+def assemble(work: Path, json_path: Path) -> dict:
+    """Every finished variant under ``work`` (one folder per seed and scale, one record per
+    variant, so processes on different seeds never write the same file) as the study's JSON."""
+    points = {}
+    for record in sorted(work.glob("seed*_scale*/variants/*.json")):
+        seed, scale = record.parent.parent.name[4:].split("_scale")
+        key = f"{VERSION} scale {scale} seed {seed}"
+        point = points.setdefault(key, {"version": VERSION, "scale": float(scale),
+                                        "seed": int(seed), "variants": {}})
+        point["variants"][record.stem] = json.loads(record.read_text())
+    return {"points": points,
+            "command": ("python studies/hybrid_calibrated_design.py --seed S --scale X "
+                        f"--work {shown_path(work)} --json {shown_path(json_path)}")}
 
 
 if __name__ == "__main__":
