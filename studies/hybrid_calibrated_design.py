@@ -14,6 +14,12 @@ refused), so that whatever it suggests can be confirmed on seeds nothing was cho
   the hybrid's inputs, window and recipe kept;
 - ``transformer``: the paper's transformer under its own recipe, the reference on the same seed.
 
+The rule, fixed before the first variant finished: a variant is carried to fresh seeds (a
+comparison of its own, on seeds declared for it) only if it lowers the hybrid's validation causal
+NRMSE on both lateral axes on every design seed it ran on, and does not raise Fz by more than it
+lowers either; otherwise it is reported and dropped. (The cross-talk variant was first tried in a
+development run on seed 1, before this study; it is rerun here.)
+
 Each variant is trained to early stopping (the ``full`` budget of ``psmforce reproduce``, one
 thread) on the seed's training trials and scored on its validation trials: the causal NRMSE
 per axis (the selection criterion) and the causal RMSE per condition, with the test trials'
