@@ -12,6 +12,8 @@ refused), so that whatever it suggests can be confirmed on seeds nothing was cho
   efforts reading holds at 0;
 - ``paper_width``: the paper's transformer's width (d_model 64, 8 heads, 3 layers, d_ff 256),
   the hybrid's inputs, window and recipe kept;
+- ``paper_regime``: the hybrid trained under the paper's regime (one target every fifth sample,
+  batches of 256, at most 100 epochs; :mod:`psmforce.experiments.regimes`);
 - ``transformer``: the paper's transformer under its own recipe, the reference on the same seed.
 
 The rule, fixed before the first variant finished: a variant is carried to fresh seeds (a
@@ -52,12 +54,14 @@ from psmforce.experiments.seeds import DESIGN_SEEDS  # noqa: E402
 VERSION = "2.3"
 PAPER_WIDTH = {"d_model": 64, "n_heads": 8, "n_layers": 3, "d_ff": 256}
 VARIANTS = {
-    "default": ("hybrid", {}, False),
-    "prior_crosstalk": ("hybrid", {}, True),
-    "paper_width": ("hybrid", PAPER_WIDTH, False),
-    "transformer": ("transformer", {}, False),
+    "default": ("hybrid", {}, False, "own"),
+    "prior_crosstalk": ("hybrid", {}, True, "own"),
+    "paper_width": ("hybrid", PAPER_WIDTH, False, "own"),
+    "paper_regime": ("hybrid", {}, False, "paper"),
+    "transformer": ("transformer", {}, False, "own"),
 }
-"""name: (model, constructor config over the recipe's, prior fitted with the cross-talk)."""
+"""name: (model, constructor config over the recipe's, prior fitted with the cross-talk,
+training regime of :mod:`psmforce.experiments.regimes`)."""
 AXES = ("Fx", "Fy", "Fz")
 
 
@@ -70,10 +74,11 @@ def _train_variant(name: str, work: Path, seed: int, threads: int) -> dict:
 
     from psmforce.estimators.networks.recipes import DERIVATIONS, recipe
     from psmforce.estimators.training.train import fit_prior, make_setup, train_model
+    from psmforce.experiments.regimes import regime_settings
     from psmforce.experiments.reproduce import _automated_split, _config, _load, _scores
 
     torch.set_num_threads(threads)
-    model, config, crosstalk = VARIANTS[name]
+    model, config, crosstalk, regime = VARIANTS[name]
     run = str(work / "work")
     ds = _load(run, "automated", seed)
     train, val = _automated_split(ds, seed)
@@ -88,13 +93,13 @@ def _train_variant(name: str, work: Path, seed: int, threads: int) -> dict:
         else:   # the prior the comparison's hybrid reads, as it reads it
             prior_json = prior_path.read_text()
     setup = make_setup(model, train, prior_json=prior_json, config=config)
-    cfg = _config("full", "pretrain", seed, "cpu", model, spec.optimiser)
+    cfg = _config("full", "pretrain", seed, "cpu", model, regime_settings(regime, spec))
     t0 = time.time()
     rep = train_model(setup, train, val, cfg, desc=name,
                       resume=work / "resume" / f"{name}_seed{seed}.state")
     val_scores = _scores(setup, val, "cpu")
     test = ds.select(split="test")
-    return {"model": model, "config": config, "prior_crosstalk": crosstalk,
+    return {"model": model, "config": config, "prior_crosstalk": crosstalk, "regime": regime,
             "base_columns": list(setup.base_columns),
             "validation_causal_nrmse_pct": _causal(val_scores["overall"]),
             "validation_causal_rmse_n_by_condition": {
@@ -108,6 +113,7 @@ def _train_variant(name: str, work: Path, seed: int, threads: int) -> dict:
 
 LABELS = {"default": "hybrid (as compared)", "prior_crosstalk": "hybrid, prior with cross-talk",
           "paper_width": "hybrid, the paper transformer's width",
+          "paper_regime": "hybrid, the paper's training regime",
           "transformer": "paper transformer (reference)"}
 
 

@@ -15,10 +15,10 @@ def test_a_fresh_seed_is_refused_before_anything_is_simulated(tmp_path, capsys):
 
 def test_each_hybrid_variant_changes_one_thing_from_the_default():
     default = study.VARIANTS["default"]
-    assert default == ("hybrid", {}, False)
-    for name, (model, config, crosstalk) in study.VARIANTS.items():
+    assert default == ("hybrid", {}, False, "own")
+    for name, (model, config, crosstalk, regime) in study.VARIANTS.items():
         if model == "hybrid" and name != "default":
-            assert (config != {}) + (crosstalk != default[2]) == 1, name
+            assert (config != {}) + (crosstalk != default[2]) + (regime != "own") == 1, name
 
 
 def _variant(fx: float) -> dict:
