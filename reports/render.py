@@ -76,6 +76,7 @@ EXCITATION = ROOT / "results" / "benchmarks" / "excitation.json"
 RECIPE_SWAP = ROOT / "results" / "benchmarks" / "recipe_swap.json"
 BENCH_PAPER_CALIBRATION = ROOT / "results" / "benchmarks" / "bench_paper_calibration.json"
 FRESH_COMPARISON = ROOT / "results" / "benchmarks" / "comparison.json"
+HYBRID_CALIBRATED_DESIGN = ROOT / "results" / "benchmarks" / "hybrid_calibrated_design.json"
 ATI_FREE = ROOT / "docs" / "ati_free.md"
 
 
@@ -137,6 +138,11 @@ def _fresh_comparison_table(result: dict) -> str:
     return table(result)
 
 
+def _hybrid_calibrated_design_table(result: dict) -> str:
+    from studies.hybrid_calibrated_design import table
+    return table(result)
+
+
 BLOCKS = (
     (README, "fresh-comparison", (FRESH_COMPARISON, BENCH_PAPER_CALIBRATION),
      readme_page.fresh_comparison),
@@ -168,6 +174,8 @@ BLOCKS = (
     (RESULTS, "bench-against-robot", LEARNING_CURVE, results_page.bench_against_robot),
     (RESULTS, "recipe-swap", RECIPE_SWAP, results_page.recipe_swap_tables),
     (RESULTS, "comparison-fresh-seeds", FRESH_COMPARISON, _fresh_comparison_table),
+    (RESULTS, "hybrid-calibrated-design", HYBRID_CALIBRATED_DESIGN,
+     _hybrid_calibrated_design_table),
     (SIMULATOR, "bench-paper-calibration", BENCH_PAPER_CALIBRATION,
      bench_calibration_page.bench_paper_calibration),
     (ATI_FREE, "excitation-tables", EXCITATION, ati_free_page.excitation_tables),
