@@ -117,6 +117,39 @@ LABELS = {"default": "hybrid (as compared)", "prior_crosstalk": "hybrid, prior w
           "transformer": "paper transformer (reference)"}
 
 
+def carried(result: dict) -> dict[str, list[int]]:
+    """The module docstring's rule, per hybrid variant: the design seeds it was carried on. On a
+    seed with both it and ``default``, it must lower the validation causal NRMSE on Fx and on
+    Fy, and raise Fz (relatively) by no more than the smaller of those two lowerings. A variant
+    is carried to fresh seeds when that holds on every seed it ran on (the returned list is then
+    all of them); an empty list: it ran on none beside the default."""
+    ran: dict[str, list[int]] = {}
+    held: dict[str, list[int]] = {}
+    for p in result.get("points", {}).values():
+        rows = p["variants"]
+        if "default" not in rows:
+            continue
+        base = rows["default"]["validation_causal_nrmse_pct"]
+        for name, v in rows.items():
+            if name == "default" or VARIANTS[name][0] != "hybrid":
+                continue
+            r = {a: v["validation_causal_nrmse_pct"][a] / base[a] for a in AXES}
+            ran.setdefault(name, []).append(p["seed"])
+            if r["Fx"] < 1 and r["Fy"] < 1 and r["Fz"] - 1 <= min(1 - r["Fx"], 1 - r["Fy"]):
+                held.setdefault(name, []).append(p["seed"])
+    return {name: sorted(seeds) if len(held.get(name, [])) == len(seeds) else []
+            for name, seeds in ran.items()}
+
+
+def _rule_line(result: dict) -> str:
+    verdicts = carried(result)
+    if not verdicts:
+        return "By the rule: no variant has run beside the default yet."
+    return "By the rule (module docstring): " + "; ".join(
+        f"{LABELS[n]}: carried to fresh seeds (design seeds {', '.join(map(str, seeds))})"
+        if seeds else f"{LABELS[n]}: dropped" for n, seeds in sorted(verdicts.items())) + "."
+
+
 def table(result: dict) -> str:
     """The markdown of every point in ``result`` (the ``hybrid-calibrated-design`` block)."""
     lines = [""]
@@ -143,6 +176,8 @@ def table(result: dict) -> str:
         lines.append("")
     if len(lines) == 1:
         lines += ["No point yet.", ""]
+    else:
+        lines += [_rule_line(result), ""]
     return "\n".join(lines)
 
 

@@ -38,3 +38,27 @@ def test_the_table_lists_the_variants_in_their_declared_order_with_their_figures
     assert rows[1].startswith("| paper transformer (reference) |") and "| 1.25 |" in rows[1]
     assert "0.010 / 0.020 / 0.030" in rows[0] and "design seed 1" in text
     assert study.table({}).strip() == "No point yet."
+
+
+def _nrmse(fx, fy, fz) -> dict:
+    return {"validation_causal_nrmse_pct": {"Fx": fx, "Fy": fy, "Fz": fz}}
+
+
+def _point(seed, **variants) -> dict:
+    return {"version": "2.3", "scale": 0.1, "seed": seed, "variants": variants}
+
+
+def test_the_rule_carries_a_variant_only_if_it_lowers_both_lateral_axes_on_every_seed():
+    default = _nrmse(2.0, 2.0, 2.0)
+    result = {"points": {
+        "a": _point(1, default=default, paper_width=_nrmse(1.8, 1.9, 2.0),
+                    paper_regime=_nrmse(1.8, 1.9, 2.0), transformer=_nrmse(1.0, 1.0, 1.0)),
+        "b": _point(2, default=default, paper_width=_nrmse(1.9, 1.9, 2.09),
+                    paper_regime=_nrmse(1.9, 2.01, 1.0), prior_crosstalk=_nrmse(1.9, 1.9, 2.11))}}
+    verdicts = study.carried(result)
+    # Fz up 4.5 % against lateral drops of 5 %: within the rule; Fy up on seed 2: dropped
+    assert verdicts == {"paper_width": [1, 2], "paper_regime": [], "prior_crosstalk": []}
+    assert "transformer" not in verdicts                      # the reference is not a variant
+    result["points"]["b"]["variants"]["paper_width"] = _nrmse(1.9, 1.9, 2.2)  # Fz up 10 %
+    assert study.carried(result)["paper_width"] == []
+    assert study.carried({"points": {"a": _point(1, paper_width=default)}}) == {}
