@@ -12,7 +12,8 @@ DESIGN_SEEDS = frozenset({0, 1, 2, 3, 11, 12, 13, 18, 21, 22})
 """Seen while designing: 1-3, the learning curve and the hybrid's batches (chosen on their
 validation trials, test scores beside them); 0, the simulator's calibration and the port and
 plateau studies; 11-13, the other tool instances; 18, the independent rerun; 21-22, the prior's
-in-family recovery."""
+in-family recovery; 1-2 also the hybrid's variants on the calibrated bench
+(``studies/hybrid_calibrated_design.py``)."""
 
 RECIPE_SWAP_SEEDS = (201, 202, 203)
 """The training regimes swapped between models (``studies/recipe_swap.py``): a choice the
@@ -34,6 +35,11 @@ COMPARISON_SEEDS = {0.1: (101, 102, 103, 104, 105), 0.25: (101, 102, 103, 104, 1
                     1.0: (101, 102, 103)}
 """Per scale, the seeds of the published comparison (at least 5 at 0.1 and 0.25, 3 at the
 paper's budget)."""
+WIDE_HYBRID_SEEDS = {0.1: (111, 112, 113, 114, 115)}
+"""The hybrid at the paper transformer's width against every model, on seeds of its own: the
+width was carried by the rule of ``studies/hybrid_calibrated_design.py`` on design seeds 1 and 2,
+after the comparison's seeds had shown the lateral deficit, so those cannot confirm it. Declared
+before any run on them."""
 
 
 def check_fresh(seeds, purpose: str) -> None:

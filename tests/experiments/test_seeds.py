@@ -3,7 +3,7 @@ import pytest
 
 from psmforce.experiments.seeds import (ATI_FREE_IDENTIFICATION_SEEDS, COMPARISON_SEEDS,
                                         DESIGN_SEEDS, LOAD_PATH_SEEDS, PRIOR_ABLATION_SEEDS,
-                                        RECIPE_SWAP_SEEDS, check_fresh)
+                                        RECIPE_SWAP_SEEDS, WIDE_HYBRID_SEEDS, check_fresh)
 
 
 def test_declared_seeds_are_fresh_and_disjoint():
@@ -16,6 +16,10 @@ def test_declared_seeds_are_fresh_and_disjoint():
                                        | ablation)
     assert not set(ATI_FREE_IDENTIFICATION_SEEDS) & (
         DESIGN_SEEDS | comparison | set(RECIPE_SWAP_SEEDS) | ablation | set(LOAD_PATH_SEEDS))
+    wide = {s for seeds in WIDE_HYBRID_SEEDS.values() for s in seeds}
+    assert not wide & (DESIGN_SEEDS | comparison | set(RECIPE_SWAP_SEEDS) | ablation
+                       | set(LOAD_PATH_SEEDS) | set(ATI_FREE_IDENTIFICATION_SEEDS))
+    assert len(WIDE_HYBRID_SEEDS[0.1]) >= 5
     assert all(len(COMPARISON_SEEDS[s]) >= 5 for s in (0.1, 0.25))
     assert len(COMPARISON_SEEDS[1.0]) >= 3
 
