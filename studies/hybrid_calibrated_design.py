@@ -39,7 +39,6 @@ resumes from its saved state, so several processes may run, one seed each.
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import json
 import sys
 import time
@@ -48,6 +47,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+from psmforce.core.files import MAX_JSON_BYTES, read_input_text  # noqa: E402
 from psmforce.experiments.report import shown_path, write_json  # noqa: E402
 from psmforce.experiments.seeds import DESIGN_SEEDS  # noqa: E402
 
@@ -75,7 +75,8 @@ def _train_variant(name: str, work: Path, seed: int, threads: int) -> dict:
     from psmforce.estimators.networks.recipes import DERIVATIONS, recipe
     from psmforce.estimators.training.train import fit_prior, make_setup, train_model
     from psmforce.experiments.regimes import regime_settings
-    from psmforce.experiments.reproduce import _automated_split, _config, _load, _scores
+    from psmforce.experiments.reproduce import (_automated_split, _config, _load, _prior_path,
+                                                _scores)
 
     torch.set_num_threads(threads)
     model, config, crosstalk, regime = VARIANTS[name]
@@ -85,13 +86,12 @@ def _train_variant(name: str, work: Path, seed: int, threads: int) -> dict:
     spec = recipe(model)
     prior_json = None
     if spec.inputs(None, True).uses_prior:
-        prior_path = work / "work" / "data" / f"prior_seed{seed}.json"
         if crosstalk:
             prior_json = fit_prior(train, val, crosstalk=True).to_json()
             for derive in DERIVATIONS.values():   # the prior's columns from this prior
                 derive(ds, prior_json)
         else:   # the prior the comparison's hybrid reads, as it reads it
-            prior_json = prior_path.read_text()
+            prior_json = _prior_path(run, seed).read_text()
     setup = make_setup(model, train, prior_json=prior_json, config=config)
     cfg = _config("full", "pretrain", seed, "cpu", model, regime_settings(regime, spec))
     t0 = time.time()
@@ -122,7 +122,8 @@ def carried(result: dict) -> dict[str, list[int]]:
     seed with both it and ``default``, it must lower the validation causal NRMSE on Fx and on
     Fy, and raise Fz (relatively) by no more than the smaller of those two lowerings. A variant
     is carried to fresh seeds when that holds on every seed it ran on (the returned list is then
-    all of them); an empty list: it ran on none beside the default."""
+    all of them); an empty list: it was dropped. A variant that has not run beside the default
+    on any seed is absent."""
     ran: dict[str, list[int]] = {}
     held: dict[str, list[int]] = {}
     for p in result.get("points", {}).values():
@@ -200,12 +201,37 @@ def main(argv=None) -> int:
 
     work = args.work / f"seed{args.seed}_scale{args.scale:g}"
     prepare_benches(work, args.scale, (args.seed,), teleop=False, sim_version=version(VERSION))
-    for name in args.variants:
-        record = work / "variants" / f"{name}.json"
-        if not record.exists():
-            write_json(record, _train_variant(name, work, args.seed, args.threads))
-        write_json(args.json, assemble(args.work, args.json))
+    try:
+        for name in args.variants:
+            record = work / "variants" / f"{name}.json"
+            if not record.exists():
+                write_json(record, _train_variant(name, work, args.seed, args.threads))
+            write_json(args.json, assemble(args.work, args.json))
+    except ValueError as err:   # a record read back, or an output the guard refuses
+        print(f"error: {err}", file=sys.stderr)
+        return 2
     return 0
+
+
+RECORD_KEYS = ("parameters", "epochs", "stopped_by", "validation_causal_nrmse_pct",
+               "validation_causal_rmse_n_by_condition", "test_causal_nrmse_pct")
+
+
+def _read_record(path: Path) -> dict:
+    """One variant's record, refused (ValueError naming the file and what is wrong) when its
+    name is not a variant, it is not JSON, or it lacks a figure the table reads."""
+    if path.stem not in VARIANTS:
+        raise ValueError(f"{path}: not a variant of this study ({', '.join(VARIANTS)})")
+    try:
+        record = json.loads(read_input_text(path, MAX_JSON_BYTES, "variant record"))
+    except json.JSONDecodeError as err:
+        raise ValueError(f"{path}: not JSON ({err.msg}); remove it to train the variant "
+                         f"again") from None
+    missing = [k for k in RECORD_KEYS if not isinstance(record, dict) or k not in record]
+    if missing:
+        raise ValueError(f"{path}: lacks {', '.join(missing)}; remove it to train the variant "
+                         f"again")
+    return record
 
 
 def assemble(work: Path, json_path: Path) -> dict:
@@ -217,7 +243,7 @@ def assemble(work: Path, json_path: Path) -> dict:
         key = f"{VERSION} scale {scale} seed {seed}"
         point = points.setdefault(key, {"version": VERSION, "scale": float(scale),
                                         "seed": int(seed), "variants": {}})
-        point["variants"][record.stem] = json.loads(record.read_text())
+        point["variants"][record.stem] = _read_record(record)
     return {"points": points,
             "command": ("python studies/hybrid_calibrated_design.py --seed S --scale X "
                         f"--work {shown_path(work)} --json {shown_path(json_path)}")}

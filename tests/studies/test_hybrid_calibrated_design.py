@@ -62,3 +62,25 @@ def test_the_rule_carries_a_variant_only_if_it_lowers_both_lateral_axes_on_every
     result["points"]["b"]["variants"]["paper_width"] = _nrmse(1.9, 1.9, 2.2)  # Fz up 10 %
     assert study.carried(result)["paper_width"] == []
     assert study.carried({"points": {"a": _point(1, paper_width=default)}}) == {}
+
+
+def test_a_record_read_back_is_checked_and_names_its_file(tmp_path):
+    import json
+
+    import pytest
+    folder = tmp_path / "seed1_scale0.1" / "variants"
+    folder.mkdir(parents=True)
+    good = {**_variant(1.5), "parameters": 10}
+    (folder / "default.json").write_text(json.dumps(good))
+    assert study.assemble(tmp_path, tmp_path / "out.json")["points"]["2.3 scale 0.1 seed 1"][
+        "variants"]["default"] == good
+    (folder / "paper_width.json").write_text('{"parameters": 10')           # cut short
+    with pytest.raises(ValueError, match=r"paper_width.json: not JSON"):
+        study.assemble(tmp_path, tmp_path / "out.json")
+    (folder / "paper_width.json").write_text('{"parameters": 10}')
+    with pytest.raises(ValueError, match=r"paper_width.json: lacks epochs"):
+        study.assemble(tmp_path, tmp_path / "out.json")
+    (folder / "paper_width.json").unlink()
+    (folder / "wider.json").write_text(json.dumps(good))
+    with pytest.raises(ValueError, match=r"wider.json: not a variant"):
+        study.assemble(tmp_path, tmp_path / "out.json")
