@@ -16,6 +16,18 @@ refused), so that whatever it suggests can be confirmed on seeds nothing was cho
   batches of 256, at most 100 epochs; :mod:`psmforce.experiments.regimes`);
 - ``transformer``: the paper's transformer under its own recipe, the reference on the same seed.
 
+Added after those had run (stop 63), to test what the first four left standing, the
+structure of the hybrid itself, under the same rule:
+
+- ``paper_window``: the hybrid's causal attention reaches back as far as the paper's
+  transformer's window (100 samples at the model rate, one second) instead of 50: slow
+  effects beyond half a second;
+- ``no_lateral_base``: the network predicts Fx and Fy whole, as the transformer does, from the
+  same compensated inputs (no base added on x and y; z keeps its insertion base): the residual
+  form itself;
+- ``no_prior``: the same network on the paper's raw 21 inputs, the raw HEX10 force as its base
+  (the prior replaced by zero, the "without the prior" ablation): the prior's part.
+
 The rule, fixed before the first variant finished: a variant is carried to fresh seeds (a
 comparison of its own, on seeds declared for it) only if it lowers the hybrid's validation causal
 NRMSE on both lateral axes on every design seed it ran on, and does not raise Fz by more than it
@@ -42,6 +54,7 @@ import argparse
 import json
 import sys
 import time
+from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -53,15 +66,37 @@ from psmforce.experiments.seeds import DESIGN_SEEDS  # noqa: E402
 
 VERSION = "2.3"
 PAPER_WIDTH = {"d_model": 64, "n_heads": 8, "n_layers": 3, "d_ff": 256}
+
+
+@dataclass(frozen=True)
+class Variant:
+    """One training of the study: the model, its constructor config over the recipe's, the
+    prior fitted with the cross-talk, the training regime (:mod:`psmforce.experiments.regimes`),
+    the prior used at all, and a base kept on the lateral axes."""
+
+    model: str = "hybrid"
+    config: dict = field(default_factory=dict)
+    prior_crosstalk: bool = False
+    regime: str = "own"
+    use_prior: bool = True
+    lateral_base: bool = True
+
+    def changes(self) -> list[str]:
+        """The fields in which it differs from the hybrid as compared (``Variant()``)."""
+        default = Variant()
+        return [f.name for f in fields(self) if getattr(self, f.name) != getattr(default, f.name)]
+
+
 VARIANTS = {
-    "default": ("hybrid", {}, False, "own"),
-    "prior_crosstalk": ("hybrid", {}, True, "own"),
-    "paper_width": ("hybrid", PAPER_WIDTH, False, "own"),
-    "paper_regime": ("hybrid", {}, False, "paper"),
-    "transformer": ("transformer", {}, False, "own"),
+    "default": Variant(),
+    "prior_crosstalk": Variant(prior_crosstalk=True),
+    "paper_width": Variant(config=PAPER_WIDTH),
+    "paper_regime": Variant(regime="paper"),
+    "paper_window": Variant(config={"attention_window": 100}),
+    "no_lateral_base": Variant(lateral_base=False),
+    "no_prior": Variant(use_prior=False),
+    "transformer": Variant(model="transformer"),
 }
-"""name: (model, constructor config over the recipe's, prior fitted with the cross-talk,
-training regime of :mod:`psmforce.experiments.regimes`)."""
 AXES = ("Fx", "Fy", "Fz")
 
 
@@ -69,37 +104,55 @@ def _causal(scores: dict) -> dict:
     return {a: scores["causal"][a]["nrmse_pct"] for a in AXES}
 
 
-def _train_variant(name: str, work: Path, seed: int, threads: int) -> dict:
+def train(v: Variant, tag: str, work: Path, seed: int, threads: int):
+    """Train variant ``v`` on the automated bench under ``work`` (seed ``seed``) as the
+    comparison trains its models: the ``full`` budget of ``psmforce reproduce``, early stopping
+    on the validation trials, resumable under ``work/resume/{tag}_seed{seed}.state``. Returns
+    the trained setup, the training report and the bench's dataset and validation trials."""
     import torch
 
+    from psmforce.estimators.data.dataset import NO_BASE
+    from psmforce.estimators.data.hybrid_inputs import select_base
     from psmforce.estimators.networks.recipes import DERIVATIONS, recipe
     from psmforce.estimators.training.train import fit_prior, make_setup, train_model
     from psmforce.experiments.regimes import regime_settings
-    from psmforce.experiments.reproduce import (_automated_split, _config, _load, _prior_path,
-                                                _scores)
+    from psmforce.experiments.reproduce import _automated_split, _config, _load, _prior_path
 
     torch.set_num_threads(threads)
-    model, config, crosstalk, regime = VARIANTS[name]
     run = str(work / "work")
     ds = _load(run, "automated", seed)
-    train, val = _automated_split(ds, seed)
-    spec = recipe(model)
+    train_trials, val = _automated_split(ds, seed)
+    spec = recipe(v.model)
+    inputs = spec.inputs(None, v.use_prior)
     prior_json = None
-    if spec.inputs(None, True).uses_prior:
-        if crosstalk:
-            prior_json = fit_prior(train, val, crosstalk=True).to_json()
+    if inputs.uses_prior:
+        if v.prior_crosstalk:
+            prior_json = fit_prior(train_trials, val, crosstalk=True).to_json()
             for derive in DERIVATIONS.values():   # the prior's columns from this prior
                 derive(ds, prior_json)
         else:   # the prior the comparison's hybrid reads, as it reads it
             prior_json = _prior_path(run, seed).read_text()
-    setup = make_setup(model, train, prior_json=prior_json, config=config)
-    cfg = _config("full", "pretrain", seed, "cpu", model, regime_settings(regime, spec))
+    if inputs.base:   # as make_setup chooses it, then the lateral axes' dropped if asked
+        base = select_base(train_trials, inputs.base)
+        inputs = replace(inputs, base=base if v.lateral_base else (NO_BASE, NO_BASE, base[2]))
+    setup = make_setup(v.model, train_trials, prior_json=prior_json, config=v.config,
+                       inputs=inputs)
+    cfg = _config("full", "pretrain", seed, "cpu", v.model, regime_settings(v.regime, spec))
+    rep = train_model(setup, train_trials, val, cfg, desc=tag,
+                      resume=work / "resume" / f"{tag}_seed{seed}.state")
+    return setup, rep, ds, val
+
+
+def _train_variant(name: str, work: Path, seed: int, threads: int) -> dict:
+    from psmforce.experiments.reproduce import _scores
+
+    v = VARIANTS[name]
     t0 = time.time()
-    rep = train_model(setup, train, val, cfg, desc=name,
-                      resume=work / "resume" / f"{name}_seed{seed}.state")
+    setup, rep, ds, val = train(v, name, work, seed, threads)
     val_scores = _scores(setup, val, "cpu")
     test = ds.select(split="test")
-    return {"model": model, "config": config, "prior_crosstalk": crosstalk, "regime": regime,
+    return {"model": v.model, "config": v.config, "prior_crosstalk": v.prior_crosstalk,
+            "regime": v.regime, "use_prior": v.use_prior, "lateral_base": v.lateral_base,
             "base_columns": list(setup.base_columns),
             "validation_causal_nrmse_pct": _causal(val_scores["overall"]),
             "validation_causal_rmse_n_by_condition": {
@@ -114,6 +167,9 @@ def _train_variant(name: str, work: Path, seed: int, threads: int) -> dict:
 LABELS = {"default": "hybrid (as compared)", "prior_crosstalk": "hybrid, prior with cross-talk",
           "paper_width": "hybrid, the paper transformer's width",
           "paper_regime": "hybrid, the paper's training regime",
+          "paper_window": "hybrid, attention over the paper's window",
+          "no_lateral_base": "hybrid, Fx and Fy predicted whole",
+          "no_prior": "hybrid without the prior (raw HEX10 base)",
           "transformer": "paper transformer (reference)"}
 
 
@@ -132,7 +188,7 @@ def carried(result: dict) -> dict[str, list[int]]:
             continue
         base = rows["default"]["validation_causal_nrmse_pct"]
         for name, v in rows.items():
-            if name == "default" or VARIANTS[name][0] != "hybrid":
+            if name == "default" or VARIANTS[name].model != "hybrid":
                 continue
             r = {a: v["validation_causal_nrmse_pct"][a] / base[a] for a in AXES}
             ran.setdefault(name, []).append(p["seed"])

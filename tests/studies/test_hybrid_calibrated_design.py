@@ -14,11 +14,13 @@ def test_a_fresh_seed_is_refused_before_anything_is_simulated(tmp_path, capsys):
 
 
 def test_each_hybrid_variant_changes_one_thing_from_the_default():
-    default = study.VARIANTS["default"]
-    assert default == ("hybrid", {}, False, "own")
-    for name, (model, config, crosstalk, regime) in study.VARIANTS.items():
-        if model == "hybrid" and name != "default":
-            assert (config != {}) + (crosstalk != default[2]) + (regime != "own") == 1, name
+    assert study.VARIANTS["default"] == study.Variant() and study.Variant().changes() == []
+    for name, variant in study.VARIANTS.items():
+        if variant.model == "hybrid" and name != "default":
+            assert len(variant.changes()) == 1, name
+    assert study.VARIANTS["transformer"].changes() == ["model"]
+    assert study.Variant(config={"d_model": 8}, regime="paper").changes() == ["config", "regime"]
+    assert set(study.LABELS) == set(study.VARIANTS)
 
 
 def _variant(fx: float) -> dict:

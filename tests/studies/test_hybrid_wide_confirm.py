@@ -1,0 +1,95 @@
+"""studies/hybrid_wide_confirm.py: it runs only on the seeds declared for it, pairs the wide hybrid
+with every model over the seeds both finished, and applies its rule only when every declared
+seed is in."""
+
+import json
+
+import pytest
+
+from psmforce.experiments.seeds import COMPARISON_SEEDS, DESIGN_SEEDS, WIDE_HYBRID_SEEDS
+from studies import hybrid_wide_confirm as study
+
+DECLARED = WIDE_HYBRID_SEEDS[0.1]
+
+
+@pytest.mark.parametrize("seed", [min(DESIGN_SEEDS), COMPARISON_SEEDS[0.1][0]])
+def test_a_seed_not_declared_for_it_is_refused_before_anything_is_simulated(seed, tmp_path,
+                                                                            capsys):
+    rc = study.main(["--seed", str(seed), "--work", str(tmp_path / "w"),
+                     "--json", str(tmp_path / "out.json")])
+    assert rc == 2 and "not declared for this study" in capsys.readouterr().err
+    assert not (tmp_path / "w").exists() and not (tmp_path / "out.json").exists()
+
+
+def test_its_models_are_the_comparisons_and_the_wide_hybrid_differs_only_in_width():
+    from studies.comparison import MODELS as COMPARED
+    assert set(study.MODELS) == {"hybrid_wide", *COMPARED}
+    assert study.MODELS["hybrid_wide"].changes() == ["config"]
+    assert study.MODELS["hybrid"].changes() == []
+    assert set(study.LABELS) == set(study.MODELS)
+
+
+def _record(fx, fy=2.0, fz=3.0, converged=True) -> dict:
+    errors = {"Fx": fx, "Fy": fy, "Fz": fz}
+    return {"parameters": 10, "epochs": 5, "stopped_by": "patience", "converged": converged,
+            "test_nrmse_pct": {"causal": dict(errors), "paper": dict(errors)},
+            "test_causal_rmse_n_by_condition": {"Free": {"Fx": 0.01, "Fy": 0.02, "Fz": 0.03}}}
+
+
+def _records(wide_fx, seeds=DECLARED, **kw) -> dict:
+    return {s: {"hybrid_wide": _record(wide_fx * (1 + 0.01 * k), **kw),
+                "hybrid": _record(2.0), "transformer": _record(1.0 + 0.02 * k)}
+            for k, s in enumerate(seeds)}
+
+
+def test_the_rule_waits_for_every_declared_seed_then_judges_the_lateral_axes():
+    partial = study.summarise(_records(1.5, DECLARED[:3]), 0.1)
+    assert partial["rule"] == "pending" and partial["paired"]["hybrid"]["seeds"] == list(
+        DECLARED[:3])
+    whole = study.summarise(_records(1.5), 0.1)
+    assert whole["paired"]["hybrid"]["causal"]["Fx"]["verdict"] == "ahead"
+    assert whole["paired"]["transformer"]["causal"]["Fx"]["verdict"] == "behind"
+    assert whole["rule"] == "replaces"
+    # ahead on Fx but behind on Fz: kept
+    assert study.summarise(_records(1.5, fz=4.0), 0.1)["rule"] == "kept"
+    # a tie on both lateral axes: kept
+    tie = _records(2.0)
+    for k, s in enumerate(DECLARED):
+        tie[s]["hybrid_wide"]["test_nrmse_pct"]["causal"]["Fx"] = 2.0 + (-0.1 if k % 2 else 0.1)
+    assert study.summarise(tie, 0.1)["rule"] == "kept"
+
+
+def test_a_training_that_did_not_stop_early_is_not_paired():
+    records = _records(1.5)
+    records[DECLARED[0]]["hybrid"]["converged"] = False
+    point = study.summarise(records, 0.1)
+    assert DECLARED[0] not in point["paired"]["hybrid"]["seeds"]
+    assert point["rule"] == "pending"
+    assert point["models"]["hybrid"]["not_converged"] == [DECLARED[0]]
+    assert "not converged" in study.table({"points": {"p": point}})
+
+
+def test_the_table_shows_every_model_and_the_paired_cells():
+    text = study.table({"points": {"p": study.summarise(_records(1.5), 0.1)}})
+    assert "| hybrid, the paper transformer's width | 5 | 1.53 ± 0.02 |" in text
+    assert "| wide hybrid / hybrid (as shipped) | 5 | 0.76x [" in text
+    assert "the wide hybrid replaces the hybrid as shipped" in text
+    assert study.table({}).strip() == "No training yet."
+
+
+def test_a_record_read_back_is_checked_and_names_its_file(tmp_path):
+    folder = tmp_path / f"seed{DECLARED[0]}_scale0.1" / "models"
+    folder.mkdir(parents=True)
+    (folder / "hybrid.json").write_text(json.dumps(_record(2.0)))
+    out = study.assemble(tmp_path, tmp_path / "out.json")
+    assert out["points"]["2.3 scale 0.1"]["models"]["hybrid"]["seeds"] == [DECLARED[0]]
+    (folder / "fcn.json").write_text('{"parameters": 10')
+    with pytest.raises(ValueError, match=r"fcn.json: not JSON"):
+        study.assemble(tmp_path, tmp_path / "out.json")
+    (folder / "fcn.json").write_text('{"parameters": 10}')
+    with pytest.raises(ValueError, match=r"fcn.json: lacks epochs"):
+        study.assemble(tmp_path, tmp_path / "out.json")
+    (folder / "fcn.json").unlink()
+    (folder / "gpt.json").write_text(json.dumps(_record(2.0)))
+    with pytest.raises(ValueError, match=r"gpt.json: not a model of this study"):
+        study.assemble(tmp_path, tmp_path / "out.json")
