@@ -51,7 +51,6 @@ resumes from its saved state, so several processes may run, one seed each.
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import time
 from dataclasses import dataclass, field, fields, replace
@@ -60,7 +59,6 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from psmforce.core.files import MAX_JSON_BYTES, read_input_text  # noqa: E402
 from psmforce.experiments.report import shown_path, write_json  # noqa: E402
 from psmforce.experiments.seeds import DESIGN_SEEDS  # noqa: E402
 
@@ -258,10 +256,13 @@ def main(argv=None) -> int:
     work = args.work / f"seed{args.seed}_scale{args.scale:g}"
     prepare_benches(work, args.scale, (args.seed,), teleop=False, sim_version=version(VERSION))
     try:
+        from studies.records import gather
+        done = gather(args.work, "variants", args.json, VARIANTS, RECORD_KEYS, _in_json).get(
+            (args.scale, args.seed), {})
         for name in args.variants:
-            record = work / "variants" / f"{name}.json"
-            if not record.exists():
-                write_json(record, _train_variant(name, work, args.seed, args.threads))
+            if name not in done:
+                write_json(work / "variants" / f"{name}.json",
+                           _train_variant(name, work, args.seed, args.threads))
             write_json(args.json, assemble(args.work, args.json))
     except ValueError as err:   # a record read back, or an output the guard refuses
         print(f"error: {err}", file=sys.stderr)
@@ -273,33 +274,24 @@ RECORD_KEYS = ("parameters", "epochs", "stopped_by", "validation_causal_nrmse_pc
                "validation_causal_rmse_n_by_condition", "test_causal_nrmse_pct")
 
 
-def _read_record(path: Path) -> dict:
-    """One variant's record, refused (ValueError naming the file and what is wrong) when its
-    name is not a variant, it is not JSON, or it lacks a figure the table reads."""
-    if path.stem not in VARIANTS:
-        raise ValueError(f"{path}: not a variant of this study ({', '.join(VARIANTS)})")
-    try:
-        record = json.loads(read_input_text(path, MAX_JSON_BYTES, "variant record"))
-    except json.JSONDecodeError as err:
-        raise ValueError(f"{path}: not JSON ({err.msg}); remove it to train the variant "
-                         f"again") from None
-    missing = [k for k in RECORD_KEYS if not isinstance(record, dict) or k not in record]
-    if missing:
-        raise ValueError(f"{path}: lacks {', '.join(missing)}; remove it to train the variant "
-                         f"again")
-    return record
+def _in_json(result: dict):
+    """The records a JSON of this study holds, as (scale, seed, name, record)."""
+    for point in result["points"].values():
+        for name, record in point["variants"].items():
+            yield point["scale"], point["seed"], name, record
 
 
 def assemble(work: Path, json_path: Path) -> dict:
-    """Every finished variant under ``work`` (one folder per seed and scale, one record per
-    variant, so processes on different seeds never write the same file) as the study's JSON."""
+    """Every finished variant as the study's JSON: the records under ``work`` (one folder per
+    seed and scale, one record per variant) over those ``json_path`` already holds
+    (:func:`studies.records.gather`)."""
+    from studies.records import gather
+
     points = {}
-    for record in sorted(work.glob("seed*_scale*/variants/*.json")):
-        seed, scale = record.parent.parent.name[4:].split("_scale")
-        key = f"{VERSION} scale {scale} seed {seed}"
-        point = points.setdefault(key, {"version": VERSION, "scale": float(scale),
-                                        "seed": int(seed), "variants": {}})
-        point["variants"][record.stem] = _read_record(record)
+    for (scale, seed), variants in sorted(
+            gather(work, "variants", json_path, VARIANTS, RECORD_KEYS, _in_json).items()):
+        points[f"{VERSION} scale {scale:g} seed {seed}"] = {
+            "version": VERSION, "scale": scale, "seed": seed, "variants": dict(sorted(variants.items()))}
     return {"points": points,
             "command": ("python studies/hybrid_calibrated_design.py --seed S --scale X "
                         f"--work {shown_path(work)} --json {shown_path(json_path)}")}

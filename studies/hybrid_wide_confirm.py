@@ -32,7 +32,6 @@ killed training resumes from its saved epoch.
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import time
 from pathlib import Path
@@ -40,7 +39,6 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from psmforce.core.files import MAX_JSON_BYTES, read_input_text  # noqa: E402
 from psmforce.experiments.report import shown_path, write_json  # noqa: E402
 from psmforce.experiments.seeds import WIDE_HYBRID_SEEDS  # noqa: E402
 from studies.hybrid_calibrated_design import PAPER_WIDTH, VERSION, Variant, train  # noqa: E402
@@ -82,21 +80,12 @@ def _train_model(name: str, work: Path, seed: int, threads: int) -> dict:
             "seconds": round(time.time() - t0, 1)}
 
 
-def _read_record(path: Path) -> dict:
-    """One training's record, refused (ValueError naming the file and what is wrong) when its
-    name is not a model of this study, it is not JSON, or it lacks a figure the table reads."""
-    if path.stem not in MODELS:
-        raise ValueError(f"{path}: not a model of this study ({', '.join(MODELS)})")
-    try:
-        record = json.loads(read_input_text(path, MAX_JSON_BYTES, "model record"))
-    except json.JSONDecodeError as err:
-        raise ValueError(f"{path}: not JSON ({err.msg}); remove it to train the model "
-                         f"again") from None
-    missing = [k for k in RECORD_KEYS if not isinstance(record, dict) or k not in record]
-    if missing:
-        raise ValueError(f"{path}: lacks {', '.join(missing)}; remove it to train the model "
-                         f"again")
-    return record
+def _in_json(result: dict):
+    """The records a JSON of this study holds, as (scale, seed, name, record)."""
+    for point in result["points"].values():
+        for seed, models in point["records"].items():
+            for name, record in models.items():
+                yield point["scale"], int(seed), name, record
 
 
 def summarise(records: dict[int, dict[str, dict]], scale: float) -> dict:
@@ -132,7 +121,8 @@ def summarise(records: dict[int, dict[str, dict]], scale: float) -> dict:
                 [records[s][m]["test_nrmse_pct"][mt] for s in both], AXES) for mt in METRICS}}
     return {"version": VERSION, "scale": scale, "declared_seeds": list(WIDE_HYBRID_SEEDS[scale]),
             "models": models, "paired": paired, "rule": rule(paired, WIDE_HYBRID_SEEDS[scale]),
-            "interval": "95 % Student t on the log of the per-seed ratios (ddof 1), mapped back"}
+            "interval": "95 % Student t on the log of the per-seed ratios (ddof 1), mapped back",
+            "records": {str(s): dict(sorted(records[s].items())) for s in seeds}}
 
 
 def rule(paired: dict, declared) -> str:
@@ -179,13 +169,15 @@ def table(result: dict) -> str:
 
 
 def assemble(work: Path, json_path: Path) -> dict:
-    """Every finished training under ``work`` (one folder per seed and scale, one record per
-    model) as the study's JSON, one point per scale."""
+    """Every finished training as the study's JSON, one point per scale: the records under
+    ``work`` (one folder per seed and scale, one record per model) over those ``json_path``
+    already holds (:func:`studies.records.gather`)."""
+    from studies.records import gather
+
     by_scale: dict[float, dict[int, dict]] = {}
-    for record in sorted(work.glob("seed*_scale*/models/*.json")):
-        seed, scale = record.parent.parent.name[4:].split("_scale")
-        by_scale.setdefault(float(scale), {}).setdefault(int(seed), {})[record.stem] = (
-            _read_record(record))
+    for (scale, seed), models in sorted(
+            gather(work, "models", json_path, MODELS, RECORD_KEYS, _in_json).items()):
+        by_scale.setdefault(scale, {})[seed] = models
     return {"points": {f"{VERSION} scale {scale:g}": summarise(records, scale)
                        for scale, records in sorted(by_scale.items())},
             "command": ("python studies/hybrid_wide_confirm.py --seed S --scale X "
@@ -215,10 +207,13 @@ def main(argv=None) -> int:
     work = args.work / f"seed{args.seed}_scale{args.scale:g}"
     prepare_benches(work, args.scale, (args.seed,), teleop=False, sim_version=version(VERSION))
     try:
+        from studies.records import gather
+        done = gather(args.work, "models", args.json, MODELS, RECORD_KEYS, _in_json).get(
+            (args.scale, args.seed), {})
         for name in args.models:
-            record = work / "models" / f"{name}.json"
-            if not record.exists():
-                write_json(record, _train_model(name, work, args.seed, args.threads))
+            if name not in done:
+                write_json(work / "models" / f"{name}.json",
+                           _train_model(name, work, args.seed, args.threads))
             write_json(args.json, assemble(args.work, args.json))
     except ValueError as err:   # a record read back, or an output the guard refuses
         print(f"error: {err}", file=sys.stderr)

@@ -84,5 +84,23 @@ def test_a_record_read_back_is_checked_and_names_its_file(tmp_path):
         study.assemble(tmp_path, tmp_path / "out.json")
     (folder / "paper_width.json").unlink()
     (folder / "wider.json").write_text(json.dumps(good))
-    with pytest.raises(ValueError, match=r"wider.json: not a variant"):
+    with pytest.raises(ValueError, match=r"wider.json: not a training of this study"):
         study.assemble(tmp_path, tmp_path / "out.json")
+
+
+def test_records_the_json_holds_survive_a_fresh_work_folder(tmp_path):
+    """A run on a new machine (no ``runs/``) adds to the committed JSON instead of replacing
+    it."""
+    import json
+    folder = tmp_path / "old" / "seed1_scale0.1" / "variants"
+    folder.mkdir(parents=True)
+    good = {**_variant(1.5), "parameters": 10}
+    (folder / "default.json").write_text(json.dumps(good))
+    out = tmp_path / "out.json"
+    out.write_text(json.dumps(study.assemble(tmp_path / "old", out)))
+    fresh = tmp_path / "new" / "seed2_scale0.1" / "variants"
+    fresh.mkdir(parents=True)
+    (fresh / "paper_width.json").write_text(json.dumps({**_variant(1.4), "parameters": 20}))
+    points = study.assemble(tmp_path / "new", out)["points"]
+    assert points["2.3 scale 0.1 seed 1"]["variants"]["default"] == good
+    assert points["2.3 scale 0.1 seed 2"]["variants"]["paper_width"]["parameters"] == 20

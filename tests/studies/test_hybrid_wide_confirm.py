@@ -91,5 +91,36 @@ def test_a_record_read_back_is_checked_and_names_its_file(tmp_path):
         study.assemble(tmp_path, tmp_path / "out.json")
     (folder / "fcn.json").unlink()
     (folder / "gpt.json").write_text(json.dumps(_record(2.0)))
-    with pytest.raises(ValueError, match=r"gpt.json: not a model of this study"):
+    with pytest.raises(ValueError, match=r"gpt.json: not a training of this study"):
         study.assemble(tmp_path, tmp_path / "out.json")
+
+
+def test_records_the_json_holds_survive_a_fresh_work_folder_and_a_new_run_replaces_its_own(
+        tmp_path):
+    """``runs/`` is not committed: a new machine's run must add to the committed JSON, not
+    replace it with what that machine trained."""
+    first = tmp_path / "first" / f"seed{DECLARED[0]}_scale0.1" / "models"
+    first.mkdir(parents=True)
+    (first / "hybrid.json").write_text(json.dumps(_record(2.0)))
+    (first / "fcn.json").write_text(json.dumps(_record(3.0)))
+    out = tmp_path / "out.json"
+    out.write_text(json.dumps(study.assemble(tmp_path / "first", out)))
+    again = tmp_path / "fresh" / f"seed{DECLARED[1]}_scale0.1" / "models"   # another machine
+    again.mkdir(parents=True)
+    (again / "hybrid.json").write_text(json.dumps(_record(2.2)))
+    redo = tmp_path / "fresh" / f"seed{DECLARED[0]}_scale0.1" / "models"
+    redo.mkdir(parents=True)
+    (redo / "fcn.json").write_text(json.dumps(_record(2.5)))              # trained again
+    point = study.assemble(tmp_path / "fresh", out)["points"]["2.3 scale 0.1"]
+    assert point["models"]["hybrid"]["seeds"] == list(DECLARED[:2])
+    assert point["records"][str(DECLARED[0])]["hybrid"] == _record(2.0)  # kept from the JSON
+    assert point["models"]["fcn"]["per_seed"]["causal"][0]["Fx"] == 2.5  # the new one wins
+    kept = json.loads(out.read_text())
+    del kept["points"]["2.3 scale 0.1"]["records"][str(DECLARED[0])]["hybrid"]["epochs"]
+    out.write_text(json.dumps(kept))
+    with pytest.raises(ValueError, match=rf"out.json: scale 0.1 seed {DECLARED[0]} hybrid: "
+                                         r"lacks epochs"):
+        study.assemble(tmp_path / "fresh", out)
+    out.write_text('{"points": [1, 2]}')
+    with pytest.raises(ValueError, match=r"out.json: not this study's results"):
+        study.assemble(tmp_path / "fresh", out)
