@@ -28,6 +28,14 @@ structure of the hybrid itself, under the same rule:
 - ``no_prior``: the same network on the paper's raw 21 inputs, the raw HEX10 force as its base
   (the prior replaced by zero, the "without the prior" ablation): the prior's part.
 
+Added after those (stop 64), a reference rather than a candidate (the rule reads hybrids only):
+
+- ``transformer_hybrid_inputs``: the paper's transformer, its own recipe and regime, reading the
+  hybrid's inputs and adding the hybrid's base (the prior-compensated columns, the residual
+  target). Beside the two references it splits the deficit in two: if it scores as the
+  transformer does, the hybrid's inputs and residual form are sound and its network is what
+  falls behind; if it scores as the hybrid does, the inputs or the base are.
+
 The rule, fixed before the first variant finished: a variant is carried to fresh seeds (a
 comparison of its own, on seeds declared for it) only if it lowers the hybrid's validation causal
 NRMSE on both lateral axes on every design seed it ran on, and does not raise Fz by more than it
@@ -70,7 +78,7 @@ PAPER_WIDTH = {"d_model": 64, "n_heads": 8, "n_layers": 3, "d_ff": 256}
 class Variant:
     """One training of the study: the model, its constructor config over the recipe's, the
     prior fitted with the cross-talk, the training regime (:mod:`psmforce.experiments.regimes`),
-    the prior used at all, and a base kept on the lateral axes."""
+    the prior used at all, a base kept on the lateral axes, and whose inputs it reads."""
 
     model: str = "hybrid"
     config: dict = field(default_factory=dict)
@@ -78,6 +86,8 @@ class Variant:
     regime: str = "own"
     use_prior: bool = True
     lateral_base: bool = True
+    inputs_of: str | None = None
+    """Another model's inputs and base (its recipe's), read by this one; None: its own."""
 
     def changes(self) -> list[str]:
         """The fields in which it differs from the hybrid as compared (``Variant()``)."""
@@ -93,6 +103,7 @@ VARIANTS = {
     "paper_window": Variant(config={"attention_window": 100}),
     "no_lateral_base": Variant(lateral_base=False),
     "no_prior": Variant(use_prior=False),
+    "transformer_hybrid_inputs": Variant(model="transformer", inputs_of="hybrid"),
     "transformer": Variant(model="transformer"),
 }
 AXES = ("Fx", "Fy", "Fz")
@@ -121,7 +132,7 @@ def train(v: Variant, tag: str, work: Path, seed: int, threads: int):
     ds = _load(run, "automated", seed)
     train_trials, val = _automated_split(ds, seed)
     spec = recipe(v.model)
-    inputs = spec.inputs(None, v.use_prior)
+    inputs = recipe(v.inputs_of or v.model).inputs(None, v.use_prior)
     prior_json = None
     if inputs.uses_prior:
         if v.prior_crosstalk:
@@ -168,6 +179,7 @@ LABELS = {"default": "hybrid (as compared)", "prior_crosstalk": "hybrid, prior w
           "paper_window": "hybrid, attention over the paper's window",
           "no_lateral_base": "hybrid, Fx and Fy predicted whole",
           "no_prior": "hybrid without the prior (raw HEX10 base)",
+          "transformer_hybrid_inputs": "paper transformer on the hybrid's inputs and base",
           "transformer": "paper transformer (reference)"}
 
 

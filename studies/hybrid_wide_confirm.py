@@ -81,9 +81,10 @@ def _train_model(name: str, work: Path, seed: int, threads: int) -> dict:
 
 
 def _in_json(result: dict):
-    """The records a JSON of this study holds, as (scale, seed, name, record)."""
+    """The records a JSON of this study holds, as (scale, seed, name, record); a point written
+    before the JSON kept them holds none."""
     for point in result["points"].values():
-        for seed, models in point["records"].items():
+        for seed, models in point.get("records", {}).items():
             for name, record in models.items():
                 yield point["scale"], int(seed), name, record
 
