@@ -77,6 +77,7 @@ RECIPE_SWAP = ROOT / "results" / "benchmarks" / "recipe_swap.json"
 BENCH_PAPER_CALIBRATION = ROOT / "results" / "benchmarks" / "bench_paper_calibration.json"
 FRESH_COMPARISON = ROOT / "results" / "benchmarks" / "comparison.json"
 HYBRID_CALIBRATED_DESIGN = ROOT / "results" / "benchmarks" / "hybrid_calibrated_design.json"
+HYBRID_WIDE_CONFIRM = ROOT / "results" / "benchmarks" / "hybrid_wide_confirm.json"
 ATI_FREE = ROOT / "docs" / "ati_free.md"
 
 
@@ -143,6 +144,11 @@ def _hybrid_calibrated_design_table(result: dict) -> str:
     return table(result)
 
 
+def _hybrid_wide_confirm_table(result: dict) -> str:
+    from studies.hybrid_wide_confirm import table
+    return table(result)
+
+
 BLOCKS = (
     (README, "fresh-comparison", (FRESH_COMPARISON, BENCH_PAPER_CALIBRATION),
      readme_page.fresh_comparison),
@@ -176,6 +182,7 @@ BLOCKS = (
     (RESULTS, "comparison-fresh-seeds", FRESH_COMPARISON, _fresh_comparison_table),
     (RESULTS, "hybrid-calibrated-design", HYBRID_CALIBRATED_DESIGN,
      _hybrid_calibrated_design_table),
+    (RESULTS, "hybrid-wide-confirm", HYBRID_WIDE_CONFIRM, _hybrid_wide_confirm_table),
     (SIMULATOR, "bench-paper-calibration", BENCH_PAPER_CALIBRATION,
      bench_calibration_page.bench_paper_calibration),
     (ATI_FREE, "excitation-tables", EXCITATION, ati_free_page.excitation_tables),

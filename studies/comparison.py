@@ -32,6 +32,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+from psmforce.core.files import MAX_JSON_BYTES, read_input_text  # noqa: E402
 from psmforce.experiments.report import shown_path, write_json  # noqa: E402
 from psmforce.experiments.seeds import COMPARISON_SEEDS, check_fresh  # noqa: E402
 from psmforce.estimators.evaluation.tables import spread_text  # noqa: E402
@@ -149,7 +150,16 @@ def main(argv=None) -> int:
                     / "comparison.json")
     ap.add_argument("--render-only", action="store_true")
     args = ap.parse_args(argv)
-    result = json.loads(args.json.read_text()) if args.json.is_file() else {"points": {}}
+    result = {"points": {}}
+    if args.json.exists():   # its other scales' points are kept: read back as user input
+        try:
+            result = json.loads(read_input_text(args.json, MAX_JSON_BYTES, "comparison"))
+            if not isinstance(result.get("points"), dict):
+                raise ValueError("no points")
+        except (ValueError, AttributeError) as err:   # JSONDecodeError is a ValueError
+            print(f"error: {args.json}: not a comparison's results ({err}); move it aside to "
+                  f"start a new one", file=sys.stderr)
+            return 2
     if args.render_only:
         print(table(result))
         return 0

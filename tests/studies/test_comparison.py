@@ -56,6 +56,18 @@ def test_design_and_undeclared_seeds_are_refused(tmp_path):
     assert not (tmp_path / "c.json").exists()
 
 
+def test_a_results_file_that_is_not_a_comparison_is_refused_in_one_line_and_kept(tmp_path,
+                                                                                  capsys):
+    bad = tmp_path / "c.json"
+    for text in ('{"points": [1]', '{"points": [1]}', '[1]'):
+        bad.write_text(text)
+        assert comparison.main(["--scale", "0.1", "--json", str(bad), "--work",
+                                str(tmp_path)]) == 2
+        err = capsys.readouterr().err
+        assert "c.json: not a comparison's results" in err and "Traceback" not in err
+        assert bad.read_text() == text
+
+
 def test_the_first_screen_states_each_point_with_its_interval_and_the_bench_against_the_robot():
     from reports.readme_page import fresh_comparison
     res = _results({"hybrid": [1.0, 2.0, 1.5], "transformer": [0.8, 2.5, 1.5],
