@@ -14,11 +14,14 @@ is shown and kept out of the verdicts.
 
     python studies/comparison.py --version 2.3 --scale 0.1 --json results/benchmarks/comparison.json
 
-Resumable (each task cached, a training resuming its saved state). Several calls may share
-``--work`` to use several cores (``--threads 1`` each) with disjoint ``--seeds`` (a part: it
-trains and writes no point); the call with every declared seed then finds each task cached and
-writes the point. The JSON keeps one point per (version, scale); ``--render-only`` prints the
-table of the JSON.
+Each seed runs as its own ``reproduce`` call, and what each (seed, model) training scored is kept
+as a record: a file under ``--work`` as it ends, and in the JSON, so a run on a machine without
+``--work`` (a fresh checkout: ``runs/`` is not committed) trains only what the JSON lacks, and
+the work of several sessions adds up (:mod:`studies.records`). Several calls may share
+``--work`` to use several cores (``--threads 1`` each) with disjoint ``--seeds`` or
+``--models``; a training killed midway resumes from its saved state. The point of a scale is
+written once every declared seed has every model. The JSON keeps one point per (version,
+scale); ``--render-only`` prints the table of the JSON.
 """
 
 from __future__ import annotations
@@ -26,7 +29,6 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -47,27 +49,58 @@ def run_dir(work: Path, version: str, scale: float) -> Path:
     return work / version / f"scale_{scale:g}"
 
 
-def point(results: dict, version: str, scale: float, seconds: float) -> dict:
-    """The comparison of one ``reproduce`` result: per model its per-seed NRMSE, mean and sd
-    (ddof 1) per metric and axis, convergence and stops; the hybrid over each other model,
-    paired by seed, per metric and axis (only between models that all converged); per test
-    condition each model's causal RMSE (N), mean and sd over seeds, to show where the errors
-    come from (no pairing: ``reproduce`` keeps per-seed errors overall only)."""
-    from psmforce.experiments.paired import mean_sd, paired_record
+RECORD_KEYS = ("nrmse_pct", "causal_rmse_n_by_condition", "training", "bench", "device")
+"""What one (seed, model) record holds: the test NRMSE % per metric and axis, the causal RMSE (N)
+per test condition and axis, the training's stop, the bench's simulator version, the device."""
+
+
+def records_from_results(results: dict) -> dict[int, dict[str, dict]]:
+    """``{seed: {model: record}}`` from a ``reproduce`` result of one seed (its per-condition
+    errors are means over the call's seeds, so only a one-seed call gives a seed's own)."""
     from psmforce.experiments.plan import plan
-    per_seed = results["automated_nrmse_pct_per_seed"]
-    models = {}
+    seeds = results["call"]["seeds"]
+    if len(seeds) != 1:
+        raise ValueError(f"a record is one seed's: this result holds seeds {seeds}")
+    seed = seeds[0]
+    out: dict[int, dict[str, dict]] = {seed: {}}
     for m in results["call"]["models"]:
         label = plan(m).label
-        training = [t for k, t in results["training"].items() if k.startswith(f"{m} full 1.0 ")]
+        t = results["training"][f"{m} full 1.0 seed {seed}"]
+        out[seed][m] = {
+            "nrmse_pct": {mt: results["automated_nrmse_pct_per_seed"][mt][label][0]
+                          for mt in METRICS},
+            "causal_rmse_n_by_condition": {
+                c: {a: v["causal"][label][a]["rmse_n"]["mean"] for a in AXES}
+                for c, v in results["automated_by_condition"].items()},
+            "training": {k: t.get(k) for k in ("epochs_run", "stopped_by", "converged",
+                                                "seconds")},
+            "bench": results["benches"][f"automated seed {seed}"],
+            "device": results["call"]["device"]}
+    return out
+
+
+def point(records: dict[int, dict[str, dict]], version: str, scale: float) -> dict:
+    """The comparison of one scale from its records (``{seed: {model: record}}``, every model
+    on every seed): per model its per-seed NRMSE, mean and sd (ddof 1) per metric and axis,
+    convergence and stops; the hybrid over each other model, paired by seed, per metric and
+    axis (only between models that all converged); per test condition each model's causal RMSE
+    (N), mean and sd (ddof 1) over seeds, to show where the errors come from."""
+    from psmforce.experiments.paired import mean_sd, paired_record
+    from psmforce.experiments.plan import plan
+    seeds = sorted(records)
+    present = [m for m in MODELS if all(m in records[s] for s in seeds)]
+    models = {}
+    for m in present:
+        rows = [records[s][m] for s in seeds]
+        per_seed = {mt: [r["nrmse_pct"][mt] for r in rows] for mt in METRICS}
         models[m] = {
-            "label": label,
-            "per_seed": {mt: per_seed[mt][label] for mt in METRICS},
-            "summary": {mt: {a: mean_sd([s[a] for s in per_seed[mt][label]]) for a in AXES}
+            "label": plan(m).label, "per_seed": per_seed,
+            "summary": {mt: {a: mean_sd([x[a] for x in per_seed[mt]]) for a in AXES}
                         for mt in METRICS},
-            "converged": all(bool(t["converged"]) for t in training),
-            "stopped": [f"{t['epochs_run']} epochs, {t['stopped_by']}" for t in training],
-            "training_seconds": [t.get("seconds") for t in training]}
+            "converged": all(bool(r["training"]["converged"]) for r in rows),
+            "stopped": [f"{r['training']['epochs_run']} epochs, {r['training']['stopped_by']}"
+                        for r in rows],
+            "training_seconds": [r["training"].get("seconds") for r in rows]}
     paired = {}
     hybrid = models.get("hybrid")
     for m, other in models.items():
@@ -75,20 +108,19 @@ def point(results: dict, version: str, scale: float, seconds: float) -> dict:
             continue
         paired[m] = {mt: paired_record(hybrid["per_seed"][mt], other["per_seed"][mt], AXES)
                      for mt in METRICS}
-    by_condition = {
-        cond: {m: {a: {"mean": v["causal"][models[m]["label"]][a]["rmse_n"]["mean"],
-                       "sd": v["causal"][models[m]["label"]][a]["rmse_n"]["std"]}
-                   for a in AXES} for m in models}
-        for cond, v in results.get("automated_by_condition", {}).items()}
-    return {"version": version, "scale": scale, "seeds": results["call"]["seeds"],
-            "by_condition": by_condition, "spread": results.get("spread"),
-            "device": results["call"]["device"],
-            "simulator_versions": sorted(set(results["benches"].values())),
+    conditions = sorted(records[seeds[0]][present[0]]["causal_rmse_n_by_condition"]) \
+        if present else []
+    by_condition = {c: {m: {a: mean_sd([records[s][m]["causal_rmse_n_by_condition"][c][a]
+                                        for s in seeds]) for a in AXES} for m in models}
+                    for c in conditions}
+    return {"version": version, "scale": scale, "seeds": seeds, "by_condition": by_condition,
+            "device": ", ".join(sorted({records[s][m]["device"] for s in seeds for m in models})),
+            "simulator_versions": sorted({records[s][m]["bench"] for s in seeds
+                                          for m in models}),
             "models": models, "paired": paired,
             "not_converged": [m for m, v in models.items() if not v["converged"]],
             "not_compared": [m for m in models if m != "hybrid" and m not in paired],
-            "interval": "95 % Student t on the log of the per-seed ratios (ddof 1), mapped back",
-            "call_seconds": round(seconds, 1)}
+            "interval": "95 % Student t on the log of the per-seed ratios (ddof 1), mapped back"}
 
 
 def _mean_sd_text(d: dict) -> str:
@@ -150,16 +182,11 @@ def main(argv=None) -> int:
                     / "comparison.json")
     ap.add_argument("--render-only", action="store_true")
     args = ap.parse_args(argv)
-    result = {"points": {}}
-    if args.json.exists():   # its other scales' points are kept: read back as user input
-        try:
-            result = json.loads(read_input_text(args.json, MAX_JSON_BYTES, "comparison"))
-            if not isinstance(result.get("points"), dict):
-                raise ValueError("no points")
-        except (ValueError, AttributeError) as err:   # JSONDecodeError is a ValueError
-            print(f"error: {args.json}: not a comparison's results ({err}); move it aside to "
-                  f"start a new one", file=sys.stderr)
-            return 2
+    try:
+        result = _read(args.json)
+    except ValueError as err:
+        print(f"error: {err}", file=sys.stderr)
+        return 2
     if args.render_only:
         print(table(result))
         return 0
@@ -172,29 +199,89 @@ def main(argv=None) -> int:
     if set(seeds) - set(declared):
         ap.error(f"--seeds {sorted(set(seeds) - set(declared))}: not declared for scale "
                  f"{args.scale:g} (psmforce/experiments/seeds.py COMPARISON_SEEDS: {declared})")
-    if "hybrid" not in args.models and seeds == declared:
-        ap.error("--models: the comparison is the hybrid against the others; include hybrid")
     from psmforce.experiments.reproduce import reproduce
     from psmforce.sim.versions import version
-    started = time.perf_counter()
-    results = reproduce(run_dir(args.work, args.version, args.scale), scale=args.scale,
-                        seeds=tuple(seeds), models=tuple(args.models), ablations=False,
-                        efficiency=False, teleop=False, threads=args.threads, device=args.device,
-                        sim_version=version(args.version))
-    if seeds != declared:
-        print(f"part done (seeds {seeds}); the call with every declared seed writes the point")
-        return 0
+    from studies.records import gather
+
+    records_dir = args.work / args.version / "records"
+    in_json = _in_json(args.version)
+    try:
+        for seed in seeds:
+            done = gather(records_dir, "models", args.json, MODELS, RECORD_KEYS, in_json).get(
+                (args.scale, seed), {})
+            missing = tuple(m for m in args.models if m not in done)
+            if missing:   # one seed per call: its per-condition errors are its own
+                results = reproduce(run_dir(args.work, args.version, args.scale),
+                                    scale=args.scale, seeds=(seed,), models=missing,
+                                    ablations=False, efficiency=False, teleop=False,
+                                    threads=args.threads, device=args.device,
+                                    sim_version=version(args.version))
+                for m, record in records_from_results(results)[seed].items():
+                    write_json(records_dir / f"seed{seed}_scale{args.scale:g}" / "models"
+                               / f"{m}.json", record)
+            result = assemble(records_dir, args.json, args.version, _read(args.json))
+            write_json(args.json, result)
+    except ValueError as err:   # a record read back, or an output the guard refuses
+        print(f"error: {err}", file=sys.stderr)
+        return 2
     key = f"{args.version} scale {args.scale:g}"
-    result["points"][key] = point(results, args.version, args.scale,
-                                  time.perf_counter() - started)
-    result["points"][key]["command"] = result["command"] = (
-        f"python studies/comparison.py --version {args.version} --scale {args.scale:g} "
-        f"--models {' '.join(args.models)} --work {shown_path(args.work)} "
-        f"--json {shown_path(args.json)}")
-    write_json(args.json, result)
-    print(table(result))
+    if key in result["points"] and sorted(result["points"][key]["seeds"]) == sorted(declared):
+        print(table(result))
+    else:
+        print(f"part done (seeds {seeds}); the point is written once every declared seed has "
+              f"every model")
     return 0
 
+
+def _read(path: Path) -> dict:
+    """The comparison's results at ``path`` (its other scales' points and every record are kept),
+    read back as user input; none yet: an empty one."""
+    if not path.exists():
+        return {"points": {}}
+    try:
+        result = json.loads(read_input_text(path, MAX_JSON_BYTES, "comparison"))
+        if not isinstance(result.get("points"), dict):
+            raise ValueError("no points")
+    except (ValueError, AttributeError) as err:   # JSONDecodeError is a ValueError
+        raise ValueError(f"{path}: not a comparison's results ({err}); move it aside to start "
+                         f"a new one") from None
+    return result
+
+
+def _in_json(version: str):
+    """The records the comparison's JSON holds for simulator ``version``, as (scale, seed,
+    model, record) (:func:`studies.records.gather`)."""
+    def listed(result: dict):
+        for scale, by_seed in result.get("records", {}).get(version, {}).items():
+            for seed, models in by_seed.items():
+                for m, record in models.items():
+                    yield float(scale), int(seed), m, record
+    return listed
+
+
+def assemble(records_dir: Path, json_path: Path, version: str, result: dict) -> dict:
+    """``result`` with simulator ``version``'s records (those under ``records_dir`` over those
+    ``json_path`` holds) and a point for every scale whose declared seeds all have every model;
+    a scale's point built before records were kept (no record of it here) stays as it is."""
+    from studies.records import gather
+    records = gather(records_dir, "models", json_path, MODELS, RECORD_KEYS, _in_json(version))
+    by_scale: dict[float, dict[int, dict]] = {}
+    for (scale, seed), models in sorted(records.items()):
+        by_scale.setdefault(scale, {})[seed] = dict(sorted(models.items()))
+    result = {**result, "points": dict(result["points"]), "records": {
+        **result.get("records", {}), version: {
+            f"{scale:g}": {str(seed): models for seed, models in by_seed.items()}
+            for scale, by_seed in by_scale.items()}}}
+    for scale, by_seed in by_scale.items():
+        declared = COMPARISON_SEEDS.get(scale, ())
+        if declared and all(s in by_seed and all(m in by_seed[s] for m in MODELS)
+                            for s in declared):
+            key = f"{version} scale {scale:g}"
+            result["points"][key] = point({s: by_seed[s] for s in declared}, version, scale)
+            result["points"][key]["command"] = result["command"] = (
+                f"python studies/comparison.py --version {version} --scale {scale:g} "
+                f"--work {shown_path(records_dir.parent.parent)} --json {shown_path(json_path)}")
+    return result
 
 if __name__ == "__main__":
     sys.exit(main())
