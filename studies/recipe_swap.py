@@ -34,6 +34,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+from psmforce.core.files import MAX_JSON_BYTES, read_input_text  # noqa: E402
 from psmforce.experiments.report import shown_path, write_json  # noqa: E402
 from psmforce.experiments.seeds import RECIPE_SWAP_SEEDS, check_fresh  # noqa: E402
 
@@ -107,9 +108,47 @@ def comparisons(cells: dict) -> dict:
     return rows
 
 
+CELL_KEYS = ("cell", "model", "label", "seeds", "per_seed", "converged", "stopped")
+"""What a finished cell holds that the table reads."""
+
+
+def _cell(record, where: str) -> dict:
+    """A finished cell read back, checked: ValueError naming ``where`` otherwise."""
+    missing = [k for k in CELL_KEYS if not isinstance(record, dict) or k not in record]
+    if missing:
+        raise ValueError(f"{where}: lacks {', '.join(missing)}; remove it to run the cell again")
+    if record["cell"] not in CELLS:
+        raise ValueError(f"{where}: {record['cell']!r} is not a cell of this study")
+    return record
+
+
+def _read_json(path: Path, what: str):
+    try:
+        return json.loads(read_input_text(path, MAX_JSON_BYTES, what))
+    except json.JSONDecodeError as err:
+        raise ValueError(f"{path}: not JSON ({err.msg})") from None
+
+
+def kept_cells(json_path: Path) -> dict:
+    """The finished cells the study's JSON at ``json_path`` holds (none if it is absent),
+    checked."""
+    if not json_path.exists():
+        return {}
+    old = _read_json(json_path, "recipe swap results")
+    if not isinstance(old, dict) or not isinstance(old.get("cells", {}), dict):
+        raise ValueError(f"{json_path}: not the recipe swap's results; move it aside")
+    return {c: _cell(v, f"{json_path}: cell {c}") for c, v in old.get("cells", {}).items()}
+
+
 def assemble(work: Path, json_path: Path) -> dict:
-    cells = {c: json.loads(cell_path(work, c).read_text()) for c in CELLS
-             if cell_path(work, c).is_file()}
+    """The study's JSON from its finished cells: those under ``work`` over those the JSON at
+    ``json_path`` already holds (``runs/`` is not committed: a rerun on a fresh checkout adds to
+    the committed cells instead of dropping them)."""
+    cells = kept_cells(json_path)
+    for c in CELLS:
+        if cell_path(work, c).is_file():
+            cells[c] = _cell(_read_json(cell_path(work, c), "cell"), str(cell_path(work, c)))
+    cells = {c: cells[c] for c in CELLS if c in cells}
     figures = {
         "command": f"python studies/recipe_swap.py --work {shown_path(work)} --json "
                    f"{shown_path(json_path)}",
@@ -149,12 +188,20 @@ def main(argv=None) -> int:
         prepare_benches(args.work / f"scale_{args.scale:g}", args.scale, args.seeds,
                         teleop=False)
         return 0
-    if not args.render_only:
-        for cell in sorted(args.cells, key=COST.get):
-            run_cell(args.work, args.scale, args.seeds, cell, args.threads, args.device,
-                     args.budget)
-            assemble(args.work, args.json)
-    assemble(args.work, args.json)
+    try:
+        if not args.render_only:
+            kept = kept_cells(args.json)
+            for cell in sorted(args.cells, key=COST.get):
+                if cell in kept and kept[cell]["seeds"] == list(args.seeds) \
+                        and kept[cell].get("scale") == args.scale:
+                    continue   # finished in an earlier run (perhaps on another machine)
+                run_cell(args.work, args.scale, args.seeds, cell, args.threads, args.device,
+                         args.budget)
+                assemble(args.work, args.json)
+        assemble(args.work, args.json)
+    except ValueError as err:   # a cell read back, or an output the guard refuses
+        print(f"error: {err}", file=sys.stderr)
+        return 2
     return 0
 
 

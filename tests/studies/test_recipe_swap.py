@@ -1,0 +1,53 @@
+"""studies/recipe_swap.py: finished cells kept in its JSON survive a fresh work folder, a cell
+finished again replaces its copy, and a cell read back is checked."""
+
+import json
+
+import pytest
+
+from psmforce.experiments.seeds import RECIPE_SWAP_SEEDS
+from studies import recipe_swap as study
+
+SEEDS = list(RECIPE_SWAP_SEEDS)
+
+
+def _cell(cell: str, fx: float) -> dict:
+    errors = [{"Fx": fx * (1 + 0.01 * k), "Fy": 2.0, "Fz": 3.0} for k in range(len(SEEDS))]
+    return {"cell": cell, "model": cell.split(":")[0], "label": cell, "regime": cell.split(":")[1],
+            "scale": 0.05, "seeds": SEEDS, "per_seed": {"causal": errors, "paper": errors},
+            "converged": [True] * len(SEEDS), "stopped": ["3 epochs, patience"] * len(SEEDS)}
+
+
+def test_cells_the_json_holds_are_kept_and_not_run_again(tmp_path, monkeypatch):
+    out = tmp_path / "swap.json"
+    first = tmp_path / "first"
+    study.write_json(study.cell_path(first, "fcn:paper"), _cell("fcn:paper", 2.0))
+    study.assemble(first, out)
+    fresh = tmp_path / "fresh"   # another machine: only the JSON
+    study.write_json(study.cell_path(fresh, "fcn:dense"), _cell("fcn:dense", 1.5))
+    figures = study.assemble(fresh, out)
+    assert list(figures["cells"]) == ["fcn:paper", "fcn:dense"]
+    assert figures["comparisons"]["fcn: dense over paper"]["causal"]["Fx"]["verdict"] == "ahead"
+    study.write_json(study.cell_path(fresh, "fcn:paper"), _cell("fcn:paper", 1.0))
+    assert study.assemble(fresh, out)["cells"]["fcn:paper"]["per_seed"]["causal"][0]["Fx"] == 1.0
+    ran = []
+    monkeypatch.setattr(study, "run_cell", lambda work, scale, seeds, cell, *a: ran.append(cell))
+    assert study.main(["--scale", "0.05", "--cells", "fcn:paper", "fcn:dense", "--work",
+                       str(tmp_path / "third"), "--json", str(out)]) == 0
+    assert ran == []                                     # both finished, in the JSON
+    assert study.main(["--scale", "0.05", "--cells", "fcn:paper", "hybrid:paper", "--work",
+                       str(tmp_path / "third"), "--json", str(out)]) == 0
+    assert ran == ["hybrid:paper"]
+
+
+def test_a_cell_read_back_is_checked_and_named(tmp_path, capsys):
+    out = tmp_path / "swap.json"
+    bad = _cell("fcn:paper", 2.0)
+    del bad["per_seed"]
+    out.write_text(json.dumps({"cells": {"fcn:paper": bad}}))
+    with pytest.raises(ValueError, match=r"swap.json: cell fcn:paper: lacks per_seed"):
+        study.assemble(tmp_path / "w", out)
+    out.write_text('{"cells": ')
+    assert study.main(["--render-only", "--work", str(tmp_path / "w"), "--json", str(out)]) == 2
+    assert "swap.json: not JSON" in capsys.readouterr().err
+    assert out.read_text() == '{"cells": '              # left as it was
