@@ -142,6 +142,12 @@ RULE_WORDS = {"pending": "not yet judged (every declared seed is needed)",
               "kept": "the hybrid as shipped is kept"}
 
 
+def _mean_sd(d: dict) -> str:
+    """``mean ± sd``; the mean alone while one seed gives no sd."""
+    sd = d.get("sd")
+    return f"{d['mean']:.2f}" if sd is None or sd != sd else f"{d['mean']:.2f} ± {sd:.2f}"
+
+
 def table(result: dict) -> str:
     """The markdown of every point in ``result`` (the ``hybrid-wide-confirm`` block)."""
     lines = [""]
@@ -156,8 +162,7 @@ def table(result: dict) -> str:
             for m, v in p["models"].items():
                 flag = f" (not converged on {v['not_converged']})" if v["not_converged"] else ""
                 lines.append(f"| {v['label']}{flag} | {len(v['seeds'])} | " + " | ".join(
-                    f"{v['summary'][mt][a]['mean']:.2f} ± {v['summary'][mt][a]['sd']:.2f}"
-                    for a in AXES) + " |")
+                    _mean_sd(v['summary'][mt][a]) for a in AXES) + " |")
             for m, pr in p["paired"].items():
                 lines.append(f"| wide hybrid / {p['models'][m]['label']} | {len(pr['seeds'])} | "
                              + " | ".join(pr[mt][a]["text"] for a in AXES) + " |")

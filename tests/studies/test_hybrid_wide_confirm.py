@@ -124,3 +124,8 @@ def test_records_the_json_holds_survive_a_fresh_work_folder_and_a_new_run_replac
     out.write_text('{"points": [1, 2]}')
     with pytest.raises(ValueError, match=r"out.json: not this study's results"):
         study.assemble(tmp_path / "fresh", out)
+
+
+def test_one_seed_shows_its_mean_without_a_spread():
+    text = study.table({"points": {"p": study.summarise(_records(1.5, DECLARED[:1]), 0.1)}})
+    assert "| hybrid (as shipped) | 1 | 2.00 | 2.00 | 3.00 |" in text and "nan" not in text
