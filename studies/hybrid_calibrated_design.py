@@ -266,8 +266,9 @@ def main(argv=None) -> int:
     from psmforce.sim.versions import version
 
     work = args.work / f"seed{args.seed}_scale{args.scale:g}"
-    prepare_benches(work, args.scale, (args.seed,), teleop=False, sim_version=version(VERSION))
     try:
+        prepare_benches(work, args.scale, (args.seed,), teleop=False,
+                        sim_version=version(VERSION))
         from studies.records import gather
         done = gather(args.work, "variants", args.json, VARIANTS, RECORD_KEYS, _in_json).get(
             (args.scale, args.seed), {})
@@ -276,7 +277,7 @@ def main(argv=None) -> int:
                 write_json(work / "variants" / f"{name}.json",
                            _train_variant(name, work, args.seed, args.threads))
             write_json(args.json, assemble(args.work, args.json))
-    except ValueError as err:   # a record read back, or an output the guard refuses
+    except ValueError as err:   # a record read back, a folder holding another run, a refused output
         print(f"error: {err}", file=sys.stderr)
         return 2
     return 0
