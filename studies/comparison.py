@@ -27,14 +27,12 @@ scale); ``--render-only`` prints the table of the JSON.
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from psmforce.core.files import MAX_JSON_BYTES, read_input_text  # noqa: E402
 from psmforce.experiments.report import shown_path, write_json  # noqa: E402
 from psmforce.experiments.seeds import COMPARISON_SEEDS, check_fresh  # noqa: E402
 from psmforce.estimators.evaluation.tables import spread_text  # noqa: E402
@@ -238,13 +236,15 @@ def _read(path: Path) -> dict:
     read back as user input; none yet: an empty one."""
     if not path.exists():
         return {"points": {}}
+    from studies.records import read_json
     try:
-        result = json.loads(read_input_text(path, MAX_JSON_BYTES, "comparison"))
-        if not isinstance(result.get("points"), dict):
-            raise ValueError("no points")
-    except (ValueError, AttributeError) as err:   # JSONDecodeError is a ValueError
+        result = read_json(path, "comparison")
+    except ValueError as err:
         raise ValueError(f"{path}: not a comparison's results ({err}); move it aside to start "
                          f"a new one") from None
+    if not isinstance(result, dict) or not isinstance(result.get("points"), dict):
+        raise ValueError(f"{path}: not a comparison's results (no points); move it aside to "
+                         f"start a new one")
     return result
 
 

@@ -304,7 +304,8 @@ def assemble(work: Path, json_path: Path) -> dict:
     for (scale, seed), variants in sorted(
             gather(work, "variants", json_path, VARIANTS, RECORD_KEYS, _in_json).items()):
         points[f"{VERSION} scale {scale:g} seed {seed}"] = {
-            "version": VERSION, "scale": scale, "seed": seed, "variants": dict(sorted(variants.items()))}
+            "version": VERSION, "scale": scale, "seed": seed,
+            "variants": dict(sorted(variants.items()))}
     return {"points": points,
             "command": ("python studies/hybrid_calibrated_design.py --seed S --scale X "
                         f"--work {shown_path(work)} --json {shown_path(json_path)}")}

@@ -27,16 +27,15 @@ one ``--work`` must take disjoint cells, after one has simulated the benches: ``
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from psmforce.core.files import MAX_JSON_BYTES, read_input_text  # noqa: E402
 from psmforce.experiments.report import shown_path, write_json  # noqa: E402
 from psmforce.experiments.seeds import RECIPE_SWAP_SEEDS, check_fresh  # noqa: E402
+from studies.records import read_json  # noqa: E402
 
 MODELS = ("hybrid", "transformer", "fcn")
 REGIMES = ("paper", "dense")
@@ -113,20 +112,10 @@ CELL_KEYS = ("cell", "model", "label", "seeds", "per_seed", "converged", "stoppe
 
 
 def _cell(record, where: str) -> dict:
-    """A finished cell read back, checked: ValueError naming ``where`` otherwise."""
-    missing = [k for k in CELL_KEYS if not isinstance(record, dict) or k not in record]
-    if missing:
-        raise ValueError(f"{where}: lacks {', '.join(missing)}; remove it to run the cell again")
-    if record["cell"] not in CELLS:
-        raise ValueError(f"{where}: {record['cell']!r} is not a cell of this study")
-    return record
-
-
-def _read_json(path: Path, what: str):
-    try:
-        return json.loads(read_input_text(path, MAX_JSON_BYTES, what))
-    except json.JSONDecodeError as err:
-        raise ValueError(f"{path}: not JSON ({err.msg})") from None
+    """A finished cell read back, checked (:func:`studies.records.check_record`)."""
+    from studies.records import check_record
+    name = record.get("cell") if isinstance(record, dict) else None
+    return check_record(record, where, name, CELLS, CELL_KEYS)
 
 
 def kept_cells(json_path: Path) -> dict:
@@ -134,7 +123,7 @@ def kept_cells(json_path: Path) -> dict:
     checked."""
     if not json_path.exists():
         return {}
-    old = _read_json(json_path, "recipe swap results")
+    old = read_json(json_path, "recipe swap results")
     if not isinstance(old, dict) or not isinstance(old.get("cells", {}), dict):
         raise ValueError(f"{json_path}: not the recipe swap's results; move it aside")
     return {c: _cell(v, f"{json_path}: cell {c}") for c, v in old.get("cells", {}).items()}
@@ -147,7 +136,7 @@ def assemble(work: Path, json_path: Path) -> dict:
     cells = kept_cells(json_path)
     for c in CELLS:
         if cell_path(work, c).is_file():
-            cells[c] = _cell(_read_json(cell_path(work, c), "cell"), str(cell_path(work, c)))
+            cells[c] = _cell(read_json(cell_path(work, c), "cell"), str(cell_path(work, c)))
     cells = {c: cells[c] for c in CELLS if c in cells}
     figures = {
         "command": f"python studies/recipe_swap.py --work {shown_path(work)} --json "

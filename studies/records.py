@@ -34,13 +34,17 @@ def check_record(record, where: str, name: str, names, keys) -> dict:
     return record
 
 
+def read_json(path: Path, what: str):
+    """The JSON in ``path``, read through the input guard; ValueError naming it otherwise."""
+    try:
+        return json.loads(read_input_text(path, MAX_JSON_BYTES, what))
+    except json.JSONDecodeError as err:
+        raise ValueError(f"{path}: not JSON ({err.msg})") from None
+
+
 def read_record(path: Path, names, keys) -> dict:
     """The record in ``path`` (its stem is the training's name), checked."""
-    try:
-        record = json.loads(read_input_text(path, MAX_JSON_BYTES, "training record"))
-    except json.JSONDecodeError as err:
-        raise ValueError(f"{path}: not JSON ({err.msg}); remove it to train it again") from None
-    return check_record(record, str(path), path.stem, names, keys)
+    return check_record(read_json(path, "training record"), str(path), path.stem, names, keys)
 
 
 def gather(work: Path, folder: str, json_path: Path, names, keys,
@@ -51,12 +55,7 @@ def gather(work: Path, folder: str, json_path: Path, names, keys,
     ``work/seed{S}_scale{X}/{folder}/``, which replace the JSON's of the same key and name."""
     records: dict[Key, dict[str, dict]] = {}
     if json_path.exists():
-        text = read_input_text(json_path, MAX_JSON_BYTES, "study results")
-        try:
-            result = json.loads(text)
-        except json.JSONDecodeError as err:
-            raise ValueError(f"{json_path}: not JSON ({err.msg}); move it aside to assemble "
-                             f"from the work folder alone") from None
+        result = read_json(json_path, "study results")
         try:
             kept = list(in_json(result))
         except (AttributeError, KeyError, TypeError, ValueError) as err:
