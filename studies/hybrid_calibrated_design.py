@@ -36,6 +36,16 @@ Added after those (stop 64), a reference rather than a candidate (the rule reads
   transformer does, the hybrid's inputs and residual form are sound and its network is what
   falls behind; if it scores as the hybrid does, the inputs or the base are.
 
+Added after that reference pointed at the inputs and the base (stop 65), one group at a time:
+
+- ``paper_task`` (a reference, skipped by the rule): the hybrid's network and recipe on exactly
+  the paper transformer's task (its
+  21 raw inputs, the force predicted whole on every axis, no prior): if it scores as the
+  transformer does laterally, the hybrid's network and recipe are sound and the deficit lies in
+  what it reads or adds;
+- ``no_insertion_state``: the hybrid without the insertion joint's velocity and position (the
+  paper left the arm's joints out so that its model would not learn the arm's pose).
+
 The rule, fixed before the first variant finished: a variant is carried to fresh seeds (a
 comparison of its own, on seeds declared for it) only if it lowers the hybrid's validation causal
 NRMSE on both lateral axes on every design seed it ran on, and does not raise Fz by more than it
@@ -68,6 +78,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from psmforce.experiments.report import shown_path, write_json  # noqa: E402
+from psmforce.estimators.data.hybrid_inputs import INSERTION_STATE  # noqa: E402
 from psmforce.experiments.seeds import DESIGN_SEEDS  # noqa: E402
 
 VERSION = "2.3"
@@ -78,7 +89,8 @@ PAPER_WIDTH = {"d_model": 64, "n_heads": 8, "n_layers": 3, "d_ff": 256}
 class Variant:
     """One training of the study: the model, its constructor config over the recipe's, the
     prior fitted with the cross-talk, the training regime (:mod:`psmforce.experiments.regimes`),
-    the prior used at all, a base kept on the lateral axes, and whose inputs it reads."""
+    the prior used at all, a base kept on the lateral axes, whose inputs it reads, a base kept
+    along the shaft, and the input columns it goes without."""
 
     model: str = "hybrid"
     config: dict = field(default_factory=dict)
@@ -88,6 +100,9 @@ class Variant:
     lateral_base: bool = True
     inputs_of: str | None = None
     """Another model's inputs and base (its recipe's), read by this one; None: its own."""
+    axial_base: bool = True
+    drop_inputs: tuple[str, ...] = ()
+    """Input columns taken out of the recipe's."""
 
     def changes(self) -> list[str]:
         """The fields in which it differs from the hybrid as compared (``Variant()``)."""
@@ -104,8 +119,12 @@ VARIANTS = {
     "no_lateral_base": Variant(lateral_base=False),
     "no_prior": Variant(use_prior=False),
     "transformer_hybrid_inputs": Variant(model="transformer", inputs_of="hybrid"),
+    "paper_task": Variant(use_prior=False, lateral_base=False, axial_base=False),
+    "no_insertion_state": Variant(drop_inputs=INSERTION_STATE),
     "transformer": Variant(model="transformer"),
 }
+REFERENCES = ("transformer", "transformer_hybrid_inputs", "paper_task")
+"""Trainings that locate the deficit rather than candidates for the hybrid: the rule skips them."""
 AXES = ("Fx", "Fy", "Fz")
 
 
@@ -133,6 +152,8 @@ def train(v: Variant, tag: str, work: Path, seed: int, threads: int):
     train_trials, val = _automated_split(ds, seed)
     spec = recipe(v.model)
     inputs = recipe(v.inputs_of or v.model).inputs(None, v.use_prior)
+    inputs = replace(inputs, features=tuple(c for c in inputs.features
+                                            if c not in v.drop_inputs))
     prior_json = None
     if inputs.uses_prior:
         if v.prior_crosstalk:
@@ -141,9 +162,11 @@ def train(v: Variant, tag: str, work: Path, seed: int, threads: int):
                 derive(ds, prior_json)
         else:   # the prior the comparison's hybrid reads, as it reads it
             prior_json = _prior_path(run, seed).read_text()
-    if inputs.base:   # as make_setup chooses it, then the lateral axes' dropped if asked
+    if inputs.base:   # as make_setup chooses it, then the axes' dropped that are asked to be
         base = select_base(train_trials, inputs.base)
-        inputs = replace(inputs, base=base if v.lateral_base else (NO_BASE, NO_BASE, base[2]))
+        base = tuple(c if keep else NO_BASE for c, keep in
+                     zip(base, (v.lateral_base, v.lateral_base, v.axial_base)))
+        inputs = replace(inputs, base=() if set(base) == {NO_BASE} else base)
     setup = make_setup(v.model, train_trials, prior_json=prior_json, config=v.config,
                        inputs=inputs)
     cfg = _config("full", "pretrain", seed, "cpu", v.model, regime_settings(v.regime, spec))
@@ -162,6 +185,7 @@ def _train_variant(name: str, work: Path, seed: int, threads: int) -> dict:
     test = ds.select(split="test")
     return {"model": v.model, "config": v.config, "prior_crosstalk": v.prior_crosstalk,
             "regime": v.regime, "use_prior": v.use_prior, "lateral_base": v.lateral_base,
+            "axial_base": v.axial_base, "drop_inputs": list(v.drop_inputs),
             "base_columns": list(setup.base_columns),
             "validation_causal_nrmse_pct": _causal(val_scores["overall"]),
             "validation_causal_rmse_n_by_condition": {
@@ -180,6 +204,8 @@ LABELS = {"default": "hybrid (as compared)", "prior_crosstalk": "hybrid, prior w
           "no_lateral_base": "hybrid, Fx and Fy predicted whole",
           "no_prior": "hybrid without the prior (raw HEX10 base)",
           "transformer_hybrid_inputs": "paper transformer on the hybrid's inputs and base",
+          "paper_task": "hybrid on the paper's task (its 21 raw inputs, no base)",
+          "no_insertion_state": "hybrid without the insertion joint's state",
           "transformer": "paper transformer (reference)"}
 
 
@@ -198,7 +224,7 @@ def carried(result: dict) -> dict[str, list[int]]:
             continue
         base = rows["default"]["validation_causal_nrmse_pct"]
         for name, v in rows.items():
-            if name == "default" or VARIANTS[name].model != "hybrid":
+            if name == "default" or name in REFERENCES:
                 continue
             r = {a: v["validation_causal_nrmse_pct"][a] / base[a] for a in AXES}
             ran.setdefault(name, []).append(p["seed"])

@@ -16,9 +16,10 @@ def test_a_fresh_seed_is_refused_before_anything_is_simulated(tmp_path, capsys):
 def test_each_hybrid_variant_changes_one_thing_from_the_default():
     assert study.VARIANTS["default"] == study.Variant() and study.Variant().changes() == []
     for name, variant in study.VARIANTS.items():
-        if variant.model == "hybrid" and name != "default":
-            assert len(variant.changes()) == 1, name
+        if name not in study.REFERENCES and name != "default":
+            assert variant.model == "hybrid" and len(variant.changes()) == 1, name
     assert study.VARIANTS["transformer"].changes() == ["model"]
+    assert study.VARIANTS["paper_task"].changes() == ["use_prior", "lateral_base", "axial_base"]
     assert study.Variant(config={"d_model": 8}, regime="paper").changes() == ["config", "regime"]
     assert set(study.LABELS) == set(study.VARIANTS)
 
@@ -54,13 +55,14 @@ def test_the_rule_carries_a_variant_only_if_it_lowers_both_lateral_axes_on_every
     default = _nrmse(2.0, 2.0, 2.0)
     result = {"points": {
         "a": _point(1, default=default, paper_width=_nrmse(1.8, 1.9, 2.0),
-                    paper_regime=_nrmse(1.8, 1.9, 2.0), transformer=_nrmse(1.0, 1.0, 1.0)),
+                    paper_regime=_nrmse(1.8, 1.9, 2.0), transformer=_nrmse(1.0, 1.0, 1.0),
+                    paper_task=_nrmse(1.0, 1.0, 1.0)),
         "b": _point(2, default=default, paper_width=_nrmse(1.9, 1.9, 2.09),
                     paper_regime=_nrmse(1.9, 2.01, 1.0), prior_crosstalk=_nrmse(1.9, 1.9, 2.11))}}
     verdicts = study.carried(result)
     # Fz up 4.5 % against lateral drops of 5 %: within the rule; Fy up on seed 2: dropped
     assert verdicts == {"paper_width": [1, 2], "paper_regime": [], "prior_crosstalk": []}
-    assert "transformer" not in verdicts                      # the reference is not a variant
+    assert "transformer" not in verdicts and "paper_task" not in verdicts  # references
     result["points"]["b"]["variants"]["paper_width"] = _nrmse(1.9, 1.9, 2.2)  # Fz up 10 %
     assert study.carried(result)["paper_width"] == []
     assert study.carried({"points": {"a": _point(1, paper_width=default)}}) == {}
