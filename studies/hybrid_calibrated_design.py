@@ -46,6 +46,12 @@ Added after that reference pointed at the inputs and the base (stop 65), one gro
 - ``no_insertion_state``: the hybrid without the insertion joint's velocity and position (the
   paper left the arm's joints out so that its model would not learn the arm's pose).
 
+Where each variant's validation error lies in time (:func:`error_split`, in the records written
+from stop 65 on): per trial, its mean (an offset: the 2.3 bench's drift and re-mounts), the slow
+rest (history beyond the window) and the fast rest. ``--again`` scores variants the JSON already
+holds, for that split; their trainings rerun from nothing unless ``--work`` keeps their finished
+states (a rerun on the same code and seed trains to the same weights).
+
 The rule, fixed before the first variant finished: a variant is carried to fresh seeds (a
 comparison of its own, on seeds declared for it) only if it lowers the hybrid's validation causal
 NRMSE on both lateral axes on every design seed it ran on, and does not raise Fz by more than it
@@ -73,6 +79,8 @@ import sys
 import time
 from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
+
+import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
@@ -175,7 +183,37 @@ def train(v: Variant, tag: str, work: Path, seed: int, threads: int):
     return setup, rep, ds, val
 
 
+SPLIT_PARTS = ("offset", "slow", "fast")
+
+
+def error_split(pred: dict, trials, rate_hz: float = 100.0) -> dict:
+    """Where a causal error lies in time, per axis, RMS in N over the scored samples of
+    ``trials`` (``pred``: trial path -> per-sample estimate): ``offset``, each trial's mean error
+    (what a tare at the trial's start would remove: drift, a re-mount); ``slow``, the rest of the
+    error's centred 1 s moving average (history the window may not reach); ``fast``, what is left
+    (the dynamics within a second). The three are orthogonal only approximately (offset and the
+    others exactly), so their squares add up to the total's about."""
+    from psmforce.estimators.evaluation.evaluate import scored_segment
+
+    parts = {k: [] for k in SPLIT_PARTS}
+    n = int(round(rate_hz))
+    for t in trials:
+        estimate, truth = scored_segment(pred[t.path], t, bias=False, mode="causal")
+        err = estimate - truth
+        mean = err.mean(axis=0)
+        kernel = np.ones(min(n, len(err)))
+        counts = np.convolve(np.ones(len(err)), kernel, mode="same")   # shorter at the ends
+        smooth = np.stack([np.convolve(err[:, a] - mean[a], kernel, mode="same") / counts
+                           for a in range(err.shape[1])], axis=1)
+        parts["offset"].append(np.broadcast_to(mean, err.shape))
+        parts["slow"].append(smooth)
+        parts["fast"].append(err - mean - smooth)
+    return {a: {k: float(np.sqrt(np.mean(np.concatenate(v)[:, i] ** 2)))
+                for k, v in parts.items()} for i, a in enumerate(AXES)}
+
+
 def _train_variant(name: str, work: Path, seed: int, threads: int) -> dict:
+    from psmforce.estimators.evaluation.evaluate import predict_trial
     from psmforce.experiments.reproduce import _scores
 
     v = VARIANTS[name]
@@ -192,6 +230,8 @@ def _train_variant(name: str, work: Path, seed: int, threads: int) -> dict:
                 c: {a: s["causal"][a]["rmse_n"] for a in AXES}
                 for c, s in val_scores["by_condition"].items()},
             "test_causal_nrmse_pct": _causal(_scores(setup, test, "cpu")["overall"]),
+            "validation_causal_error_split_n": error_split(
+                {t.path: predict_trial(setup, t, device="cpu") for t in val}, val),
             "epochs": rep.get("epochs_run"), "stopped_by": rep.get("stopped_by"),
             "converged": rep.get("converged"), "parameters": rep.get("parameters"),
             "seconds": round(time.time() - t0, 1)}
@@ -266,6 +306,17 @@ def table(result: dict) -> str:
                 + " | ".join(" / ".join(f"{by_c[c][a]:.3f}" for a in AXES) if c in by_c else ""
                              for c in conditions) + " | "
                 + " / ".join(f"{v['test_causal_nrmse_pct'][a]:.2f}" for a in AXES) + " |")
+        split = [n for n in VARIANTS if "validation_causal_error_split_n" in rows.get(n, {})]
+        if split:
+            lines += ["", "Where that validation causal error lies, RMS N, Fx / Fy / Fz "
+                      "(`error_split`): each trial's mean error (offset), the rest of its 1 s "
+                      "moving average (slow), what is left (fast).", "",
+                      "| variant | " + " | ".join(SPLIT_PARTS) + " |",
+                      "|---|" + "---|" * len(SPLIT_PARTS)]
+            for name in split:
+                v = rows[name]["validation_causal_error_split_n"]
+                lines.append(f"| {LABELS[name]} | " + " | ".join(
+                    " / ".join(f"{v[a][k]:.3f}" for a in AXES) for k in SPLIT_PARTS) + " |")
         lines.append("")
     if len(lines) == 1:
         lines += ["No point yet.", ""]
@@ -280,6 +331,9 @@ def main(argv=None) -> int:
     ap.add_argument("--scale", type=float, default=0.1)
     ap.add_argument("--variants", nargs="+", choices=list(VARIANTS), default=list(VARIANTS))
     ap.add_argument("--threads", type=int, default=1)
+    ap.add_argument("--again", action="store_true",
+                    help="score the variants again even where the JSON holds them (a training "
+                         "whose finished state is under --work is not repeated)")
     ap.add_argument("--work", type=Path, default=ROOT / "runs" / "hybrid_calibrated_design")
     ap.add_argument("--json", type=Path,
                     default=ROOT / "results" / "benchmarks" / "hybrid_calibrated_design.json")
@@ -299,7 +353,7 @@ def main(argv=None) -> int:
         done = gather(args.work, "variants", args.json, VARIANTS, RECORD_KEYS, _in_json).get(
             (args.scale, args.seed), {})
         for name in args.variants:
-            if name not in done:
+            if name not in done or args.again:
                 write_json(work / "variants" / f"{name}.json",
                            _train_variant(name, work, args.seed, args.threads))
             write_json(args.json, assemble(args.work, args.json))

@@ -1,6 +1,8 @@
 """studies/hybrid_calibrated_design.py: it chooses, so it refuses a seed a claim rests on, and its
 variants change one thing each against the comparison's hybrid."""
 
+import pytest
+
 from studies import hybrid_calibrated_design as study
 from psmforce.experiments.seeds import COMPARISON_SEEDS
 
@@ -106,3 +108,42 @@ def test_records_the_json_holds_survive_a_fresh_work_folder(tmp_path):
     points = study.assemble(tmp_path / "new", out)["points"]
     assert points["2.3 scale 0.1 seed 1"]["variants"]["default"] == good
     assert points["2.3 scale 0.1 seed 2"]["variants"]["paper_width"]["parameters"] == 20
+
+
+class _Trial:
+    """The little of a Trial that scoring reads: a path, a condition, the targets."""
+
+    def __init__(self, path: str, truth):
+        self.path, self.condition, self._truth = path, "Palpation", truth
+
+    def __len__(self):
+        return len(self._truth)
+
+    def matrix(self, columns, dtype):
+        return self._truth.astype(dtype)
+
+
+def test_the_error_split_puts_an_offset_a_slow_wave_and_a_fast_one_where_they_belong():
+    import numpy as np
+
+    from psmforce.estimators.evaluation.evaluate import EVAL_START
+
+    n = EVAL_START + 2000                    # 20 s at 100 Hz
+    t = np.arange(n) / 100.0
+    truth = np.zeros((n, 3))
+    offsets = {"a": 0.3, "b": -0.3}          # one per trial: RMS 0.3 N
+    slow = 0.2 * np.sqrt(2) * np.sin(2 * np.pi * 0.1 * t)   # 10 s period: RMS 0.2 N
+    fast = 0.1 * np.sqrt(2) * np.sin(2 * np.pi * 10.0 * t)  # 10 Hz, whole cycles in 1 s
+    trials = [_Trial(k, truth) for k in offsets]
+    pred = {}
+    for k, off in offsets.items():
+        p = np.zeros((n, 3))
+        p[:, 0] = off
+        p[:, 1] = slow - slow[EVAL_START:].mean()
+        p[:, 2] = fast
+        pred[k] = p
+    split = study.error_split(pred, trials)
+    assert split["Fx"]["offset"] == pytest.approx(0.3) and split["Fx"]["fast"] < 1e-9
+    assert split["Fy"]["slow"] == pytest.approx(0.2, rel=0.05) and split["Fy"]["fast"] < 0.01
+    assert split["Fz"]["fast"] == pytest.approx(0.1, rel=0.01) and split["Fz"]["slow"] < 0.005
+    assert split["Fy"]["offset"] < 1e-9 and split["Fz"]["offset"] < 1e-3
