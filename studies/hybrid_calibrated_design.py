@@ -253,7 +253,16 @@ def _train_variant(name: str, work: Path, seed: int, threads: int) -> dict:
                 {t.path: predict_trial(setup, t, device="cpu") for t in val}, val),
             "epochs": rep.get("epochs_run"), "stopped_by": rep.get("stopped_by"),
             "converged": rep.get("converged"), "parameters": rep.get("parameters"),
-            "seconds": round(time.time() - t0, 1)}
+            "seconds": round(time.time() - t0, 1),
+            "trials": {"validation": _count(val), "test": _count(test)}}
+
+
+def _count(trials) -> dict:
+    """Trials per condition: how much a score rests on."""
+    out: dict[str, int] = {}
+    for t in trials:
+        out[t.condition] = out.get(t.condition, 0) + 1
+    return dict(sorted(out.items()))
 
 
 LABELS = {"default": "hybrid (as compared)", "prior_crosstalk": "hybrid, prior with cross-talk",
@@ -312,10 +321,14 @@ def table(result: dict) -> str:
         rows = p["variants"]
         conditions = sorted({c for v in rows.values()
                              for c in v["validation_causal_rmse_n_by_condition"]})
+        counts = next((v["trials"] for v in rows.values() if "trials" in v), None)
+        held = "" if counts is None else " Trials (per condition): " + "; ".join(
+            f"{part} " + ", ".join(f"{c} {n}" for c, n in by_c.items())
+            for part, by_c in counts.items()) + "."
         lines += [f"**Simulator {p['version']}, scale {p['scale']:g}, design seed {p['seed']}** "
                   "(one seed: differences, not verdicts). Validation trials, causal: NRMSE % per "
-                  "axis, then RMSE N per condition (Fx / Fy / Fz); test NRMSE beside, for "
-                  "information only.", "",
+                  "axis, then RMSE N per condition (Fx / Fy / Fz); test NRMSE beside." + held,
+                  "",
                   "| variant | parameters | epochs (stopped by) | validation Fx | Fy | Fz | "
                   + " | ".join(f"{c} (N)" for c in conditions) + " | test Fx / Fy / Fz |",
                   "|---|---|---|---|---|---|" + "---|" * len(conditions) + "---|"]

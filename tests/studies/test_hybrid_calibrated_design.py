@@ -42,6 +42,11 @@ def test_the_table_lists_the_variants_in_their_declared_order_with_their_figures
     assert rows[0].startswith("| hybrid (as compared) | 100 | 3 (patience) | 1.75 |")
     assert rows[1].startswith("| paper transformer (reference) |") and "| 1.25 |" in rows[1]
     assert "0.010 / 0.020 / 0.030" in rows[0] and "design seed 1" in text
+    assert "Trials" not in text                      # a record without its counts shows none
+    result["points"]["p"]["variants"]["default"]["trials"] = {
+        "validation": {"Free": 2, "Palpation": 2}, "test": {"Palpation": 18}}
+    assert "Trials (per condition): validation Free 2, Palpation 2; test Palpation 18." \
+        in study.table(result)
     assert study.table({}).strip() == "No point yet."
 
 
