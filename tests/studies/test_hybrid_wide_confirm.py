@@ -23,8 +23,9 @@ def test_a_seed_not_declared_for_it_is_refused_before_anything_is_simulated(seed
 
 def test_its_models_are_the_comparisons_and_the_wide_hybrid_differs_only_in_width():
     from studies.comparison import MODELS as COMPARED
-    assert set(study.MODELS) == {"hybrid_wide", *COMPARED}
+    assert set(study.MODELS) == {*study.CANDIDATES, *COMPARED}
     assert study.MODELS["hybrid_wide"].changes() == ["config"]
+    assert study.MODELS["hybrid_transformer"].changes() == ["model", "inputs_of"]
     assert study.MODELS["hybrid"].changes() == []
     assert set(study.LABELS) == set(study.MODELS)
 
@@ -44,27 +45,42 @@ def _records(wide_fx, seeds=DECLARED, **kw) -> dict:
 
 def test_the_rule_waits_for_every_declared_seed_then_judges_the_lateral_axes():
     partial = study.summarise(_records(1.5, DECLARED[:3]), 0.1)
-    assert partial["rule"] == "pending" and partial["paired"]["hybrid"]["seeds"] == list(
-        DECLARED[:3])
+    wide = partial["paired"]["hybrid_wide"]
+    assert partial["rule"] == {"hybrid_wide": "pending"}
+    assert wide["hybrid"]["seeds"] == list(DECLARED[:3])
     whole = study.summarise(_records(1.5), 0.1)
-    assert whole["paired"]["hybrid"]["causal"]["Fx"]["verdict"] == "ahead"
-    assert whole["paired"]["transformer"]["causal"]["Fx"]["verdict"] == "behind"
-    assert whole["rule"] == "replaces"
+    assert whole["paired"]["hybrid_wide"]["hybrid"]["causal"]["Fx"]["verdict"] == "ahead"
+    assert whole["paired"]["hybrid_wide"]["transformer"]["causal"]["Fx"]["verdict"] == "behind"
+    assert whole["rule"] == {"hybrid_wide": "replaces"}
     # ahead on Fx but behind on Fz: kept
-    assert study.summarise(_records(1.5, fz=4.0), 0.1)["rule"] == "kept"
+    assert study.summarise(_records(1.5, fz=4.0), 0.1)["rule"]["hybrid_wide"] == "kept"
     # a tie on both lateral axes: kept
     tie = _records(2.0)
     for k, s in enumerate(DECLARED):
         tie[s]["hybrid_wide"]["test_nrmse_pct"]["causal"]["Fx"] = 2.0 + (-0.1 if k % 2 else 0.1)
-    assert study.summarise(tie, 0.1)["rule"] == "kept"
+    assert study.summarise(tie, 0.1)["rule"]["hybrid_wide"] == "kept"
+
+
+def test_each_candidate_is_judged_on_its_own_and_never_paired_with_the_other():
+    records = _records(1.5)
+    for k, s in enumerate(DECLARED):
+        records[s]["hybrid_transformer"] = _record(2.0 + (-0.1 if k % 2 else 0.1))
+    point = study.summarise(records, 0.1)
+    assert point["rule"] == {"hybrid_wide": "replaces", "hybrid_transformer": "kept"}
+    assert set(point["paired"]["hybrid_transformer"]) == {"hybrid", "transformer"}
+    assert "hybrid_transformer" not in point["paired"]["hybrid_wide"]
+    text = study.table({"points": {"p": point}})
+    assert "| hybrid's physics + transformer / hybrid (as shipped) | 5 |" in text
+    assert ("hybrid's physics, the paper transformer's network: the hybrid as shipped is kept"
+            in text)
 
 
 def test_a_training_that_did_not_stop_early_is_not_paired():
     records = _records(1.5)
     records[DECLARED[0]]["hybrid"]["converged"] = False
     point = study.summarise(records, 0.1)
-    assert DECLARED[0] not in point["paired"]["hybrid"]["seeds"]
-    assert point["rule"] == "pending"
+    assert DECLARED[0] not in point["paired"]["hybrid_wide"]["hybrid"]["seeds"]
+    assert point["rule"] == {"hybrid_wide": "pending"}
     assert point["models"]["hybrid"]["not_converged"] == [DECLARED[0]]
     assert "not converged" in study.table({"points": {"p": point}})
 
@@ -73,7 +89,7 @@ def test_the_table_shows_every_model_and_the_paired_cells():
     text = study.table({"points": {"p": study.summarise(_records(1.5), 0.1)}})
     assert "| hybrid, the paper transformer's width | 5 | 1.53 ± 0.02 |" in text
     assert "| wide hybrid / hybrid (as shipped) | 5 | 0.76x [" in text
-    assert "the wide hybrid replaces the hybrid as shipped" in text
+    assert "the paper transformer's width: it replaces the hybrid as shipped" in text
     assert study.table({}).strip() == "No training yet."
 
 
