@@ -26,7 +26,8 @@ lateral axis and behind it (interval wholly above 1) on no axis of either metric
 against the other models is reported either way. ``hybrid_transformer`` runs here only if, on
 design seed 1's test trials too, it is below the hybrid as compared on Fx and Fy and not above
 it on Fz by more than the smaller of those two lowerings (the design study's rule, on the test
-trials: the validation trials at scale 0.1 are too few to choose on).
+trials: the validation trials at scale 0.1 are too few to choose on); :func:`design_gate` reads
+it from the design study's committed JSON, and ``main`` skips the candidate while it is not open.
 
     python studies/hybrid_wide_confirm.py --seed 111 --scale 0.1 \\
         --work runs/hybrid_wide_confirm \\
@@ -144,6 +145,37 @@ def summarise(records: dict[int, dict[str, dict]], scale: float) -> dict:
             "records": {str(s): dict(sorted(records[s].items())) for s in seeds}}
 
 
+GATED = {"hybrid_transformer": ("transformer_hybrid_inputs", (1, 2))}
+"""Candidates that run here only past their design gate: (the design study's variant, the
+design seeds whose test trials must all agree)."""
+DESIGN_JSON = ROOT / "results" / "benchmarks" / "hybrid_calibrated_design.json"
+
+
+def design_gate(candidate: str, design: dict) -> str:
+    """The module docstring's gate of ``candidate`` from the design study's JSON ``design``:
+    ``"open"`` (not gated, or below the hybrid as compared on Fx and Fy of every gate seed's
+    test trials, Fz not raised by more than the smaller lowering), ``"pending"`` (a gate seed
+    lacks either training) or ``"closed"``."""
+    if candidate not in GATED:
+        return "open"
+    variant, gate_seeds = GATED[candidate]
+    rows = {p["seed"]: p["variants"] for p in design.get("points", {}).values()
+            if p.get("version") == VERSION and p.get("scale") == 0.1}
+    for seed in gate_seeds:
+        if variant not in rows.get(seed, {}) or "default" not in rows.get(seed, {}):
+            return "pending"
+    for seed in gate_seeds:
+        try:
+            new, old = (rows[seed][v]["test_causal_nrmse_pct"] for v in (variant, "default"))
+            r = {a: float(new[a]) / float(old[a]) for a in AXES}
+        except (KeyError, TypeError, ValueError, ZeroDivisionError):
+            raise ValueError(f"the design study's JSON: seed {seed}'s test errors of {variant} "
+                             "or default are missing or not numbers") from None
+        if not (r["Fx"] < 1 and r["Fy"] < 1 and r["Fz"] - 1 <= min(1 - r["Fx"], 1 - r["Fy"])):
+            return "closed"
+    return "open"
+
+
 def rule(paired: dict, declared) -> str:
     """The module docstring's rule on one candidate over the hybrid as shipped (``paired``: that
     candidate's pairs): ``"pending"`` until both have stopped early on every declared seed, then
@@ -242,6 +274,13 @@ def main(argv=None) -> int:
         done = gather(args.work, "models", args.json, MODELS, RECORD_KEYS, _in_json).get(
             (args.scale, args.seed), {})
         for name in args.models:
+            if name in GATED and name not in done:
+                from studies.records import read_json
+                gate = design_gate(name, read_json(DESIGN_JSON, "the design study's JSON"))
+                if gate != "open":
+                    print(f"skipped {name}: its design gate is {gate} "
+                          f"({shown_path(DESIGN_JSON)}, module docstring)", file=sys.stderr)
+                    continue
             if name not in done:
                 write_json(work / "models" / f"{name}.json",
                            _train_model(name, work, args.seed, args.threads))

@@ -145,3 +145,41 @@ def test_records_the_json_holds_survive_a_fresh_work_folder_and_a_new_run_replac
 def test_one_seed_shows_its_mean_without_a_spread():
     text = study.table({"points": {"p": study.summarise(_records(1.5, DECLARED[:1]), 0.1)}})
     assert "| hybrid (as shipped) | 1 | 2.00 | 2.00 | 3.00 |" in text and "nan" not in text
+
+
+def _design(**by_seed) -> dict:
+    """A design study's JSON: per seed, (candidate's, default's) test Fx / Fy / Fz."""
+    points = {}
+    for name, (new, old) in by_seed.items():
+        seed = int(name[1:])
+        points[name] = {"version": "2.3", "scale": 0.1, "seed": seed, "variants": {
+            v: {"test_causal_nrmse_pct": dict(zip(("Fx", "Fy", "Fz"), e))}
+            for v, e in (("transformer_hybrid_inputs", new), ("default", old))}}
+    return {"points": points}
+
+
+def test_the_design_gate_opens_only_when_every_gate_seed_agrees():
+    better, worse = ((1.4, 1.6, 2.0), (1.9, 2.1, 2.3)), ((1.5, 2.2, 2.0), (1.9, 2.1, 2.3))
+    assert study.design_gate("hybrid_wide", {}) == "open"             # not gated
+    assert study.design_gate("hybrid_transformer", _design(s2=better)) == "pending"
+    assert study.design_gate("hybrid_transformer", _design(s1=better, s2=better)) == "open"
+    assert study.design_gate("hybrid_transformer", _design(s1=worse, s2=better)) == "closed"
+    fz_up = ((1.8, 2.0, 2.5), (1.9, 2.1, 2.3))                        # Fz +9 %, laterals -5 %
+    assert study.design_gate("hybrid_transformer", _design(s1=fz_up, s2=better)) == "closed"
+    broken = _design(s1=better, s2=better)
+    del broken["points"]["s1"]["variants"]["default"]["test_causal_nrmse_pct"]["Fy"]
+    with pytest.raises(ValueError, match="seed 1's test errors"):
+        study.design_gate("hybrid_transformer", broken)
+
+
+def test_a_gated_candidate_is_not_trained_while_its_gate_is_not_open(tmp_path, monkeypatch,
+                                                                     capsys):
+    monkeypatch.setattr("psmforce.experiments.reproduce.prepare_benches", lambda *a, **k: None)
+    design = tmp_path / "design.json"
+    design.write_text(json.dumps(_design(s2=((1.4, 1.6, 2.0), (1.9, 2.1, 2.3)))))
+    monkeypatch.setattr(study, "DESIGN_JSON", design)
+    monkeypatch.setattr(study, "_train_model", lambda *a: pytest.fail("trained past its gate"))
+    rc = study.main(["--seed", str(DECLARED[0]), "--models", "hybrid_transformer",
+                     "--work", str(tmp_path / "w"), "--json", str(tmp_path / "out.json")])
+    assert rc == 0 and "skipped hybrid_transformer: its design gate is pending" in \
+        capsys.readouterr().err
