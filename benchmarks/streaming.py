@@ -17,6 +17,9 @@ the weights). Prints and writes (JSON):
 * the same for the paper's transformer (psmforce/estimators/networks/baselines.py, 155,715
   parameters) recomputing its 100-sample window each step in eager PyTorch (scaling included): the
   reference;
+* the paper's transformer through the library's streaming pipeline (its last 100 inputs as the
+  state, :mod:`psmforce.estimators.runtime.window_stream`; backend ``auto``, the same post-filter):
+  what ``psmforce serve`` pays for a window model;
 * network-step latency per backend (numpy, onnx, torch), the basis of ``backend="auto"``;
 * offline batch throughput (windows = estimates per second) on the test recordings;
 * max |streaming - offline| (N) on a recorded test trial;
@@ -166,7 +169,7 @@ def main() -> tuple[dict, str | None]:
 
     # -- the paper's transformer recomputing its whole 100-sample window (eager PyTorch)
     ref = PaperTransformer(len(PAPER_FEATURES)).eval()
-    xs_ref, _ = fit_scalers(dataset.select(split="train") or dataset.trials, PAPER_FEATURES)
+    xs_ref, ys_ref = fit_scalers(dataset.select(split="train") or dataset.trials, PAPER_FEATURES)
     raw_ref = trial.frame[list(PAPER_FEATURES)].to_numpy(np.float32)
     ring = np.zeros((2 * ref.window, len(PAPER_FEATURES)), np.float32)
 
@@ -179,6 +182,10 @@ def main() -> tuple[dict, str | None]:
 
     result["reference_paper_transformer"] = _stats(_time_steps(ref_step, args.steps))
     result["reference_paper_transformer"]["parameters"] = count_parameters(ref)
+    est_ref = StreamingEstimator(ref, PAPER_FEATURES, xs_ref, ys_ref, **POST_FILTER)
+    result["paper_transformer_pipeline"] = {
+        **_stats(_time_steps(lambda i: est_ref.step(rows[i % n_rows], time=i * period),
+                             args.steps)), "backend": est_ref.backend_name}
 
     # -- network step per backend
     x = est.inputs.x.copy()
@@ -250,6 +257,8 @@ def _print(result: dict) -> None:
     if isinstance(result["hybrid_pipeline_base_frame"], dict):
         line("hybrid pipeline + base frame", result["hybrid_pipeline_base_frame"])
     line("paper transformer, full window, eager", result["reference_paper_transformer"])
+    line(f"paper transformer pipeline ({result['paper_transformer_pipeline']['backend']})",
+         result["paper_transformer_pipeline"])
     for name, s in result["network_step_by_backend"].items():
         line(f"network step only, backend {name}", s)
     print(f"median speed-up vs reference: {result['speedup_median']:.1f}x")

@@ -366,6 +366,10 @@ def latency(streaming: dict, live: dict) -> str:
              row("hybrid pipeline (HEX10 frame)", streaming["hybrid_pipeline"]),
              row("hybrid pipeline, base frame too", streaming["hybrid_pipeline_base_frame"]),
              row("paper transformer, full window", streaming["reference_paper_transformer"])]
+    if "paper_transformer_pipeline" in streaming:   # written since window models stream
+        t = streaming["paper_transformer_pipeline"]
+        lines.append(row(f"paper transformer pipeline, its window as the state ({t['backend']})",
+                         t))
     lines += [row(f"hybrid network step, {b}", t)
               for b, t in streaming["network_step_by_backend"].items()]
     d, node = live["dds"], live["node"]

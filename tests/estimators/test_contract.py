@@ -124,7 +124,7 @@ def test_a_built_model_is_checked_against_the_contract_naming_what_it_lacks(regi
 def test_the_flags_are_derived_from_the_models_themselves():
     shipped = ["transformer", "fcn", "lstm", "hybrid", "rocket"]
     assert [m for m in shipped if recipe(m).closed_form] == ["rocket"]
-    assert [m for m in shipped if recipe(m).streams] == ["hybrid"]
+    assert [m for m in shipped if recipe(m).streams] == ["transformer", "fcn", "hybrid"]
     assert [m for m in shipped if recipe(m).uses_prior] == ["hybrid"]
     for name in shipped:
         model = build_model(name, len(recipe(name).inputs().features))
@@ -138,7 +138,7 @@ def test_deriving_a_flag_leaves_the_torch_generator_alone(registered):
     registered(Recipe("fresh_fcn", RECIPES["fcn"].build))
     torch.manual_seed(7)
     before = torch.get_rng_state()
-    assert not recipe("fresh_fcn").streams  # builds its probe model now
+    assert recipe("fresh_fcn").streams  # builds its probe model now
     assert torch.equal(torch.get_rng_state(), before)
 
 

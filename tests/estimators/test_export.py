@@ -10,10 +10,10 @@ import pytest
 from psmforce.estimators.training import checkpoint as ck
 from psmforce.estimators.runtime.export import ExportError, export, run_export
 from psmforce.estimators.data.hybrid_inputs import hybrid_columns, prior_to_json
-from psmforce.estimators.networks.recipes import build_model
 from psmforce.estimators.runtime.streaming import StreamingEstimator
 from psmforce.identification.prior import InternalForcePrior
 from tests.estimators.test_streaming import (INSERTION, model_and_scalers, one_thread, recording)  # noqa: F401
+from tests.checkpoints import untrained_checkpoint
 
 
 def _checkpoint(tmp_path, use_prior: bool):
@@ -51,10 +51,8 @@ def test_export_round_trip_matches_python_estimator(tmp_path, use_prior):
 
 
 def test_export_refuses_other_models_and_foreign_folders(tmp_path):
-    _, xs, ys = model_and_scalers(1)
-    path = ck.TrainedModel("fcn", {}, ("fx",), xs, ys, model=build_model("fcn", 1)).save(
-        tmp_path / "fcn.pt")
-    with pytest.raises(ExportError, match="does not stream"):
+    path = untrained_checkpoint("lstm", tmp_path / "lstm.pt")
+    with pytest.raises(ExportError, match="'lstm' model, which does not stream"):
         export(path, tmp_path / "out")
     assert not (tmp_path / "out").exists()   # refused: no folder left behind
     with pytest.raises(ExportError, match="no readable hybrid.json"):

@@ -16,12 +16,12 @@ from psmforce.estimators.data.hybrid_inputs import (BASE_COLUMNS, COMPENSATED_HE
                                                     SamplePrior, compensated_hex10, hybrid_columns,
                                                     sample_prior)
 from psmforce.estimators.runtime.postfilter import CausalFilter
-from psmforce.estimators.networks.recipes import build_model
 from psmforce.estimators.runtime.steppers import step_onnx_bytes
 from psmforce.estimators.runtime.streaming import (CHAIN_POSITIONS, Flags, StreamingError,
                                                    StreamingEstimator)
 from psmforce.identification.insertion import InsertionEffortModel
 from psmforce.io.recording import HEX10, PAPER_FEATURES, REQUIRED
+from tests.checkpoints import untrained_checkpoint
 
 RATE_HZ = 100.0
 
@@ -314,11 +314,9 @@ def test_from_checkpoint_uses_the_training_checkpoint(tmp_path):
     loaded = StreamingEstimator.from_checkpoint(path)
     direct = StreamingEstimator(model, features, xs, ys, base)
     np.testing.assert_allclose(stream(loaded, frame)[0], stream(direct, frame)[0], atol=1e-6)
-    _, xs_1, _ = model_and_scalers(1)
-    fcn = ck.TrainedModel("fcn", {}, ("fx",), xs_1, ys, model=build_model("fcn", 1)).save(
-        tmp_path / "f.pt")
-    with pytest.raises(StreamingError, match="does not stream"):
-        StreamingEstimator.from_checkpoint(fcn)
+    lstm = untrained_checkpoint("lstm", tmp_path / "l.pt")
+    with pytest.raises(StreamingError, match="'lstm' model, which does not stream"):
+        StreamingEstimator.from_checkpoint(lstm)
     assert set(HEX10) <= set(loaded.columns)
 
 

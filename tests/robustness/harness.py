@@ -1,6 +1,6 @@
 """What every robustness case shares: the verdicts, the inputs every case starts from
-(:class:`Shared`: a tiny bench, a nominal prior, an arm model, two one-epoch checkpoints and an
-export, built once), how one case runs and is classified (:func:`run_case`), and the helpers
+(:class:`Shared`: a tiny bench, a nominal prior, an arm model, two one-epoch checkpoints, an
+untrained LSTM's and an export, built once), how one case runs and is classified (:func:`run_case`), and the helpers
 that damage a file. The cases themselves, one module per artefact, are in
 :mod:`tests.robustness.cases`; ``python -m tests.robustness`` runs them (the package docstring
 defines the verdicts).
@@ -22,6 +22,7 @@ import pandas as pd
 import torch
 
 from psmforce.experiments.task_cache import task
+from tests.checkpoints import untrained_checkpoint
 from tests.robustness.adversarial_stream import NOMINAL_INSERTION  # a fit is not tested here
 
 SCALE = 0.005
@@ -95,6 +96,7 @@ class Shared:
             self.fcn = Path(train(self.bench, "fcn", root / "fcn.pt", epochs=1)["checkpoint"])
             self.hybrid = Path(train(self.bench, "hybrid", root / "hybrid.pt", epochs=1,
                                      prior=self.prior)["checkpoint"])
+        self.lstm = untrained_checkpoint("lstm", root / "lstm.pt")  # one that does not stream
         from psmforce.estimators.runtime.export import export
         self.export = root / "export"
         export(self.hybrid, self.export)

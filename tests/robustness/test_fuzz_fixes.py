@@ -11,18 +11,17 @@ import pandas as pd
 import pytest
 
 import psmforce.experiments.reproduce
-from psmforce.estimators.training.checkpoint import TrainedModel
 from psmforce.estimators.data.dataset import DatasetError, Scaler, load_dataset
 from psmforce.estimators.evaluation.evaluate import EVAL_START, evaluate
 from psmforce.estimators.data.bounds import physical_bounds
-from psmforce.estimators.networks.recipes import build_model
 from psmforce.estimators.runtime.streaming import StreamingError, StreamingEstimator
 from psmforce.identification import ArmDynamicsModel, fit_dynamics_cli
 from psmforce.identification.dynamics_report import POOR_FIT_RELATIVE_ERROR_PERCENT
 from psmforce.identification.errors import IdentificationInputError
-from psmforce.io.recording import PAPER_FEATURES, RecordingError, read_recording, write_recording
+from psmforce.io.recording import RecordingError, read_recording, write_recording
 from psmforce.sim import simulate
 from psmforce.cli.main import main
+from tests.checkpoints import untrained_checkpoint
 
 
 @pytest.fixture(scope="module")
@@ -30,15 +29,6 @@ def bench(tmp_path_factory):
     out = tmp_path_factory.mktemp("fuzz") / "bench"
     simulate("automated", scale=0.005, seed=0, out=out)
     return out
-
-
-def _fcn_checkpoint(path):
-    """An untrained FCN on the paper's inputs: enough for what is checked before predicting."""
-    n = len(PAPER_FEATURES)
-    return TrainedModel("fcn", {}, PAPER_FEATURES,
-                        Scaler(np.zeros(n, np.float32), np.ones(n, np.float32)),
-                        Scaler(np.zeros(3, np.float32), np.ones(3, np.float32)),
-                        model=build_model("fcn", n)).save(path)
 
 
 @pytest.mark.parametrize("column, value, reason", [
@@ -158,8 +148,8 @@ def test_a_file_that_is_not_an_arm_model_is_refused_naming_it(tmp_path, text, re
     assert str(path) in str(err.value) and "\n" not in str(err.value)
 
 
-def test_streaming_names_a_checkpoint_that_is_not_a_hybrid(tmp_path):
-    path = _fcn_checkpoint(tmp_path / "fcn.pt")
+def test_streaming_names_a_checkpoint_of_a_model_that_does_not_stream(tmp_path):
+    path = untrained_checkpoint("lstm", tmp_path / "lstm.pt")
     with pytest.raises(StreamingError, match="does not stream") as err:
         StreamingEstimator.from_checkpoint(path)
     assert str(path) in str(err.value)
@@ -173,7 +163,7 @@ def test_evaluate_refuses_a_test_recording_too_short_to_score_by_name(bench, tmp
     write_recording(read_recording(short).iloc[:EVAL_START], short)
     out = tmp_path / "eval"
     with pytest.raises(ValueError, match="cannot be scored") as err:
-        evaluate(_fcn_checkpoint(tmp_path / "fcn.pt"), data, out, plots=False)
+        evaluate(untrained_checkpoint("fcn", tmp_path / "fcn.pt"), data, out, plots=False)
     assert short.relative_to(data).as_posix() in str(err.value)
     assert not out.exists()  # no metrics of the other trials left behind
 

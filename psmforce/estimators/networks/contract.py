@@ -21,7 +21,9 @@ A :class:`StreamableModel` is a chunk network that also runs one sample at a tim
 of :mod:`psmforce.estimators.runtime.steppers`): it streams
 (:class:`psmforce.estimators.runtime.streaming.StreamingEstimator`) and exports to a step graph
 (:mod:`psmforce.estimators.runtime.export`). :class:`StepModel` is that step protocol alone, what
-the step backends read.
+the step backends read. A trainable window network streams too, its last ``window`` samples
+carried as the state (:mod:`psmforce.estimators.runtime.window_stream`); :func:`can_stream` says
+which models do.
 
 The protocols are ``runtime_checkable``: ``isinstance(model, ClosedFormModel)`` is how code
 dispatches (never a model's name); :func:`missing` lists what an object lacks of one.
@@ -145,6 +147,13 @@ def is_chunk(model) -> bool:
 def is_streamable(model) -> bool:
     """Whether ``model`` provides :class:`StreamableModel` and is a causal chunk model."""
     return isinstance(model, StreamableModel) and is_chunk(model)
+
+
+def can_stream(model) -> bool:
+    """Whether ``model`` runs one sample at a time: a :class:`StreamableModel` itself, or a
+    trainable window network, whose last ``window`` samples are its state
+    (:class:`psmforce.estimators.runtime.window_stream.StreamedWindow`)."""
+    return is_streamable(model) or (isinstance(model, TrainableNetwork) and not is_chunk(model))
 
 
 def check_model(model, name: str) -> None:

@@ -37,7 +37,7 @@ from typing import Callable, Sequence
 import torch
 
 from psmforce.estimators.networks.causal import CausalTransformer
-from psmforce.estimators.networks.contract import ClosedFormModel, check_model, is_streamable
+from psmforce.estimators.networks.contract import ClosedFormModel, can_stream, check_model
 from psmforce.estimators.data.dataset import Dataset, resolve_features
 from psmforce.estimators.data.lstm_inputs import LSTM_FEATURES, LSTM_RAW_COLUMNS, lstm_columns
 from psmforce.estimators.data.hybrid_inputs import (add_prior_columns, hybrid_feature_set,
@@ -217,9 +217,8 @@ class Recipe:
 
     @property
     def streams(self) -> bool:
-        """Runs in :class:`psmforce.estimators.runtime.streaming.StreamingEstimator` and exports to a step graph (a
-        :class:`psmforce.estimators.networks.contract.StreamableModel`)."""
-        return is_streamable(self._probe)
+        """Streams and exports to a step graph (:func:`~.contract.can_stream`)."""
+        return can_stream(self._probe)
 
     @property
     def uses_prior(self) -> bool:

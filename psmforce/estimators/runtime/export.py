@@ -2,7 +2,8 @@
 
 ``export(checkpoint, out_dir)`` writes (atomically, temporary file then rename), for any model that
 follows the step protocol of :mod:`psmforce.estimators.runtime.steppers` (the hybrid's causal
-transformer):
+transformer), or is a trainable window network (the paper's transformer, the FCN), whose state is
+its last ``window`` inputs (:mod:`psmforce.estimators.runtime.window_stream`):
 
 ``hybrid_step.onnx``
     one step of the network (:func:`psmforce.estimators.runtime.steppers.step_onnx_bytes`), opset
@@ -11,7 +12,7 @@ transformer):
     are the log-variance of the scaled residual, :mod:`psmforce.estimators.networks.uncertainty`),
     and one ``<name>_out`` per state tensor, fed back as the next step's ``<name>``. The state
     starts at zeros and the graph advances it entirely (for the causal transformer: ``keys`` /
-    ``values`` caches and the ``n_valid`` sample counter).
+    ``values`` caches and the ``n_valid`` sample counter; for a window network: ``window_inputs``).
 ``hybrid.json``
     everything else the pipeline needs, in order (see its ``pipeline`` entry): the recorded
     ``raw_columns``, ``features`` (network input order), ``base_columns``, ``input_scaler`` and
@@ -64,6 +65,7 @@ from psmforce.estimators.networks.recipes import MAX_STATE_FLOATS
 from psmforce.estimators.data.hybrid_inputs import HybridInputs, prior_from_json
 from psmforce.estimators.runtime.steppers import (OPSET, OnnxStepper, TorchStepper, not_streamable,
                                                   state_spec, step_onnx_bytes)
+from psmforce.estimators.runtime.window_stream import as_streamable
 from psmforce.estimators.networks.uncertainty import (LOGVAR_MAX, LOGVAR_MIN, output_width,
                                                       predicts_variance, std_newton)
 from psmforce.core.files import (MAX_JSON_BYTES, locked_folder, read_input_text,
@@ -95,11 +97,12 @@ def _export(checkpoint: str | Path, out_dir: str | Path) -> dict:
     if not ckpt.recipe.streams:
         raise ExportError(f"{checkpoint}: holds a '{ckpt.model_name}' model, which does not "
                           f"stream (psmforce.estimators.networks.recipes: streams=False), so has no step graph")
-    why = not_streamable(ckpt.model)  # a recipe that claims to stream but cannot
+    model = as_streamable(ckpt.model, len(ckpt.features))
+    why = not_streamable(model)  # a recipe that claims to stream but cannot
     if why is not None:
         raise ExportError(f"{checkpoint}: the '{ckpt.model_name}' model does not follow the "
                           f"step protocol (psmforce.estimators.runtime.steppers): {why}")
-    model = ckpt.model.eval()
+    model = model.eval()
     inputs = HybridInputs(ckpt.features, ckpt.base_columns, ckpt.input_scaler, ckpt.prior())
     onnx_bytes = step_onnx_bytes(model)
     state = state_spec(model)

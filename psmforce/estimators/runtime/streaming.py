@@ -4,7 +4,9 @@
 compensated HEX10 -> scaled inputs (:class:`psmforce.estimators.data.hybrid_inputs.HybridInputs`) ->
 one incremental step of the network (any model that follows the step protocol of
 :mod:`psmforce.estimators.runtime.steppers`, such as the causal transformer of
-:mod:`psmforce.estimators.networks.causal`: keys/values cached, one token per layer) -> un-scaled
+:mod:`psmforce.estimators.networks.causal`: keys/values cached, one token per layer; or a window
+network, its last ``window`` inputs as the state,
+:mod:`psmforce.estimators.runtime.window_stream`) -> un-scaled
 residual + base -> optional causal post-filter. Output: the external force ON the tool in the HEX10
 frame (N), and on request in the PSM base frame (rotated by R_base_hex10(q),
 :class:`psmforce.estimators.data.hybrid_inputs.HexRotation`). All buffers are allocated at
@@ -107,6 +109,7 @@ from psmforce.estimators.data.hybrid_inputs import HexRotation, HybridInputs
 from psmforce.estimators.runtime.postfilter import CausalFilter
 from psmforce.estimators.data.rates import AntiAlias, RateError, check_rate, decimation_factor
 from psmforce.estimators.runtime.steppers import StreamingError, make_backend, not_streamable
+from psmforce.estimators.runtime.window_stream import as_streamable
 from psmforce.estimators.networks.uncertainty import predicts_variance, std_newton
 from psmforce.io.recording import JOINT_POSITIONS, OVERLOAD
 
@@ -145,8 +148,9 @@ class StreamingEstimator:
     """Per-sample hybrid force estimator; see the module docstring.
 
     ``model``: a streamable network (:mod:`psmforce.estimators.runtime.steppers`; the hybrid's is a
-    :class:`psmforce.estimators.networks.causal.CausalTransformer`); ``features``, ``input_scaler``,
-    ``target_scaler``, ``base_columns``, ``prior``: as stored in the checkpoint
+    :class:`psmforce.estimators.networks.causal.CausalTransformer`) or a trainable window network
+    (streamed by :func:`psmforce.estimators.runtime.window_stream.as_streamable`); ``features``,
+    ``input_scaler``, ``target_scaler``, ``base_columns``, ``prior``: as stored in the checkpoint
     (:meth:`from_checkpoint`). ``rate_hz``: the rate the network was trained at (Hz).
     ``input_rate_hz``: the rate samples arrive at, a whole multiple of ``rate_hz`` (default:
     ``rate_hz``; module docstring, Rates). ``psm``: a ``psmforce.robot.PSM`` for base-frame output
@@ -160,6 +164,7 @@ class StreamingEstimator:
                  post_filter: str = "none", median_kernel: int = 11, lowpass_hz: float = 5.0,
                  lowpass_order: int = 2, extrapolation_z: float = 5.0,
                  input_range: tuple[Sequence[float], Sequence[float]] | None = None, psm=None):
+        model = as_streamable(model, len(features))
         why = not_streamable(model)
         if why is not None:
             raise StreamingError(f"streaming needs a streamable model (psmforce.estimators.runtime.steppers): {why}")
@@ -224,7 +229,8 @@ class StreamingEstimator:
 
     @classmethod
     def from_checkpoint(cls, path: str | Path, **options) -> "StreamingEstimator":
-        """An estimator for a hybrid checkpoint written by :mod:`psmforce.estimators.training.train`, its network
+        """An estimator for a checkpoint written by :mod:`psmforce.estimators.training.train` of a
+        model that streams (its recipe's ``streams``), its network
         run at the checkpoint's ``sample_rate_hz`` (``options``: the keyword arguments of the
         constructor; ``input_rate_hz`` for a faster stream; a ``rate_hz`` other than the
         checkpoint's is refused)."""

@@ -47,10 +47,10 @@ def cases() -> list[Case]:
         found.append(Case("api StreamingEstimator.from_checkpoint", damage, "REJECTED",
                           stream_with))
 
-    @case("cli export: checkpoint", "an fcn checkpoint (only the hybrid exports)")
+    @case("cli export: checkpoint", "an LSTM checkpoint (a model that does not stream)")
     def _(s, d):
-        return Attempt(argv=["export", str(s.fcn), "--out", str(d / "onnx")],
-                       names=(str(s.fcn),))
+        return Attempt(argv=["export", str(s.lstm), "--out", str(d / "onnx")],
+                       names=(str(s.lstm),))
 
     @case("cli evaluate: options", "--out not empty")
     def _(s, d):

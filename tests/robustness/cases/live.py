@@ -151,9 +151,9 @@ def cases() -> list[Case]:
         return Attempt(argv=["serve", str(d / "missing.pt"), "--duration", "5"],
                        names=("missing.pt",))
 
-    @case("cli serve", "a checkpoint of a model that does not stream (FCN)")
+    @case("cli serve", "a checkpoint of a model that does not stream (LSTM)")
     def _(s, d):
-        return Attempt(argv=["serve", str(s.fcn), "--duration", "5"], names=("fcn",))
+        return Attempt(argv=["serve", str(s.lstm), "--duration", "5"], names=("lstm",))
 
     # --- modules: a file never decides which code is imported (class 3) -------------------
     for label, module in (("not a module name", "os; rm -rf"), ("a script", "__main__"),
