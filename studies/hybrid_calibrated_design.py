@@ -246,8 +246,10 @@ def _train_variant(name: str, work: Path, seed: int, threads: int) -> dict:
     v = VARIANTS[name]
     t0 = time.time()
     setup, rep, ds, val = train(v, name, work, seed, threads)
-    val_scores = _scores(setup, val, "cpu")
     test = ds.select(split="test")
+    val_preds, test_preds = ({t.path: predict_trial(setup, t, device="cpu") for t in trials}
+                             for trials in (val, test))
+    val_scores = _scores(setup, val, "cpu", val_preds)
     return {"model": v.model, "config": v.config, "prior_crosstalk": v.prior_crosstalk,
             "regime": v.regime, "use_prior": v.use_prior, "lateral_base": v.lateral_base,
             "axial_base": v.axial_base, "drop_inputs": list(v.drop_inputs),
@@ -256,11 +258,9 @@ def _train_variant(name: str, work: Path, seed: int, threads: int) -> dict:
             "validation_causal_rmse_n_by_condition": {
                 c: {a: s["causal"][a]["rmse_n"] for a in AXES}
                 for c, s in val_scores["by_condition"].items()},
-            "test_causal_nrmse_pct": _causal(_scores(setup, test, "cpu")["overall"]),
-            "validation_causal_error_split_n": error_split(
-                {t.path: predict_trial(setup, t, device="cpu") for t in val}, val),
-            "test_causal_error_split_n": error_split(
-                {t.path: predict_trial(setup, t, device="cpu") for t in test}, test),
+            "test_causal_nrmse_pct": _causal(_scores(setup, test, "cpu", test_preds)["overall"]),
+            "validation_causal_error_split_n": error_split(val_preds, val),
+            "test_causal_error_split_n": error_split(test_preds, test),
             "epochs": rep.get("epochs_run"), "stopped_by": rep.get("stopped_by"),
             "converged": rep.get("converged"), "parameters": rep.get("parameters"),
             "seconds": round(time.time() - t0, 1),

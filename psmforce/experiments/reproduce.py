@@ -233,9 +233,13 @@ def _resume_path(checkpoint: Path) -> Path:
     return checkpoint.parent.parent / "resume" / f"{checkpoint.stem}.state"
 
 
-def _scores(setup: TrainedModel, trials: Sequence[Trial], device: str) -> dict:
-    """Every post-processing's metrics overall and per condition, and per-trial paper metrics."""
-    preds = {t.path: predict_trial(setup, t, device=device) for t in trials}
+def _scores(setup: TrainedModel, trials: Sequence[Trial], device: str,
+            preds: dict | None = None) -> dict:
+    """Every post-processing's metrics overall and per condition, and per-trial paper metrics;
+    ``preds``: the trials' estimates (trial path -> :func:`predict_trial`'s) where the caller
+    has them already."""
+    if preds is None:
+        preds = {t.path: predict_trial(setup, t, device=device) for t in trials}
     bias = setup.recipe.bias_correction
     conditions = sorted({t.condition for t in trials})
     return {"overall": score_modes(preds, trials, bias=bias),
