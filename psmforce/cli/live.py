@@ -143,10 +143,12 @@ def _start_sim(args, participant, stop: threading.Event) -> threading.Thread:
 def _common(p: argparse.ArgumentParser, *, shipped: bool = False) -> None:
     if shipped:
         p.add_argument("checkpoint", nargs="?",
-                       help="a streamable hybrid checkpoint (psmforce train); with --sim it may "
+                       help="a checkpoint of a model that streams (psmforce train: the hybrid, the "
+                            "paper's transformer or the FCN); with --sim it may "
                             "be left out: the shipped bench model answers")
     else:
-        p.add_argument("checkpoint", help="a streamable hybrid checkpoint (psmforce train)")
+        p.add_argument("checkpoint", help="a checkpoint of a model that streams (psmforce train: "
+                                          "the hybrid, the paper's transformer or the FCN)")
     p.add_argument("--bench-model", action="store_true",
                    help="run a checkpoint trained on the simulated bench only (the shipped "
                         "one) on these topics anyway: its forces are the simulator's "
