@@ -15,7 +15,7 @@ from psmforce.estimators.networks.contract import can_stream
 from psmforce.estimators.networks.recipes import build_model, recipe
 from psmforce.estimators.runtime.export import export, run_export
 from psmforce.estimators.runtime.steppers import make_backend, not_streamable
-from psmforce.estimators.runtime.streaming import Flags, StreamingEstimator
+from psmforce.estimators.runtime.streaming import Flags, StreamingError, StreamingEstimator
 from psmforce.estimators.runtime.window_stream import StreamedWindow, as_streamable
 from psmforce.estimators.training import checkpoint as ck
 from psmforce.io.recording import PAPER_FEATURES
@@ -49,12 +49,17 @@ def test_each_step_is_the_network_on_the_window_ending_there(network):
         np.testing.assert_allclose(stepper.step(x[0]), sequence[0], atol=1e-5)
 
 
-def test_only_trainable_window_networks_are_wrapped_and_the_weights_are_shared():
+def test_only_window_networks_with_scaled_outputs_are_wrapped_and_share_their_weights():
     chunk = build_model("hybrid", 4)
     assert as_streamable(chunk, 4) is chunk
     lstm = build_model("lstm", len(recipe("lstm").inputs().features))
     assert as_streamable(lstm, 4) is lstm and not can_stream(lstm)
     assert "JointLSTMForce lacks" in not_streamable(lstm)   # a chunk model without the step
+    rocket = build_model("rocket", 4)   # a window model, but numpy, fitted in closed form
+    assert as_streamable(rocket, 4) is rocket and not can_stream(rocket)
+    newton = FCN(4)
+    newton.output_space = "newton"   # the pipeline un-scales every answer: it would be wrong
+    assert as_streamable(newton, 4) is newton and not can_stream(newton)
     network = _networks()[0]
     streamed = as_streamable(network, 5)
     with torch.no_grad():
@@ -70,10 +75,7 @@ def _transformer_checkpoint(path):
     recording, saved as training would."""
     torch.manual_seed(3)
     n = len(PAPER_FEATURES)
-    frame = recording(300, seed=5)
-    x = frame[list(PAPER_FEATURES)].to_numpy(np.float32)
-    xs = Scaler(x.mean(0), x.std(0) + 1e-3)
-    ys = Scaler(np.array([0.1, -0.2, 0.3], np.float32), np.array([0.5, 0.7, 1.5], np.float32))
+    xs, ys = _scalers(n)
     model = build_model("transformer", n, {"window": WINDOW, "d_model": 16, "n_heads": 2,
                                             "n_layers": 2, "d_ff": 32}).eval()
     return ck.TrainedModel("transformer", {"window": WINDOW, "d_model": 16, "n_heads": 2,
@@ -81,7 +83,41 @@ def _transformer_checkpoint(path):
                            model=model).save(path)
 
 
-def test_the_paper_transformer_streams_what_the_causal_metric_scores(tmp_path):
+def test_a_window_network_of_other_inputs_is_refused_in_one_line():
+    with pytest.raises(StreamingError, match="FCN window network does not take 7 input features"):
+        StreamedWindow(FCN(5), 7)
+    xs, ys = _scalers(7)
+    with pytest.raises(StreamingError, match="does not take 7 input features") as err:
+        StreamingEstimator(FCN(5), PAPER_FEATURES[:7], xs, ys)
+    assert "\n" not in str(err.value)
+
+
+def _scalers(n: int) -> tuple[Scaler, Scaler]:
+    """Input scalers of the first ``n`` paper inputs from a recording, and target scalers."""
+    x = recording(300, seed=5)[list(PAPER_FEATURES[:n])].to_numpy(np.float32)
+    return (Scaler(x.mean(0), x.std(0) + 1e-3),
+            Scaler(np.array([0.1, -0.2, 0.3], np.float32), np.array([0.5, 0.7, 1.5], np.float32)))
+
+
+def test_the_fcn_streams_at_a_faster_input_rate_and_exports(tmp_path):
+    """Decimated (a 300 Hz stream, a 100 Hz model), stepping equals the offline path; a window
+    of one sample has no warm-up; the export runs back the stream's answers."""
+    torch.manual_seed(4)
+    xs, ys = _scalers(len(PAPER_FEATURES))
+    fcn = build_model("fcn", len(PAPER_FEATURES)).eval()
+    frame = recording(300, seed=6)
+    fast = frame.assign(time=np.arange(len(frame)) / 300.0)
+    est = StreamingEstimator(fcn, PAPER_FEATURES, xs, ys, input_rate_hz=300.0)
+    forces, flags = stream(est, fast)
+    assert est.decimation == 3 and not any(f & Flags.WARMING_UP for f in flags)
+    np.testing.assert_allclose(est.predict_recording(fast), forces, atol=1e-5)
+    path = ck.TrainedModel("fcn", {}, PAPER_FEATURES, xs, ys, model=fcn).save(tmp_path / "f.pt")
+    export(path, tmp_path / "out")
+    at_rate, _ = stream(StreamingEstimator.from_checkpoint(path), frame)
+    np.testing.assert_allclose(run_export(tmp_path / "out", frame), at_rate, atol=1e-5)
+
+
+def test_the_paper_transformer_streams_the_estimates_the_evaluation_scores(tmp_path):
     path = _transformer_checkpoint(tmp_path / "t.pt")
     frame = recording(200, seed=2)
     est = StreamingEstimator.from_checkpoint(path)

@@ -149,11 +149,19 @@ def is_streamable(model) -> bool:
     return isinstance(model, StreamableModel) and is_chunk(model)
 
 
+def is_window_network(model) -> bool:
+    """Whether ``model`` is a trainable window network with scaled outputs, which streams with
+    its last ``window`` samples as its state
+    (:class:`psmforce.estimators.runtime.window_stream.StreamedWindow`; the streaming pipeline
+    un-scales every answer, so a window network in newtons does not stream)."""
+    return (isinstance(model, TrainableNetwork) and not is_chunk(model)
+            and model.output_space == "scaled")
+
+
 def can_stream(model) -> bool:
     """Whether ``model`` runs one sample at a time: a :class:`StreamableModel` itself, or a
-    trainable window network, whose last ``window`` samples are its state
-    (:class:`psmforce.estimators.runtime.window_stream.StreamedWindow`)."""
-    return is_streamable(model) or (isinstance(model, TrainableNetwork) and not is_chunk(model))
+    window network (:func:`is_window_network`)."""
+    return is_streamable(model) or is_window_network(model)
 
 
 def check_model(model, name: str) -> None:

@@ -57,8 +57,9 @@ class RecipeError(ValueError):
 MAX_FEATURES = 4096
 """Most input columns a model is built for (the paper's models read 21 to 36)."""
 MAX_STATE_FLOATS = 2 ** 24
-"""Most floats in one streaming cache of the hybrid (``n_layers * attention_window * d_model``:
-64 MB in float32), so a config, typed or read from a checkpoint, cannot ask for gigabytes."""
+"""Most floats in one streaming state (the hybrid's cache, ``n_layers * attention_window *
+d_model``; a window network's ``window * features``): 64 MB in float32, so a config, typed or
+read from a checkpoint, cannot ask for gigabytes."""
 
 
 @dataclass(frozen=True)

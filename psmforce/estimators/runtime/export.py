@@ -50,6 +50,7 @@ the column and row. An output that is not finite is refused too.
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 
 import numpy as np
@@ -63,8 +64,9 @@ from psmforce.io.recording import TIME
 from psmforce.core.integrity import check_version, seal, sha256_bytes, verify
 from psmforce.estimators.networks.recipes import MAX_STATE_FLOATS
 from psmforce.estimators.data.hybrid_inputs import HybridInputs, prior_from_json
-from psmforce.estimators.runtime.steppers import (OPSET, OnnxStepper, TorchStepper, not_streamable,
-                                                  state_spec, step_onnx_bytes)
+from psmforce.estimators.runtime.steppers import (OPSET, OnnxStepper, StreamingError,
+                                                  TorchStepper, not_streamable, state_spec,
+                                                  step_onnx_bytes)
 from psmforce.estimators.runtime.window_stream import as_streamable
 from psmforce.estimators.networks.uncertainty import (LOGVAR_MAX, LOGVAR_MIN, output_width,
                                                       predicts_variance, std_newton)
@@ -84,7 +86,8 @@ class ExportError(ValueError):
 
 
 def export(checkpoint: str | Path, out_dir: str | Path) -> dict:
-    """Write ``hybrid_step.onnx`` and ``hybrid.json`` for a hybrid checkpoint into ``out_dir``;
+    """Write ``hybrid_step.onnx`` and ``hybrid.json`` for a checkpoint of a model that streams
+    into ``out_dir`` (the names and the format are the hybrid's, whichever model it is);
     check the ONNX graph against the eager step on random inputs. Returns a summary (paths,
     sizes, that check's maximum difference). ``out_dir`` is held for the call
     (:func:`psmforce.core.files.locked_folder`): a second export into it meanwhile is refused."""
@@ -97,15 +100,23 @@ def _export(checkpoint: str | Path, out_dir: str | Path) -> dict:
     if not ckpt.recipe.streams:
         raise ExportError(f"{checkpoint}: holds a '{ckpt.model_name}' model, which does not "
                           f"stream (psmforce.estimators.networks.recipes: streams=False), so has no step graph")
-    model = as_streamable(ckpt.model, len(ckpt.features))
+    try:
+        model = as_streamable(ckpt.model, len(ckpt.features))
+    except StreamingError as err:
+        raise ExportError(f"{checkpoint}: {err}") from None
     why = not_streamable(model)  # a recipe that claims to stream but cannot
     if why is not None:
         raise ExportError(f"{checkpoint}: the '{ckpt.model_name}' model does not follow the "
                           f"step protocol (psmforce.estimators.runtime.steppers): {why}")
     model = model.eval()
     inputs = HybridInputs(ckpt.features, ckpt.base_columns, ckpt.input_scaler, ckpt.prior())
-    onnx_bytes = step_onnx_bytes(model)
     state = state_spec(model)
+    for entry in state:   # what run_export would refuse to read back is never written
+        if math.prod(entry["shape"]) > MAX_STATE_FLOATS:
+            raise ExportError(f"{checkpoint}: the step state {entry['name']} {entry['shape']} "
+                              f"holds more than {MAX_STATE_FLOATS} values (psmforce.estimators."
+                              f"networks.recipes.MAX_STATE_FLOATS)")
+    onnx_bytes = step_onnx_bytes(model)
     check = _check_graph(model, onnx_bytes, state)
     spec = {
         "format": FORMAT, "format_version": FORMAT_VERSION, "onnx": ONNX_NAME, "opset": OPSET,

@@ -168,7 +168,8 @@ def step_onnx_bytes(model: torch.nn.Module, *, flush: bool = True) -> bytes:
     # afterwards, and a fresh module is in training mode (it left ``model`` with dropout on).
     with torch.no_grad(), warnings.catch_warnings():
         warnings.simplefilter("ignore", DeprecationWarning)
-        # a window network's shape checks: its step's window is fixed, as the graph is
+        # the step graph is traced at batch 1 with the state's fixed shapes, so a branch on a
+        # shape (a window network's length check, for one) is constant there by design
         warnings.simplefilter("ignore", torch.jit.TracerWarning)
         torch.onnx.export(_StepGraph(model).eval(), example, buffer, dynamo=False,
                           opset_version=OPSET, input_names=["x", *names],

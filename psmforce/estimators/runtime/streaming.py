@@ -145,7 +145,8 @@ class Estimate(NamedTuple):
 
 
 class StreamingEstimator:
-    """Per-sample hybrid force estimator; see the module docstring.
+    """Per-sample force estimator (the hybrid's pipeline, any model that streams); see the
+    module docstring.
 
     ``model``: a streamable network (:mod:`psmforce.estimators.runtime.steppers`; the hybrid's is a
     :class:`psmforce.estimators.networks.causal.CausalTransformer`) or a trainable window network

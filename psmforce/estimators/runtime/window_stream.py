@@ -11,10 +11,14 @@ to a step graph like the hybrid's network:
 * a step shifts the new sample in and runs the network on the whole window, so the estimate of
   sample ``t`` is the network on samples ``t - window + 1 .. t``: what the offline evaluation
   computes for every sample from ``window - 1`` on
-  (:func:`psmforce.estimators.evaluation.evaluate.predict_trial`), the causal metric's estimate;
+  (:func:`psmforce.estimators.evaluation.evaluate.predict_trial`), before the metrics'
+  post-processing;
 * before that, the window is padded with zeros (in scaled units: the training mean), the step
   protocol's zero start; the streaming estimator flags those ``window - 1`` answers
   ``WARMING_UP``, and the offline evaluation gives none there.
+
+Only window networks with scaled outputs stream: the streaming pipeline un-scales every answer
+with the target scaler.
 
 Each step recomputes the whole window (the hybrid's network caches keys and values and adds one
 token per layer), so a step of the paper's transformer costs its full batch-1 forward; its cost
@@ -28,8 +32,9 @@ import numpy as np
 import torch
 
 from psmforce.estimators.data.dataset import sliding_windows
-from psmforce.estimators.networks.contract import TrainableNetwork, is_chunk
+from psmforce.estimators.networks.contract import is_window_network
 from psmforce.estimators.networks.uncertainty import predicts_variance
+from psmforce.estimators.runtime.steppers import StreamingError
 
 PREDICT_BATCH = 1024
 """Windows per call of :meth:`StreamedWindow.predict_sequence` (memory: ``PREDICT_BATCH x window x
@@ -37,8 +42,10 @@ F`` floats)."""
 
 
 class StreamedWindow(torch.nn.Module):
-    """``network`` (a trainable window network of ``n_features`` inputs) under the step protocol;
-    see the module docstring. Its weights are the network's own, not a copy."""
+    """``network`` (a window network, :func:`~psmforce.estimators.networks.contract.is_window_network`,
+    of ``n_features`` inputs) under the step protocol; see the module docstring. Its weights are
+    the network's own, not a copy; its state lives on the network's device. A network that does
+    not take ``n_features`` inputs is refused (:class:`StreamingError`, one line)."""
 
     kind = "chunk"
     state_names = ("window_inputs",)
@@ -50,9 +57,22 @@ class StreamedWindow(torch.nn.Module):
         self.n_features = int(n_features)
         self.output_space = network.output_space
         self.predicts_variance = predicts_variance(network)
+        training = network.training
+        try:   # a window of zeros: what the first step will run
+            with torch.inference_mode():
+                network.eval()(*self.stream_state(1))
+        except RuntimeError as err:
+            raise StreamingError(f"the {type(network).__name__} window network does not take "
+                                 f"{self.n_features} input features: {str(err).splitlines()[0]}"
+                                 ) from None
+        finally:
+            network.train(training)
+
+    def _device(self) -> torch.device:
+        return next(self.network.parameters()).device
 
     def stream_state(self, batch: int = 1) -> tuple[torch.Tensor]:
-        return (torch.zeros(batch, self.window, self.n_features),)
+        return (torch.zeros(batch, self.window, self.n_features, device=self._device()),)
 
     def stream_step(self, x: torch.Tensor, window_inputs: torch.Tensor
                     ) -> tuple[torch.Tensor, torch.Tensor]:
@@ -73,18 +93,18 @@ class StreamedWindow(torch.nn.Module):
         x = np.ascontiguousarray(x, dtype=np.float32)
         padded = np.concatenate([np.zeros((self.window - 1, x.shape[1]), np.float32), x])
         views = sliding_windows(padded, self.window, 1)
+        device = self._device()
         self.eval()
         with torch.inference_mode():
-            out = [self.network(torch.from_numpy(np.array(views[i:i + PREDICT_BATCH])))
-                   for i in range(0, len(views), PREDICT_BATCH)]
+            out = [self.network(torch.from_numpy(np.array(views[i:i + PREDICT_BATCH])).to(device))
+                   .cpu() for i in range(0, len(views), PREDICT_BATCH)]
         return torch.cat(out).numpy() if out else np.zeros((0, 6 if self.predicts_variance
                                                             else 3), np.float32)
 
 
 def as_streamable(model, n_features: int):
-    """``model`` ready for the step protocol: a :class:`StreamedWindow` around a trainable window
-    network, else ``model`` itself (a streamable chunk model; for any other,
+    """``model`` ready for the step protocol: a :class:`StreamedWindow` around a window network
+    (:func:`~psmforce.estimators.networks.contract.is_window_network`), else ``model`` itself (a
+    streamable chunk model; for any other,
     :func:`psmforce.estimators.runtime.steppers.not_streamable` then names what it lacks)."""
-    if not isinstance(model, TrainableNetwork) or is_chunk(model):
-        return model
-    return StreamedWindow(model, n_features)
+    return StreamedWindow(model, n_features) if is_window_network(model) else model

@@ -100,11 +100,11 @@ def cases() -> list[Case]:
                                                                        max_gap_samples=-1),
                        names=("max_gap_samples",))
 
-    @case("api StreamingEstimator", "an fcn checkpoint")
+    @case("api StreamingEstimator", "an LSTM checkpoint (a model that does not stream)")
     def _(s, d):
         from psmforce.estimators.runtime.streaming import StreamingEstimator
-        return Attempt(call=lambda: StreamingEstimator.from_checkpoint(s.fcn),
-                       names=(str(s.fcn),))
+        return Attempt(call=lambda: StreamingEstimator.from_checkpoint(s.lstm),
+                       names=(str(s.lstm),))
 
     # --- the stream: timestamps that overflow its arithmetic are flagged, never raised --------
     for name, (value, flag) in TIMESTAMPS.items():
