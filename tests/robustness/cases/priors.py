@@ -6,6 +6,7 @@ import json
 
 import numpy as np
 
+from psmforce.identification.prior import FORMAT_VERSION as PRIOR_FORMAT_VERSION
 from tests.robustness.harness import Attempt, Case, _register, edit_csv, registrar, trial
 
 
@@ -113,7 +114,10 @@ def cases() -> list[Case]:
         "format_version '2' (text)": (lambda doc: doc.update(format_version="2"), True),
         "format_version 2.0 (float)": (lambda doc: doc.update(format_version=2.0), True),
         "format_version true": (lambda doc: doc.update(format_version=True), True),
-        "format_version 3": (lambda doc: doc.update(format_version=3), True),
+        # a version this library has not written yet (older versions are read, upgraded)
+        "format_version one past the newest": (
+            lambda doc: doc.update(format_version=PRIOR_FORMAT_VERSION + 1), True),
+        "format_version 1 (before the envelope)": (lambda doc: doc.update(format_version=1), True),
     }
     for damage, (edit, reseal) in edits.items():
         def load(s, d, edit=edit, reseal=reseal):
