@@ -76,11 +76,9 @@ def _transformer_checkpoint(path):
     torch.manual_seed(3)
     n = len(PAPER_FEATURES)
     xs, ys = _scalers(n)
-    model = build_model("transformer", n, {"window": WINDOW, "d_model": 16, "n_heads": 2,
-                                            "n_layers": 2, "d_ff": 32}).eval()
-    return ck.TrainedModel("transformer", {"window": WINDOW, "d_model": 16, "n_heads": 2,
-                                           "n_layers": 2, "d_ff": 32}, PAPER_FEATURES, xs, ys,
-                           model=model).save(path)
+    config = {"window": WINDOW, "d_model": 16, "n_heads": 2, "n_layers": 2, "d_ff": 32}
+    model = build_model("transformer", n, config).eval()
+    return ck.TrainedModel("transformer", config, PAPER_FEATURES, xs, ys, model=model).save(path)
 
 
 def test_a_window_network_of_other_inputs_is_refused_in_one_line():
