@@ -129,6 +129,16 @@ def _load(args, tmp: Path):
     return dataset, make, label, trained, model_config, prior is not None, data
 
 
+def _cpu_model() -> str:
+    """The processor's model name (``platform.processor()`` is empty on many Linux machines)."""
+    try:
+        with open("/proc/cpuinfo", encoding="utf-8") as f:
+            names = [ln.split(":", 1)[1].strip() for ln in f if ln.startswith("model name")]
+    except OSError:
+        names = []
+    return names[0] if names else platform.processor()
+
+
 def main() -> tuple[dict, str | None]:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--checkpoint")
@@ -144,7 +154,15 @@ def main() -> tuple[dict, str | None]:
     trial = max(test, key=len)
     rows = trial.frame.to_dict("records")
     period = 1.0 / 100.0
-    result = {"machine": {"platform": platform.platform(), "processor": platform.processor(),
+    command = " ".join(["python benchmarks/streaming.py"]
+                       + [f"--{k} {shown_path(v)}" for k, v in (("checkpoint", args.checkpoint),
+                                                                 ("data", args.data),
+                                                                 ("prior", args.prior)) if v]
+                       + [f"--steps {args.steps}"] * (args.steps != 5000)
+                       + [f"--json {shown_path(args.json)}"] * bool(args.json))
+    result = {"command": command,
+              "machine": {"platform": platform.platform(), "processor": platform.processor(),
+                          "cpu": _cpu_model(),
                           "python": platform.python_version(), "torch": torch.__version__,
                           "threads": torch.get_num_threads()},
               "estimator": label, "with_prior": with_prior, "model": model_config,

@@ -359,19 +359,28 @@ def latency(streaming: dict, live: dict) -> str:
     def row(name, t):
         return f"| {name} | {t['median_ms']:.3f} | {t['p99_ms']:.3f} | {t['max_ms']:.3f} |"
 
+    machine = streaming["machine"]
+    cpu = f" of {machine['cpu']}" if machine.get("cpu") else ""
     lines = ["", f"`results/benchmarks/streaming.json`: {streaming['estimator']}, "
-             f"{streaming['machine']['threads']} thread, one recorded trial replayed sample by "
-             "sample (`python benchmarks/streaming.py`).", "",
+             f"{machine['threads']} thread{cpu}, one recorded trial replayed sample by "
+             f"sample (`{streaming.get('command', 'python benchmarks/streaming.py')}`). "
+             "The figures are this machine's; the ratios between rows of one run carry over "
+             "better than the times.", "",
              "| step | median ms | p99 ms | max ms |", "|---|---|---|---|",
              row("hybrid pipeline (HEX10 frame)", streaming["hybrid_pipeline"]),
              row("hybrid pipeline, base frame too", streaming["hybrid_pipeline_base_frame"]),
              row("paper transformer, full window", streaming["reference_paper_transformer"])]
-    if "paper_transformer_pipeline" in streaming:   # written since window models stream
-        t = streaming["paper_transformer_pipeline"]
-        lines.append(row(f"paper transformer pipeline, its window as the state ({t['backend']})",
-                         t))
+    window_step = streaming.get("paper_transformer_pipeline")   # since window models stream
+    if window_step:
+        lines.append(row(f"paper transformer pipeline, its window as the state "
+                         f"({window_step['backend']})", window_step))
     lines += [row(f"hybrid network step, {b}", t)
               for b, t in streaming["network_step_by_backend"].items()]
+    if window_step:
+        ratio = window_step["median_ms"] / streaming["hybrid_pipeline"]["median_ms"]
+        lines += ["", f"A window model's step (the paper's transformer through the streaming "
+                  f"pipeline, as `hybrid_transformer` runs: its network and window, on the paper's inputs) "
+                  f"costs {ratio:.1f}x the hybrid's cached step at the median, in the same run."]
     d, node = live["dds"], live["node"]
     lines += ["", f"`results/benchmarks/live.json` (`python benchmarks/live.py`, "
               f"{live['machine']['cpus']} CPUs): the node's own time per HEX10 message at "

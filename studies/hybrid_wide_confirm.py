@@ -204,6 +204,27 @@ def _mean_sd(d: dict) -> str:
 SHORT = {"hybrid_wide": "wide hybrid", "hybrid_transformer": "hybrid's physics + transformer"}
 
 
+def _cost_rows(p: dict) -> list[str]:
+    """What each model costs to train, from the point's records: its parameters, its epochs and
+    the wall-clock minutes from the start of its training to its test scores (one CPU thread;
+    at times beside another training on the same two cores), mean ± sd over its seeds."""
+    from psmforce.experiments.paired import mean_sd
+
+    lines = ["| training cost | seeds | parameters | epochs | minutes, one thread |",
+             "|---|---|---|---|---|"]
+    for m, v in p["models"].items():
+        rows = [p["records"][str(s)][m] for s in v["seeds"]]
+        if not all(isinstance(r.get("seconds"), (int, float)) for r in rows):
+            continue
+        minutes = mean_sd([r["seconds"] / 60.0 for r in rows])
+        epochs = mean_sd([float(r["epochs"]) for r in rows])
+        spread = "" if minutes["sd"] is None or minutes["sd"] != minutes["sd"] \
+            else f" ± {minutes['sd']:.1f}"
+        lines.append(f"| {v['label']} | {len(rows)} | {rows[0]['parameters']:,} | "
+                     f"{epochs['mean']:.0f} | {minutes['mean']:.1f}{spread} |")
+    return lines + [""] if len(lines) > 2 else []
+
+
 def table(result: dict) -> str:
     """The markdown of every point in ``result`` (the ``hybrid-wide-confirm`` block)."""
     lines = [""]
@@ -225,6 +246,7 @@ def table(result: dict) -> str:
                                  f"{len(pr['seeds'])} | "
                                  + " | ".join(pr[mt][a]["text"] for a in AXES) + " |")
             lines.append("")
+        lines += _cost_rows(p)
         lines += ["By the rule (module docstring of `studies/hybrid_wide_confirm.py`): " + "; ".join(
             f"{LABELS[c]}: {RULE_WORDS[v]}" for c, v in p["rule"].items()) + ".", ""]
     if len(lines) == 1:

@@ -227,12 +227,15 @@ def _parser() -> argparse.ArgumentParser:
             "Train one estimator (a model of psmforce/estimators/networks/recipes.py) on a dataset folder; writes a "
             "checkpoint holding weights, features, scalers, prior and provenance.")
     p.add_argument("--data", required=True)
-    p.add_argument("--model", default="hybrid",
-                   help="a model of the recipe table, psmforce.estimators.networks.recipes.RECIPES (default hybrid)")
+    p.add_argument("--model", default="hybrid_transformer",
+                   help="a model of the recipe table, psmforce.estimators.networks.recipes.RECIPES "
+                        "(default hybrid_transformer: the hybrid's physics read by the paper's "
+                        "transformer; hybrid: its causal network, far quicker to train)")
     p.add_argument("--out", required=True, help="checkpoint file to write")
     p.add_argument("--features", help="feature set name (default: the model's own inputs, the "
                                        "paper's for most)")
-    p.add_argument("--prior", help="prior JSON (hybrid; default: fit one on the data's free space)")
+    p.add_argument("--prior", help="prior JSON (hybrid_transformer, hybrid; default: fit one on "
+                                    "the data's free space)")
     p.add_argument("--prior-crosstalk", action="store_true",
                    help="the fitted prior also fits the HEX10's cross-talk of fz into the other "
                         "channels (docs/identification.md; default: held at 0, as every "

@@ -40,6 +40,7 @@ PLAN: dict[str, Plan] = {
     "hybrid": Plan("Hybrid (ours)", ablations=("no_prior",) + ABLATION_GROUPS,
                    data_efficiency=True),
     "rocket": Plan("MultiRocket-Hydra"),
+    "hybrid_transformer": Plan("Hybrid physics + paper transformer (ours)"),
 }
 """Model name (a key of :data:`psmforce.estimators.networks.recipes.RECIPES`) -> its plan."""
 

@@ -110,8 +110,10 @@ def test_a_checkpoint_of_an_unregistered_model_is_refused(toy, data, tmp_path):
 
 
 def test_the_table_states_what_each_shipped_model_is(data):
-    assert list(RECIPES)[:5] == ["transformer", "fcn", "lstm", "hybrid", "rocket"]
-    assert [m for m, r in RECIPES.items() if r.streams] == ["transformer", "fcn", "hybrid"]
+    assert list(RECIPES)[:6] == ["transformer", "fcn", "lstm", "hybrid", "rocket",
+                                 "hybrid_transformer"]
+    assert [m for m, r in RECIPES.items() if r.streams] == ["transformer", "fcn", "hybrid",
+                                                            "hybrid_transformer"]
     assert [m for m, r in RECIPES.items() if not r.bias_correction] == ["lstm"]
     assert recipe("lstm").inputs().derivation == "lstm"
     with pytest.raises(RecipeError, match="fixed inputs"):
@@ -119,3 +121,10 @@ def test_the_table_states_what_each_shipped_model_is(data):
     hybrid = recipe("hybrid").inputs()
     assert hybrid.derivation == "prior" and len(hybrid.base) == 3
     assert recipe("hybrid").inputs(use_prior=False).derivation == "none"
+    # what the confirmation study trained as "hybrid_transformer": the hybrid's inputs, the paper's
+    # transformer and its training settings (studies/hybrid_wide_confirm.py's Variant)
+    candidate = recipe("hybrid_transformer")
+    assert candidate.inputs() == recipe("hybrid").inputs()
+    assert candidate.optimiser == recipe("transformer").optimiser
+    assert candidate.config_ranges == recipe("transformer").config_ranges
+    assert type(candidate.make(4, {})) is type(recipe("transformer").make(4, {}))

@@ -127,3 +127,41 @@ def test_the_paper_transformer_streams_the_estimates_the_evaluation_scores(tmp_p
     np.testing.assert_allclose(est.predict_recording(frame), forces, atol=1e-4)
     export(path, tmp_path / "out")   # the step graph, run back from the files alone
     np.testing.assert_allclose(run_export(tmp_path / "out", frame), forces, atol=1e-4)
+
+
+def test_the_hybrids_physics_read_by_the_paper_transformer_streams_and_exports(tmp_path):
+    """The model ``hybrid_transformer``: the hybrid's inputs (prior-compensated, the prior in
+    the checkpoint) and base, the paper's window network; the stream adds the base back as the
+    offline path does, on every sample past the warm-up, and its export runs the same."""
+    from psmforce.estimators.data.dataset import Dataset
+    from psmforce.estimators.data.hybrid_inputs import prior_to_json
+    from psmforce.estimators.networks.recipes import DERIVATIONS
+    from psmforce.identification.prior import InternalForcePrior
+    from tests.estimators.test_streaming import INSERTION
+
+    spec = recipe("hybrid_transformer")
+    inputs = spec.inputs()
+    assert inputs.uses_prior and len(inputs.base) == 3 and spec.streams
+    assert spec.optimiser == recipe("transformer").optimiser   # trained as the paper trains it
+    torch.manual_seed(5)
+    n = len(inputs.features)
+    config = {"window": WINDOW, "d_model": 16, "n_heads": 2, "n_layers": 2, "d_ff": 32}
+    model = build_model("hybrid_transformer", n, config).eval()
+    prior_json = prior_to_json(InternalForcePrior(converged=True, insertion=INSERTION))
+    frame = recording(120, seed=7)
+    trial = Trial("t", "Free", "test", frame)
+    DERIVATIONS["prior"](Dataset(tmp_path, [trial], {}), prior_json)   # as training adds them
+    x = trial.frame[list(inputs.features)].to_numpy(np.float32)
+    xs = Scaler(x.mean(0), x.std(0) + 1e-3)
+    _, ys = _scalers(3)
+    path = ck.TrainedModel("hybrid_transformer", config, inputs.features, xs, ys, inputs.base,
+                           derivation="prior", prior_json=prior_json, model=model
+                           ).save(tmp_path / "ht.pt")
+    est = StreamingEstimator.from_checkpoint(path)
+    forces, _ = stream(est, frame)
+    offline = predict_trial(ck.load_checkpoint(path), trial)   # the derived columns
+    np.testing.assert_allclose(forces[WINDOW - 1:], offline[WINDOW - 1:], atol=1e-4)
+    assert np.abs(trial.frame[list(inputs.base)].to_numpy()[WINDOW - 1:]).max() > 0.1   # a base
+    export(path, tmp_path / "out")
+    np.testing.assert_allclose(run_export(tmp_path / "out", frame), forces, atol=1e-4)
+

@@ -142,6 +142,20 @@ def test_records_the_json_holds_survive_a_fresh_work_folder_and_a_new_run_replac
         study.assemble(tmp_path / "fresh", out)
 
 
+def test_the_cost_of_each_training_is_shown_from_its_records():
+    records = _records(1.5)
+    for k, s in enumerate(DECLARED):
+        records[s]["hybrid"]["seconds"] = 60.0 * (2 + k)        # 2..6 minutes
+        records[s]["hybrid_wide"]["seconds"] = 600.0
+    text = study.table({"points": {"p": study.summarise(records, 0.1)}})
+    assert "| hybrid (as shipped) | 5 | 10 | 5 | 4.0 ± 1.6 |" in text
+    assert "| hybrid, the paper transformer's width | 5 | 10 | 5 | 10.0 ± 0.0 |" in text
+    assert "| paper transformer | 5 |" not in text.split("| training cost |")[1]   # no seconds
+    del records[DECLARED[0]]["hybrid_wide"]["seconds"]
+    only = study.table({"points": {"p": study.summarise(records, 0.1)}})
+    assert "| hybrid, the paper transformer's width | 5 | 10 |" not in only
+
+
 def test_one_seed_shows_its_mean_without_a_spread():
     text = study.table({"points": {"p": study.summarise(_records(1.5, DECLARED[:1]), 0.1)}})
     assert "| hybrid (as shipped) | 1 | 2.00 | 2.00 | 3.00 |" in text and "nan" not in text

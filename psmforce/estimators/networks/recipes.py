@@ -23,6 +23,9 @@ outside this module records it as ``"module:attribute"`` (:func:`origin`). Loadi
 it: a file does not choose which code runs. The user imports the module (``psmforce --plugin
 mymodels evaluate ...``, :func:`load_plugins`; ``import mymodels`` in Python), and a checkpoint of
 an unregistered model is refused naming the module it recorded (:func:`require_recipe`).
+
+Size: one table with its row type, the checks of a row's arguments and the shipped rows; split,
+a recipe would be read in one file and checked in another.
 """
 
 from __future__ import annotations
@@ -398,3 +401,8 @@ register(Recipe("hybrid", _hybrid, _hybrid_inputs,
                 config_ranges=HYBRID_RANGES,
                 config_rules=_hybrid_rules))
 register(Recipe("rocket", _rocket, config_ranges=ROCKET_RANGES))
+register(Recipe("hybrid_transformer", _transformer, _hybrid_inputs,
+                # the hybrid's physics (prior-compensated inputs, insertion state, base) read by
+                # the paper's transformer as the paper trains it: chosen over the hybrid's causal
+                # network by studies/hybrid_wide_confirm.py's rule, on seeds of its own
+                config_ranges=TRANSFORMER_RANGES, config_rules=_heads_divide_width))
