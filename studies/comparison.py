@@ -41,7 +41,9 @@ MODELS = ("hybrid", "transformer", "fcn", "rocket", "lstm", "hybrid_transformer"
 """In the table's order; the hybrid is compared with each of the others. ``hybrid_transformer``
 (the hybrid's physics read by the paper's transformer) replaced the hybrid as shipped by the
 rule of ``studies/hybrid_wide_confirm.py``, on seeds of its own, after this comparison's scale
-0.1 point was written; that point stays as it is until it has run on every declared seed."""
+0.1 point was written. That point was built before each training was kept as a record, so it
+cannot gain a model without every other one retrained there; it stays as it is, and the new
+model is in every point written since."""
 AXES = ("Fx", "Fy", "Fz")
 METRICS = ("causal", "paper")
 

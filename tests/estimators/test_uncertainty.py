@@ -194,8 +194,8 @@ def test_the_export_carries_the_log_variance_and_says_how_to_read_it(tmp_path):
 def test_the_cli_trains_a_hybrid_with_uncertainty_and_evaluate_scores_it(data, tmp_path):
     config = tmp_path / "config.json"
     config.write_text(json.dumps({**SMALL, "uncertainty": True}))
-    assert main(["train", "--data", str(data), "--epochs", "1", "--config", str(config),
-                 "--out", str(tmp_path / "h.pt")]) == 0
+    assert main(["train", "--data", str(data), "--model", "hybrid", "--epochs", "1", "--config",
+                 str(config), "--out", str(tmp_path / "h.pt")]) == 0
     assert ck.load_checkpoint(tmp_path / "h.pt").config["uncertainty"] is True
     result = evaluate(tmp_path / "h.pt", data, tmp_path / "eval", plots=False)
     block = result["uncertainty"]
@@ -214,7 +214,7 @@ def test_the_cli_trains_a_hybrid_with_uncertainty_and_evaluate_scores_it(data, t
     ("missing.json", "--config: missing.json: cannot read the --config file")])
 def test_a_bad_config_is_refused_before_training(data, tmp_path, cli_error, no_training,
                                                  config, reason):
-    assert main(["train", "--data", str(data), "--config", config,
+    assert main(["train", "--data", str(data), "--model", "hybrid", "--config", config,
                  "--out", str(tmp_path / "h.pt")]) == 2
     assert reason in cli_error("train") and not (tmp_path / "h.pt").exists()
 
