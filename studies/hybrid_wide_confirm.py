@@ -195,10 +195,11 @@ RULE_WORDS = {"pending": "not yet judged (every declared seed is needed)",
               "kept": "the hybrid as shipped is kept"}
 
 
-def _mean_sd(d: dict) -> str:
+def _mean_sd(d: dict, digits: int = 2) -> str:
     """``mean ± sd``; the mean alone while one seed gives no sd."""
     sd = d.get("sd")
-    return f"{d['mean']:.2f}" if sd is None or sd != sd else f"{d['mean']:.2f} ± {sd:.2f}"
+    return f"{d['mean']:.{digits}f}" if sd is None or sd != sd \
+        else f"{d['mean']:.{digits}f} ± {sd:.{digits}f}"
 
 
 SHORT = {"hybrid_wide": "wide hybrid", "hybrid_transformer": "hybrid's physics + transformer"}
@@ -218,10 +219,8 @@ def _cost_rows(p: dict) -> list[str]:
             continue
         minutes = mean_sd([r["seconds"] / 60.0 for r in rows])
         epochs = mean_sd([float(r["epochs"]) for r in rows])
-        spread = "" if minutes["sd"] is None or minutes["sd"] != minutes["sd"] \
-            else f" ± {minutes['sd']:.1f}"
         lines.append(f"| {v['label']} | {len(rows)} | {rows[0]['parameters']:,} | "
-                     f"{epochs['mean']:.0f} | {minutes['mean']:.1f}{spread} |")
+                     f"{epochs['mean']:.0f} | {_mean_sd(minutes, 1)} |")
     return lines + [""] if len(lines) > 2 else []
 
 

@@ -164,4 +164,3 @@ def test_the_hybrids_physics_read_by_the_paper_transformer_streams_and_exports(t
     assert np.abs(trial.frame[list(inputs.base)].to_numpy()[WINDOW - 1:]).max() > 0.1   # a base
     export(path, tmp_path / "out")
     np.testing.assert_allclose(run_export(tmp_path / "out", frame), forces, atol=1e-4)
-
