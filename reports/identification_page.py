@@ -16,6 +16,25 @@ MODEL_NAMES = {"physics": "physics alone (`CableTransmission`)", "fcn": "FCN",
 
 
 LEARNED_BASELINES = ("fcn", "lstm", "transformer", "rocket")
+_CAPSTAN_GROWTH = ("capstan_pitch_gain", "capstan_roll_gain")
+"""The law's capstan terms that follow the wrist's configuration (absent from runs before them)."""
+
+
+def _capstan_sentence(run: dict, rows: dict) -> str:
+    """What the law's capstan stands for on a recovery run: one constant for the bench's average
+    over the training configurations (a law without growth terms, or with them at 0), or a
+    capstan that grows as the bench's does; nothing where the run has no capstan."""
+    if "capstan_mu_over_training" not in run or rows["capstan_mu"]["status"] == "fixed":
+        return ""
+    bench = (f" The bench's wrist capstan is {_num(rows['capstan_mu']['truth'])} at the straight "
+             "wrist and grows with |wrist pitch| and |roll|; averaged over the training samples' "
+             f"configurations it is {run['capstan_mu_over_training']:.3g}")
+    growth = {n: rows[n] for n in _CAPSTAN_GROWTH if n in rows}
+    if not any(r["fitted"] for r in growth.values()):
+        return f"{bench}, the law's one constant {_num(rows['capstan_mu']['fitted'])}."
+    return (f"{bench}. The law's grows too: " + ", ".join(
+        f"{n} {_num(r['fitted'])} ({r['status']})" for n, r in growth.items())
+        + f", from {_num(rows['capstan_mu']['fitted'])} at the straight wrist.")
 
 
 def transmission_tables(result: dict) -> str:
@@ -173,13 +192,7 @@ def prior_default_recovery_table(result: dict) -> str:
                   f"{fz0.get('rms', float('nan')):.3g} N (R^2 {fz.get('r2', float('nan')):.3g} / "
                   f"{fz0.get('r2', float('nan')):.3g}); fit-prior rounds: {len(run['rounds'])}."
                   + _rest_level_leak(run)
-                  + ("" if "capstan_mu_over_training" not in run
-                     or rows["capstan_mu"]["status"] == "fixed" else
-                     " The bench's wrist capstan is "
-                     f"{_num(rows['capstan_mu']['truth'])} at the straight wrist and grows with "
-                     "|wrist pitch| and |roll|; averaged over the training samples' configurations "
-                     f"it is {run['capstan_mu_over_training']:.3g}, the law's one constant "
-                     f"{_num(rows['capstan_mu']['fitted'])}."), ""]
+                  + _capstan_sentence(run, rows), ""]
         loaded = run.get("test_loaded_internal_metrics")
         if loaded:
             first = run["all_free_test_loaded_internal_metrics"]

@@ -23,7 +23,9 @@ bound::
 ``--load-path`` (with ``--default-bench``): ``psmforce fit-prior --use-loaded --load-path``
 instead, every training trial with the cables read from the known tip force
 (:mod:`psmforce.identification.load_path`); its seeds default to the nominal tool's design seed
-21 and :data:`~psmforce.experiments.seeds.LOAD_PATH_SEEDS`, at scale 0.25::
+21, :data:`~psmforce.experiments.seeds.LOAD_PATH_SEEDS` and
+:data:`~psmforce.experiments.seeds.CAPSTAN_GROWTH_SEEDS`, at scale 0.25 (with ``--json``, the
+file is rewritten after every run and a rerun of the same command skips the runs it holds)::
 
     python studies/prior_recovery.py --default-bench --load-path \
         --json results/benchmarks/prior_recovery_load_path.json
@@ -65,17 +67,25 @@ def default_bench(args) -> None:
     import time
 
     from psmforce.experiments.prior_recovery import recover_default
-    from psmforce.identification.prior_selection import DESIGN
 
-    runs, t0 = [], time.time()
+    command = ("python studies/prior_recovery.py --default-bench "
+               + ("--load-path " if args.load_path else "")
+               + f"--scale {args.scale:g} --seeds " + " ".join(map(str, args.seeds)))
+    runs, seconds = _done_runs(args.json, command)
+    t0 = time.time() - seconds
     for k, seed in enumerate(args.seeds):
         for case in (DEFAULT_CASES if k == 0 else DEFAULT_CASES[:1]):
             if args.cases and case not in args.cases:
+                continue
+            if any(r["seed"] == seed and r["case"] == case for r in runs):
+                print(f"seed {seed}, {case}: in {args.json}, skipped", flush=True)
                 continue
             with tempfile.TemporaryDirectory() as tmp:
                 rep = recover_default(Path(tmp), seed, args.scale, _instrument(case, seed),
                                       load_path=args.load_path)
             runs.append({"case": case, **rep})
+            if args.json:  # after every run: a stopped study resumes from here
+                _write_default(args, command, runs, time.time() - t0)
             print(f"seed {seed}, {case}: {rep['fit_time_s']:.0f} s, misses {rep['misses']}\n"
                   f"  verdict: {rep['verdict']}", flush=True)
             for name, row in rep["parameters"].items():
@@ -84,13 +94,32 @@ def default_bench(args) -> None:
                       f"  {'' if rel is None else f'{100 * rel:6.1f} %':>8s}  {row['status']}"
                       f"{'  AT BOUND' if row['at_bound'] else ''}", flush=True)
     if args.json:
-        write_json(args.json, {"command": "python studies/prior_recovery.py --default-bench "
-                                          + ("--load-path " if args.load_path else "")
-                                          + f"--scale {args.scale:g} --seeds "
-                                          + " ".join(map(str, args.seeds)),
-                               "load_path": args.load_path,
-                               "scale": args.scale, "seeds": args.seeds, "design": DESIGN,
-                               "runs": runs, "seconds": time.time() - t0})
+        _write_default(args, command, runs, time.time() - t0)
+
+
+def _write_default(args, command: str, runs: list, seconds: float) -> None:
+    from psmforce.identification.prior_selection import DESIGN
+    write_json(args.json, {"command": command, "load_path": args.load_path,
+                           "scale": args.scale, "seeds": args.seeds, "design": DESIGN,
+                           "runs": runs, "seconds": seconds})
+
+
+def _done_runs(path: Path | None, command: str) -> tuple[list, float]:
+    """The runs a ``--default-bench`` JSON at ``path`` already holds for the same ``command``
+    and law (its design values), and the seconds they took; none where it holds another."""
+    import json
+
+    from psmforce.identification.prior_selection import DESIGN
+    if path is None or not path.is_file():
+        return [], 0.0
+    try:
+        done = json.loads(path.read_text())
+    except (OSError, ValueError):
+        return [], 0.0
+    if not isinstance(done, dict) or done.get("command") != command \
+            or done.get("design") != DESIGN or not isinstance(done.get("runs"), list):
+        return [], 0.0
+    return done["runs"], float(done.get("seconds", 0.0))
 
 
 def _rescore(path: Path) -> None:
@@ -137,9 +166,10 @@ def main() -> None:
         _rescore(args.rescore)
         return
     if args.default_bench:
-        from psmforce.experiments.seeds import LOAD_PATH_SEEDS
+        from psmforce.experiments.seeds import CAPSTAN_GROWTH_SEEDS, LOAD_PATH_SEEDS
         args.scale = (0.25 if args.load_path else 1.0) if args.scale is None else args.scale
-        args.seeds = args.seeds or ([21, *LOAD_PATH_SEEDS] if args.load_path else [21, 22])
+        args.seeds = args.seeds or ([21, *LOAD_PATH_SEEDS, *CAPSTAN_GROWTH_SEEDS]
+                                    if args.load_path else [21, 22])
         default_bench(args)
         return
     args.scale = 0.02 if args.scale is None else args.scale

@@ -116,6 +116,7 @@ def prior_truth(instrument: InstrumentParams, psm: PSM | None = None) -> dict[st
         "bias_fx": bias[0], "bias_fy": bias[1], "bias_fz": bias[2],
         "bias_tx": 0.0, "bias_ty": 0.0, "bias_tz": 0.0,  # the bench's tare offset is forces only
         "capstan_mu": 0.0,                              # capstan off
+        "capstan_pitch_gain": 0.0, "capstan_roll_gain": 0.0,
         **{n: 0.0 for n in CROSSTALK},                  # hex10_crosstalk off
     }
 
@@ -196,8 +197,10 @@ def default_bench_truth(instrument: InstrumentParams | None = None,
     cross-talk matrix's entries of the axial force (``hex10_crosstalk``'s fz column; its other
     entries have no counterpart);
     ``capstan_mu`` the wrist idlers' ``capstan_mu_wrap_distal`` at the straight wrist without
-    roll (the bench's grows with |wrist pitch| on the blade pairs and with |roll|; its friction
-    state is driven by cable travel with a pre-sliding of ``presliding_length_m``)."""
+    roll, ``capstan_pitch_gain`` its relative growth per rad of |wrist pitch| on the blade pairs
+    (``capstan_wrap_pitch_gain``), ``capstan_roll_gain`` per rad of |roll|
+    (``twist_friction_gain_per_rad``; the bench's friction state is driven by cable travel with
+    a pre-sliding of ``presliding_length_m``)."""
     import numpy as np
 
     instrument = instrument or InstrumentParams()
@@ -228,6 +231,8 @@ def default_bench_truth(instrument: InstrumentParams | None = None,
         "bias_fx": bias[0], "bias_fy": bias[1], "bias_fz": bias[2],
         "bias_tx": 0.0, "bias_ty": 0.0, "bias_tz": 0.0,
         "capstan_mu": instrument.capstan_mu_wrap_distal,
+        "capstan_pitch_gain": instrument.capstan_wrap_pitch_gain,
+        "capstan_roll_gain": instrument.twist_friction_gain_per_rad,
         **{n: instrument.hex10_crosstalk[row][2] for n, row in zip(CROSSTALK, (0, 1, 3, 4, 5))},
     }
 

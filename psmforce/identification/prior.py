@@ -19,8 +19,12 @@ Model::
     u      = K^-T tau_d,  K = [[1,0,0],[k,1,0],[k,0,1]], k = 0.8306/1.0186    (dVRK coupling)
     D_i    = u_i / r_i,   r = (r_pitch, r_blade, r_blade)   pair differential at the pulleys (N)
     T0     = T_tot/6 * (1 + g_twist roll^2)           per-cable pretension with roll twist
-    c_i, s_i = cosh(mu z_i), sinh(mu z_i)             the capstan over the wrist idlers, z_i the
-                                                      pair's friction direction (a Dahl state)
+    mu_i   = mu (1 + g_q |wrist_pitch| [i blade]) (1 + g_r |roll|)
+                                                      the capstan's exponent over the wrist
+                                                      idlers: the blade cables wrap |pitch|
+                                                      more, roll twist presses every cable
+    c_i, s_i = cosh(mu_i z_i), sinh(mu_i z_i)         z_i the pair's friction direction (a Dahl
+                                                      state)
     P_i    = smoothmax((2 T0 + D_i (a_i c_i - s_i)) / (c_i - a_i s_i), |D_i|)
              pair sum at the pulleys: taut, the loop closed at the section (S_i - a_i E_i = 2 T0,
              pair asymmetry a_i), or slack (the pair law of
@@ -40,7 +44,9 @@ Model::
 
 With ``mu = 0`` (``capstan_mu``: what priors written before it load with, and what the efforts
 reading holds, :data:`HELD_BY_READING`), ``S_i = smoothmax(2 T0 + a_i D_i, |D_i|) + ...`` and
-``E_i = D_i``: the law before the capstan; with ``x = 0`` (``crosstalk_fx`` ... ``crosstalk_tz``,
+``E_i = D_i``: the law before the capstan; with ``g_q = g_r = 0`` (``capstan_pitch_gain``,
+``capstan_roll_gain``, loaded and held the same way) the capstan is one constant, the law before
+its configuration terms; with ``x = 0`` (``crosstalk_fx`` ... ``crosstalk_tz``,
 held and loaded the same way) the law before the cross-talk.
 
 with the cable angles phi = (0, 60, 120) deg of the pairs' "+" cables (datasheet). Parameters
@@ -99,7 +105,8 @@ from psmforce.identification.insertion import InsertionEffortModel
 from psmforce.identification.model_file import parse_model_json, read_model_json
 from psmforce.identification.prior_identifiability import identifiability
 from psmforce.identification.prior_law import (ADDED_TERMS, CABLE_ANGLES_RAD,  # noqa: F401
-                                                CROSSTALK, KAPPA, NAMES, MIN_SAMPLES, PARAMETERS,
+                                                CAPSTAN, CROSSTALK, KAPPA, NAMES, MIN_SAMPLES,
+                                                PARAMETERS,
                                                 _CasadiOps, _model, FrictionDirection,
                                                 at_bound, friction_direction)
 from psmforce.identification.signals import check_finite_2d
@@ -108,8 +115,9 @@ from psmforce.io.recording import (HEX10, JOINT_POSITIONS, OVERLOAD, TARGETS, jo
                                  read_recording)
 
 FORMAT = "psmforce.identification.InternalForcePrior/1"
-FORMAT_VERSION = 5
-"""5: the axial force's cross-talk into the moments (``crosstalk_tx``, ``crosstalk_ty``,
+FORMAT_VERSION = 6
+"""6: the capstan's growth with the wrist's configuration (``capstan_pitch_gain``,
+``capstan_roll_gain``). 5: the axial force's cross-talk into the moments (``crosstalk_tx``, ``crosstalk_ty``,
 ``crosstalk_tz``). 4: the sensor's cross-talk of the axial force (``crosstalk_fx``,
 ``crosstalk_fy``). 3: the
 law's capstan (``capstan_mu``). 2: the integrity envelope (:mod:`psmforce.core.integrity`: a
@@ -118,7 +126,8 @@ still loads (its parameters checked against their bounds, as every prior's are).
 the terms added after it was written (:data:`_ADDED_IN`) and loads with them at 0, the law it
 was fitted with."""
 _ADDED_IN = {3: {"capstan_mu": 0.0}, 4: {"crosstalk_fx": 0.0, "crosstalk_fy": 0.0},
-             5: {"crosstalk_tx": 0.0, "crosstalk_ty": 0.0, "crosstalk_tz": 0.0}}
+             5: {"crosstalk_tx": 0.0, "crosstalk_ty": 0.0, "crosstalk_tz": 0.0},
+             6: {"capstan_pitch_gain": 0.0, "capstan_roll_gain": 0.0}}
 """Format version -> the parameters it added, with the value that gives the law before them."""
 
 _MIN_SAMPLES = MIN_SAMPLES
@@ -180,11 +189,12 @@ def internal_wrench_target(frame) -> tuple[np.ndarray, np.ndarray]:
 
 INPUTS = ("efforts", "load_path")
 """What a prior reads as the wrist torques that load its cables (:attr:`InternalForcePrior.inputs`)."""
-HELD_BY_READING = {"efforts": {"capstan_mu": 0.0, **{n: 0.0 for n in CROSSTALK}},
+HELD_BY_READING = {"efforts": {**{n: 0.0 for n in CAPSTAN}, **{n: 0.0 for n in CROSSTALK}},
                    "load_path": {}}
 """Parameters each reading holds (SI) unless the caller fixes them otherwise, at the value that
 gives the law before them (:data:`HELD_BY_READING_REASON` says why). The capstan
-(``capstan_mu``) turns the differential the wrist's pulleys demand into the section's; the load
+(:data:`~.prior_law.CAPSTAN`) turns the differential the wrist's pulleys demand into the
+section's; the load
 path gives that demand, but the motor efforts are the differential at the motor, after the
 proximal path's own capstan and the discs' friction, which the law does not model: read from
 them, the term only bends the curve fit. The cross-talk (:data:`~.prior_law.CROSSTALK`)
@@ -195,8 +205,8 @@ the law it was."""
 _CROSSTALK_HELD = ("held by the reading: the estimators' prior holds the sensor's cross-talk "
                    "unless asked to fit it (crosstalk=True; the load path fits it)")
 HELD_BY_READING_REASON = {
-    "capstan_mu": "held by the reading: the motor efforts are the differential after the "
-                  "proximal path and the discs, not the wrist's demand",
+    **{n: "held by the reading: the motor efforts are the differential after the proximal "
+          "path and the discs, not the wrist's demand" for n in CAPSTAN},
     **{n: _CROSSTALK_HELD for n in CROSSTALK}}
 
 

@@ -62,12 +62,26 @@ PARAMETERS = (
     ("crosstalk_tx", "m", -2e-3, 2e-3, 0.0),
     ("crosstalk_ty", "m", -2e-3, 2e-3, 0.0),
     ("crosstalk_tz", "m", -2e-3, 2e-3, 0.0),
+    # How the capstan's exponent grows with the wrist's configuration, relative to its value at
+    # the straight wrist (the form of docs/simulator.md section 7, read as a datasheet).
+    # Pitching the wrist wraps each blade cable further round the pitch idlers (both cables of
+    # a pair alike, |pitch| more: the "symmetric" routing the real jaw transmission's
+    # leave-one-configuration-out fit leaned to, docs/identification.md section 4): a wrap of
+    # 2 rad at the straight wrist grows by half per rad. Rolling the shaft twists the cables
+    # round each other, pressing them on their guides. Added after the cross-talk; with them 0
+    # the capstan is the one constant it was.
+    ("capstan_pitch_gain", "1/rad", 0.0, 2.0, 0.0),
+    ("capstan_roll_gain", "1/rad", 0.0, 2.0, 0.0),
 )
 NAMES = tuple(p[0] for p in PARAMETERS)
 CROSSTALK = ("crosstalk_fx", "crosstalk_fy", "crosstalk_tx", "crosstalk_ty", "crosstalk_tz")
 """The sensor's cross-talk of its axial reading into its other five channels (fx, fy, tx, ty,
 tz, in that order): the fz column of its cross-talk matrix."""
-ADDED_TERMS = ("capstan_mu", *CROSSTALK)
+CAPSTAN = ("capstan_mu", "capstan_pitch_gain", "capstan_roll_gain")
+"""The capstan's terms: its exponent at the straight wrist (``capstan_mu``; 0: no capstan, and
+the law reads no friction state) and that exponent's relative growth per rad of |wrist pitch|
+on the blade pairs and per rad of |roll| on every pair."""
+ADDED_TERMS = ("capstan_mu", *CROSSTALK, "capstan_pitch_gain", "capstan_roll_gain")
 """The terms added to the law after its first 17 parameters. Each is 0 in the law before it,
 and one held at exactly 0 enters the fit's graph as the number (:func:`_model` then leaves the
 term out): a fit that holds them is the fit it was before they existed."""
@@ -130,7 +144,8 @@ def _model(p, pos, e, v, g_hex, z, xp, hex10_fz=None):
     ``z`` the pairs' friction direction states (:func:`friction_direction`); ``hex10_fz`` the
     HEX10's fz reading (N), which only the cross-talk terms read (None: they must be 0)."""
     (T_tot, r_p, r_b, g_tw, c_dir, a_p, a_b, c_pm, m_d, l_d, rho,
-     bfx, bfy, bfz, btx, bty, btz, mu, *leak) = [p[i] for i in range(len(PARAMETERS))]
+     bfx, bfy, bfz, btx, bty, btz, mu, *rest) = [p[i] for i in range(len(PARAMETERS))]
+    leak, (g_pitch, g_roll) = rest[:len(CROSSTALK)], rest[len(CROSSTALK):]
     roll, wrist_pitch = pos[0], pos[1]
     tau_p, tau_b1, tau_b2 = e[0], 0.5 * e[1] - e[2], 0.5 * e[1] + e[2]
     # u = K^-T tau_d: K^T = [[1,k,k],[0,1,0],[0,0,1]] -> u1 = tau_b1, u2 = tau_b2, u0 = tau_p - k(u1+u2)
@@ -147,12 +162,16 @@ def _model(p, pos, e, v, g_hex, z, xp, hex10_fz=None):
     ty = 0.0
     # a term held at 0 (a plain number: the efforts reading's) costs nothing in the fit's graph
     no_capstan = _is_zero(mu)
+    if not no_capstan:  # each pair's exponent at this configuration (blade pairs wrap |pitch|)
+        mu_roll = mu if _is_zero(g_roll) else mu * (1.0 + g_roll * abs(roll))
+        mu_blade = mu_roll if _is_zero(g_pitch) else mu_roll * (1.0 + g_pitch * abs(wrist_pitch))
+        mu_pair = (mu_roll, mu_blade, mu_blade)
     for i in range(3):
         if no_capstan:
             d_section = D[i]
             S_sum = S_sum + tension_sum(two_t0 + asym[i] * D[i], D[i], SMOOTH_MAX_N, xp)
         else:  # the capstan between the wrist's pulleys (D) and the section: T+- gain exp(+-mu z)
-            c, s = xp.cosh(mu * z[i]), xp.sinh(mu * z[i])
+            c, s = xp.cosh(mu_pair[i] * z[i]), xp.sinh(mu_pair[i] * z[i])
             # taut: the loop closes at the section, S - a E = 2 T0
             taut = (two_t0 + D[i] * (asym[i] * c - s)) / (c - asym[i] * s)
             s_pulley = tension_sum(taut, D[i], SMOOTH_MAX_N, xp)

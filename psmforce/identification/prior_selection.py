@@ -54,6 +54,9 @@ DESIGN = {
     "bias_fx": 0.0, "bias_fy": 0.0, "bias_fz": 0.0,     # N: the sensor is tared
     "bias_tx": 0.0, "bias_ty": 0.0, "bias_tz": 0.0,     # Nm: the sensor is tared
     "capstan_mu": 0.0,              # 1: no friction by design
+    # 1/rad: the exponent's growth with the configuration: the blade cables' wrap of about
+    # 2 rad at the straight wrist grows by |pitch| (geometry, s. 7 and 10); roll twist (assumed)
+    "capstan_pitch_gain": 0.5, "capstan_roll_gain": 0.15,
     "crosstalk_fx": 0.0, "crosstalk_fy": 0.0,  # 1: the sensor's calibration decouples it
     "crosstalk_tx": 0.0, "crosstalk_ty": 0.0, "crosstalk_tz": 0.0,  # m: likewise
 }

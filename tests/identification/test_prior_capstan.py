@@ -160,3 +160,98 @@ def test_files_before_the_capstan_load_without_it_and_new_ones_need_it():
 def test_the_efforts_reading_holds_the_capstan_and_the_load_path_frees_it():
     assert HELD_BY_READING["efforts"]["capstan_mu"] == 0.0
     assert "capstan_mu" not in HELD_BY_READING["load_path"]
+
+
+
+def _law_at(params, roll, pitch, efforts, z):
+    """(6,) the law's wrench at (roll, wrist pitch) (rad), no motion, no gravity."""
+    return np.array(_model(params, (roll, pitch), efforts, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), z,
+                           math))
+
+
+@pytest.mark.parametrize("pitch", [0.7, -0.7])
+def test_the_blade_pairs_capstan_grows_with_the_wrist_pitch_magnitude(pitch):
+    """``capstan_pitch_gain`` raises the blade pairs' exponent to ``mu (1 + g |pitch|)`` and
+    leaves the pitch pair's at ``mu``: with the pitch pair's friction state at 0 (its exponent
+    then acts on nothing) the law equals the constant capstan ``mu (1 + g |pitch|)``, whichever
+    way the wrist is pitched; the pitch pair's own share is the constant ``mu``'s."""
+    mu, g = 0.2, 0.5
+    efforts, z_blades = (0.01, 0.004, -0.003), (0.0, 0.8, -0.5)
+    base = dict(pretension_total=6.0, asymmetry_pitch=0.3, asymmetry_blade=0.2)
+    grown = _params(**base, capstan_mu=mu, capstan_pitch_gain=g)
+    grown_blades = _law_at(grown, 0.0, pitch, efforts, z_blades)
+    constant = _law_at(_params(**base, capstan_mu=mu * (1 + g * abs(pitch))), 0.0, pitch,
+                       efforts, z_blades)
+    assert np.allclose(grown_blades, constant, atol=1e-12, rtol=0)
+    # pairs add: the pitch pair's share, its state moved, is the constant mu's
+    z_all = (0.6, *z_blades[1:])
+    share = _law_at(grown, 0.0, pitch, efforts, z_all) - grown_blades
+    plain = _params(**base, capstan_mu=mu)
+    as_mu = _law_at(plain, 0.0, pitch, efforts, (0.6, 0.0, 0.0)) \
+        - _law_at(plain, 0.0, pitch, efforts, (0.0, 0.0, 0.0))
+    assert np.allclose(share, as_mu, atol=1e-12, rtol=0) and np.abs(share).max() > 1e-3
+    # at the straight wrist the term is nothing
+    straight = [_law_at(_params(**base, capstan_mu=mu, capstan_pitch_gain=x), 0.0, 0.0, efforts,
+                        z_all) for x in (0.0, g)]
+    assert np.array_equal(straight[0], straight[1])
+
+
+@pytest.mark.parametrize("roll", [1.2, -1.2])
+def test_roll_twist_raises_every_pairs_capstan_by_its_relative_gain(roll):
+    """``capstan_roll_gain`` multiplies every pair's exponent by ``1 + g |roll|``: the law equals
+    the constant capstan ``mu (1 + g |roll|)`` at that roll, and nothing changes at roll 0."""
+    mu, g = 0.25, 0.4
+    efforts, z = (0.01, 0.004, -0.003), (0.6, 0.8, -0.5)
+    twisted = _law_at(_params(pretension_total=6.0, twist_gain=0.03, capstan_mu=mu,
+                              capstan_roll_gain=g), roll, 0.0, efforts, z)
+    constant = _law_at(_params(pretension_total=6.0, twist_gain=0.03,
+                               capstan_mu=mu * (1 + g * abs(roll))), roll, 0.0, efforts, z)
+    assert np.allclose(twisted, constant, atol=1e-12, rtol=0)
+    at_rest = [_law_at(_params(pretension_total=6.0, capstan_mu=mu, capstan_roll_gain=x),
+                       0.0, 0.0, efforts, z) for x in (0.0, g)]
+    assert np.array_equal(at_rest[0], at_rest[1])
+
+
+def test_the_configuration_terms_scale_the_capstan_and_every_path_agrees():
+    """The gains scale ``capstan_mu``: with it 0 the law has no capstan whatever they are (no
+    friction state read). With it not 0, numpy, CasADi and the per-sample path agree."""
+    args = (np.array([[0.8, -0.6]]), np.array([[0.01, 0.004, -0.003]]), np.zeros((1, 3)),
+            np.zeros((1, 3)))
+    z = np.array([[0.6, 0.8, -0.5]])
+    gains = dict(pretension_total=6.0, capstan_pitch_gain=0.5, capstan_roll_gain=0.3)
+    none = InternalForcePrior(params=_params(**gains))
+    assert not none.has_capstan and none.friction_state() is None
+    assert np.array_equal(none.predict_arrays(*args),
+                          InternalForcePrior(params=_params(pretension_total=6.0))
+                          .predict_arrays(*args))
+    p = _params(**gains, capstan_mu=0.3)
+    prior = InternalForcePrior(params=p)
+    with pytest.raises(IdentificationInputError, match="capstan_mu 0.3"):
+        prior.predict_arrays(*args)
+    batch = prior.predict_arrays(*args, z)[0]
+    pos, e, v, g = (a[0] for a in args)
+    one = prior.predict_one(tuple(pos), tuple(e), tuple(v), tuple(g), tuple(z[0]))
+    assert np.allclose(batch, one, atol=1e-12, rtol=0)
+    import casadi as ca
+    sym = _model(list(p), [ca.DM(args[0][:, 0]), ca.DM(args[0][:, 1])],
+                 *([ca.DM(x) for x in a.T] for a in (args[1], args[2], args[3], z)),
+                 _CasadiOps())
+    assert np.allclose([float(c) for c in sym], batch, atol=1e-12, rtol=0)
+    constant = InternalForcePrior(params=_params(pretension_total=6.0, capstan_mu=0.3))
+    assert np.abs(batch - constant.predict_arrays(*args, z)[0]).max() > 1e-3
+
+
+def test_files_before_the_configuration_terms_load_with_the_constant_capstan():
+    from psmforce.core.integrity import seal
+
+    d = InternalForcePrior(converged=True, params=_params(capstan_mu=0.2)).to_dict()
+    for name in ("capstan_pitch_gain", "capstan_roll_gain"):
+        del d["parameters"][name]
+    old = InternalForcePrior.from_dict(seal({**d, "format_version": 5}), "v5.json")
+    assert old.params[NAMES.index("capstan_mu")] == 0.2
+    assert old.params[NAMES.index("capstan_pitch_gain")] == 0.0
+    assert old.params[NAMES.index("capstan_roll_gain")] == 0.0
+    with pytest.raises(IdentificationInputError, match="missing parameters.*capstan_roll_gain"):
+        InternalForcePrior.from_dict(seal({**d, "format_version": 6}), "v6.json")
+    for name in ("capstan_pitch_gain", "capstan_roll_gain"):
+        assert HELD_BY_READING["efforts"][name] == 0.0 and name not in HELD_BY_READING["load_path"]

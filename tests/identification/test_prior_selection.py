@@ -48,7 +48,8 @@ def test_bounds_hit_and_the_report_use_one_rule():
     call it at its bound (the fit's rule was 1e-6 of the span, the report's 1e-3: the issue's
     "bounds_hit is empty while the report says a radius is at its bound")."""
     params = InternalForcePrior().params.copy()
-    params[NAMES.index("capstan_mu")] = 0.2  # the default, 0, sits on its lower bound
+    for name in ("capstan_mu", "capstan_pitch_gain", "capstan_roll_gain"):
+        params[NAMES.index(name)] = 0.2  # the default, 0, sits on its lower bound
     k = NAMES.index("pulley_radius_pitch")
     lo, hi = PARAMETERS[k][2], PARAMETERS[k][3]
     params[k] = hi - 0.5 * BOUND_TOLERANCE * (hi - lo)
@@ -124,10 +125,12 @@ def test_unidentifiable_parameters_are_fixed_at_design_and_named(free_frames):
     assert first["bounds_hit"]  # the all-free fit sits at a bound
     for name in first["bounds_hit"] + ["pretension_total"]:
         assert name in sel["fixed"], name
+    # held by the reading at the law before the term, the rest at design values
+    value = {**DESIGN, **HELD_BY_READING["efforts"]}
     for name, held in sel["fixed"].items():
-        assert prior.params[NAMES.index(name)] == held["value"] == DESIGN[name]
+        assert prior.params[NAMES.index(name)] == held["value"] == value[name]
         assert held["reason"]
-    assert prior.info["fixed"] == {n: DESIGN[n] for n in sel["fixed"]}
+    assert prior.info["fixed"] == {n: value[n] for n in sel["fixed"]}
     assert sel["still_not_identifiable"] == [] and sel["at_bound"] == []
     assert set(sel["identified"]) | set(sel["fixed"]) == set(NAMES)
     assert set(sel["identified"]).isdisjoint(prior.info["identifiability"]["not_identifiable"])
@@ -146,8 +149,8 @@ def test_the_verdict_names_fixed_and_bound_parameters_and_never_just_passes(smal
     assert ("POOR FIT" in rep["verdict"]) == rep["poor_fit"]
     free = fit_prior_cli(small_bench, tmp_path / "q.json", identify=False)
     assert free["fixed"] == HELD_BY_READING["efforts"] and "curve fit" in free["verdict"]
-    assert ("capstan_mu, crosstalk_fx, crosstalk_fy, crosstalk_tx, crosstalk_ty, crosstalk_tz "
-            "held by the reading") in free["verdict"]
+    assert ("capstan_mu, capstan_pitch_gain, capstan_roll_gain, crosstalk_fx, crosstalk_fy, "
+            "crosstalk_tx, crosstalk_ty, crosstalk_tz held by the reading") in free["verdict"]
     assert "passes" not in free["verdict"]
     listed = free["not_identifiable"]
     assert listed and all(n in free["verdict"].split("NOT identifiable: ")[1] for n in listed)

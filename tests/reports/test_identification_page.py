@@ -71,3 +71,26 @@ def test_the_selected_hybrid_is_judged_on_its_own_line_with_what_it_kept():
     text = transmission_transfer_learned_tables(_learned("residual network"))
     chosen = next(x for x in text.splitlines() if x.startswith("The hybrid with its residual"))
     assert "other recalibrated closing (paper transformer 6.0 against 7.0)" in chosen
+
+
+def _capstan_rows(pitch_gain=None, roll_gain=None, status="identified"):
+    rows = {"capstan_mu": {"truth": 0.3, "fitted": 0.31, "status": "identified"}}
+    for name, value in (("capstan_pitch_gain", pitch_gain), ("capstan_roll_gain", roll_gain)):
+        if value is not None:
+            rows[name] = {"truth": 0.5, "fitted": value, "status": status}
+    return rows
+
+
+def test_the_capstan_sentence_says_one_constant_only_where_the_law_has_one():
+    from reports.identification_page import _capstan_sentence
+    run = {"capstan_mu_over_training": 0.4}
+    before = _capstan_sentence(run, _capstan_rows())  # a run before the growth terms
+    assert "the law's one constant 0.31" in before and "averaged" in before and "0.4" in before
+    assert "one constant" in _capstan_sentence(run, _capstan_rows(0.0, 0.0, "fixed"))
+    grows = _capstan_sentence(run, _capstan_rows(0.5, 0.15, "fixed"))
+    assert "one constant" not in grows
+    assert "capstan_pitch_gain 0.5 (fixed), capstan_roll_gain 0.15 (fixed)" in grows
+    assert _capstan_sentence({}, _capstan_rows()) == ""
+    held = _capstan_rows()
+    held["capstan_mu"]["status"] = "fixed"
+    assert _capstan_sentence(run, held) == ""
