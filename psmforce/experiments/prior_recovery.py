@@ -100,6 +100,7 @@ def prior_truth(instrument: InstrumentParams, psm: PSM | None = None) -> dict[st
         raise ValueError("not an in-family instrument: use in_family_instrument() (jaw mass 0, "
                          "equal blade asymmetries, cables crossing the section along the shaft)")
     bias = instrument.hex10_residual_bias_n
+    idlers, wrist = instrument.capstan_mu_wrap_distal, _wrist_friction(instrument)
     return {
         "pretension_total": instrument.pretension_total_n,
         "pulley_radius_pitch": instrument.pulley_radius_pitch_m,
@@ -196,11 +197,16 @@ def default_bench_truth(instrument: InstrumentParams | None = None,
     (``hex10_residual_bias_n``; the moments' 0); ``crosstalk_fx`` ... ``crosstalk_tz`` the
     cross-talk matrix's entries of the axial force (``hex10_crosstalk``'s fz column; its other
     entries have no counterpart);
-    ``capstan_mu`` the wrist idlers' ``capstan_mu_wrap_distal`` at the straight wrist without
-    roll, ``capstan_pitch_gain`` its relative growth per rad of |wrist pitch| on the blade pairs
-    (``capstan_wrap_pitch_gain``), ``capstan_roll_gain`` per rad of |roll|
-    (``twist_friction_gain_per_rad``; the bench's friction state is driven by cable travel with
-    a pre-sliding of ``presliding_length_m``)."""
+    ``capstan_mu`` the wrist's friction exponent at the straight wrist without roll: the idlers'
+    ``capstan_mu_wrap_distal`` plus the pulley pins' ``pin_friction_coefficient`` (the pins add
+    ``c r S z`` to each pair's torque demand, i.e. ``c S z`` to its differential, which is the
+    capstan's ``D_s ~ D + mu S z`` to first order: the law's one capstan carries both, and its
+    fit lands on their sum, ``tests/experiments/test_prior_recovery_truth.py``);
+    ``capstan_pitch_gain`` and ``capstan_roll_gain`` the idlers' relative growth per rad of
+    |wrist pitch| on the blade pairs (``capstan_wrap_pitch_gain``) and of |roll|
+    (``twist_friction_gain_per_rad``) on that sum, i.e. scaled by the idlers' share of it (the
+    pins' friction does not grow with the configuration; the bench's friction state is driven
+    by cable travel with a pre-sliding of ``presliding_length_m``)."""
     import numpy as np
 
     instrument = instrument or InstrumentParams()
@@ -216,6 +222,7 @@ def default_bench_truth(instrument: InstrumentParams | None = None,
     a = instrument.cable_asymmetry
     linear = instrument.pair_law == "linear"
     bias = instrument.hex10_residual_bias_n
+    idlers, wrist = instrument.capstan_mu_wrap_distal, _wrist_friction(instrument)
     return {
         "pretension_total": instrument.pretension_total_n,
         "pulley_radius_pitch": instrument.pulley_radius_pitch_m,
@@ -230,9 +237,9 @@ def default_bench_truth(instrument: InstrumentParams | None = None,
         "cable_radius": instrument.cable_radius_in_section_m,
         "bias_fx": bias[0], "bias_fy": bias[1], "bias_fz": bias[2],
         "bias_tx": 0.0, "bias_ty": 0.0, "bias_tz": 0.0,
-        "capstan_mu": instrument.capstan_mu_wrap_distal,
-        "capstan_pitch_gain": instrument.capstan_wrap_pitch_gain,
-        "capstan_roll_gain": instrument.twist_friction_gain_per_rad,
+        "capstan_mu": wrist,
+        "capstan_pitch_gain": instrument.capstan_wrap_pitch_gain * idlers / wrist,
+        "capstan_roll_gain": instrument.twist_friction_gain_per_rad * idlers / wrist,
         **{n: instrument.hex10_crosstalk[row][2] for n, row in zip(CROSSTALK, (0, 1, 3, 4, 5))},
     }
 
@@ -247,8 +254,15 @@ def _truth_law_metrics(truth: dict, score) -> dict:
             for inputs in ("efforts", "load_path")}
 
 
+def _wrist_friction(instrument: InstrumentParams) -> float:
+    """The bench's friction exponent at the wrist at the straight wrist without roll (default
+    effects): the idlers' capstan plus the pulley pins' coefficient (:func:`default_bench_truth`)."""
+    return instrument.capstan_mu_wrap_distal + instrument.pin_friction_coefficient
+
+
 def bench_capstan_over(frames, instrument: InstrumentParams) -> float:
-    """The bench's distal capstan exponent (``sim.cables.capstan_exponents``, default effects)
+    """The bench's friction exponent at the wrist (the idlers' capstan,
+    ``sim.cables.capstan_exponents``, plus the pulley pins' coefficient; default effects)
     averaged over the pairs and the samples of ``frames`` (recordings): the one constant the
     law's ``capstan_mu`` stands for where the bench's grows with |wrist pitch| and |roll|
     (:func:`default_bench_truth` gives its value at the straight wrist)."""
@@ -258,7 +272,7 @@ def bench_capstan_over(frames, instrument: InstrumentParams) -> float:
     from psmforce.sim.cables import capstan_exponents
     q = np.concatenate([f[list(JOINT_POSITIONS)].to_numpy(dtype=float) for f in frames])
     mu = capstan_exponents(q[:, 3], q[:, 4], instrument, Effects())[0]
-    return float(np.broadcast_to(mu, (len(q), 3)).mean())
+    return float(np.broadcast_to(mu, (len(q), 3)).mean()) + instrument.pin_friction_coefficient
 
 
 def crosstalk_of_rest_level(instrument: InstrumentParams) -> dict[str, float]:

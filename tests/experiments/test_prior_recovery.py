@@ -7,13 +7,18 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
+import pandas as pd
 import pytest
 
 from psmforce.identification.errors import IdentificationInputError
 from psmforce.identification.prior import HELD_BY_READING, NAMES, InternalForcePrior
 from psmforce.identification.prior_identifiability import recovered
-from psmforce.experiments.prior_recovery import (compare, in_family_instrument, prior_truth,
-                                                     recover)
+from psmforce.experiments.prior_recovery import (bench_capstan_over, compare,
+                                                 default_bench_truth, in_family_instrument,
+                                                 prior_truth, recover)
+from psmforce.io.recording import JOINT_POSITIONS
+from psmforce.sim.cables import transmission
+from psmforce.sim.params import Effects, InstrumentParams
 
 CORE = ("pretension_total", "pulley_radius_pitch", "pulley_radius_blade", "twist_gain",
         "distal_mass", "distal_com_distance", "bias_fx", "bias_fy")
@@ -147,3 +152,47 @@ def test_a_bias_is_judged_against_the_truth_as_the_law_holds_it():
     assert stored["runs"][0]["misses"] == []
     assert stored["rescored"]["changed"] == [{"run": 0, "misses_before": ["bias_tz"],
                                               "misses": []}]
+
+
+# What the prior's capstan stands for on the default bench: the pulley pins' friction adds to
+# each pair's differential what a capstan of the same coefficient adds, to first order, so the
+# law's one capstan carries the idlers' and the pins' together, and its truth is their sum.
+def _wrist_motion(n=2000):
+    """The blade pairs' cables travel back and forth under small loads (pitch and roll held at 0,
+    where the capstan's configuration terms are nothing)."""
+    t = np.linspace(0.0, 20.0, n)
+    q = np.zeros((n, 7))
+    q[:, 2] = 0.1
+    q[:, 5] = 0.6 * np.sin(0.9 * t)
+    q[:, 6] = 0.5 + 0.3 * np.sin(1.7 * t)
+    tau = np.column_stack([0.004 * np.sin(0.5 * t), 0.003 * np.cos(0.7 * t),
+                           0.002 * np.sin(1.3 * t)])
+    return q, tau
+
+
+def test_the_pins_friction_is_a_capstan_of_its_coefficient_on_the_blade_pairs():
+    q, tau = _wrist_motion()
+    bench = InstrumentParams()
+    c = bench.pin_friction_coefficient
+    none = transmission(q, tau, bench, Effects(capstan=False, pin_friction=False))
+    pins = transmission(q, tau, bench, Effects(capstan=False, pin_friction=True))
+    capstan = transmission(q, tau, dataclasses.replace(bench, capstan_mu_wrap_distal=c),
+                           Effects(capstan=True, pin_friction=False))
+    for k in (1, 2):  # the blade pairs: the ones the motion drives
+        by_pins = pins["d_shaft"][:, k] - none["d_shaft"][:, k]
+        by_capstan = capstan["d_shaft"][:, k] - none["d_shaft"][:, k]
+        assert np.abs(by_pins).max() > 0.1  # N: the friction is felt
+        assert np.abs(by_pins - by_capstan).max() < 0.05 * np.abs(by_pins).max()
+
+
+def test_the_laws_capstan_truth_is_the_idlers_and_the_pins_and_its_growth_their_share():
+    bench = InstrumentParams()
+    truth = default_bench_truth(bench)
+    wrist = bench.capstan_mu_wrap_distal + bench.pin_friction_coefficient
+    assert truth["capstan_mu"] == wrist
+    share = bench.capstan_mu_wrap_distal / wrist
+    assert truth["capstan_pitch_gain"] == bench.capstan_wrap_pitch_gain * share
+    assert truth["capstan_roll_gain"] == bench.twist_friction_gain_per_rad * share
+    # at the straight wrist without roll the bench's average is the truth itself
+    still = pd.DataFrame(np.zeros((10, 7)), columns=list(JOINT_POSITIONS))
+    assert np.isclose(bench_capstan_over([still], bench), wrist, rtol=0, atol=1e-12)
