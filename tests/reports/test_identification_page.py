@@ -87,7 +87,9 @@ def test_the_capstan_sentence_says_one_constant_only_where_the_law_has_one():
     before = _capstan_sentence(run, _capstan_rows())  # a run before the growth terms
     assert "the law's one constant 0.31" in before and "averaged" in before and "0.4" in before
     assert "one constant" in _capstan_sentence(run, _capstan_rows(0.0, 0.0, "fixed"))
-    grows = _capstan_sentence(run, _capstan_rows(0.5, 0.15, "fixed"))
+    rows = _capstan_rows(0.5, 0.15, "fixed")
+    grows = _capstan_sentence({**run, "parameters": rows}, rows)
+    assert "capstan plus the pulley pins'" in grows and "pins" not in before
     assert "one constant" not in grows
     assert "capstan_pitch_gain 0.5 (fixed), capstan_roll_gain 0.15 (fixed)" in grows
     assert _capstan_sentence({}, _capstan_rows()) == ""
