@@ -6,7 +6,7 @@ takes the parsed JSON and returns the block's markdown."""
 
 from __future__ import annotations
 
-from reports.cells import as_held, miss_rule, rescored_note
+from reports.cells import as_held, miss_rule, rescored_note, with_pins
 
 FORCE_AXES = ("fx", "fy", "fz")
 
@@ -416,8 +416,9 @@ def instrument_identification_tables(result: dict) -> str:
             run = runs[case]
             lines.append(f"- {case} ({', '.join(f'{k} {v:.2f} min' for k, v in run['minutes'].items())}"
                          f"; {run['n_samples']} samples, {run['fit_time_s']:.0f} s): "
-                         f"{run['verdict']}. The bench's capstan averaged over these "
-                         f"recordings' configurations: {run['capstan_mu_over_training']:.3g}."
+                         f"{run['verdict']}. The bench's wrist friction (the idlers' capstan"
+                         f"{with_pins(run)}) averaged over these recordings' configurations: "
+                         f"{run['capstan_mu_over_training']:.3g}."
                          + ("" if "all_free_residual" not in run else
                             " The all-free fit's residual on its own recordings, RMS fz "
                             f"{run['all_free_residual']['fz']['rms']:.3g} N, tx "

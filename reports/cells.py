@@ -36,3 +36,9 @@ def rescored_note(result: dict) -> str:
     ``experiments.prior_recovery.rescore``, else nothing."""
     r = result.get("rescored")
     return "" if not r else f"; misses judged again by `{r['command']}` (the fits untouched)"
+
+
+def with_pins(run: dict) -> str:
+    """The pulley pins' share of the bench's wrist friction, named where a recovery run's truth
+    holds it (runs with the prior's capstan growth terms: ``default_bench_truth``)."""
+    return " plus the pulley pins'" if "capstan_pitch_gain" in run.get("parameters", {}) else ""

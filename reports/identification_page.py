@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import math
 
-from reports.cells import as_held, miss_rule, rescored_note, spread_cell
+from reports.cells import as_held, miss_rule, rescored_note, spread_cell, with_pins
 
 MODEL_NAMES = {"physics": "physics alone (`CableTransmission`)", "fcn": "FCN",
                "lstm": "LSTM", "transformer": "paper transformer",
@@ -20,19 +20,13 @@ _CAPSTAN_GROWTH = ("capstan_pitch_gain", "capstan_roll_gain")
 """The law's capstan terms that follow the wrist's configuration (absent from runs before them)."""
 
 
-def _with_pins(run: dict) -> str:
-    """The pulley pins' share of the bench's wrist friction, named where the run's truth holds
-    it (runs with the capstan's growth terms: ``default_bench_truth``)."""
-    return " plus the pulley pins'" if "capstan_pitch_gain" in run.get("parameters", {}) else ""
-
-
 def _capstan_sentence(run: dict, rows: dict) -> str:
     """What the law's capstan stands for on a recovery run: one constant for the bench's average
     over the training configurations (a law without growth terms, or with them at 0), or a
     capstan that grows as the bench's does; nothing where the run has no capstan."""
     if "capstan_mu_over_training" not in run or rows["capstan_mu"]["status"] == "fixed":
         return ""
-    bench = (f" The bench's wrist friction (the idlers' capstan{_with_pins(run)}) is "
+    bench = (f" The bench's wrist friction (the idlers' capstan{with_pins(run)}) is "
              f"{_num(rows['capstan_mu']['truth'])} at the straight wrist and grows with |wrist "
              "pitch| and |roll|; averaged over the training samples' configurations it is "
              f"{run['capstan_mu_over_training']:.3g}")
