@@ -100,7 +100,6 @@ def prior_truth(instrument: InstrumentParams, psm: PSM | None = None) -> dict[st
         raise ValueError("not an in-family instrument: use in_family_instrument() (jaw mass 0, "
                          "equal blade asymmetries, cables crossing the section along the shaft)")
     bias = instrument.hex10_residual_bias_n
-    idlers, wrist = instrument.capstan_mu_wrap_distal, _wrist_friction(instrument)
     return {
         "pretension_total": instrument.pretension_total_n,
         "pulley_radius_pitch": instrument.pulley_radius_pitch_m,
@@ -201,7 +200,7 @@ def default_bench_truth(instrument: InstrumentParams | None = None,
     ``capstan_mu_wrap_distal`` plus the pulley pins' ``pin_friction_coefficient`` (the pins add
     ``c r S z`` to each pair's torque demand, i.e. ``c S z`` to its differential, which is the
     capstan's ``D_s ~ D + mu S z`` to first order: the law's one capstan carries both, and its
-    fit lands on their sum, ``tests/experiments/test_prior_recovery_truth.py``);
+    fit lands on their sum, ``tests/experiments/test_prior_recovery.py``);
     ``capstan_pitch_gain`` and ``capstan_roll_gain`` the idlers' relative growth per rad of
     |wrist pitch| on the blade pairs (``capstan_wrap_pitch_gain``) and of |roll|
     (``twist_friction_gain_per_rad``) on that sum, i.e. scaled by the idlers' share of it (the
@@ -256,7 +255,8 @@ def _truth_law_metrics(truth: dict, score) -> dict:
 
 def _wrist_friction(instrument: InstrumentParams) -> float:
     """The bench's friction exponent at the wrist at the straight wrist without roll (default
-    effects): the idlers' capstan plus the pulley pins' coefficient (:func:`default_bench_truth`)."""
+    effects): the idlers' capstan plus the pulley pins' coefficient
+    (:func:`default_bench_truth`)."""
     return instrument.capstan_mu_wrap_distal + instrument.pin_friction_coefficient
 
 

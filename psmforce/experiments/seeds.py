@@ -28,7 +28,7 @@ LOAD_PATH_SEEDS = (401, 402, 403)
 """The prior read through the load path (``studies/prior_recovery.py --default-bench
 --load-path``): designed on seed 21 (scale 0.1), confirmed on these."""
 CAPSTAN_GROWTH_SEEDS = (404, 405)
-"""The law's capstan growing with |wrist pitch| and |roll| (``capstan_mu_abs_pitch``,
+"""The law's capstan growing with |wrist pitch| and |roll| (``capstan_pitch_gain``,
 ``capstan_roll_gain``), read through the load path: proposed after the constant capstan missed on
 21 and 401-403, which are then no longer blind to it; these are."""
 ATI_FREE_IDENTIFICATION_SEEDS = (431, 432, 433)

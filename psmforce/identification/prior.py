@@ -117,11 +117,10 @@ from psmforce.io.recording import (HEX10, JOINT_POSITIONS, OVERLOAD, TARGETS, jo
 FORMAT = "psmforce.identification.InternalForcePrior/1"
 FORMAT_VERSION = 6
 """6: the capstan's growth with the wrist's configuration (``capstan_pitch_gain``,
-``capstan_roll_gain``). 5: the axial force's cross-talk into the moments (``crosstalk_tx``, ``crosstalk_ty``,
-``crosstalk_tz``). 4: the sensor's cross-talk of the axial force (``crosstalk_fx``,
-``crosstalk_fy``). 3: the
-law's capstan (``capstan_mu``). 2: the integrity envelope (:mod:`psmforce.core.integrity`: a
-SHA-256 over every field) and this integer; a file with neither was written before them and
+``capstan_roll_gain``). 5: the axial force's cross-talk into the moments (``crosstalk_tx``,
+``crosstalk_ty``, ``crosstalk_tz``). 4: the sensor's cross-talk of the axial force
+(``crosstalk_fx``, ``crosstalk_fy``). 3: the law's capstan (``capstan_mu``). 2: the integrity
+envelope (:mod:`psmforce.core.integrity`: a SHA-256 over every field) and this integer; a file with neither was written before them and
 still loads (its parameters checked against their bounds, as every prior's are). A file lacks
 the terms added after it was written (:data:`_ADDED_IN`) and loads with them at 0, the law it
 was fitted with."""
