@@ -35,7 +35,9 @@ it from the design study's committed JSON, and ``main`` skips the candidate whil
 
 Every training finished is kept under ``--work`` as a record (one file per seed and model, so
 processes on different seeds never write the same file) and the JSON is assembled from them; a
-killed training resumes from its saved epoch.
+killed training resumes from its saved epoch. ``--again MODEL ...`` writes those models'
+records anew: a finished training resumes from its kept state to its best weights (no epoch
+runs) and is scored again, for a record written by older code.
 """
 
 from __future__ import annotations
@@ -83,6 +85,8 @@ def _train_model(name: str, work: Path, seed: int, threads: int) -> dict:
     v = MODELS[name]
     t0 = time.time()
     setup, rep, ds, _ = train(v, name, work, seed, threads)
+    # a resumed training's earlier processes count: the trainer's clock runs across resumes
+    earlier_s = max(0.0, rep.get("seconds", 0.0) - (time.time() - t0))
     scores = _scores(setup, ds.select(split="test"), "cpu")
     return {"model": v.model, "config": v.config,
             "test_nrmse_pct": {mt: {a: scores["overall"][mt][a]["nrmse_pct"] for a in AXES}
@@ -92,7 +96,7 @@ def _train_model(name: str, work: Path, seed: int, threads: int) -> dict:
                 for c, s in scores["by_condition"].items()},
             "epochs": rep.get("epochs_run"), "stopped_by": rep.get("stopped_by"),
             "converged": bool(rep.get("converged")), "parameters": rep.get("parameters"),
-            "seconds": round(time.time() - t0, 1)}
+            "seconds": round(time.time() - t0 + earlier_s, 1)}
 
 
 def _in_json(result: dict):
@@ -207,8 +211,9 @@ SHORT = {"hybrid_wide": "wide hybrid", "hybrid_transformer": "hybrid's physics +
 
 def _cost_rows(p: dict) -> list[str]:
     """What each model costs to train, from the point's records: its parameters, its epochs and
-    the wall-clock minutes from the start of its training to its test scores (one CPU thread;
-    at times beside another training on the same two cores), mean ± sd over its seeds."""
+    the wall-clock minutes from the start of its training to its test scores, the processes of
+    a stopped and resumed training together (one CPU thread; at times beside another training
+    on the same two cores), mean ± sd over its seeds."""
     from psmforce.experiments.paired import mean_sd
 
     lines = ["| training cost | seeds | parameters | epochs | minutes, one thread |",
@@ -274,6 +279,10 @@ def main(argv=None) -> int:
     ap.add_argument("--seed", type=int, required=True)
     ap.add_argument("--scale", type=float, default=0.1)
     ap.add_argument("--models", nargs="+", choices=list(MODELS), default=list(MODELS))
+    ap.add_argument("--again", nargs="+", choices=list(MODELS), default=[],
+                    help="write these models' records again although they exist (a finished "
+                         "training resumes from its kept state to its best weights and is "
+                         "scored again; nothing trains where the state is kept)")
     ap.add_argument("--threads", type=int, default=1)
     ap.add_argument("--work", type=Path, default=ROOT / "runs" / "hybrid_wide_confirm")
     ap.add_argument("--json", type=Path,
@@ -304,7 +313,7 @@ def main(argv=None) -> int:
                     print(f"skipped {name}: its design gate is {gate} "
                           f"({shown_path(DESIGN_JSON)}, module docstring)", file=sys.stderr)
                     continue
-            if name not in done:
+            if name not in done or name in args.again:
                 write_json(work / "models" / f"{name}.json",
                            _train_model(name, work, args.seed, args.threads))
             write_json(args.json, assemble(args.work, args.json))

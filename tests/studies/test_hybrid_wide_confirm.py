@@ -197,3 +197,39 @@ def test_a_gated_candidate_is_not_trained_while_its_gate_is_not_open(tmp_path, m
                      "--work", str(tmp_path / "w"), "--json", str(tmp_path / "out.json")])
     assert rc == 0 and "skipped hybrid_transformer: its design gate is pending" in \
         capsys.readouterr().err
+
+
+def test_a_resumed_training_counts_the_minutes_of_its_earlier_processes(tmp_path, monkeypatch):
+    """The trainer's clock runs across resumes; the record's seconds must too, or a training
+    stopped and resumed twice reads as cheap as its last part (seed 112's paper transformer read
+    32 min where its trainer had counted 112)."""
+    overall = {mt: {a: {"nrmse_pct": 1.0} for a in ("Fx", "Fy", "Fz")}
+               for mt in ("causal", "paper")}
+    scores = {"overall": overall, "by_condition": {
+        "Free": {"causal": {a: {"rmse_n": 0.01} for a in ("Fx", "Fy", "Fz")}}}}
+    monkeypatch.setattr("psmforce.experiments.reproduce._scores", lambda *a: scores)
+
+    class Data:
+        def select(self, **kw):
+            return self
+    rep = {"seconds": 3600.0, "epochs_run": 30, "stopped_by": "patience", "converged": True,
+           "parameters": 10}
+    monkeypatch.setattr(study, "train", lambda *a: (None, rep, Data(), None))
+    assert study._train_model("transformer", tmp_path, DECLARED[0], 1)["seconds"] >= 3600.0
+
+
+def test_again_writes_an_existing_record_anew_and_nothing_else(tmp_path, monkeypatch):
+    monkeypatch.setattr("psmforce.experiments.reproduce.prepare_benches", lambda *a, **k: None)
+    models = tmp_path / "w" / f"seed{DECLARED[0]}_scale0.1" / "models"
+    models.mkdir(parents=True)
+    for name in ("transformer", "fcn"):
+        (models / f"{name}.json").write_text(json.dumps(_record(9.0)))
+    trained = []
+    monkeypatch.setattr(study, "_train_model",
+                        lambda name, *a: trained.append(name) or _record(1.0))
+    argv = ["--seed", str(DECLARED[0]), "--models", "transformer", "fcn", "--work",
+            str(tmp_path / "w"), "--json", str(tmp_path / "out.json")]
+    assert study.main(argv) == 0 and trained == []
+    assert study.main([*argv, "--again", "transformer"]) == 0 and trained == ["transformer"]
+    assert json.loads((models / "transformer.json").read_text()) == _record(1.0)
+    assert json.loads((models / "fcn.json").read_text()) == _record(9.0)
