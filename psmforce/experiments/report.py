@@ -10,7 +10,12 @@ import os
 from pathlib import Path
 from typing import Any, Callable
 
-from psmforce.core.files import write_json_atomic, write_text_atomic
+from psmforce.core.files import (
+    MAX_JSON_BYTES,
+    read_input_text,
+    write_json_atomic,
+    write_text_atomic,
+)
 
 
 def write_json(path: str | Path, figures: dict) -> None:
@@ -26,14 +31,25 @@ def kept_json(path: str | Path, compute: Callable[[], Any]) -> Any:
     """The JSON at ``path``, or ``compute()``'s result written there first (parents created;
     whole or not at all, NaN refused: :func:`psmforce.core.files.write_json_atomic`) and
     returned: a study's step that finished is read back, so a rerun of the study resumes after
-    it."""
+    it. What is read back is checked as an input (:func:`psmforce.core.files.read_input_text`):
+    anything but a regular file of JSON, NaN included, is refused with a ValueError that names
+    it, and is left in place for the user to look at or delete."""
     path = Path(path)
-    if path.is_file():
-        return json.loads(path.read_text())
+    if os.path.lexists(path):
+        text = read_input_text(path, MAX_JSON_BYTES, "kept step of a study")
+        try:
+            return json.loads(text, parse_constant=_refuse_constant)
+        except ValueError as err:
+            raise ValueError(f"{path}: the kept step of a study is not JSON ({err}); delete it "
+                             f"to compute the step again") from None
     path.parent.mkdir(parents=True, exist_ok=True)
     result = compute()
     write_json_atomic(path, result)
     return result
+
+
+def _refuse_constant(name: str):
+    raise ValueError(f"{name} is not a number JSON allows")
 
 
 def shown_path(path: str | Path, under: str | Path | None = None) -> str:
