@@ -1,8 +1,20 @@
-"""Fixtures shared by the CLI failure tests."""
+"""Fixtures shared by the CLI failure tests, and the thread budget of a parallel run."""
+
+import os
 
 import pytest
+import torch
 
 import psmforce.estimators.training.train
+
+# The suite runs in pytest-xdist workers (pyproject.toml's addopts, one per core): each worker
+# gets its share of the cores, and so do the commands it starts, so that torch's pools (sized to
+# every core) do not oversubscribe them.
+_WORKERS = int(os.environ.get("PYTEST_XDIST_WORKER_COUNT", "1"))
+if _WORKERS > 1:
+    _THREADS = max(1, (os.cpu_count() or 1) // _WORKERS)
+    os.environ.setdefault("OMP_NUM_THREADS", str(_THREADS))
+    torch.set_num_threads(_THREADS)
 
 
 @pytest.fixture

@@ -29,6 +29,7 @@ from psmforce.live import dds  # noqa: E402
 from psmforce.live.node import STALE, TARING, output_topics  # noqa: E402
 
 N = 1500          # 1.5 s at 1 kHz
+N_TARED = 3000    # the tared stream: room for a tare asked late on a loaded machine
 TARE_AT = 600     # answers received before the tare is asked for (warm-up: 150)
 TARE_S = 0.05     # 50 answers
 
@@ -48,8 +49,8 @@ def _take(readers, got):
 def test_serve_over_dds_equals_the_offline_estimate_loses_nothing_and_tares(tmp_path):
     domain_id = 100 + os.getpid() % 100
     ckpt = checkpoint(tmp_path / "h.pt", rate_hz=100.0)
-    frame = recording(N)
-    frame["time"] = np.arange(N) / 1000.0
+    frame = recording(N_TARED)
+    frame["time"] = np.arange(N_TARED) / 1000.0
     write_recording(frame, tmp_path / "session.csv")
     frame = read_recording(tmp_path / "session.csv", require_targets=False)  # as published
     participant = DomainParticipant(domain_id)
@@ -89,7 +90,7 @@ def test_serve_over_dds_equals_the_offline_estimate_loses_nothing_and_tares(tmp_
             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
         tared = False
         deadline = time.monotonic() + 60
-        while len(got["flags"]) < N and time.monotonic() < deadline and node.poll() is None:
+        while len(got["flags"]) < N_TARED and time.monotonic() < deadline and node.poll() is None:
             _take(readers, got)
             if not tared and len(got["hex10"]) >= TARE_AT:
                 tare.write(dds.Empty())
@@ -109,7 +110,7 @@ def test_serve_over_dds_equals_the_offline_estimate_loses_nothing_and_tares(tmp_
     received = [m.header.stamp.sec * 10**9 + m.header.stamp.nanosec for m in got["hex10"]]
     assert received == stamps.tolist(), (  # none lost, in order, each stamped with its input
         len(received), report)
-    assert len(got["base"]) == len(got["flags"]) == N
+    assert len(got["base"]) == len(got["flags"]) == N_TARED
     force = np.array([[m.wrench.force.x, m.wrench.force.y, m.wrench.force.z]
                       for m in got["hex10"]])
     base = np.array([[m.wrench.force.x, m.wrench.force.y, m.wrench.force.z]
@@ -128,7 +129,7 @@ def test_serve_over_dds_equals_the_offline_estimate_loses_nothing_and_tares(tmp_
     np.testing.assert_allclose(np.linalg.norm(base, axis=1), np.linalg.norm(force, axis=1),
                                atol=1e-9)  # the base frame is a rotation of the HEX10 frame
     assert ((flags & 0xFFFF) == [o.flags for o in outs]).all() and not (flags & STALE).any()
-    assert report["received"]["hex10"] == N and report["answers_published"] == N
+    assert report["received"]["hex10"] == N_TARED and report["answers_published"] == N_TARED
     assert report["decimation"] == 10 and report["received"]["tare"] == 1
     np.testing.assert_allclose(report["tare_offset_N"], offset, atol=1e-9)
 
