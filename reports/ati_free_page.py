@@ -57,7 +57,50 @@ def excitation_tables(result: dict) -> str:
                   + "; added to the excitation: "
                   + (str(weights["excitation"].get("needed", 0)) if weights["excitation"].get(
                       "not_identifiable_without") else "none needed") + "."]
+        if "load_path" in weights:
+            lines += ["", load_path_sentence(weights)]
     return "\n".join(lines) + "\n"
+
+
+def _names(names) -> str:
+    return ", ".join(f"`{n}`" for n in names) if names else "none"
+
+
+def load_path_sentence(weights: dict) -> str:
+    """What the known weights of an excitation report (``known_weights``) give read through
+    the load path, as ``calibrate --known-loads`` identifies the instrument: what the excitation
+    alone leaves, and how many holds make every parameter identifiable or what stays out of
+    reach with every hold given."""
+    gains = weights["load_path"]["excitation"]
+    needed = gains["needed"]
+    left = gains["greedy"][-1]["not_identifiable"] if gains["greedy"] \
+        else gains["not_identifiable_without"]
+    return ("Read through the load path (the tip force known: 0 N in free space, the weight "
+            "on a hold), as `calibrate --known-loads` identifies the instrument, every "
+            "parameter of the law free: the excitation alone leaves "
+            f"{_names(gains['not_identifiable_without'])} unidentifiable; "
+            + ("no hold is needed" if needed == 0 else
+               f"the first {needed} holds of the greedy order make every parameter identifiable"
+               if needed else
+               f"with all {len(gains['greedy'])} holds given, still not identifiable: "
+               f"{_names(left)}") + ".")
+
+
+def excitation_paired_summary(result: dict) -> str:
+    """The known weights of the lab's identification procedure (three masses in the sixteen
+    paired orientations) on the excitation: read from the efforts and through the load path."""
+    weights = result["known_weights"]
+    needed = weights["excitation"]["needed"]
+    return "\n".join([
+        "", f"{result['duration_s'] / 60:.1f} min excitation, seed {result['seed']}; "
+        f"{', '.join(f'{m:g}' for m in weights['masses_kg'])} kg in "
+        f"{len(weights['orientations'])} orientations, held {weights['hold_s']:g} s each"
+        + (f" (left out, past the HEX10's safety limit: {', '.join(weights['left_out_unsafe'])})"
+           if weights["left_out_unsafe"] else "") + ".", "",
+        "Read from the efforts (the prior `calibrate` refits for the estimator), on top of the "
+        "excitation: " + ("no hold is needed" if needed == 0 else f"{needed} holds" if needed
+                          else "the holds never make every parameter identifiable") + ".", "",
+        load_path_sentence(weights), ""])
 
 
 def remount_tables(result: dict) -> str:

@@ -73,6 +73,7 @@ ATI_FREE_RESULT = ROOT / "results" / "benchmarks" / "ati_free.json"
 ATI_FREE_CROSSTALK = ROOT / "results" / "benchmarks" / "ati_free_crosstalk.json"
 HEX10_COMPRESSION = ROOT / "results" / "benchmarks" / "hex10_compression.json"
 EXCITATION = ROOT / "results" / "benchmarks" / "excitation.json"
+EXCITATION_PAIRED = ROOT / "results" / "benchmarks" / "excitation_paired.json"
 RECIPE_SWAP = ROOT / "results" / "benchmarks" / "recipe_swap.json"
 BENCH_PAPER_CALIBRATION = ROOT / "results" / "benchmarks" / "bench_paper_calibration.json"
 FRESH_COMPARISON = ROOT / "results" / "benchmarks" / "comparison.json"
@@ -186,6 +187,7 @@ BLOCKS = (
     (SIMULATOR, "bench-paper-calibration", BENCH_PAPER_CALIBRATION,
      bench_calibration_page.bench_paper_calibration),
     (ATI_FREE, "excitation-tables", EXCITATION, ati_free_page.excitation_tables),
+    (ATI_FREE, "excitation-paired", EXCITATION_PAIRED, ati_free_page.excitation_paired_summary),
     (ATI_FREE, "remount-tables", REMOUNT, ati_free_page.remount_tables),
     (ATI_FREE, "remount-fresh-tables", REMOUNT_FRESH, ati_free_page.remount_tables),
     (ATI_FREE, "ati-free-tables", ATI_FREE_RESULT, ati_free_page.ati_free_tables),

@@ -82,9 +82,9 @@ def check_arguments(minutes: float, seed: int, weights_kg, paired_poses: bool = 
                              f"{MAX_WEIGHT_KG:g}] kg, got {m}")
 
 
-def _fisher(params: InstrumentParams):
+def _fisher(params: InstrumentParams, reading: str = "efforts"):
     psm, noise = default_psm(), channel_noise(params)
-    return lambda frame: pd_.fisher_information(frame, noise, psm=psm)
+    return lambda frame: pd_.fisher_information(frame, noise, psm=psm, reading=reading)
 
 
 def _limit_use(q: np.ndarray, limits: ex.Limits) -> dict:
@@ -145,9 +145,9 @@ def build(minutes: float, seed: int, weights_kg=(), params: InstrumentParams | N
                   "max_grip_nm": max((s.spec.get("grip_nm", 0.0) for s in exc.segments), default=0.0)},
     }
     if weights_kg:
-        report["known_weights"] = known_weights(weights_kg, {"excitation": motions["excitation"],
-                                                             "paper_free": motions["paper_free"]},
-                                                params, poses)
+        report["known_weights"] = known_weights(
+            weights_kg, {"excitation": motions["excitation"], "paper_free": motions["paper_free"]},
+            params, poses, load_path_base=_fisher(params, "load_path")(frame))
     return exc, report
 
 
@@ -159,17 +159,21 @@ def weight_poses(poses=WEIGHT_WRIST_POSES) -> dict[str, np.ndarray]:
 
 
 def known_weights(weights_kg, bases: dict[str, np.ndarray], params: InstrumentParams | None = None,
-                  poses=WEIGHT_WRIST_POSES) -> dict:
+                  poses=WEIGHT_WRIST_POSES, load_path_base: np.ndarray | None = None) -> dict:
     """Each mass (kg, the user's) hung at the jaw tip in each orientation of ``poses``
     (:func:`weight_poses`; :data:`WEIGHT_WRIST_POSES` or :data:`WEIGHT_WRIST_POSES_PAIRED`) for
     :data:`WEIGHT_HOLD_S` on the noise-free bench (the weight's pull along gravity, known from
     the kinematics, subtracted from the forces as the fit does); per base information (the
     excitation's, the paper's free motion's) what each adds and how many make every parameter
-    identifiable (:func:`psmforce.identification.prior_design.known_weight_gains`). A hold
-    that would overload the HEX10 is left out and named."""
+    identifiable (:func:`psmforce.identification.prior_design.known_weight_gains`), for the
+    prior that reads the efforts (what ``calibrate`` refits for the estimator). With
+    ``load_path_base`` (the excitation's information read through the load path), the same
+    under ``load_path``: the identification of the instrument that ``calibrate --known-loads``
+    runs (every parameter of the law; docs/ati_free.md 4.1). A hold that would overload the
+    HEX10 is left out and named."""
     params = params or InstrumentParams()
-    fisher = _fisher(params)
-    cands, unsafe = {}, []
+    fisher, through_load = _fisher(params), _fisher(params, "load_path")
+    cands, load_cands, unsafe = {}, {}, []
     for mass in weights_kg:
         for label, pose in weight_poses(poses).items():
             q = np.repeat(pose[None], int(round(WEIGHT_HOLD_S / ex.DT)), 0)
@@ -180,10 +184,16 @@ def known_weights(weights_kg, bases: dict[str, np.ndarray], params: InstrumentPa
                 unsafe.append(name)
                 continue
             cands[name] = fisher(frame)
-    return {"masses_kg": [float(m) for m in weights_kg], "hold_s": WEIGHT_HOLD_S,
-            "arm_pose": WEIGHT_ARM_POSE.tolist(), "left_out_unsafe": unsafe,
-            "orientations": list(weight_poses(poses)),
-            **{base: pd_.known_weight_gains(info, cands) for base, info in bases.items()}}
+            if load_path_base is not None:
+                load_cands[name] = through_load(frame)
+    report = {"masses_kg": [float(m) for m in weights_kg], "hold_s": WEIGHT_HOLD_S,
+              "arm_pose": WEIGHT_ARM_POSE.tolist(), "left_out_unsafe": unsafe,
+              "orientations": list(weight_poses(poses)),
+              **{base: pd_.known_weight_gains(info, cands) for base, info in bases.items()}}
+    if load_path_base is not None:
+        report["load_path"] = {"excitation": pd_.known_weight_gains(
+            load_path_base, load_cands, reading="load_path")}
+    return report
 
 
 def write(out, exc: ex.Excitation, report: dict) -> dict[str, str]:
@@ -226,11 +236,26 @@ def excitation_cli(out, minutes: float, seed: int, weights_kg=(), paired_poses: 
           + ", ".join(f"{k} {n}" for k, n in report["segment_counts"].items()))
     print("condition number of the prior's information: "
           + ", ".join(f"{k} {v:.4g}" if v is not None else f"{k} inf" for k, v in cn.items()))
-    for base in ("paper_free", "excitation"):
-        if "known_weights" in report:
-            needed = report["known_weights"][base]["needed"]
-            print(f"known weights on top of {base}: "
-                  + ("none needed" if needed == 0 else f"{needed} holds make every parameter "
-                     "identifiable" if needed else "the holds given do not make every parameter "
-                     "identifiable"))
+    if "known_weights" in report:
+        weights = report["known_weights"]
+        for label, gains in (("on top of paper_free", weights["paper_free"]),
+                             ("on top of excitation", weights["excitation"]),
+                             ("through the load path (calibrate's identification of the "
+                              "instrument), on top of excitation",
+                              weights["load_path"]["excitation"])):
+            print(f"known weights {label}: {_needed_words(gains)}")
     return report
+
+
+def _needed_words(gains: dict) -> str:
+    """What :func:`~psmforce.identification.prior_design.known_weight_gains` found, in words:
+    how many holds make every parameter identifiable, or which stay out of reach."""
+    needed = gains["needed"]
+    if needed == 0:
+        return "none needed"
+    if needed:
+        return f"{needed} holds make every parameter identifiable"
+    left = gains["greedy"][-1]["not_identifiable"] if gains["greedy"] \
+        else gains["not_identifiable_without"]
+    return (f"the holds given do not make every parameter identifiable; with all of them, "
+            f"still not: {', '.join(left)}")

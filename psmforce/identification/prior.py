@@ -227,7 +227,7 @@ def held_by_reading(inputs: str, crosstalk: bool | None = None) -> dict[str, flo
     return held
 
 
-def _fit_arrays(frame, inputs: str, psm=None, targets: bool = True, direction: bool = True):
+def fit_arrays(frame, inputs: str, psm=None, targets: bool = True, direction: bool = True):
     """(model inputs, target, mask) of one recording for a prior reading ``inputs``
     (:data:`INPUTS`); ``targets=False`` skips the target (None, None); ``direction``: as
     :func:`arrays_from_frame`."""
@@ -358,7 +358,7 @@ class InternalForcePrior:
 
     def predict(self, frame_or_arrays, psm=None) -> np.ndarray:
         """(N,6) prediction for a recording DataFrame or a dict of :func:`arrays_from_frame`."""
-        arrays = frame_or_arrays if isinstance(frame_or_arrays, dict) else _fit_arrays(
+        arrays = frame_or_arrays if isinstance(frame_or_arrays, dict) else fit_arrays(
             frame_or_arrays, self.inputs, psm, targets=False,
             direction=self.has_capstan)[0]
         return self.predict_arrays(arrays["positions"], arrays["efforts"], arrays["velocities"],
@@ -370,7 +370,7 @@ class InternalForcePrior:
         :attr:`axis_weights`) on recording frames read as its fit reads them (:attr:`inputs`,
         the fit's sample mask): the figure ``info["train_metrics"]`` holds, on any
         recordings."""
-        parts = [_fit_arrays(f, self.inputs, psm, direction=self.has_capstan) for f in recordings]
+        parts = [fit_arrays(f, self.inputs, psm, direction=self.has_capstan) for f in recordings]
         law = [self.law_arrays(*_check_arrays(a["positions"], a["efforts"], a["velocities"],
                                               a["g_hex"], a["direction"]),
                                a["hex10_fz"] if self.has_crosstalk else None)
@@ -471,7 +471,7 @@ class InternalForcePrior:
                 rec = read_recording(rec)
             else:
                 sources.append("<DataFrame>")
-            a, y, mask = _fit_arrays(rec, inputs, psm, direction=not no_capstan)
+            a, y, mask = fit_arrays(rec, inputs, psm, direction=not no_capstan)
             parts.append((a, y, mask))
             if all(t in rec.columns for t in TARGETS) and \
                     {_INSERTION_VELOCITY, _INSERTION_EFFORT} <= set(rec.columns):

@@ -69,3 +69,22 @@ def test_paired_poses_hang_each_bend_and_its_opposite():
     report = known_weights((0.05,), {}, poses=WEIGHT_WRIST_POSES_PAIRED)
     assert len(report["orientations"]) == 16 and not report["left_out_unsafe"]
     assert len(known_weights((0.05,), {})["orientations"]) == len(WEIGHT_WRIST_POSES)
+
+
+def test_the_load_path_needs_the_weights_for_the_geometry_and_no_hold_shows_the_capstans_growth(
+        built):
+    """What ``calibrate --known-loads`` identifies reads the cables from the load path: free
+    space demands no cable torque there, so the radii and the pretension wait for the weights;
+    a static hold never moves the wrist, so the capstan's growth with the configuration (which
+    acts through the friction's direction) gets no information from any hold."""
+    _, report = built
+    gains = report["known_weights"]["load_path"]["excitation"]
+    without = set(gains["not_identifiable_without"])
+    assert {"pulley_radius_pitch", "pulley_radius_blade", "cable_radius",
+            "pretension_total"} <= without
+    left = set(gains["greedy"][-1]["not_identifiable"])
+    assert {"pulley_radius_pitch", "cable_radius"}.isdisjoint(left)   # the weights pin them
+    assert {"capstan_pitch_gain", "capstan_roll_gain"} <= left and gains["needed"] is None
+    ratios = [r for g in gains["each_alone"].values() for r in g["standard_error_ratio"].values()]
+    assert None in ratios                   # no information before or after: no ratio
+    assert min(r for r in ratios if r is not None) < 1.0

@@ -56,3 +56,20 @@ def test_the_fresh_seeds_goals_mark_a_miss_per_seed():
     assert f"{worse:.2f}x (paper Fx) **miss**" in row or f"{worse:.2f}x (causal Fx) **miss**" in row
     assert row.count("**miss**") == 1 and "| 1.00x" in row
     assert _fresh_seed_goals({"records": {"201": {}}}) == []   # a study run before fresh seeds
+
+
+def _gains(needed, left):
+    return {"load_path": {"excitation": {
+        "needed": needed, "not_identifiable_without": ["cable_radius", "capstan_roll_gain"],
+        "greedy": [{"not_identifiable": ["cable_radius", "capstan_roll_gain"]},
+                   {"not_identifiable": left}]}}}
+
+
+def test_the_load_path_sentence_says_how_many_holds_or_what_stays_out_of_reach():
+    from reports.ati_free_page import load_path_sentence
+    reached = load_path_sentence(_gains(2, []))
+    assert "the first 2 holds" in reached and "`cable_radius`, `capstan_roll_gain` unid" in reached
+    short = load_path_sentence(_gains(None, ["capstan_roll_gain"]))
+    assert short.endswith("with all 2 holds given, still not identifiable: `capstan_roll_gain`.")
+    assert "no hold is needed" in load_path_sentence(
+        {"load_path": {"excitation": {"needed": 0, "not_identifiable_without": [], "greedy": []}}})
