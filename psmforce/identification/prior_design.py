@@ -36,9 +36,9 @@ for another parameter designed at 0; no correlation beyond :data:`MAX_CORRELATIO
 
 from __future__ import annotations
 
-import numpy as np
-
 from functools import cache
+
+import numpy as np
 
 from psmforce.identification.prior import fit_arrays, held_by_reading
 from psmforce.identification.prior_identifiability import (is_offset, jacobian_grams,

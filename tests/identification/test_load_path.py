@@ -161,7 +161,7 @@ def test_clenched_samples_are_left_out_of_a_load_path_fit():
     import pandas as pd
 
     from psmforce.identification.load_path import clenched
-    from psmforce.identification.prior import _fit_arrays
+    from psmforce.identification.prior import fit_arrays
     from psmforce.io.recording import HEX10, JOINT_EFFORTS, JOINT_POSITIONS, JOINT_VELOCITIES
     n = 6
     q = _configurations(n)
@@ -171,7 +171,7 @@ def test_clenched_samples_are_left_out_of_a_load_path_fit():
     cols.update({c: np.zeros(n) for c in ("ati_fx", "ati_fy", "ati_fz")})
     frame = pd.DataFrame(cols)
     assert clenched(frame).tolist() == [False, False, True, True, False, True]
-    _, _, mask = _fit_arrays(frame, "load_path")
+    _, _, mask = fit_arrays(frame, "load_path")
     assert (mask.sum(axis=1) == 0).tolist() == clenched(frame).tolist()
-    _, _, kept = _fit_arrays(frame, "efforts")
+    _, _, kept = fit_arrays(frame, "efforts")
     assert kept[:, :3].all()
