@@ -7,7 +7,8 @@ ATI-free recordings are simulated as that study does (:func:`psmforce.sim.ati_fr
 simulate_ati_free`: the paper's free-space motion, ``psmforce excitation``'s design with its
 clenches, known weights hung at the tip). For each case (:data:`CASES`: no weight, the ATI-free
 study's 0.05 kg in the eight poses of ``psmforce excitation --known-weights``, heavier ones
-beside it, the same in sixteen poses in sign pairs) ``psmforce calibrate --free-space
+beside it, the same in sixteen poses in sign pairs, and those approached by a wrist move as an
+arm moves into them) ``psmforce calibrate --free-space
 --known-loads`` identifies the instrument as it does
 (:func:`psmforce.estimators.training.calibrate.identify_instrument`: every recording through the
 load path, external force 0 in free space and the weight on a hold, clenched samples out, what
@@ -42,13 +43,18 @@ from studies.ati_free import MINUTES_SLACK, TOOL_SEED_OFFSET, _excitation  # noq
 CASES = {"free space and excitation only": ((), "none"),
          "0.05 kg, 8 poses": ((0.05,), "eight"),
          "0.05, 0.1, 0.2 kg, 8 poses": ((0.05, 0.1, 0.2), "eight"),
-         "0.05, 0.1, 0.2 kg, 16 paired poses": ((0.05, 0.1, 0.2), "paired")}
+         "0.05, 0.1, 0.2 kg, 16 paired poses": ((0.05, 0.1, 0.2), "paired"),
+         "0.05, 0.1, 0.2 kg, 16 paired poses, approached": ((0.05, 0.1, 0.2),
+                                                            "paired_approached")}
 """Label -> (the masses (kg) hung, the poses each hangs in): none (what free space and the
 clenches give the load path); the ATI-free study's one weight in ``psmforce excitation``'s eight
 orientations (:data:`~psmforce.cli.excitation.WEIGHT_WRIST_POSES`); two heavier ones beside it
 (0.2 kg at the 9 mm jaw is 2 N at the tip, below the 4.6 N the paper's trials reach); the same
 in sixteen orientations in sign pairs (:data:`~psmforce.cli.excitation.
-WEIGHT_WRIST_POSES_PAIRED`)."""
+WEIGHT_WRIST_POSES_PAIRED`); the same, each hold's recording starting with the wrist's move into
+the pose (:data:`~psmforce.sim.excitation.APPROACH_RAD`, from alternate sides), as an arm moving
+into it leaves the cables' friction pointing one way: hung from rest, a hold shows no friction
+direction, so nothing of the capstan's growth with the configuration."""
 DESIGN_SEED = 201
 
 
@@ -75,6 +81,7 @@ def _seed(seed: int, args, q_exc) -> list[dict]:
     from psmforce.experiments.prior_recovery import (bench_capstan_over, compare_selection,
                                                      default_bench_truth)
     from psmforce.sim.ati_free import FREE_SPACE, KNOWN_LOADS, simulate_ati_free
+    from psmforce.sim.excitation import APPROACH_RAD
     from psmforce.sim.params import InstrumentParams
 
     tool_seed = TOOL_SEED_OFFSET + seed
@@ -82,14 +89,16 @@ def _seed(seed: int, args, q_exc) -> list[dict]:
     truth = default_bench_truth(tool)
     rows = []
     pose_sets = {"none": None, "eight": weight_poses(WEIGHT_WRIST_POSES),
-                 "paired": weight_poses(WEIGHT_WRIST_POSES_PAIRED)}
+                 "paired": weight_poses(WEIGHT_WRIST_POSES_PAIRED),
+                 "paired_approached": weight_poses(WEIGHT_WRIST_POSES_PAIRED)}
     for label, (masses, poses) in CASES.items():
         folder = args.work / f"scale{args.scale:g}" / f"seed{seed}" / (
             "-".join(f"{m:g}" for m in masses or (0,)) + f"_{poses}")
         made = kept_json(folder / "made.json", lambda: simulate_ati_free(
             folder / "data", seed=seed, scale=args.scale, free_minutes=args.free_minutes,
             excitation_q=q_exc, weight_poses=pose_sets[poses], masses_kg=masses,
-            hold_s=args.hold_s, tool_seed=tool_seed))
+            hold_s=args.hold_s, tool_seed=tool_seed,
+            approach_rad=APPROACH_RAD if poses.endswith("approached") else 0.0))
         free = free_space_trials(load_dataset(folder / "data" / FREE_SPACE,
                                               require_targets=False),
                                  made["minutes"]["paper_free"] + made["minutes"]["excitation"]
@@ -144,6 +153,7 @@ def main(argv=None) -> dict:
     from psmforce.experiments.seeds import ATI_FREE_IDENTIFICATION_SEEDS
     from psmforce.identification.prior_selection import DESIGN
     from psmforce.sim.dataset import SIM_VERSION
+    from psmforce.sim.excitation import APPROACH_RAD
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--seeds", type=int, nargs="+",
@@ -172,7 +182,9 @@ def main(argv=None) -> dict:
         "simulator_version": SIM_VERSION, "design_seed": DESIGN_SEED,
         "settings": {k: (shown_path(v) if isinstance(v, Path) else v)
                      for k, v in vars(args).items()},
-        "cases": {k: {"masses_kg": list(m), "poses": p} for k, (m, p) in CASES.items()},
+        "cases": {k: {"masses_kg": list(m), "poses": p,
+                      "approach_rad": APPROACH_RAD if p.endswith("approached") else 0.0}
+                  for k, (m, p) in CASES.items()},
         "design": DESIGN,
         "runs": runs, "seconds": time.perf_counter() - started}
     if args.json:

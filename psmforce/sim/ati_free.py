@@ -12,7 +12,8 @@
   own trajectory family, so that a validation split takes a part of it, never all of it);
 * ``known_loads/``: one ``train/KnownLoad`` recording per (mass, pose) hold, the mass hung at the
   jaw tip (:class:`~psmforce.sim.bench.Contact` ``"weight"``) and held still for ``hold_s``, its
-  trial entry carrying ``known_load_kg``; a hold that takes the HEX10 to the protocols' safety
+  trial entry carrying ``known_load_kg`` (with ``approach_rad``, each recording starts with the
+  wrist's move into the pose); a hold that takes the HEX10 to the protocols' safety
   limit (:data:`~psmforce.sim.protocols.SAFE_COMPRESSION_N`) is left out and listed.
 
 No recording carries ATI columns (the lab has none); every one is simulated on the same
@@ -36,6 +37,7 @@ from psmforce.io.recording import ATI_RAW, TARGETS, TIME, write_recording
 from psmforce.robot.conventions import GRAVITY_UPRIGHT_MPS2
 from psmforce.sim.bench import Contact, run_trajectory
 from psmforce.sim.dataset import SIM_VERSION, SimulationConfigError, check_scale_and_seed
+from psmforce.sim.excitation import weight_hold
 from psmforce.sim.params import Effects, InstrumentParams
 
 FREE_SPACE, KNOWN_LOADS = "free_space", "known_loads"
@@ -108,11 +110,14 @@ def simulate_ati_free(out, *, seed: int, scale: float, free_minutes: float,
                       weight_poses: dict[str, np.ndarray] | None = None, masses_kg=(),
                       hold_s: float = 10.0, instrument: InstrumentParams | None = None,
                       tool_seed: int | None = None, tool_spread: float = 1.0,
-                      effects: Effects | None = None) -> dict:
+                      effects: Effects | None = None, approach_rad: float = 0.0) -> dict:
     """Write ``out/free_space`` and, with ``masses_kg`` and ``weight_poses`` (label -> (7,)
     pose), ``out/known_loads`` (module docstring). ``excitation_q``: the excitation's setpoints
-    (N, 7) at the protocols' rate, or None for the paper's motion alone. Returns a summary:
-    minutes per kind, the holds left out, seconds taken."""
+    (N, 7) at the protocols' rate, or None for the paper's motion alone. ``approach_rad``: each
+    hold's recording starts with the wrist that far beyond the pose and moves into it
+    (:func:`psmforce.sim.excitation.weight_hold`), from one side at one mass and from the other
+    at the next, so the cables' friction points both ways across the holds; 0: hung from rest.
+    Returns a summary: minutes per kind, the holds left out, seconds taken."""
     check_scale_and_seed(scale, seed)
     out = Path(out)
     start = time.perf_counter()
@@ -147,9 +152,11 @@ def simulate_ati_free(out, *, seed: int, scale: float, free_minutes: float,
     left_out = []
     if masses_kg and weight_poses:
         holds, index = [], 0
-        for mass in masses_kg:
-            for label, pose in weight_poses.items():
-                q = np.repeat(np.asarray(pose, float)[None], _rows(hold_s), 0)
+        for mass_index, mass in enumerate(masses_kg):
+            for pose_index, (label, pose) in enumerate(weight_poses.items()):
+                # each pose approached from one side at one mass and the other at the next
+                q = weight_hold(pose, hold_s, approach_rad,
+                                1 if (mass_index + pose_index) % 2 == 0 else -1)
                 frame = _recording(q, Contact(kind="weight", mass_kg=float(mass)), params,
                                    effects, np.random.default_rng([seed, 144, 2, index]))
                 index += 1
@@ -160,7 +167,8 @@ def simulate_ati_free(out, *, seed: int, scale: float, free_minutes: float,
                               {"condition": KNOWN_LOAD_CONDITION, "kind": "known_load",
                                "known_load_kg": float(mass), "pose": label,
                                "group": f"load_{len(holds):02d}"}))
-        _write_folder(out / KNOWN_LOADS, holds, {**common, "hold_s": float(hold_s)})
+        _write_folder(out / KNOWN_LOADS, holds, {**common, "hold_s": float(hold_s), **(
+            {"approach_rad": float(approach_rad)} if approach_rad else {})})
         minutes["known_load"] = sum(len(f) for _, f, _ in holds) * protocols.DT / 60
     return {"out": str(out), "minutes": {k: round(v, 4) for k, v in minutes.items()},
             "left_out_unsafe": left_out, "seconds": round(time.perf_counter() - start, 2)}

@@ -177,6 +177,35 @@ def _move(a: np.ndarray, b: np.ndarray, duration_s: float) -> np.ndarray:
     return a + (b - a) * min_jerk(np.arange(n) / (n - 1))[:, None]
 
 
+APPROACH_RAD = 0.1
+"""How far beyond a known-weight hold's pose the wrist starts its approach (rad, wrist pitch and
+yaw): five times the cables' pre-sliding travel (the prior's ``PRESLIDING_RAD``, 0.02 rad), so
+the friction has turned the way the approach moved by the time the hold starts."""
+APPROACH_S = 1.0
+"""How long a known-weight hold's approach move lasts (s, minimum jerk)."""
+_WRIST = (JOINTS.index("wrist_pitch"), JOINTS.index("wrist_yaw"))
+
+
+def weight_hold(pose: np.ndarray, hold_s: float, approach_rad: float = 0.0, side: int = 1
+                ) -> np.ndarray:
+    """(N, 7) setpoints at :data:`~psmforce.sim.motion.DT` of one known-weight hold at ``pose``
+    (7,). ``approach_rad`` 0: the pose
+    for ``hold_s`` from the first sample, the wrist never moved, so the cables' friction has no
+    direction. Otherwise the wrist's pitch and yaw start ``side`` (+1 or -1) x ``approach_rad``
+    beyond the pose and move into it over :data:`APPROACH_S` before the hold, as an arm moving
+    into the pose does: the friction then points the way the approach moved, the sign of which
+    ``side`` chooses."""
+    pose = np.asarray(pose, dtype=float)
+    hold = np.repeat(pose[None], max(1, int(round(hold_s / DT))), 0)
+    if approach_rad == 0.0:
+        return hold
+    if side not in (1, -1):
+        raise ValueError(f"side must be +1 or -1, got {side!r}")
+    start = pose.copy()
+    start[list(_WRIST)] += side * approach_rad
+    return np.vstack([_move(start, pose, APPROACH_S)[:-1], hold])
+
+
 def fourier_segment(rng: np.random.Generator, limits: Limits,
                     duration_s: float = FOURIER_S) -> tuple[np.ndarray, dict]:
     """(N, 7) a Fourier-series motion of every joint about a centre drawn in the box (the jaw

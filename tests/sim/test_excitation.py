@@ -132,3 +132,24 @@ def test_setpoints_read_back_and_bad_files_are_refused(tmp_path):
     path.write_text("time_s,a\n0,1\n0.01,2\n")
     with pytest.raises(ValueError, match="columns must be"):
         ex.read_setpoints(path)
+
+
+def test_a_hold_hung_from_rest_never_moves_and_an_approached_one_moves_in_from_its_side():
+    """A weight hung from rest gives the cables' friction no direction; an approached hold
+    starts ``approach_rad`` beyond the pose on the wrist's pitch and yaw, on the side asked, and
+    ends on the pose for the whole hold, moving within the excitation's limits."""
+    pose = np.array([0.3, 0.2, 0.15, 0.0, 0.7, -0.7, 0.0])
+    still = ex.weight_hold(pose, 10.0)
+    assert still.shape == (int(round(10.0 / ex.DT)), 7) and (still == pose).all()
+    hold = int(round(10.0 / ex.DT))
+    for side in (1, -1):
+        q = ex.weight_hold(pose, 10.0, ex.APPROACH_RAD, side)
+        wrist = [4, 5]
+        assert np.allclose(q[0, wrist] - pose[wrist], side * ex.APPROACH_RAD)
+        assert np.allclose(np.delete(q, wrist, axis=1), np.delete(pose, wrist)[None])
+        assert (q[-hold:] == pose).all() and len(q) > hold
+        step = np.diff(q[:, wrist], axis=0)
+        assert (np.sign(step[np.abs(step) > 0]) == -side).all()   # one way, into the pose
+        assert np.abs(step / ex.DT).max() < ex.excitation_limits().velocity[4]
+    with pytest.raises(ValueError, match="side"):
+        ex.weight_hold(pose, 10.0, ex.APPROACH_RAD, 0)
