@@ -113,6 +113,33 @@ def test_the_generator_writes_datasets_calibrate_reads(tmp_path):
     assert np.linalg.norm(targets, axis=1) == pytest.approx(0.05 * 9.81)
 
 
+def test_approached_holds_move_into_their_pose_from_alternate_sides(tmp_path):
+    """``approach_rad``: each hold's recording starts with the wrist beyond the pose and moves
+    into it, from one side at one mass and from the other at the next (each pose thus
+    approached both ways); the folder says so. Hung from rest, a hold never moves."""
+    from psmforce.sim.ati_free import KNOWN_LOADS, simulate_ati_free
+    from psmforce.sim.excitation import APPROACH_RAD
+    wrist = ["wrist_pitch_position", "wrist_yaw_position"]
+    for approach in (0.0, APPROACH_RAD):
+        out = tmp_path / f"g{approach:g}"
+        simulate_ati_free(out, seed=5, scale=0.01, free_minutes=0.2,
+                          weight_poses={"bent": POSE, "other": POSE * [1, 1, 1, 1, -1, -1, 1]},
+                          masses_kg=(0.02, 0.05), hold_s=2.0, approach_rad=approach)
+        holds = load_dataset(out / KNOWN_LOADS, require_targets=False).trials
+        start = np.array([t.frame[wrist].to_numpy()[0] for t in holds])
+        end = np.array([t.frame[wrist].to_numpy()[-1] for t in holds])
+        posed = np.array([POSE[[4, 5]], -POSE[[4, 5]]] * 2)
+        meta = json.loads((out / KNOWN_LOADS / "metadata.json").read_text())
+        if approach == 0.0:
+            assert "approach_rad" not in meta
+            np.testing.assert_allclose(start, end, atol=0.01)      # the encoders' noise only
+            continue
+        assert meta["approach_rad"] == APPROACH_RAD
+        np.testing.assert_allclose(end, posed, atol=0.02)
+        sides = np.sign(start - posed)[:, 0]
+        assert sides.tolist() == [1, -1, -1, 1]    # per (mass, pose): each pose both ways
+
+
 def test_cli_refuses_known_loads_without_free_space(tmp_path, capsys):
     from psmforce.cli.main import main
     (tmp_path / "loads").mkdir()
