@@ -73,8 +73,7 @@ def load_path_sentence(weights: dict) -> str:
     reach with every hold given."""
     gains = weights["load_path"]["excitation"]
     needed = gains["needed"]
-    left = gains["greedy"][-1]["not_identifiable"] if gains["greedy"] \
-        else gains["not_identifiable_without"]
+    left = gains["not_identifiable_with_all"]
     return ("Read through the load path (the tip force known: 0 N in free space, the weight "
             "on a hold), as `calibrate --known-loads` identifies the instrument, every "
             "parameter of the law free: the excitation alone leaves "

@@ -255,7 +255,5 @@ def _needed_words(gains: dict) -> str:
         return "none needed"
     if needed:
         return f"{needed} holds make every parameter identifiable"
-    left = gains["greedy"][-1]["not_identifiable"] if gains["greedy"] \
-        else gains["not_identifiable_without"]
     return (f"the holds given do not make every parameter identifiable; with all of them, "
-            f"still not: {', '.join(left)}")
+            f"still not: {', '.join(gains['not_identifiable_with_all'])}")

@@ -205,7 +205,8 @@ def known_weight_gains(base: np.ndarray, candidates: dict[str, np.ndarray],
     alone: its log-det gain and the standard errors of the parameters ``base`` does not
     identify, after / before. Then greedily, the candidate with the largest log-det gain
     first: after each step the criteria and what is still not identifiable; ``needed`` is how
-    many steps make every parameter identifiable (None: the candidates never do). The log-dets
+    many steps make every parameter identifiable (None: the candidates never do), and
+    ``not_identifiable_with_all`` what the last step leaves. The log-dets
     and condition numbers are taken over the parameters that the base or some candidate informs
     at all: one that none informs (the capstan's growth under static holds, read through the
     load path) would make every log-det -inf; it is named not identifiable at every step."""
@@ -243,4 +244,5 @@ def known_weight_gains(base: np.ndarray, candidates: dict[str, np.ndarray],
         if not missing:
             needed = len(steps)
     return {"not_identifiable_without": weak, "each_alone": alone, "greedy": steps,
-            "needed": needed}
+            "needed": needed,
+            "not_identifiable_with_all": steps[-1]["not_identifiable"] if steps else weak}

@@ -82,7 +82,8 @@ def test_the_load_path_needs_the_weights_for_the_geometry_and_no_hold_shows_the_
     without = set(gains["not_identifiable_without"])
     assert {"pulley_radius_pitch", "pulley_radius_blade", "cable_radius",
             "pretension_total"} <= without
-    left = set(gains["greedy"][-1]["not_identifiable"])
+    left = set(gains["not_identifiable_with_all"])
+    assert left == set(gains["greedy"][-1]["not_identifiable"])
     assert {"pulley_radius_pitch", "cable_radius"}.isdisjoint(left)   # the weights pin them
     assert {"capstan_pitch_gain", "capstan_roll_gain"} <= left and gains["needed"] is None
     ratios = [r for g in gains["each_alone"].values() for r in g["standard_error_ratio"].values()]

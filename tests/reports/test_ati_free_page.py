@@ -62,7 +62,7 @@ def _gains(needed, left):
     return {"load_path": {"excitation": {
         "needed": needed, "not_identifiable_without": ["cable_radius", "capstan_roll_gain"],
         "greedy": [{"not_identifiable": ["cable_radius", "capstan_roll_gain"]},
-                   {"not_identifiable": left}]}}}
+                   {"not_identifiable": left}], "not_identifiable_with_all": left}}}
 
 
 def test_the_load_path_sentence_says_how_many_holds_or_what_stays_out_of_reach():
@@ -72,4 +72,5 @@ def test_the_load_path_sentence_says_how_many_holds_or_what_stays_out_of_reach()
     short = load_path_sentence(_gains(None, ["capstan_roll_gain"]))
     assert short.endswith("with all 2 holds given, still not identifiable: `capstan_roll_gain`.")
     assert "no hold is needed" in load_path_sentence(
-        {"load_path": {"excitation": {"needed": 0, "not_identifiable_without": [], "greedy": []}}})
+        {"load_path": {"excitation": {"needed": 0, "not_identifiable_without": [], "greedy": [],
+                                      "not_identifiable_with_all": []}}})
