@@ -25,8 +25,9 @@ Frames, units, signs (one place):
 
 The grip of jaws clenched on an object or on each other is internal to the jaws: no tip force
 shows it, yet it loads the blade pairs. Recordings with a clench carry it in the jaw effort only,
-which also carries the discs' friction; :func:`clenched` marks those samples (the jaw below
-:data:`~psmforce.robot.conventions.JAW_CLOSED_RAD`) and a load-path fit leaves them out.
+which also carries the discs' friction; :func:`clenched` marks those samples (the jaw more than
+:data:`CLENCH_TOLERANCE_RAD` below :data:`~psmforce.robot.conventions.JAW_CLOSED_RAD`) and a
+load-path fit leaves them out.
 """
 
 from __future__ import annotations
@@ -41,6 +42,15 @@ from psmforce.robot.frames import hex10_to_base
 
 CONTACT_FRAME = "jaw_tip"
 """Where the tip force is taken to act (:class:`psmforce.robot.PSM` frame)."""
+CLENCH_TOLERANCE_RAD = 1e-5
+"""How far below closed (rad) a recorded jaw may read and still be taken as closed, not clenched.
+A jaw held at closed reads closed give or take its encoder's resolution, or its floating-point
+round-off on a bench (a jaw rebuilt from the blades' coordinates reads +-1e-17 rad); a strict
+comparison with closed called half of such holds clenched, at random, and dropped them. 1e-5 rad
+is below one count of an EndoWrist motor's encoder (the MRD Lab bench's 4196 x 35 counts per
+revolution: 4.3e-5 rad of motor shaft), and a grip that shallow is under 0.01 N of blade-pair
+differential at the bench's cable stiffness (``k r_b`` x depth, :func:`psmforce.sim.cables.
+jaw_grip_torque`)."""
 _WRIST_COLUMNS = (4, 5)
 """Columns of wrist_pitch and wrist_yaw in the arm's 6-joint Jacobian (yaw .. wrist_yaw)."""
 
@@ -84,9 +94,11 @@ def tip_force_moment(q, f_hex, psm: PSM | None = None) -> np.ndarray:
 
 
 def clenched(frame) -> np.ndarray:
-    """(N,) bool: samples of a recording whose jaw is below closed (the blades pressed on each
-    other, an unknown grip the load path does not see)."""
-    return frame[JOINT_POSITIONS[_JAW]].to_numpy(dtype=float) < JAW_CLOSED_RAD
+    """(N,) bool: samples of a recording whose jaw is below closed by more than
+    :data:`CLENCH_TOLERANCE_RAD` (the blades pressed on each other, an unknown grip the load path
+    does not see)."""
+    jaw = frame[JOINT_POSITIONS[_JAW]].to_numpy(dtype=float)
+    return jaw < JAW_CLOSED_RAD - CLENCH_TOLERANCE_RAD
 
 
 _JAW = JOINTS.index(JAW_JOINT)

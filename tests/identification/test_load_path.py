@@ -175,3 +175,18 @@ def test_clenched_samples_are_left_out_of_a_load_path_fit():
     assert (mask.sum(axis=1) == 0).tolist() == clenched(frame).tolist()
     _, _, kept = fit_arrays(frame, "efforts")
     assert kept[:, :3].all()
+
+
+def test_a_jaw_held_at_closed_is_not_clenched_whatever_its_round_off():
+    """A weight hung with the jaw held at closed: the recorded jaw reads closed give or take
+    round-off (a bench's +-1e-17 rad) or an encoder count. Those holds keep every sample; a jaw
+    driven past closed by a grip's depth is still clenched."""
+    import pandas as pd
+
+    from psmforce.identification.load_path import CLENCH_TOLERANCE_RAD, clenched
+    from psmforce.io.recording import JOINT_POSITIONS
+    jaw = np.array([3.3e-17, -3.3e-17, -4.8e-17, -0.5 * CLENCH_TOLERANCE_RAD,
+                    -2.0 * CLENCH_TOLERANCE_RAD, -1e-3])
+    frame = pd.DataFrame({c: (jaw if k == 6 else np.zeros(len(jaw)))
+                          for k, c in enumerate(JOINT_POSITIONS)})
+    assert clenched(frame).tolist() == [False, False, False, False, True, True]
