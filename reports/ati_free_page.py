@@ -467,3 +467,27 @@ def instrument_identification_tables(result: dict) -> str:
                             f"{run['all_free_residual']['tx']['rms']:.3g} Nm."))
         lines.append("")
     return "\n".join(lines)
+
+
+def load_path_holds_table(result: dict) -> str:
+    """The law at the bench's truth on the hung weights' holds, per reading of the load path
+    (``studies/load_path_holds.py``): holds kept and the settled residual's RMS over them."""
+    readings, runs = result["readings"], result["runs"]
+    head = ("| seed | case | " + " | ".join(readings) + " |\n|---|---|"
+            + "---|" * len(readings))
+    lines = ["", f"`{result['command']}` (simulator {result['simulator_version']}; seed "
+             f"{result['design_seed']} is the design seed). Per seed and case, for each reading: "
+             "holds kept / holds, then the RMS over the kept holds of their settled residual "
+             "(the HEX10's internal wrench minus the law at the bench's truth, mean over each "
+             "hold's second half), fz in N and tx, ty in mNm.", "", head]
+    for seed in dict.fromkeys(r["seed"] for r in runs):
+        for case in result["cases"]:
+            cells = []
+            for reading in readings:
+                r = next(x for x in runs if (x["seed"], x["case"], x["reading"])
+                         == (seed, case, reading))
+                cells.append(f"{r['holds_used']}/{r['holds']}: {r['rms']['fz']:.3f}; "
+                             f"{1e3 * r['rms']['tx']:.2f}, {1e3 * r['rms']['ty']:.2f}")
+            lines.append(f"| {seed} | {case} | " + " | ".join(cells) + " |")
+    return "\n".join(lines + [""])
+

@@ -72,45 +72,55 @@ def all_free_residual(prior, trials) -> dict:
     return law.fit_metrics([t.frame for t in trials])
 
 
-def _seed(seed: int, args, q_exc) -> list[dict]:
-    from psmforce.cli.excitation import (WEIGHT_WRIST_POSES, WEIGHT_WRIST_POSES_PAIRED,
-                                         weight_poses)
+POSE_SETS = {"none": None, "eight": "WEIGHT_WRIST_POSES", "paired": "WEIGHT_WRIST_POSES_PAIRED",
+             "paired_approached": "WEIGHT_WRIST_POSES_PAIRED"}
+"""A case's poses -> the orientations of :mod:`psmforce.cli.excitation` its weights hang in."""
+
+
+def case_recordings(seed: int, label: str, args, q_exc):
+    """One case's ATI-free recordings on one seed, simulated into ``args.work`` unless kept
+    there: (free-space trials, known-load trials, the simulation's record)."""
+    import psmforce.cli.excitation as cli_excitation
     from psmforce.estimators.data.dataset import load_dataset
     from psmforce.estimators.training.ati_free import free_space_trials, known_load_trials
+    from psmforce.sim.ati_free import FREE_SPACE, KNOWN_LOADS, simulate_ati_free
+    from psmforce.sim.excitation import APPROACH_RAD
+
+    masses, poses = CASES[label]
+    pose_set = (None if POSE_SETS[poses] is None else
+                cli_excitation.weight_poses(getattr(cli_excitation, POSE_SETS[poses])))
+    folder = args.work / f"scale{args.scale:g}" / f"seed{seed}" / (
+        "-".join(f"{m:g}" for m in masses or (0,)) + f"_{poses}")
+    made = kept_json(folder / "made.json", lambda: simulate_ati_free(
+        folder / "data", seed=seed, scale=args.scale, free_minutes=args.free_minutes,
+        excitation_q=q_exc, weight_poses=pose_set, masses_kg=masses,
+        hold_s=args.hold_s, tool_seed=TOOL_SEED_OFFSET + seed,
+        approach_rad=APPROACH_RAD if poses.endswith("approached") else 0.0))
+    free = free_space_trials(load_dataset(folder / "data" / FREE_SPACE, require_targets=False),
+                             made["minutes"]["paper_free"] + made["minutes"]["excitation"]
+                             + MINUTES_SLACK)
+    loads = (known_load_trials(load_dataset(folder / "data" / KNOWN_LOADS,
+                                            require_targets=False)) if masses else [])
+    return free, loads, made
+
+
+def _seed(seed: int, args, q_exc) -> list[dict]:
     from psmforce.estimators.training.calibrate import identify_instrument
     from psmforce.experiments.prior_recovery import (bench_capstan_over, compare_selection,
                                                      default_bench_truth)
-    from psmforce.sim.ati_free import FREE_SPACE, KNOWN_LOADS, simulate_ati_free
-    from psmforce.sim.excitation import APPROACH_RAD
     from psmforce.sim.params import InstrumentParams
 
-    tool_seed = TOOL_SEED_OFFSET + seed
-    tool = InstrumentParams().sample(tool_seed, 1.0)
+    tool = InstrumentParams().sample(TOOL_SEED_OFFSET + seed, 1.0)
     truth = default_bench_truth(tool)
     rows = []
-    pose_sets = {"none": None, "eight": weight_poses(WEIGHT_WRIST_POSES),
-                 "paired": weight_poses(WEIGHT_WRIST_POSES_PAIRED),
-                 "paired_approached": weight_poses(WEIGHT_WRIST_POSES_PAIRED)}
     for label, (masses, poses) in CASES.items():
-        folder = args.work / f"scale{args.scale:g}" / f"seed{seed}" / (
-            "-".join(f"{m:g}" for m in masses or (0,)) + f"_{poses}")
-        made = kept_json(folder / "made.json", lambda: simulate_ati_free(
-            folder / "data", seed=seed, scale=args.scale, free_minutes=args.free_minutes,
-            excitation_q=q_exc, weight_poses=pose_sets[poses], masses_kg=masses,
-            hold_s=args.hold_s, tool_seed=tool_seed,
-            approach_rad=APPROACH_RAD if poses.endswith("approached") else 0.0))
-        free = free_space_trials(load_dataset(folder / "data" / FREE_SPACE,
-                                              require_targets=False),
-                                 made["minutes"]["paper_free"] + made["minutes"]["excitation"]
-                                 + MINUTES_SLACK)
-        loads = (known_load_trials(load_dataset(folder / "data" / KNOWN_LOADS,
-                                                require_targets=False)) if masses else [])
+        free, loads, made = case_recordings(seed, label, args, q_exc)
         started = time.perf_counter()
         prior = identify_instrument(free + loads)
         row = compare_selection(prior, truth)
         row.update({
             "seed": seed, "case": label, "masses_kg": list(masses), "poses": poses,
-            "weight_poses": list(pose_sets[poses] or {}), "minutes": made["minutes"],
+            "weight_poses": list(_poses(poses)), "minutes": made["minutes"],
             "left_out_unsafe": made["left_out_unsafe"], "verdict": prior.info["verdict"],
             "converged": prior.converged, "fit_time_s": time.perf_counter() - started,
             "n_samples": prior.info["n_samples"], "rounds": prior.info["selection"]["rounds"],
@@ -126,6 +136,14 @@ def _seed(seed: int, args, q_exc) -> list[dict]:
                   f"  {'' if rel is None else f'{100 * rel:6.1f} %':>8s}  {r['status']}",
                   flush=True)
     return rows
+
+
+def _poses(poses: str) -> list[str]:
+    """The orientation labels of a case's weights (none without weights)."""
+    import psmforce.cli.excitation as cli_excitation
+    name = POSE_SETS[poses]
+    return [] if name is None else list(cli_excitation.weight_poses(
+        getattr(cli_excitation, name)))
 
 
 def _rescore(path: Path | None) -> dict:

@@ -117,6 +117,7 @@ def prior_truth(instrument: InstrumentParams, psm: PSM | None = None) -> dict[st
         "bias_tx": 0.0, "bias_ty": 0.0, "bias_tz": 0.0,  # the bench's tare offset is forces only
         "capstan_mu": 0.0,                              # capstan off
         "capstan_pitch_gain": 0.0, "capstan_roll_gain": 0.0,
+        "pin_friction": 0.0,                            # pin_friction off
         **{n: 0.0 for n in CROSSTALK},                  # hex10_crosstalk off
     }
 
@@ -196,16 +197,13 @@ def default_bench_truth(instrument: InstrumentParams | None = None,
     (``hex10_residual_bias_n``; the moments' 0); ``crosstalk_fx`` ... ``crosstalk_tz`` the
     cross-talk matrix's entries of the axial force (``hex10_crosstalk``'s fz column; its other
     entries have no counterpart);
-    ``capstan_mu`` the wrist's friction exponent at the straight wrist without roll: the idlers'
-    ``capstan_mu_wrap_distal`` plus the pulley pins' ``pin_friction_coefficient`` (the pins add
-    ``c r S z`` to each pair's torque demand, i.e. ``c S z`` to its differential, which is the
-    capstan's ``D_s ~ D + mu S z`` to first order: the law's one capstan carries both, and its
-    fit lands on their sum, ``tests/experiments/test_prior_recovery.py``);
-    ``capstan_pitch_gain`` and ``capstan_roll_gain`` the idlers' relative growth per rad of
-    |wrist pitch| on the blade pairs (``capstan_wrap_pitch_gain``) and of |roll|
-    (``twist_friction_gain_per_rad``) on that sum, i.e. scaled by the idlers' share of it (the
-    pins' friction does not grow with the configuration; the bench's friction state is driven
-    by cable travel with a pre-sliding of ``presliding_length_m``)."""
+    ``capstan_mu`` the idlers' friction exponent at the straight wrist without roll
+    (``capstan_mu_wrap_distal``), ``capstan_pitch_gain`` and ``capstan_roll_gain`` its relative
+    growth per rad of |wrist pitch| on the blade pairs (``capstan_wrap_pitch_gain``) and of
+    |roll| (``twist_friction_gain_per_rad``), ``pin_friction`` the pulley pins'
+    ``pin_friction_coefficient`` (the bench's friction state is driven by cable travel with a
+    pre-sliding of ``presliding_length_m``). A law that holds ``pin_friction`` at 0 carries the
+    pins in its capstan: :func:`effective_truth` then judges the capstan against their sum."""
     import numpy as np
 
     instrument = instrument or InstrumentParams()
@@ -221,7 +219,6 @@ def default_bench_truth(instrument: InstrumentParams | None = None,
     a = instrument.cable_asymmetry
     linear = instrument.pair_law == "linear"
     bias = instrument.hex10_residual_bias_n
-    idlers, wrist = instrument.capstan_mu_wrap_distal, _wrist_friction(instrument)
     return {
         "pretension_total": instrument.pretension_total_n,
         "pulley_radius_pitch": instrument.pulley_radius_pitch_m,
@@ -236,9 +233,10 @@ def default_bench_truth(instrument: InstrumentParams | None = None,
         "cable_radius": instrument.cable_radius_in_section_m,
         "bias_fx": bias[0], "bias_fy": bias[1], "bias_fz": bias[2],
         "bias_tx": 0.0, "bias_ty": 0.0, "bias_tz": 0.0,
-        "capstan_mu": wrist,
-        "capstan_pitch_gain": instrument.capstan_wrap_pitch_gain * idlers / wrist,
-        "capstan_roll_gain": instrument.twist_friction_gain_per_rad * idlers / wrist,
+        "capstan_mu": instrument.capstan_mu_wrap_distal,
+        "capstan_pitch_gain": instrument.capstan_wrap_pitch_gain,
+        "capstan_roll_gain": instrument.twist_friction_gain_per_rad,
+        "pin_friction": instrument.pin_friction_coefficient,
         **{n: instrument.hex10_crosstalk[row][2] for n, row in zip(CROSSTALK, (0, 1, 3, 4, 5))},
     }
 
@@ -252,12 +250,6 @@ def _truth_law_metrics(truth: dict, score) -> dict:
     return {inputs: score(InternalForcePrior(params=params, info={"inputs": inputs}))
             for inputs in ("efforts", "load_path")}
 
-
-def _wrist_friction(instrument: InstrumentParams) -> float:
-    """The bench's friction exponent at the wrist at the straight wrist without roll (default
-    effects): the idlers' capstan plus the pulley pins' coefficient
-    (:func:`default_bench_truth`)."""
-    return instrument.capstan_mu_wrap_distal + instrument.pin_friction_coefficient
 
 
 def bench_capstan_over(frames, instrument: InstrumentParams) -> float:
@@ -287,13 +279,26 @@ def crosstalk_of_rest_level(instrument: InstrumentParams) -> dict[str, float]:
 
 
 def effective_truth(rows: dict) -> dict[str, float]:
-    """The truth a bias has in the law as fitted, where it differs from the bench's offset:
-    a cross-talk term held off its truth (``crosstalk_c`` fixed; the efforts reading holds them
-    all at 0) leaves ``(truth - held) x`` the rest axial force (``-pretension_total``, the bench's)
-    in channel ``c``, a constant only ``bias_c`` can carry (:func:`crosstalk_of_rest_level` with
-    nothing held). ``rows``: :func:`compare_selection`'s parameters (truth, fitted, status)."""
+    """The truth a parameter has in the law as fitted, where it differs from the bench's value.
+    A bias: a cross-talk term held off its truth (``crosstalk_c`` fixed; the efforts reading
+    holds them all at 0) leaves ``(truth - held) x`` the rest axial force (``-pretension_total``,
+    the bench's) in channel ``c``, a constant only ``bias_c`` can carry
+    (:func:`crosstalk_of_rest_level` with nothing held). The capstan: with ``pin_friction`` held
+    at 0 the pins add ``c S z`` to a pair's differential, which is the capstan's ``D + mu S z``
+    to first order, so the capstan carries both, ``capstan_mu`` their sum and its growth terms
+    the idlers' scaled by the idlers' share (the pins' friction does not grow with the
+    configuration; ``tests/experiments/test_prior_recovery.py``). ``rows``:
+    :func:`compare_selection`'s parameters (truth, fitted, status)."""
     rest = -rows["pretension_total"]["truth"]
     out = {}
+    pins, capstan = rows.get("pin_friction"), rows.get("capstan_mu")
+    if (pins is not None and capstan is not None and pins["status"] == "fixed"
+            and pins["fitted"] == 0.0 and pins["truth"] and capstan["truth"] is not None):
+        wrist = capstan["truth"] + pins["truth"]
+        out["capstan_mu"] = wrist
+        for name in ("capstan_pitch_gain", "capstan_roll_gain"):
+            if rows.get(name, {}).get("truth") is not None:
+                out[name] = rows[name]["truth"] * capstan["truth"] / wrist
     for name in CROSSTALK:
         row, bias = rows.get(name), "bias_" + name.removeprefix("crosstalk_")
         if (row is None or row["status"] != "fixed" or row["truth"] is None

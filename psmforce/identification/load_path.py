@@ -22,6 +22,16 @@ Frames, units, signs (one place):
   frame, Nm, ``(R^T (p_tip - p_hex)) x f_hex``; the HEX10 reads it besides the cables' moments.
 * The contact is taken at the jaw tip (``PSM.jaw_length`` from cp): where the paper's fixture and
   the simulated bench load the tool. A load elsewhere along the jaws changes both by its lever.
+* **The wrist sags under the load.** The joint positions a recording carries are the motor
+  side's (encoders); the cables stretch under the differential the load demands, so the wrist
+  stands at ``q_true = q_encoder - sag`` (docs/simulator.md section 6, the bench's elasticity),
+  and the tip force's moments are taken there. The sag is tens of mrad for a pair gone slack
+  under a 2 N tip load, which moves a weight's moment about a wrist at 0.7 rad by a few % and the
+  cable compression the HEX10 reads by about a newton. :func:`wrist_sag` gives it from the
+  demanded efforts with the instrument's design values (:class:`WristCompliance`: the cable
+  stiffness is not identified here, and the law's radii and pretension are what the fit looks
+  for), one fixed-point pass as the bench takes: the efforts at the encoders' pose, the sag they
+  cause, the efforts at the sagged pose.
 
 The grip of jaws clenched on an object or on each other is internal to the jaws: no tip force
 shows it, yet it loads the blade pairs. Recordings with a clench carry it in the jaw effort only,
@@ -32,9 +42,12 @@ load-path fit leaves them out.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from psmforce.identification.errors import IdentificationInputError
+from psmforce.identification.prior_law import KAPPA
 from psmforce.io.recording import JOINT_POSITIONS, TARGETS
 from psmforce.robot import PSM
 from psmforce.robot.conventions import JAW_CLOSED_RAD, JAW_JOINT, JOINTS
@@ -82,6 +95,78 @@ def wrist_efforts_for_tip_force(q, f_hex, psm: PSM | None = None) -> np.ndarray:
     return out
 
 
+@dataclass(frozen=True)
+class WristCompliance:
+    """What sags the wrist under a load: each cable run's axial stiffness (N/m), the pulley
+    radii (m) that turn joint angles into cable travel and the pretension (N, the pairs' total
+    over the six cables) below which a loaded pair stays taut. A pair's differential ``D``
+    stretches its cables by ``e = D / (2 k)`` while both are taut and ``e = sign(D) (|D| - T0) /
+    k`` once the unloaded one is slack (``T0`` per cable: continuous at ``|D| = 2 T0``; the pairs'
+    asymmetry, which moves where a pair goes slack, is left out); the joints sag by ``G^-1 e``
+    with ``G`` the coupling of :mod:`psmforce.identification.prior_law` and these radii."""
+
+    stiffness_n_per_m: float
+    pretension_total_n: float
+    pulley_radius_pitch_m: float
+    pulley_radius_blade_m: float
+
+    def __post_init__(self):
+        values = (self.stiffness_n_per_m, self.pretension_total_n, self.pulley_radius_pitch_m,
+                  self.pulley_radius_blade_m)
+        if not all(np.isfinite(v) and v > 0 for v in values):
+            raise IdentificationInputError(f"a wrist compliance needs a stiffness, pretension and "
+                                           f"radii finite and > 0, got {values}")
+
+    @classmethod
+    def design(cls) -> "WristCompliance":
+        """The instrument's design values: :data:`DESIGN_CABLE_STIFFNESS_N_PER_M` and the law's
+        datasheet pretension and radii (:data:`~psmforce.identification.prior_selection.DESIGN`)."""
+        from psmforce.identification.prior_selection import DESIGN
+        return cls(DESIGN_CABLE_STIFFNESS_N_PER_M, DESIGN["pretension_total"],
+                   DESIGN["pulley_radius_pitch"], DESIGN["pulley_radius_blade"])
+
+
+DESIGN_CABLE_STIFFNESS_N_PER_M = 2.8e5
+"""One cable run's axial stiffness (N/m) the load path's sag assumes: the value calibrated on a
+real EndoWrist's transmission (the MRD Lab's Tool_4_Maryland_L_4, docs/simulator.md section 10).
+Fixed, not identified: the ATI-free recordings do not separate it from the radii; a tool whose
+cables are 20 % stiffer or softer sags 20 % less or more than the load path assumes."""
+
+
+def wrist_sag(efforts, compliance: WristCompliance) -> np.ndarray:
+    """(N, 3) sag (wrist_pitch, wrist_yaw, jaw; rad) of a wrist whose cables hold ``efforts``
+    (N, 3; dVRK efforts of those joints, Nm): encoder minus true position (module docstring).
+    Signs: an effort the motors apply to hold a load stretches the cables that pull against it,
+    and the wrist gives way along the load, against the effort."""
+    e = np.asarray(efforts, dtype=float)
+    c = compliance
+    # the law's pair differentials (prior_law._model): distal torques, then K^-T, over radii
+    tau_b1, tau_b2 = 0.5 * e[:, 1] - e[:, 2], 0.5 * e[:, 1] + e[:, 2]
+    d = np.stack([(e[:, 0] - KAPPA * (tau_b1 + tau_b2)) / c.pulley_radius_pitch_m,
+                  tau_b1 / c.pulley_radius_blade_m, tau_b2 / c.pulley_radius_blade_m], axis=1)
+    t0 = c.pretension_total_n / 6.0
+    stretch_m = np.sign(d) * np.maximum(0.5 * np.abs(d), np.abs(d) - t0) / c.stiffness_n_per_m
+    # distal deflections: G^-1 e with G = diag(r) [[1, 0, 0], [k, 1, 0], [k, 0, 1]]
+    pitch = stretch_m[:, 0] / c.pulley_radius_pitch_m
+    blade_1 = stretch_m[:, 1] / c.pulley_radius_blade_m - KAPPA * pitch
+    blade_2 = stretch_m[:, 2] / c.pulley_radius_blade_m - KAPPA * pitch
+    return np.stack([pitch, 0.5 * (blade_1 + blade_2), blade_2 - blade_1], axis=1)
+
+
+def sagged_positions(q, f_hex, compliance: WristCompliance | None = None,
+                     psm: PSM | None = None) -> np.ndarray:
+    """(N, 7|6) joint positions ``q`` with the wrist (wrist_pitch, wrist_yaw) where the tip force
+    ``f_hex`` (N, 3, HEX10 frame) sags it: ``q - sag`` of :func:`wrist_sag` for the efforts at
+    ``q`` (one fixed-point pass); ``compliance`` None: :meth:`WristCompliance.design`. The jaw
+    keeps its reading: a force at the closed tip loads both blades alike and opens nothing."""
+    psm = psm or PSM()
+    q = np.array(q, dtype=float)
+    sag = wrist_sag(wrist_efforts_for_tip_force(q, f_hex, psm),
+                    compliance or WristCompliance.design())
+    q[:, 4:6] -= sag[:, :2]
+    return q
+
+
 def tip_force_moment(q, f_hex, psm: PSM | None = None) -> np.ndarray:
     """(N, 3) moment (Nm, HEX10 frame) of tip force ``f_hex`` about the HEX10 origin."""
     psm = psm or PSM()
@@ -104,9 +189,11 @@ def clenched(frame) -> np.ndarray:
 _JAW = JOINTS.index(JAW_JOINT)
 
 
-def load_path_inputs(frame, psm: PSM | None = None) -> tuple[np.ndarray, np.ndarray]:
+def load_path_inputs(frame, psm: PSM | None = None,
+                     compliance: WristCompliance | None = None) -> tuple[np.ndarray, np.ndarray]:
     """From a recording with its known tip force (``ati_fx..ati_fz``): the wrist efforts the
-    load path demands (N, 3) and the tip force's moment at the HEX10 (N, 3)."""
+    load path demands (N, 3) and the tip force's moment at the HEX10 (N, 3), both at the wrist
+    the force sags (:func:`sagged_positions`; ``compliance`` None: the design values)."""
     missing = [c for c in TARGETS if c not in frame.columns]
     if missing:
         raise IdentificationInputError(
@@ -115,4 +202,5 @@ def load_path_inputs(frame, psm: PSM | None = None) -> tuple[np.ndarray, np.ndar
     q = frame[list(JOINT_POSITIONS)].to_numpy(dtype=float)
     f = frame[list(TARGETS)].to_numpy(dtype=float)
     psm = psm or PSM()
-    return wrist_efforts_for_tip_force(q, f, psm), tip_force_moment(q, f, psm)
+    q_true = sagged_positions(q, f, compliance, psm)
+    return wrist_efforts_for_tip_force(q_true, f, psm), tip_force_moment(q_true, f, psm)

@@ -19,6 +19,10 @@ Model::
     u      = K^-T tau_d,  K = [[1,0,0],[k,1,0],[k,0,1]], k = 0.8306/1.0186    (dVRK coupling)
     D_i    = u_i / r_i,   r = (r_pitch, r_blade, r_blade)   pair differential at the pulleys (N)
     T0     = T_tot/6 * (1 + g_twist roll^2)           per-cable pretension with roll twist
+    D     += K^-T (c_pin r_i S'_i z_i) / r_i          the pulleys' pins: a torque c_pin r S z
+                                                      against the motion, S'_i the pair's sum
+                                                      at the section below without it (one
+                                                      fixed-point pass)
     mu_i   = mu (1 + g_q |wrist_pitch| [i blade]) (1 + g_r |roll|)
                                                       the capstan's exponent over the wrist
                                                       idlers: the blade cables wrap |pitch|
@@ -47,7 +51,8 @@ reading holds, :data:`HELD_BY_READING`), ``S_i = smoothmax(2 T0 + a_i D_i, |D_i|
 ``E_i = D_i``: the law before the capstan; with ``g_q = g_r = 0`` (``capstan_pitch_gain``,
 ``capstan_roll_gain``, loaded and held the same way) the capstan is one constant, the law before
 its configuration terms; with ``x = 0`` (``crosstalk_fx`` ... ``crosstalk_tz``,
-held and loaded the same way) the law before the cross-talk.
+held and loaded the same way) the law before the cross-talk; with ``c_pin = 0``
+(``pin_friction``, likewise) the law before the pins, whose friction its capstan then carries.
 
 with the cable angles phi = (0, 60, 120) deg of the pairs' "+" cables (datasheet). Parameters
 (:data:`PARAMETERS`) have physical bounds. What the data pin down is reported with every fit
@@ -105,7 +110,8 @@ from psmforce.identification.insertion import InsertionEffortModel
 from psmforce.identification.model_file import parse_model_json, read_model_json
 from psmforce.identification.prior_identifiability import identifiability
 from psmforce.identification.prior_law import (ADDED_TERMS, CABLE_ANGLES_RAD,  # noqa: F401
-                                                CAPSTAN, CROSSTALK, KAPPA, NAMES, MIN_SAMPLES,
+                                                CAPSTAN, CROSSTALK, FRICTION, KAPPA, NAMES,
+                                                MIN_SAMPLES,
                                                 PARAMETERS,
                                                 _CasadiOps, _model, FrictionDirection,
                                                 at_bound, friction_direction)
@@ -115,8 +121,8 @@ from psmforce.io.recording import (HEX10, JOINT_POSITIONS, OVERLOAD, TARGETS, jo
                                  read_recording)
 
 FORMAT = "psmforce.identification.InternalForcePrior/1"
-FORMAT_VERSION = 6
-"""6: the capstan's growth with the wrist's configuration (``capstan_pitch_gain``,
+FORMAT_VERSION = 7
+"""7: the wrist pulleys' pin friction (``pin_friction``). 6: the capstan's growth with the wrist's configuration (``capstan_pitch_gain``,
 ``capstan_roll_gain``). 5: the axial force's cross-talk into the moments (``crosstalk_tx``,
 ``crosstalk_ty``, ``crosstalk_tz``). 4: the sensor's cross-talk of the axial force
 (``crosstalk_fx``, ``crosstalk_fy``). 3: the law's capstan (``capstan_mu``). 2: the integrity
@@ -126,11 +132,14 @@ the terms added after it was written (:data:`_ADDED_IN`) and loads with them at 
 was fitted with."""
 _ADDED_IN = {3: {"capstan_mu": 0.0}, 4: {"crosstalk_fx": 0.0, "crosstalk_fy": 0.0},
              5: {"crosstalk_tx": 0.0, "crosstalk_ty": 0.0, "crosstalk_tz": 0.0},
-             6: {"capstan_pitch_gain": 0.0, "capstan_roll_gain": 0.0}}
+             6: {"capstan_pitch_gain": 0.0, "capstan_roll_gain": 0.0},
+             7: {"pin_friction": 0.0}}
 """Format version -> the parameters it added, with the value that gives the law before them."""
 
 _MIN_SAMPLES = MIN_SAMPLES
 _CAPSTAN = NAMES.index("capstan_mu")
+_FRICTION_STATE = [_CAPSTAN, NAMES.index("pin_friction")]
+"""The terms that read the pairs' friction states: with both 0 the law reads none."""
 _CROSSTALK = [NAMES.index(n) for n in CROSSTALK]
 _NO_DIRECTION = (0.0, 0.0, 0.0)
 _WRIST_EFFORTS = tuple(joint_column(j, "effort") for j in WRIST_JOINTS)
@@ -188,15 +197,15 @@ def internal_wrench_target(frame) -> tuple[np.ndarray, np.ndarray]:
 
 INPUTS = ("efforts", "load_path")
 """What a prior reads as the wrist torques that load its cables (:attr:`InternalForcePrior.inputs`)."""
-HELD_BY_READING = {"efforts": {**{n: 0.0 for n in CAPSTAN}, **{n: 0.0 for n in CROSSTALK}},
+HELD_BY_READING = {"efforts": {**{n: 0.0 for n in FRICTION}, **{n: 0.0 for n in CROSSTALK}},
                    "load_path": {}}
 """Parameters each reading holds (SI) unless the caller fixes them otherwise, at the value that
-gives the law before them (:data:`HELD_BY_READING_REASON` says why). The capstan
-(:data:`~.prior_law.CAPSTAN`) turns the differential the wrist's pulleys demand into the
-section's; the load
-path gives that demand, but the motor efforts are the differential at the motor, after the
-proximal path's own capstan and the discs' friction, which the law does not model: read from
-them, the term only bends the curve fit. The cross-talk (:data:`~.prior_law.CROSSTALK`)
+gives the law before them (:data:`HELD_BY_READING_REASON` says why). The friction terms
+(:data:`~.prior_law.FRICTION`): the capstan turns the differential the wrist's pulleys demand
+into the section's, and the pins add their friction to that demand; the load path gives the
+demand, but the motor efforts are the differential at the motor, after the pins, the proximal
+path's own capstan and the discs' friction, which the law does not model: read from them, the
+terms only bend the curve fit. The cross-talk (:data:`~.prior_law.CROSSTALK`)
 is the sensor's, and reads its own fz, so any reading can fit it; the efforts reading is the
 estimators' prior, and every committed comparison was trained with it held, so it holds it
 unless asked (``crosstalk=True``, :func:`held_by_reading`): the default efforts prior stays
@@ -205,7 +214,7 @@ _CROSSTALK_HELD = ("held by the reading: the estimators' prior holds the sensor'
                    "unless asked to fit it (crosstalk=True; the load path fits it)")
 HELD_BY_READING_REASON = {
     **{n: "held by the reading: the motor efforts are the differential after the proximal "
-          "path and the discs, not the wrist's demand" for n in CAPSTAN},
+          "path and the discs, not the wrist's demand" for n in FRICTION},
     **{n: _CROSSTALK_HELD for n in CROSSTALK}}
 
 
@@ -242,6 +251,15 @@ def fit_arrays(frame, inputs: str, psm=None, targets: bool = True, direction: bo
             mask[:, 3:] = mask[:, :1]
             mask[clenched(frame)] = 0.0  # an unknown grip loads the blade pairs
     return a, y, mask
+
+
+def _design_compliance() -> dict:
+    """The wrist compliance (SI) a load-path fit's inputs sagged the wrist with
+    (:meth:`~psmforce.identification.load_path.WristCompliance.design`), for its ``info``."""
+    from dataclasses import asdict
+
+    from psmforce.identification.load_path import WristCompliance
+    return asdict(WristCompliance.design())
 
 
 def _check_reading(hex10_fz, n: int) -> np.ndarray | None:
@@ -324,14 +342,15 @@ class InternalForcePrior:
     def friction_state(self) -> FrictionDirection | None:
         """A fresh :class:`~psmforce.identification.prior_law.FrictionDirection` for a stream
         (its :meth:`step` gives :meth:`predict_one`'s ``direction``), or None when the law has
-        no capstan and needs none."""
-        return FrictionDirection() if self.has_capstan else None
+        no friction and needs none."""
+        return FrictionDirection() if self.has_friction else None
 
     @property
-    def has_capstan(self) -> bool:
-        """Whether the law has a capstan (``capstan_mu`` > 0) and so reads the pairs' friction
-        states; without one it is the law before the term, and skips them."""
-        return bool(self.params[_CAPSTAN] != 0.0)
+    def has_friction(self) -> bool:
+        """Whether the law has a capstan or the pins' friction (``capstan_mu`` or
+        ``pin_friction`` > 0) and so reads the pairs' friction states; without either it is the
+        law before the terms, and skips them."""
+        return bool(np.any(self.params[_FRICTION_STATE] != 0.0))
 
     @property
     def has_crosstalk(self) -> bool:
@@ -348,19 +367,21 @@ class InternalForcePrior:
                                            f"pass the HEX10's fz reading (hex10_fz)")
 
     def _needs_direction(self, direction) -> None:
-        """A law with a capstan (``capstan_mu`` > 0) depends on the friction direction's
-        history: refused without it rather than evaluated as if the wrist had never moved."""
-        if direction is None and self.has_capstan:
+        """A law with friction (``capstan_mu`` or ``pin_friction`` > 0) depends on the friction
+        direction's history: refused without it rather than evaluated as if the wrist had never
+        moved."""
+        if direction is None and self.has_friction:
+            terms = ", ".join(f"{NAMES[i]} {self.params[i]:.4g}" for i in _FRICTION_STATE
+                              if self.params[i] != 0.0)
             raise IdentificationInputError(
-                f"this prior has a capstan (capstan_mu {self.params[_CAPSTAN]:.4g}): pass the "
-                "pairs' friction direction states (prior_law.friction_direction of the "
-                "recording's wrist positions)")
+                f"this prior has friction ({terms}): pass the pairs' friction direction states "
+                "(prior_law.friction_direction of the recording's wrist positions)")
 
     def predict(self, frame_or_arrays, psm=None) -> np.ndarray:
         """(N,6) prediction for a recording DataFrame or a dict of :func:`arrays_from_frame`."""
         arrays = frame_or_arrays if isinstance(frame_or_arrays, dict) else fit_arrays(
             frame_or_arrays, self.inputs, psm, targets=False,
-            direction=self.has_capstan)[0]
+            direction=self.has_friction)[0]
         return self.predict_arrays(arrays["positions"], arrays["efforts"], arrays["velocities"],
                                    arrays["g_hex"], arrays.get("direction"),
                                    arrays.get("hex10_fz"))
@@ -370,7 +391,7 @@ class InternalForcePrior:
         :attr:`axis_weights`) on recording frames read as its fit reads them (:attr:`inputs`,
         the fit's sample mask): the figure ``info["train_metrics"]`` holds, on any
         recordings."""
-        parts = [fit_arrays(f, self.inputs, psm, direction=self.has_capstan) for f in recordings]
+        parts = [fit_arrays(f, self.inputs, psm, direction=self.has_friction) for f in recordings]
         law = [self.law_arrays(*_check_arrays(a["positions"], a["efforts"], a["velocities"],
                                               a["g_hex"], a["direction"]),
                                a["hex10_fz"] if self.has_crosstalk else None)
@@ -393,7 +414,7 @@ class InternalForcePrior:
         the HEX10's fz reading where the law has a cross-talk."""
         plist = self._plist
         if direction is None:  # the hot path of a stream: plain floats, no numpy
-            if plist[_CAPSTAN] != 0.0:  # has_capstan, on the cached floats
+            if any(plist[i] != 0.0 for i in _FRICTION_STATE):  # has_friction, on the floats
                 self._needs_direction(direction)
             direction = _NO_DIRECTION
         if hex10_fz is None and any(plist[i] != 0.0 for i in _CROSSTALK):
@@ -461,7 +482,8 @@ class InternalForcePrior:
         if len(recordings) == 0:
             raise IdentificationInputError("no recordings to fit the prior on")
         fixed = _check_fixed({**held, **(fixed or {})})
-        no_capstan = fixed.get(NAMES[_CAPSTAN]) == 0.0  # the law then reads no friction state
+        # both friction terms held at 0: the law then reads no friction state
+        no_friction = all(fixed.get(NAMES[i]) == 0.0 for i in _FRICTION_STATE)
         no_crosstalk = all(fixed.get(NAMES[i]) == 0.0 for i in _CROSSTALK)  # nor the fz reading
         parts, axial = [], []
         sources = []
@@ -471,7 +493,7 @@ class InternalForcePrior:
                 rec = read_recording(rec)
             else:
                 sources.append("<DataFrame>")
-            a, y, mask = fit_arrays(rec, inputs, psm, direction=not no_capstan)
+            a, y, mask = fit_arrays(rec, inputs, psm, direction=not no_friction)
             parts.append((a, y, mask))
             if all(t in rec.columns for t in TARGETS) and \
                     {_INSERTION_VELOCITY, _INSERTION_EFFORT} <= set(rec.columns):
@@ -482,7 +504,7 @@ class InternalForcePrior:
         e = np.concatenate([p[0]["efforts"] for p in parts])
         v = np.concatenate([p[0]["velocities"] for p in parts])
         g = np.concatenate([p[0]["g_hex"] for p in parts])
-        zd = np.concatenate([np.zeros((len(p[0]["positions"]), 3)) if no_capstan
+        zd = np.concatenate([np.zeros((len(p[0]["positions"]), 3)) if no_friction
                              else p[0]["direction"] for p in parts])
         fz_read = None if no_crosstalk else _check_reading(
             np.concatenate([p[0]["hex10_fz"] for p in parts]), len(zd))
@@ -510,7 +532,7 @@ class InternalForcePrior:
         # an added term held at 0 enters as the number: the law's graph is the one without it
         law_p = [0.0 if name in ADDED_TERMS and fixed.get(name) == 0.0 else p[i]
                  for i, name in enumerate(NAMES)]
-        zcols = None if no_capstan else [ca.DM(x) for x in (zd.T.tolist())]
+        zcols = None if no_friction else [ca.DM(x) for x in (zd.T.tolist())]
         pred = _model(law_p, [ca.DM(pos[:, 0]), ca.DM(pos[:, 1])], cols, vcols, gcols, zcols,
                       _CasadiOps(), None if no_crosstalk else ca.DM(fz_read))
         ch_scale = np.sqrt(np.sum(mask * (y - (y * mask).sum(0) / np.maximum(mask.sum(0), 1)) ** 2,
@@ -543,6 +565,7 @@ class InternalForcePrior:
             "bounds_hit": _bounds_hit(params, fixed),
             "fixed": {n: float(x) for n, x in fixed.items()},
             "inputs": inputs,
+            **({"wrist_compliance": _design_compliance()} if inputs == "load_path" else {}),
             **({"identifiability": identifiability(params, fixed, (pos, e, v, g, zd, fz_read),
                                                    y, mask, ch_scale)} if report else {}),
             "slack_samples_fraction": float(np.mean(_slack_any(prior.params, roll, e))),

@@ -72,6 +72,13 @@ PARAMETERS = (
     # the capstan is the one constant it was.
     ("capstan_pitch_gain", "1/rad", 0.0, 2.0, 0.0),
     ("capstan_roll_gain", "1/rad", 0.0, 2.0, 0.0),
+    # The wrist pulleys' pins: each pulley turns on a pin that the cables press with their sum
+    # S, so turning it takes a torque c r S against the motion (a journal's friction, c its
+    # coefficient times the pin's radius over the pulley's). It adds c S z to a pair's
+    # differential before the idlers' capstan: a capstan changes the section's sum by D mu z as
+    # well, a pin does not, which a hold after a move shows in fz. Added after the growth terms;
+    # at 0 the law's one capstan carries both frictions, as it did.
+    ("pin_friction", "1", 0.0, 0.5, 0.0),
 )
 NAMES = tuple(p[0] for p in PARAMETERS)
 CROSSTALK = ("crosstalk_fx", "crosstalk_fy", "crosstalk_tx", "crosstalk_ty", "crosstalk_tz")
@@ -81,7 +88,11 @@ CAPSTAN = ("capstan_mu", "capstan_pitch_gain", "capstan_roll_gain")
 """The capstan's terms: its exponent at the straight wrist (``capstan_mu``; 0: no capstan, and
 the law reads no friction state) and that exponent's relative growth per rad of |wrist pitch|
 on the blade pairs and per rad of |roll| on every pair."""
-ADDED_TERMS = ("capstan_mu", *CROSSTALK, "capstan_pitch_gain", "capstan_roll_gain")
+FRICTION = (*CAPSTAN, "pin_friction")
+"""The law's friction terms, the capstan's and the pins'; with ``capstan_mu`` and
+``pin_friction`` both 0 the law reads no friction state."""
+ADDED_TERMS = ("capstan_mu", *CROSSTALK, "capstan_pitch_gain", "capstan_roll_gain",
+               "pin_friction")
 """The terms added to the law after its first 17 parameters. Each is 0 in the law before it,
 and one held at exactly 0 enters the fit's graph as the number (:func:`_model` then leaves the
 term out): a fit that holds them is the fit it was before they existed."""
@@ -145,7 +156,7 @@ def _model(p, pos, e, v, g_hex, z, xp, hex10_fz=None):
     HEX10's fz reading (N), which only the cross-talk terms read (None: they must be 0)."""
     (T_tot, r_p, r_b, g_tw, c_dir, a_p, a_b, c_pm, m_d, l_d, rho,
      bfx, bfy, bfz, btx, bty, btz, mu, *rest) = [p[i] for i in range(len(PARAMETERS))]
-    leak, (g_pitch, g_roll) = rest[:len(CROSSTALK)], rest[len(CROSSTALK):]
+    leak, (g_pitch, g_roll, c_pin) = rest[:len(CROSSTALK)], rest[len(CROSSTALK):]
     roll, wrist_pitch = pos[0], pos[1]
     tau_p, tau_b1, tau_b2 = e[0], 0.5 * e[1] - e[2], 0.5 * e[1] + e[2]
     # u = K^-T tau_d: K^T = [[1,k,k],[0,1,0],[0,0,1]] -> u1 = tau_b1, u2 = tau_b2, u0 = tau_p - k(u1+u2)
@@ -166,18 +177,28 @@ def _model(p, pos, e, v, g_hex, z, xp, hex10_fz=None):
         mu_roll = mu if _is_zero(g_roll) else mu * (1.0 + g_roll * abs(roll))
         mu_blade = mu_roll if _is_zero(g_pitch) else mu_roll * (1.0 + g_pitch * abs(wrist_pitch))
         mu_pair = (mu_roll, mu_blade, mu_blade)
-    for i in range(3):
+
+    def section(i, d):
+        """Pair i's (differential, sum) at the section for differential ``d`` at its pulleys."""
         if no_capstan:
-            d_section = D[i]
-            S_sum = S_sum + tension_sum(two_t0 + asym[i] * D[i], D[i], SMOOTH_MAX_N, xp)
-        else:  # the capstan between the wrist's pulleys (D) and the section: T+- gain exp(+-mu z)
-            c, s = xp.cosh(mu_pair[i] * z[i]), xp.sinh(mu_pair[i] * z[i])
-            # taut: the loop closes at the section, S - a E = 2 T0
-            taut = (two_t0 + D[i] * (asym[i] * c - s)) / (c - asym[i] * s)
-            s_pulley = tension_sum(taut, D[i], SMOOTH_MAX_N, xp)
-            d_section = D[i] * c + s_pulley * s
-            S_sum = S_sum + s_pulley * c + D[i] * s
-        S_sum = S_sum + c_dir * xp.tanh(dx[i] / DIRECTION_VELOCITY)
+            return d, tension_sum(two_t0 + asym[i] * d, d, SMOOTH_MAX_N, xp)
+        # the capstan between the wrist's pulleys and the section: T+- gain exp(+-mu z)
+        c, s = xp.cosh(mu_pair[i] * z[i]), xp.sinh(mu_pair[i] * z[i])
+        # taut: the loop closes at the section, S - a E = 2 T0
+        taut = (two_t0 + d * (asym[i] * c - s)) / (c - asym[i] * s)
+        s_pulley = tension_sum(taut, d, SMOOTH_MAX_N, xp)
+        return d * c + s_pulley * s, s_pulley * c + d * s
+
+    if not _is_zero(c_pin):
+        # the pins' torque c r S z on each pulley, S the pair's sum without it (one fixed-point
+        # pass, as the bench takes it); through K^-T over the radii it adds c S z to each
+        # pair's differential and takes the blade pairs' share off the pitch pair's
+        pin = [c_pin * section(i, D[i])[1] * z[i] for i in range(3)]
+        D = (D[0] + pin[0] - KAPPA * (r_b / r_p) * (pin[1] + pin[2]), D[1] + pin[1],
+             D[2] + pin[2])
+    for i in range(3):
+        d_section, s_section = section(i, D[i])
+        S_sum = S_sum + s_section + c_dir * xp.tanh(dx[i] / DIRECTION_VELOCITY)
         tx = tx - rho * math.sin(CABLE_ANGLES_RAD[i]) * d_section
         ty = ty + rho * math.cos(CABLE_ANGLES_RAD[i]) * d_section
     gx, gy, gz = g_hex[0], g_hex[1], g_hex[2]

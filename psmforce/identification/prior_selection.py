@@ -59,6 +59,7 @@ DESIGN = {
     "capstan_pitch_gain": 0.5, "capstan_roll_gain": 0.15,
     "crosstalk_fx": 0.0, "crosstalk_fy": 0.0,  # 1: the sensor's calibration decouples it
     "crosstalk_tx": 0.0, "crosstalk_ty": 0.0, "crosstalk_tz": 0.0,  # m: likewise
+    "pin_friction": 0.0,            # 1: no friction by design (held, the capstan carries it)
 }
 """The value a parameter is held at when the data cannot pin it down: the instrument's design
 (nominal) values as docs/simulator.md states them, read as a datasheet (SI, :data:`NAMES`). They

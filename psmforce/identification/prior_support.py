@@ -46,7 +46,7 @@ def supported_weights(prior: InternalForcePrior, recordings: Sequence, psm=None
         raise IdentificationInputError("no held-out recordings to weigh the prior on")
     ys, masks, preds = [], [], []
     for frame in recordings:
-        a = arrays_from_frame(frame, psm, direction=prior.has_capstan)
+        a = arrays_from_frame(frame, psm, direction=prior.has_friction)
         y, mask = internal_wrench_target(frame)
         ys.append(y)
         masks.append(mask)

@@ -13,7 +13,7 @@ import pytest
 from psmforce.identification.errors import IdentificationInputError
 from psmforce.identification.prior import HELD_BY_READING, NAMES, InternalForcePrior
 from psmforce.identification.prior_identifiability import recovered
-from psmforce.experiments.prior_recovery import (bench_capstan_over, compare,
+from psmforce.experiments.prior_recovery import (bench_capstan_over, compare, effective_truth,
                                                  default_bench_truth, in_family_instrument,
                                                  prior_truth, recover)
 from psmforce.io.recording import JOINT_POSITIONS
@@ -185,14 +185,64 @@ def test_the_pins_friction_is_a_capstan_of_its_coefficient_on_the_blade_pairs():
         assert np.abs(by_pins - by_capstan).max() < 0.05 * np.abs(by_pins).max()
 
 
-def test_the_laws_capstan_truth_is_the_idlers_and_the_pins_and_its_growth_their_share():
+def test_the_laws_friction_truth_is_the_idlers_and_the_pins_or_their_sum_where_pins_are_held():
+    """The law's capstan stands for the idlers and its pin term for the pins; a fit that holds
+    the pins at 0 carries them in its capstan, which is then judged against their sum, its
+    growth terms against the idlers' share of it (effective_truth)."""
     bench = InstrumentParams()
     truth = default_bench_truth(bench)
+    assert truth["capstan_mu"] == bench.capstan_mu_wrap_distal
+    assert truth["pin_friction"] == bench.pin_friction_coefficient
+    assert truth["capstan_pitch_gain"] == bench.capstan_wrap_pitch_gain
     wrist = bench.capstan_mu_wrap_distal + bench.pin_friction_coefficient
-    assert truth["capstan_mu"] == wrist
+    rows = {n: {"truth": truth.get(n), "fitted": truth.get(n) or 0.0, "status": "identified"}
+            for n in NAMES}
+    assert "capstan_mu" not in effective_truth(rows)  # the pins fitted: each its own truth
+    rows["pin_friction"].update(fitted=0.0, status="fixed")
+    held = effective_truth(rows)
+    assert held["capstan_mu"] == wrist
     share = bench.capstan_mu_wrap_distal / wrist
-    assert truth["capstan_pitch_gain"] == bench.capstan_wrap_pitch_gain * share
-    assert truth["capstan_roll_gain"] == bench.twist_friction_gain_per_rad * share
-    # at the straight wrist without roll the bench's average is the truth itself
+    assert held["capstan_pitch_gain"] == bench.capstan_wrap_pitch_gain * share
+    assert held["capstan_roll_gain"] == bench.twist_friction_gain_per_rad * share
+    # at the straight wrist without roll the bench's average is the sum itself
     still = pd.DataFrame(np.zeros((10, 7)), columns=list(JOINT_POSITIONS))
     assert np.isclose(bench_capstan_over([still], bench), wrist, rtol=0, atol=1e-12)
+
+
+def test_the_laws_pin_term_is_the_benchs_pin_friction():
+    """The law's pins (pin_friction) change the section's wrench as the bench's pulley pins do:
+    a taut wrist moving back and forth under small loads, the bench with its pins only (no
+    capstan, symmetric pairs) and the law at the same pretension, radii and cable radius, the
+    same pre-sliding (both radii 2 mm: the bench's 40 um of cable is the law's 0.02 rad)."""
+    from psmforce.identification.prior_law import PARAMETERS, friction_direction
+    from psmforce.sim.cables import distal_torque_to_joints, section_wrench
+    q, tau = _wrist_motion()
+    tau = 0.5 * tau  # every pair taut (|D| < 2 T0), where the law's sum is exact
+    bench = dataclasses.replace(InstrumentParams(), pulley_radius_pitch_m=2e-3,
+                                pulley_radius_blade_m=2e-3, cable_asymmetry=(0.0, 0.0, 0.0))
+    effects = dataclasses.replace(Effects.none(), pretension=True, slack=True, hysteresis=True)
+    params = {p[0]: 0.0 for p in PARAMETERS}
+    params.update(pretension_total=bench.pretension_total_n, pulley_radius_pitch=2e-3,
+                  pulley_radius_blade=2e-3, cable_radius=bench.cable_radius_in_section_m)
+    efforts = distal_torque_to_joints(-tau)  # what the motors apply: the cables' demand
+    z = friction_direction(q[:, 4:7])
+
+    def law(pins):
+        p = np.array([{**params, "pin_friction": pins}[n] for n in NAMES])
+        prior = InternalForcePrior(params=p)
+        return prior.law_arrays(q[:, [3, 4]], efforts, np.zeros_like(efforts), np.zeros_like(
+            efforts), z)[:, [2, 3, 4]]
+
+    def bench_wrench(pins):
+        out = transmission(q, tau, bench, dataclasses.replace(effects, pin_friction=pins))
+        return section_wrench(out["tensions"], bench)[:, [2, 3, 4]]
+
+    c = bench.pin_friction_coefficient
+    by_bench = bench_wrench(True) - bench_wrench(False)
+    by_law = law(c) - law(0.0)
+    for k in (1, 2):  # tx, ty: the section's differentials
+        assert np.abs(by_bench[:, k]).max() > 2e-5  # Nm: the pins are felt
+        assert np.abs(by_law[:, k] - by_bench[:, k]).max() < 0.1 * np.abs(by_bench[:, k]).max()
+    # fz: a taut symmetric pair's sum is 2 T0 whatever its differential, pins or not (where a
+    # capstan would move it by D mu z); the law's slack transition is smooth over SMOOTH_MAX_N
+    assert np.abs(by_bench[:, 0]).max() < 1e-9 and np.abs(by_law[:, 0]).max() < 0.01

@@ -120,7 +120,7 @@ def test_the_load_path_recovers_what_the_efforts_cannot(default_bench, tmp_path)
     # the law read back over its training recordings gives the fit's own figure, capstan or not
     for law in (no_capstan, prior):
         again, stored = law.fit_metrics(frames), law.info["train_metrics"]
-        assert law is no_capstan or law.has_capstan
+        assert law is no_capstan or law.has_friction
         for channel in ("fz", "tx", "ty"):
             assert again[channel]["rms"] == pytest.approx(stored[channel]["rms"], rel=1e-9)
 
@@ -190,3 +190,62 @@ def test_a_jaw_held_at_closed_is_not_clenched_whatever_its_round_off():
     frame = pd.DataFrame({c: (jaw if k == 6 else np.zeros(len(jaw)))
                           for k, c in enumerate(JOINT_POSITIONS)})
     assert clenched(frame).tolist() == [False, False, False, False, True, True]
+
+
+def test_wrist_sag_closed_forms_taut_and_slack():
+    """A pitch effort alone loads the pitch pair: D = tau / r_p; taut (|D| < 2 T0) the cables
+    stretch D / (2 k), slack (|D| - T0) / k; the wrist sags by that over r_p, along the load. A
+    yaw effort loads both blade pairs alike and sags the yaw, not the jaw."""
+    from psmforce.identification.load_path import WristCompliance, wrist_sag
+    from psmforce.identification.prior_law import KAPPA
+    c = WristCompliance(stiffness_n_per_m=2e5, pretension_total_n=6.0,
+                        pulley_radius_pitch_m=2e-3, pulley_radius_blade_m=1.5e-3)
+    t0 = 1.0  # N per cable
+    taut, slack = 1.5 * 2e-3, -6.0 * 2e-3  # Nm: D = 1.5 N (taut), -6 N (slack)
+    sag = wrist_sag(np.array([[taut, 0.0, 0.0], [slack, 0.0, 0.0]]), c)
+    np.testing.assert_allclose(sag[:, 0], [1.5 / (2 * 2e5) / 2e-3, -(6.0 - t0) / 2e5 / 2e-3])
+    np.testing.assert_allclose(sag[:, 2], 0.0, atol=1e-15)
+    # 4 mNm of yaw: each blade pair 2 mNm / 1.5 mm (taut); the blade cables' pick-up over the
+    # pitch pulleys loads the pitch pair with -KAPPA of their sum, which sags the pitch, and the
+    # pitch's sag moves the blades back by KAPPA of it
+    yaw = wrist_sag(np.array([[0.0, 0.004, 0.0]]), c)[0]
+    pitch = -KAPPA * 0.004 / 2e-3 / (2 * 2e5) / 2e-3
+    np.testing.assert_allclose(yaw, [pitch, 0.002 / 1.5e-3 / (2 * 2e5) / 1.5e-3 - KAPPA * pitch,
+                                     0.0], atol=1e-15)
+    with pytest.raises(IdentificationInputError, match="finite and > 0"):
+        WristCompliance(0.0, 6.0, 2e-3, 1.5e-3)
+
+
+def test_the_load_path_takes_the_moments_where_the_bench_wrist_sags():
+    """A weight hung from the bench's elastic wrist (pretension, slack, elasticity only; the
+    pairs symmetric, as the sag's law takes them): the load path's sagged wrist is the bench's
+    true wrist, and its efforts are those of the true wrist, where the encoders' are ten times
+    further off."""
+    import dataclasses
+
+    from psmforce.cli.excitation import WEIGHT_ARM_POSE
+    from psmforce.identification.load_path import (WristCompliance, load_path_inputs,
+                                                   sagged_positions)
+    from psmforce.io.recording import JOINT_POSITIONS, TARGETS
+    from psmforce.sim.bench import Contact, run_trajectory
+    from psmforce.sim.params import Effects, InstrumentParams
+    tool = dataclasses.replace(InstrumentParams(), cable_asymmetry=(0.0, 0.0, 0.0))
+    effects = dataclasses.replace(Effects.none(), pretension=True, slack=True, elasticity=True)
+    compliance = WristCompliance(tool.cable_stiffness_n_per_m, tool.pretension_total_n,
+                                 tool.pulley_radius_pitch_m, tool.pulley_radius_blade_m)
+    for wrist in ((0.0, -0.7, 0.7), (1.2, 0.5, -0.6)):
+        q = np.repeat(np.r_[WEIGHT_ARM_POSE, *wrist, 0.0][None], 50, 0)
+        frame = run_trajectory(q, 1e-3, Contact(kind="weight", mass_kg=0.2), tool, effects,
+                               np.random.default_rng(0))
+        true = frame[["sim_wrist_pitch_true", "sim_wrist_yaw_true"]].to_numpy()[-1]
+        encoder = q[-1, 4:6]
+        force = frame[list(TARGETS)].to_numpy()[-1:]
+        got = sagged_positions(q[-1:], force, compliance)[0, 4:6]
+        assert np.abs(encoder - true).max() > 0.01  # rad: the sag the test is about
+        np.testing.assert_allclose(got, true, atol=0.1 * np.abs(encoder - true).max())
+        # the efforts the load path reads: those of the bench's true wrist, not the encoders'
+        efforts, _ = load_path_inputs(frame.iloc[-1:], compliance=compliance)
+        at_true = wrist_efforts_for_tip_force(np.r_[q[-1, :4], true, 0.0][None], force)
+        at_encoder = wrist_efforts_for_tip_force(q[-1:], force)
+        assert (np.abs(efforts - at_true).max()
+                < 0.1 * np.abs(at_encoder - at_true).max())

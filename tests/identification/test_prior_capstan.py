@@ -220,7 +220,7 @@ def test_the_configuration_terms_scale_the_capstan_and_every_path_agrees():
     z = np.array([[0.6, 0.8, -0.5]])
     gains = dict(pretension_total=6.0, capstan_pitch_gain=0.5, capstan_roll_gain=0.3)
     none = InternalForcePrior(params=_params(**gains))
-    assert not none.has_capstan and none.friction_state() is None
+    assert not none.has_friction and none.friction_state() is None
     assert np.array_equal(none.predict_arrays(*args),
                           InternalForcePrior(params=_params(pretension_total=6.0))
                           .predict_arrays(*args))

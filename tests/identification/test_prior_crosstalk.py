@@ -11,7 +11,7 @@ from psmforce.core.integrity import seal
 from psmforce.identification.errors import IdentificationInputError
 from psmforce.identification.prior import (HELD_BY_READING, HELD_BY_READING_REASON,
                                            InternalForcePrior)
-from psmforce.identification.prior_law import (ADDED_TERMS, CAPSTAN, CROSSTALK, NAMES, _CasadiOps,
+from psmforce.identification.prior_law import (ADDED_TERMS, CROSSTALK, FRICTION, NAMES, _CasadiOps,
                                                 _model)
 
 
@@ -147,7 +147,7 @@ def test_the_efforts_reading_fits_the_cross_talk_when_asked():
     """``crosstalk`` overrides the reading's hold both ways and names nothing else."""
     from psmforce.identification.prior import held_by_reading
     assert held_by_reading("efforts") == HELD_BY_READING["efforts"]
-    assert held_by_reading("efforts", crosstalk=True) == dict.fromkeys(CAPSTAN, 0.0)
+    assert held_by_reading("efforts", crosstalk=True) == dict.fromkeys(FRICTION, 0.0)
     assert held_by_reading("load_path", crosstalk=False) == dict.fromkeys(CROSSTALK, 0.0)
     assert held_by_reading("load_path") == {}
     with pytest.raises(IdentificationInputError, match="crosstalk must be"):
