@@ -13,8 +13,11 @@ half of its samples that the reading keeps), for each reading in :data:`READINGS
   idlers' and the pins' sum, its growth terms scaled by the idlers' share);
 * ``closed jaw kept``: a jaw within ``load_path.CLENCH_TOLERANCE_RAD`` of closed is closed;
 * ``wrist sag``: the tip force's moments where the wrist sags (``load_path.sagged_positions``);
-* ``pins``: the law's own pin term at the pins' truth, the capstan at the idlers' (today's
-  reading, ``prior.fit_arrays``).
+* ``pins``: the law's own pin term at the pins' truth, the capstan at the idlers';
+* ``path as pretension``: the blade cables' path tension as their pretension
+  (``pitch_path_pretension``), which a slack pair loses, instead of added outside the pairs
+  (``pitch_path_tension`` held at 0): today's reading (``prior.fit_arrays``, the load path's
+  holds).
 
 No fit: what each reading leaves between the bench and its own law, the part of a fit's residual
 that no parameter can remove. Usage::
@@ -32,7 +35,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-READINGS = ("before", "closed jaw kept", "wrist sag", "pins")
+READINGS = ("before", "closed jaw kept", "wrist sag", "pins", "path as pretension")
 """The load path's readings, each with the changes of the ones before it (module docstring)."""
 CASES = ("0.05, 0.1, 0.2 kg, 16 paired poses", "0.05, 0.1, 0.2 kg, 16 paired poses, approached")
 """The cases of :mod:`studies.ati_free_identification` whose holds are scored."""
@@ -47,7 +50,9 @@ def _law(truth: dict, reading: str):
     from psmforce.identification.prior import InternalForcePrior
     from psmforce.identification.prior_law import NAMES, PARAMETERS
     values = {n: truth[n] if truth.get(n) is not None else p[4] for n, p in zip(NAMES, PARAMETERS)}
-    if reading != "pins":  # the law before its pin term: the capstan carries both frictions
+    # one path tension: outside the pairs before its pretension form, as pretension after it
+    values[("pitch_path_pretension" if reading != READINGS[-1] else "pitch_path_tension")] = 0.0
+    if reading not in READINGS[3:]:  # the law before its pin term: the capstan carries both
         rows = {n: {"truth": truth.get(n), "fitted": values[n], "status": "identified"}
                 for n in NAMES}
         rows["pin_friction"].update(fitted=0.0, status="fixed")

@@ -118,6 +118,7 @@ def prior_truth(instrument: InstrumentParams, psm: PSM | None = None) -> dict[st
         "capstan_mu": 0.0,                              # capstan off
         "capstan_pitch_gain": 0.0, "capstan_roll_gain": 0.0,
         "pin_friction": 0.0,                            # pin_friction off
+        "pitch_path_pretension": 0.0,                   # pitch_path_mismatch off
         **{n: 0.0 for n in CROSSTALK},                  # hex10_crosstalk off
     }
 
@@ -192,7 +193,9 @@ def default_bench_truth(instrument: InstrumentParams | None = None,
     tension); ``asymmetry_blade`` the blade pairs' mean (the law ties them); ``distal_mass`` body
     plus jaws and ``distal_com_distance`` their COM along the HEX10 z axis at the straight wrist
     (the jaws' moves with the wrist angles); ``pitch_path_tension`` = cable stiffness x path
-    mismatch (the bench adds it per blade cable, ``k e (1 - cos pitch)``); the asymmetries 0 under
+    mismatch (the bench adds it per blade cable, ``k e (1 - cos pitch)``), and
+    ``pitch_path_pretension`` the same, its form as the blade cables' pretension; the
+    asymmetries 0 under
     the quadratic pair law (``pair_law``, no linear term); the biases the residual tare offset
     (``hex10_residual_bias_n``; the moments' 0); ``crosstalk_fx`` ... ``crosstalk_tz`` the
     cross-talk matrix's entries of the axial force (``hex10_crosstalk``'s fz column; its other
@@ -228,6 +231,8 @@ def default_bench_truth(instrument: InstrumentParams | None = None,
         "asymmetry_pitch": a[0] if linear else 0.0,
         "asymmetry_blade": 0.5 * (a[1] + a[2]) if linear else 0.0,
         "pitch_path_tension": instrument.cable_stiffness_n_per_m * instrument.pitch_path_mismatch_m,
+        "pitch_path_pretension": (instrument.cable_stiffness_n_per_m
+                                  * instrument.pitch_path_mismatch_m),
         "distal_mass": m_b + m_j,
         "distal_com_distance": (m_b * l_b + m_j * l_j) / (m_b + m_j),
         "cable_radius": instrument.cable_radius_in_section_m,
@@ -287,10 +292,19 @@ def effective_truth(rows: dict) -> dict[str, float]:
     at 0 the pins add ``c S z`` to a pair's differential, which is the capstan's ``D + mu S z``
     to first order, so the capstan carries both, ``capstan_mu`` their sum and its growth terms
     the idlers' scaled by the idlers' share (the pins' friction does not grow with the
-    configuration; ``tests/experiments/test_prior_recovery.py``). ``rows``:
+    configuration; ``tests/experiments/test_prior_recovery.py``). The blade cables' path tension:
+    its form a reading holds at 0 (``pitch_path_tension`` in the load path,
+    ``pitch_path_pretension`` in the efforts) has the truth 0, the other carries it. ``rows``:
     :func:`compare_selection`'s parameters (truth, fitted, status)."""
     rest = -rows["pretension_total"]["truth"]
     out = {}
+    path = ("pitch_path_tension", "pitch_path_pretension")  # one path tension, two forms
+    for name, other in (path, path[::-1]):
+        row, alt = rows.get(name), rows.get(other)
+        if (row is not None and alt is not None and row["status"] == "fixed"
+                and row["fitted"] == 0.0 and row["truth"]
+                and not (alt["status"] == "fixed" and alt["fitted"] == 0.0)):
+            out[name] = 0.0  # held at 0 by the reading: the other form carries the path
     pins, capstan = rows.get("pin_friction"), rows.get("capstan_mu")
     if (pins is not None and capstan is not None and pins["status"] == "fixed"
             and pins["fitted"] == 0.0 and pins["truth"] and capstan["truth"] is not None):

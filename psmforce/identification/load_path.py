@@ -98,17 +98,20 @@ def wrist_efforts_for_tip_force(q, f_hex, psm: PSM | None = None) -> np.ndarray:
 @dataclass(frozen=True)
 class WristCompliance:
     """What sags the wrist under a load: each cable run's axial stiffness (N/m), the pulley
-    radii (m) that turn joint angles into cable travel and the pretension (N, the pairs' total
-    over the six cables) below which a loaded pair stays taut. A pair's differential ``D``
-    stretches its cables by ``e = D / (2 k)`` while both are taut and ``e = sign(D) (|D| - T0) /
-    k`` once the unloaded one is slack (``T0`` per cable: continuous at ``|D| = 2 T0``; the pairs'
-    asymmetry, which moves where a pair goes slack, is left out); the joints sag by ``G^-1 e``
-    with ``G`` the coupling of :mod:`psmforce.identification.prior_law` and these radii."""
+    radii (m) that turn joint angles into cable travel, the pretension (N, the pairs' total over
+    the six cables) and the pairs' asymmetries (1; the blade pairs' one). A pair's differential
+    ``D`` stretches its cables by ``e = D / (2 k)`` while both are taut and ``e = sign(D) (|D| -
+    T0) / k`` once the unloaded one is slack (``T0`` per cable), slack where the taut loop's sum
+    ``2 T0 + a D`` falls below ``|D|``: the elastic law of the pair as the bench takes it
+    (docs/simulator.md section 6). The joints sag by ``G^-1 e`` with ``G`` the coupling of
+    :mod:`psmforce.identification.prior_law` and these radii."""
 
     stiffness_n_per_m: float
     pretension_total_n: float
     pulley_radius_pitch_m: float
     pulley_radius_blade_m: float
+    asymmetry_pitch: float = 0.0
+    asymmetry_blade: float = 0.0
 
     def __post_init__(self):
         values = (self.stiffness_n_per_m, self.pretension_total_n, self.pulley_radius_pitch_m,
@@ -116,14 +119,20 @@ class WristCompliance:
         if not all(np.isfinite(v) and v > 0 for v in values):
             raise IdentificationInputError(f"a wrist compliance needs a stiffness, pretension and "
                                            f"radii finite and > 0, got {values}")
+        if not all(np.isfinite(a) and abs(a) < 1 for a in (self.asymmetry_pitch,
+                                                           self.asymmetry_blade)):
+            raise IdentificationInputError(f"a pair's asymmetry must lie in (-1, 1), got "
+                                           f"{self.asymmetry_pitch}, {self.asymmetry_blade}")
 
     @classmethod
     def design(cls) -> "WristCompliance":
         """The instrument's design values: :data:`DESIGN_CABLE_STIFFNESS_N_PER_M` and the law's
-        datasheet pretension and radii (:data:`~psmforce.identification.prior_selection.DESIGN`)."""
+        datasheet pretension, radii and asymmetries
+        (:data:`~psmforce.identification.prior_selection.DESIGN`)."""
         from psmforce.identification.prior_selection import DESIGN
         return cls(DESIGN_CABLE_STIFFNESS_N_PER_M, DESIGN["pretension_total"],
-                   DESIGN["pulley_radius_pitch"], DESIGN["pulley_radius_blade"])
+                   DESIGN["pulley_radius_pitch"], DESIGN["pulley_radius_blade"],
+                   DESIGN["asymmetry_pitch"], DESIGN["asymmetry_blade"])
 
 
 DESIGN_CABLE_STIFFNESS_N_PER_M = 2.8e5
@@ -145,7 +154,9 @@ def wrist_sag(efforts, compliance: WristCompliance) -> np.ndarray:
     d = np.stack([(e[:, 0] - KAPPA * (tau_b1 + tau_b2)) / c.pulley_radius_pitch_m,
                   tau_b1 / c.pulley_radius_blade_m, tau_b2 / c.pulley_radius_blade_m], axis=1)
     t0 = c.pretension_total_n / 6.0
-    stretch_m = np.sign(d) * np.maximum(0.5 * np.abs(d), np.abs(d) - t0) / c.stiffness_n_per_m
+    a = np.array([c.asymmetry_pitch, c.asymmetry_blade, c.asymmetry_blade])
+    taut = 2.0 * t0 + a * d >= np.abs(d)
+    stretch_m = np.where(taut, 0.5 * d, np.sign(d) * (np.abs(d) - t0)) / c.stiffness_n_per_m
     # distal deflections: G^-1 e with G = diag(r) [[1, 0, 0], [k, 1, 0], [k, 0, 1]]
     pitch = stretch_m[:, 0] / c.pulley_radius_pitch_m
     blade_1 = stretch_m[:, 1] / c.pulley_radius_blade_m - KAPPA * pitch

@@ -19,6 +19,8 @@ Model::
     u      = K^-T tau_d,  K = [[1,0,0],[k,1,0],[k,0,1]], k = 0.8306/1.0186    (dVRK coupling)
     D_i    = u_i / r_i,   r = (r_pitch, r_blade, r_blade)   pair differential at the pulleys (N)
     T0     = T_tot/6 * (1 + g_twist roll^2)           per-cable pretension with roll twist
+             (+ c_pp (1 - cos wrist_pitch) on the blade pairs: their path's stretch, gone with
+             the pair's slack; the load path's form of S_path below)
     D     += K^-T (c_pin r_i S'_i z_i) / r_i          the pulleys' pins: a torque c_pin r S z
                                                       against the motion, S'_i the pair's sum
                                                       at the section below without it (one
@@ -52,7 +54,9 @@ reading holds, :data:`HELD_BY_READING`), ``S_i = smoothmax(2 T0 + a_i D_i, |D_i|
 ``capstan_roll_gain``, loaded and held the same way) the capstan is one constant, the law before
 its configuration terms; with ``x = 0`` (``crosstalk_fx`` ... ``crosstalk_tz``,
 held and loaded the same way) the law before the cross-talk; with ``c_pin = 0``
-(``pin_friction``, likewise) the law before the pins, whose friction its capstan then carries.
+(``pin_friction``, likewise) the law before the pins, whose friction its capstan then carries;
+with ``c_pp = 0`` (``pitch_path_pretension``, likewise) the law before it, the path's tension
+added outside the pairs (``c_pm``, which the load path holds at 0 instead).
 
 with the cable angles phi = (0, 60, 120) deg of the pairs' "+" cables (datasheet). Parameters
 (:data:`PARAMETERS`) have physical bounds. What the data pin down is reported with every fit
@@ -121,8 +125,9 @@ from psmforce.io.recording import (HEX10, JOINT_POSITIONS, OVERLOAD, TARGETS, jo
                                  read_recording)
 
 FORMAT = "psmforce.identification.InternalForcePrior/1"
-FORMAT_VERSION = 7
-"""7: the wrist pulleys' pin friction (``pin_friction``). 6: the capstan's growth with the wrist's configuration (``capstan_pitch_gain``,
+FORMAT_VERSION = 8
+"""8: the blade cables' path stretch as their pretension (``pitch_path_pretension``). 7: the
+wrist pulleys' pin friction (``pin_friction``). 6: the capstan's growth with the wrist's configuration (``capstan_pitch_gain``,
 ``capstan_roll_gain``). 5: the axial force's cross-talk into the moments (``crosstalk_tx``,
 ``crosstalk_ty``, ``crosstalk_tz``). 4: the sensor's cross-talk of the axial force
 (``crosstalk_fx``, ``crosstalk_fy``). 3: the law's capstan (``capstan_mu``). 2: the integrity
@@ -133,7 +138,7 @@ was fitted with."""
 _ADDED_IN = {3: {"capstan_mu": 0.0}, 4: {"crosstalk_fx": 0.0, "crosstalk_fy": 0.0},
              5: {"crosstalk_tx": 0.0, "crosstalk_ty": 0.0, "crosstalk_tz": 0.0},
              6: {"capstan_pitch_gain": 0.0, "capstan_roll_gain": 0.0},
-             7: {"pin_friction": 0.0}}
+             7: {"pin_friction": 0.0}, 8: {"pitch_path_pretension": 0.0}}
 """Format version -> the parameters it added, with the value that gives the law before them."""
 
 _MIN_SAMPLES = MIN_SAMPLES
@@ -197,15 +202,20 @@ def internal_wrench_target(frame) -> tuple[np.ndarray, np.ndarray]:
 
 INPUTS = ("efforts", "load_path")
 """What a prior reads as the wrist torques that load its cables (:attr:`InternalForcePrior.inputs`)."""
-HELD_BY_READING = {"efforts": {**{n: 0.0 for n in FRICTION}, **{n: 0.0 for n in CROSSTALK}},
-                   "load_path": {}}
+HELD_BY_READING = {"efforts": {**{n: 0.0 for n in FRICTION}, **{n: 0.0 for n in CROSSTALK},
+                               "pitch_path_pretension": 0.0},
+                   "load_path": {"pitch_path_tension": 0.0}}
 """Parameters each reading holds (SI) unless the caller fixes them otherwise, at the value that
 gives the law before them (:data:`HELD_BY_READING_REASON` says why). The friction terms
 (:data:`~.prior_law.FRICTION`): the capstan turns the differential the wrist's pulleys demand
 into the section's, and the pins add their friction to that demand; the load path gives the
 demand, but the motor efforts are the differential at the motor, after the pins, the proximal
 path's own capstan and the discs' friction, which the law does not model: read from them, the
-terms only bend the curve fit. The cross-talk (:data:`~.prior_law.CROSSTALK`)
+terms only bend the curve fit. The blade cables' path tension: the efforts reading adds it
+outside the pair law (``pitch_path_tension``, the law its priors were trained with), the load
+path as the blade pairs' pretension (``pitch_path_pretension``), which a slack pair loses: its
+weights take blade pairs slack at pitched wrists, where the two forms part. The cross-talk
+(:data:`~.prior_law.CROSSTALK`)
 is the sensor's, and reads its own fz, so any reading can fit it; the efforts reading is the
 estimators' prior, and every committed comparison was trained with it held, so it holds it
 unless asked (``crosstalk=True``, :func:`held_by_reading`): the default efforts prior stays
@@ -215,7 +225,13 @@ _CROSSTALK_HELD = ("held by the reading: the estimators' prior holds the sensor'
 HELD_BY_READING_REASON = {
     **{n: "held by the reading: the motor efforts are the differential after the proximal "
           "path and the discs, not the wrist's demand" for n in FRICTION},
-    **{n: _CROSSTALK_HELD for n in CROSSTALK}}
+    **{n: _CROSSTALK_HELD for n in CROSSTALK},
+    "pitch_path_pretension": "held by the reading: the estimators' prior adds the blade cables' "
+                             "path tension outside the pair law (pitch_path_tension), the law "
+                             "every committed comparison was trained with",
+    "pitch_path_tension": "held by the reading: the load path reads the blade cables' path "
+                          "tension as their pretension (pitch_path_pretension), which a slack "
+                          "pair loses"}
 
 
 def held_by_reading(inputs: str, crosstalk: bool | None = None) -> dict[str, float]:

@@ -79,6 +79,14 @@ PARAMETERS = (
     # well, a pin does not, which a hold after a move shows in fz. Added after the growth terms;
     # at 0 the law's one capstan carries both frictions, as it did.
     ("pin_friction", "1", 0.0, 0.5, 0.0),
+    # The blade cables' path over the pitch pulleys is longer than its compensation when the
+    # wrist pitches: each blade cable is stretched by it, a pretension of c (1 - cos pitch) on
+    # top of T0. As pretension it goes with the pair's law: taut, the pair's sum gains 2 c
+    # (1 - cos pitch), as pitch_path_tension adds it; slack, the pair's sum is |D| and the
+    # stretch is gone, where pitch_path_tension still adds it. The load path, whose weights
+    # take blade pairs slack at pitched wrists, reads it this way and holds pitch_path_tension
+    # at 0; the efforts reading holds this one at 0, the law it was. Added after the pins.
+    ("pitch_path_pretension", "N", 0.0, 10.0, 0.0),
 )
 NAMES = tuple(p[0] for p in PARAMETERS)
 CROSSTALK = ("crosstalk_fx", "crosstalk_fy", "crosstalk_tx", "crosstalk_ty", "crosstalk_tz")
@@ -92,7 +100,7 @@ FRICTION = (*CAPSTAN, "pin_friction")
 """The law's friction terms, the capstan's and the pins'; with ``capstan_mu`` and
 ``pin_friction`` both 0 the law reads no friction state."""
 ADDED_TERMS = ("capstan_mu", *CROSSTALK, "capstan_pitch_gain", "capstan_roll_gain",
-               "pin_friction")
+               "pin_friction", "pitch_path_pretension")
 """The terms added to the law after its first 17 parameters. Each is 0 in the law before it,
 and one held at exactly 0 enters the fit's graph as the number (:func:`_model` then leaves the
 term out): a fit that holds them is the fit it was before they existed."""
@@ -156,7 +164,7 @@ def _model(p, pos, e, v, g_hex, z, xp, hex10_fz=None):
     HEX10's fz reading (N), which only the cross-talk terms read (None: they must be 0)."""
     (T_tot, r_p, r_b, g_tw, c_dir, a_p, a_b, c_pm, m_d, l_d, rho,
      bfx, bfy, bfz, btx, bty, btz, mu, *rest) = [p[i] for i in range(len(PARAMETERS))]
-    leak, (g_pitch, g_roll, c_pin) = rest[:len(CROSSTALK)], rest[len(CROSSTALK):]
+    leak, (g_pitch, g_roll, c_pin, c_pp) = rest[:len(CROSSTALK)], rest[len(CROSSTALK):]
     roll, wrist_pitch = pos[0], pos[1]
     tau_p, tau_b1, tau_b2 = e[0], 0.5 * e[1] - e[2], 0.5 * e[1] + e[2]
     # u = K^-T tau_d: K^T = [[1,k,k],[0,1,0],[0,0,1]] -> u1 = tau_b1, u2 = tau_b2, u0 = tau_p - k(u1+u2)
@@ -166,6 +174,9 @@ def _model(p, pos, e, v, g_hex, z, xp, hex10_fz=None):
     vp, vb1, vb2 = v[0], v[1] - 0.5 * v[2], v[1] + 0.5 * v[2]
     dx = (vp, KAPPA * vp + vb1, KAPPA * vp + vb2)
     two_t0 = T_tot / 3.0 * (1.0 + g_tw * roll * roll)
+    # the blade cables' path stretch as pretension of the blade pairs (gone when one is slack)
+    two_t0_blade = two_t0 if _is_zero(c_pp) else two_t0 + 2.0 * c_pp * (1.0 - xp.cos(wrist_pitch))
+    pair_two_t0 = (two_t0, two_t0_blade, two_t0_blade)
     # blade cables' path over the pitch pulleys: 4 cables each gain c_pm (1 - cos pitch)
     S_sum = 4.0 * c_pm * (1.0 - xp.cos(wrist_pitch))
     asym = (a_p, a_b, a_b)
@@ -181,11 +192,11 @@ def _model(p, pos, e, v, g_hex, z, xp, hex10_fz=None):
     def section(i, d):
         """Pair i's (differential, sum) at the section for differential ``d`` at its pulleys."""
         if no_capstan:
-            return d, tension_sum(two_t0 + asym[i] * d, d, SMOOTH_MAX_N, xp)
+            return d, tension_sum(pair_two_t0[i] + asym[i] * d, d, SMOOTH_MAX_N, xp)
         # the capstan between the wrist's pulleys and the section: T+- gain exp(+-mu z)
         c, s = xp.cosh(mu_pair[i] * z[i]), xp.sinh(mu_pair[i] * z[i])
         # taut: the loop closes at the section, S - a E = 2 T0
-        taut = (two_t0 + d * (asym[i] * c - s)) / (c - asym[i] * s)
+        taut = (pair_two_t0[i] + d * (asym[i] * c - s)) / (c - asym[i] * s)
         s_pulley = tension_sum(taut, d, SMOOTH_MAX_N, xp)
         return d * c + s_pulley * s, s_pulley * c + d * s
 

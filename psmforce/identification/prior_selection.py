@@ -60,6 +60,7 @@ DESIGN = {
     "crosstalk_fx": 0.0, "crosstalk_fy": 0.0,  # 1: the sensor's calibration decouples it
     "crosstalk_tx": 0.0, "crosstalk_ty": 0.0, "crosstalk_tz": 0.0,  # m: likewise
     "pin_friction": 0.0,            # 1: no friction by design (held, the capstan carries it)
+    "pitch_path_pretension": 0.896,  # N: pitch_path_tension's, as the blade cables' pretension
 }
 """The value a parameter is held at when the data cannot pin it down: the instrument's design
 (nominal) values as docs/simulator.md states them, read as a datasheet (SI, :data:`NAMES`). They

@@ -13,7 +13,7 @@ from psmforce.estimators.training.calibrate import calibrate
 from psmforce.estimators.training.checkpoint import load_checkpoint
 from psmforce.estimators.training.train import TrainConfig, TrainingError, train
 from psmforce.estimators.data.dataset import load_dataset
-from psmforce.identification.prior_law import CAPSTAN, CROSSTALK, NAMES
+from psmforce.identification.prior_law import CROSSTALK, FRICTION, NAMES
 from psmforce.io.recording import HEX10
 from psmforce.identification.prior_remount import FORCE_PER_MOUNT
 from psmforce.sim import simulate
@@ -33,12 +33,16 @@ def bench(tmp_path_factory):
     return root
 
 
+EFFORTS_HOLD = (*FRICTION, "pitch_path_pretension")
+"""What the efforts reading holds besides the cross-talk: the law its priors were trained with."""
+
+
 @pytest.mark.slow
 def test_the_prior_fits_the_cross_talk_and_says_so(bench):
     prior = load_checkpoint(bench / "h.pt").prior()
     assert prior.has_crosstalk
     assert not set(CROSSTALK) & set(prior.info["fixed"])     # fitted, not held
-    assert prior.info["fixed"] == dict.fromkeys(CAPSTAN, 0.0)  # what the efforts still hold
+    assert prior.info["fixed"] == dict.fromkeys(EFFORTS_HOLD, 0.0)  # what the efforts still hold
 
 
 @pytest.mark.slow
@@ -47,7 +51,7 @@ def test_calibrations_refit_the_law_the_checkpoint_has(bench, tmp_path):
     summary = calibrate(bench / "h.pt", bench / "bench", tmp_path / "free.pt", minutes=30.0,
                         epochs=1, train_config=CHEAP, free_space=True)
     refit = summary["calibration"]["prior_refit"]
-    assert refit["held_by_reading"] == list(CAPSTAN)
+    assert refit["held_by_reading"] == list(EFFORTS_HOLD)
     # the sensor is zeroed at every mount: an offset the data cannot pin down is still this
     # mount's, refitted, never the checkpoint's (on this bench every offset is listed)
     assert refit["offsets_refitted_although_listed"]

@@ -249,3 +249,30 @@ def test_the_load_path_takes_the_moments_where_the_bench_wrist_sags():
         at_encoder = wrist_efforts_for_tip_force(q[-1:], force)
         assert (np.abs(efforts - at_true).max()
                 < 0.1 * np.abs(at_encoder - at_true).max())
+
+
+def test_the_path_tension_as_pretension_leaves_with_a_slack_blade_pair():
+    """The blade cables' path tension c (1 - cos pitch) per cable: taut, the pretension form
+    (pitch_path_pretension, the load path's) adds to each blade pair's sum what the outside form
+    (pitch_path_tension, the efforts') adds; with both blade pairs slack under a yaw load, the
+    pair's sum is |D| and the pretension form adds nothing, where the outside form still adds
+    4 c (1 - cos pitch) of compression."""
+    c, pitch = 0.9, 0.7
+    base = dict(zip(NAMES, InternalForcePrior().params))
+    base.update(pretension_total=6.0, pulley_radius_pitch=2e-3, pulley_radius_blade=1.5e-3,
+                pitch_path_tension=0.0)
+
+    def fz(yaw_effort_nm, **terms):
+        p = np.array([{**base, **terms}.get(n) for n in NAMES])
+        pos, e = np.array([[0.0, pitch]]), np.array([[0.0, yaw_effort_nm, 0.0]])
+        return InternalForcePrior(params=p).law_arrays(pos, e, np.zeros((1, 3)),
+                                                       np.zeros((1, 3)))[0, 2]
+
+    path = 4.0 * c * (1.0 - np.cos(pitch))
+    taut, slack = 1e-3, 0.03  # Nm of yaw: 0.33 N and 10 N per blade pair, T0 = 1 N per cable
+    outside = {"pitch_path_tension": c}
+    inside = {"pitch_path_pretension": c}
+    assert fz(taut, **inside) == pytest.approx(fz(taut, **outside), abs=1e-3)
+    assert fz(taut, **inside) == pytest.approx(fz(taut) - path, abs=1e-3)
+    assert fz(slack, **inside) == pytest.approx(fz(slack), abs=0.01)
+    assert fz(slack, **outside) == pytest.approx(fz(slack) - path, abs=1e-6)

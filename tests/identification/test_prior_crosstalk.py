@@ -147,9 +147,12 @@ def test_the_efforts_reading_fits_the_cross_talk_when_asked():
     """``crosstalk`` overrides the reading's hold both ways and names nothing else."""
     from psmforce.identification.prior import held_by_reading
     assert held_by_reading("efforts") == HELD_BY_READING["efforts"]
-    assert held_by_reading("efforts", crosstalk=True) == dict.fromkeys(FRICTION, 0.0)
-    assert held_by_reading("load_path", crosstalk=False) == dict.fromkeys(CROSSTALK, 0.0)
-    assert held_by_reading("load_path") == {}
+    assert held_by_reading("efforts", crosstalk=True) == {**dict.fromkeys(FRICTION, 0.0),
+                                                          "pitch_path_pretension": 0.0}
+    path = {"pitch_path_tension": 0.0}  # the load path reads it as the pretension form
+    assert held_by_reading("load_path", crosstalk=False) == {**path,
+                                                             **dict.fromkeys(CROSSTALK, 0.0)}
+    assert held_by_reading("load_path") == path
     with pytest.raises(IdentificationInputError, match="crosstalk must be"):
         held_by_reading("efforts", crosstalk="yes")
     with pytest.raises(IdentificationInputError, match="unknown prior inputs"):

@@ -48,7 +48,8 @@ def test_bounds_hit_and_the_report_use_one_rule():
     call it at its bound (the fit's rule was 1e-6 of the span, the report's 1e-3: the issue's
     "bounds_hit is empty while the report says a radius is at its bound")."""
     params = InternalForcePrior().params.copy()
-    for name in ("capstan_mu", "capstan_pitch_gain", "capstan_roll_gain", "pin_friction"):
+    for name in ("capstan_mu", "capstan_pitch_gain", "capstan_roll_gain", "pin_friction",
+                 "pitch_path_pretension"):
         params[NAMES.index(name)] = 0.2  # the default, 0, sits on its lower bound
     k = NAMES.index("pulley_radius_pitch")
     lo, hi = PARAMETERS[k][2], PARAMETERS[k][3]
@@ -150,7 +151,8 @@ def test_the_verdict_names_fixed_and_bound_parameters_and_never_just_passes(smal
     free = fit_prior_cli(small_bench, tmp_path / "q.json", identify=False)
     assert free["fixed"] == HELD_BY_READING["efforts"] and "curve fit" in free["verdict"]
     assert (("capstan_mu, capstan_pitch_gain, capstan_roll_gain, crosstalk_fx, crosstalk_fy, "
-             "crosstalk_tx, crosstalk_ty, crosstalk_tz, pin_friction held by the reading")
+             "crosstalk_tx, crosstalk_ty, crosstalk_tz, pin_friction, pitch_path_pretension "
+             "held by the reading")
             in free["verdict"])
     assert "passes" not in free["verdict"]
     listed = free["not_identifiable"]

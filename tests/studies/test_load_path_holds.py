@@ -25,9 +25,12 @@ def test_before_the_pin_term_the_capstan_carries_both_frictions():
     wrist = tool.capstan_mu_wrap_distal + tool.pin_friction_coefficient
     for reading in READINGS:
         p = dict(zip(NAMES, _law(truth, reading).params))
-        own = reading == "pins"
+        own = reading in ("pins", "path as pretension")
         assert p["pin_friction"] == (tool.pin_friction_coefficient if own else 0.0)
         assert np.isclose(p["capstan_mu"], tool.capstan_mu_wrap_distal if own else wrist)
+        inside = reading == "path as pretension"  # one form of the path tension at a time
+        assert (p["pitch_path_pretension"] > 0, p["pitch_path_tension"] > 0) == (inside,
+                                                                                 not inside)
 
 
 def test_a_hold_at_closed_is_kept_and_the_sag_taken_out_of_the_laws_error():
