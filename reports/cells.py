@@ -21,6 +21,10 @@ def miss_rule(run: dict) -> str:
         rule += ("; where a cross-talk term is held off the bench's, the bias of its channel is "
                  "judged against the truth as the law holds it (the bench's offset plus the held "
                  "cross-talk's share of the rest axial force, shown as \"as held\")")
+    if "pin_friction" in run.get("parameters", {}):  # runs of the law with its own pins
+        rule += ("; the capstan, where the pins are held at 0, against the idlers' and the "
+                 "pins' sum (its growth terms against the idlers' share), and the form of the "
+                 "blade cables' path tension that the reading holds at 0 against 0")
     return rule
 
 

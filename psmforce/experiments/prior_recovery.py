@@ -347,7 +347,9 @@ def judge(rows: dict) -> dict:
     return {"misses": misses, "uncompared": uncompared,
             "recovery_tolerance": RECOVERY_TOLERANCE, "offset_resolution": OFFSET_RESOLUTION,
             "truth_as_held": "a bias is judged against its effective truth where a cross-talk "
-                             "term is held off the bench's (effective_truth)"}
+                             "term is held off the bench's, the capstan where the pins are held "
+                             "at 0, a form of the path tension the reading holds at 0 "
+                             "(effective_truth)"}
 
 
 def rescore(result: dict, command: str) -> dict:

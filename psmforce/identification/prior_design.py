@@ -58,8 +58,18 @@ def designed(reading: str = "efforts") -> tuple[str, ...]:
 
 DESIGNED = designed("efforts")
 """The parameters an efforts design informs (:func:`designed`)."""
-DESIGN_PARAMS = np.array([DESIGN[n] for n in NAMES])
-"""The law's parameters the information is evaluated at (SI, all of :data:`NAMES`)."""
+
+
+def design_params(reading: str = "efforts") -> np.ndarray:
+    """The law's parameters the information is evaluated at (SI, all of :data:`NAMES`): the
+    design values, with what ``reading`` holds at its held value (the law that reading fits:
+    the blade cables' path tension in one form only)."""
+    held = held_by_reading(reading)
+    return np.array([held.get(n, DESIGN[n]) for n in NAMES])
+
+
+DESIGN_PARAMS = design_params("efforts")
+""":func:`design_params` of the efforts reading."""
 
 
 def _index(reading: str) -> list[int]:
@@ -82,7 +92,7 @@ this many times its share of the duration: it tells more about it than an averag
 A parameter every sample sees alike (a bias) is excited by none in particular."""
 
 
-def fisher_information(frame, channel_noise, params=DESIGN_PARAMS, psm=None,
+def fisher_information(frame, channel_noise, params=None, psm=None,
                        reading: str = "efforts") -> np.ndarray:
     """(F, F) Fisher information (physical units) of a recording ``frame`` (the recording
     layout; a simulated one, or a plan run through the bench; the load path needs its known tip
@@ -90,6 +100,7 @@ def fisher_information(frame, channel_noise, params=DESIGN_PARAMS, psm=None,
     ``reading`` fits (F, :func:`designed`), each HEX10 channel [fx fy fz tx ty tz] with white
     noise ``channel_noise`` (6,) (N, Nm). Additive: the information of two recordings is the
     sum of theirs."""
+    params = design_params(reading) if params is None else params
     arrays, _, mask = fit_arrays(frame, reading, psm)
     inputs = (arrays["positions"], arrays["efforts"], arrays["velocities"], arrays["g_hex"],
               arrays["direction"], arrays["hex10_fz"])
@@ -138,7 +149,7 @@ def standard_errors(info: np.ndarray, reading: str = "efforts") -> np.ndarray:
     return se
 
 
-def not_identifiable(info: np.ndarray, params=DESIGN_PARAMS, reading: str = "efforts"
+def not_identifiable(info: np.ndarray, params=None, reading: str = "efforts"
                      ) -> dict[str, str]:
     """Parameter -> why a fit on data with this information would not pin it down (the rules of
     the module docstring)."""
@@ -147,7 +158,7 @@ def not_identifiable(info: np.ndarray, params=DESIGN_PARAMS, reading: str = "eff
     se = np.sqrt(np.maximum(np.diag(cov), 0.0))
     corr = cov / np.outer(np.where(se > 0, se, 1.0), np.where(se > 0, se, 1.0))
     np.fill_diagonal(corr, 0.0)
-    value = np.asarray(params, dtype=float)[index]
+    value = np.asarray(design_params(reading) if params is None else params, dtype=float)[index]
     allowed = np.array([precision_needed(n, x) if is_offset(n) or x != 0.0
                         else ZERO_VALUE_SPAN * span for n, x, span in zip(names, value, spans)])
     reasons = {}
@@ -171,7 +182,7 @@ def _finite(x) -> float | None:
     return float(x) if np.isfinite(x) else None
 
 
-def summary(info: np.ndarray, params=DESIGN_PARAMS, reading: str = "efforts") -> dict:
+def summary(info: np.ndarray, params=None, reading: str = "efforts") -> dict:
     """The criteria of one information matrix, JSON ready (an infinite value as None)."""
     se = standard_errors(info, reading)
     return {"log_det": _finite(log_det(info, reading)),
@@ -198,7 +209,7 @@ def segment_shares(infos: list[np.ndarray], durations_s, reading: str = "efforts
 
 
 def known_weight_gains(base: np.ndarray, candidates: dict[str, np.ndarray],
-                       params=DESIGN_PARAMS, reading: str = "efforts") -> dict:
+                       params=None, reading: str = "efforts") -> dict:
     """What known masses hung at the tip add to the information ``base`` (the excitation's).
 
     ``candidates``: label (a mass in an orientation) -> the information of holding it. Each

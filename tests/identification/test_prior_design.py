@@ -34,8 +34,20 @@ def test_a_parameter_without_information_is_not_identifiable_and_has_no_finite_e
 
 def test_the_load_path_informs_every_parameter_and_the_efforts_hold_the_capstan_and_crosstalk():
     efforts, load_path = set(pd_.designed("efforts")), set(pd_.designed("load_path"))
-    assert efforts < load_path and pd_.DESIGNED == pd_.designed("efforts")
-    assert {"capstan_mu", "capstan_pitch_gain", "crosstalk_fx"} <= load_path - efforts
+    assert pd_.DESIGNED == pd_.designed("efforts")
+    assert {"capstan_mu", "capstan_pitch_gain", "crosstalk_fx", "pin_friction",
+            "pitch_path_pretension"} <= load_path - efforts
+    assert efforts - load_path == {"pitch_path_tension"}  # one form of the path tension each
+
+
+def test_each_reading_is_evaluated_at_the_law_it_fits():
+    """The design values with the reading's holds: the blade cables' path tension in one form
+    only (both at their design value would count it twice)."""
+    from psmforce.identification.prior import NAMES
+    for reading, held in (("efforts", "pitch_path_pretension"), ("load_path",
+                                                                  "pitch_path_tension")):
+        p = dict(zip(NAMES, pd_.design_params(reading)))
+        assert p[held] == 0.0 and (p["pitch_path_tension"] + p["pitch_path_pretension"]) > 0
 
 
 def test_a_matrix_of_another_reading_is_refused_naming_it():
