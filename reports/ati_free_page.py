@@ -6,7 +6,7 @@ takes the parsed JSON and returns the block's markdown."""
 
 from __future__ import annotations
 
-from reports.cells import as_held, miss_rule, rescored_note, with_pins
+from reports.cells import as_held, miss_rule, relative_error, rescored_note, with_pins
 
 FORCE_AXES = ("fx", "fy", "fz")
 
@@ -443,7 +443,8 @@ def instrument_identification_tables(result: dict) -> str:
             cells = []
             for case in cases:
                 r = runs[case]["parameters"][name]
-                rel = "" if r["relative_error"] is None else f" ({100 * r['relative_error']:.0f} %)"
+                err = relative_error(r)
+                rel = "" if err is None else f" ({100 * err:.0f} %)"
                 mark = ("identified, **MISS**" if name in runs[case]["misses"]
                         else _MARKS.get(r["status"], r["status"]))
                 cells.append(f"{r['fitted']:.4g}{rel}{as_held(r)} {mark}")

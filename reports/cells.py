@@ -35,6 +35,16 @@ def as_held(row: dict) -> str:
     return "" if eff is None or row["status"] != "identified" else f" ({eff:.4g} as held)"
 
 
+def relative_error(row: dict) -> float | None:
+    """|fitted / truth - 1|: for an identified parameter judged against an effective truth,
+    against it (what the miss rule judges); else the stored relative error (None without a
+    non-zero truth)."""
+    eff = row.get("effective_truth")
+    if eff is None or row["status"] != "identified":
+        return row["relative_error"]
+    return None if eff == 0 else abs(row["fitted"] / eff - 1.0)
+
+
 def rescored_note(result: dict) -> str:
     """``, misses judged again by `COMMAND` (the fits untouched)`` for a study JSON rescored by
     ``experiments.prior_recovery.rescore``, else nothing."""

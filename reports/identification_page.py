@@ -6,7 +6,8 @@ from __future__ import annotations
 
 import math
 
-from reports.cells import as_held, miss_rule, rescored_note, spread_cell, with_pins
+from reports.cells import (as_held, miss_rule, relative_error, rescored_note, spread_cell,
+                           with_pins)
 
 MODEL_NAMES = {"physics": "physics alone (`CableTransmission`)", "fcn": "FCN",
                "lstm": "LSTM", "transformer": "paper transformer",
@@ -170,7 +171,8 @@ def prior_default_recovery_table(result: dict) -> str:
                   "| parameter | unit | truth | all-free fit | final fit | rel. error | status |",
                   "|---|---|---|---|---|---|---|"]
         for name, r in rows.items():
-            rel = "" if r["relative_error"] is None else f"{100 * r['relative_error']:.1f} %"
+            err = relative_error(r)
+            rel = "" if err is None else f"{100 * err:.1f} %"
             status = r["status"]
             if status == "fixed" and rel:
                 rel += " (design vs truth)"
