@@ -126,13 +126,8 @@ class WristCompliance:
 
     @classmethod
     def design(cls) -> "WristCompliance":
-        """The instrument's design values: :data:`DESIGN_CABLE_STIFFNESS_N_PER_M` and the law's
-        datasheet pretension, radii and asymmetries
-        (:data:`~psmforce.identification.prior_selection.DESIGN`)."""
-        from psmforce.identification.prior_selection import DESIGN
-        return cls(DESIGN_CABLE_STIFFNESS_N_PER_M, DESIGN["pretension_total"],
-                   DESIGN["pulley_radius_pitch"], DESIGN["pulley_radius_blade"],
-                   DESIGN["asymmetry_pitch"], DESIGN["asymmetry_blade"])
+        """The instrument's design values (:data:`DESIGN_COMPLIANCE`)."""
+        return DESIGN_COMPLIANCE
 
 
 DESIGN_CABLE_STIFFNESS_N_PER_M = 2.8e5
@@ -140,6 +135,13 @@ DESIGN_CABLE_STIFFNESS_N_PER_M = 2.8e5
 real EndoWrist's transmission (the MRD Lab's Tool_4_Maryland_L_4, docs/simulator.md section 10).
 Fixed, not identified: the ATI-free recordings do not separate it from the radii; a tool whose
 cables are 20 % stiffer or softer sags 20 % less or more than the load path assumes."""
+DESIGN_COMPLIANCE = WristCompliance(DESIGN_CABLE_STIFFNESS_N_PER_M, pretension_total_n=6.0,
+                                    pulley_radius_pitch_m=2.0e-3, pulley_radius_blade_m=1.5e-3,
+                                    asymmetry_pitch=0.30, asymmetry_blade=0.275)
+"""The sag's design values: the stiffness above and the law's datasheet pretension, radii and
+asymmetries, those of :data:`~psmforce.identification.prior_selection.DESIGN` (written out here,
+which the selection's layer sits above; ``tests/identification/test_load_path.py`` holds them
+equal)."""
 
 
 def wrist_sag(efforts, compliance: WristCompliance) -> np.ndarray:

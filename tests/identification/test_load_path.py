@@ -276,3 +276,14 @@ def test_the_path_tension_as_pretension_leaves_with_a_slack_blade_pair():
     assert fz(taut, **inside) == pytest.approx(fz(taut) - path, abs=1e-3)
     assert fz(slack, **inside) == pytest.approx(fz(slack), abs=0.01)
     assert fz(slack, **outside) == pytest.approx(fz(slack) - path, abs=1e-6)
+
+
+def test_the_sags_design_values_are_the_laws():
+    from psmforce.identification.load_path import DESIGN_COMPLIANCE, WristCompliance
+    from psmforce.identification.prior_selection import DESIGN
+    c = WristCompliance.design()
+    assert c is DESIGN_COMPLIANCE
+    assert (c.pretension_total_n, c.pulley_radius_pitch_m, c.pulley_radius_blade_m,
+            c.asymmetry_pitch, c.asymmetry_blade) == tuple(DESIGN[n] for n in (
+                "pretension_total", "pulley_radius_pitch", "pulley_radius_blade",
+                "asymmetry_pitch", "asymmetry_blade"))
