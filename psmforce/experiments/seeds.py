@@ -35,6 +35,10 @@ ATI_FREE_IDENTIFICATION_SEEDS = (431, 432, 433)
 """The instrument identified without an ATI through the load path
 (``studies/ati_free_identification.py``): tried on seed 201's ATI-free recordings, confirmed on
 these."""
+ATI_FREE_READING_SEEDS = (434, 435, 436)
+"""Fresh seeds for the load path as read since the closed jaw, the wrist's sag, the pins and the
+path tension as pretension (docs/ati_free.md section 4.1), all proposed after seeing
+``ATI_FREE_IDENTIFICATION_SEEDS``: declared before any run on them."""
 COMPARISON_SEEDS = {0.1: (101, 102, 103, 104, 105), 0.25: (101, 102, 103, 104, 105),
                     1.0: (101, 102, 103)}
 """Per scale, the seeds of the published comparison (at least 5 at 0.1 and 0.25, 3 at the

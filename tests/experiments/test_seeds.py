@@ -28,3 +28,17 @@ def test_a_design_seed_is_refused_for_a_claim():
     check_fresh(RECIPE_SWAP_SEEDS, "recipe swap")
     with pytest.raises(ValueError, match=r"recipe swap: seed\(s\) \[1, 18\]"):
         check_fresh((1, 18, 201), "recipe swap")
+
+
+def test_the_load_paths_blind_seeds_were_never_used():
+    """``ATI_FREE_READING_SEEDS`` share no seed with any other declared set."""
+    import psmforce.experiments.seeds as seeds
+    from psmforce.experiments.seeds import ATI_FREE_READING_SEEDS
+    others = set()
+    for name, value in vars(seeds).items():
+        if name.endswith("_SEEDS") and name != "ATI_FREE_READING_SEEDS":
+            values = value.values() if isinstance(value, dict) else [value]
+            others |= {s for v in values for s in (v if isinstance(v, (tuple, list, set,
+                                                                        frozenset)) else [v])}
+    assert others and not set(ATI_FREE_READING_SEEDS) & others
+    check_fresh(ATI_FREE_READING_SEEDS, "the load path's blind rerun")
