@@ -424,8 +424,11 @@ def instrument_identification_tables(result: dict) -> str:
     last = cases[-1]
     lines = ["", f"`{result['command']}`{rescored_note(result)} (simulator "
              f"{result['simulator_version']}; scale "
-             f"{result['settings']['scale']:g}; seed {result['design_seed']} is the design seed, "
-             "the others fresh). Per case, the final fit of `psmforce calibrate --free-space "
+             f"{result['settings']['scale']:g}; "
+             + (f"seed {result['design_seed']} is the design seed, the others fresh"
+                if result["design_seed"] in result["settings"]["seeds"] else
+                "every seed fresh, declared before the run")
+             + "). Per case, the final fit of `psmforce calibrate --free-space "
              "--known-loads`'s identification (`calibrate.identify_instrument`): its value, its "
              "error against the drawn tool's truth, and *fixed* (held at the design value: the "
              "report or the jackknife over trial groups lists it), identified (free, not "

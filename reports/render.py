@@ -48,6 +48,8 @@ PRIOR_RECOVERY_DEFAULT = ROOT / "results" / "benchmarks" / "prior_recovery_defau
 PRIOR_RECOVERY_LOAD_PATH = ROOT / "results" / "benchmarks" / "prior_recovery_load_path.json"
 ATI_FREE_IDENTIFICATION = ROOT / "results" / "benchmarks" / "ati_free_identification.json"
 LOAD_PATH_HOLDS = ROOT / "results" / "benchmarks" / "load_path_holds.json"
+ATI_FREE_IDENTIFICATION_BLIND = (ROOT / "results" / "benchmarks"
+                                 / "ati_free_identification_blind.json")
 COMPARISON = ROOT / "results" / "ports" / "none" / "results.json"
 PORTS = ROOT / "results" / "benchmarks" / "port_comparison.json"
 ANOTHER_TOOL = ROOT / "results" / "benchmarks" / "another_tool.json"
@@ -198,6 +200,8 @@ BLOCKS = (
     (ATI_FREE, "instrument-identification-tables", ATI_FREE_IDENTIFICATION,
      ati_free_page.instrument_identification_tables),
     (ATI_FREE, "load-path-holds", LOAD_PATH_HOLDS, ati_free_page.load_path_holds_table),
+    (ATI_FREE, "instrument-identification-blind", ATI_FREE_IDENTIFICATION_BLIND,
+     ati_free_page.instrument_identification_tables),
     (ATI_FREE, "hex10-compression", HEX10_COMPRESSION, ati_free_page.hex10_compression_table),
     (RESULTS, "hybrid-plateau", HYBRID_PLATEAU, _hybrid_plateau_table),
     (RESULTS, "prior-ablation-tables", PRIOR_ABLATION, results_page.prior_ablation_tables),

@@ -30,6 +30,7 @@ again by today's rule (:func:`psmforce.experiments.prior_recovery.judge`), the f
 from __future__ import annotations
 
 import argparse
+import shlex
 import sys
 import time
 from pathlib import Path
@@ -114,6 +115,8 @@ def _seed(seed: int, args, q_exc) -> list[dict]:
     truth = default_bench_truth(tool)
     rows = []
     for label, (masses, poses) in CASES.items():
+        if args.cases and label not in args.cases:
+            continue
         free, loads, made = case_recordings(seed, label, args, q_exc)
         started = time.perf_counter()
         prior = identify_instrument(free + loads)
@@ -184,6 +187,8 @@ def main(argv=None) -> dict:
     ap.add_argument("--hold-s", type=float, default=10.0)
     ap.add_argument("--work", type=Path, default=Path("runs/ati_free_identification"))
     ap.add_argument("--json", type=Path)
+    ap.add_argument("--cases", nargs="+", choices=list(CASES),
+                    help="only these cases (default: every one of CASES)")
     ap.add_argument("--rescore", action="store_true",
                     help="judge the misses of --json again by today's rule "
                          "(experiments.prior_recovery.judge), the fits untouched; rewrites it")
@@ -195,14 +200,14 @@ def main(argv=None) -> dict:
     runs = [row for seed in args.seeds for row in _seed(seed, args, q_exc)]
     figures = {
         "command": "python studies/ati_free_identification.py " + " ".join(
-            a if not args.json or a != str(args.json) else shown_path(args.json)
+            shlex.quote(a if not args.json or a != str(args.json) else shown_path(args.json))
             for a in (argv if argv is not None else sys.argv[1:])),
         "simulator_version": SIM_VERSION, "design_seed": DESIGN_SEED,
         "settings": {k: (shown_path(v) if isinstance(v, Path) else v)
                      for k, v in vars(args).items()},
         "cases": {k: {"masses_kg": list(m), "poses": p,
                       "approach_rad": APPROACH_RAD if p.endswith("approached") else 0.0}
-                  for k, (m, p) in CASES.items()},
+                  for k, (m, p) in CASES.items() if not args.cases or k in args.cases},
         "design": DESIGN,
         "runs": runs, "seconds": time.perf_counter() - started}
     if args.json:
