@@ -133,15 +133,15 @@ class WristCompliance:
 DESIGN_CABLE_STIFFNESS_N_PER_M = 2.8e5
 """One cable run's axial stiffness (N/m) the load path's sag assumes: the value calibrated on a
 real EndoWrist's transmission (the MRD Lab's Tool_4_Maryland_L_4, docs/simulator.md section 10).
-Fixed, not identified: the ATI-free recordings do not separate it from the radii; a tool whose
-cables are 20 % stiffer or softer sags 20 % less or more than the load path assumes."""
+Fixed, not identified: the load path computes the sag from design values before any fit; a
+tool whose cables are 20 % stiffer or softer sags 20 % less or more than it assumes."""
 DESIGN_COMPLIANCE = WristCompliance(DESIGN_CABLE_STIFFNESS_N_PER_M, pretension_total_n=6.0,
                                     pulley_radius_pitch_m=2.0e-3, pulley_radius_blade_m=1.5e-3,
                                     asymmetry_pitch=0.30, asymmetry_blade=0.275)
 """The sag's design values: the stiffness above and the law's datasheet pretension, radii and
-asymmetries, those of :data:`~psmforce.identification.prior_selection.DESIGN` (written out here,
-which the selection's layer sits above; ``tests/identification/test_load_path.py`` holds them
-equal)."""
+asymmetries, those of :data:`~psmforce.identification.prior_selection.DESIGN`, written out here
+because the selection's layer sits above this one (``tests/identification/test_load_path.py``
+holds them equal)."""
 
 
 def wrist_sag(efforts, compliance: WristCompliance) -> np.ndarray:
