@@ -25,9 +25,9 @@ Frames, units, signs (one place):
 * **The wrist sags under the load.** The joint positions a recording carries are the motor
   side's (encoders); the cables stretch under the differential the load demands, so the wrist
   stands at ``q_true = q_encoder - sag`` (docs/simulator.md section 6, the bench's elasticity),
-  and the tip force's moments are taken there. The sag is tens of mrad for a pair gone slack
-  under a 2 N tip load, which moves a weight's moment about a wrist at 0.7 rad by a few % and the
-  cable compression the HEX10 reads by about a newton. :func:`wrist_sag` gives it from the
+  and the tip force's moments are taken there: a bent wrist's moment arm changes with its angle,
+  and with it the differential the cables carry and the compression the HEX10 reads (measured
+  on hung weights in docs/ati_free.md section 4.1). :func:`wrist_sag` gives it from the
   demanded efforts with the instrument's design values (:class:`WristCompliance`: the cable
   stiffness is not identified here, and the law's radii and pretension are what the fit looks
   for), one fixed-point pass as the bench takes: the efforts at the encoders' pose, the sag they
@@ -47,7 +47,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from psmforce.identification.errors import IdentificationInputError
-from psmforce.identification.prior_law import KAPPA
+from psmforce.identification.prior_law import KAPPA, pair_differentials
 from psmforce.io.recording import JOINT_POSITIONS, TARGETS
 from psmforce.robot import PSM
 from psmforce.robot.conventions import JAW_CLOSED_RAD, JAW_JOINT, JOINTS
@@ -151,10 +151,8 @@ def wrist_sag(efforts, compliance: WristCompliance) -> np.ndarray:
     and the wrist gives way along the load, against the effort."""
     e = np.asarray(efforts, dtype=float)
     c = compliance
-    # the law's pair differentials (prior_law._model): distal torques, then K^-T, over radii
-    tau_b1, tau_b2 = 0.5 * e[:, 1] - e[:, 2], 0.5 * e[:, 1] + e[:, 2]
-    d = np.stack([(e[:, 0] - KAPPA * (tau_b1 + tau_b2)) / c.pulley_radius_pitch_m,
-                  tau_b1 / c.pulley_radius_blade_m, tau_b2 / c.pulley_radius_blade_m], axis=1)
+    d = np.stack(pair_differentials(e[:, 0], e[:, 1], e[:, 2], c.pulley_radius_pitch_m,
+                                    c.pulley_radius_blade_m), axis=1)
     t0 = c.pretension_total_n / 6.0
     a = np.array([c.asymmetry_pitch, c.asymmetry_blade, c.asymmetry_blade])
     taut = 2.0 * t0 + a * d >= np.abs(d)

@@ -118,7 +118,8 @@ from psmforce.identification.prior_law import (ADDED_TERMS, CABLE_ANGLES_RAD,  #
                                                 MIN_SAMPLES,
                                                 PARAMETERS,
                                                 _CasadiOps, _model, FrictionDirection,
-                                                at_bound, friction_direction)
+                                                at_bound, friction_direction,
+                                                pair_differentials)
 from psmforce.identification.signals import check_finite_2d
 from psmforce.robot.kinematics import PSM
 from psmforce.io.recording import (HEX10, JOINT_POSITIONS, OVERLOAD, TARGETS, joint_column,
@@ -127,8 +128,8 @@ from psmforce.io.recording import (HEX10, JOINT_POSITIONS, OVERLOAD, TARGETS, jo
 FORMAT = "psmforce.identification.InternalForcePrior/1"
 FORMAT_VERSION = 8
 """8: the blade cables' path stretch as their pretension (``pitch_path_pretension``). 7: the
-wrist pulleys' pin friction (``pin_friction``). 6: the capstan's growth with the wrist's configuration (``capstan_pitch_gain``,
-``capstan_roll_gain``). 5: the axial force's cross-talk into the moments (``crosstalk_tx``,
+wrist pulleys' pin friction (``pin_friction``). 6: the capstan's growth with the wrist's
+configuration (``capstan_pitch_gain``, ``capstan_roll_gain``). 5: the axial force's cross-talk into the moments (``crosstalk_tx``,
 ``crosstalk_ty``, ``crosstalk_tz``). 4: the sensor's cross-talk of the axial force
 (``crosstalk_fx``, ``crosstalk_fy``). 3: the law's capstan (``capstan_mu``). 2: the integrity
 envelope (:mod:`psmforce.core.integrity`: a SHA-256 over every field) and this integer; a file with neither was written before them and
@@ -143,7 +144,8 @@ _ADDED_IN = {3: {"capstan_mu": 0.0}, 4: {"crosstalk_fx": 0.0, "crosstalk_fy": 0.
 
 _MIN_SAMPLES = MIN_SAMPLES
 _CAPSTAN = NAMES.index("capstan_mu")
-_FRICTION_STATE = [_CAPSTAN, NAMES.index("pin_friction")]
+_PINS = NAMES.index("pin_friction")
+_FRICTION_STATE = [_CAPSTAN, _PINS]
 """The terms that read the pairs' friction states: with both 0 the law reads none."""
 _CROSSTALK = [NAMES.index(n) for n in CROSSTALK]
 _NO_DIRECTION = (0.0, 0.0, 0.0)
@@ -430,7 +432,7 @@ class InternalForcePrior:
         the HEX10's fz reading where the law has a cross-talk."""
         plist = self._plist
         if direction is None:  # the hot path of a stream: plain floats, no numpy
-            if any(plist[i] != 0.0 for i in _FRICTION_STATE):  # has_friction, on the floats
+            if plist[_CAPSTAN] != 0.0 or plist[_PINS] != 0.0:  # has_friction, on the floats
                 self._needs_direction(direction)
             direction = _NO_DIRECTION
         if hex10_fz is None and any(plist[i] != 0.0 for i in _CROSSTALK):
@@ -734,9 +736,7 @@ def _check_fixed(fixed) -> dict[str, float]:
 
 def _slack_any(params, roll, e):
     T_tot, r_p, r_b, g_tw = params[:4]
-    tau_b1, tau_b2 = 0.5 * e[:, 1] - e[:, 2], 0.5 * e[:, 1] + e[:, 2]
-    u0 = e[:, 0] - KAPPA * (tau_b1 + tau_b2)
-    D = np.abs(np.stack([u0 / r_p, tau_b1 / r_b, tau_b2 / r_b], axis=1))
+    D = np.abs(np.stack(pair_differentials(e[:, 0], e[:, 1], e[:, 2], r_p, r_b), axis=1))
     return (D > (T_tot / 3.0 * (1 + g_tw * roll ** 2))[:, None]).any(axis=1)
 
 

@@ -127,6 +127,17 @@ def at_bound(params) -> np.ndarray:
     return np.minimum(p - lo, hi - p) <= BOUND_TOLERANCE * (hi - lo)
 
 
+def pair_differentials(effort_pitch, effort_yaw, effort_jaw, r_pitch, r_blade):
+    """The pairs' differentials (N; pitch, blade 1, blade 2) that wrist torques demand: dVRK
+    efforts of (wrist_pitch, wrist_yaw, jaw) (Nm) to torques on (pitch, blade_1, blade_2), then
+    ``u = K^-T tau`` (``K^T = [[1, k, k], [0, 1, 0], [0, 0, 1]]``), over the pulley radii (m).
+    Arrays, floats or CasADi expressions; the one place the law, its slack count and the load
+    path's sag turn torques into differentials."""
+    tau_b1, tau_b2 = 0.5 * effort_yaw - effort_jaw, 0.5 * effort_yaw + effort_jaw
+    return ((effort_pitch - KAPPA * (tau_b1 + tau_b2)) / r_pitch, tau_b1 / r_blade,
+            tau_b2 / r_blade)
+
+
 def _pair_travel(wrist_pitch, wrist_yaw, jaw):
     """The pairs' cable travel over their pulley radius (rad): ``K p``, ``p = (pitch, yaw - jaw/2,
     yaw + jaw/2)``, ``K`` the coupling of the module docstring (arrays or floats)."""
@@ -166,11 +177,7 @@ def _model(p, pos, e, v, g_hex, z, xp, hex10_fz=None):
      bfx, bfy, bfz, btx, bty, btz, mu, *rest) = [p[i] for i in range(len(PARAMETERS))]
     leak, (g_pitch, g_roll, c_pin, c_pp) = rest[:len(CROSSTALK)], rest[len(CROSSTALK):]
     roll, wrist_pitch = pos[0], pos[1]
-    tau_p, tau_b1, tau_b2 = e[0], 0.5 * e[1] - e[2], 0.5 * e[1] + e[2]
-    # u = K^-T tau_d: K^T = [[1,k,k],[0,1,0],[0,0,1]] -> u1 = tau_b1, u2 = tau_b2, u0 = tau_p - k(u1+u2)
-    u1, u2 = tau_b1, tau_b2
-    u0 = tau_p - KAPPA * (u1 + u2)
-    D = (u0 / r_p, u1 / r_b, u2 / r_b)
+    D = pair_differentials(e[0], e[1], e[2], r_p, r_b)
     vp, vb1, vb2 = v[0], v[1] - 0.5 * v[2], v[1] + 0.5 * v[2]
     dx = (vp, KAPPA * vp + vb1, KAPPA * vp + vb2)
     two_t0 = T_tot / 3.0 * (1.0 + g_tw * roll * roll)
