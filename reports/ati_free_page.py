@@ -259,12 +259,16 @@ def hex10_compression_table(result: dict) -> str:
 ATI_FREE_ROWS = {
     "free": "(a) ATI-free: free space", "free+self": "(b) ATI-free: + self-loading",
     "free+self+weights": "(c) ATI-free: + known weights",
+    "free+self+paired": "(c') ATI-free: + the identifying weights",
     "per_mount:free+self": "(b') as (b), the prior refitted per mount only",
     "network_alone:free": "network alone, (a)'s data", "network_alone:free+self": "network alone, (b)'s data",
     "network_alone:free+self+weights": "network alone, (c)'s data",
+    "network_alone:free+self+paired": "network alone, (c')'s data",
     "physics_alone:free": "physics alone, (a)'s prior", "physics_alone:free+self": "physics alone, (b)'s prior",
     "physics_alone:free+self+weights": "physics alone, (c)'s prior",
-    "ati_same_minutes": "(d) ATI: same minutes", "ati_full": "(e) ATI: full data",
+    "physics_alone:free+self+paired": "physics alone, (c')'s prior",
+    "ati_same_minutes": "(d) ATI: (c)'s minutes",
+    "ati_same_minutes_paired": "(d') ATI: (c')'s minutes", "ati_full": "(e) ATI: full data",
     "source": "source hybrid (other tool), as is"}
 ERROR_AXES = ("Fx", "Fy", "Fz")
 
@@ -284,7 +288,7 @@ def _fresh_seed_goals(result: dict) -> list[str]:
     """The goals on the study's fresh seeds alone (``studies.ati_free.FRESH_SEEDS``, declared
     before any run on them): per goal arm and reference, each fresh seed's largest error ratio
     over both metrics and the three axes, against the goal."""
-    from studies.ati_free import FRESH_SEEDS, GOALS
+    from studies.ati_free import FRESH_SEEDS, GOALS, same_minutes
     fresh = [str(s) for s in FRESH_SEEDS if str(s) in result["records"]]
     if not fresh:
         return []
@@ -293,7 +297,8 @@ def _fresh_seed_goals(result: dict) -> list[str]:
              "axes.", "", "| row | against | " + " | ".join(f"seed {s}" for s in fresh)
              + " | goal |", "|---|---|" + "---|" * len(fresh) + "---|"]
     for arm, goal in GOALS.items():
-        for ref, name in (("ati_same_minutes", "(d)"), ("ati_full", "(e)")):
+        for ref in (same_minutes(arm), "ati_full"):
+            name = ATI_FREE_ROWS[ref].split(" ", 1)[0]
             cells = []
             for seed in fresh:
                 rows = result["records"][seed]
@@ -327,9 +332,12 @@ def ati_free_tables(result: dict) -> str:
         if row:
             lines.append(f"| {label} | " + " | ".join(_mean_sd(row[m][a]) for m in ("causal", "paper")
                                                       for a in ERROR_AXES) + " |")
-    for ref, name in (("ati_same_minutes", "(d), the ATI with the same minutes"),
+    for ref, name in (("ati_same_minutes", "(d), the ATI on (c)'s minutes"),
+                      ("ati_same_minutes_paired", "(d'), the ATI on (c')'s minutes"),
                       ("ati_full", "(e), the ATI at full data")):
-        paired = result["paired"][ref]
+        paired = result["paired"].get(ref)
+        if not paired:   # a study run before (d') existed
+            continue
         lines += ["", f"Error ratio against {name}: geometric mean over seeds [95 % t "
                   "interval on log ratios].", "",
                   "| row | causal Fx | causal Fy | causal Fz | paper Fx | paper Fy | paper Fz |",
@@ -350,7 +358,8 @@ def ati_free_tables(result: dict) -> str:
               "could not pin it down, in (b') by design):", "",
               "| arm | parameter | truth (seed " + seeds[0] + ") | status per seed "
               "| relative error per seed | within 10 % |", "|---|---|---|---|---|---|"]
-    for arm in ("free", "free+self", "free+self+weights", "per_mount:free+self"):
+    for arm in ("free", "free+self", "free+self+weights", "free+self+paired",
+                "per_mount:free+self"):
         if any(arm not in result["runs"][k] for k in seeds):  # a study run before the arm
             continue
         per_seed = [result["runs"][k][arm]["prior_against_truth"] for k in seeds]

@@ -26,22 +26,27 @@ Per bench seed, on the lab's tool:
   free-space motion (``--free-minutes``), the designed excitation (``psmforce excitation``,
   ``--excitation-minutes``, design seed ``--excitation-seed``, designed once on the nominal tool
   as a lab would), the known weights (``--masses`` in the eight poses of ``psmforce
-  excitation --known-weights``, ``--hold-s`` each).
+  excitation --known-weights``, ``--hold-s`` each), and the identifying weights
+  (``--paired-masses`` in the sixteen paired poses, each hold approached by the wrist's move
+  into it: the design under which the load path identifies the instrument,
+  ``studies/ati_free_identification.py``).
 
 Arms (:func:`arms`): (a) ``free``: the paper's free-space motion; (b) ``free+self``: + the
 excitation (its clenches the self-loading); (c) ``free+self+weights``: + the known weights;
-(d) ``ati_same_minutes``: the same source hybrid calibrated with the ATI (``psmforce
-calibrate``: Free + Traction) on as many minutes of the tool's bench as (c) used (fewer where the
-bench holds fewer, said in the JSON); (e) ``ati_full``: a hybrid trained with the ATI on the
-tool's whole train split from scratch; and ``source``: the source hybrid as it is. Ablations of
-(a)-(c): ``network_alone`` (the hybrid without the prior, ``use_prior=False``, trained on the
+(c') ``free+self+paired``: + the identifying weights instead; (d) ``ati_same_minutes``: the
+same source hybrid calibrated with the ATI (``psmforce calibrate``: Free + Traction) on as many
+minutes of the tool's bench as (c) used (fewer where the bench holds fewer, said in the JSON);
+(d') ``ati_same_minutes_paired``: the same on as many minutes as (c') used; (e) ``ati_full``: a
+hybrid trained with the ATI on the tool's whole train split from scratch; and ``source``: the
+source hybrid as it is. Ablations of (a)-(c'): ``network_alone`` (the hybrid without the prior, ``use_prior=False``, trained on the
 same source bench and calibrated on the same ATI-free data) and ``physics_alone`` (the arm's
 calibrated prior with no network: the hybrid's base, ``comp_fx, comp_fy, insertion_fz``).
 
 Scores: NRMSE % per axis, causal and paper metric (``psmforce.estimators.evaluation``), on the
 tool bench's test Palpation + Traction trials; paired ratios over seeds
 (:func:`psmforce.experiments.paired.paired_by_axis`, t interval on log ratios) of every ATI-free
-row against (d) and (e); the goals (c) <= 1.3x and (b) <= 1.5x per axis and metric, the misses
+row against (e) and against the ATI calibration of its own minutes (:func:`same_minutes`: (d),
+or (d') for (c')); the goals (c), (c') <= 1.3x and (b) <= 1.5x per axis and metric, the misses
 listed. The prior's fitted parameters of (a)-(c) against the bench's
 (:func:`psmforce.experiments.prior_recovery.default_bench_truth` of the drawn tool): relative
 error, within 10 %, and which were held (not identifiable from the data) or have no counterpart.
@@ -71,10 +76,17 @@ FRESH_SEEDS = (204, 205)
 """Bench seeds: 201-203 were seen while the study's choices were made (the per-mount arm, the
 cross-talk option, the rule that a free-space refit never holds a sensor offset); 204 and 205
 were declared here, unseen, before any run of the study on them."""
-GOALS = {"free+self+weights": 1.3, "free+self": 1.5, "per_mount:free+self": 1.5}
+GOALS = {"free+self+weights": 1.3, "free+self+paired": 1.3, "free+self": 1.5,
+         "per_mount:free+self": 1.5}
 """Arm -> the largest error ratio against an ATI-trained hybrid the issue accepts, per axis."""
-ATI_FREE = ("free", "free+self", "free+self+weights")
-REFERENCES = ("ati_same_minutes", "ati_full")
+ATI_FREE = ("free", "free+self", "free+self+weights", "free+self+paired")
+REFERENCES = ("ati_same_minutes", "ati_same_minutes_paired", "ati_full")
+PAIRED_ARM = "free+self+paired"
+"""(c'): the known weights of the design under which the load path identifies the instrument
+(``studies/ati_free_identification.py``, chosen there on its own seeds before this arm ran here):
+``--paired-masses`` in :data:`~psmforce.cli.excitation.WEIGHT_WRIST_POSES_PAIRED`, each hold
+approached (:data:`~psmforce.sim.excitation.APPROACH_RAD`). Added after the study's other arms
+had been seen on seeds 201-205."""
 QUICK_CAPS = {"max_batches_per_epoch": 2, "max_val_batches": 2}
 MINUTES_SLACK = 1e-6
 """Added to a folder's minutes when all of it is asked for (the sums are rounded)."""
@@ -82,12 +94,19 @@ MINUTES_SLACK = 1e-6
 
 def arms(free_minutes: float, excitation_minutes: float) -> dict[str, dict]:
     """The ATI-free calibrations: arm -> what ``calibrate`` reads (the free-space minutes, in
-    metadata order: the paper's motion first, then the excitation; whether the known loads
-    join)."""
-    return {"free": {"minutes": free_minutes, "known_loads": False},
-            "free+self": {"minutes": free_minutes + excitation_minutes, "known_loads": False},
-            "free+self+weights": {"minutes": free_minutes + excitation_minutes,
-                                  "known_loads": True}}
+    metadata order: the paper's motion first, then the excitation; which known loads join:
+    None, the eight poses' ``"weights"`` or the identifying design's ``"paired"``)."""
+    both = free_minutes + excitation_minutes
+    return {"free": {"minutes": free_minutes, "known_loads": None},
+            "free+self": {"minutes": both, "known_loads": None},
+            "free+self+weights": {"minutes": both, "known_loads": "weights"},
+            PAIRED_ARM: {"minutes": both, "known_loads": "paired"}}
+
+
+def same_minutes(row: str) -> str:
+    """The ATI calibration on as many minutes as ``row``'s data: (d') for (c') and its
+    ablations, (d) for every other row."""
+    return "ati_same_minutes_paired" if row.endswith(PAIRED_ARM) else "ati_same_minutes"
 
 
 PER_MOUNT_ARM = "per_mount:free+self"
@@ -112,14 +131,27 @@ def paired_table(records: dict[int, dict], against: str, names=None) -> dict:
     seeds = sorted(records)
     out = {}
     for name in names or rows():
-        if name == against or not all(name in records[s] and against in records[s]
-                                      for s in seeds):
+        if not _pairs_with(name, against) or not all(name in records[s] and against in records[s]
+                                                     for s in seeds):
             continue
         out[name] = {m: {a: r.to_dict() for a, r in paired_by_axis(
             [records[s][name]["nrmse_pct"][m] for s in seeds],
             [records[s][against]["nrmse_pct"][m] for s in seeds], AXES).items()}
             for m in METRICS}
     return out
+
+
+def _pairs_with(row: str, against: str) -> bool:
+    """Whether :func:`paired_table` pairs ``row`` with the reference ``against``: everything
+    with (e); an ATI-free row with the ATI calibration of its own minutes only
+    (:func:`same_minutes`); (e) and the source with (d), as before (d') existed."""
+    if row == against:
+        return False
+    if against == "ati_full":
+        return True
+    if row not in REFERENCES and row != "source":
+        return same_minutes(row) == against
+    return against == "ati_same_minutes" and row != "ati_same_minutes_paired"
 
 
 def goal_misses(paired: dict) -> dict:
@@ -237,12 +269,14 @@ def _calibrate(ckpt: Path, data: Path, out: Path, seed: int, args, minutes: floa
     record = calibrate(ckpt, data, out, minutes=minutes, seed=seed, device=args.device,
                        epochs=1 if args.quick else args.calibration_epochs,
                        train_config=_config(None, args.quick), **kw)["calibration"]
-    prior = record["prior_refit"]
+    prior, instrument = record["prior_refit"], record["instrument_identification"]
     return {"calibration": {k: record[k] for k in ("minutes_used", "minutes_by_condition",
                                                    "epochs_run", "converged", "stopped_by")},
             "prior": None if prior is None else {
                 k: prior[k] for k in ("parameters_after", "held_from_checkpoint",
-                                      "held_by_reading")}}
+                                      "held_by_reading")},
+            "instrument": None if instrument is None else {
+                k: instrument[k] for k in ("parameters", "identified", "at_bound", "verdict")}}
 
 
 def _excitation(work: Path, args) -> np.ndarray:
@@ -256,9 +290,10 @@ def _excitation(work: Path, args) -> np.ndarray:
 
 def _seed(seed: int, args, q_exc: np.ndarray) -> tuple[dict, dict]:
     """Every row's score on one bench seed, and the run's flags and minutes."""
-    from psmforce.cli.excitation import weight_poses
+    from psmforce.cli.excitation import WEIGHT_WRIST_POSES_PAIRED, weight_poses
     from psmforce.experiments.prior_recovery import default_bench_truth
     from psmforce.sim.ati_free import FREE_SPACE, KNOWN_LOADS, simulate_ati_free
+    from psmforce.sim.excitation import APPROACH_RAD
     from psmforce.sim.params import InstrumentParams
     work = args.work / f"scale{args.scale:g}" / f"seed{seed}"
     tool_seed = TOOL_SEED_OFFSET + seed
@@ -269,7 +304,18 @@ def _seed(seed: int, args, q_exc: np.ndarray) -> tuple[dict, dict]:
         free_dir, seed=seed, scale=args.scale, free_minutes=args.free_minutes,
         excitation_q=q_exc, weight_poses=weight_poses(), masses_kg=tuple(args.masses),
         hold_s=args.hold_s, tool_seed=tool_seed))
-    runs = {"minutes": made["minutes"], "left_out_unsafe": made["left_out_unsafe"]}
+    # (c')'s weights in their own folder; its free space repeats the one above (same seeds)
+    paired_dir = work / "ati_free_paired"
+    made_paired = kept_json(work / "ati_free_paired.json", lambda: simulate_ati_free(
+        paired_dir, seed=seed, scale=args.scale, free_minutes=args.free_minutes,
+        excitation_q=q_exc, weight_poses=weight_poses(WEIGHT_WRIST_POSES_PAIRED),
+        masses_kg=tuple(args.paired_masses), hold_s=args.hold_s, tool_seed=tool_seed,
+        approach_rad=APPROACH_RAD))
+    loads_dir = {None: None, "weights": free_dir / KNOWN_LOADS,
+                 "paired": paired_dir / KNOWN_LOADS}
+    runs = {"minutes": made["minutes"], "left_out_unsafe": made["left_out_unsafe"],
+            "minutes_paired": made_paired["minutes"],
+            "left_out_unsafe_paired": made_paired["left_out_unsafe"]}
     runs["source_hybrid"] = _train(source, work / "source_hybrid.pt", seed, args)
     runs["source_network"] = _train(source, work / "source_network.pt", seed, args,
                                     use_prior=False)
@@ -281,7 +327,7 @@ def _seed(seed: int, args, q_exc: np.ndarray) -> tuple[dict, dict]:
     exc_minutes = made["minutes"]["excitation"] + MINUTES_SLACK
     truth = default_bench_truth(InstrumentParams().sample(tool_seed, 1.0))
     for arm, spec in arms(args.free_minutes + MINUTES_SLACK, exc_minutes).items():
-        loads = free_dir / KNOWN_LOADS if spec["known_loads"] else None
+        loads = loads_dir[spec["known_loads"]]
         for variant, ckpt in (("", "source_hybrid.pt"), ("network_alone:", "source_network.pt")):
             name = variant + arm
             out = work / "arms" / (name.replace(":", "_").replace("+", "_") + ".pt")
@@ -309,15 +355,16 @@ def _seed(seed: int, args, q_exc: np.ndarray) -> tuple[dict, dict]:
     runs[PER_MOUNT_ARM]["prior_against_truth"] = prior_against_truth(
         prior["parameters_after"], truth, prior["held_from_checkpoint"],
         prior["held_by_reading"])
-    wanted = runs["free+self+weights"]["calibration"]["minutes_used"]
     available = sum(map(_minutes_of, _ati_pool(tool)))
-    minutes = min(wanted, available)
-    out = work / "arms" / "ati_same_minutes.pt"
-    runs["ati_same_minutes"] = kept_json(out.with_suffix(".cal.json"), lambda: _calibrate(
-        work / "source_hybrid.pt", tool, out, seed, args, minutes - 1e-3) | {
-        "minutes_wanted": wanted, "minutes_available": available})
-    records["ati_same_minutes"] = kept_json(work / "records" / "ati_same_minutes.json",
-                                        lambda: _score(out, tool))
+    for ref, arm in (("ati_same_minutes", "free+self+weights"),
+                     ("ati_same_minutes_paired", PAIRED_ARM)):
+        wanted = runs[arm]["calibration"]["minutes_used"]
+        minutes = min(wanted, available)
+        out = work / "arms" / f"{ref}.pt"
+        runs[ref] = kept_json(out.with_suffix(".cal.json"), lambda: _calibrate(
+            work / "source_hybrid.pt", tool, out, seed, args, minutes - 1e-3) | {
+            "minutes_wanted": wanted, "minutes_available": available})
+        records[ref] = kept_json(work / "records" / f"{ref}.json", lambda: _score(out, tool))
     return records, runs
 
 
@@ -363,6 +410,9 @@ def main(argv=None) -> dict:
     ap.add_argument("--excitation-seed", type=int, default=0)
     ap.add_argument("--masses", type=float, nargs="+", default=[0.05],
                     help="known masses (kg), each hung in the eight poses (default 0.05)")
+    ap.add_argument("--paired-masses", type=float, nargs="+", default=[0.05, 0.1, 0.2],
+                    help="(c')'s known masses (kg), each hung in the sixteen paired poses, "
+                         "approached (default 0.05 0.1 0.2)")
     ap.add_argument("--hold-s", type=float, default=10.0)
     ap.add_argument("--calibration-epochs", type=int, default=500)
     ap.add_argument("--quick", action="store_true",
@@ -389,7 +439,8 @@ def main(argv=None) -> dict:
         records[seed], runs[seed] = _seed(seed, args, q_exc)
         print(f"seed {seed}: causal NRMSE % " + "; ".join(
             f"{n} " + "/".join(f"{records[seed][n]['nrmse_pct']['causal'][a]:.2f}" for a in AXES)
-            for n in ("free+self+weights", "ati_same_minutes", "ati_full")), flush=True)
+            for n in ("free+self+weights", PAIRED_ARM, "ati_same_minutes",
+                      "ati_same_minutes_paired", "ati_full")), flush=True)
     paired = {ref: paired_table(records, ref) for ref in REFERENCES}
     flags = _flags(runs)
     converged = all(v is True for v in flags.values())

@@ -9,17 +9,40 @@ from pathlib import Path
 import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
-from studies.ati_free import (ATI_FREE, AXES, PER_MOUNT_ARM, REFERENCES, arms,  # noqa: E402
-                              goal_misses, paired_table, prior_against_truth, rows, summary)
+from studies.ati_free import (ATI_FREE, AXES, GOALS, PAIRED_ARM, PER_MOUNT_ARM,  # noqa: E402
+                              REFERENCES, arms, goal_misses, paired_table, prior_against_truth,
+                              rows, same_minutes, summary)
 
 
 def test_arms_add_the_excitation_then_the_weights():
     got = arms(1.5, 2.0)
     assert list(got) == list(ATI_FREE)
-    assert [a["minutes"] for a in got.values()] == [1.5, 3.5, 3.5]
-    assert [a["known_loads"] for a in got.values()] == [False, False, True]
+    assert [a["minutes"] for a in got.values()] == [1.5, 3.5, 3.5, 3.5]
+    assert [a["known_loads"] for a in got.values()] == [None, None, "weights", "paired"]
     names = rows()
-    assert {"network_alone:free", "physics_alone:free+self+weights", *REFERENCES} <= set(names)
+    assert {"network_alone:free", "physics_alone:free+self+weights",
+            "network_alone:" + PAIRED_ARM, *REFERENCES} <= set(names)
+
+
+def test_each_row_is_held_to_the_ati_calibration_of_its_own_minutes():
+    """(c') records more minutes of weights than (c): it is paired with (d'), the ATI on its
+    minutes, never with (d), and (c) never with (d'); (e) takes every row."""
+    assert same_minutes(PAIRED_ARM) == same_minutes("physics_alone:" + PAIRED_ARM) \
+        == "ati_same_minutes_paired"
+    assert same_minutes("free+self+weights") == same_minutes("free") == "ati_same_minutes"
+    records = {s: {n: _score(2.0, 1.0, 3.0) for n in rows()} for s in (201, 202)}
+    by_ref = {ref: set(paired_table(records, ref)) for ref in REFERENCES}
+    assert PAIRED_ARM in by_ref["ati_same_minutes_paired"] and PAIRED_ARM in by_ref["ati_full"]
+    assert PAIRED_ARM not in by_ref["ati_same_minutes"]
+    assert "free+self+weights" not in by_ref["ati_same_minutes_paired"]
+    assert by_ref["ati_same_minutes_paired"] == {
+        PAIRED_ARM, "network_alone:" + PAIRED_ARM, "physics_alone:" + PAIRED_ARM}
+    assert "ati_same_minutes_paired" not in by_ref["ati_same_minutes"]
+    assert {"ati_full", "source"} <= by_ref["ati_same_minutes"]
+    assert set(by_ref["ati_full"]) == set(rows()) - {"ati_full"}
+    # the goal check of (d') judges (c') alone, at (c)'s goal
+    assert set(goal_misses(paired_table(records, "ati_same_minutes_paired"))) == {PAIRED_ARM}
+    assert GOALS[PAIRED_ARM] == GOALS["free+self+weights"]
 
 
 def _score(fx, fy, fz):
