@@ -240,6 +240,14 @@ def _bench_over_robot(calibration: dict, version: str) -> str:
 def _paired_words(point: dict) -> str:
     """The paired verdicts of one comparison point in words, model by model ("ahead on Fz,
     tied on Fy, behind on Fx"), both metrics at once where they agree."""
+    out = _pairs_in_words(point["paired"], {m: v["label"] for m, v in point["models"].items()})
+    return ("The hybrid is " + "; ".join(out) + ".") if out else ""
+
+
+def _pairs_in_words(pairs: dict, labels: dict, seeds_of=None) -> list[str]:
+    """One phrase per paired model (``pairs``: model -> {"causal"|"paper": {axis: {"verdict"}}}):
+    "against the <label> ahead on every axis on both metrics"; ``seeds_of``: model -> a note on
+    the seeds the pair rests on, appended in brackets."""
     word = {"ahead": "ahead", "tie": "tied", "behind": "behind"}
 
     def phrase(cells: dict) -> str:
@@ -250,12 +258,40 @@ def _paired_words(point: dict) -> str:
                          + ("every axis" if len(axes) == len(AXES) else " and ".join(axes))
                          for v, axes in groups.items())
     out = []
-    for m, pr in point["paired"].items():
+    for m, pr in pairs.items():
         causal, paper = phrase(pr["causal"]), phrase(pr["paper"])
         said = (f"{causal} on both metrics" if causal == paper
                 else f"causal {causal}; paper metric {paper}")
-        out.append(f"against the {point['models'][m]['label']} {said}")
-    return ("The hybrid is " + "; ".join(out) + ".") if out else ""
+        note = seeds_of(m) if seeds_of else ""
+        out.append(f"against the {labels[m]} {said}" + (f" ({note})" if note else ""))
+    return out
+
+
+def shipped_model(result: dict) -> str:
+    """README's first screen: the model ``psmforce train`` ships (``hybrid_transformer``, the
+    hybrid's physics read by the paper's transformer) against every model trained on the seeds
+    declared for its check (``studies/hybrid_wide_confirm.py``), paired by seed, in words, per
+    point; a pair resting on fewer than the declared seeds says how many it has."""
+    lines = [""]
+    for p in sorted(result.get("points", {}).values(), key=lambda p: (p["version"], p["scale"])):
+        pairs = p.get("paired", {}).get("hybrid_transformer")
+        if not pairs:
+            continue
+        declared = p["declared_seeds"]
+        # the study's "as shipped" is the hybrid it was checked against, no longer the default
+        labels = {m: v["label"] for m, v in p["models"].items()} | {
+            "hybrid": "hybrid with its causal network (`hybrid`)"}
+        words = _pairs_in_words(pairs, labels, lambda m: (
+            "" if sorted(pairs[m]["seeds"]) == sorted(declared) else
+            f"on {len(pairs[m]['seeds'])} of the {len(declared)} declared seeds so far"))
+        lines += ["The model `psmforce train` ships, `hybrid_transformer`, on the seeds declared "
+                  f"for its check ({', '.join(map(str, declared))}; simulator {p['version']}, scale "
+                  f"{p['scale']:g}; test trials; paired by seed, {p['interval']}; \"ahead\" "
+                  "only when the interval lies below 1) is " + "; ".join(words) + ".", ""]
+    if len(lines) == 1:
+        lines += ["The shipped model has no paired check yet (`studies/hybrid_wide_confirm.py`).",
+                  ""]
+    return "\n".join(lines)
 
 
 def fresh_comparison(result: dict, calibration: dict | None = None) -> str:

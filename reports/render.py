@@ -156,6 +156,7 @@ def _hybrid_wide_confirm_table(result: dict) -> str:
 BLOCKS = (
     (README, "fresh-comparison", (FRESH_COMPARISON, BENCH_PAPER_CALIBRATION),
      readme_page.fresh_comparison),
+    (README, "shipped-model", HYBRID_WIDE_CONFIRM, readme_page.shipped_model),
     (README, "transmission-summary", TRANSMISSION, readme_page.transmission_summary),
     (README, "prior-ablation-summary", PRIOR_ABLATION, readme_page.prior_ablation_summary),
     (IDENTIFICATION, "prior-recovery-table", PRIOR_RECOVERY,

@@ -75,6 +75,20 @@ def test_each_candidate_is_judged_on_its_own_and_never_paired_with_the_other():
             in text)
 
 
+def test_the_first_screen_words_the_shipped_models_pairs_and_counts_a_partial_pair():
+    from reports.readme_page import shipped_model
+    records = _records(1.5)
+    for k, s in enumerate(DECLARED):
+        records[s]["hybrid_transformer"] = _record(1.5 * (1 + 0.01 * k))
+    del records[DECLARED[-1]]["transformer"]   # its last training not in yet
+    text = shipped_model({"points": {"p": study.summarise(records, 0.1)}})
+    assert "against the hybrid with its causal network (`hybrid`) ahead on Fx, tied on Fy and " \
+        "Fz on both metrics;" in text
+    assert (f"against the paper transformer behind on Fx, tied on Fy and Fz on both metrics (on "
+            f"{len(DECLARED) - 1} of the {len(DECLARED)} declared seeds so far)") in text
+    assert "no paired check yet" in shipped_model({"points": {}})
+
+
 def test_a_training_that_did_not_stop_early_is_not_paired():
     records = _records(1.5)
     records[DECLARED[0]]["hybrid"]["converged"] = False
