@@ -19,6 +19,12 @@ half of its samples that the reading keeps), for each reading in :data:`READINGS
   (``pitch_path_tension`` held at 0): today's reading (``prior.fit_arrays``, the load path's
   holds).
 
+Beside them one diagnostic, :data:`BENCH_SAG`: today's reading with the wrist sagged as the bench
+sags it (:func:`bench_sag`: the bench's own transmission for the drawn tool, friction state,
+capstan, pins and its cable stiffness included), where the load path's sag takes the pulleys'
+differential with the design values and no friction. What it removes is what the sag's model
+leaves; it is not a reading a lab has.
+
 No fit: what each reading leaves between the bench and its own law, the part of a fit's residual
 that no parameter can remove. Usage::
 
@@ -37,6 +43,8 @@ sys.path.insert(0, str(ROOT))
 
 READINGS = ("before", "closed jaw kept", "wrist sag", "pins", "path as pretension")
 """The load path's readings, each with the changes of the ones before it (module docstring)."""
+BENCH_SAG = "the bench's own sag (diagnostic)"
+"""The last reading with the bench's sag in place of the load path's (module docstring)."""
 CASES = ("0.05, 0.1, 0.2 kg, 16 paired poses", "0.05, 0.1, 0.2 kg, 16 paired poses, approached")
 """The cases of :mod:`studies.ati_free_identification` whose holds are scored."""
 CHANNELS = {"fz": 2, "tx": 3, "ty": 4}
@@ -61,9 +69,32 @@ def _law(truth: dict, reading: str):
                               info={"inputs": "load_path"})
 
 
-def hold_residuals(frame, law, reading: str) -> dict | None:
+def bench_sag(tool):
+    """(q (N, 7), tip force (N, 3), HEX10 frame) -> q with the wrist where the bench's elastic
+    cables put it under that force for instrument ``tool`` (:func:`psmforce.sim.cables.
+    transmission` with every effect on, as the ATI-free recordings are simulated), the efforts
+    taken at the encoders' pose: the load path's :func:`~psmforce.identification.load_path.
+    sagged_positions` with the bench's own law."""
+    import numpy as np
+
+    from psmforce.identification.load_path import wrist_efforts_for_tip_force
+    from psmforce.sim.cables import transmission
+    from psmforce.sim.params import Effects
+
+    def sagged(q, force):
+        q = np.array(q, dtype=float)
+        e = wrist_efforts_for_tip_force(q, force)
+        # the efforts on (wrist_pitch, wrist_yaw, jaw) as torques on (pitch, blade 1, blade 2)
+        demand = np.stack([e[:, 0], 0.5 * e[:, 1] - e[:, 2], 0.5 * e[:, 1] + e[:, 2]], axis=1)
+        q[:, 4:6] -= transmission(q, -demand, tool, Effects())["deflection"][:, :2]
+        return q
+    return sagged
+
+
+def hold_residuals(frame, law, reading: str, sagged=None) -> dict | None:
     """One hold's settled residual per channel of :data:`CHANNELS` (N, Nm) under ``reading``,
-    None where the reading keeps fewer than 10 of its samples."""
+    None where the reading keeps fewer than 10 of its samples; ``sagged``: the wrist's sag in
+    place of the load path's (:func:`bench_sag`)."""
     import numpy as np
 
     from psmforce.identification.load_path import (clenched, sagged_positions, tip_force_moment,
@@ -72,7 +103,7 @@ def hold_residuals(frame, law, reading: str) -> dict | None:
     from psmforce.io.recording import JOINT_POSITIONS, TARGETS
     q = frame[list(JOINT_POSITIONS)].to_numpy(dtype=float)
     force = frame[list(TARGETS)].to_numpy(dtype=float)
-    at = q if reading in READINGS[:2] else sagged_positions(q, force)
+    at = q if reading in READINGS[:2] else (sagged or sagged_positions)(q, force)
     a = arrays_from_frame(frame)
     y, mask = internal_wrench_target(frame)
     y[:, 3:] -= tip_force_moment(at, force)
@@ -95,13 +126,16 @@ def _seed(seed: int, args, q_exc) -> list[dict]:
     from psmforce.sim.params import InstrumentParams
     from studies.ati_free import TOOL_SEED_OFFSET
     from studies.ati_free_identification import case_recordings
-    truth = default_bench_truth(InstrumentParams().sample(TOOL_SEED_OFFSET + seed, 1.0))
+    tool = InstrumentParams().sample(TOOL_SEED_OFFSET + seed, 1.0)
+    truth = default_bench_truth(tool)
     rows = []
     for case in CASES:
         _, loads, _ = case_recordings(seed, case, args, q_exc)
-        for reading in READINGS:
-            law = _law(truth, reading)
-            holds = [hold_residuals(t.frame, law, reading) for t in loads]
+        for reading in (*READINGS, BENCH_SAG):
+            law = _law(truth, READINGS[-1] if reading == BENCH_SAG else reading)
+            holds = [hold_residuals(t.frame, law, READINGS[-1], bench_sag(tool))
+                     if reading == BENCH_SAG else hold_residuals(t.frame, law, reading)
+                     for t in loads]
             used = [h for h in holds if h is not None]
             rows.append({"seed": seed, "case": case, "reading": reading,
                          "holds": len(holds), "holds_used": len(used),
@@ -142,7 +176,7 @@ def main(argv=None) -> dict:
               "simulator_version": SIM_VERSION, "design_seed": DESIGN_SEED,
               "settings": {k: (shown_path(v) if isinstance(v, Path) else v)
                            for k, v in vars(args).items()},
-              "readings": list(READINGS), "cases": list(CASES), "runs": runs,
+              "readings": [*READINGS, BENCH_SAG], "cases": list(CASES), "runs": runs,
               "seconds": time.perf_counter() - started}
     if args.json:
         write_json(args.json, result)

@@ -13,7 +13,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
-from studies.load_path_holds import READINGS, _law, hold_residuals  # noqa: E402
+from studies.load_path_holds import READINGS, _law, bench_sag, hold_residuals  # noqa: E402
 from psmforce.experiments.prior_recovery import default_bench_truth  # noqa: E402
 from psmforce.identification.prior_law import NAMES  # noqa: E402
 from psmforce.sim.params import Effects, InstrumentParams  # noqa: E402
@@ -52,3 +52,23 @@ def test_a_hold_at_closed_is_kept_and_the_sag_taken_out_of_the_laws_error():
     assert got["before"] is None
     assert abs(got["closed jaw kept"]["fz"]) > 0.3  # N: the encoders' pose misses the load
     assert abs(got["wrist sag"]["fz"]) < 0.25 * abs(got["closed jaw kept"]["fz"])
+
+
+def test_the_bench_sag_is_the_load_paths_where_their_laws_agree_and_not_where_friction_acts():
+    """Without friction, on the design compliance's tool, the bench's sag is the load path's
+    (one law, two codes); with the capstan turned one way it is not, which the diagnostic
+    measures."""
+    from psmforce.cli.excitation import WEIGHT_ARM_POSE
+    from psmforce.identification.load_path import sagged_positions
+    q = np.repeat(np.r_[WEIGHT_ARM_POSE, 0.0, -0.7, 0.7, 0.0][None], 3, 0)
+    q[:, 5] = (0.7, 0.0, -0.7)
+    force = np.tile([0.0, 0.0, -1.96], (3, 1))   # 0.2 kg along the HEX10's -z, a bent wrist
+    tool = dataclasses.replace(InstrumentParams(), capstan_mu_wrap_distal=0.0,
+                               pin_friction_coefficient=0.0, pitch_path_mismatch_m=0.0,
+                               twist_tension_gain_per_rad2=0.0)
+    ours = sagged_positions(q, force)
+    bench = bench_sag(tool)(q, force)
+    assert np.abs(ours[:, 4:6] - q[:, 4:6]).max() > 5e-3  # rad: the load sags the wrist
+    np.testing.assert_allclose(bench[:, 4:6], ours[:, 4:6], atol=2e-4)
+    friction = bench_sag(dataclasses.replace(tool, capstan_mu_wrap_distal=0.3))(q, force)
+    assert np.abs(friction[:, 4:6] - ours[:, 4:6]).max() > 1e-3
