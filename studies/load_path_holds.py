@@ -19,8 +19,12 @@ half of its samples that the reading keeps), for each reading in :data:`READINGS
   (``pitch_path_tension`` held at 0): today's reading (``prior.fit_arrays``, the load path's
   holds).
 
-Beside them one diagnostic, :data:`BENCH_SAG`: today's reading with the wrist sagged as the bench
-sags it (:func:`bench_sag`: the bench's own transmission for the drawn tool, friction state,
+Then :data:`FRICTION_SAG`: today's reading with the friction in the sag
+(:class:`~psmforce.identification.load_path.WristCompliance` with the tool's capstan, its growth
+and its pins at their truth, the rest at the design values): the sag taken from the section's
+differential, where the load path's takes its pulleys' (its friction at the design value 0),
+what a fit that reads its own friction back into the sag would use. And one diagnostic,
+:data:`BENCH_SAG`: today's reading with the wrist sagged as the bench sags it (:func:`bench_sag`: the bench's own transmission for the drawn tool, friction state,
 capstan, pins and its cable stiffness included), where the load path's sag takes the pulleys'
 differential with the design values and no friction. What it removes is what the sag's model
 leaves; it is not a reading a lab has.
@@ -43,6 +47,8 @@ sys.path.insert(0, str(ROOT))
 
 READINGS = ("before", "closed jaw kept", "wrist sag", "pins", "path as pretension")
 """The load path's readings, each with the changes of the ones before it (module docstring)."""
+FRICTION_SAG = "friction in the sag"
+"""The last reading with the tool's friction in the sag (module docstring)."""
 BENCH_SAG = "the bench's own sag (diagnostic)"
 """The last reading with the bench's sag in place of the load path's (module docstring)."""
 CASES = ("0.05, 0.1, 0.2 kg, 16 paired poses", "0.05, 0.1, 0.2 kg, 16 paired poses, approached")
@@ -91,6 +97,20 @@ def bench_sag(tool):
     return sagged
 
 
+def friction_sag(truth: dict):
+    """(q, tip force) -> q sagged by the load path with the friction of ``truth`` (the law's
+    values, :func:`~psmforce.experiments.prior_recovery.default_bench_truth`) and the design
+    values otherwise (:data:`FRICTION_SAG`)."""
+    import dataclasses
+
+    from psmforce.identification.load_path import WristCompliance, sagged_positions
+    compliance = dataclasses.replace(
+        WristCompliance.design(), capstan_mu=truth["capstan_mu"],
+        capstan_pitch_gain=truth["capstan_pitch_gain"],
+        capstan_roll_gain=truth["capstan_roll_gain"], pin_friction=truth["pin_friction"])
+    return lambda q, force: sagged_positions(q, force, compliance)
+
+
 def hold_residuals(frame, law, reading: str, sagged=None) -> dict | None:
     """One hold's settled residual per channel of :data:`CHANNELS` (N, Nm) under ``reading``,
     None where the reading keeps fewer than 10 of its samples; ``sagged``: the wrist's sag in
@@ -131,10 +151,11 @@ def _seed(seed: int, args, q_exc) -> list[dict]:
     rows = []
     for case in CASES:
         _, loads, _ = case_recordings(seed, case, args, q_exc)
-        for reading in (*READINGS, BENCH_SAG):
-            law = _law(truth, READINGS[-1] if reading == BENCH_SAG else reading)
-            holds = [hold_residuals(t.frame, law, READINGS[-1], bench_sag(tool))
-                     if reading == BENCH_SAG else hold_residuals(t.frame, law, reading)
+        sags = {FRICTION_SAG: friction_sag(truth), BENCH_SAG: bench_sag(tool)}
+        for reading in (*READINGS, *sags):
+            law = _law(truth, READINGS[-1] if reading in sags else reading)
+            holds = [hold_residuals(t.frame, law, READINGS[-1], sags[reading])
+                     if reading in sags else hold_residuals(t.frame, law, reading)
                      for t in loads]
             used = [h for h in holds if h is not None]
             rows.append({"seed": seed, "case": case, "reading": reading,
@@ -176,7 +197,8 @@ def main(argv=None) -> dict:
               "simulator_version": SIM_VERSION, "design_seed": DESIGN_SEED,
               "settings": {k: (shown_path(v) if isinstance(v, Path) else v)
                            for k, v in vars(args).items()},
-              "readings": [*READINGS, BENCH_SAG], "cases": list(CASES), "runs": runs,
+              "readings": [*READINGS, FRICTION_SAG, BENCH_SAG], "cases": list(CASES),
+              "runs": runs,
               "seconds": time.perf_counter() - started}
     if args.json:
         write_json(args.json, result)

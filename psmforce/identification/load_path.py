@@ -31,7 +31,10 @@ Frames, units, signs (one place):
   demanded efforts with the instrument's design values (:class:`WristCompliance`: the cable
   stiffness is not identified here, and the law's radii and pretension are what the fit looks
   for), one fixed-point pass as the bench takes: the efforts at the encoders' pose, the sag they
-  cause, the efforts at the sagged pose.
+  cause, the efforts at the sagged pose. The cables stretch under the section's differential:
+  with friction in the compliance (the capstan and the pins, 0 by design) the pulleys' demand
+  crosses the idlers first, with the friction state the encoders' motion leaves (an approach
+  turns it one way).
 
 The grip of jaws clenched on an object or on each other is internal to the jaws: no tip force
 shows it, yet it loads the blade pairs. Recordings with a clench carry it in the jaw effort only,
@@ -47,7 +50,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from psmforce.identification.errors import IdentificationInputError
-from psmforce.identification.prior_law import KAPPA, pair_differentials
+from psmforce.identification.prior_law import (KAPPA, friction_direction, pair_differentials,
+                                               pair_section, with_pins)
 from psmforce.io.recording import JOINT_POSITIONS, TARGETS
 from psmforce.robot import PSM
 from psmforce.robot.conventions import JAW_CLOSED_RAD, JAW_JOINT, JOINTS
@@ -99,12 +103,17 @@ def wrist_efforts_for_tip_force(q, f_hex, psm: PSM | None = None) -> np.ndarray:
 class WristCompliance:
     """What sags the wrist under a load: each cable run's axial stiffness (N/m), the pulley
     radii (m) that turn joint angles into cable travel, the pretension (N, the pairs' total over
-    the six cables) and the pairs' asymmetries (1; the blade pairs' one). A pair's differential
-    ``D`` stretches its cables by ``e = D / (2 k)`` while both are taut and ``e = sign(D) (|D| -
-    T0) / k`` once the unloaded one is slack (``T0`` per cable), slack where the taut loop's sum
-    ``2 T0 + a D`` falls below ``|D|``: the elastic law of the pair as the bench takes it
-    (docs/simulator.md section 6). The joints sag by ``G^-1 e`` with ``G`` the coupling of
-    :mod:`psmforce.identification.prior_law` and these radii."""
+    the six cables), the pairs' asymmetries (1; the blade pairs' one) and the wrist's friction:
+    the idlers' capstan (1, the law's ``capstan_mu``), its growth per rad of |wrist pitch| on the
+    blade pairs and of |roll| (1/rad), the pins' coefficient (1). A pair's differential ``D`` at
+    the section (its pulleys' demand through the law's friction, :func:`~psmforce.
+    identification.prior_law.pair_section`, the pins first) stretches its cables by ``e = D /
+    (2 k)`` while both are taut and ``e = sign(D) (|D| - T0) / k`` once the unloaded one is slack
+    (``T0`` per cable), slack where the taut loop's sum falls below ``|D|``: the elastic law of
+    the pair as the bench takes it (docs/simulator.md section 6). The joints sag by ``G^-1 e``
+    with ``G`` the coupling of :mod:`psmforce.identification.prior_law` and these radii. The
+    friction is 0 by design (the law's design values): the sag is then the pulleys' differential
+    alone."""
 
     stiffness_n_per_m: float
     pretension_total_n: float
@@ -112,6 +121,10 @@ class WristCompliance:
     pulley_radius_blade_m: float
     asymmetry_pitch: float = 0.0
     asymmetry_blade: float = 0.0
+    capstan_mu: float = 0.0
+    capstan_pitch_gain: float = 0.0
+    capstan_roll_gain: float = 0.0
+    pin_friction: float = 0.0
 
     def __post_init__(self):
         values = (self.stiffness_n_per_m, self.pretension_total_n, self.pulley_radius_pitch_m,
@@ -123,6 +136,15 @@ class WristCompliance:
                                                            self.asymmetry_blade)):
             raise IdentificationInputError(f"a pair's asymmetry must lie in (-1, 1), got "
                                            f"{self.asymmetry_pitch}, {self.asymmetry_blade}")
+        friction = (self.capstan_mu, self.capstan_pitch_gain, self.capstan_roll_gain,
+                    self.pin_friction)
+        if not all(np.isfinite(f) and f >= 0 for f in friction):
+            raise IdentificationInputError(f"a wrist compliance's friction terms must be finite "
+                                           f"and >= 0, got {friction}")
+
+    @property
+    def has_friction(self) -> bool:
+        return self.capstan_mu > 0 or self.pin_friction > 0
 
     @classmethod
     def design(cls) -> "WristCompliance":
@@ -137,26 +159,50 @@ Fixed, not identified: the load path computes the sag from design values before 
 tool whose cables are 20 % stiffer or softer sags 20 % less or more than it assumes."""
 DESIGN_COMPLIANCE = WristCompliance(DESIGN_CABLE_STIFFNESS_N_PER_M, pretension_total_n=6.0,
                                     pulley_radius_pitch_m=2.0e-3, pulley_radius_blade_m=1.5e-3,
-                                    asymmetry_pitch=0.30, asymmetry_blade=0.275)
-"""The sag's design values: the stiffness above and the law's datasheet pretension, radii and
-asymmetries, those of :data:`~psmforce.identification.prior_selection.DESIGN`, written out here
+                                    asymmetry_pitch=0.30, asymmetry_blade=0.275,
+                                    capstan_mu=0.0, capstan_pitch_gain=0.5,
+                                    capstan_roll_gain=0.15, pin_friction=0.0)
+"""The sag's design values: the stiffness above and the law's datasheet pretension, radii,
+asymmetries and friction (none: the capstan and the pins at 0), those of :data:`~psmforce.identification.prior_selection.DESIGN`, written out here
 because the selection's layer sits above this one (``tests/identification/test_load_path.py``
 holds them equal)."""
 
 
-def wrist_sag(efforts, compliance: WristCompliance) -> np.ndarray:
+def wrist_sag(efforts, compliance: WristCompliance, q=None) -> np.ndarray:
     """(N, 3) sag (wrist_pitch, wrist_yaw, jaw; rad) of a wrist whose cables hold ``efforts``
     (N, 3; dVRK efforts of those joints, Nm): encoder minus true position (module docstring).
-    Signs: an effort the motors apply to hold a load stretches the cables that pull against it,
-    and the wrist gives way along the load, against the effort."""
+    ``q`` (N, 7): the encoders' joint positions in time order, which set the friction's state
+    (:func:`~psmforce.identification.prior_law.friction_direction`) and the capstan's growth;
+    needed only when ``compliance`` has friction. Signs: an effort the motors apply to hold a
+    load stretches the cables that pull against it, and the wrist gives way along the load,
+    against the effort."""
     e = np.asarray(efforts, dtype=float)
     c = compliance
-    d = np.stack(pair_differentials(e[:, 0], e[:, 1], e[:, 2], c.pulley_radius_pitch_m,
-                                    c.pulley_radius_blade_m), axis=1)
+    d = pair_differentials(e[:, 0], e[:, 1], e[:, 2], c.pulley_radius_pitch_m,
+                           c.pulley_radius_blade_m)
     t0 = c.pretension_total_n / 6.0
-    a = np.array([c.asymmetry_pitch, c.asymmetry_blade, c.asymmetry_blade])
-    taut = 2.0 * t0 + a * d >= np.abs(d)
-    stretch_m = np.where(taut, 0.5 * d, np.sign(d) * (np.abs(d) - t0)) / c.stiffness_n_per_m
+    a = (c.asymmetry_pitch, c.asymmetry_blade, c.asymmetry_blade)
+    mu_z = (0.0, 0.0, 0.0)
+    if c.has_friction:
+        if q is None or np.shape(q) != (len(e), 7):
+            raise IdentificationInputError("a wrist sag with friction needs the encoders' joint "
+                                           f"positions (N, 7) beside the efforts, got "
+                                           f"{None if q is None else np.shape(q)}")
+        q = np.asarray(q, dtype=float)
+        z = friction_direction(q[:, 4:7]).T
+        roll = 1.0 + c.capstan_roll_gain * np.abs(q[:, 3])
+        blade = roll * (1.0 + c.capstan_pitch_gain * np.abs(q[:, 4]))
+        mu_z = (c.capstan_mu * roll * z[0], c.capstan_mu * blade * z[1],
+                c.capstan_mu * blade * z[2])
+        if c.pin_friction > 0:  # the pins' torque from each pair's section sum, one pass
+            d = with_pins(d, [c.pin_friction * pair_section(d[i], 2.0 * t0, a[i], mu_z[i], np)[1]
+                              * z[i] for i in range(3)],
+                          c.pulley_radius_pitch_m, c.pulley_radius_blade_m)
+    section = [pair_section(d[i], 2.0 * t0, a[i], mu_z[i], np) for i in range(3)]
+    d_section = np.stack([x[0] for x in section], axis=1)
+    taut = np.stack([x[2] >= np.abs(d[i]) for i, x in enumerate(section)], axis=1)
+    stretch_m = np.where(taut, 0.5 * d_section,
+                         np.sign(d_section) * (np.abs(d_section) - t0)) / c.stiffness_n_per_m
     # distal deflections: G^-1 e with G = diag(r) [[1, 0, 0], [k, 1, 0], [k, 0, 1]]
     pitch = stretch_m[:, 0] / c.pulley_radius_pitch_m
     blade_1 = stretch_m[:, 1] / c.pulley_radius_blade_m - KAPPA * pitch
@@ -173,7 +219,7 @@ def sagged_positions(q, f_hex, compliance: WristCompliance | None = None,
     psm = psm or PSM()
     q = np.array(q, dtype=float)
     sag = wrist_sag(wrist_efforts_for_tip_force(q, f_hex, psm),
-                    compliance or WristCompliance.design())
+                    compliance or WristCompliance.design(), q if q.shape[1] == 7 else None)
     q[:, 4:6] -= sag[:, :2]
     return q
 

@@ -157,6 +157,32 @@ def friction_direction(wrist_positions) -> np.ndarray:
     return dahl_states(np.column_stack(_pair_travel(q[:, 0], q[:, 1], q[:, 2])), PRESLIDING_RAD)
 
 
+def pair_section(d, two_t0, asym, mu_z, xp):
+    """A pair's (differential, sum, taut sum) at the HEX10 section (N) for the differential
+    ``d`` its wrist pulleys demand: pretension ``two_t0`` (the pair's 2 T0), asymmetry
+    ``asym``, capstan exponent ``mu_z`` (the coefficient times the friction state; the plain
+    number 0: no capstan). Between the pulleys and the section the tensions gain ``exp(+-mu
+    z)``; the loop closes at the section (``S - a D = 2 T0`` while taut); the taut sum at the
+    pulleys is the third value, the pair slack where it falls below ``|d|``. Arrays, floats or
+    CasADi expressions (``xp``: numpy or :class:`_CasadiOps`); the one place the law and the
+    load path's sag map a pulley differential to the section."""
+    if _is_zero(mu_z):
+        taut = two_t0 + asym * d
+        return d, tension_sum(taut, d, SMOOTH_MAX_N, xp), taut
+    c, s = xp.cosh(mu_z), xp.sinh(mu_z)
+    taut = (two_t0 + d * (asym * c - s)) / (c - asym * s)
+    s_pulley = tension_sum(taut, d, SMOOTH_MAX_N, xp)
+    return d * c + s_pulley * s, s_pulley * c + d * s, taut
+
+
+def with_pins(D, pin_terms, r_pitch, r_blade):
+    """The pairs' differentials (pitch, blade 1, blade 2; N) once the pulley pins' friction adds
+    ``pin_terms`` (N; ``c S z`` of each pair, its torque ``c r S z`` over its radius): each to
+    its own pair, and through ``K^-T`` the blade pairs' share off the pitch pair's."""
+    return (D[0] + pin_terms[0] - KAPPA * (r_blade / r_pitch) * (pin_terms[1] + pin_terms[2]),
+            D[1] + pin_terms[1], D[2] + pin_terms[2])
+
+
 class FrictionDirection:
     """:func:`friction_direction` one sample at a time (pure Python floats), for a streaming
     estimator: :meth:`step` takes one sample's (wrist_pitch, wrist_yaw, jaw) (rad) and returns
@@ -198,22 +224,13 @@ def _model(p, pos, e, v, g_hex, z, xp, hex10_fz=None):
 
     def section(i, d):
         """Pair i's (differential, sum) at the section for differential ``d`` at its pulleys."""
-        if no_capstan:
-            return d, tension_sum(pair_two_t0[i] + asym[i] * d, d, SMOOTH_MAX_N, xp)
-        # the capstan between the wrist's pulleys and the section: T+- gain exp(+-mu z)
-        c, s = xp.cosh(mu_pair[i] * z[i]), xp.sinh(mu_pair[i] * z[i])
-        # taut: the loop closes at the section, S - a E = 2 T0
-        taut = (pair_two_t0[i] + d * (asym[i] * c - s)) / (c - asym[i] * s)
-        s_pulley = tension_sum(taut, d, SMOOTH_MAX_N, xp)
-        return d * c + s_pulley * s, s_pulley * c + d * s
+        return pair_section(d, pair_two_t0[i], asym[i], 0.0 if no_capstan
+                            else mu_pair[i] * z[i], xp)[:2]
 
     if not _is_zero(c_pin):
         # the pins' torque c r S z on each pulley, S the pair's sum without it (one fixed-point
-        # pass, as the bench takes it); through K^-T over the radii it adds c S z to each
-        # pair's differential and takes the blade pairs' share off the pitch pair's
-        pin = [c_pin * section(i, D[i])[1] * z[i] for i in range(3)]
-        D = (D[0] + pin[0] - KAPPA * (r_b / r_p) * (pin[1] + pin[2]), D[1] + pin[1],
-             D[2] + pin[2])
+        # pass, as the bench takes it)
+        D = with_pins(D, [c_pin * section(i, D[i])[1] * z[i] for i in range(3)], r_p, r_b)
     for i in range(3):
         d_section, s_section = section(i, D[i])
         S_sum = S_sum + s_section + c_dir * xp.tanh(dx[i] / DIRECTION_VELOCITY)

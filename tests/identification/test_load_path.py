@@ -216,6 +216,33 @@ def test_wrist_sag_closed_forms_taut_and_slack():
         WristCompliance(0.0, 6.0, 2e-3, 1.5e-3)
 
 
+def test_a_capstan_in_the_sag_gains_the_slack_pairs_differential_its_exponent():
+    """With the friction turned one way (the wrist moved into its pose) a slack pitch pair
+    reaches the section as ``|D| exp(mu z sgn D)``, and its cables stretch by that less ``T0``;
+    a sag with friction needs the encoders' positions, and negative friction is refused."""
+    import dataclasses
+
+    from psmforce.identification.load_path import WristCompliance, wrist_sag
+    c = WristCompliance(stiffness_n_per_m=2e5, pretension_total_n=6.0,
+                        pulley_radius_pitch_m=2e-3, pulley_radius_blade_m=1.5e-3, capstan_mu=0.3)
+    q = np.zeros((300, 7))
+    q[:, 4] = np.r_[np.linspace(0.0, -0.5, 200), np.full(100, -0.5)]  # pitch moves down, holds
+    e = np.zeros((300, 3))
+    e[:, 0] = -6.0 * 2e-3                                            # D = -6 N: slack
+    sag = wrist_sag(e, c, q)
+    # z = -1 on the hold: the slack side gains exp(+0.3); moving the other way, exp(-0.3)
+    # (to the law's smooth max between the taut sum and |D|, a few 1e-6 relative)
+    np.testing.assert_allclose(sag[-1, 0], -(6.0 * np.exp(0.3) - 1.0) / 2e5 / 2e-3, rtol=1e-4)
+    up = wrist_sag(e, c, -q)[-1, 0]
+    np.testing.assert_allclose(up, -(6.0 * np.exp(-0.3) - 1.0) / 2e5 / 2e-3, rtol=1e-4)
+    plain = wrist_sag(e, dataclasses.replace(c, capstan_mu=0.0))[-1, 0]
+    np.testing.assert_allclose(plain, -(6.0 - 1.0) / 2e5 / 2e-3)
+    with pytest.raises(IdentificationInputError, match="joint positions"):
+        wrist_sag(e, c)
+    with pytest.raises(IdentificationInputError, match="friction terms"):
+        dataclasses.replace(c, pin_friction=-0.1)
+
+
 def test_the_load_path_takes_the_moments_where_the_bench_wrist_sags():
     """A weight hung from the bench's elastic wrist (pretension, slack, elasticity only; the
     pairs symmetric, as the sag's law takes them): the load path's sagged wrist is the bench's
@@ -284,6 +311,9 @@ def test_the_sags_design_values_are_the_laws():
     c = WristCompliance.design()
     assert c is DESIGN_COMPLIANCE
     assert (c.pretension_total_n, c.pulley_radius_pitch_m, c.pulley_radius_blade_m,
-            c.asymmetry_pitch, c.asymmetry_blade) == tuple(DESIGN[n] for n in (
+            c.asymmetry_pitch, c.asymmetry_blade, c.capstan_mu, c.capstan_pitch_gain,
+            c.capstan_roll_gain, c.pin_friction) == tuple(DESIGN[n] for n in (
                 "pretension_total", "pulley_radius_pitch", "pulley_radius_blade",
-                "asymmetry_pitch", "asymmetry_blade"))
+                "asymmetry_pitch", "asymmetry_blade", "capstan_mu", "capstan_pitch_gain",
+                "capstan_roll_gain", "pin_friction"))
+    assert not c.has_friction   # by design the sag is the pulleys' differential alone

@@ -72,3 +72,29 @@ def test_the_bench_sag_is_the_load_paths_where_their_laws_agree_and_not_where_fr
     np.testing.assert_allclose(bench[:, 4:6], ours[:, 4:6], atol=2e-4)
     friction = bench_sag(dataclasses.replace(tool, capstan_mu_wrap_distal=0.3))(q, force)
     assert np.abs(friction[:, 4:6] - ours[:, 4:6]).max() > 1e-3
+
+
+def test_the_load_paths_sag_with_the_tools_friction_is_the_benchs():
+    """A wrist that moves into its pose and holds a 0.2 kg weight there (the friction turned
+    one way): with the tool's capstan, its growth and its pins the load path's sag is the
+    bench's; without them it is not."""
+    from psmforce.cli.excitation import WEIGHT_ARM_POSE
+    from psmforce.identification.load_path import WristCompliance, sagged_positions
+    tool = dataclasses.replace(InstrumentParams(), pitch_path_mismatch_m=0.0,
+                               twist_tension_gain_per_rad2=0.0)
+    q = np.repeat(np.r_[WEIGHT_ARM_POSE, 1.0, -0.7, 0.7, 0.0][None], 400, 0)
+    q[:200, 5] = np.linspace(0.9, 0.7, 200)        # yaw moves into the pose, then holds
+    q[:200, 4] = np.linspace(-0.5, -0.7, 200)
+    force = np.tile([0.0, 0.0, -1.96], (400, 1))
+    bench = bench_sag(tool)(q, force)[-1, 4:6]
+    friction = WristCompliance(
+        tool.cable_stiffness_n_per_m, tool.pretension_total_n, tool.pulley_radius_pitch_m,
+        tool.pulley_radius_blade_m, tool.cable_asymmetry[0], tool.cable_asymmetry[1],
+        capstan_mu=tool.capstan_mu_wrap_distal, capstan_pitch_gain=tool.capstan_wrap_pitch_gain,
+        capstan_roll_gain=tool.twist_friction_gain_per_rad,
+        pin_friction=tool.pin_friction_coefficient)
+    without = dataclasses.replace(friction, capstan_mu=0.0, pin_friction=0.0)
+    ours = sagged_positions(q, force, friction)[-1, 4:6]
+    plain = sagged_positions(q, force, without)[-1, 4:6]
+    assert np.abs(plain - bench).max() > 1e-3          # rad: the friction moves the sag
+    np.testing.assert_allclose(ours, bench, atol=2e-4)
