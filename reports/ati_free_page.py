@@ -477,9 +477,25 @@ def instrument_identification_tables(result: dict) -> str:
                          + ("" if "all_free_residual" not in run else
                             " The all-free fit's residual on its own recordings, RMS fz "
                             f"{run['all_free_residual']['fz']['rms']:.3g} N, tx "
-                            f"{run['all_free_residual']['tx']['rms']:.3g} Nm."))
+                            f"{run['all_free_residual']['tx']['rms']:.3g} Nm.")
+                         + _sag_sentence(run))
         lines.append("")
     return "\n".join(lines)
+
+
+def _sag_sentence(run: dict) -> str:
+    """How a case's final fit sagged the wrist (``prior_selection.fit_identified``'s ``sag``
+    record); empty for a run written before the fit read its own values back."""
+    sag = run.get("sag")
+    if sag is None:
+        return ""
+    refits = len(sag["passes"]) - 1
+    last = sag["passes"][-1]["change"]
+    return (f" The wrist's sag: the design's, then the fit's own values, {refits} refit"
+            f"{'' if refits == 1 else 's'}; the sag the final fit took and the one it gives "
+            f"differ by {100 * last:.2g} % at most "
+            + ("(converged)." if sag["converged"] else "(**not converged**).")
+            + f" Its capstan in the sag {sag['compliance']['capstan_mu']:.3g}.")
 
 
 def load_path_holds_table(result: dict) -> str:

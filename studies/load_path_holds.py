@@ -84,14 +84,14 @@ def bench_sag(tool):
     import numpy as np
 
     from psmforce.identification.load_path import wrist_efforts_for_tip_force
+    from psmforce.robot.conventions import wrist_torques_to_distal
     from psmforce.sim.cables import transmission
     from psmforce.sim.params import Effects
 
     def sagged(q, force):
         q = np.array(q, dtype=float)
         e = wrist_efforts_for_tip_force(q, force)
-        # the efforts on (wrist_pitch, wrist_yaw, jaw) as torques on (pitch, blade 1, blade 2)
-        demand = np.stack([e[:, 0], 0.5 * e[:, 1] - e[:, 2], 0.5 * e[:, 1] + e[:, 2]], axis=1)
+        demand = np.stack(wrist_torques_to_distal(e[:, 0], e[:, 1], e[:, 2]), axis=1)
         q[:, 4:6] -= transmission(q, -demand, tool, Effects())["deflection"][:, :2]
         return q
     return sagged

@@ -28,13 +28,15 @@ Frames, units, signs (one place):
   and the tip force's moments are taken there: a bent wrist's moment arm changes with its angle,
   and with it the differential the cables carry and the compression the HEX10 reads (measured
   on hung weights in docs/ati_free.md section 4.1). :func:`wrist_sag` gives it from the
-  demanded efforts with the instrument's design values (:class:`WristCompliance`: the cable
-  stiffness is not identified here, and the law's radii and pretension are what the fit looks
-  for), one fixed-point pass as the bench takes: the efforts at the encoders' pose, the sag they
-  cause, the efforts at the sagged pose. The cables stretch under the section's differential:
-  with friction in the compliance (the capstan and the pins, 0 by design) the pulleys' demand
-  crosses the idlers first, with the friction state the encoders' motion leaves (an approach
-  turns it one way).
+  demanded efforts and a :class:`WristCompliance`, one fixed-point pass as the bench takes: the
+  efforts at the encoders' pose, the sag they cause, the efforts at the sagged pose. A first
+  fit sags the wrist with the instrument's design values (the law's radii, pretension and
+  friction are what it looks for); the selection (:func:`~psmforce.identification.
+  prior_selection.fit_identified`) then refits with the values it found
+  (:meth:`WristCompliance.from_law`), the cable stiffness staying the design's. The cables
+  stretch under the section's differential: with friction in the compliance (the capstan and
+  the pins, 0 by design) the pulleys' demand crosses the idlers first, with the friction state
+  the encoders' motion leaves (an approach turns it one way).
 
 The grip of jaws clenched on an object or on each other is internal to the jaws: no tip force
 shows it, yet it loads the blade pairs. Recordings with a clench carry it in the jaw effort only,
@@ -45,7 +47,7 @@ load-path fit leaves them out.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 import numpy as np
 
@@ -151,12 +153,40 @@ class WristCompliance:
         """The instrument's design values (:data:`DESIGN_COMPLIANCE`)."""
         return DESIGN_COMPLIANCE
 
+    @classmethod
+    def from_law(cls, values, stiffness_n_per_m: float | None = None) -> "WristCompliance":
+        """The compliance a law's values give (``values``: name of :data:`~psmforce.
+        identification.prior_law.NAMES` -> SI value, every one of :data:`LAW_TERMS` present):
+        the law's pretension, radii, asymmetries and friction, the stiffness the design's
+        (:data:`DESIGN_CABLE_STIFFNESS_N_PER_M`) unless given. The law's twist gain and path
+        pretension have no place in the sag (it takes the pairs' pretension at the straight,
+        unrolled wrist)."""
+        missing = [n for n in LAW_TERMS.values() if n not in values]
+        if missing:
+            raise IdentificationInputError(f"a wrist compliance from a law needs {missing}")
+        return cls(DESIGN_CABLE_STIFFNESS_N_PER_M if stiffness_n_per_m is None
+                   else stiffness_n_per_m,
+                   **{field: float(values[name]) for field, name in LAW_TERMS.items()})
+
+    @classmethod
+    def from_dict(cls, d, source: str = "wrist compliance") -> "WristCompliance":
+        """The compliance a file wrote (``dataclasses.asdict``), checked as user input: exactly
+        the fields, each a finite number, and the values :class:`WristCompliance` accepts;
+        ``source`` names it in the refusal."""
+        names = [f.name for f in fields(cls)]
+        if not isinstance(d, dict) or sorted(d) != sorted(names) or any(
+                isinstance(x, bool) or not isinstance(x, (int, float)) for x in d.values()):
+            raise IdentificationInputError(f"{source}: a wrist compliance must have exactly the "
+                                           f"numbers {', '.join(names)}, got {d!r}")
+        return cls(**{n: float(d[n]) for n in names})
+
 
 DESIGN_CABLE_STIFFNESS_N_PER_M = 2.8e5
 """One cable run's axial stiffness (N/m) the load path's sag assumes: the value calibrated on a
 real EndoWrist's transmission (the MRD Lab's Tool_4_Maryland_L_4, docs/simulator.md section 10).
-Fixed, not identified: the load path computes the sag from design values before any fit; a
-tool whose cables are 20 % stiffer or softer sags 20 % less or more than it assumes."""
+Fixed, not identified: the fit's data see the sag only through the moment arms it bends, too
+little to pin the stiffness; a tool whose cables are 20 % stiffer or softer sags 20 % less or
+more than it assumes."""
 DESIGN_COMPLIANCE = WristCompliance(DESIGN_CABLE_STIFFNESS_N_PER_M, pretension_total_n=6.0,
                                     pulley_radius_pitch_m=2.0e-3, pulley_radius_blade_m=1.5e-3,
                                     asymmetry_pitch=0.30, asymmetry_blade=0.275,
@@ -166,6 +196,14 @@ DESIGN_COMPLIANCE = WristCompliance(DESIGN_CABLE_STIFFNESS_N_PER_M, pretension_t
 asymmetries and friction (none: the capstan and the pins at 0), those of :data:`~psmforce.identification.prior_selection.DESIGN`, written out here
 because the selection's layer sits above this one (``tests/identification/test_load_path.py``
 holds them equal)."""
+LAW_TERMS = {"pretension_total_n": "pretension_total",
+             "pulley_radius_pitch_m": "pulley_radius_pitch",
+             "pulley_radius_blade_m": "pulley_radius_blade",
+             "asymmetry_pitch": "asymmetry_pitch", "asymmetry_blade": "asymmetry_blade",
+             "capstan_mu": "capstan_mu", "capstan_pitch_gain": "capstan_pitch_gain",
+             "capstan_roll_gain": "capstan_roll_gain", "pin_friction": "pin_friction"}
+""":class:`WristCompliance` field -> the law's parameter (:mod:`~psmforce.identification.
+prior_law`) it takes (:meth:`WristCompliance.from_law`)."""
 
 
 def wrist_sag(efforts, compliance: WristCompliance, q=None) -> np.ndarray:

@@ -102,7 +102,7 @@ from __future__ import annotations
 import json
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -254,15 +254,18 @@ def held_by_reading(inputs: str, crosstalk: bool | None = None) -> dict[str, flo
     return held
 
 
-def fit_arrays(frame, inputs: str, psm=None, targets: bool = True, direction: bool = True):
+def fit_arrays(frame, inputs: str, psm=None, targets: bool = True, direction: bool = True,
+               compliance=None):
     """(model inputs, target, mask) of one recording for a prior reading ``inputs``
     (:data:`INPUTS`); ``targets=False`` skips the target (None, None); ``direction``: as
-    :func:`arrays_from_frame`."""
+    :func:`arrays_from_frame`; ``compliance``: the wrist's
+    (:class:`~psmforce.identification.load_path.WristCompliance`) the load path sags it with
+    (None: the design's)."""
     a = arrays_from_frame(frame, psm, direction)
     y, mask = internal_wrench_target(frame) if targets else (None, None)
     if inputs == "load_path":
         from psmforce.identification.load_path import clenched, load_path_inputs
-        efforts, tip_moment = load_path_inputs(frame, psm)
+        efforts, tip_moment = load_path_inputs(frame, psm, compliance)
         a = {**a, "efforts": efforts}
         if targets:  # the tip force's moment is known: every sample's moments count
             y[:, 3:] -= tip_moment
@@ -271,13 +274,22 @@ def fit_arrays(frame, inputs: str, psm=None, targets: bool = True, direction: bo
     return a, y, mask
 
 
-def _design_compliance() -> dict:
-    """The wrist compliance (SI) a load-path fit's inputs sagged the wrist with
-    (:meth:`~psmforce.identification.load_path.WristCompliance.design`), for its ``info``."""
-    from dataclasses import asdict
-
+def _compliance(compliance, inputs: str):
+    """The wrist compliance a fit reading ``inputs`` sags the wrist with: ``compliance``, or
+    the design's (:meth:`~psmforce.identification.load_path.WristCompliance.design`) when None;
+    None for the efforts reading, which has no sag (refuses a compliance given to it)."""
     from psmforce.identification.load_path import WristCompliance
-    return asdict(WristCompliance.design())
+    if inputs != "load_path":
+        if compliance is not None:
+            raise IdentificationInputError(f"a wrist compliance sags the load path only; the "
+                                           f"{inputs!r} reading takes none")
+        return None
+    if compliance is None:
+        return WristCompliance.design()
+    if not isinstance(compliance, WristCompliance):
+        raise IdentificationInputError(f"compliance must be a WristCompliance, got "
+                                       f"{type(compliance).__name__}")
+    return compliance
 
 
 def _check_reading(hex10_fz, n: int) -> np.ndarray | None:
@@ -399,7 +411,7 @@ class InternalForcePrior:
         """(N,6) prediction for a recording DataFrame or a dict of :func:`arrays_from_frame`."""
         arrays = frame_or_arrays if isinstance(frame_or_arrays, dict) else fit_arrays(
             frame_or_arrays, self.inputs, psm, targets=False,
-            direction=self.has_friction)[0]
+            direction=self.has_friction, compliance=self.wrist_compliance)[0]
         return self.predict_arrays(arrays["positions"], arrays["efforts"], arrays["velocities"],
                                    arrays["g_hex"], arrays.get("direction"),
                                    arrays.get("hex10_fz"))
@@ -409,7 +421,8 @@ class InternalForcePrior:
         :attr:`axis_weights`) on recording frames read as its fit reads them (:attr:`inputs`,
         the fit's sample mask): the figure ``info["train_metrics"]`` holds, on any
         recordings."""
-        parts = [fit_arrays(f, self.inputs, psm, direction=self.has_friction) for f in recordings]
+        parts = [fit_arrays(f, self.inputs, psm, direction=self.has_friction,
+                            compliance=self.wrist_compliance) for f in recordings]
         law = [self.law_arrays(*_check_arrays(a["positions"], a["efforts"], a["velocities"],
                                               a["g_hex"], a["direction"]),
                                a["hex10_fz"] if self.has_crosstalk else None)
@@ -423,6 +436,19 @@ class InternalForcePrior:
         efforts, what a streaming estimator has) or ``"load_path"`` (those the known tip force
         demands; :meth:`predict` on a recording then reads its ``ati_*`` force)."""
         return self.info.get("inputs", "efforts")
+
+    @property
+    def wrist_compliance(self):
+        """The :class:`~psmforce.identification.load_path.WristCompliance` a load-path prior
+        sagged the wrist with (``info["wrist_compliance"]``; the design's where a prior written
+        before it was recorded has none), which :meth:`predict` sags it with again; None for an
+        efforts prior."""
+        if self.inputs != "load_path":
+            return None
+        from psmforce.identification.load_path import WristCompliance
+        d = self.info.get("wrist_compliance")
+        return WristCompliance.design() if d is None else WristCompliance.from_dict(
+            d, "the prior's info.wrist_compliance")
 
     def predict_one(self, positions, efforts, velocities, g_hex, direction=None,
                     hex10_fz=None) -> tuple:
@@ -471,7 +497,7 @@ class InternalForcePrior:
     def fit(cls, recordings, *, psm=None, provenance=None, max_iter: int = 500,
             fixed: dict[str, float] | None = None, initial: dict[str, float] | None = None,
             report: bool = True, inputs: str = "efforts",
-            crosstalk: bool | None = None) -> InternalForcePrior:
+            crosstalk: bool | None = None, compliance=None) -> InternalForcePrior:
         """Fit on recordings (DataFrames of ``psmforce.io.recording`` or paths).
 
         Where target columns ``ati_fx..ati_fz`` exist, the known external force (HEX10 frame) is
@@ -492,10 +518,14 @@ class InternalForcePrior:
         force's moment subtracted (:mod:`psmforce.identification.load_path`; every recording
         must carry ``ati_fx..ati_fz``). ``crosstalk``: fit the sensor's cross-talk (True), hold
         it at 0 (False), or as the reading does (None: :func:`held_by_reading`).
+        ``compliance``: with the load path, the
+        :class:`~psmforce.identification.load_path.WristCompliance` that sags the wrist (None:
+        the design's), kept in ``info["wrist_compliance"]``.
         """
         import casadi as ca
 
         held = held_by_reading(inputs, crosstalk)
+        compliance = _compliance(compliance, inputs)
         t0 = time.perf_counter()
         if len(recordings) == 0:
             raise IdentificationInputError("no recordings to fit the prior on")
@@ -511,7 +541,8 @@ class InternalForcePrior:
                 rec = read_recording(rec)
             else:
                 sources.append("<DataFrame>")
-            a, y, mask = fit_arrays(rec, inputs, psm, direction=not no_friction)
+            a, y, mask = fit_arrays(rec, inputs, psm, direction=not no_friction,
+                                    compliance=compliance)
             parts.append((a, y, mask))
             if all(t in rec.columns for t in TARGETS) and \
                     {_INSERTION_VELOCITY, _INSERTION_EFFORT} <= set(rec.columns):
@@ -583,7 +614,7 @@ class InternalForcePrior:
             "bounds_hit": _bounds_hit(params, fixed),
             "fixed": {n: float(x) for n, x in fixed.items()},
             "inputs": inputs,
-            **({"wrist_compliance": _design_compliance()} if inputs == "load_path" else {}),
+            **({"wrist_compliance": asdict(compliance)} if compliance is not None else {}),
             **({"identifiability": identifiability(params, fixed, (pos, e, v, g, zd, fz_read),
                                                    y, mask, ch_scale)} if report else {}),
             "slack_samples_fraction": float(np.mean(_slack_any(prior.params, roll, e))),
@@ -682,6 +713,10 @@ class InternalForcePrior:
         if isinstance(info, dict) and info.get("inputs", "efforts") not in INPUTS:
             raise IdentificationInputError(f"{path}: 'info.inputs' must be one of {INPUTS}, "
                                            f"got {info.get('inputs')!r}")
+        if isinstance(info, dict) and "wrist_compliance" in info:
+            from psmforce.identification.load_path import WristCompliance
+            WristCompliance.from_dict(info["wrist_compliance"],
+                                      f"{path}: 'info.wrist_compliance'")
         return cls(params=np.array(params), converged=bool(d.get("converged")),
                    info=info if isinstance(info, dict) else {}, insertion=insertion,
                    axis_weights=weights)

@@ -11,6 +11,7 @@ import math
 import numpy as np
 
 from psmforce.identification.cable_pair import tension_sum
+from psmforce.robot.conventions import wrist_torques_to_distal
 from psmforce.robot.dahl import DahlState, dahl_states
 
 KAPPA = 0.8306 / 1.0186
@@ -133,9 +134,8 @@ def pair_differentials(effort_pitch, effort_yaw, effort_jaw, r_pitch, r_blade):
     ``u = K^-T tau`` (``K^T = [[1, k, k], [0, 1, 0], [0, 0, 1]]``), over the pulley radii (m).
     Arrays, floats or CasADi expressions; the one place the law, its slack count and the load
     path's sag turn torques into differentials."""
-    tau_b1, tau_b2 = 0.5 * effort_yaw - effort_jaw, 0.5 * effort_yaw + effort_jaw
-    return ((effort_pitch - KAPPA * (tau_b1 + tau_b2)) / r_pitch, tau_b1 / r_blade,
-            tau_b2 / r_blade)
+    tau_p, tau_b1, tau_b2 = wrist_torques_to_distal(effort_pitch, effort_yaw, effort_jaw)
+    return ((tau_p - KAPPA * (tau_b1 + tau_b2)) / r_pitch, tau_b1 / r_blade, tau_b2 / r_blade)
 
 
 def _pair_travel(wrist_pitch, wrist_yaw, jaw):

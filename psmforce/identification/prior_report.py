@@ -63,7 +63,9 @@ def fit_prior_cli(data_dir, out_json, *, use_loaded: bool = False,
     gate and the targets (what ``psmforce fit-prior`` prints). ``inputs="load_path"``
     (``--load-path``): the law reads the cables from the trials' known tip force, not from the
     motor efforts (:mod:`psmforce.identification.load_path`): an identification of the
-    instrument, not a prior an estimator can run on."""
+    instrument, not a prior an estimator can run on; with ``identify`` its wrist is sagged with
+    the fit's own values (``report["wrist_sag"]``, :func:`~psmforce.identification.
+    prior_selection.fit_identified`), without it with the design's."""
     data_dir = Path(data_dir)
     conds = (FREE_SPACE, "Traction", "Palpation") if use_loaded else (FREE_SPACE,)
     train = _dataset_trials(data_dir, "train", conds)
@@ -97,7 +99,8 @@ def fit_prior_cli(data_dir, out_json, *, use_loaded: bool = False,
               "fixed": {n: f["value"] if isinstance(f, dict) else f
                         for n, f in selection["fixed"].items()},
               "not_identifiable": prior.info["identifiability"]["not_identifiable"],
-              "insertion": prior.insertion.to_dict() if prior.insertion is not None else None}
+              "insertion": prior.insertion.to_dict() if prior.insertion is not None else None,
+              **({"wrist_sag": selection["sag"]} if "sag" in selection else {})}
     if test:
         frames = [read_recording(p) for p in test]
         y = np.concatenate([f[list(HEX10)].to_numpy(dtype=float) for f in frames])

@@ -20,8 +20,16 @@ fit's ``info["selection"]`` holds each round, the fixed parameters with the reas
 they had when they were listed, and ``info["verdict"]`` the one line that names the identified,
 the fixed and the at-bound parameters (:func:`verdict_line`; printed by ``psmforce fit-prior``).
 
+Read through the load path, the tip force's moments are taken where the wrist sags, and the sag
+depends on the law's own pretension, radii and friction (:mod:`~psmforce.identification.
+load_path`). The rounds sag it with the design's values; the selected fit is then refitted,
+what it holds unchanged, with the sag its own values give (:func:`fitted_compliance`), until the
+two agree (:data:`SAG_TOLERANCE`, at most :data:`SAG_PASSES` refits): a fixed point of the fit
+and its sag, so the parameters it reports are those of the sag it took. ``info["selection"]
+["sag"]`` records each pass, and the verdict names a sag that did not converge.
+
 Cost: one fit and :data:`JACKKNIFE_GROUPS` warm-started refits per round (2-3 rounds on the
-default bench).
+default bench); with the load path, one warm-started fit per sag pass and one jackknife more.
 """
 
 from __future__ import annotations
@@ -34,7 +42,7 @@ from psmforce.identification.errors import IdentificationInputError
 from psmforce.identification.prior import (HELD_BY_READING_REASON, held_by_reading,
                                            InternalForcePrior)
 from psmforce.identification.prior_identifiability import RECOVERY_TOLERANCE, add_trial_spread
-from psmforce.identification.prior_law import NAMES
+from psmforce.identification.prior_law import NAMES, at_bound
 from psmforce.io.recording import read_recording
 
 DESIGN = {
@@ -83,12 +91,14 @@ def _frames(recordings) -> list:
 
 def trial_jackknife(frames, prior: InternalForcePrior, fixed: dict[str, float],
                     groups: int = JACKKNIFE_GROUPS, psm=None, max_iter: int = 500,
-                    inputs: str = "efforts", labels=None) -> dict[str, float] | None:
+                    inputs: str = "efforts", labels=None,
+                    compliance=None) -> dict[str, float] | None:
     """Delete-a-group jackknife standard error of each free parameter over ``groups`` groups of
     whole trials (trial k in group k mod ``groups``, or in group ``labels[k]``): refit without
     each group, warm-started at ``prior``'s parameters, ``se^2 = (G - 1) / G sum_g (p_g -
     mean p)^2`` (SI units). None when there are fewer trials than groups. ``fixed``: every
     parameter the fit of ``prior`` held, the reading's included; the refits hold exactly these.
+    ``compliance``: the load path's sag, as the fit of ``prior`` took it.
 
     ``labels`` (one int in [0, groups) per trial) is for a designed experiment whose trials are
     not exchangeable: k mod G on holds ordered by pose removes the same poses in every
@@ -107,7 +117,8 @@ def trial_jackknife(frames, prior: InternalForcePrior, fixed: dict[str, float],
         kept = [f for f, label in zip(frames, labels) if label != g]
         refits.append(InternalForcePrior.fit(kept, psm=psm, fixed=fixed, initial=start,
                                              report=False, max_iter=max_iter,
-                                             inputs=inputs, crosstalk=True).params)
+                                             inputs=inputs, crosstalk=True,
+                                             compliance=compliance).params)
     p = np.array(refits)
     se = np.sqrt((groups - 1) / groups * np.sum((p - p.mean(axis=0)) ** 2, axis=0))
     return {n: float(se[i]) for i, n in enumerate(NAMES) if n not in fixed}
@@ -130,16 +141,61 @@ def design_groups(replicates, groups: int = JACKKNIFE_GROUPS) -> list[int]:
     return labels
 
 
+def fitted_compliance(prior: InternalForcePrior, design: dict | None = None):
+    """The wrist's sag (:class:`~psmforce.identification.load_path.WristCompliance`) a fit's
+    own values give: its pretension, radii, asymmetries and friction; a parameter at its bound
+    (:func:`~psmforce.identification.prior_law.at_bound`) takes its value in ``design``
+    (default :data:`DESIGN`), as the selection would hold it."""
+    from psmforce.identification.load_path import WristCompliance
+    design = {**DESIGN, **(design or {})}
+    bound = at_bound(prior.params)
+    return WristCompliance.from_law({n: design[n] if bound[i] else float(prior.params[i])
+                                     for i, n in enumerate(NAMES)})
+
+
+def _sag_change(old, new) -> float:
+    """The largest relative change between two compliances' fields (a friction term's change
+    over 0.01 at least: the terms are 0 by design)."""
+    from dataclasses import fields
+    change = 0.0
+    for f in fields(old):
+        a, b = getattr(old, f.name), getattr(new, f.name)
+        floor = SAG_FRICTION_FLOOR if f.name in _SAG_FRICTION else 0.0
+        change = max(change, abs(b - a) / max(abs(a), abs(b), floor, 1e-300))
+    return float(change)
+
+
+SAG_PASSES = 3
+"""Refits at most with the sag the previous fit's own values give (:func:`fit_identified`
+with the load path), until those values change the sag by under :data:`SAG_TOLERANCE`."""
+SAG_TOLERANCE = 0.01
+"""Largest relative change of the sag's terms (:func:`_sag_change`) at which the load path's
+fit and the sag it took agree."""
+SAG_FRICTION_FLOOR = 0.01
+_SAG_FRICTION = ("capstan_mu", "capstan_pitch_gain", "capstan_roll_gain", "pin_friction")
+
+
 def fit_identified(recordings, *, psm=None, provenance=None, design: dict | None = None,
                    groups: int = JACKKNIFE_GROUPS, max_rounds: int = MAX_ROUNDS,
                    max_iter: int = 500, inputs: str = "efforts",
-                   jackknife_labels=None, crosstalk: bool | None = None) -> InternalForcePrior:
+                   jackknife_labels=None, crosstalk: bool | None = None,
+                   sag_passes: int = SAG_PASSES) -> InternalForcePrior:
     """Fit the prior with only what the data identify free (module docstring); the rest held at
     ``design`` (default :data:`DESIGN`; a partial dict overrides some entries). ``inputs``: what
     the law reads as wrist torques (:meth:`InternalForcePrior.fit`); ``jackknife_labels``: each
     recording's jackknife group (:func:`trial_jackknife`, :func:`design_groups`);
-    ``crosstalk``: as :meth:`InternalForcePrior.fit`."""
+    ``crosstalk``: as :meth:`InternalForcePrior.fit`.
+
+    With the load path, the rounds sag the wrist with the design's values
+    (:mod:`~psmforce.identification.load_path`); then the selected fit is refitted, what it
+    holds unchanged, with the sag its own values give (:func:`fitted_compliance`), up to
+    ``sag_passes`` times, until the sag it took and the one it gives differ by under
+    :data:`SAG_TOLERANCE`; the final fit's report (and jackknife) is the verdict's.
+    ``info["selection"]["sag"]`` records each pass; ``sag_passes=0`` keeps the design's sag."""
     design = {**DESIGN, **(design or {})}
+    if isinstance(sag_passes, bool) or not isinstance(sag_passes, int) or sag_passes < 0:
+        raise IdentificationInputError(f"sag_passes must be an integer >= 0, got "
+                                       f"{sag_passes!r}")
     unknown = sorted(set(design) - set(NAMES))
     if unknown:
         raise IdentificationInputError(f"design: unknown parameters {unknown} (one of {NAMES})")
@@ -174,6 +230,10 @@ def fit_identified(recordings, *, psm=None, provenance=None, design: dict | None
                                "fitted_when_listed": float(prior.params[NAMES.index(name)]),
                                "round": len(rounds)}
             fixed[name] = design[name]
+    sag = (_own_sag(frames, prior, fixed, design, psm, max_iter, groups, jackknife_labels,
+                    sag_passes) if inputs == "load_path" else None)
+    if sag is not None:
+        prior = sag.pop("prior")
     still = sorted(prior.info["identifiability"]["not_identifiable"])
     free = [n for n in NAMES if n not in fixed]
     prior.info["selection"] = {
@@ -185,9 +245,37 @@ def fit_identified(recordings, *, psm=None, provenance=None, design: dict | None
         "identified": [n for n in free if n not in still],
         "still_not_identifiable": still,
         "at_bound": list(prior.info["bounds_hit"]),
+        **({"sag": sag} if sag is not None else {}),
     }
     prior.info["verdict"] = verdict_line(prior.info["selection"])
     return prior
+
+
+def _own_sag(frames, prior, fixed, design, psm, max_iter, groups, labels, passes) -> dict:
+    """The selected load-path fit refitted with the sag its own values give
+    (:func:`fit_identified`): ``{"prior": the final fit, "passes": [{"compliance",
+    "change"}], "converged": bool, "compliance": the final fit's}``."""
+    from dataclasses import asdict
+    taken = prior.wrist_compliance
+    record = []
+    for _ in range(passes + 1):
+        given = fitted_compliance(prior, design)
+        change = _sag_change(taken, given)
+        record.append({"compliance": asdict(given), "change": change})
+        if change < SAG_TOLERANCE or len(record) > passes:
+            break
+        start = {n: float(x) for n, x in zip(NAMES, prior.params) if n not in fixed}
+        prior = InternalForcePrior.fit(frames, psm=psm, provenance=prior.info["provenance"],
+                                       fixed=fixed, initial=start, max_iter=max_iter,
+                                       inputs="load_path", crosstalk=True, compliance=given)
+        taken = given
+    if len(record) > 1:  # the verdict's spread is the final fit's
+        jack = trial_jackknife(frames, prior, fixed, groups, psm, max_iter, "load_path", labels,
+                               compliance=taken)
+        if jack is not None:
+            add_trial_spread(prior.info["identifiability"], prior.params, jack, groups)
+    return {"prior": prior, "passes": record, "converged": record[-1]["change"] < SAG_TOLERANCE,
+            "compliance": asdict(taken)}
 
 
 TIED_TO_PRETENSION = ("bias_fz", "twist_gain")
@@ -227,6 +315,11 @@ def verdict_line(selection: dict) -> str:
     line += f"; at a bound: {_names(bound)}"
     if first and first != bound:
         line += f" (in the all-free fit: {_names(first)})"
+    sag = selection.get("sag")
+    if sag is not None and not sag["converged"]:
+        line += (f"; the wrist's sag NOT converged: the final fit's own values move it by "
+                 f"{100 * sag['passes'][-1]['change']:.2g} % after {len(sag['passes']) - 1} "
+                 f"refits")
     return line
 
 

@@ -36,6 +36,15 @@ WRIST_JOINTS = JOINTS[4:]
 """The instrument's cable-driven joints (wrist_pitch, wrist_yaw, jaw), coupled through its
 wrist motors."""
 
+
+def wrist_torques_to_distal(torque_pitch, torque_yaw, torque_jaw):
+    """Torques on the wrist joints (wrist_pitch, wrist_yaw, jaw; Nm, dVRK efforts' signs) as
+    torques on the distal coordinates the cables drive, (pitch, blade_1, blade_2) with blade_1,2
+    = yaw -+ jaw / 2. By virtual work ``tau_yaw = tau_b1 + tau_b2`` and ``tau_jaw = (tau_b2 -
+    tau_b1) / 2``, so ``tau_b1,2 = tau_yaw / 2 -+ tau_jaw``. Arrays, floats or CasADi
+    expressions; ``psmforce.sim.cables.distal_torque_to_joints`` is its inverse."""
+    return torque_pitch, 0.5 * torque_yaw - torque_jaw, 0.5 * torque_yaw + torque_jaw
+
 NAMED_FRAMES = ("cp", "jaw_tip", "roll", "hex10")
 """The frames this library names (docs/conventions.md); ``PSM`` accepts any other frame of its
 model on the chain too."""

@@ -52,7 +52,8 @@ def distal_to_joints(p: np.ndarray) -> np.ndarray:
 
 def distal_torque_to_joints(tau_p: np.ndarray) -> np.ndarray:
     """Generalized torques on (pitch, blade_1, blade_2) -> torques on (wrist_pitch, wrist_yaw, jaw)
-    (virtual work with blade_1,2 = yaw -+ jaw/2)."""
+    (virtual work with blade_1,2 = yaw -+ jaw/2); the inverse of
+    :func:`psmforce.robot.conventions.wrist_torques_to_distal`."""
     return np.stack([tau_p[:, 0], tau_p[:, 1] + tau_p[:, 2], 0.5 * (tau_p[:, 2] - tau_p[:, 1])], axis=-1)
 
 

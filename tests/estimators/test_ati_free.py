@@ -204,6 +204,19 @@ def test_known_loads_identify_the_instrument_through_the_load_path(tmp_path):
                                                require_targets=False)))
     prior = identify_instrument(trials)
     truth = default_bench_truth()
+    # the final fit sags the wrist with its own values, not the design's, and where the passes
+    # converged, the sag it took is the one it gives; read back over its own recordings, the law
+    # gives its fit's figures only when sagged as it was fitted
+    from psmforce.identification.load_path import WristCompliance
+    from psmforce.identification.prior_selection import (SAG_TOLERANCE, _sag_change,
+                                                         fitted_compliance)
+    sag = prior.info["selection"]["sag"]
+    assert prior.wrist_compliance == WristCompliance.from_dict(sag["compliance"])
+    assert prior.wrist_compliance != WristCompliance.design() and len(sag["passes"]) > 1
+    assert sag["converged"] == (_sag_change(prior.wrist_compliance, fitted_compliance(prior))
+                                < SAG_TOLERANCE)
+    again, stored = prior.fit_metrics([t.frame for t in trials]), prior.info["train_metrics"]
+    assert again["fz"]["rms"] == pytest.approx(stored["fz"]["rms"], rel=1e-9)
     first = prior.info["selection"]["rounds"][0]["parameters"]
     for name in ("pretension_total", "pulley_radius_pitch", "pulley_radius_blade",
                  "cable_radius"):

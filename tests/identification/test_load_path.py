@@ -117,6 +117,10 @@ def test_the_load_path_recovers_what_the_efforts_cannot(default_bench, tmp_path)
     assert error(dict(zip(NAMES, no_capstan.params)), "pulley_radius_blade") > 0.1
     prior = InternalForcePrior.load(tmp_path / "load_path.json")
     assert prior.inputs == "load_path" and fits["load_path"]["inputs"] == "load_path"
+    # an all-free fit (no selection) sags the wrist with the design's values, and says so
+    from psmforce.identification.load_path import WristCompliance
+    assert prior.wrist_compliance == WristCompliance.design() and "wrist_sag" not in fits[
+        "load_path"]
     # the law read back over its training recordings gives the fit's own figure, capstan or not
     for law in (no_capstan, prior):
         again, stored = law.fit_metrics(frames), law.info["train_metrics"]
@@ -317,3 +321,68 @@ def test_the_sags_design_values_are_the_laws():
                 "asymmetry_pitch", "asymmetry_blade", "capstan_mu", "capstan_pitch_gain",
                 "capstan_roll_gain", "pin_friction"))
     assert not c.has_friction   # by design the sag is the pulleys' differential alone
+
+
+def test_a_compliance_from_the_laws_values_and_from_a_file():
+    """The sag a law's values give (the selection's second pass) takes each of its terms from
+    the law: the design's law gives the design's sag. A compliance a prior file carries is read
+    as user input: a missing field, a flag, NaN or a negative radius is refused by name."""
+    from dataclasses import asdict
+
+    from psmforce.identification.load_path import DESIGN_COMPLIANCE, LAW_TERMS, WristCompliance
+    from psmforce.identification.prior_selection import DESIGN
+    assert WristCompliance.from_law(DESIGN) == DESIGN_COMPLIANCE
+    law = {**DESIGN, "capstan_mu": 0.2, "pin_friction": 0.05, "pretension_total": 9.0}
+    c = WristCompliance.from_law(law, stiffness_n_per_m=1e5)
+    assert (c.capstan_mu, c.pin_friction, c.pretension_total_n, c.stiffness_n_per_m) == (
+        0.2, 0.05, 9.0, 1e5) and c.has_friction
+    assert all(getattr(c, f) == law[n] for f, n in LAW_TERMS.items())
+    assert WristCompliance.from_dict(asdict(c)) == c
+    with pytest.raises(IdentificationInputError, match="needs"):
+        WristCompliance.from_law({"capstan_mu": 0.1})
+    d = asdict(c)
+    for bad in ({k: v for k, v in d.items() if k != "pin_friction"}, {**d, "pin_friction": True},
+                {**d, "extra": 1.0}, "compliance"):
+        with pytest.raises(IdentificationInputError, match="p.json: a wrist compliance"):
+            WristCompliance.from_dict(bad, "p.json")
+    for bad in ({**d, "pulley_radius_pitch_m": -1e-3}, {**d, "capstan_mu": float("nan")}):
+        with pytest.raises(IdentificationInputError):
+            WristCompliance.from_dict(bad)
+
+
+def test_a_load_path_prior_predicts_with_the_sag_it_was_fitted_with(monkeypatch):
+    """A load-path prior keeps the compliance that sagged its wrist and sags it the same way
+    when it predicts; one written before the record sags with the design's; a file whose
+    compliance is malformed is refused; the efforts reading takes no compliance."""
+    from dataclasses import asdict
+
+    import psmforce.identification.load_path as load_path
+    from psmforce.identification.load_path import DESIGN_COMPLIANCE, WristCompliance
+    from psmforce.identification.prior_selection import DESIGN
+    own = WristCompliance.from_law({**DESIGN, "capstan_mu": 0.3})
+    prior = InternalForcePrior(converged=True, info={"inputs": "load_path",
+                                                     "wrist_compliance": asdict(own)})
+    assert InternalForcePrior.from_json(prior.to_json()).wrist_compliance == own
+    assert InternalForcePrior(info={"inputs": "load_path"}).wrist_compliance is DESIGN_COMPLIANCE
+    assert InternalForcePrior().wrist_compliance is None
+    seen = []
+    real = load_path.load_path_inputs
+
+    def spy(frame, psm=None, compliance=None):
+        seen.append(compliance)
+        return real(frame, psm, compliance)
+    monkeypatch.setattr(load_path, "load_path_inputs", spy)
+    import pandas as pd
+
+    from psmforce.io.recording import JOINT_POSITIONS, JOINT_VELOCITIES, JOINT_EFFORTS, TARGETS
+    cols = [*JOINT_POSITIONS, *JOINT_VELOCITIES, *JOINT_EFFORTS, *TARGETS]
+    frame = pd.DataFrame(np.zeros((4, len(cols))), columns=cols)
+    frame[list(JOINT_POSITIONS)] = _configurations(4)
+    prior.predict(frame)
+    assert seen == [own]
+    bad = prior.to_dict()
+    bad["info"]["wrist_compliance"]["stiffness_n_per_m"] = "stiff"
+    with pytest.raises(IdentificationInputError, match="q.json: 'info.wrist_compliance'"):
+        InternalForcePrior.from_dict(bad, "q.json")
+    with pytest.raises(IdentificationInputError, match="load path only"):
+        InternalForcePrior.fit([frame], compliance=own)

@@ -168,6 +168,12 @@ def test_the_verdict_line_of_a_fit_that_ran_out_of_rounds_says_so():
     line = verdict_line(sel)
     assert "free but NOT identifiable: bias_fx" in line
     assert "at a bound: bias_fx (in the all-free fit: pretension_total, bias_fx)" in line
+    assert "sag" not in line
+    sag = {"passes": [{"change": 0.5}, {"change": 0.2}, {"change": 0.1}, {"change": 0.04}],
+           "converged": False}
+    assert "the wrist's sag NOT converged: the final fit's own values move it by 4 % after 3 " \
+           "refits" in verdict_line({**sel, "sag": sag})
+    assert "sag" not in verdict_line({**sel, "sag": {**sag, "converged": True}})
 
 
 @pytest.mark.slow
@@ -219,3 +225,25 @@ def test_a_design_judges_an_offset_by_the_sensors_resolution():
     assert "bias_fx" not in listed(0.9 * resolution / 3)
     assert "bias_fx" in listed(1.1 * resolution / 3)
     assert set(listed(0.9 * resolution / 3)) == set()
+
+
+def test_the_sag_a_fit_gives_takes_its_values_and_the_design_where_at_a_bound():
+    """The load path's second pass sags the wrist with the fit's own values
+    (prior_selection.fitted_compliance); a parameter at its bound, which the selection would
+    hold, takes its design value; the pass stops when the sag it took and the one it gives
+    agree (a friction term's change judged over 0.01 at least)."""
+    from psmforce.identification.prior_selection import (SAG_TOLERANCE, _sag_change,
+                                                         fitted_compliance)
+    values = {**DESIGN, "capstan_mu": 0.25, "pretension_total": 0.0, "pin_friction": 0.02}
+    prior = InternalForcePrior(params=np.array([values[n] for n in NAMES]))
+    sag = fitted_compliance(prior)
+    assert sag.capstan_mu == 0.25 and sag.pin_friction == 0.02
+    assert sag.pretension_total_n == DESIGN["pretension_total"]   # 0 N is the bound
+    design = fitted_compliance(InternalForcePrior(params=np.array([DESIGN[n] for n in NAMES])))
+    assert _sag_change(design, design) == 0.0
+    assert _sag_change(design, sag) == pytest.approx(1.0)   # the capstan from 0 to 0.25
+    tiny = fitted_compliance(InternalForcePrior(params=np.array(
+        [{**DESIGN, "capstan_mu": 1e-4}[n] for n in NAMES])))
+    assert _sag_change(design, tiny) < SAG_TOLERANCE   # 1e-4 of a friction is no change
+    with pytest.raises(Exception, match="sag_passes"):
+        fit_identified([], inputs="load_path", sag_passes=-1)

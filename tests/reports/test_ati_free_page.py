@@ -74,3 +74,16 @@ def test_the_load_path_sentence_says_how_many_holds_or_what_stays_out_of_reach()
     assert "no hold is needed" in load_path_sentence(
         {"load_path": {"excitation": {"needed": 0, "not_identifiable_without": [], "greedy": [],
                                       "not_identifiable_with_all": []}}})
+
+
+def test_the_sag_sentence_says_whether_the_fits_own_sag_converged():
+    from reports.ati_free_page import _sag_sentence
+    assert _sag_sentence({}) == ""   # written before the fit read its values back
+    sag = {"passes": [{"change": 0.4}, {"change": 0.003}], "converged": True,
+           "compliance": {"capstan_mu": 0.31}}
+    text = _sag_sentence({"sag": sag})
+    assert "1 refit;" in text and "0.3 %" in text and "(converged)" in text and "0.31" in text
+    sag = {**sag, "passes": [{"change": 0.4}, {"change": 0.2}, {"change": 0.05}],
+           "converged": False}
+    assert "2 refits" in _sag_sentence({"sag": sag}) and "**not converged**" in _sag_sentence(
+        {"sag": sag})

@@ -97,3 +97,19 @@ def test_joint_names_have_one_source(psm):
 
 def test_gravity_vector_is_the_magnitude_downwards():
     assert cv.GRAVITY_UPRIGHT_MPS2 == (0.0, 0.0, -cv.GRAVITY_MPS2)
+
+
+def test_wrist_torques_to_distal_is_the_simulators_inverse_and_keeps_virtual_work():
+    """Joint torques to the distal coordinates' (pitch, blade_1, blade_2 = yaw -+ jaw / 2) and
+    back through the bench's map; the power at any joint velocity is the same on both sides."""
+    import numpy as np
+
+    from psmforce.robot.conventions import wrist_torques_to_distal
+    from psmforce.sim.cables import distal_torque_to_joints
+    rng = np.random.default_rng(3)
+    tau = rng.standard_normal((6, 3))
+    distal = np.stack(wrist_torques_to_distal(tau[:, 0], tau[:, 1], tau[:, 2]), axis=1)
+    np.testing.assert_allclose(distal_torque_to_joints(distal), tau, atol=1e-15)
+    qd = rng.standard_normal((6, 3))   # wrist_pitch, wrist_yaw, jaw rates
+    qd_distal = np.stack([qd[:, 0], qd[:, 1] - qd[:, 2] / 2, qd[:, 1] + qd[:, 2] / 2], axis=1)
+    np.testing.assert_allclose((distal * qd_distal).sum(1), (tau * qd).sum(1), atol=1e-14)
