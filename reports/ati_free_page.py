@@ -489,10 +489,10 @@ def _sag_sentence(run: dict) -> str:
     sag = run.get("sag")
     if sag is None:
         return ""
-    refits = len(sag["passes"]) - 1
+    passes = len(sag["passes"]) - 1
     last = sag["passes"][-1]["change"]
-    return (f" The wrist's sag: the design's, then the fit's own values, {refits} refit"
-            f"{'' if refits == 1 else 's'}; the sag the final fit took and the one it gives "
+    return (f" The wrist's sag: the design's, then the fit's own values, {passes} pass"
+            f"{'' if passes == 1 else 'es'}; the sag the final fit took and the one it gives "
             f"differ by {100 * last:.2g} % at most "
             + ("(converged)." if sag["converged"] else "(**not converged**).")
             + f" Its capstan in the sag {sag['compliance']['capstan_mu']:.3g}.")

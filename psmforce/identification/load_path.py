@@ -32,7 +32,7 @@ Frames, units, signs (one place):
   efforts at the encoders' pose, the sag they cause, the efforts at the sagged pose. A first
   fit sags the wrist with the instrument's design values (the law's radii, pretension and
   friction are what it looks for); the selection (:func:`~psmforce.identification.
-  prior_selection.fit_identified`) then refits with the values it found
+  prior_selection.fit_identified`) then goes on with the sag the values it found give
   (:meth:`WristCompliance.from_law`), the cable stiffness staying the design's. The cables
   stretch under the section's differential: with friction in the compliance (the capstan and
   the pins, 0 by design) the pulleys' demand crosses the idlers first, with the friction state

@@ -22,14 +22,17 @@ the fixed and the at-bound parameters (:func:`verdict_line`; printed by ``psmfor
 
 Read through the load path, the tip force's moments are taken where the wrist sags, and the sag
 depends on the law's own pretension, radii and friction (:mod:`~psmforce.identification.
-load_path`). The rounds sag it with the design's values; the selected fit is then refitted,
-what it holds unchanged, with the sag its own values give (:func:`fitted_compliance`), until the
-two agree (:data:`SAG_TOLERANCE`, at most :data:`SAG_PASSES` refits): a fixed point of the fit
-and its sag, so the parameters it reports are those of the sag it took. ``info["selection"]
-["sag"]`` records each pass, and the verdict names a sag that did not converge.
+load_path`). The rounds sag it with the design's values until they have nothing left to hold;
+then the selection goes on with the sag the fit's own values give (:func:`fitted_compliance`),
+round after round as before, until the sag a fit took and the one it gives agree
+(:data:`SAG_TOLERANCE`, at most :data:`SAG_PASSES` passes): a fixed point of the fit and its sag,
+so the parameters it reports, and what it holds, are those of the sag it took.
+``info["selection"]["sag"]`` records each pass, and the verdict names a sag that did not
+converge.
 
 Cost: one fit and :data:`JACKKNIFE_GROUPS` warm-started refits per round (2-3 rounds on the
-default bench); with the load path, one warm-started fit per sag pass and one jackknife more.
+default bench); with the load path, a round or more per sag pass (1-2 passes on the ATI-free
+study's recordings).
 """
 
 from __future__ import annotations
@@ -187,11 +190,12 @@ def fit_identified(recordings, *, psm=None, provenance=None, design: dict | None
     ``crosstalk``: as :meth:`InternalForcePrior.fit`.
 
     With the load path, the rounds sag the wrist with the design's values
-    (:mod:`~psmforce.identification.load_path`); then the selected fit is refitted, what it
-    holds unchanged, with the sag its own values give (:func:`fitted_compliance`), up to
-    ``sag_passes`` times, until the sag it took and the one it gives differ by under
-    :data:`SAG_TOLERANCE`; the final fit's report (and jackknife) is the verdict's.
-    ``info["selection"]["sag"]`` records each pass; ``sag_passes=0`` keeps the design's sag."""
+    (:mod:`~psmforce.identification.load_path`); once they have nothing left to hold, the
+    selection goes on with the sag the fit's own values give (:func:`fitted_compliance`): a
+    round (fit, report, jackknife) with that sag, holding what it finds not identifiable as any
+    round does, up to ``sag_passes`` times, until the sag the fit took and the one it gives
+    differ by under :data:`SAG_TOLERANCE`. ``info["selection"]["sag"]`` records each pass, and
+    each round the sag it took; ``sag_passes=0`` keeps the design's sag."""
     design = {**DESIGN, **(design or {})}
     if isinstance(sag_passes, bool) or not isinstance(sag_passes, int) or sag_passes < 0:
         raise IdentificationInputError(f"sag_passes must be an integer >= 0, got "
@@ -204,36 +208,23 @@ def fit_identified(recordings, *, psm=None, provenance=None, design: dict | None
     why_fixed = {n: {"value": x, "reason": HELD_BY_READING_REASON[n], "fitted_when_listed": None,
                      "round": 0} for n, x in fixed.items()}
     rounds = []
-    for round_ in range(max_rounds):
-        prior = InternalForcePrior.fit(frames, psm=psm, provenance=provenance, fixed=fixed,
-                                       max_iter=max_iter, inputs=inputs, crosstalk=True)
-        report = prior.info["identifiability"]
-        jack = trial_jackknife(frames, prior, fixed, groups, psm, max_iter, inputs,
-                               jackknife_labels)
-        if jack is not None:
-            add_trial_spread(report, prior.params, jack, groups)
-        listed = dict(report["not_identifiable"])
-        rounds.append({"fixed": sorted(fixed), "converged": prior.converged,
-                       "parameters": {n: float(x) for n, x in zip(NAMES, prior.params)},
-                       "bounds_hit": list(prior.info["bounds_hit"]), "not_identifiable": listed})
-        tiers = [{n: r for n, r in listed.items() if _tier(r) == t} for t in range(3)]
-        if "pretension_total" in tiers[0]:  # the data see bias_fz - T_tot and T_tot x g_twist:
-            for name in TIED_TO_PRETENSION:  # judged again once the pretension is held
-                if name in tiers[0]:
-                    tiers[2][name] = tiers[0].pop(name)
-        to_fix = next((t for t in tiers if t), {})
-        if (not to_fix or len(fixed) + len(to_fix) >= len(NAMES)
-                or round_ == max_rounds - 1):  # fix only what a refit follows
-            break
-        for name, reason in to_fix.items():
-            why_fixed[name] = {"value": design[name], "reason": reason,
-                               "fitted_when_listed": float(prior.params[NAMES.index(name)]),
-                               "round": len(rounds)}
-            fixed[name] = design[name]
-    sag = (_own_sag(frames, prior, fixed, design, psm, max_iter, groups, jackknife_labels,
-                    sag_passes) if inputs == "load_path" else None)
-    if sag is not None:
-        prior = sag.pop("prior")
+    select = dict(frames=frames, fixed=fixed, why_fixed=why_fixed, rounds=rounds, design=design,
+                  psm=psm, provenance=provenance, max_rounds=max_rounds, max_iter=max_iter,
+                  inputs=inputs, groups=groups, labels=jackknife_labels)
+    prior = _select(compliance=None, **select)
+    sag = None
+    if inputs == "load_path":
+        from dataclasses import asdict
+        taken, passes = prior.wrist_compliance, []
+        while True:
+            given = fitted_compliance(prior, design)
+            passes.append({"compliance": asdict(given), "change": _sag_change(taken, given)})
+            if passes[-1]["change"] < SAG_TOLERANCE or len(passes) > sag_passes:
+                break
+            prior = _select(compliance=given, **select)
+            taken = given
+        sag = {"passes": passes, "converged": passes[-1]["change"] < SAG_TOLERANCE,
+               "compliance": asdict(taken)}
     still = sorted(prior.info["identifiability"]["not_identifiable"])
     free = [n for n in NAMES if n not in fixed]
     prior.info["selection"] = {
@@ -251,31 +242,46 @@ def fit_identified(recordings, *, psm=None, provenance=None, design: dict | None
     return prior
 
 
-def _own_sag(frames, prior, fixed, design, psm, max_iter, groups, labels, passes) -> dict:
-    """The selected load-path fit refitted with the sag its own values give
-    (:func:`fit_identified`): ``{"prior": the final fit, "passes": [{"compliance",
-    "change"}], "converged": bool, "compliance": the final fit's}``."""
-    from dataclasses import asdict
-    taken = prior.wrist_compliance
-    record = []
-    for _ in range(passes + 1):
-        given = fitted_compliance(prior, design)
-        change = _sag_change(taken, given)
-        record.append({"compliance": asdict(given), "change": change})
-        if change < SAG_TOLERANCE or len(record) > passes:
-            break
-        start = {n: float(x) for n, x in zip(NAMES, prior.params) if n not in fixed}
-        prior = InternalForcePrior.fit(frames, psm=psm, provenance=prior.info["provenance"],
-                                       fixed=fixed, initial=start, max_iter=max_iter,
-                                       inputs="load_path", crosstalk=True, compliance=given)
-        taken = given
-    if len(record) > 1:  # the verdict's spread is the final fit's
-        jack = trial_jackknife(frames, prior, fixed, groups, psm, max_iter, "load_path", labels,
-                               compliance=taken)
+def _select(*, frames, fixed, why_fixed, rounds, design, psm, provenance, max_rounds, max_iter,
+            inputs, groups, labels, compliance) -> InternalForcePrior:
+    """Rounds of :func:`fit_identified` (fit, report with the jackknife, hold one tier of what
+    it lists) with the load path's sag ``compliance`` (None: the design's), at most
+    ``max_rounds``; ``fixed``, ``why_fixed`` and ``rounds`` are updated in place. Returns the
+    last round's fit."""
+    start = None  # a later pass starts where the last fit ended
+    if rounds:
+        start = {n: x for n, x in rounds[-1]["parameters"].items() if n not in fixed}
+    for round_ in range(max_rounds):
+        prior = InternalForcePrior.fit(frames, psm=psm, provenance=provenance, fixed=fixed,
+                                       initial=start, max_iter=max_iter, inputs=inputs,
+                                       crosstalk=True, compliance=compliance)
+        report = prior.info["identifiability"]
+        jack = trial_jackknife(frames, prior, fixed, groups, psm, max_iter, inputs, labels,
+                               compliance=compliance)
         if jack is not None:
-            add_trial_spread(prior.info["identifiability"], prior.params, jack, groups)
-    return {"prior": prior, "passes": record, "converged": record[-1]["change"] < SAG_TOLERANCE,
-            "compliance": asdict(taken)}
+            add_trial_spread(report, prior.params, jack, groups)
+        listed = dict(report["not_identifiable"])
+        rounds.append({"fixed": sorted(fixed), "converged": prior.converged,
+                       "parameters": {n: float(x) for n, x in zip(NAMES, prior.params)},
+                       "bounds_hit": list(prior.info["bounds_hit"]), "not_identifiable": listed,
+                       **({"sag": "design" if compliance is None else "own"}
+                          if inputs == "load_path" else {})})
+        tiers = [{n: r for n, r in listed.items() if _tier(r) == t} for t in range(3)]
+        if "pretension_total" in tiers[0]:  # the data see bias_fz - T_tot and T_tot x g_twist:
+            for name in TIED_TO_PRETENSION:  # judged again once the pretension is held
+                if name in tiers[0]:
+                    tiers[2][name] = tiers[0].pop(name)
+        to_fix = next((t for t in tiers if t), {})
+        if (not to_fix or len(fixed) + len(to_fix) >= len(NAMES)
+                or round_ == max_rounds - 1):  # fix only what a refit follows
+            return prior
+        for name, reason in to_fix.items():
+            why_fixed[name] = {"value": design[name], "reason": reason,
+                               "fitted_when_listed": float(prior.params[NAMES.index(name)]),
+                               "round": len(rounds)}
+            fixed[name] = design[name]
+        start = None
+    return prior
 
 
 TIED_TO_PRETENSION = ("bias_fz", "twist_gain")
@@ -319,7 +325,7 @@ def verdict_line(selection: dict) -> str:
     if sag is not None and not sag["converged"]:
         line += (f"; the wrist's sag NOT converged: the final fit's own values move it by "
                  f"{100 * sag['passes'][-1]['change']:.2g} % after {len(sag['passes']) - 1} "
-                 f"refits")
+                 f"passes with its own sag")
     return line
 
 

@@ -172,7 +172,7 @@ def test_the_verdict_line_of_a_fit_that_ran_out_of_rounds_says_so():
     sag = {"passes": [{"change": 0.5}, {"change": 0.2}, {"change": 0.1}, {"change": 0.04}],
            "converged": False}
     assert "the wrist's sag NOT converged: the final fit's own values move it by 4 % after 3 " \
-           "refits" in verdict_line({**sel, "sag": sag})
+           "passes with its own sag" in verdict_line({**sel, "sag": sag})
     assert "sag" not in verdict_line({**sel, "sag": {**sag, "converged": True}})
 
 

@@ -82,8 +82,8 @@ def test_the_sag_sentence_says_whether_the_fits_own_sag_converged():
     sag = {"passes": [{"change": 0.4}, {"change": 0.003}], "converged": True,
            "compliance": {"capstan_mu": 0.31}}
     text = _sag_sentence({"sag": sag})
-    assert "1 refit;" in text and "0.3 %" in text and "(converged)" in text and "0.31" in text
+    assert "1 pass;" in text and "0.3 %" in text and "(converged)" in text and "0.31" in text
     sag = {**sag, "passes": [{"change": 0.4}, {"change": 0.2}, {"change": 0.05}],
            "converged": False}
-    assert "2 refits" in _sag_sentence({"sag": sag}) and "**not converged**" in _sag_sentence(
+    assert "2 passes" in _sag_sentence({"sag": sag}) and "**not converged**" in _sag_sentence(
         {"sag": sag})
