@@ -247,3 +247,35 @@ def test_the_sag_a_fit_gives_takes_its_values_and_the_design_where_at_a_bound():
     assert _sag_change(design, tiny) < SAG_TOLERANCE   # 1e-4 of a friction is no change
     with pytest.raises(Exception, match="sag_passes"):
         fit_identified([], inputs="load_path", sag_passes=-1)
+
+
+def test_a_sag_pass_is_a_round_that_holds_what_it_lists(monkeypatch):
+    """With the load path, once the design-sag rounds hold nothing more, the selection goes on
+    with the fit's own sag: a parameter only that round lists is held at its design value and
+    a further round follows; the passes stop when the sag a fit took is the one it gives."""
+    from dataclasses import asdict
+
+    import psmforce.identification.prior_selection as selection
+    from psmforce.identification.load_path import WristCompliance
+    values = {**DESIGN, "pretension_total": 7.0, "capstan_mu": 0.2}
+    sags = []
+
+    def fit(frames, *, fixed, compliance, **kw):
+        sags.append(compliance)
+        listed = ({"pin_friction": "at its bound"} if compliance is not None
+                  and "pin_friction" not in fixed else {})
+        return InternalForcePrior(
+            params=np.array([fixed.get(n, values[n]) for n in NAMES]), converged=True,
+            info={"inputs": "load_path", "identifiability": {"not_identifiable": listed},
+                  "bounds_hit": [], "provenance": {},
+                  "wrist_compliance": asdict(compliance or WristCompliance.design())})
+    monkeypatch.setattr(selection.InternalForcePrior, "fit", staticmethod(fit))
+    prior = fit_identified([object(), object()], inputs="load_path")
+    sel = prior.info["selection"]
+    assert sags[0] is None and sags[1] == WristCompliance.from_law(values)
+    assert sel["fixed"]["pin_friction"]["round"] == 2 and "pin_friction" not in sel["identified"]
+    assert [r["sag"] for r in sel["rounds"]] == ["design", "own", "own"]
+    assert sel["sag"]["converged"] and len(sel["sag"]["passes"]) == 2
+    assert sel["sag"]["passes"][0]["change"] > 0.01 > sel["sag"]["passes"][1]["change"]
+    assert fit_identified([object(), object()], inputs="load_path", sag_passes=0).info[
+        "selection"]["sag"]["compliance"] == asdict(WristCompliance.design())
