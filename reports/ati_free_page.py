@@ -491,8 +491,10 @@ def _sag_sentence(run: dict) -> str:
         return ""
     passes = len(sag["passes"]) - 1
     last = sag["passes"][-1]["change"]
-    return (f" The wrist's sag: the design's, then the fit's own values, {passes} pass"
-            f"{'' if passes == 1 else 'es'}; the sag the final fit took and the one it gives "
+    taken = ("the design's, which the fit's own values already give" if passes == 0 else
+             f"the design's, then the fit's own values, {passes} pass"
+             f"{'' if passes == 1 else 'es'}")
+    return (f" The wrist's sag: {taken}; the sag the final fit took and the one it gives "
             f"differ by {100 * last:.2g} % at most "
             + ("(converged)." if sag["converged"] else "(**not converged**).")
             + f" Its capstan in the sag {sag['compliance']['capstan_mu']:.3g}.")

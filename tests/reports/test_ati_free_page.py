@@ -87,3 +87,6 @@ def test_the_sag_sentence_says_whether_the_fits_own_sag_converged():
            "converged": False}
     assert "2 passes" in _sag_sentence({"sag": sag}) and "**not converged**" in _sag_sentence(
         {"sag": sag})
+    none = {"passes": [{"change": 0.002}], "converged": True, "compliance": {"capstan_mu": 0.0}}
+    assert "the design's, which the fit's own values already give;" in _sag_sentence(
+        {"sag": none})
