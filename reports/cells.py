@@ -9,9 +9,10 @@ def spread_cell(d: dict, digits: int = 2) -> str:
     return spread_text(d, digits)
 
 
-def miss_rule(run: dict) -> str:
-    """What a MISS is in ``run`` (a ``compare_selection`` row): its JSON records the offsets'
-    resolution since they were judged by it; before, every parameter was judged relatively."""
+def miss_rule(run: dict, others: list | None = None) -> str:
+    """What a MISS is in ``run`` (a ``compare_selection`` row) and the ``others`` of its table:
+    its JSON records the offsets' resolution since they were judged by it; before, every
+    parameter was judged relatively."""
     rule = "more than 10 % from the truth (or a truth of 0)"
     res = run.get("offset_resolution")
     if res:
@@ -21,7 +22,15 @@ def miss_rule(run: dict) -> str:
         rule += ("; where a cross-talk term is held off the bench's, the bias of its channel is "
                  "judged against the truth as the law holds it (the bench's offset plus the held "
                  "cross-talk's share of the rest axial force, shown as \"as held\")")
-    if "pin_friction" in run.get("parameters", {}):  # runs of the law with its own pins
+    rows = run.get("parameters", {})
+    if any("projected_truth" in row for r in [run, *(others or [])]
+           for row in r.get("parameters", {}).values()):  # prior_recovery.projected_truth
+        rule += ("; the capstan, where the pins are held at 0, against the bench's law "
+                 "projected onto the law as the run held it, on its training trials (where no "
+                 "run records the projection, the idlers' and the pins' sum and the idlers' "
+                 "share), and the form of the blade cables' path tension that the reading holds "
+                 "at 0 against 0")
+    elif "pin_friction" in rows:  # runs of the law with its own pins
         rule += ("; the capstan, where the pins are held at 0, against the idlers' and the "
                  "pins' sum (its growth terms against the idlers' share), and the form of the "
                  "blade cables' path tension that the reading holds at 0 against 0")

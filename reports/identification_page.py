@@ -162,7 +162,7 @@ def prior_default_recovery_table(result: dict) -> str:
              f"--scale {result['scale']:g}` then {fit}. "
              "*fixed*: held at its design value (the value shown) because the report lists it "
              "on the fit before; *identified*: free and not listed on the final fit; "
-             f"**MISS**: identified but {miss_rule(result['runs'][0])}; "
+             f"**MISS**: identified but {miss_rule(result['runs'][0], result['runs'])}; "
              "*B*: at a bound (the one rule of `bounds_hit` and the report).", ""]
     for run in result["runs"]:
         rows = run["parameters"]
@@ -205,15 +205,25 @@ def prior_default_recovery_table(result: dict) -> str:
                     f"{c} {loaded[c]['rms']:.3g} / {first[c]['rms']:.3g} "
                     f"{'N' if c.startswith('f') else 'Nm'}" for c in ("fx", "fy", "fz", "tz")
                     if c in loaded) + "."]
-            truth = run.get("truth_law_test_loaded_internal_metrics")
-            if truth:
-                lines[-1:-1] = [
-                    "", "The law at the bench's own parameters on the same trials, read from the "
-                    "motor efforts / from the load path: " + ", ".join(
-                        f"{c} {truth['efforts'][c]['rms']:.3g} / {truth['load_path'][c]['rms']:.3g}"
-                        f" {'N' if c.startswith('f') else 'Nm'}" for c in ("fx", "fy", "fz", "tz")
-                        if c in truth["efforts"]) + "."]
+            if run.get("truth_law_test_loaded_internal_metrics"):
+                lines[-1:-1] = ["", _truth_law_sentence(run)]
     return "\n".join(lines)
+
+
+def _truth_law_sentence(run: dict) -> str:
+    """What the law at the bench's own parameters leaves on a run's held-out loaded trials, read
+    from the motor efforts and from the load path; not shown for a run that scored it with the
+    blade cables' path tension in both forms (no ``truth_law`` record)."""
+    truth = run["truth_law_test_loaded_internal_metrics"]
+    if not run.get("truth_law"):
+        return ("The law at the bench's own parameters: not shown, because this run scored it "
+                "with the blade cables' path tension in both of its forms (written before "
+                "`prior_recovery.truth_law`).")
+    return ("The law at the bench's own parameters on the same trials, read from the motor "
+            "efforts / from the load path: " + ", ".join(
+                f"{c} {truth['efforts'][c]['rms']:.3g} / {truth['load_path'][c]['rms']:.3g}"
+                f" {'N' if c.startswith('f') else 'Nm'}" for c in ("fx", "fy", "fz", "tz")
+                if c in truth["efforts"]) + ".")
 
 
 def transmission_transfer_tables(result: dict) -> str:

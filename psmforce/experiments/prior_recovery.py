@@ -246,14 +246,33 @@ def default_bench_truth(instrument: InstrumentParams | None = None,
     }
 
 
-def _truth_law_metrics(truth: dict, score) -> dict:
-    """``score`` (held-out metrics of a prior) of the law at the bench's own parameters (those
-    without a counterpart at 0), read from the motor efforts and from the load path: what each
-    reading leaves when no fit is to blame."""
+PATH_FORMS = ("pitch_path_tension", "pitch_path_pretension")
+"""The blade cables' one path tension in the law's two forms (:func:`default_bench_truth` gives
+both the bench's value): a law at the bench's parameters carries it in one."""
+
+
+def truth_law(truth: dict, inputs: str) -> InternalForcePrior:
+    """The law at the bench's own parameters (``truth``, :func:`default_bench_truth`; those
+    without a counterpart at 0) reading ``inputs``, the blade cables' path tension in the form
+    the reading keeps (:data:`PATH_FORMS`; the other, which the reading holds, at 0)."""
     import numpy as np
-    params = np.array([truth[n] if truth[n] is not None else 0.0 for n in NAMES])
-    return {inputs: score(InternalForcePrior(params=params, info={"inputs": inputs}))
-            for inputs in ("efforts", "load_path")}
+
+    from psmforce.identification.prior import HELD_BY_READING
+    held = {n: 0.0 for n in PATH_FORMS if n in HELD_BY_READING[inputs]}
+    return InternalForcePrior(params=np.array([held.get(n, truth.get(n) or 0.0) for n in NAMES]),
+                              info={"inputs": inputs})
+
+
+TRUTH_LAW = "the bench's parameters, the path tension once, in the reading's form (truth_law)"
+"""What a run's ``truth_law_test_loaded_internal_metrics`` scored; a run without the record
+scored a law carrying the blade cables' path tension in both forms."""
+
+
+def _truth_law_metrics(truth: dict, score) -> dict:
+    """``score`` (held-out metrics of a prior) of the law at the bench's own parameters
+    (:func:`truth_law`), read from the motor efforts and from the load path: what each reading
+    leaves when no fit is to blame."""
+    return {inputs: score(truth_law(truth, inputs)) for inputs in ("efforts", "load_path")}
 
 
 
@@ -283,6 +302,99 @@ def crosstalk_of_rest_level(instrument: InstrumentParams) -> dict[str, float]:
                                                                       "ty", "tz")) if k != 2}
 
 
+CAPSTAN = ("capstan_mu", "capstan_pitch_gain", "capstan_roll_gain")
+"""The law's capstan: where the pins are held at 0 it carries theirs too (:func:`effective_truth`)."""
+
+
+def pins_held(rows: dict) -> bool:
+    """Whether a fit held the pins' friction at 0 where the bench has some, so that its capstan
+    carries theirs (``rows``: :func:`compare_selection`'s parameters)."""
+    pins = rows.get("pin_friction")
+    return bool(pins is not None and pins["status"] == "fixed" and pins["fitted"] == 0.0
+                and pins["truth"])
+
+
+def projected_truth(truth: dict, rows: dict, recordings, inputs: str, compliance=None,
+                    psm: PSM | None = None) -> dict[str, float]:
+    """The law at the bench's parameters (:func:`truth_law` of ``truth``) projected onto the law as a fit holds it, on that fit's own
+    training ``recordings`` and reading ``inputs`` (with the load path, the ``compliance`` it
+    sagged the wrist with): the law refitted to the bench law's output, what the fit held
+    (``rows``' *fixed*) held at the same values, the rest free from the fitted values
+    (:meth:`~psmforce.identification.prior.InternalForcePrior.fit` ``reference``). Name ->
+    SI value: what a parameter's truth is in the held law on these recordings, where a
+    first-order rule (:func:`effective_truth`) only approximates it."""
+    reference = truth_law(truth, inputs)
+    fixed = {n: row["fitted"] for n, row in rows.items() if row["status"] == "fixed"}
+    start = {n: row["fitted"] for n, row in rows.items() if row["status"] != "fixed"}
+    fit = InternalForcePrior.fit(recordings, psm=psm, fixed=fixed, initial=start, report=False,
+                                 inputs=inputs, crosstalk=True, compliance=compliance,
+                                 reference=reference)
+    return dict(zip(NAMES, map(float, fit.params)))
+
+
+def needs_projection(rows: dict) -> bool:
+    """Whether a fit's capstan carries the pins' friction and is judged (:func:`pins_held`,
+    a capstan term identified): where :func:`projected_truth` gives its truth as held."""
+    return pins_held(rows) and any(rows.get(n, {}).get("status") == "identified"
+                                   for n in CAPSTAN)
+
+
+def with_projection(run: dict, truth: dict, recordings, compliance=None) -> dict:
+    """``run`` (:func:`compare_selection`'s result with its ``inputs``) with, where it
+    :func:`needs_projection`, every parameter's ``projected_truth`` on the fit's training
+    ``recordings`` (with the load path, the ``compliance`` the fit sagged the wrist with) and
+    its misses judged again (:func:`judge`)."""
+    rows = run["parameters"]
+    if needs_projection(rows):
+        projected = projected_truth(truth, rows, recordings, run["inputs"], compliance)
+        for name, row in rows.items():
+            row["projected_truth"] = projected[name]
+        run.update(judge(rows))
+    return run
+
+
+def project_runs(result: dict, instrument_of, command: str) -> dict:
+    """``result`` (a ``--default-bench`` JSON of ``studies/prior_recovery.py``) with
+    :func:`with_projection` on every run that needs it, each bench simulated again from its seed
+    and scale (``instrument_of(case, seed)``: its instrument) for its training recordings; the
+    sag a run took is its ``sag`` record's, or for a run written without one the sag its final
+    values give (:func:`~psmforce.identification.prior_selection.fitted_compliance`, within
+    :data:`~psmforce.identification.prior_selection.SAG_TOLERANCE` of the one it took).
+    ``result["projected"]``: ``command`` and the runs projected."""
+    import tempfile
+
+    import numpy as np
+
+    from psmforce.identification.load_path import WristCompliance
+    from psmforce.identification.prior_selection import fitted_compliance
+    from psmforce.io.recording import list_recordings, read_recording
+    from psmforce.sim import simulate
+    done = []
+    for k, run in enumerate(result["runs"]):
+        if not needs_projection(run["parameters"]):
+            continue
+        instrument = instrument_of(run["case"], run["seed"])
+        compliance, sag_from = None, None
+        if run["inputs"] == "load_path":
+            if run.get("sag"):
+                compliance = WristCompliance.from_dict(run["sag"]["compliance"], "run's sag")
+                sag_from = "the run's sag"
+            else:
+                compliance = fitted_compliance(InternalForcePrior(params=np.array(
+                    [run["parameters"][n]["fitted"] for n in NAMES])), run["design"])
+                sag_from = "the sag the run's final values give"
+        with tempfile.TemporaryDirectory() as tmp:
+            simulate("automated", scale=run["scale"], seed=run["seed"], out=f"{tmp}/data",
+                     instrument=instrument)
+            train = [read_recording(r.path) for r in list_recordings(f"{tmp}/data")
+                     if r.split == "train" and r.condition in run["conditions"]]
+            with_projection(run, default_bench_truth(instrument), train, compliance)
+        done.append({"run": k, "sag": sag_from, "misses": list(run["misses"])})
+    result["projected"] = {"command": command, "rule": "prior_recovery.projected_truth",
+                           "runs": done}
+    return result
+
+
 def effective_truth(rows: dict) -> dict[str, float]:
     """The truth a parameter has in the law as fitted, where it differs from the bench's value.
     A bias: a cross-talk term held off its truth (``crosstalk_c`` fixed; the efforts reading
@@ -292,13 +404,16 @@ def effective_truth(rows: dict) -> dict[str, float]:
     at 0 the pins add ``c S z`` to a pair's differential, which is the capstan's ``D + mu S z``
     to first order, so the capstan carries both, ``capstan_mu`` their sum and its growth terms
     the idlers' scaled by the idlers' share (the pins' friction does not grow with the
-    configuration; ``tests/experiments/test_prior_recovery.py``). The blade cables' path tension:
+    configuration; ``tests/experiments/test_prior_recovery.py``); where the rows record the
+    bench's law projected onto the held law (``projected_truth``, :func:`projected_truth`), the
+    capstan's three terms are judged against that instead of the first-order sum and share.
+    The blade cables' path tension:
     its form a reading holds at 0 (``pitch_path_tension`` in the load path,
     ``pitch_path_pretension`` in the efforts) has the truth 0, the other carries it. ``rows``:
     :func:`compare_selection`'s parameters (truth, fitted, status)."""
     rest = -rows["pretension_total"]["truth"]
     out = {}
-    path = ("pitch_path_tension", "pitch_path_pretension")  # one path tension, two forms
+    path = PATH_FORMS
     for name, other in (path, path[::-1]):
         row, alt = rows.get(name), rows.get(other)
         if (row is not None and alt is not None and row["status"] == "fixed"
@@ -306,8 +421,9 @@ def effective_truth(rows: dict) -> dict[str, float]:
                 and not (alt["status"] == "fixed" and alt["fitted"] == 0.0)):
             out[name] = 0.0  # held at 0 by the reading: the other form carries the path
     pins, capstan = rows.get("pin_friction"), rows.get("capstan_mu")
-    if (pins is not None and capstan is not None and pins["status"] == "fixed"
-            and pins["fitted"] == 0.0 and pins["truth"] and capstan["truth"] is not None):
+    if pins_held(rows) and all("projected_truth" in rows.get(n, {}) for n in CAPSTAN):
+        out.update({n: rows[n]["projected_truth"] for n in CAPSTAN})
+    elif pins_held(rows) and capstan is not None and capstan["truth"] is not None:
         wrist = capstan["truth"] + pins["truth"]
         out["capstan_mu"] = wrist
         for name in ("capstan_pitch_gain", "capstan_roll_gain"):
@@ -348,8 +464,9 @@ def judge(rows: dict) -> dict:
             "recovery_tolerance": RECOVERY_TOLERANCE, "offset_resolution": OFFSET_RESOLUTION,
             "truth_as_held": "a bias is judged against its effective truth where a cross-talk "
                              "term is held off the bench's, the capstan where the pins are held "
-                             "at 0, a form of the path tension the reading holds at 0 "
-                             "(effective_truth)"}
+                             "at 0 (against the bench's law projected onto the held law where "
+                             "the run records it), a form of the path tension the reading holds "
+                             "at 0 (effective_truth)"}
 
 
 def rescore(result: dict, command: str) -> dict:
@@ -415,7 +532,8 @@ def recover_default(workdir, seed: int, scale: float = 1.0,
     report = fit_prior_cli(workdir / "data", workdir / "prior.json", identify=True,
                            use_loaded=load_path, inputs=inputs)
     prior = InternalForcePrior.load(workdir / "prior.json")
-    out = compare_selection(prior, default_bench_truth(instrument))
+    truth = default_bench_truth(instrument)
+    out = {**compare_selection(prior, truth), "inputs": inputs}
     sel = prior.info["selection"]
     # the all-free fit (the first round) scored on the same held-out trials: the curve fit
     import numpy as np
@@ -442,14 +560,16 @@ def recover_default(workdir, seed: int, scale: float = 1.0,
                                np.concatenate([m for _, m in targets]))
     train = [read_recording(r.path) for r in list_recordings(workdir / "data")
              if r.split == "train" and r.condition in report["conditions"]]
+    with_projection(out, truth, train, prior.wrist_compliance)
     out.update({
         "seed": seed, "scale": scale, "pair_law": instrument.pair_law, "inputs": inputs,
+        **({"sag": sel["sag"]} if "sag" in sel else {}),
         "capstan_mu_over_training": bench_capstan_over(train, instrument),
         "conditions": report["conditions"],
         "test_loaded_internal_metrics": internal_metrics(prior),
         "all_free_test_loaded_internal_metrics": internal_metrics(first),
-        "truth_law_test_loaded_internal_metrics": _truth_law_metrics(
-            default_bench_truth(instrument), internal_metrics),
+        "truth_law_test_loaded_internal_metrics": _truth_law_metrics(truth, internal_metrics),
+        "truth_law": TRUTH_LAW,
         "verdict": report["verdict"], "converged": report["converged"],
         "fit_time_s": report["fit_time_s"], "n_samples": prior.info["n_samples"],
         "design": sel["design"], "rounds": sel["rounds"],

@@ -497,7 +497,8 @@ class InternalForcePrior:
     def fit(cls, recordings, *, psm=None, provenance=None, max_iter: int = 500,
             fixed: dict[str, float] | None = None, initial: dict[str, float] | None = None,
             report: bool = True, inputs: str = "efforts",
-            crosstalk: bool | None = None, compliance=None) -> InternalForcePrior:
+            crosstalk: bool | None = None, compliance=None,
+            reference: InternalForcePrior | None = None) -> InternalForcePrior:
         """Fit on recordings (DataFrames of ``psmforce.io.recording`` or paths).
 
         Where target columns ``ati_fx..ati_fz`` exist, the known external force (HEX10 frame) is
@@ -521,11 +522,19 @@ class InternalForcePrior:
         ``compliance``: with the load path, the
         :class:`~psmforce.identification.load_path.WristCompliance` that sags the wrist (None:
         the design's), kept in ``info["wrist_compliance"]``.
+        ``reference``: fit the law to that prior's law (before its axis weights) on the
+        recordings' own inputs instead of to their readings, with the same samples counted: the
+        projection of one law onto the law as ``fixed`` holds it (a parameter's truth as a held
+        law can carry it, ``psmforce.experiments.prior_recovery.projected_truth``); it reads
+        what ``inputs`` give, and ``info["reference"]`` records its parameters.
         """
         import casadi as ca
 
         held = held_by_reading(inputs, crosstalk)
         compliance = _compliance(compliance, inputs)
+        if reference is not None and not isinstance(reference, InternalForcePrior):
+            raise IdentificationInputError(f"reference must be an InternalForcePrior, got "
+                                           f"{type(reference).__name__}")
         t0 = time.perf_counter()
         if len(recordings) == 0:
             raise IdentificationInputError("no recordings to fit the prior on")
@@ -533,6 +542,9 @@ class InternalForcePrior:
         # both friction terms held at 0: the law then reads no friction state
         no_friction = all(fixed.get(NAMES[i]) == 0.0 for i in _FRICTION_STATE)
         no_crosstalk = all(fixed.get(NAMES[i]) == 0.0 for i in _CROSSTALK)  # nor the fz reading
+        # the reference law reads the friction state and the fz reading if it has the terms
+        read_direction = not no_friction or (reference is not None and reference.has_friction)
+        read_fz = not no_crosstalk or (reference is not None and reference.has_crosstalk)
         parts, axial = [], []
         sources = []
         for rec in recordings:
@@ -541,7 +553,7 @@ class InternalForcePrior:
                 rec = read_recording(rec)
             else:
                 sources.append("<DataFrame>")
-            a, y, mask = fit_arrays(rec, inputs, psm, direction=not no_friction,
+            a, y, mask = fit_arrays(rec, inputs, psm, direction=read_direction,
                                     compliance=compliance)
             parts.append((a, y, mask))
             if all(t in rec.columns for t in TARGETS) and \
@@ -553,15 +565,22 @@ class InternalForcePrior:
         e = np.concatenate([p[0]["efforts"] for p in parts])
         v = np.concatenate([p[0]["velocities"] for p in parts])
         g = np.concatenate([p[0]["g_hex"] for p in parts])
-        zd = np.concatenate([np.zeros((len(p[0]["positions"]), 3)) if no_friction
+        zd = np.concatenate([np.zeros((len(p[0]["positions"]), 3)) if not read_direction
                              else p[0]["direction"] for p in parts])
-        fz_read = None if no_crosstalk else _check_reading(
+        fz_read = None if not read_fz else _check_reading(
             np.concatenate([p[0]["hex10_fz"] for p in parts]), len(zd))
         y = np.concatenate([p[1] for p in parts])
         mask = np.concatenate([p[2] for p in parts])
         pos, e, v, g, zd = _check_arrays(pos, e, v, g, zd)
         roll = pos[:, 0]
         check_finite_2d(y, "HEX10 readings", width=6)
+        if reference is not None:  # the reference's law, on the same inputs and samples
+            y = reference.law_arrays(pos, e, v, g, zd if reference.has_friction else None,
+                                     fz_read if reference.has_crosstalk else None)
+        if no_friction:
+            zd = np.zeros_like(zd)  # the fitted law reads no friction state
+        if no_crosstalk:
+            fz_read = None
         if len(roll) < _MIN_SAMPLES:
             raise IdentificationInputError(
                 f"{len(roll)} samples is too short to fit the prior (need {_MIN_SAMPLES})")
@@ -615,6 +634,8 @@ class InternalForcePrior:
             "fixed": {n: float(x) for n, x in fixed.items()},
             "inputs": inputs,
             **({"wrist_compliance": asdict(compliance)} if compliance is not None else {}),
+            **({"reference": dict(zip(NAMES, map(float, reference.params)))}
+               if reference is not None else {}),
             **({"identifiability": identifiability(params, fixed, (pos, e, v, g, zd, fz_read),
                                                    y, mask, ch_scale)} if report else {}),
             "slack_samples_fraction": float(np.mean(_slack_any(prior.params, roll, e))),

@@ -13,9 +13,11 @@ import pytest
 from psmforce.identification.errors import IdentificationInputError
 from psmforce.identification.prior import HELD_BY_READING, NAMES, InternalForcePrior
 from psmforce.identification.prior_identifiability import recovered
-from psmforce.experiments.prior_recovery import (bench_capstan_over, compare, effective_truth,
-                                                 default_bench_truth, in_family_instrument,
-                                                 prior_truth, recover)
+from psmforce.experiments.prior_recovery import (CAPSTAN, bench_capstan_over, compare,
+                                                 default_bench_truth, effective_truth,
+                                                 in_family_instrument, needs_projection,
+                                                 prior_truth, projected_truth, recover,
+                                                 truth_law)
 from psmforce.io.recording import JOINT_POSITIONS
 from psmforce.sim.cables import transmission
 from psmforce.sim.params import Effects, InstrumentParams
@@ -246,3 +248,76 @@ def test_the_laws_pin_term_is_the_benchs_pin_friction():
     # fz: a taut symmetric pair's sum is 2 T0 whatever its differential, pins or not (where a
     # capstan would move it by D mu z); the law's slack transition is smooth over SMOOTH_MAX_N
     assert np.abs(by_bench[:, 0]).max() < 1e-9 and np.abs(by_law[:, 0]).max() < 0.01
+
+
+def _loaded_wrist_recording(n=1500):
+    """A recording the load path reads: the wrist pitching and rolling while a known tip force
+    (about 1 N) turns, the jaw open; its HEX10 columns are zeros (a projection never reads
+    them)."""
+    from psmforce.io.recording import HEX10, JOINT_EFFORTS, JOINT_VELOCITIES, TARGETS, TIME
+    t = np.linspace(0.0, 30.0, n)
+    q = np.zeros((n, 7))
+    q[:, 0] = 0.3 * np.sin(0.23 * t)
+    q[:, 1] = 0.2 * np.sin(0.37 * t)
+    q[:, 2] = 0.12 + 0.02 * np.sin(0.6 * t)
+    q[:, 3] = 0.8 * np.sin(0.31 * t)
+    q[:, 4] = 0.7 * np.sin(0.53 * t)
+    q[:, 5] = 0.5 * np.sin(0.9 * t)
+    q[:, 6] = 0.6 + 0.3 * np.sin(1.7 * t)
+    force = np.column_stack([np.sin(0.7 * t), np.cos(1.1 * t), 0.5 * np.sin(0.4 * t)])
+    columns = {TIME: t, **dict(zip(JOINT_POSITIONS, q.T)),
+               **dict(zip(JOINT_VELOCITIES, np.gradient(q, t, axis=0).T)),
+               **dict.fromkeys(JOINT_EFFORTS, np.zeros(n)), **dict.fromkeys(HEX10, np.zeros(n)),
+               **dict(zip(TARGETS, force.T))}
+    return pd.DataFrame(columns)
+
+
+def _capstan_rows(truth: dict) -> dict:
+    """A fit's rows holding everything at the bench's values but the capstan's three terms
+    (identified, fitted off the truth) and the pins (held at 0)."""
+    rows = {n: {"truth": truth.get(n), "fitted": truth.get(n) or 0.0, "status": "fixed"}
+            for n in NAMES}
+    rows["pitch_path_tension"]["fitted"] = 0.0  # the load path's reading holds it
+    for name in CAPSTAN:
+        rows[name].update(status="identified", fitted=1.3 * truth[name])
+    rows["pin_friction"]["fitted"] = 0.0
+    return rows
+
+
+def test_the_projection_gives_the_law_back_and_the_pins_to_the_capstan_to_first_order():
+    """The bench's law projected onto the law as a fit holds it (projected_truth): without pins
+    it is the law itself; with small pins held at 0 the capstan carries the idlers' and the
+    pins' sum, the first-order rule of effective_truth; the fit reads the reference law, not the
+    recording's HEX10 columns."""
+    frame = _loaded_wrist_recording()
+    truth = default_bench_truth(InstrumentParams())
+    assert truth["pitch_path_tension"] == truth["pitch_path_pretension"] > 0  # one path, two forms
+    for inputs, kept, held in (("load_path", "pitch_path_pretension", "pitch_path_tension"),
+                               ("efforts", "pitch_path_tension", "pitch_path_pretension")):
+        law = dict(zip(NAMES, truth_law(truth, inputs).params))  # the law carries it once
+        assert (law[kept], law[held]) == (truth[kept], 0.0)
+    no_pins = {**truth, "pin_friction": 0.0}
+    back = projected_truth(no_pins, _capstan_rows(no_pins), [frame], "load_path")
+    for name in CAPSTAN:
+        assert back[name] == pytest.approx(truth[name], rel=1e-5), name
+    small = {**truth, "capstan_mu": 0.02, "pin_friction": 0.02}
+    carried = projected_truth(small, _capstan_rows(small), [frame], "load_path")
+    assert carried["capstan_mu"] == pytest.approx(0.04, rel=0.05)
+    assert carried["pin_friction"] == 0.0
+    with pytest.raises(IdentificationInputError, match="reference must be"):
+        InternalForcePrior.fit([frame], inputs="load_path", reference=truth)
+
+
+def test_a_capstan_carrying_the_pins_is_judged_against_the_projection_where_it_is_recorded():
+    """Where a run records the bench's law projected onto the held law, the capstan's terms are
+    judged against it, not the first-order sum and share; without pins held, not at all."""
+    truth = default_bench_truth(InstrumentParams())
+    rows = _capstan_rows(truth)
+    first_order = effective_truth(rows)
+    for name in CAPSTAN:
+        rows[name]["projected_truth"] = 2.0 * first_order[name]
+    assert {n: effective_truth(rows)[n] for n in CAPSTAN} == {
+        n: 2.0 * first_order[n] for n in CAPSTAN}
+    assert needs_projection(rows)
+    rows["pin_friction"].update(status="identified", fitted=truth["pin_friction"])
+    assert not needs_projection(rows) and "capstan_mu" not in effective_truth(rows)

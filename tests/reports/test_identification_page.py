@@ -96,3 +96,21 @@ def test_the_capstan_sentence_says_one_constant_only_where_the_law_has_one():
     held = _capstan_rows()
     held["capstan_mu"]["status"] = "fixed"
     assert _capstan_sentence(run, held) == ""
+
+
+def test_the_law_at_the_benchs_parameters_is_shown_only_as_scored_with_one_path_tension():
+    from reports.identification_page import _truth_law_sentence
+    scores = {"efforts": {"fz": {"rms": 31.4}}, "load_path": {"fz": {"rms": 0.25}}}
+    run = {"truth_law_test_loaded_internal_metrics": scores}
+    assert "not shown" in _truth_law_sentence(run) and "31.4" not in _truth_law_sentence(run)
+    shown = _truth_law_sentence({**run, "truth_law": "one path form"})
+    assert "fz 31.4 / 0.25 N" in shown and "not shown" not in shown
+
+
+def test_the_miss_rule_names_the_projection_where_a_run_of_the_table_records_it():
+    from reports.cells import miss_rule
+    plain = {"parameters": {"pin_friction": {}, "capstan_mu": {}}}
+    projected = {"parameters": {"pin_friction": {}, "capstan_mu": {"projected_truth": 0.4}}}
+    assert "projected" not in miss_rule(plain) and "idlers' share" in miss_rule(plain)
+    assert "projected onto the law as the run held it" in miss_rule(plain, [plain, projected])
+    assert "projected" in miss_rule(projected)
