@@ -15,7 +15,9 @@ load path, external force 0 in free space and the weight on a hold, clenched sam
 the data cannot pin down held at design values), and each parameter is compared with the
 bench's own (:func:`psmforce.experiments.prior_recovery.compare_selection`,
 :func:`~psmforce.experiments.prior_recovery.default_bench_truth` of the drawn tool; the capstan
-also against its mean over the recordings' configurations). Physics only: no network is
+also against its mean over the recordings' configurations; where the fit holds the pins at 0,
+the capstan against the bench's law projected onto the held law on the fit's recordings,
+:func:`~psmforce.experiments.prior_recovery.with_projection`). Physics only: no network is
 trained. Usage::
 
     python studies/ati_free_identification.py --json results/benchmarks/ati_free_identification.json
@@ -106,9 +108,9 @@ def case_recordings(seed: int, label: str, args, q_exc):
 
 
 def _seed(seed: int, args, q_exc) -> list[dict]:
-    from psmforce.estimators.training.calibrate import identify_instrument
+    from psmforce.estimators.training.calibrate import identify_instrument, instrument_frames
     from psmforce.experiments.prior_recovery import (bench_capstan_over, compare_selection,
-                                                     default_bench_truth)
+                                                     default_bench_truth, with_projection)
     from psmforce.sim.params import InstrumentParams
 
     tool = InstrumentParams().sample(TOOL_SEED_OFFSET + seed, 1.0)
@@ -120,7 +122,8 @@ def _seed(seed: int, args, q_exc) -> list[dict]:
         free, loads, made = case_recordings(seed, label, args, q_exc)
         started = time.perf_counter()
         prior = identify_instrument(free + loads)
-        row = compare_selection(prior, truth)
+        row = {**compare_selection(prior, truth), "inputs": prior.inputs}
+        with_projection(row, truth, instrument_frames(free + loads), prior.wrist_compliance)
         row.update({
             "seed": seed, "case": label, "masses_kg": list(masses), "poses": poses,
             "weight_poses": list(_poses(poses)), "minutes": made["minutes"],

@@ -165,6 +165,12 @@ def _prior_free_error(prior, trials: list[Trial]) -> dict | None:
             if axis in ("fx", "fy", "fz")}
 
 
+def instrument_frames(trials: list[Trial]) -> list:
+    """The recordings :func:`identify_instrument` fits: each trial's frame without the insertion
+    joint's columns (the arm's, not the instrument's)."""
+    return [t.frame.drop(columns=list(INSERTION_COLUMNS), errors="ignore") for t in trials]
+
+
 def identify_instrument(trials: list[Trial]):
     """The instrument identified from recordings whose external force is known (module
     docstring, "The instrument identified"): the load path's
@@ -174,7 +180,7 @@ def identify_instrument(trials: list[Trial]):
     recordings (:func:`~psmforce.identification.prior_selection.design_groups`). Returns the
     :class:`~psmforce.identification.InternalForcePrior` (``inputs`` "load_path")."""
     from psmforce.identification.prior_selection import design_groups, fit_identified
-    frames = [t.frame.drop(columns=list(INSERTION_COLUMNS), errors="ignore") for t in trials]
+    frames = instrument_frames(trials)
     masses = [t.params.get(KNOWN_LOAD_FIELD) if t.condition == KNOWN_LOAD_CONDITION else None
               for t in trials]  # each mass hangs in every pose: a replicate of the design
     return fit_identified(frames, inputs="load_path", jackknife_labels=design_groups(masses),
