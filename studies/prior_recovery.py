@@ -32,13 +32,6 @@ file is rewritten after every run and a rerun of the same command skips the runs
 
 ``--rescore JSON``: the misses of a written ``--default-bench`` JSON judged again by today's rule
 (:func:`psmforce.experiments.prior_recovery.judge`), the fits untouched; the JSON records it.
-
-``--project JSON``: for every run of a written ``--default-bench`` JSON whose capstan carries
-the pins' friction (held at 0), its bench simulated again and the bench's law projected onto the
-law as the run held it, on the run's training trials
-(:func:`psmforce.experiments.prior_recovery.project_runs`): the capstan's truth as held, and the
-misses judged against it; the fits untouched, the JSON records it (a run written since records
-its projection itself).
 """
 
 from __future__ import annotations
@@ -143,22 +136,6 @@ def _read_default(path: Path, option: str) -> dict:
     return result
 
 
-def _project(path: Path) -> None:
-    from psmforce.experiments.prior_recovery import project_runs
-    from psmforce.experiments.report import shown_path
-    result = _read_default(path, "--project")
-    project_runs(result, _instrument,
-                 f"python studies/prior_recovery.py --project {shown_path(path)}")
-    write_json(path, result)
-    for done in result["projected"]["runs"]:
-        run = result["runs"][done["run"]]
-        rows = run["parameters"]
-        print(f"{run['case']}, seed {run['seed']} ({done['sag']}): misses {done['misses']}; "
-              + ", ".join(f"{n} fitted {rows[n]['fitted']:.4g}, projected "
-                          f"{rows[n]['projected_truth']:.4g}" for n in
-                          ("capstan_mu", "capstan_pitch_gain", "capstan_roll_gain")))
-
-
 def _rescore(path: Path) -> None:
     from psmforce.experiments.prior_recovery import rescore
     from psmforce.experiments.report import shown_path
@@ -190,16 +167,9 @@ def main() -> None:
     ap.add_argument("--rescore", type=Path, default=None, metavar="JSON",
                     help="judge the misses of a --default-bench JSON again by today's rule "
                          "(experiments.prior_recovery.judge), the fits untouched; rewrites it")
-    ap.add_argument("--project", type=Path, default=None, metavar="JSON",
-                    help="project the bench's law onto the law as each run of a --default-bench "
-                         "JSON held it, where its capstan carries the pins (the capstan's truth "
-                         "as held), and judge the misses again; rewrites it")
     args = ap.parse_args()
     if args.rescore is not None:
         _rescore(args.rescore)
-        return
-    if args.project is not None:
-        _project(args.project)
         return
     if args.default_bench:
         from psmforce.experiments.seeds import CAPSTAN_GROWTH_SEEDS, LOAD_PATH_SEEDS

@@ -353,48 +353,6 @@ def with_projection(run: dict, truth: dict, recordings, compliance=None) -> dict
     return run
 
 
-def project_runs(result: dict, instrument_of, command: str) -> dict:
-    """``result`` (a ``--default-bench`` JSON of ``studies/prior_recovery.py``) with
-    :func:`with_projection` on every run that needs it, each bench simulated again from its seed
-    and scale (``instrument_of(case, seed)``: its instrument) for its training recordings; the
-    sag a run took is its ``sag`` record's, or for a run written without one the sag its final
-    values give (:func:`~psmforce.identification.prior_selection.fitted_compliance`, within
-    :data:`~psmforce.identification.prior_selection.SAG_TOLERANCE` of the one it took).
-    ``result["projected"]``: ``command`` and the runs projected."""
-    import tempfile
-
-    import numpy as np
-
-    from psmforce.identification.load_path import WristCompliance
-    from psmforce.identification.prior_selection import fitted_compliance
-    from psmforce.io.recording import list_recordings, read_recording
-    from psmforce.sim import simulate
-    done = []
-    for k, run in enumerate(result["runs"]):
-        if not needs_projection(run["parameters"]):
-            continue
-        instrument = instrument_of(run["case"], run["seed"])
-        compliance, sag_from = None, None
-        if run["inputs"] == "load_path":
-            if run.get("sag"):
-                compliance = WristCompliance.from_dict(run["sag"]["compliance"], "run's sag")
-                sag_from = "the run's sag"
-            else:
-                compliance = fitted_compliance(InternalForcePrior(params=np.array(
-                    [run["parameters"][n]["fitted"] for n in NAMES])), run["design"])
-                sag_from = "the sag the run's final values give"
-        with tempfile.TemporaryDirectory() as tmp:
-            simulate("automated", scale=run["scale"], seed=run["seed"], out=f"{tmp}/data",
-                     instrument=instrument)
-            train = [read_recording(r.path) for r in list_recordings(f"{tmp}/data")
-                     if r.split == "train" and r.condition in run["conditions"]]
-            with_projection(run, default_bench_truth(instrument), train, compliance)
-        done.append({"run": k, "sag": sag_from, "misses": list(run["misses"])})
-    result["projected"] = {"command": command, "rule": "prior_recovery.projected_truth",
-                           "runs": done}
-    return result
-
-
 def effective_truth(rows: dict) -> dict[str, float]:
     """The truth a parameter has in the law as fitted, where it differs from the bench's value.
     A bias: a cross-talk term held off its truth (``crosstalk_c`` fixed; the efforts reading
