@@ -6,7 +6,8 @@ takes the parsed JSON and returns the block's markdown."""
 
 from __future__ import annotations
 
-from reports.cells import as_held, miss_rule, relative_error, rescored_note, with_pins
+from reports.cells import (as_held, miss_rule, relative_error, rescored_note, sag_sentence,
+                           with_pins)
 
 FORCE_AXES = ("fx", "fy", "fz")
 
@@ -478,26 +479,9 @@ def instrument_identification_tables(result: dict) -> str:
                             " The all-free fit's residual on its own recordings, RMS fz "
                             f"{run['all_free_residual']['fz']['rms']:.3g} N, tx "
                             f"{run['all_free_residual']['tx']['rms']:.3g} Nm.")
-                         + _sag_sentence(run))
+                         + sag_sentence(run))
         lines.append("")
     return "\n".join(lines)
-
-
-def _sag_sentence(run: dict) -> str:
-    """How a case's final fit sagged the wrist (``prior_selection.fit_identified``'s ``sag``
-    record); empty for a run written before the fit read its own values back."""
-    sag = run.get("sag")
-    if sag is None:
-        return ""
-    passes = len(sag["passes"]) - 1
-    last = sag["passes"][-1]["change"]
-    taken = ("the design's, which the fit's own values already give" if passes == 0 else
-             f"the design's, then the fit's own values, {passes} pass"
-             f"{'' if passes == 1 else 'es'}")
-    return (f" The wrist's sag: {taken}; the sag the final fit took and the one it gives "
-            f"differ by {100 * last:.2g} % at most "
-            + ("(converged)." if sag["converged"] else "(**not converged**).")
-            + f" Its capstan in the sag {sag['compliance']['capstan_mu']:.3g}.")
 
 
 def load_path_holds_table(result: dict) -> str:

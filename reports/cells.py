@@ -65,3 +65,20 @@ def with_pins(run: dict) -> str:
     """The pulley pins' share of the bench's wrist friction, named where a recovery run's truth
     holds it (runs with the prior's capstan growth terms: ``default_bench_truth``)."""
     return " plus the pulley pins'" if "capstan_pitch_gain" in run.get("parameters", {}) else ""
+
+
+def sag_sentence(run: dict) -> str:
+    """How a case's final fit sagged the wrist (``prior_selection.fit_identified``'s ``sag``
+    record); empty for a run written before the fit read its own values back."""
+    sag = run.get("sag")
+    if sag is None:
+        return ""
+    passes = len(sag["passes"]) - 1
+    last = sag["passes"][-1]["change"]
+    taken = ("the design's, which the fit's own values already give" if passes == 0 else
+             f"the design's, then the fit's own values, {passes} pass"
+             f"{'' if passes == 1 else 'es'}")
+    return (f" The wrist's sag: {taken}; the sag the final fit took and the one it gives "
+            f"differ by {100 * last:.2g} % at most "
+            + ("(converged)." if sag["converged"] else "(**not converged**).")
+            + f" Its capstan in the sag {sag['compliance']['capstan_mu']:.3g}.")

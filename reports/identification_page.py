@@ -6,8 +6,8 @@ from __future__ import annotations
 
 import math
 
-from reports.cells import (as_held, miss_rule, relative_error, rescored_note, spread_cell,
-                           with_pins)
+from reports.cells import (as_held, miss_rule, relative_error, rescored_note, sag_sentence,
+                           spread_cell, with_pins)
 
 MODEL_NAMES = {"physics": "physics alone (`CableTransmission`)", "fcn": "FCN",
                "lstm": "LSTM", "transformer": "paper transformer",
@@ -195,7 +195,7 @@ def prior_default_recovery_table(result: dict) -> str:
                   f"{fz0.get('rms', float('nan')):.3g} N (R^2 {fz.get('r2', float('nan')):.3g} / "
                   f"{fz0.get('r2', float('nan')):.3g}); fit-prior rounds: {len(run['rounds'])}."
                   + _rest_level_leak(run)
-                  + _capstan_sentence(run, rows), ""]
+                  + _capstan_sentence(run, rows) + sag_sentence(run), ""]
         loaded = run.get("test_loaded_internal_metrics")
         if loaded:
             first = run["all_free_test_loaded_internal_metrics"]

@@ -77,7 +77,7 @@ def test_the_load_path_sentence_says_how_many_holds_or_what_stays_out_of_reach()
 
 
 def test_the_sag_sentence_says_whether_the_fits_own_sag_converged():
-    from reports.ati_free_page import _sag_sentence
+    from reports.cells import sag_sentence as _sag_sentence
     assert _sag_sentence({}) == ""   # written before the fit read its values back
     sag = {"passes": [{"change": 0.4}, {"change": 0.003}], "converged": True,
            "compliance": {"capstan_mu": 0.31}}
