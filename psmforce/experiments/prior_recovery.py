@@ -303,7 +303,8 @@ def crosstalk_of_rest_level(instrument: InstrumentParams) -> dict[str, float]:
 
 
 CAPSTAN = ("capstan_mu", "capstan_pitch_gain", "capstan_roll_gain")
-"""The law's capstan: where the pins are held at 0 it carries theirs too (:func:`effective_truth`)."""
+"""The law's capstan terms: where the pins are held at 0 they carry the pins' friction too
+(:func:`effective_truth`)."""
 
 
 def pins_held(rows: dict) -> bool:
@@ -316,12 +317,12 @@ def pins_held(rows: dict) -> bool:
 
 def projected_truth(truth: dict, rows: dict, recordings, inputs: str, compliance=None,
                     psm: PSM | None = None) -> dict[str, float]:
-    """The law at the bench's parameters (:func:`truth_law` of ``truth``) projected onto the law as a fit holds it, on that fit's own
-    training ``recordings`` and reading ``inputs`` (with the load path, the ``compliance`` it
-    sagged the wrist with): the law refitted to the bench law's output, what the fit held
-    (``rows``' *fixed*) held at the same values, the rest free from the fitted values
-    (:meth:`~psmforce.identification.prior.InternalForcePrior.fit` ``reference``). Name ->
-    SI value: what a parameter's truth is in the held law on these recordings, where a
+    """The law at the bench's parameters (:func:`truth_law` of ``truth``) projected onto the
+    law as a fit holds it, on that fit's own training ``recordings`` and reading ``inputs``
+    (with the load path, the ``compliance`` it sagged the wrist with): the law refitted to the
+    bench law's output, what the fit held (``rows``' *fixed*) held at the same values, the rest
+    free from the fitted values (:meth:`~psmforce.identification.prior.InternalForcePrior.fit`
+    ``reference``). Name -> SI value: what a parameter's truth is in the held law on these recordings, where a
     first-order rule (:func:`effective_truth`) only approximates it."""
     reference = truth_law(truth, inputs)
     fixed = {n: row["fitted"] for n, row in rows.items() if row["status"] == "fixed"}
@@ -364,15 +365,13 @@ def effective_truth(rows: dict) -> dict[str, float]:
     the idlers' scaled by the idlers' share (the pins' friction does not grow with the
     configuration; ``tests/experiments/test_prior_recovery.py``); where the rows record the
     bench's law projected onto the held law (``projected_truth``, :func:`projected_truth`), the
-    capstan's three terms are judged against that instead of the first-order sum and share.
-    The blade cables' path tension:
-    its form a reading holds at 0 (``pitch_path_tension`` in the load path,
-    ``pitch_path_pretension`` in the efforts) has the truth 0, the other carries it. ``rows``:
-    :func:`compare_selection`'s parameters (truth, fitted, status)."""
+    capstan's three terms are judged against that instead of the first-order sum and share. The
+    blade cables' path tension: its form a reading holds at 0 (``pitch_path_tension`` in the
+    load path, ``pitch_path_pretension`` in the efforts) has the truth 0, the other carries it.
+    ``rows``: :func:`compare_selection`'s parameters (truth, fitted, status)."""
     rest = -rows["pretension_total"]["truth"]
     out = {}
-    path = PATH_FORMS
-    for name, other in (path, path[::-1]):
+    for name, other in (PATH_FORMS, PATH_FORMS[::-1]):
         row, alt = rows.get(name), rows.get(other)
         if (row is not None and alt is not None and row["status"] == "fixed"
                 and row["fitted"] == 0.0 and row["truth"]
