@@ -442,7 +442,8 @@ def instrument_identification_tables(result: dict) -> str:
              "--known-loads`'s identification (`calibrate.identify_instrument`): its value, its "
              "error against the drawn tool's truth, and *fixed* (held at the design value: the "
              "report or the jackknife over trial groups lists it), identified (free, not "
-             f"listed), **MISS** (identified, {miss_rule(result['runs'][0], result['runs'])}). The last "
+             f"listed), **MISS** (identified, "
+             f"{miss_rule(result['runs'][0], result['runs'])}). The last "
              f"column is the all-free fit of \"{last}\" (its first round).", ""]
     by_seed: dict = {}
     for run in result["runs"]:

@@ -322,8 +322,8 @@ def projected_truth(truth: dict, rows: dict, recordings, inputs: str, compliance
     (with the load path, the ``compliance`` it sagged the wrist with): the law refitted to the
     bench law's output, what the fit held (``rows``' *fixed*) held at the same values, the rest
     free from the fitted values (:meth:`~psmforce.identification.prior.InternalForcePrior.fit`
-    ``reference``). Name -> SI value: what a parameter's truth is in the held law on these recordings, where a
-    first-order rule (:func:`effective_truth`) only approximates it."""
+    ``reference``). Name -> SI value: what a parameter's truth is in the held law on these
+    recordings, where a first-order rule (:func:`effective_truth`) only approximates it."""
     reference = truth_law(truth, inputs)
     fixed = {n: row["fitted"] for n, row in rows.items() if row["status"] == "fixed"}
     start = {n: row["fitted"] for n, row in rows.items() if row["status"] != "fixed"}
