@@ -637,7 +637,9 @@ class InternalForcePrior:
             **({"reference": dict(zip(NAMES, map(float, reference.params)))}
                if reference is not None else {}),
             **({"identifiability": identifiability(params, fixed, (pos, e, v, g, zd, fz_read),
-                                                   y, mask, ch_scale)} if report else {}),
+                                                   y, mask, ch_scale,
+                                                   efforts_read=inputs == "efforts")}
+               if report else {}),
             "slack_samples_fraction": float(np.mean(_slack_any(prior.params, roll, e))),
             "train_metrics": channel_metrics(y, fitted, mask),
             "provenance": provenance or {"recordings": sources},

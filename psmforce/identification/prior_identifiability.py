@@ -98,7 +98,8 @@ def jacobian_grams(params, free, inputs, mask, ch_scale, chunk: int = 20000, y=N
     return gram
 
 
-def identifiability(params, fixed, inputs, y, mask, ch_scale, chunk: int = 20000) -> dict:
+def identifiability(params, fixed, inputs, y, mask, ch_scale, chunk: int = 20000, *,
+                    efforts_read: bool = True) -> dict:
     """Which parameters the fitted data pin down, at the optimum ``params``.
 
     ``inputs`` = (positions, efforts, velocities, g_hex, direction[, hex10_fz]); ``y``, ``mask``,
@@ -117,7 +118,13 @@ def identifiability(params, fixed, inputs, y, mask, ch_scale, chunk: int = 20000
     The noise is estimated from the efforts' sample-to-sample steps (median absolute step: the
     white part only, a lower bound where the efforts carry slower disturbances); the regressors
     are the pair differentials D where the pair is taut (asymmetries, force samples) and where
-    moments are fitted (cable radius).
+    moments are fitted (cable radius). ``efforts_read`` (the efforts reading, whose D are read
+    from the motor efforts): the efforts also carry slow disturbances that tension no cable (the
+    discs' friction, the arm's), which the steps do not see, so the shrinkage is also bounded
+    from the readings' side (``input_reliability_bound``, :func:`_reverse_regression_bound`).
+    The load path reads D from the known tip force, whose errors are that sensor's white noise:
+    there a residual beyond white noise is the law's misfit, not the regressor's, and the bound
+    is not taken.
 
     ``not_identifiable`` (name -> reason): a parameter at its bound; one correlated beyond
     0.99 with another; 3 standard errors above :data:`RECOVERY_TOLERANCE` of its value (a value
@@ -180,6 +187,10 @@ def identifiability(params, fixed, inputs, y, mask, ch_scale, chunk: int = 20000
     moments = np.broadcast_to(used[:, 3:4], D.shape)
     rel = {"asymmetry_pitch": reliability([0], taut), "asymmetry_blade": reliability([1, 2], taut),
            "cable_radius": reliability([0, 1, 2], moments)}
+    white = _white_noise(y, used) / ch_scale  # the readings' white noise, scaled units
+    rel_bound = {name: _reverse_regression_bound(free.index(NAMES.index(name)), params[
+        NAMES.index(name)], gram, n_res * np.maximum(s2 - white ** 2, 0.0))
+                 for name in rel if NAMES.index(name) in free} if efforts_read else {}
 
     # each parameter's Fisher information from the channels the law does not explain
     share = (np.einsum("kii,k->ki", gram, 1.0 / s2)[unexplained].sum(axis=0)
@@ -220,6 +231,12 @@ def identifiability(params, fixed, inputs, y, mask, ch_scale, chunk: int = 20000
             why.append(f"errors in variables: the wrist efforts' noise leaves a reliability of "
                        f"{rel[name]:.2f} in its regressor (the pair differentials), so the fit "
                        f"shrinks it towards zero")
+        elif rel_bound.get(name, 1.0) < MIN_INPUT_RELIABILITY:
+            why.append(f"errors in variables: the readings it explains keep a residual beyond "
+                       f"their white noise, which a disturbance in its regressor (the pair "
+                       f"differentials) would leave; the reverse regression puts it up to "
+                       f"{1 / max(rel_bound[name], 1e-9) - 1:.0%} above the fit (reliability "
+                       f"bound {rel_bound[name]:.2f})")
         if why:
             reasons[name] = "; ".join(why)
     for name in ("bias_fz", "twist_gain"):  # the data see bias_fz - T_tot and T_tot x twist_gain
@@ -231,17 +248,63 @@ def identifiability(params, fixed, inputs, y, mask, ch_scale, chunk: int = 20000
     return {
         "method": "Fisher information of the fit's scaled residuals (central differences) at the "
                   "optimum, channel noise from the residuals; sandwich standard errors, white "
-                  "residuals assumed; input noise from the efforts' steps",
+                  "residuals assumed; input noise from the efforts' steps"
+                  + ("; its shrinkage bounded by the reverse regression" if efforts_read else ""),
         "condition_number": float(np.linalg.cond(norm)) if norm.size else None,
         "standard_errors": {NAMES[i]: float(x) for i, x in zip(free, se)},
         "correlations_above_0.9": pairs,
         "effort_noise_differential_n": [float(x) for x in np.sqrt(noise_var)],
         "channel_r2": {c: float(x) for c, x in zip(CHANNELS, r2)},
         "input_reliability": rel,
+        **({"input_reliability_bound": rel_bound,
+            "readings_white_noise": {c: float(x) for c, x in zip(CHANNELS, white * ch_scale)}}
+           if efforts_read else {}),
         "clear_slack_samples": {"pitch": n_slack[0], "blade": n_slack[1]},
         "not_identifiable": reasons,
         "fixed": sorted(fixed),
     }
+
+
+def _white_noise(y, used) -> np.ndarray:
+    """(6,) each reading's white noise (its units): the median absolute second difference over
+    samples used three in a row, scaled to a standard deviation (a smooth signal's second
+    difference is about 0; white noise's has 6 times its variance). A lower bound of the
+    readings' noise: what is slower than a sample is left in the residual."""
+    out = np.zeros(y.shape[1])
+    for c in range(y.shape[1]):
+        ok = used[2:, c] & used[1:-1, c] & used[:-2, c]
+        d2 = (y[2:, c] - 2 * y[1:-1, c] + y[:-2, c])[ok]
+        out[c] = 1.4826 * np.median(np.abs(d2)) / np.sqrt(6.0) if len(d2) else 0.0
+    return out
+
+
+def _reverse_regression_bound(j: int, value: float, gram, excess) -> float:
+    """A lower bound of the reliability of free parameter ``j`` (index into the gram's free
+    parameters) whose regressor is measured: Frisch's bounds for a slope under errors in
+    variables, on the readings that carry it.
+
+    Least squares gives the slope ``b`` = cov(y, x) / var(x); the reverse regression, with the
+    readings' own white noise removed from var(y), gives (var(y) - noise) / cov(y, x), which is
+    at or above the true slope whatever noise the regressor carries. Their ratio is
+    ``1 + excess / explained``: ``explained`` the readings' variance the parameter carries once
+    the other free parameters are partialled out (``value^2`` times the partial column's
+    squared norm, Frisch-Waugh on the per-channel Jacobian grams ``gram``, (6, F, F)), ``excess``
+    (6,) each channel's residual sum of squares beyond its white noise (scaled units). Channels
+    that carry less than 5 % of the partial column's norm are left out (their misfit is not the
+    parameter's). 1 where nothing is left over; the returned bound is explained / (explained +
+    excess). A misfit from outside the law counts as regressor noise: the data cannot tell
+    them apart, which is the point."""
+    total = gram.sum(axis=0)
+    others = [i for i in range(total.shape[0]) if i != j]
+    beta = (np.linalg.lstsq(total[np.ix_(others, others)], total[others, j], rcond=None)[0]
+            if others else np.zeros(0))
+    part = np.array([g[j, j] - 2 * beta @ g[others, j] + beta @ g[np.ix_(others, others)] @ beta
+                     for g in gram])
+    part = np.maximum(part, 0.0)
+    carried = part >= 0.05 * part.sum() if part.sum() > 0 else np.zeros(len(part), bool)
+    explained = value ** 2 * part[carried].sum()
+    left = float(np.sum(excess[carried]))
+    return float(explained / (explained + left)) if explained + left > 0 else 1.0
 
 
 def _imprecision(name: str, value: float, se: float) -> str:
