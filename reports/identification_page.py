@@ -126,6 +126,28 @@ def prior_recovery_table(result: dict) -> str:
     return "\n".join(lines)
 
 
+def prior_drawn_trace_table(result: dict) -> str:
+    """docs/identification.md section 2.3: the drawn tool's load-path fit redone with one of the
+    tool's departures from the law removed at a time (``studies/prior_recovery_trace.py``)."""
+    from psmforce.identification.prior_identifiability import recovered
+    run = result["run"]
+    lines = ["", f"The {run['case']}'s load-path run (seed {run['seed']}, scale "
+             f"{run['scale']:g}; misses there: {', '.join(run['misses']) or 'none'}), its last "
+             "round refitted on the bench with one departure removed; each judged against the "
+             "bench's law projected onto the law as the run held it, on the variant's own "
+             "trials:", "",
+             "| bench | capstan_pitch_gain: fit / projection | capstan_mu: fit / projection "
+             "| identified terms off their projection (10 %; an offset: its resolution) |",
+             "|---|---|---|---|"]
+    for v in result["variants"]:
+        fit, proj = v["fitted"], v["projected_truth"]
+        off = [n for n in v["identified"] if not recovered(n, fit[n], proj[n])]
+        cells = [f"{fit[n]:.4g} / {proj[n]:.4g} ({100 * abs(fit[n] / proj[n] - 1):.1f} %)"
+                 for n in ("capstan_pitch_gain", "capstan_mu")]
+        lines.append(f"| {v['variant']} | {cells[0]} | {cells[1]} | {', '.join(off) or 'none'} |")
+    return "\n".join(lines + [""])
+
+
 def _rest_level_leak(run: dict) -> str:
     """The sentence on the HEX10's cross-talk of the pretension's axial force: into the channels
     whose law has no cross-talk term (a load-path law fits fx's and fy's, since prior format 5

@@ -46,6 +46,7 @@ PRIOR_RECOVERY = ROOT / "results" / "benchmarks" / "prior_recovery.json"
 PRIOR_ABLATION = ROOT / "results" / "benchmarks" / "prior_ablation.json"
 PRIOR_RECOVERY_DEFAULT = ROOT / "results" / "benchmarks" / "prior_recovery_default.json"
 PRIOR_RECOVERY_LOAD_PATH = ROOT / "results" / "benchmarks" / "prior_recovery_load_path.json"
+PRIOR_DRAWN_TRACE = ROOT / "results" / "benchmarks" / "prior_recovery_drawn_trace.json"
 ATI_FREE_IDENTIFICATION = ROOT / "results" / "benchmarks" / "ati_free_identification.json"
 LOAD_PATH_HOLDS = ROOT / "results" / "benchmarks" / "load_path_holds.json"
 ATI_FREE_IDENTIFICATION_BLIND = (ROOT / "results" / "benchmarks"
@@ -165,6 +166,8 @@ BLOCKS = (
      identification_page.prior_default_recovery_table),
     (IDENTIFICATION, "prior-load-path-recovery-table", PRIOR_RECOVERY_LOAD_PATH,
      identification_page.prior_default_recovery_table),
+    (IDENTIFICATION, "prior-drawn-trace", PRIOR_DRAWN_TRACE,
+     identification_page.prior_drawn_trace_table),
     (IDENTIFICATION, "transmission-tables", TRANSMISSION, identification_page.transmission_tables),
     (IDENTIFICATION, "transmission-transfer-tables", TRANSMISSION_TRANSFER,
      identification_page.transmission_transfer_tables),

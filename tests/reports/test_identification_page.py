@@ -114,3 +114,23 @@ def test_the_miss_rule_names_the_projection_where_a_run_of_the_table_records_it(
     assert "projected" not in miss_rule(plain) and "idlers' share" in miss_rule(plain)
     assert "projected onto the law as the run held it" in miss_rule(plain, [plain, projected])
     assert "projected" in miss_rule(projected)
+
+
+def test_the_drawn_trace_names_each_variants_terms_off_their_projection():
+    from reports.identification_page import prior_drawn_trace_table
+    proj = {"capstan_pitch_gain": 0.5, "capstan_mu": 0.45, "bias_fx": 0.07}
+
+    def variant(label, gain, bias):
+        return {"variant": label, "identified": ["capstan_pitch_gain", "capstan_mu", "bias_fx"],
+                "fitted": {"capstan_pitch_gain": gain, "capstan_mu": 0.45, "bias_fx": bias},
+                "projected_truth": proj}
+    table = prior_drawn_trace_table({
+        "run": {"case": "drawn tool", "seed": 21, "scale": 0.25,
+                "misses": ["capstan_pitch_gain"]},
+        "variants": [variant("as is", 0.58, 0.07), variant("one removed", 0.52, 0.1)]})
+    rows = {line.split(" | ")[0].strip("| "): line for line in table.splitlines()
+            if line.startswith("| as is") or line.startswith("| one removed")}
+    assert rows["as is"].endswith("| capstan_pitch_gain |")  # 16 % off its projection
+    assert "(16.0 %)" in rows["as is"]
+    # 4 % is within 10 %; a 0.03 N offset error is beyond the 0.02 N resolution
+    assert rows["one removed"].endswith("| bias_fx |")
