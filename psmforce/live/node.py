@@ -258,9 +258,12 @@ class ForceNode:
                 self.offset = self._tare_sum / self._tare_n
         if self._tare_left:
             flags |= TARING
-        force = raw - self.offset
-        base = out.force_base
-        if self.offset.any():  # the rotation costs a forward kinematics: only with a tare
+        force, base = raw, out.force_base
+        # untared (offset zero) the estimate stands as it is: subtracting zero changes nothing
+        # and the rotation costs a forward kinematics (Python floats: a cheaper test than
+        # ndarray.any() on three values, once per message)
+        if any(self.offset.tolist()):
+            force = raw - self.offset
             base = base - self.estimator.base_rotation() @ self.offset
         self.answers += 1
         return Answer(int(stamp or 0), force, base, out.std_hex10, int(flags))
@@ -269,11 +272,13 @@ class ForceNode:
         """The CDR bytes of each output of ``answer`` (:mod:`psmforce.live.cdr`), by output
         name (``std`` only with a std)."""
         stamp = answer.stamp_ns
-        out = {"base": cdr.wrench_stamped(stamp, self.base_frame_id, answer.force_base),
-               "hex10": cdr.wrench_stamped(stamp, "hex10", answer.force_hex10),
+        # the vectors as Python floats, one tolist() each: the encoder converts what it is given
+        # value by value, and numpy's scalars are slower to make and to convert
+        out = {"base": cdr.wrench_stamped(stamp, self.base_frame_id, answer.force_base.tolist()),
+               "hex10": cdr.wrench_stamped(stamp, "hex10", answer.force_hex10.tolist()),
                "flags": cdr.uint32(answer.flags), "status": self._status(stamp, answer.flags)}
         if answer.std_hex10 is not None:
-            out["std"] = cdr.vector3_stamped(stamp, "hex10", answer.std_hex10)
+            out["std"] = cdr.vector3_stamped(stamp, "hex10", answer.std_hex10.tolist())
         return out
 
     def _status(self, stamp: int, flags: int) -> bytes:

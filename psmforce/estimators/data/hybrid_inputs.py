@@ -230,14 +230,16 @@ class HexRotation:
     """
 
     def __init__(self, psm):
+        import pinocchio as pin  # bound once: an import per call costs about as much as the FK
         self._model = psm.model
         self._data = psm.model.createData()
         self._frame = psm.model.getFrameId("hex10")
+        self._forward_kinematics = pin.forwardKinematics
+        self._frame_placement = pin.updateFramePlacement
 
     def __call__(self, q: np.ndarray) -> np.ndarray:
-        import pinocchio as pin
-        pin.forwardKinematics(self._model, self._data, q)
-        return pin.updateFramePlacement(self._model, self._data, self._frame).rotation
+        self._forward_kinematics(self._model, self._data, q)
+        return self._frame_placement(self._model, self._data, self._frame).rotation
 
 
 class SamplePrior:
@@ -285,18 +287,22 @@ class SamplePrior:
     def predict_sample(self, values: np.ndarray) -> np.ndarray:
         n = len(JOINT_POSITIONS)
         self._q[:] = values[:n]
-        r = self._rotation(self._q)
+        rows = self._rotation(self._q).tolist()  # R_base_hex10 as Python floats, read twice
         # gravity (0, 0, -g) of the upright base, in the HEX10 frame: R^T e_z is R's third row
-        g_hex = (r[2] * self._gravity).tolist()
+        g_hex = [x * self._gravity for x in rows[2]]
         v = values.tolist()
         z = (None if self._direction is None else
              self._direction.step(v[self._WRIST_PITCH], v[self._WRIST_PITCH + 1],
                                   v[self._WRIST_PITCH + 2]))
-        self._out[:6] = self.prior.predict_one((v[self._ROLL], v[self._WRIST_PITCH]),
-                                               v[n:n + 3], v[n + 3:n + 6], g_hex, z,
-                                               v[n + 8] if self._crosstalk else None)
-        if self.prior.insertion is not None:  # the shaft (HEX10 z) in the base frame: R's third column
-            self._out[6] = self.prior.insertion.axial_force_one(r[:, 2].tolist(), v[n + 6], v[n + 7])
+        wrench = self.prior.predict_one((v[self._ROLL], v[self._WRIST_PITCH]),
+                                        v[n:n + 3], v[n + 3:n + 6], g_hex, z,
+                                        v[n + 8] if self._crosstalk else None)
+        insertion = self.prior.insertion
+        if insertion is None:
+            self._out[:6] = wrench
+        else:  # the shaft (HEX10 z) in the base frame: R's third column
+            shaft = [rows[0][2], rows[1][2], rows[2][2]]
+            self._out[:] = (*wrench, insertion.axial_force_one(shaft, v[n + 6], v[n + 7]))
         return self._out
 
 
@@ -337,8 +343,10 @@ class HybridInputs:
         source = self.raw_columns + PRIOR_COLUMNS + (NO_BASE,)  # the last slot stays 0
         self._feature_index = np.array([source.index(c) for c in self.features])
         self._base_index = np.array([source.index(c) for c in self.base_columns], dtype=np.intp)
-        self._mean = np.asarray(input_scaler.mean, np.float32)
-        self._std = np.asarray(input_scaler.std, np.float32)
+        # the scaler's float32 values (the network's training), held as float64: exact, and the
+        # arithmetic with them was float64 already; numpy's mixed-type loops cost more per sample
+        self._mean = np.asarray(input_scaler.mean, np.float32).astype(np.float64)
+        self._std = np.asarray(input_scaler.std, np.float32).astype(np.float64)
         if self._mean.shape != (len(self.features),):
             raise HybridInputError(f"input scaler has {self._mean.shape} entries for "
                                    f"{len(self.features)} features")
@@ -347,13 +355,16 @@ class HybridInputs:
             self._hex10_index = np.array([self.raw_columns.index(c) for c in HEX10])
             self._prior_index = np.array([self.raw_columns.index(c)
                                           for c in self.prior.input_columns])
-            self._prior_in = np.zeros(len(self._prior_index))
         self._source = np.zeros(len(source))
         self._raw_view = self._source[:n_raw]
         self._comp_view = self._source[n_raw:n_raw + 6]
-        self._prior_fz_index = n_raw + 6
-        self._insertion_fz_index = n_raw + 7
-        self._other_prior_index = n_raw + 8 + np.arange(5)  # PRIOR_COLUMNS' tail
+        # PRIOR_COLUMNS after the compensated ones (prior_fz, insertion_fz, prior_fx, _fy, _tx,
+        # _ty, _tz): the index of each in predict_sample's output (fx .. tz, insertion_fz), one
+        # gather per sample; insertion_fz stays 0 without an insertion model
+        outputs = (2, 6, 0, 1, 3, 4, 5)
+        kept = [k for k, i in enumerate(outputs) if i != 6 or self._has_insertion]
+        self._prior_slots = n_raw + 6 + np.array(kept)
+        self._prior_order = np.array([outputs[k] for k in kept])
         self._x64 = np.zeros(len(self.features))
         self.x = np.zeros(len(self.features), np.float32)
         self.base = np.zeros(len(self.base_columns))
@@ -375,18 +386,15 @@ class HybridInputs:
 
     def sample(self, raw: np.ndarray) -> None:
         """One sample (``raw_columns`` order, finite) -> :attr:`x` (scaled) and :attr:`base`."""
+        # gathers by fancy indexing (a new small array) are faster than np.take(..., out=),
+        # which pays numpy's Python-level wrapper, at the sizes here; this runs at 1 kHz
+        source = self._source
         self._raw_view[:] = raw
         if self.prior is not None:
-            np.take(self._raw_view, self._prior_index, out=self._prior_in)
-            internal = self.prior.predict_sample(self._prior_in)
-            np.take(self._raw_view, self._hex10_index, out=self._comp_view)
-            np.subtract(self._comp_view, internal[:6], out=self._comp_view)
-            self._source[self._prior_fz_index] = internal[2]
-            self._source[self._other_prior_index] = internal[[0, 1, 3, 4, 5]]
-            if self._has_insertion:
-                self._source[self._insertion_fz_index] = internal[6]
-        np.take(self._source, self._feature_index, out=self._x64)
-        np.subtract(self._x64, self._mean, out=self._x64)
+            internal = self.prior.predict_sample(self._raw_view[self._prior_index])
+            np.subtract(self._raw_view[self._hex10_index], internal[:6], out=self._comp_view)
+            source[self._prior_slots] = internal[self._prior_order]
+        np.subtract(source[self._feature_index], self._mean, out=self._x64)
         np.divide(self._x64, self._std, out=self._x64)
         self.x[:] = self._x64
-        np.take(self._source, self._base_index, out=self.base)
+        source.take(self._base_index, out=self.base)

@@ -144,6 +144,13 @@ class AntiAlias:
                                      fs=self.factor * self.model_rate_hz, output="sos")
             self._zi_unit = signal.sosfilt_zi(self.sos)  # (sections, 2) for a unit step
             self._z = np.zeros((len(self.sos), 2, self.n_columns))
+            # per section: (b0, b1, b2) and (a1, a2) as columns, and views of its two state rows;
+            # with the scratch rows below a step allocates nothing (once per input sample, at
+            # 1 kHz on the live node)
+            self._sections = [(section[:3, None].copy(), section[4:, None].copy(), z[0], z[1])
+                              for section, z in zip(self.sos, self._z)]
+            self._bu = np.zeros((3, self.n_columns))  # b0 u, b1 u, b2 u
+            self._ay = np.zeros((2, self.n_columns))  # a1 y, a2 y
         self.reset()
 
     def reset(self) -> None:
@@ -166,14 +173,19 @@ class AntiAlias:
         if self._fresh:
             self._z[:] = self._zi_unit[:, :, None] * x[None, None, :]
             self._fresh = False
-        y = self._out
-        y[:] = x
-        for k, (b0, b1, b2, _, a1, a2) in enumerate(self.sos):  # direct form II transposed
-            z = self._z[k]
-            u = y.copy()
-            y[:] = b0 * u + z[0]
-            z[0] = b1 * u - a1 * y + z[1]
-            z[1] = b2 * u - a2 * y
+        y, bu, ay = self._out, self._bu, self._ay
+        u = x
+        for b, a, z0, z1 in self._sections:
+            # direct form II transposed: y = b0 u + z0, z0 = b1 u - a1 y + z1, z1 = b2 u - a2 y,
+            # the three products of u at once, then of y (the vector formulas' operations, in
+            # their order: the same numbers)
+            np.multiply(b, u, out=bu)
+            np.add(bu[0], z0, out=y)
+            np.multiply(a, y, out=ay)
+            np.subtract(bu[1:], ay, out=bu[1:])
+            np.add(bu[1], z1, out=z0)
+            z1[:] = bu[2]
+            u = y  # the next section filters this one's output (read into bu before y changes)
         return y
 
     def offline(self, values: np.ndarray) -> np.ndarray:

@@ -120,18 +120,34 @@ class JointStateDecoder:
         self._index: dict[tuple[str, ...], np.ndarray] = {}
 
     def __call__(self, message) -> np.ndarray:
-        names = tuple(message.name)
+        names, arrays = self.arrays(message)
+        return np.concatenate(arrays)[self.index(names)]
+
+    def index(self, names: tuple[str, ...]) -> np.ndarray:
+        """Where each value of :attr:`columns` sits in a message with joints ``names``, its
+        position, velocity and effort arrays laid end to end (one gather per message instead
+        of one per array); :class:`MessageError` for names :func:`joint_index` refuses."""
         index = self._index.get(names)
         if index is None:
-            index = self._index[names] = joint_index(names, self.stream)
-        parts = []
+            joints = joint_index(names, self.stream)
+            index = self._index[names] = np.concatenate(
+                [joints + k * len(names) for k in range(len(JOINT_FIELDS))])
+        return index
+
+    def arrays(self, message) -> tuple[tuple[str, ...], list[np.ndarray]]:
+        """The joint names of ``message`` and its position, velocity and effort (float
+        arrays, as sent); :class:`MessageError` for names :meth:`index` refuses or an array
+        without one value per name."""
+        names = tuple(message.name)
+        self.index(names)  # the names are checked first, as they index the arrays
+        arrays = []
         for field in JOINT_FIELDS:
             values = np.asarray(getattr(message, field), dtype=float)
             if len(values) != len(names):
                 raise MessageError(f"{field} has {len(values)} values for {len(names)} joint "
                                    f"names {list(names)}")
-            parts.append(values[index])
-        return np.concatenate(parts)
+            arrays.append(values)
+        return names, arrays
 
 
 def wrench_values(message) -> np.ndarray:
@@ -190,11 +206,21 @@ class SampleArray:
             raise MessageError(f"columns {missing} are not in the arm, jaw and HEX10 messages")
         self.columns = tuple(columns)
         self._index = np.array([carried.index(c) for c in columns])
-        self._out = np.empty(len(columns))
+        self._gather: dict[tuple[tuple[str, ...], tuple[str, ...]], np.ndarray] = {}
+        """By (arm joint names, jaw joint names): where each of :attr:`columns` sits in the
+        messages' arrays laid end to end (arm position, velocity, effort, the jaw's, the
+        wrench), so that a sample is one concatenation and one gather."""
 
     def __call__(self, js, jaw, hex10) -> np.ndarray:
-        """The sample of the latest ``js``, ``jaw`` and ``hex10`` messages (a buffer reused by
-        the next call: copy to keep); raises :class:`MessageError` as
-        :func:`sample_from_messages` does."""
-        return np.take(_stream_values(js, jaw, hex10), self._index, out=self._out)
-
+        """The sample of the latest ``js``, ``jaw`` and ``hex10`` messages (a new array);
+        raises :class:`MessageError` as :func:`sample_from_messages` does."""
+        js_names, js_arrays = _JS.arrays(js)
+        jaw_names, jaw_arrays = _JAW.arrays(jaw)
+        wrench = wrench_values(hex10)
+        gather = self._gather.get((js_names, jaw_names))
+        if gather is None:
+            n_js, n_jaw = len(JOINT_FIELDS) * len(js_names), len(JOINT_FIELDS) * len(jaw_names)
+            carried = np.concatenate([_JS.index(js_names), n_js + _JAW.index(jaw_names),
+                                      n_js + n_jaw + np.arange(len(wrench))])
+            gather = self._gather[(js_names, jaw_names)] = carried[self._index]
+        return np.concatenate((*js_arrays, *jaw_arrays, wrench))[gather]
