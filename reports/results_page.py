@@ -441,6 +441,25 @@ def latency(streaming: dict, live: dict) -> str:
     return "\n".join(lines + [""])
 
 
+def node_ab(result: dict) -> str:
+    """docs/results.md section 8: the node's time per HEX10 message against an earlier revision,
+    as ratios measured in one run (``benchmarks/node_ab.py``)."""
+    names = {"all": "all messages", "network_steps": "network steps (one message in ten)",
+             "physics_and_filter_only": "physics and filter only"}
+    lines = ["", f"The node's own time per HEX10 message, this code (`{result['this'][:10]}`) "
+             f"against `{result['before'][:10]}` in one run ({result['pairs']} pairs of fresh "
+             f"processes alternating, {result['measurements_per_process']} measurements each; "
+             "ms, each side's median over its runs; the ratio is the median of the pairs' "
+             "ratios, the figure that carries over to another machine):", "",
+             "| messages | median: before -> this (ratio) | p99: before -> this (ratio) |",
+             "|---|---|---|"]
+    for split, stats in result["splits"].items():
+        cells = [f"{stats[k]['before']:.3f} -> {stats[k]['this']:.3f} ({stats[k]['ratio']:.2f}x)"
+                 for k in ("median_ms", "p99_ms")]
+        lines.append(f"| {names.get(split, split)} | {cells[0]} | {cells[1]} |")
+    return "\n".join(lines + [""])
+
+
 PRIOR_VARIANTS = {"weighted": "prior weighted on validation, subtracted from the inputs",
                   "as_fitted": "prior as fitted (every weight 1), subtracted from the inputs",
                   "raw_and_prior": "prior weighted, beside the raw HEX10 among the inputs",
