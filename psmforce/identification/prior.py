@@ -456,17 +456,18 @@ class InternalForcePrior:
         and the pairs' friction states (3; the caller carries :func:`friction_direction`'s
         recursion, as :class:`~psmforce.estimators.data.hybrid_inputs.SamplePrior` does), and
         the HEX10's fz reading where the law has a cross-talk."""
-        plist = self._plist
+        plist, friction, crosstalk = self._plist_terms
         if direction is None:  # the hot path of a stream: plain floats, no numpy
-            if plist[_CAPSTAN] != 0.0 or plist[_PINS] != 0.0:  # has_friction, on the floats
+            if friction:
                 self._needs_direction(direction)
             direction = _NO_DIRECTION
-        if hex10_fz is None and any(plist[i] != 0.0 for i in _CROSSTALK):
+        if hex10_fz is None and crosstalk:
             self._needs_reading(hex10_fz)
         out = _model(plist, positions, efforts, velocities, g_hex, direction, math, hex10_fz)
-        if self._unweighted:
+        weights = self._wlist
+        if weights is None:
             return out
-        return tuple(w * x for w, x in zip(self._wlist, out))
+        return tuple(w * x for w, x in zip(weights, out))
 
     def with_axis_weights(self, weights, report: dict | None = None) -> InternalForcePrior:
         """A copy predicting ``weights * law`` per component (:attr:`axis_weights`);
@@ -476,21 +477,33 @@ class InternalForcePrior:
         return InternalForcePrior(params=self.params.copy(), converged=self.converged,
                                   info=info, insertion=self.insertion, axis_weights=w)
 
+    # predict_one runs once per sample of a stream: what it reads of the parameters and the
+    # weights is converted to Python floats once per array (a new array is converted again;
+    # the arrays are not changed in place)
     @property
-    def _unweighted(self) -> bool:
-        return bool(np.all(self.axis_weights == 1.0))
+    def _wlist(self) -> list[float] | None:
+        """:attr:`axis_weights` as floats; None when every weight is 1 (nothing to apply)."""
+        cached = getattr(self, "_wlist_cache", None)
+        if cached is None or cached[0] is not self.axis_weights:
+            w = [float(x) for x in self.axis_weights]
+            cached = self._wlist_cache = (self.axis_weights, None if w == [1.0] * 6 else w)
+        return cached[1]
 
     @property
-    def _wlist(self):
-        return [float(x) for x in self.axis_weights]
-
-    @property
-    def _plist(self):
+    def _plist_terms(self) -> tuple[list[float], bool, bool]:
+        """:attr:`params` as floats, whether the law has friction (:attr:`has_friction`) and
+        whether it has the sensor's cross-talk (:attr:`has_crosstalk`)."""
         cached = getattr(self, "_plist_cache", None)
         if cached is None or cached[0] is not self.params:
-            cached = (self.params, [float(x) for x in self.params])
-            self._plist_cache = cached
+            plist = [float(x) for x in self.params]
+            cached = self._plist_cache = (self.params, (
+                plist, plist[_CAPSTAN] != 0.0 or plist[_PINS] != 0.0,
+                any(plist[i] != 0.0 for i in _CROSSTALK)))
         return cached[1]
+
+    @property
+    def _plist(self) -> list[float]:
+        return self._plist_terms[0]
 
     # ------------------------------------------------------------ fit
     @classmethod
