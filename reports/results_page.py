@@ -457,6 +457,20 @@ def node_ab(result: dict) -> str:
         cells = [f"{stats[k]['before']:.3f} -> {stats[k]['this']:.3f} ({stats[k]['ratio']:.2f}x)"
                  for k in ("median_ms", "p99_ms")]
         lines.append(f"| {names.get(split, split)} | {cells[0]} | {cells[1]} |")
+    busy = result.get("busy_core")
+    if busy:
+        lines += ["", f"Over DDS with one core busy ({busy['seconds']:g} s at 1 kHz, robot, node "
+                  f"and subscriber in three processes beside the busy one, {busy['checkpoint']}"
+                  "), the two revisions alternating; ms, median / p99:", "",
+                  "| revision | end to end | the node's residence | transport alone (same run) "
+                  "| messages the node lost |", "|---|---|---|---|---|"]
+        for side in ("before", "this"):
+            for r in busy[side]:
+                cells = [" / ".join(f"{x:.3g}" if x < 1000 else f"{x:,.0f}"
+                                    for x in (r[f]["median_ms"], r[f]["p99_ms"]))
+                         for f in ("latency", "node_residence", "transport_latency")]
+                lines.append(f"| {result[side][:10]} | " + " | ".join(cells)
+                             + f" | {r['node_lost']} of {r['sent']:,} |")
     return "\n".join(lines + [""])
 
 
