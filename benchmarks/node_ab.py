@@ -73,8 +73,8 @@ def _export(rev: str, into: Path) -> str:
     archive = into / "before.tar"
     subprocess.run(["git", "archive", "--format=tar", "-o", str(archive), commit.stdout.strip(),
                     "psmforce"], cwd=ROOT, check=True)
-    with tarfile.open(archive) as tar:
-        tar.extractall(into, filter="data")
+    with tarfile.open(archive) as tar:  # the data filter where this Python has it (3.11.4+)
+        tar.extractall(into, **({"filter": "data"} if hasattr(tarfile, "data_filter") else {}))
     return commit.stdout.strip()
 
 
