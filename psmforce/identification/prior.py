@@ -501,10 +501,6 @@ class InternalForcePrior:
                 any(plist[i] != 0.0 for i in _CROSSTALK)))
         return cached[1]
 
-    @property
-    def _plist(self) -> list[float]:
-        return self._plist_terms[0]
-
     # ------------------------------------------------------------ fit
     @classmethod
     def fit(cls, recordings, *, psm=None, provenance=None, max_iter: int = 500,
