@@ -496,3 +496,43 @@ def transmission_transfer_learned_tables(result: dict) -> str:
         lines += ["", "Kept by the recalibration (" + result["selection"] + "): "
                   + "; ".join(f"{folder} {what}" for folder, what in kept) + "."]
     return "\n".join(lines) + "\n"
+
+
+def lateral_crosstalk_table(*results: dict) -> str:
+    """The identification with the sensor's lateral cross-talk in the law (the last of
+    ``results``, a study JSON run with ``--crosstalk full``) beside the same runs with the
+    axial column only (the others: the committed JSONs of the same study, matched by seed and
+    case): per run, the misses of each, the relative error of every parameter either one
+    misses, and what became of the lateral terms (identified within the rule, or held at the
+    design's 0 as not identifiable)."""
+    from psmforce.identification.prior_law import CROSSTALK_LATERAL
+    *axial_results, full = results
+    axial = {(r["seed"], r["case"]): r for res in axial_results for r in res["runs"]}
+    lines = ["", f"`{full['command']}`{rescored_note(full)} beside the same seeds and cases "
+             "with the axial column only (" + ", ".join(f"`{r['command']}`"
+                                                        for r in axial_results)
+             + f"). A MISS is a parameter identified but {miss_rule(full['runs'][0])}.", "",
+             "| seed | case | misses, axial column | misses, every force column | "
+             "errors of the missed, axial / every column | lateral terms identified | "
+             "lateral terms held (not identifiable) |", "|---|---|---|---|---|---|---|"]
+    for run in full["runs"]:
+        before = axial.get((run["seed"], run["case"]))
+        if before is None:
+            raise KeyError(f"no run with the axial column only for seed {run['seed']}, "
+                           f"{run['case']}")
+        missed = list(dict.fromkeys([*before["misses"], *run["misses"]]))
+
+        def err(r, name):
+            e = relative_error(r["parameters"][name]) if name in r["parameters"] else None
+            return "—" if e is None else f"{100 * e:.1f} %"
+
+        rows = run["parameters"]
+        kept = [n for n in CROSSTALK_LATERAL if rows[n]["status"] == "identified"]
+        held = [n for n in CROSSTALK_LATERAL if rows[n]["status"] != "identified"]
+        lines.append(f"| {run['seed']} | {run['case']} | {', '.join(before['misses']) or 'none'}"
+                     f" | {', '.join(run['misses']) or 'none'} | "
+                     + ("; ".join(f"{n} {err(before, n)} / {err(run, n)}" for n in missed)
+                        or "—")
+                     + f" | {', '.join(n.removeprefix('crosstalk_') for n in kept) or 'none'}"
+                     f" | {', '.join(n.removeprefix('crosstalk_') for n in held) or 'none'} |")
+    return "\n".join(lines + [""])

@@ -40,6 +40,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+from psmforce.cli.options import CROSSTALK_OPTIONS  # noqa: E402
 from psmforce.experiments.report import kept_json  # noqa: E402
 from studies.ati_free import MINUTES_SLACK, TOOL_SEED_OFFSET, _excitation  # noqa: E402
 
@@ -121,8 +122,10 @@ def _seed(seed: int, args, q_exc) -> list[dict]:
             continue
         free, loads, made = case_recordings(seed, label, args, q_exc)
         started = time.perf_counter()
-        prior = identify_instrument(free + loads)
-        row = {**compare_selection(prior, truth), "inputs": prior.inputs}
+        prior = identify_instrument(free + loads, crosstalk=CROSSTALK_OPTIONS[args.crosstalk])
+        row = {**compare_selection(prior, truth), "inputs": prior.inputs,
+               **({"crosstalk": CROSSTALK_OPTIONS[args.crosstalk]}
+                  if args.crosstalk != "reading" else {})}
         with_projection(row, truth, instrument_frames(free + loads), prior.wrist_compliance)
         row.update({
             "seed": seed, "case": label, "masses_kg": list(masses), "poses": poses,
@@ -193,6 +196,9 @@ def main(argv=None) -> dict:
     ap.add_argument("--json", type=Path)
     ap.add_argument("--cases", nargs="+", choices=list(CASES),
                     help="only these cases (default: every one of CASES)")
+    ap.add_argument("--crosstalk", choices=list(CROSSTALK_OPTIONS), default="reading",
+                    help="the HEX10's cross-talk the identification fits (default: the load "
+                         "path's, the axial column; full: its lateral columns too)")
     ap.add_argument("--rescore", action="store_true",
                     help="judge the misses of --json again by today's rule "
                          "(experiments.prior_recovery.judge), the fits untouched; rewrites it")

@@ -131,7 +131,7 @@ def hold_residuals(frame, law, reading: str, sagged=None) -> dict | None:
     mask[(q[:, 6] < 0.0) if reading == "before" else clenched(frame)] = 0.0
     pred = law.law_arrays(a["positions"], wrist_efforts_for_tip_force(at, force),
                           a["velocities"], a["g_hex"], a["direction"],
-                          a["hex10_fz"] if law.has_crosstalk else None)
+                          a["hex10_force"] if law.has_crosstalk else None)
     kept = np.flatnonzero(mask[:, 2] > 0)
     if len(kept) < 10:
         return None

@@ -40,6 +40,7 @@ import argparse
 import tempfile
 from pathlib import Path
 
+from psmforce.cli.options import CROSSTALK_OPTIONS
 from psmforce.experiments.report import write_json
 
 VARIANTS = {
@@ -70,6 +71,7 @@ def default_bench(args) -> None:
 
     command = ("python studies/prior_recovery.py --default-bench "
                + ("--load-path " if args.load_path else "")
+               + ("" if args.crosstalk == "reading" else f"--crosstalk {args.crosstalk} ")
                + f"--scale {args.scale:g} --seeds " + " ".join(map(str, args.seeds)))
     runs, seconds = _done_runs(args.json, command)
     t0 = time.time() - seconds
@@ -82,7 +84,8 @@ def default_bench(args) -> None:
                 continue
             with tempfile.TemporaryDirectory() as tmp:
                 rep = recover_default(Path(tmp), seed, args.scale, _instrument(case, seed),
-                                      load_path=args.load_path)
+                                      load_path=args.load_path,
+                                      crosstalk=CROSSTALK_OPTIONS[args.crosstalk])
             runs.append({"case": case, **rep})
             if args.json:  # after every run: a stopped study resumes from here
                 _write_default(args, command, runs, time.time() - t0)
@@ -100,6 +103,8 @@ def default_bench(args) -> None:
 def _write_default(args, command: str, runs: list, seconds: float) -> None:
     from psmforce.identification.prior_selection import DESIGN
     write_json(args.json, {"command": command, "load_path": args.load_path,
+                           **({"crosstalk": args.crosstalk} if args.crosstalk != "reading"
+                              else {}),
                            "scale": args.scale, "seeds": args.seeds, "design": DESIGN,
                            "runs": runs, "seconds": seconds})
 
@@ -163,6 +168,9 @@ def main() -> None:
                     help="with --default-bench: only these cases")
     ap.add_argument("--load-path", action="store_true",
                     help="with --default-bench: fit-prior --use-loaded --load-path")
+    ap.add_argument("--crosstalk", choices=list(CROSSTALK_OPTIONS), default="reading",
+                    help="with --default-bench: fit-prior --crosstalk (the HEX10's cross-talk "
+                         "the law fits; full: its lateral columns too)")
     ap.add_argument("--json", type=Path)
     ap.add_argument("--rescore", type=Path, default=None, metavar="JSON",
                     help="judge the misses of a --default-bench JSON again by today's rule "

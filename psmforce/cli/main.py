@@ -181,6 +181,10 @@ def _parser() -> argparse.ArgumentParser:
                    "the identifiability report calls unidentifiable at their design values and "
                    "refit the rest, naming both (docs/identification.md section 2); default: all "
                    "free but what the reading holds: a curve fit, which the verdict line says")
+    p.add_argument("--crosstalk", choices=list(options.CROSSTALK_OPTIONS), default="reading",
+                   help="the HEX10's cross-talk the law fits: as the reading does (the load path "
+                   "fits its axial column, the efforts reading none), none, the axial column, "
+                   "or every force column (full)")
     p.add_argument("--json", help="write the fit statistics here")
 
     p = add("fit-transmission", offline.fit_transmission_command,

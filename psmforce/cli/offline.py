@@ -142,7 +142,8 @@ def fit_prior_command(args) -> dict:
         report = fit_prior_cli(args.data, args.out, use_loaded=args.use_loaded,
                                accept_poor_fit=args.accept_poor_fit,
                                identify=args.identify,
-                               inputs="load_path" if args.load_path else "efforts")
+                               inputs="load_path" if args.load_path else "efforts",
+                               crosstalk=options.CROSSTALK_OPTIONS[args.crosstalk])
     metrics = report.get("test_free_metrics")
     print(f"fit: {report['solver_status']} in {report['fit_time_s']:.1f} s; test Free "
           + (", ".join(f"{c} RMS {metrics[c]['rms']:.3g}" for c in HEX10_FORCE)

@@ -181,3 +181,9 @@ def ros_name(*, namespace: bool = False):
         except ValueError as err:
             raise argparse.ArgumentTypeError(str(err).replace("name ", "", 1)) from None
     return parse
+
+
+CROSSTALK_OPTIONS = {"reading": None, "none": False, "axial": True, "full": "full"}
+"""``--crosstalk`` -> the fit's ``crosstalk`` (psmforce.identification.prior.CROSSTALK_CHOICES,
+without importing the library): as the reading does, none, the axial column, every force
+column."""

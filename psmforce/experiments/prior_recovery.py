@@ -26,7 +26,7 @@ import json
 from pathlib import Path
 
 from psmforce.identification.prior import NAMES, InternalForcePrior
-from psmforce.identification.prior_law import CROSSTALK
+from psmforce.identification.prior_law import CROSSTALK, CROSSTALK_LATERAL
 from psmforce.identification.prior_identifiability import (OFFSET_RESOLUTION, RECOVERY_TOLERANCE,
                                                            recovered)
 from psmforce.robot.kinematics import PSM
@@ -119,7 +119,7 @@ def prior_truth(instrument: InstrumentParams, psm: PSM | None = None) -> dict[st
         "capstan_pitch_gain": 0.0, "capstan_roll_gain": 0.0,
         "pin_friction": 0.0,                            # pin_friction off
         "pitch_path_pretension": 0.0,                   # pitch_path_mismatch off
-        **{n: 0.0 for n in CROSSTALK},                  # hex10_crosstalk off
+        **{n: 0.0 for n in (*CROSSTALK, *CROSSTALK_LATERAL)},  # hex10_crosstalk off
     }
 
 
@@ -198,8 +198,9 @@ def default_bench_truth(instrument: InstrumentParams | None = None,
     asymmetries 0 under
     the quadratic pair law (``pair_law``, no linear term); the biases the residual tare offset
     (``hex10_residual_bias_n``; the moments' 0); ``crosstalk_fx`` ... ``crosstalk_tz`` the
-    cross-talk matrix's entries of the axial force (``hex10_crosstalk``'s fz column; its other
-    entries have no counterpart);
+    cross-talk matrix's entries of the axial force (``hex10_crosstalk``'s fz column) and
+    ``crosstalk_<into>_from_<source>`` those of the lateral forces (its fx and fy columns; its
+    moment columns have no counterpart);
     ``capstan_mu`` the idlers' friction exponent at the straight wrist without roll
     (``capstan_mu_wrap_distal``), ``capstan_pitch_gain`` and ``capstan_roll_gain`` its relative
     growth per rad of |wrist pitch| on the blade pairs (``capstan_wrap_pitch_gain``) and of
@@ -243,7 +244,12 @@ def default_bench_truth(instrument: InstrumentParams | None = None,
         "capstan_roll_gain": instrument.twist_friction_gain_per_rad,
         "pin_friction": instrument.pin_friction_coefficient,
         **{n: instrument.hex10_crosstalk[row][2] for n, row in zip(CROSSTALK, (0, 1, 3, 4, 5))},
+        **{n: instrument.hex10_crosstalk[_CHANNELS.index(n.split("_")[1])][
+            _CHANNELS.index(n.split("_")[3])] for n in CROSSTALK_LATERAL},
     }
+
+
+_CHANNELS = ("fx", "fy", "fz", "tx", "ty", "tz")
 
 
 PATH_FORMS = ("pitch_path_tension", "pitch_path_pretension")
@@ -251,14 +257,18 @@ PATH_FORMS = ("pitch_path_tension", "pitch_path_pretension")
 both the bench's value): a law at the bench's parameters carries it in one."""
 
 
-def truth_law(truth: dict, inputs: str) -> InternalForcePrior:
+def truth_law(truth: dict, inputs: str, crosstalk=None) -> InternalForcePrior:
     """The law at the bench's own parameters (``truth``, :func:`default_bench_truth`; those
     without a counterpart at 0) reading ``inputs``, the blade cables' path tension in the form
-    the reading keeps (:data:`PATH_FORMS`; the other, which the reading holds, at 0)."""
+    the reading keeps (:data:`PATH_FORMS`; the other, which the reading holds, at 0), and the
+    sensor's lateral cross-talk only where a fit with ``crosstalk`` (as
+    :meth:`~psmforce.identification.prior.InternalForcePrior.fit`'s) has it: a law without it
+    is projected from the bench's law without it."""
     import numpy as np
 
-    from psmforce.identification.prior import HELD_BY_READING
-    held = {n: 0.0 for n in PATH_FORMS if n in HELD_BY_READING[inputs]}
+    from psmforce.identification.prior import held_by_reading
+    held = {n: 0.0 for n in (*PATH_FORMS, *CROSSTALK_LATERAL)
+            if n in held_by_reading(inputs, crosstalk)}
     return InternalForcePrior(params=np.array([held.get(n, truth.get(n) or 0.0) for n in NAMES]),
                               info={"inputs": inputs})
 
@@ -316,19 +326,22 @@ def pins_held(rows: dict) -> bool:
 
 
 def projected_truth(truth: dict, rows: dict, recordings, inputs: str, compliance=None,
-                    psm: PSM | None = None) -> dict[str, float]:
+                    psm: PSM | None = None, crosstalk=None) -> dict[str, float]:
     """The law at the bench's parameters (:func:`truth_law` of ``truth``) projected onto the
     law as a fit holds it, on that fit's own training ``recordings`` and reading ``inputs``
     (with the load path, the ``compliance`` it sagged the wrist with): the law refitted to the
     bench law's output, what the fit held (``rows``' *fixed*) held at the same values, the rest
     free from the fitted values (:meth:`~psmforce.identification.prior.InternalForcePrior.fit`
     ``reference``). Name -> SI value: what a parameter's truth is in the held law on these
-    recordings, where a first-order rule (:func:`effective_truth`) only approximates it."""
-    reference = truth_law(truth, inputs)
+    recordings, where a first-order rule (:func:`effective_truth`) only approximates it.
+    ``crosstalk``: the fit's (:func:`truth_law`); a term the rows do not have (a run before it)
+    is held at 0."""
+    reference = truth_law(truth, inputs, crosstalk)
     fixed = {n: row["fitted"] for n, row in rows.items() if row["status"] == "fixed"}
+    fixed.update({n: 0.0 for n in NAMES if n not in rows})
     start = {n: row["fitted"] for n, row in rows.items() if row["status"] != "fixed"}
     fit = InternalForcePrior.fit(recordings, psm=psm, fixed=fixed, initial=start, report=False,
-                                 inputs=inputs, crosstalk=True, compliance=compliance,
+                                 inputs=inputs, crosstalk="full", compliance=compliance,
                                  reference=reference)
     return dict(zip(NAMES, map(float, fit.params)))
 
@@ -347,7 +360,8 @@ def with_projection(run: dict, truth: dict, recordings, compliance=None) -> dict
     its misses judged again (:func:`judge`)."""
     rows = run["parameters"]
     if needs_projection(rows):
-        projected = projected_truth(truth, rows, recordings, run["inputs"], compliance)
+        projected = projected_truth(truth, rows, recordings, run["inputs"], compliance,
+                                    crosstalk=run.get("crosstalk"))
         for name, row in rows.items():
             row["projected_truth"] = projected[name]
         run.update(judge(rows))
@@ -464,7 +478,8 @@ def compare_selection(prior: InternalForcePrior, truth: dict) -> dict:
 
 
 def recover_default(workdir, seed: int, scale: float = 1.0,
-                    instrument: InstrumentParams | None = None, load_path: bool = False) -> dict:
+                    instrument: InstrumentParams | None = None, load_path: bool = False,
+                    crosstalk=None) -> dict:
     """``psmforce simulate --seed SEED [--scale SCALE]`` (default effects; ``instrument``
     nominal unless given: a ``pair_law`` variant, a drawn tool) into ``workdir`` unless its
     metadata.json exists, then ``psmforce fit-prior`` (:func:`~psmforce.identification.
@@ -472,7 +487,8 @@ def recover_default(workdir, seed: int, scale: float = 1.0,
     values) and :func:`compare_selection` with :func:`default_bench_truth`. ``load_path``:
     ``fit-prior --use-loaded --load-path`` (every training trial, the cables read from the known
     tip force: :mod:`psmforce.identification.load_path`). Both are scored on the held-out
-    Free trials and, with their known force, on the held-out loaded trials."""
+    Free trials and, with their known force, on the held-out loaded trials. ``crosstalk``:
+    ``fit-prior --crosstalk`` (the fit's, None: as the reading does), recorded in the run."""
     from psmforce.identification.prior_report import fit_prior_cli
     from psmforce.sim import simulate
 
@@ -487,10 +503,11 @@ def recover_default(workdir, seed: int, scale: float = 1.0,
         raise ValueError(f"{workdir} holds another bench than scale {scale}, seed {seed}")
     inputs = "load_path" if load_path else "efforts"
     report = fit_prior_cli(workdir / "data", workdir / "prior.json", identify=True,
-                           use_loaded=load_path, inputs=inputs)
+                           use_loaded=load_path, inputs=inputs, crosstalk=crosstalk)
     prior = InternalForcePrior.load(workdir / "prior.json")
     truth = default_bench_truth(instrument)
-    out = {**compare_selection(prior, truth), "inputs": inputs}
+    out = {**compare_selection(prior, truth), "inputs": inputs,
+           **({"crosstalk": crosstalk} if crosstalk is not None else {})}
     sel = prior.info["selection"]
     # the all-free fit (the first round) scored on the same held-out trials: the curve fit
     import numpy as np

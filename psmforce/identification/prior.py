@@ -47,13 +47,17 @@ Model::
              lateral forces
     t      = sum_i rho (-sin phi_i, cos phi_i, 0) E_i + l_d e_z x (m_d g_hex) + b_t
              + (x_tx, x_ty, x_tz) (fz_read - b_fz)     the same leak into the moments (m)
+    w     += X_fx (fx_read - b_fx) + X_fy (fy_read - b_fy)
+             the sensor's cross-talk of its lateral forces into its other channels (the fx and
+             fy columns of its matrix, ``crosstalk_<into>_from_<source>``, 5 each)
 
 With ``mu = 0`` (``capstan_mu``: what priors written before it load with, and what the efforts
 reading holds, :data:`HELD_BY_READING`), ``S_i = smoothmax(2 T0 + a_i D_i, |D_i|) + ...`` and
 ``E_i = D_i``: the law before the capstan; with ``g_q = g_r = 0`` (``capstan_pitch_gain``,
 ``capstan_roll_gain``, loaded and held the same way) the capstan is one constant, the law before
 its configuration terms; with ``x = 0`` (``crosstalk_fx`` ... ``crosstalk_tz``,
-held and loaded the same way) the law before the cross-talk; with ``c_pin = 0``
+held and loaded the same way) the law before the cross-talk, with ``X = 0`` (the lateral
+columns, likewise) the law before them; with ``c_pin = 0``
 (``pin_friction``, likewise) the law before the pins, whose friction its capstan then carries;
 with ``c_pp = 0`` (``pitch_path_pretension``, likewise) the law before it, the path's tension
 added outside the pairs (``c_pm``, which the load path holds at 0 instead).
@@ -114,9 +118,9 @@ from psmforce.identification.insertion import InsertionEffortModel
 from psmforce.identification.model_file import parse_model_json, read_model_json
 from psmforce.identification.prior_identifiability import identifiability
 from psmforce.identification.prior_law import (ADDED_TERMS, CABLE_ANGLES_RAD,  # noqa: F401
-                                                CAPSTAN, CROSSTALK, FRICTION, KAPPA, NAMES,
-                                                MIN_SAMPLES,
-                                                PARAMETERS,
+                                                CAPSTAN, CROSSTALK, CROSSTALK_LATERAL,
+                                                FRICTION, KAPPA, NAMES, MIN_SAMPLES,
+                                                PARAMETERS, SENSOR_CROSSTALK,
                                                 _CasadiOps, _model, FrictionDirection,
                                                 at_bound, friction_direction,
                                                 pair_differentials)
@@ -126,8 +130,9 @@ from psmforce.io.recording import (HEX10, JOINT_POSITIONS, OVERLOAD, TARGETS, jo
                                  read_recording)
 
 FORMAT = "psmforce.identification.InternalForcePrior/1"
-FORMAT_VERSION = 8
-"""8: the blade cables' path stretch as their pretension (``pitch_path_pretension``). 7: the
+FORMAT_VERSION = 9
+"""9: the sensor's cross-talk of its lateral forces (:data:`~.prior_law.CROSSTALK_LATERAL`).
+8: the blade cables' path stretch as their pretension (``pitch_path_pretension``). 7: the
 wrist pulleys' pin friction (``pin_friction``). 6: the capstan's growth with the wrist's
 configuration (``capstan_pitch_gain``, ``capstan_roll_gain``). 5: the axial force's cross-talk into the moments (``crosstalk_tx``,
 ``crosstalk_ty``, ``crosstalk_tz``). 4: the sensor's cross-talk of the axial force
@@ -139,7 +144,8 @@ was fitted with."""
 _ADDED_IN = {3: {"capstan_mu": 0.0}, 4: {"crosstalk_fx": 0.0, "crosstalk_fy": 0.0},
              5: {"crosstalk_tx": 0.0, "crosstalk_ty": 0.0, "crosstalk_tz": 0.0},
              6: {"capstan_pitch_gain": 0.0, "capstan_roll_gain": 0.0},
-             7: {"pin_friction": 0.0}, 8: {"pitch_path_pretension": 0.0}}
+             7: {"pin_friction": 0.0}, 8: {"pitch_path_pretension": 0.0},
+             9: dict.fromkeys(CROSSTALK_LATERAL, 0.0)}
 """Format version -> the parameters it added, with the value that gives the law before them."""
 
 _MIN_SAMPLES = MIN_SAMPLES
@@ -147,7 +153,7 @@ _CAPSTAN = NAMES.index("capstan_mu")
 _PINS = NAMES.index("pin_friction")
 _FRICTION_STATE = [_CAPSTAN, _PINS]
 """The terms that read the pairs' friction states: with both 0 the law reads none."""
-_CROSSTALK = [NAMES.index(n) for n in CROSSTALK]
+_CROSSTALK = [NAMES.index(n) for n in SENSOR_CROSSTALK]
 _NO_DIRECTION = (0.0, 0.0, 0.0)
 _WRIST_EFFORTS = tuple(joint_column(j, "effort") for j in WRIST_JOINTS)
 _WRIST_VELOCITIES = tuple(joint_column(j, "velocity") for j in WRIST_JOINTS)
@@ -171,8 +177,9 @@ def arrays_from_frame(frame, psm=None, direction: bool = True) -> dict:
     :func:`~psmforce.identification.prior_law.friction_direction`) from a recording frame, and
     ``d_shaft`` (N,3): the HEX10 z axis (the shaft, towards the tip) in the base frame, for the
     insertion model. ``direction=False``: ``direction`` None (zeros to the law), for a law
-    without a capstan, which does not read it. ``hex10_fz`` (N,): the HEX10's fz reading (N),
-    which the law's cross-talk terms read (None where the frame has no HEX10 columns)."""
+    without a capstan, which does not read it. ``hex10_force`` (N, 3): the HEX10's fx, fy, fz
+    readings (N), which the law's cross-talk terms read (None where the frame has no HEX10
+    columns)."""
     q = frame[list(JOINT_POSITIONS)].to_numpy(dtype=float)
     e = frame[list(_WRIST_EFFORTS)].to_numpy(dtype=float)
     v = frame[list(_WRIST_VELOCITIES)].to_numpy(dtype=float)
@@ -180,8 +187,8 @@ def arrays_from_frame(frame, psm=None, direction: bool = True) -> dict:
     return {"positions": q[:, [3, 4]], "efforts": e, "velocities": v,
             "g_hex": _gravity_in_frame(r),
             "direction": friction_direction(q[:, 4:7]) if direction else None,
-            "hex10_fz": frame[HEX10[2]].to_numpy(dtype=float) if HEX10[2] in frame.columns
-            else None,
+            "hex10_force": frame[list(HEX10[:3])].to_numpy(dtype=float)
+            if set(HEX10[:3]) <= set(frame.columns) else None,
             "d_shaft": r[:, :, 2]}
 
 
@@ -204,9 +211,10 @@ def internal_wrench_target(frame) -> tuple[np.ndarray, np.ndarray]:
 
 INPUTS = ("efforts", "load_path")
 """What a prior reads as the wrist torques that load its cables (:attr:`InternalForcePrior.inputs`)."""
-HELD_BY_READING = {"efforts": {**{n: 0.0 for n in FRICTION}, **{n: 0.0 for n in CROSSTALK},
-                               "pitch_path_pretension": 0.0},
-                   "load_path": {"pitch_path_tension": 0.0}}
+HELD_BY_READING = {"efforts": {**{n: 0.0 for n in FRICTION},
+                               **{n: 0.0 for n in SENSOR_CROSSTALK}, "pitch_path_pretension": 0.0},
+                   "load_path": {"pitch_path_tension": 0.0,
+                                 **{n: 0.0 for n in CROSSTALK_LATERAL}}}
 """Parameters each reading holds (SI) unless the caller fixes them otherwise, at the value that
 gives the law before them (:data:`HELD_BY_READING_REASON` says why). The friction terms
 (:data:`~.prior_law.FRICTION`): the capstan turns the differential the wrist's pulleys demand
@@ -221,13 +229,18 @@ weights take blade pairs slack at pitched wrists, where the two forms part. The 
 is the sensor's, and reads its own fz, so any reading can fit it; the efforts reading is the
 estimators' prior, and every committed comparison was trained with it held, so it holds it
 unless asked (``crosstalk=True``, :func:`held_by_reading`): the default efforts prior stays
-the law it was."""
+the law it was. The lateral columns (:data:`~.prior_law.CROSSTALK_LATERAL`) are held by both
+readings unless asked (``crosstalk="full"``): every committed load-path fit was made without
+them."""
 _CROSSTALK_HELD = ("held by the reading: the estimators' prior holds the sensor's cross-talk "
                    "unless asked to fit it (crosstalk=True; the load path fits it)")
+_LATERAL_HELD = ("held by the reading: the sensor's lateral cross-talk is fitted when asked "
+                 "(crosstalk='full')")
 HELD_BY_READING_REASON = {
     **{n: "held by the reading: the motor efforts are the differential after the proximal "
           "path and the discs, not the wrist's demand" for n in FRICTION},
     **{n: _CROSSTALK_HELD for n in CROSSTALK},
+    **{n: _LATERAL_HELD for n in CROSSTALK_LATERAL},
     "pitch_path_pretension": "held by the reading: the estimators' prior adds the blade cables' "
                              "path tension outside the pair law (pitch_path_tension), the law "
                              "every committed comparison was trained with",
@@ -236,21 +249,29 @@ HELD_BY_READING_REASON = {
                           "pair loses"}
 
 
-def held_by_reading(inputs: str, crosstalk: bool | None = None) -> dict[str, float]:
+CROSSTALK_CHOICES = (None, False, True, "full")
+"""What a fit does with the sensor's cross-talk (``crosstalk``): None as the reading does
+(:data:`HELD_BY_READING`), False holds every term at 0, True fits the axial column
+(:data:`~.prior_law.CROSSTALK`) and holds the lateral ones, ``"full"`` fits both."""
+
+
+def held_by_reading(inputs: str, crosstalk: bool | str | None = None) -> dict[str, float]:
     """What a fit reading ``inputs`` holds (name -> SI value): :data:`HELD_BY_READING`, with the
-    sensor's cross-talk (:data:`~.prior_law.CROSSTALK`) fitted when ``crosstalk`` is True,
-    held at 0 when False, as the reading has it when None."""
+    sensor's cross-talk as ``crosstalk`` says (:data:`CROSSTALK_CHOICES`)."""
     if inputs not in INPUTS:
         raise IdentificationInputError(f"unknown prior inputs {inputs!r}; known: "
                                        f"{', '.join(INPUTS)}")
-    if crosstalk not in (None, True, False):
-        raise IdentificationInputError(f"crosstalk must be True, False or None, got "
+    if not any(crosstalk is c or (isinstance(c, str) and crosstalk == c)
+               for c in CROSSTALK_CHOICES):
+        raise IdentificationInputError(f"crosstalk must be one of {CROSSTALK_CHOICES}, got "
                                        f"{crosstalk!r}")
     held = dict(HELD_BY_READING[inputs])
+    fitted = {True: CROSSTALK, "full": SENSOR_CROSSTALK}.get(crosstalk, ())
+    held = {n: x for n, x in held.items() if n not in fitted}
     if crosstalk is True:
-        held = {n: x for n, x in held.items() if n not in CROSSTALK}
+        held.update({n: 0.0 for n in CROSSTALK_LATERAL})
     elif crosstalk is False:
-        held.update({n: 0.0 for n in CROSSTALK})
+        held.update({n: 0.0 for n in SENSOR_CROSSTALK})
     return held
 
 
@@ -292,16 +313,15 @@ def _compliance(compliance, inputs: str):
     return compliance
 
 
-def _check_reading(hex10_fz, n: int) -> np.ndarray | None:
-    """The HEX10's fz reading (N,) checked (finite, ``n`` samples); None stays None (a law
-    without cross-talk reads none)."""
-    if hex10_fz is None:
+def _check_reading(hex10_force, n: int) -> np.ndarray | None:
+    """The HEX10's force readings (N, 3) checked (finite, three columns fx fy fz, ``n``
+    samples); None stays None (a law without cross-talk reads none)."""
+    if hex10_force is None:
         return None
-    fz = check_finite_2d(np.asarray(hex10_fz, dtype=float).reshape(-1, 1), "hex10_fz (the "
-                         "HEX10's fz reading)", width=1)[:, 0]
-    if len(fz) != n:
-        raise IdentificationInputError(f"hex10_fz has {len(fz)} samples but positions has {n}")
-    return fz
+    f = check_finite_2d(hex10_force, "hex10_force (the HEX10's fx, fy, fz readings)", width=3)
+    if len(f) != n:
+        raise IdentificationInputError(f"hex10_force has {len(f)} samples but positions has {n}")
+    return f
 
 
 def _check_arrays(positions, efforts, velocities, g_hex, direction=None):
@@ -347,26 +367,26 @@ class InternalForcePrior:
 
     # ------------------------------------------------------------ prediction
     def predict_arrays(self, positions, efforts, velocities, g_hex, direction=None,
-                       hex10_fz=None) -> np.ndarray:
+                       hex10_force=None) -> np.ndarray:
         """(N,6) HEX10 wrench [fx, fy, fz, tx, ty, tz] (N, Nm) from (N,2) and (N,3) arrays;
         ``direction`` (N,3) the pairs' friction states (:func:`friction_direction` of the
         recording), needed only when the law has a capstan (:meth:`_needs_direction`);
-        ``hex10_fz`` (N,) the HEX10's fz reading, needed only when it has a cross-talk
-        (:meth:`_needs_reading`)."""
+        ``hex10_force`` (N, 3) the HEX10's fx, fy, fz readings, needed only when it has a
+        cross-talk (:meth:`_needs_reading`)."""
         self._needs_direction(direction)
-        self._needs_reading(hex10_fz)
+        self._needs_reading(hex10_force)
         pos, e, v, g, z = _check_arrays(positions, efforts, velocities, g_hex, direction)
-        return self.law_arrays(pos, e, v, g, z, _check_reading(hex10_fz, len(pos))) \
+        return self.law_arrays(pos, e, v, g, z, _check_reading(hex10_force, len(pos))) \
             * self.axis_weights
 
     def law_arrays(self, positions, efforts, velocities, g_hex, direction=None,
-                   hex10_fz=None) -> np.ndarray:
+                   hex10_force=None) -> np.ndarray:
         """(N,6) the fitted law's output before :attr:`axis_weights` (checked arrays)."""
         self._needs_direction(direction)
-        self._needs_reading(hex10_fz)
+        self._needs_reading(hex10_force)
         z = np.zeros((len(positions), 3)) if direction is None else direction
         out = _model(self.params, positions.T, efforts.T, velocities.T, g_hex.T, z.T, np,
-                     hex10_fz)
+                     None if hex10_force is None else hex10_force.T)
         return np.stack([np.broadcast_to(c, (len(positions),)) for c in out], axis=1)
 
     def friction_state(self) -> FrictionDirection | None:
@@ -384,17 +404,27 @@ class InternalForcePrior:
 
     @property
     def has_crosstalk(self) -> bool:
-        """Whether the law has the sensor's cross-talk (a :data:`~.prior_law.CROSSTALK` term
-        not 0) and so reads the HEX10's fz; without it, it is the law before the terms."""
+        """Whether the law has the sensor's cross-talk (a
+        :data:`~.prior_law.SENSOR_CROSSTALK` term not 0) and so reads the HEX10's forces;
+        without it, it is the law before the terms."""
         return bool(np.any(self.params[_CROSSTALK] != 0.0))
 
-    def _needs_reading(self, hex10_fz) -> None:
-        """A law with the sensor's cross-talk reads the HEX10's fz: refused without it."""
-        if hex10_fz is None and self.has_crosstalk:
+    @property
+    def crosstalk(self) -> bool | str:
+        """The sensor's cross-talk this law has, as a fit's ``crosstalk`` names it
+        (:data:`CROSSTALK_CHOICES`): ``"full"`` with a lateral column term, True with axial
+        terms only, False with none. A refit with it keeps the law's terms."""
+        if np.any(self.params[[NAMES.index(n) for n in CROSSTALK_LATERAL]] != 0.0):
+            return "full"
+        return self.has_crosstalk
+
+    def _needs_reading(self, hex10_force) -> None:
+        """A law with the sensor's cross-talk reads the HEX10's forces: refused without them."""
+        if hex10_force is None and self.has_crosstalk:
             terms = ", ".join(f"{NAMES[i]} {self.params[i]:.4g}" for i in _CROSSTALK
                               if self.params[i] != 0.0)
             raise IdentificationInputError(f"this prior has the HEX10's cross-talk ({terms}): "
-                                           f"pass the HEX10's fz reading (hex10_fz)")
+                                           f"pass the HEX10's force readings (hex10_force)")
 
     def _needs_direction(self, direction) -> None:
         """A law with friction (``capstan_mu`` or ``pin_friction`` > 0) depends on the friction
@@ -414,7 +444,7 @@ class InternalForcePrior:
             direction=self.has_friction, compliance=self.wrist_compliance)[0]
         return self.predict_arrays(arrays["positions"], arrays["efforts"], arrays["velocities"],
                                    arrays["g_hex"], arrays.get("direction"),
-                                   arrays.get("hex10_fz"))
+                                   arrays.get("hex10_force"))
 
     def fit_metrics(self, recordings, psm=None) -> dict:
         """Per HEX10 channel, RMS and R^2 (:func:`channel_metrics`) of the law (before
@@ -425,7 +455,7 @@ class InternalForcePrior:
                             compliance=self.wrist_compliance) for f in recordings]
         law = [self.law_arrays(*_check_arrays(a["positions"], a["efforts"], a["velocities"],
                                               a["g_hex"], a["direction"]),
-                               a["hex10_fz"] if self.has_crosstalk else None)
+                               a["hex10_force"] if self.has_crosstalk else None)
                for a, _, _ in parts]
         return channel_metrics(np.concatenate([y for _, y, _ in parts]), np.concatenate(law),
                                np.concatenate([m for _, _, m in parts]))
@@ -451,19 +481,19 @@ class InternalForcePrior:
             d, "the prior's info.wrist_compliance")
 
     def predict_one(self, positions, efforts, velocities, g_hex, direction=None,
-                    hex10_fz=None) -> tuple:
+                    hex10_force=None) -> tuple:
         """Per-sample fast path (pure Python floats): 6-tuple wrench from 2-, 3-, 3-, 3-sequences
         and the pairs' friction states (3; the caller carries :func:`friction_direction`'s
         recursion, as :class:`~psmforce.estimators.data.hybrid_inputs.SamplePrior` does), and
-        the HEX10's fz reading where the law has a cross-talk."""
+        the HEX10's (fx, fy, fz) readings where the law has a cross-talk."""
         plist, friction, crosstalk = self._plist_terms
         if direction is None:  # the hot path of a stream: plain floats, no numpy
             if friction:
                 self._needs_direction(direction)
             direction = _NO_DIRECTION
-        if hex10_fz is None and crosstalk:
-            self._needs_reading(hex10_fz)
-        out = _model(plist, positions, efforts, velocities, g_hex, direction, math, hex10_fz)
+        if hex10_force is None and crosstalk:
+            self._needs_reading(hex10_force)
+        out = _model(plist, positions, efforts, velocities, g_hex, direction, math, hex10_force)
         weights = self._wlist
         if weights is None:
             return out
@@ -506,7 +536,7 @@ class InternalForcePrior:
     def fit(cls, recordings, *, psm=None, provenance=None, max_iter: int = 500,
             fixed: dict[str, float] | None = None, initial: dict[str, float] | None = None,
             report: bool = True, inputs: str = "efforts",
-            crosstalk: bool | None = None, compliance=None,
+            crosstalk: bool | str | None = None, compliance=None,
             reference: InternalForcePrior | None = None) -> InternalForcePrior:
         """Fit on recordings (DataFrames of ``psmforce.io.recording`` or paths).
 
@@ -526,8 +556,9 @@ class InternalForcePrior:
         ``inputs`` (:data:`INPUTS`): ``"load_path"`` reads the cables from the known tip force
         instead of the motor efforts, and fits the moments of loaded samples too, with the tip
         force's moment subtracted (:mod:`psmforce.identification.load_path`; every recording
-        must carry ``ati_fx..ati_fz``). ``crosstalk``: fit the sensor's cross-talk (True), hold
-        it at 0 (False), or as the reading does (None: :func:`held_by_reading`).
+        must carry ``ati_fx..ati_fz``). ``crosstalk``: fit the sensor's cross-talk of its axial
+        force (True) or of every force (``"full"``), hold it at 0 (False), or as the reading
+        does (None): :func:`held_by_reading`.
         ``compliance``: with the load path, the
         :class:`~psmforce.identification.load_path.WristCompliance` that sags the wrist (None:
         the design's), kept in ``info["wrist_compliance"]``.
@@ -550,10 +581,10 @@ class InternalForcePrior:
         fixed = _check_fixed({**held, **(fixed or {})})
         # both friction terms held at 0: the law then reads no friction state
         no_friction = all(fixed.get(NAMES[i]) == 0.0 for i in _FRICTION_STATE)
-        no_crosstalk = all(fixed.get(NAMES[i]) == 0.0 for i in _CROSSTALK)  # nor the fz reading
-        # the reference law reads the friction state and the fz reading if it has the terms
+        no_crosstalk = all(fixed.get(NAMES[i]) == 0.0 for i in _CROSSTALK)  # nor the readings
+        # the reference law reads the friction state and the readings if it has the terms
         read_direction = not no_friction or (reference is not None and reference.has_friction)
-        read_fz = not no_crosstalk or (reference is not None and reference.has_crosstalk)
+        read_force = not no_crosstalk or (reference is not None and reference.has_crosstalk)
         parts, axial = [], []
         sources = []
         for rec in recordings:
@@ -576,8 +607,8 @@ class InternalForcePrior:
         g = np.concatenate([p[0]["g_hex"] for p in parts])
         zd = np.concatenate([np.zeros((len(p[0]["positions"]), 3)) if not read_direction
                              else p[0]["direction"] for p in parts])
-        fz_read = None if not read_fz else _check_reading(
-            np.concatenate([p[0]["hex10_fz"] for p in parts]), len(zd))
+        force_read = None if not read_force else _check_reading(
+            np.concatenate([p[0]["hex10_force"] for p in parts]), len(zd))
         y = np.concatenate([p[1] for p in parts])
         mask = np.concatenate([p[2] for p in parts])
         pos, e, v, g, zd = _check_arrays(pos, e, v, g, zd)
@@ -585,11 +616,11 @@ class InternalForcePrior:
         check_finite_2d(y, "HEX10 readings", width=6)
         if reference is not None:  # the reference's law, on the same inputs and samples
             y = reference.law_arrays(pos, e, v, g, zd if reference.has_friction else None,
-                                     fz_read if reference.has_crosstalk else None)
+                                     force_read if reference.has_crosstalk else None)
         if no_friction:
             zd = np.zeros_like(zd)  # the fitted law reads no friction state
         if no_crosstalk:
-            fz_read = None
+            force_read = None
         if len(roll) < _MIN_SAMPLES:
             raise IdentificationInputError(
                 f"{len(roll)} samples is too short to fit the prior (need {_MIN_SAMPLES})")
@@ -611,7 +642,8 @@ class InternalForcePrior:
                  for i, name in enumerate(NAMES)]
         zcols = None if no_friction else [ca.DM(x) for x in (zd.T.tolist())]
         pred = _model(law_p, [ca.DM(pos[:, 0]), ca.DM(pos[:, 1])], cols, vcols, gcols, zcols,
-                      _CasadiOps(), None if no_crosstalk else ca.DM(fz_read))
+                      _CasadiOps(),
+                      None if no_crosstalk else [ca.DM(c) for c in force_read.T.tolist()])
         ch_scale = np.sqrt(np.sum(mask * (y - (y * mask).sum(0) / np.maximum(mask.sum(0), 1)) ** 2,
                                   axis=0) / np.maximum(mask.sum(0), 1))
         ch_scale = np.maximum(ch_scale, [0.02] * 3 + [2e-4] * 3)  # noise floors, N and Nm
@@ -634,7 +666,7 @@ class InternalForcePrior:
         insertion = (InsertionEffortModel.fit(*map(list, zip(*axial)))
                      if len(axial) == len(parts) else None)
         prior = cls(params=params, converged=bool(stats["success"]), insertion=insertion)
-        fitted = prior.predict_arrays(pos, e, v, g, zd, fz_read)
+        fitted = prior.predict_arrays(pos, e, v, g, zd, force_read)
         prior.info = {
             "solver": "CasADi IPOPT", "solver_status": stats["return_status"],
             "iterations": int(stats["iter_count"]), "fit_time_s": time.perf_counter() - t0,
@@ -645,7 +677,7 @@ class InternalForcePrior:
             **({"wrist_compliance": asdict(compliance)} if compliance is not None else {}),
             **({"reference": dict(zip(NAMES, map(float, reference.params)))}
                if reference is not None else {}),
-            **({"identifiability": identifiability(params, fixed, (pos, e, v, g, zd, fz_read),
+            **({"identifiability": identifiability(params, fixed, (pos, e, v, g, zd, force_read),
                                                    y, mask, ch_scale,
                                                    efforts_read=inputs == "efforts")}
                if report else {}),

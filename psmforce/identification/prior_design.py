@@ -103,7 +103,7 @@ def fisher_information(frame, channel_noise, params=None, psm=None,
     params = design_params(reading) if params is None else params
     arrays, _, mask = fit_arrays(frame, reading, psm)
     inputs = (arrays["positions"], arrays["efforts"], arrays["velocities"], arrays["g_hex"],
-              arrays["direction"], arrays["hex10_fz"])
+              arrays["direction"], arrays["hex10_force"])
     noise = np.asarray(channel_noise, dtype=float)
     return jacobian_grams(np.asarray(params, float), _index(reading), inputs, mask,
                           noise).sum(axis=0)

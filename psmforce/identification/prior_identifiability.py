@@ -64,10 +64,10 @@ def _pair_differentials(params, e):
 
 def _prediction(params, inputs, sl) -> np.ndarray:
     """(n, 6) law's wrench [f; m] on the samples ``sl`` of ``inputs`` (positions, efforts,
-    velocities, g_hex, direction[, hex10_fz: the cross-talk's reading])."""
+    velocities, g_hex, direction[, hex10_force: the cross-talk's (N, 3) readings])."""
     pos, e, v, g, z, *reading = inputs
-    fz = reading[0][sl] if reading and reading[0] is not None else None
-    out = _model(params, pos[sl].T, e[sl].T, v[sl].T, g[sl].T, z[sl].T, np, fz)
+    force = reading[0][sl].T if reading and reading[0] is not None else None
+    out = _model(params, pos[sl].T, e[sl].T, v[sl].T, g[sl].T, z[sl].T, np, force)
     return np.stack(np.broadcast_arrays(*out), axis=1)
 
 
@@ -102,7 +102,7 @@ def identifiability(params, fixed, inputs, y, mask, ch_scale, chunk: int = 20000
                     efforts_read: bool = True) -> dict:
     """Which parameters the fitted data pin down, at the optimum ``params``.
 
-    ``inputs`` = (positions, efforts, velocities, g_hex, direction[, hex10_fz]); ``y``, ``mask``,
+    ``inputs`` = (positions, efforts, velocities, g_hex, direction[, hex10_force]); ``y``, ``mask``,
     ``ch_scale``: the fit's readings (external force removed), sample mask and channel scales,
     so the residuals are the fit's own scaled residuals r. J = dr/dp (central differences, physical units) over
     the free parameters; Fisher information sum_k J_k^T J_k / s_k^2 with s_k^2 the residual

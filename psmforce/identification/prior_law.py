@@ -88,11 +88,33 @@ PARAMETERS = (
     # take blade pairs slack at pitched wrists, reads it this way and holds pitch_path_tension
     # at 0; the efforts reading holds this one at 0, the law it was. Added after the pins.
     ("pitch_path_pretension", "N", 0.0, 10.0, 0.0),
+    # The sensor's cross-talk of its lateral forces (its fx and fy columns), read from its own
+    # fx and fy as the axial one is from fz. Inside the instrument the lateral forces are small
+    # (the distal weight, tenths of a newton), but a known load at the tip (an ATI's, a hung
+    # weight) is lateral in most poses, and a leak the law does not have is read as the cables'
+    # (docs/identification.md section 2.3 traces a load-path miss to it). Bounds as the axial
+    # column's: +-5 % N per N, +-2 mm Nm per N. Added after the path pretension.
+    *((f"crosstalk_{into}_from_{src}", unit, -bound, bound, 0.0)
+      for src in ("fx", "fy")
+      for into, unit, bound in (("fx", "1", 0.05), ("fy", "1", 0.05), ("fz", "1", 0.05),
+                                ("tx", "m", 2e-3), ("ty", "m", 2e-3), ("tz", "m", 2e-3))
+      if into != src),
 )
 NAMES = tuple(p[0] for p in PARAMETERS)
 CROSSTALK = ("crosstalk_fx", "crosstalk_fy", "crosstalk_tx", "crosstalk_ty", "crosstalk_tz")
 """The sensor's cross-talk of its axial reading into its other five channels (fx, fy, tx, ty,
 tz, in that order): the fz column of its cross-talk matrix."""
+CROSSTALK_LATERAL = tuple(p[0] for p in PARAMETERS if "_from_" in p[0])
+"""The sensor's cross-talk of its lateral readings (fx, then fy) into its other five channels:
+the fx and fy columns of its cross-talk matrix, ``crosstalk_<into>_from_<source>``."""
+SENSOR_CROSSTALK = CROSSTALK + CROSSTALK_LATERAL
+"""Every cross-talk term of the law: each reads one of the sensor's force readings."""
+_CHANNEL = {c: k for k, c in enumerate(("fx", "fy", "fz", "tx", "ty", "tz"))}
+_LEAKS = tuple((NAMES.index(n), _CHANNEL[n.split("_")[1]],
+                _CHANNEL[n.split("_")[-1]] if "_from_" in n else 2) for n in SENSOR_CROSSTALK)
+"""(parameter index, the channel it leaks into, the reading it leaks from) of each
+:data:`SENSOR_CROSSTALK` term, channels in the order fx fy fz tx ty tz."""
+_FORCE_BIASES = tuple(NAMES.index(n) for n in ("bias_fx", "bias_fy", "bias_fz"))
 CAPSTAN = ("capstan_mu", "capstan_pitch_gain", "capstan_roll_gain")
 """The capstan's terms: its exponent at the straight wrist (``capstan_mu``; 0: no capstan, and
 the law reads no friction state) and that exponent's relative growth per rad of |wrist pitch|
@@ -101,7 +123,7 @@ FRICTION = (*CAPSTAN, "pin_friction")
 """The law's friction terms, the capstan's and the pins'; with ``capstan_mu`` and
 ``pin_friction`` both 0 the law reads no friction state."""
 ADDED_TERMS = ("capstan_mu", *CROSSTALK, "capstan_pitch_gain", "capstan_roll_gain",
-               "pin_friction", "pitch_path_pretension")
+               "pin_friction", "pitch_path_pretension", *CROSSTALK_LATERAL)
 """The terms added to the law after its first 17 parameters. Each is 0 in the law before it,
 and one held at exactly 0 enters the fit's graph as the number (:func:`_model` then leaves the
 term out): a fit that holds them is the fit it was before they existed."""
@@ -195,13 +217,32 @@ class FrictionDirection:
         return self._state.step(_pair_travel(wrist_pitch, wrist_yaw, jaw))
 
 
-def _model(p, pos, e, v, g_hex, z, xp, hex10_fz=None):
+def sensor_crosstalk(wrench, p, hex10_force):
+    """The six channels ``wrench`` (fx fy fz tx ty tz; N, Nm) with the sensor's cross-talk
+    added: each :data:`SENSOR_CROSSTALK` term of the parameters ``p`` (the law's, :data:`NAMES`
+    order) times the force reading it leaks from, less that channel's bias (``hex10_force``:
+    the sensor's (fx, fy, fz) readings, N; arrays, floats or CasADi expressions). A term that
+    is the plain number 0 is left out; with none left the reading is not needed (None)."""
+    leaks = [(p[i], into, src) for i, into, src in _LEAKS if not _is_zero(p[i])]
+    if not leaks:
+        return list(wrench)
+    if hex10_force is None:
+        raise ValueError("the law's cross-talk terms read the HEX10's forces: pass hex10_force")
+    section = [hex10_force[k] - p[i] for k, i in enumerate(_FORCE_BIASES)]
+    out = list(wrench)
+    for x, into, src in leaks:
+        out[into] = out[into] + x * section[src]
+    return out
+
+
+def _model(p, pos, e, v, g_hex, z, xp, hex10_force=None):
     """Vectorised model; ``xp`` is numpy or a CasADi-like namespace (see ``_CasadiOps``);
-    ``z`` the pairs' friction direction states (:func:`friction_direction`); ``hex10_fz`` the
-    HEX10's fz reading (N), which only the cross-talk terms read (None: they must be 0)."""
+    ``z`` the pairs' friction direction states (:func:`friction_direction`); ``hex10_force``
+    the HEX10's (fx, fy, fz) readings (N), which only the cross-talk terms read
+    (:func:`sensor_crosstalk`; None: they must be 0)."""
     (T_tot, r_p, r_b, g_tw, c_dir, a_p, a_b, c_pm, m_d, l_d, rho,
      bfx, bfy, bfz, btx, bty, btz, mu, *rest) = [p[i] for i in range(len(PARAMETERS))]
-    leak, (g_pitch, g_roll, c_pin, c_pp) = rest[:len(CROSSTALK)], rest[len(CROSSTALK):]
+    g_pitch, g_roll, c_pin, c_pp = rest[len(CROSSTALK):len(CROSSTALK) + 4]
     roll, wrist_pitch = pos[0], pos[1]
     D = pair_differentials(e[0], e[1], e[2], r_p, r_b)
     vp, vb1, vb2 = v[0], v[1] - 0.5 * v[2], v[1] + 0.5 * v[2]
@@ -238,15 +279,9 @@ def _model(p, pos, e, v, g_hex, z, xp, hex10_fz=None):
         ty = ty + rho * math.cos(CABLE_ANGLES_RAD[i]) * d_section
     gx, gy, gz = g_hex[0], g_hex[1], g_hex[2]
     # moment of the distal weight at l_d e_z: (0,0,l) x (m g) = l m (-gy, gx, 0)
-    wrench = [m_d * gx + bfx, m_d * gy + bfy, tx - l_d * m_d * gy + btx,
-              ty + l_d * m_d * gx + bty, 0.0 * gz + btz]  # fx, fy, tx, ty, tz: CROSSTALK's order
-    if not all(_is_zero(x) for x in leak):  # the sensor's cross-talk of its axial reading
-        if hex10_fz is None:
-            raise ValueError("the law's cross-talk terms read the HEX10's fz: pass hex10_fz")
-        axial = hex10_fz - bfz
-        wrench = [w if _is_zero(x) else w + x * axial for w, x in zip(wrench, leak)]
-    fz = m_d * gz - S_sum + bfz
-    return wrench[0], wrench[1], fz, wrench[2], wrench[3], wrench[4]
+    wrench = (m_d * gx + bfx, m_d * gy + bfy, m_d * gz - S_sum + bfz,
+              tx - l_d * m_d * gy + btx, ty + l_d * m_d * gx + bty, 0.0 * gz + btz)
+    return tuple(sensor_crosstalk(wrench, p, hex10_force))
 
 
 def _is_zero(x) -> bool:

@@ -36,7 +36,8 @@ import numpy as np
 from psmforce.identification.errors import IdentificationInputError
 from psmforce.identification.prior import (InternalForcePrior, _check_arrays, _check_reading,
                                            arrays_from_frame, internal_wrench_target)
-from psmforce.identification.prior_law import CROSSTALK, MIN_SAMPLES, NAMES, PARAMETERS, _model
+from psmforce.identification.prior_law import (MIN_SAMPLES, NAMES, PARAMETERS, SENSOR_CROSSTALK,
+                                                _model, sensor_crosstalk)
 from psmforce.io.recording import TARGETS
 
 BIASES = ("bias_fx", "bias_fy", "bias_fz", "bias_tx", "bias_ty", "bias_tz")
@@ -78,18 +79,16 @@ def mount_rotation(angles_rad) -> np.ndarray:
 
 
 _BIAS_INDEX = [NAMES.index(n) for n in BIASES]
-_CROSSTALK_INDEX = [NAMES.index(n) for n in CROSSTALK]
-_CROSSTALK_CHANNELS = [0, 1, 3, 4, 5]  # CROSSTALK's order: fx, fy, tx, ty, tz
+_CROSSTALK_INDEX = [NAMES.index(n) for n in SENSOR_CROSSTALK]
 
 
-def _mounted_law(params, angles, pos, e, v, g, z, fz=None) -> np.ndarray:
+def _mounted_law(params, angles, pos, e, v, g, z, force=None) -> np.ndarray:
     """(N, 6) the law without its offsets and cross-talk, turned into the mounted sensor's frame,
     plus the offsets and the cross-talk, which are the sensor's own and so are not turned
-    (``fz``: the HEX10's fz reading, N, read only by the cross-talk). With every angle 0 it is the
-    law's output (the same terms; without cross-talk the same operations in the same order)."""
+    (``force``: the HEX10's (N, 3) fx, fy, fz readings, N, read only by the cross-talk). With
+    every angle 0 it is the law's output (the same terms)."""
     p = np.array(params, dtype=float)
     bias = p[_BIAS_INDEX].copy()
-    leak = p[_CROSSTALK_INDEX].copy()
     p[_BIAS_INDEX] = 0.0
     p[_CROSSTALK_INDEX] = 0.0
     out = _model(p, pos.T, e.T, v.T, g.T, z.T, np)
@@ -98,12 +97,13 @@ def _mounted_law(params, angles, pos, e, v, g, z, fz=None) -> np.ndarray:
         r = mount_rotation(angles)
         w = np.concatenate([w[:, :3] @ r, w[:, 3:] @ r], axis=1)
     w = w + bias
-    if np.any(leak != 0.0):
-        if fz is None:
-            raise IdentificationInputError("this prior has the HEX10's cross-talk: pass the "
-                                           "HEX10's fz reading (hex10_fz)")
-        w[:, _CROSSTALK_CHANNELS] += np.outer(np.asarray(fz, dtype=float) - bias[2], leak)
-    return w
+    try:
+        leaked = sensor_crosstalk(list(w.T), [float(x) for x in params],
+                                  None if force is None else np.asarray(force, dtype=float).T)
+    except ValueError:
+        raise IdentificationInputError("this prior has the HEX10's cross-talk: pass the "
+                                       "HEX10's force readings (hex10_force)") from None
+    return np.stack(leaked, axis=1)
 
 
 @dataclass
@@ -118,12 +118,12 @@ class MountedPrior:
     info: dict = field(default_factory=dict)
 
     def predict_arrays(self, positions, efforts, velocities, g_hex, direction=None,
-                       hex10_fz=None) -> np.ndarray:
+                       hex10_force=None) -> np.ndarray:
         self.prior._needs_direction(direction)
-        self.prior._needs_reading(hex10_fz)
+        self.prior._needs_reading(hex10_force)
         pos, e, v, g, z = _check_arrays(positions, efforts, velocities, g_hex, direction)
-        fz = None if hex10_fz is None else _check_reading(hex10_fz, len(pos))
-        return (_mounted_law(self.prior.params, self.angles_rad, pos, e, v, g, z, fz)
+        force = None if hex10_force is None else _check_reading(hex10_force, len(pos))
+        return (_mounted_law(self.prior.params, self.angles_rad, pos, e, v, g, z, force)
                 * self.prior.axis_weights)
 
     def predict(self, frame_or_arrays, psm=None) -> np.ndarray:
@@ -132,7 +132,7 @@ class MountedPrior:
             frame_or_arrays, psm)
         return self.predict_arrays(a["positions"], a["efforts"], a["velocities"], a["g_hex"],
                                    a.get("direction"),
-                                   a.get("hex10_fz") if self.prior.has_crosstalk else None)
+                                   a.get("hex10_force") if self.prior.has_crosstalk else None)
 
     def per_mount(self) -> dict[str, float]:
         """This mount's values: the per-mount law parameters and the angles (SI)."""
@@ -162,7 +162,7 @@ def _stack(recordings, psm):
         parts.append((a, y, mask, t - t[0]))
     cat = {k: np.concatenate([p[0][k] for p in parts]) for k in ("positions", "efforts",
                                                                  "velocities", "g_hex",
-                                                                 "direction", "hex10_fz")}
+                                                                 "direction", "hex10_force")}
     return (cat, np.concatenate([p[1] for p in parts]), np.concatenate([p[2] for p in parts]),
             [p[3] for p in parts])
 
@@ -234,7 +234,7 @@ def recalibrate(prior: InternalForcePrior | MountedPrior, recordings, *, psm=Non
                                     a["direction"])
     if not np.isfinite(y).all():
         raise IdentificationInputError("HEX10 readings have non-finite values")
-    fz = a["hex10_fz"] if base.has_crosstalk else None  # the cross-talk reads the HEX10's fz
+    force = a["hex10_force"] if base.has_crosstalk else None  # the cross-talk reads the HEX10
     usable = mask.any(axis=1)
     if usable.sum() < MIN_SAMPLES:
         raise IdentificationInputError(f"{int(usable.sum())} usable samples is too short to "
@@ -277,7 +277,7 @@ def recalibrate(prior: InternalForcePrior | MountedPrior, recordings, *, psm=Non
 
     def residual(x):
         p, ang, ramps = unpack(x)
-        w = _mounted_law(p, ang, pos, e, v, g, z, fz)
+        w = _mounted_law(p, ang, pos, e, v, g, z, force)
         if any(a != 0.0 for a in ang):
             # What a tilt leaks into the lateral channels is the true axial force, which the
             # reading shows (less its offset) and the law only approximates: the leak is fitted

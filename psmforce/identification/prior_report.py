@@ -41,7 +41,7 @@ far beyond. R^2 is no gate: on a channel that is pure noise a good fit has R^2 n
 
 def fit_prior_cli(data_dir, out_json, *, use_loaded: bool = False,
                   accept_poor_fit: bool = True, identify: bool = False,
-                  inputs: str = "efforts") -> dict:
+                  inputs: str = "efforts", crosstalk: bool | str | None = None) -> dict:
     """What ``psmforce fit-prior`` runs: fit on the dataset's train split (Free trials; with
     ``use_loaded`` also Traction and Palpation with the known force subtracted, which excites the
     slack regime and so the pulley radii), evaluate on test/Free, save the JSON if converged.
@@ -65,7 +65,9 @@ def fit_prior_cli(data_dir, out_json, *, use_loaded: bool = False,
     motor efforts (:mod:`psmforce.identification.load_path`): an identification of the
     instrument, not a prior an estimator can run on; with ``identify`` its wrist is sagged with
     the fit's own values (``report["wrist_sag"]``, :func:`~psmforce.identification.
-    prior_selection.fit_identified`), without it with the design's."""
+    prior_selection.fit_identified`), without it with the design's. ``crosstalk``: the
+    sensor's cross-talk the law fits (:data:`~psmforce.identification.prior.CROSSTALK_CHOICES`;
+    None: as the reading does)."""
     data_dir = Path(data_dir)
     conds = (FREE_SPACE, "Traction", "Palpation") if use_loaded else (FREE_SPACE,)
     train = _dataset_trials(data_dir, "train", conds)
@@ -78,10 +80,12 @@ def fit_prior_cli(data_dir, out_json, *, use_loaded: bool = False,
     frames = [read_recording(p) for p in train]
     t0 = time.perf_counter()
     if identify:
-        prior = fit_identified(frames, psm=psm, provenance=provenance, inputs=inputs)
+        prior = fit_identified(frames, psm=psm, provenance=provenance, inputs=inputs,
+                               crosstalk=crosstalk)
         selection = prior.info["selection"]
     else:
-        prior = InternalForcePrior.fit(frames, psm=psm, provenance=provenance, inputs=inputs)
+        prior = InternalForcePrior.fit(frames, psm=psm, provenance=provenance, inputs=inputs,
+                                       crosstalk=crosstalk)
         listed = sorted(prior.info["identifiability"]["not_identifiable"])
         held = prior.info["fixed"]  # by the reading (HELD_BY_READING)
         selection = {"identified": [n for n in NAMES if n not in listed and n not in held],

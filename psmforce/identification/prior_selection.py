@@ -45,7 +45,7 @@ from psmforce.identification.errors import IdentificationInputError
 from psmforce.identification.prior import (HELD_BY_READING_REASON, held_by_reading,
                                            InternalForcePrior)
 from psmforce.identification.prior_identifiability import RECOVERY_TOLERANCE, add_trial_spread
-from psmforce.identification.prior_law import NAMES, at_bound
+from psmforce.identification.prior_law import CROSSTALK_LATERAL, NAMES, at_bound
 from psmforce.io.recording import read_recording
 
 DESIGN = {
@@ -72,6 +72,7 @@ DESIGN = {
     "crosstalk_tx": 0.0, "crosstalk_ty": 0.0, "crosstalk_tz": 0.0,  # m: likewise
     "pin_friction": 0.0,            # 1: no friction by design (held, the capstan carries it)
     "pitch_path_pretension": 0.896,  # N: pitch_path_tension's, as the blade cables' pretension
+    **dict.fromkeys(CROSSTALK_LATERAL, 0.0),  # 1 and m: the sensor's calibration decouples it
 }
 """The value a parameter is held at when the data cannot pin it down: the instrument's design
 (nominal) values as docs/simulator.md states them, read as a datasheet (SI, :data:`NAMES`). They
@@ -120,7 +121,7 @@ def trial_jackknife(frames, prior: InternalForcePrior, fixed: dict[str, float],
         kept = [f for f, label in zip(frames, labels) if label != g]
         refits.append(InternalForcePrior.fit(kept, psm=psm, fixed=fixed, initial=start,
                                              report=False, max_iter=max_iter,
-                                             inputs=inputs, crosstalk=True,
+                                             inputs=inputs, crosstalk="full",
                                              compliance=compliance).params)
     p = np.array(refits)
     se = np.sqrt((groups - 1) / groups * np.sum((p - p.mean(axis=0)) ** 2, axis=0))
@@ -254,7 +255,7 @@ def _select(*, frames, fixed, why_fixed, rounds, design, psm, provenance, max_ro
     for round_ in range(max_rounds):
         prior = InternalForcePrior.fit(frames, psm=psm, provenance=provenance, fixed=fixed,
                                        initial=start, max_iter=max_iter, inputs=inputs,
-                                       crosstalk=True, compliance=compliance)
+                                       crosstalk="full", compliance=compliance)
         report = prior.info["identifiability"]
         jack = trial_jackknife(frames, prior, fixed, groups, psm, max_iter, inputs, labels,
                                compliance=compliance)

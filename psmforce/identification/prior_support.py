@@ -53,7 +53,7 @@ def supported_weights(prior: InternalForcePrior, recordings: Sequence, psm=None
         preds.append(prior.law_arrays(*_check_arrays(a["positions"], a["efforts"],
                                                       a["velocities"], a["g_hex"],
                                                       a["direction"]),
-                                      a["hex10_fz"] if prior.has_crosstalk else None))
+                                      a["hex10_force"] if prior.has_crosstalk else None))
     y, mask, p = (np.concatenate(x) for x in (ys, masks, preds))
     weights, report = np.zeros(6), {}
     for k, name in enumerate(HEX10):

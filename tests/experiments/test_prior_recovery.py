@@ -12,6 +12,7 @@ import pytest
 
 from psmforce.identification.errors import IdentificationInputError
 from psmforce.identification.prior import HELD_BY_READING, NAMES, InternalForcePrior
+from psmforce.identification.prior_law import CROSSTALK_LATERAL
 from psmforce.identification.prior_identifiability import recovered
 from psmforce.experiments.prior_recovery import (CAPSTAN, bench_capstan_over, compare,
                                                  default_bench_truth, effective_truth,
@@ -278,6 +279,8 @@ def _capstan_rows(truth: dict) -> dict:
     rows = {n: {"truth": truth.get(n), "fitted": truth.get(n) or 0.0, "status": "fixed"}
             for n in NAMES}
     rows["pitch_path_tension"]["fitted"] = 0.0  # the load path's reading holds it
+    for name in CROSSTALK_LATERAL:  # and the sensor's lateral cross-talk, unless asked
+        rows[name]["fitted"] = 0.0
     for name in CAPSTAN:
         rows[name].update(status="identified", fitted=1.3 * truth[name])
     rows["pin_friction"]["fitted"] = 0.0

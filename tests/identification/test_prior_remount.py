@@ -8,7 +8,7 @@ import pytest
 
 from psmforce.identification.errors import IdentificationInputError
 from psmforce.identification.prior import InternalForcePrior, arrays_from_frame
-from psmforce.identification.prior_law import NAMES
+from psmforce.identification.prior_law import CROSSTALK_LATERAL, NAMES
 from psmforce.identification.prior_remount import (MOUNT_ANGLES, PER_MOUNT, MountedPrior,
                                                    _mounted_law, drift_basis, mount_rotation,
                                                    recalibrate)
@@ -20,7 +20,8 @@ TRUE = dict(pretension_total=6.0, pulley_radius_pitch=2e-3, pulley_radius_blade=
             cable_radius=1.2e-3, bias_fx=0.05, bias_fy=-0.08, bias_fz=0.1, bias_tx=0.0,
             bias_ty=0.0, bias_tz=0.0, capstan_mu=0.0, crosstalk_fx=0.0, crosstalk_fy=0.0,
             crosstalk_tx=0.0, crosstalk_ty=0.0, crosstalk_tz=0.0, capstan_pitch_gain=0.0,
-            capstan_roll_gain=0.0, pin_friction=0.0, pitch_path_pretension=0.0)
+            capstan_roll_gain=0.0, pin_friction=0.0, pitch_path_pretension=0.0,
+            **dict.fromkeys(CROSSTALK_LATERAL, 0.0))
 
 
 def _prior(values=TRUE):

@@ -150,10 +150,12 @@ def test_the_verdict_names_fixed_and_bound_parameters_and_never_just_passes(smal
     assert ("POOR FIT" in rep["verdict"]) == rep["poor_fit"]
     free = fit_prior_cli(small_bench, tmp_path / "q.json", identify=False)
     assert free["fixed"] == HELD_BY_READING["efforts"] and "curve fit" in free["verdict"]
-    assert (("capstan_mu, capstan_pitch_gain, capstan_roll_gain, crosstalk_fx, crosstalk_fy, "
-             "crosstalk_tx, crosstalk_ty, crosstalk_tz, pin_friction, pitch_path_pretension "
-             "held by the reading")
-            in free["verdict"])
+    held = ("capstan_mu, capstan_pitch_gain, capstan_roll_gain, crosstalk_fx, "
+            "crosstalk_fx_from_fy, crosstalk_fy, crosstalk_fy_from_fx, crosstalk_fz_from_fx, "
+            "crosstalk_fz_from_fy, crosstalk_tx, crosstalk_tx_from_fx, crosstalk_tx_from_fy, "
+            "crosstalk_ty, crosstalk_ty_from_fx, crosstalk_ty_from_fy, crosstalk_tz, "
+            "crosstalk_tz_from_fx, crosstalk_tz_from_fy, pin_friction, pitch_path_pretension")
+    assert held + " held by the reading" in free["verdict"]
     assert "passes" not in free["verdict"]
     listed = free["not_identifiable"]
     assert listed and all(n in free["verdict"].split("NOT identifiable: ")[1] for n in listed)

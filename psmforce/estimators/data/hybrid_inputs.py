@@ -248,7 +248,7 @@ class SamplePrior:
     Reads the columns of ``psmforce.identification.prior.arrays_from_frame``: the seven joint
     positions (gravity in the HEX10 frame and the shaft direction, through :class:`HexRotation`;
     roll and wrist pitch), the wrist efforts and the wrist velocities, then the insertion
-    velocity and effort, and for a law with the sensor's cross-talk the HEX10's fz, which it
+    velocity and effort, and for a law with the sensor's cross-talk the HEX10's forces, which it
     reads. :meth:`predict_sample` returns the internal wrench (6) and :data:`INSERTION_FZ` (0
     without an insertion model).
     """
@@ -272,7 +272,7 @@ class SamplePrior:
         self._direction = prior.friction_state()  # carried sample by sample; None: not needed
         self._crosstalk = prior.has_crosstalk
         if self._crosstalk:
-            self.input_columns = SamplePrior.input_columns + (HEX10[2],)
+            self.input_columns = SamplePrior.input_columns + HEX10[:3]
 
     @property
     def insertion(self):
@@ -296,7 +296,7 @@ class SamplePrior:
                                   v[self._WRIST_PITCH + 2]))
         wrench = self.prior.predict_one((v[self._ROLL], v[self._WRIST_PITCH]),
                                         v[n:n + 3], v[n + 3:n + 6], g_hex, z,
-                                        v[n + 8] if self._crosstalk else None)
+                                        v[n + 8:n + 11] if self._crosstalk else None)
         insertion = self.prior.insertion
         if insertion is None:
             self._out[:6] = wrench

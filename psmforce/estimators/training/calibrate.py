@@ -171,20 +171,22 @@ def instrument_frames(trials: list[Trial]) -> list:
     return [t.frame.drop(columns=list(INSERTION_COLUMNS), errors="ignore") for t in trials]
 
 
-def identify_instrument(trials: list[Trial]):
+def identify_instrument(trials: list[Trial], crosstalk: bool | str | None = None):
     """The instrument identified from recordings whose external force is known (module
     docstring, "The instrument identified"): the load path's
     :func:`~psmforce.identification.prior_selection.fit_identified` on every trial, the
     insertion joint's columns left out (the arm's, not the instrument's); the jackknife over
     trial groups removes whole masses (each hung in every pose) and quarters of the free-space
     recordings (:func:`~psmforce.identification.prior_selection.design_groups`). Returns the
-    :class:`~psmforce.identification.InternalForcePrior` (``inputs`` "load_path")."""
+    :class:`~psmforce.identification.InternalForcePrior` (``inputs`` "load_path"); ``crosstalk``:
+    the sensor's cross-talk it fits (:data:`~psmforce.identification.prior.CROSSTALK_CHOICES`;
+    None: the load path's, the axial column)."""
     from psmforce.identification.prior_selection import design_groups, fit_identified
     frames = instrument_frames(trials)
     masses = [t.params.get(KNOWN_LOAD_FIELD) if t.condition == KNOWN_LOAD_CONDITION else None
               for t in trials]  # each mass hangs in every pose: a replicate of the design
     return fit_identified(frames, inputs="load_path", jackknife_labels=design_groups(masses),
-                          provenance={"trials": [t.path for t in trials]})
+                          provenance={"trials": [t.path for t in trials]}, crosstalk=crosstalk)
 
 
 def instrument_report(prior) -> dict:
@@ -286,7 +288,7 @@ def calibrate(checkpoint: str | Path, data_dir: str | Path, out: str | Path, *,
                     if n not in FORCE_PER_MOUNT}
         else:  # the law the checkpoint was trained with: with or without the cross-talk
             fitted = InternalForcePrior.fit(frames, provenance=provenance,
-                                            crosstalk=old.has_crosstalk)
+                                            crosstalk=old.crosstalk)
         if free_space and prior_refit == "all":
             # Without an ATI what the recordings cannot excite (the fit's own identifiability
             # report names it) keeps the checkpoint's value instead of drifting with noise; an
@@ -296,7 +298,7 @@ def calibrate(checkpoint: str | Path, data_dir: str | Path, out: str | Path, *,
                     if not is_offset(n)}
             if held:
                 fitted = InternalForcePrior.fit(frames, provenance=provenance, fixed=held,
-                                                crosstalk=old.has_crosstalk)
+                                                crosstalk=old.crosstalk)
         new = dataclasses.replace(fitted, insertion=old.insertion)
         try:
             ckpt.prior_json = prior_to_json(new)
@@ -308,7 +310,7 @@ def calibrate(checkpoint: str | Path, data_dir: str | Path, out: str | Path, *,
         errors = {role: {"before": _prior_free_error(old, trials),
                          "after": _prior_free_error(new, trials)}
                   for role, trials in (("train", train_trials), ("validation", val_trials))}
-        reading = (held_by_reading(new.inputs, old.has_crosstalk) if prior_refit == "all"
+        reading = (held_by_reading(new.inputs, old.crosstalk) if prior_refit == "all"
                    else {})
         prior_report = {
             "refitted_on": [t.path for t in train_trials],
