@@ -177,9 +177,11 @@ def prior_default_recovery_table(result: dict) -> str:
     values), relative error, free / fixed, at a bound; the verdict and held-out fz per run."""
     from psmforce.identification.prior_law import PARAMETERS
     unit = {p[0]: p[1] for p in PARAMETERS}
-    fit = ("`psmforce fit-prior --identify --use-loaded --load-path` (Free, Traction and "
-           "Palpation training trials; the cables read from the known tip force)"
-           if result.get("load_path") else "`psmforce fit-prior --identify` (Free training trials)")
+    option = f" --crosstalk {result['crosstalk']}" if result.get("crosstalk") else ""
+    fit = (f"`psmforce fit-prior --identify --use-loaded --load-path{option}` (Free, Traction "
+           "and Palpation training trials; the cables read from the known tip force)"
+           if result.get("load_path") else
+           f"`psmforce fit-prior --identify{option}` (Free training trials)")
     lines = ["", f"`{result['command']}`{rescored_note(result)}: `psmforce simulate --seed S "
              f"--scale {result['scale']:g}` then {fit}. "
              "*fixed*: held at its design value (the value shown) because the report lists it "
@@ -502,37 +504,45 @@ def lateral_crosstalk_table(*results: dict) -> str:
     """The identification with the sensor's lateral cross-talk in the law (the last of
     ``results``, a study JSON run with ``--crosstalk full``) beside the same runs with the
     axial column only (the others: the committed JSONs of the same study, matched by seed and
-    case): per run, the misses of each, the relative error of every parameter either one
-    misses, and what became of the lateral terms (identified within the rule, or held at the
-    design's 0 as not identifiable)."""
+    case; a run they lack is marked so): per run, the misses of each; each parameter either one
+    misses, fitted with the axial column / with every column, against the bench's value and,
+    where the run judged it so, the truth as the law held it (the projection); and what became
+    of the lateral terms (identified, or held at the design's 0 as not identifiable)."""
     from psmforce.identification.prior_law import CROSSTALK_LATERAL
     *axial_results, full = results
     axial = {(r["seed"], r["case"]): r for res in axial_results for r in res["runs"]}
     lines = ["", f"`{full['command']}`{rescored_note(full)} beside the same seeds and cases "
              "with the axial column only (" + ", ".join(f"`{r['command']}`"
                                                         for r in axial_results)
-             + f"). A MISS is a parameter identified but {miss_rule(full['runs'][0])}.", "",
+             + f"). A MISS is a parameter identified but {miss_rule(full['runs'][0])}. Missed "
+             "parameters: the fit with the axial column / with every column, then the bench's "
+             "value, and in brackets the truth as each run's held law carries it where the run "
+             "judged it so.", "",
              "| seed | case | misses, axial column | misses, every force column | "
-             "errors of the missed, axial / every column | lateral terms identified | "
+             "missed parameters | lateral terms identified | "
              "lateral terms held (not identifiable) |", "|---|---|---|---|---|---|---|"]
+
+    def value(run, name):
+        r = (run or {}).get("parameters", {}).get(name)
+        return None if r is None else (r["fitted"], r.get("effective_truth"))
+
     for run in full["runs"]:
         before = axial.get((run["seed"], run["case"]))
-        if before is None:
-            raise KeyError(f"no run with the axial column only for seed {run['seed']}, "
-                           f"{run['case']}")
-        missed = list(dict.fromkeys([*before["misses"], *run["misses"]]))
-
-        def err(r, name):
-            e = relative_error(r["parameters"][name]) if name in r["parameters"] else None
-            return "—" if e is None else f"{100 * e:.1f} %"
-
+        missed = list(dict.fromkeys([*(before or {}).get("misses", []), *run["misses"]]))
+        cells = []
+        for name in missed:
+            (a, a_held), (f, f_held) = (value(before, name) or (None, None)), value(run, name)
+            truth = run["parameters"][name]["truth"]
+            held = ", ".join(f"{x:.4g}" if x is not None else "—" for x in (a_held, f_held))
+            cells.append(f"{name} {'—' if a is None else f'{a:.4g}'} / {f:.4g}, bench "
+                         f"{'—' if truth is None else f'{truth:.4g}'}"
+                         + ("" if a_held is None and f_held is None else f" (as held {held})"))
         rows = run["parameters"]
         kept = [n for n in CROSSTALK_LATERAL if rows[n]["status"] == "identified"]
         held = [n for n in CROSSTALK_LATERAL if rows[n]["status"] != "identified"]
-        lines.append(f"| {run['seed']} | {run['case']} | {', '.join(before['misses']) or 'none'}"
-                     f" | {', '.join(run['misses']) or 'none'} | "
-                     + ("; ".join(f"{n} {err(before, n)} / {err(run, n)}" for n in missed)
-                        or "—")
-                     + f" | {', '.join(n.removeprefix('crosstalk_') for n in kept) or 'none'}"
+        lines.append(f"| {run['seed']} | {run['case']} | "
+                     + ("not run" if before is None else ", ".join(before["misses"]) or "none")
+                     + f" | {', '.join(run['misses']) or 'none'} | {'; '.join(cells) or '—'}"
+                     f" | {', '.join(n.removeprefix('crosstalk_') for n in kept) or 'none'}"
                      f" | {', '.join(n.removeprefix('crosstalk_') for n in held) or 'none'} |")
     return "\n".join(lines + [""])

@@ -47,6 +47,10 @@ PRIOR_ABLATION = ROOT / "results" / "benchmarks" / "prior_ablation.json"
 PRIOR_RECOVERY_DEFAULT = ROOT / "results" / "benchmarks" / "prior_recovery_default.json"
 PRIOR_RECOVERY_LOAD_PATH = ROOT / "results" / "benchmarks" / "prior_recovery_load_path.json"
 PRIOR_DRAWN_TRACE = ROOT / "results" / "benchmarks" / "prior_recovery_drawn_trace.json"
+PRIOR_RECOVERY_LOAD_PATH_LATERAL = (ROOT / "results" / "benchmarks"
+                                    / "prior_recovery_load_path_lateral.json")
+ATI_FREE_IDENTIFICATION_LATERAL = (ROOT / "results" / "benchmarks"
+                                   / "ati_free_identification_lateral.json")
 ATI_FREE_IDENTIFICATION = ROOT / "results" / "benchmarks" / "ati_free_identification.json"
 LOAD_PATH_HOLDS = ROOT / "results" / "benchmarks" / "load_path_holds.json"
 ATI_FREE_IDENTIFICATION_BLIND = (ROOT / "results" / "benchmarks"
@@ -169,6 +173,11 @@ BLOCKS = (
      identification_page.prior_default_recovery_table),
     (IDENTIFICATION, "prior-drawn-trace", PRIOR_DRAWN_TRACE,
      identification_page.prior_drawn_trace_table),
+    (IDENTIFICATION, "prior-load-path-lateral",
+     (PRIOR_RECOVERY_LOAD_PATH, PRIOR_RECOVERY_LOAD_PATH_LATERAL),
+     identification_page.lateral_crosstalk_table),
+    (IDENTIFICATION, "prior-load-path-lateral-table", PRIOR_RECOVERY_LOAD_PATH_LATERAL,
+     identification_page.prior_default_recovery_table),
     (IDENTIFICATION, "transmission-tables", TRANSMISSION, identification_page.transmission_tables),
     (IDENTIFICATION, "transmission-transfer-tables", TRANSMISSION_TRANSFER,
      identification_page.transmission_transfer_tables),
@@ -207,6 +216,9 @@ BLOCKS = (
     (ATI_FREE, "load-path-holds", LOAD_PATH_HOLDS, ati_free_page.load_path_holds_table),
     (ATI_FREE, "instrument-identification-blind", ATI_FREE_IDENTIFICATION_BLIND,
      ati_free_page.instrument_identification_tables),
+    (ATI_FREE, "instrument-identification-lateral",
+     (ATI_FREE_IDENTIFICATION, ATI_FREE_IDENTIFICATION_BLIND, ATI_FREE_IDENTIFICATION_LATERAL),
+     identification_page.lateral_crosstalk_table),
     (ATI_FREE, "hex10-compression", HEX10_COMPRESSION, ati_free_page.hex10_compression_table),
     (RESULTS, "hybrid-plateau", HYBRID_PLATEAU, _hybrid_plateau_table),
     (RESULTS, "prior-ablation-tables", PRIOR_ABLATION, results_page.prior_ablation_tables),

@@ -140,8 +140,7 @@ def fit_prior_command(args) -> dict:
     print("fitting the internal-force prior (CasADi / IPOPT)", flush=True)
     with progress("fit-prior"):
         report = fit_prior_cli(args.data, args.out, use_loaded=args.use_loaded,
-                               accept_poor_fit=args.accept_poor_fit,
-                               identify=args.identify,
+                               accept_poor_fit=args.accept_poor_fit, identify=args.identify,
                                inputs="load_path" if args.load_path else "efforts",
                                crosstalk=options.CROSSTALK_OPTIONS[args.crosstalk])
     metrics = report.get("test_free_metrics")
