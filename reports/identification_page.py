@@ -135,13 +135,16 @@ def prior_drawn_trace_table(result: dict) -> str:
              f"{run['scale']:g}; misses there: {', '.join(run['misses']) or 'none'}), its last "
              "round refitted on the bench with one departure removed; each judged against the "
              "bench's law projected onto the law as the run held it, on the variant's own "
-             "trials:", "",
+             "trials (a variant that frees terms the run did not have, as the law's lateral "
+             "cross-talk, projects with them free and judges them too):", "",
              "| bench | capstan_pitch_gain: fit / projection | capstan_mu: fit / projection "
-             "| identified terms off their projection (10 %; an offset: its resolution) |",
+             "| identified (or freed) terms off their projection (10 %; an offset: its "
+             "resolution) |",
              "|---|---|---|---|"]
     for v in result["variants"]:
         fit, proj = v["fitted"], v["projected_truth"]
-        off = [n for n in v["identified"] if not recovered(n, fit[n], proj[n])]
+        off = [n for n in [*v["identified"], *v.get("freed", [])]
+               if not recovered(n, fit[n], proj[n])]
         cells = [f"{fit[n]:.4g} / {proj[n]:.4g} ({100 * abs(fit[n] / proj[n] - 1):.1f} %)"
                  for n in ("capstan_pitch_gain", "capstan_mu")]
         lines.append(f"| {v['variant']} | {cells[0]} | {cells[1]} | {', '.join(off) or 'none'} |")

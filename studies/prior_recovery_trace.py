@@ -10,7 +10,9 @@ at the same values, the rest warm-started at its values, the wrist sagged as it 
 projects again on the variant's own trials. Departures tried: the HEX10's cross-talk outside its
 fz column (the law models the axial force's leak only), at the nominal tool's and at none; the
 blade pairs' two asymmetries (the law ties them); the cable stiffness (the sag takes the
-design's). Usage::
+design's). Last, the bench unchanged and the law changed instead: the drawn tool with the law's
+lateral cross-talk columns free (``crosstalk="full"``, from 0; the projection then carries the
+bench's lateral leaks too). Usage::
 
     python studies/prior_recovery_trace.py --json results/benchmarks/prior_recovery_drawn_trace.json
 """
@@ -29,8 +31,14 @@ RUN_JSON = Path(__file__).resolve().parents[1] / "results" / "benchmarks" / \
 CASE = "drawn tool"
 
 
+LAW_VARIANTS = {"the drawn tool, the law's lateral cross-talk free": "full"}
+"""Label -> the fit's ``crosstalk`` for a variant that changes the law, not the bench (the
+drawn tool); every other variant fits the law as the run did (None: the reading's)."""
+
+
 def variants(seed: int) -> dict:
-    """Label -> the drawn tool with one departure from the law removed (the first: none)."""
+    """Label -> the drawn tool with one departure from the law removed (the first: none), then
+    the drawn tool again for each of :data:`LAW_VARIANTS`."""
     from psmforce.sim.params import InstrumentParams
     nominal, drawn = InstrumentParams(), InstrumentParams().sample(seed)
 
@@ -53,14 +61,16 @@ def variants(seed: int) -> dict:
             drawn, cable_asymmetry=(a[0], tied, tied)),
         "cable stiffness at the design's": dataclasses.replace(
             drawn, cable_stiffness_n_per_m=nominal.cable_stiffness_n_per_m),
+        **dict.fromkeys(LAW_VARIANTS, drawn),
     }
 
 
 def trace(run: dict, label: str, instrument, workdir: Path) -> dict:
-    """One variant: simulate, refit as the run's last round, project; name -> SI values."""
+    """One variant: simulate, refit as the run's last round (with the law of
+    :data:`LAW_VARIANTS` where it names one), project; name -> SI values."""
     from psmforce.experiments.prior_recovery import default_bench_truth, projected_truth
     from psmforce.identification.load_path import WristCompliance
-    from psmforce.identification.prior import InternalForcePrior
+    from psmforce.identification.prior import InternalForcePrior, held_by_reading
     from psmforce.identification.prior_law import NAMES
     from psmforce.io.recording import list_recordings, read_recording
     from psmforce.sim import simulate
@@ -69,17 +79,24 @@ def trace(run: dict, label: str, instrument, workdir: Path) -> dict:
     fixed = {n: r["fitted"] for n, r in rows.items() if r["status"] == "fixed"}
     start = {n: r["fitted"] for n, r in rows.items() if r["status"] != "fixed"}
     sag = WristCompliance.from_law({n: r["fitted"] for n, r in rows.items()})
+    crosstalk = LAW_VARIANTS.get(label)
     t0 = time.time()
     simulate("automated", scale=run["scale"], seed=run["seed"], out=str(workdir),
              instrument=instrument)
     train = [read_recording(r.path) for r in list_recordings(workdir)
              if r.split == "train" and r.condition in run["conditions"]]
     fit = InternalForcePrior.fit(train, fixed=fixed, initial=start, report=False,
-                                 inputs="load_path", compliance=sag)
-    projected = projected_truth(default_bench_truth(instrument), rows, train, "load_path", sag)
-    return {"variant": label, "fitted": dict(zip(NAMES, map(float, fit.params))),
+                                 inputs="load_path", compliance=sag, crosstalk=crosstalk)
+    # the law's terms the run did not have are free in the projection where the fit frees them
+    free = {n: {"status": "free", "fitted": 0.0} for n in NAMES
+            if n not in rows and n not in held_by_reading("load_path", crosstalk)}
+    projected = projected_truth(default_bench_truth(instrument), {**rows, **free}, train,
+                                "load_path", sag, crosstalk=crosstalk)
+    return {"variant": label, **({"crosstalk": crosstalk} if crosstalk else {}),
+            "fitted": dict(zip(NAMES, map(float, fit.params))),
             "projected_truth": {n: float(v) for n, v in projected.items()},
             "identified": sorted(n for n, r in rows.items() if r["status"] == "identified"),
+            **({"freed": sorted(free)} if free else {}),
             "seconds": time.time() - t0}
 
 

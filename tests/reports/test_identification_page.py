@@ -134,3 +134,48 @@ def test_the_drawn_trace_names_each_variants_terms_off_their_projection():
     assert "(16.0 %)" in rows["as is"]
     # 4 % is within 10 %; a 0.03 N offset error is beyond the 0.02 N resolution
     assert rows["one removed"].endswith("| bias_fx |")
+
+
+def test_the_drawn_trace_judges_the_terms_a_law_variant_frees():
+    from reports.identification_page import prior_drawn_trace_table
+    proj = {"capstan_pitch_gain": 0.5, "capstan_mu": 0.45, "crosstalk_ty_from_fx": -8e-4}
+    fit = {"capstan_pitch_gain": 0.49, "capstan_mu": 0.45, "crosstalk_ty_from_fx": -6e-4}
+    table = prior_drawn_trace_table({
+        "run": {"case": "drawn tool", "seed": 21, "scale": 0.25, "misses": []},
+        "variants": [{"variant": "lateral free", "identified": ["capstan_pitch_gain"],
+                      "freed": ["crosstalk_ty_from_fx"], "fitted": fit,
+                      "projected_truth": proj}]})
+    row = next(line for line in table.splitlines() if line.startswith("| lateral free"))
+    assert row.endswith("| crosstalk_ty_from_fx |")  # 25 % off its projection, though freed
+
+
+def _run(seed, case, misses, **rows):
+    from psmforce.identification.prior_law import CROSSTALK_LATERAL
+    params = {n: {"truth": 1e-4, "fitted": 0.0, "status": "fixed", "relative_error": 1.0}
+              for n in CROSSTALK_LATERAL}
+    params.update(rows)
+    return {"seed": seed, "case": case, "misses": misses, "parameters": params}
+
+
+def test_the_lateral_table_sets_each_run_beside_its_axial_only_run():
+    from reports.identification_page import lateral_crosstalk_table
+    gain = {"truth": 0.5, "fitted": 0.578, "status": "identified", "relative_error": 0.156}
+    axial = {"command": "axial", "runs": [
+        {"seed": 21, "case": "drawn tool", "misses": ["capstan_pitch_gain"],
+         "parameters": {"capstan_pitch_gain": {**gain, "effective_truth": 0.498}}}]}
+    full = {"command": "full", "runs": [
+        _run(21, "drawn tool", [], capstan_pitch_gain={**gain, "effective_truth": 0.599},
+             crosstalk_tz_from_fx={"truth": 3e-4, "fitted": 2.9e-4, "status": "identified",
+                                   "relative_error": 0.03}),
+        _run(7, "a case the axial runs lack", ["cable_radius"],
+             cable_radius={"truth": 1.2e-3, "fitted": 1.4e-3, "status": "identified",
+                           "relative_error": 0.17})]}
+    table = lateral_crosstalk_table(axial, full)
+    rows = [line for line in table.splitlines() if line.startswith("| 21") or
+            line.startswith("| 7")]
+    drawn, lacking = rows
+    assert "| capstan_pitch_gain | none |" in drawn  # the axial run's miss, gone in the full one
+    assert "capstan_pitch_gain 0.578 / 0.578, bench 0.5 (as held 0.498, 0.599)" in drawn
+    assert "| tz_from_fx | fy_from_fx," in drawn and "tz_from_fx," not in drawn
+    assert "| not run | cable_radius |" in lacking
+    assert "cable_radius — / 0.0014, bench 0.0012" in lacking
