@@ -26,7 +26,7 @@ import json
 from pathlib import Path
 
 from psmforce.identification.prior import NAMES, InternalForcePrior
-from psmforce.identification.prior_law import CROSSTALK, CROSSTALK_LATERAL
+from psmforce.identification.prior_law import CROSSTALK, CROSSTALK_ENTRIES, CROSSTALK_LATERAL
 from psmforce.identification.prior_identifiability import (OFFSET_RESOLUTION, RECOVERY_TOLERANCE,
                                                            recovered)
 from psmforce.robot.kinematics import PSM
@@ -243,13 +243,9 @@ def default_bench_truth(instrument: InstrumentParams | None = None,
         "capstan_pitch_gain": instrument.capstan_wrap_pitch_gain,
         "capstan_roll_gain": instrument.twist_friction_gain_per_rad,
         "pin_friction": instrument.pin_friction_coefficient,
-        **{n: instrument.hex10_crosstalk[row][2] for n, row in zip(CROSSTALK, (0, 1, 3, 4, 5))},
-        **{n: instrument.hex10_crosstalk[_CHANNELS.index(n.split("_")[1])][
-            _CHANNELS.index(n.split("_")[3])] for n in CROSSTALK_LATERAL},
+        **{n: instrument.hex10_crosstalk[row][col]
+           for n, (row, col) in CROSSTALK_ENTRIES.items()},
     }
-
-
-_CHANNELS = ("fx", "fy", "fz", "tx", "ty", "tz")
 
 
 PATH_FORMS = ("pitch_path_tension", "pitch_path_pretension")

@@ -122,6 +122,7 @@ from psmforce.identification.prior_law import (ADDED_TERMS, CABLE_ANGLES_RAD,  #
                                                 FRICTION, KAPPA, NAMES, MIN_SAMPLES,
                                                 PARAMETERS, SENSOR_CROSSTALK,
                                                 _CasadiOps, _model, FrictionDirection,
+                                                active_leaks,
                                                 at_bound, friction_direction,
                                                 pair_differentials)
 from psmforce.identification.signals import check_finite_2d
@@ -261,18 +262,13 @@ def held_by_reading(inputs: str, crosstalk: bool | str | None = None) -> dict[st
     if inputs not in INPUTS:
         raise IdentificationInputError(f"unknown prior inputs {inputs!r}; known: "
                                        f"{', '.join(INPUTS)}")
-    if not any(crosstalk is c or (isinstance(c, str) and crosstalk == c)
-               for c in CROSSTALK_CHOICES):
+    if type(crosstalk) not in (type(None), bool, str) or crosstalk not in CROSSTALK_CHOICES:
         raise IdentificationInputError(f"crosstalk must be one of {CROSSTALK_CHOICES}, got "
                                        f"{crosstalk!r}")
-    held = dict(HELD_BY_READING[inputs])
+    if crosstalk is False:
+        return {**HELD_BY_READING[inputs], **dict.fromkeys(SENSOR_CROSSTALK, 0.0)}
     fitted = {True: CROSSTALK, "full": SENSOR_CROSSTALK}.get(crosstalk, ())
-    held = {n: x for n, x in held.items() if n not in fitted}
-    if crosstalk is True:
-        held.update({n: 0.0 for n in CROSSTALK_LATERAL})
-    elif crosstalk is False:
-        held.update({n: 0.0 for n in SENSOR_CROSSTALK})
-    return held
+    return {n: x for n, x in HELD_BY_READING[inputs].items() if n not in fitted}
 
 
 def fit_arrays(frame, inputs: str, psm=None, targets: bool = True, direction: bool = True,
@@ -486,14 +482,15 @@ class InternalForcePrior:
         and the pairs' friction states (3; the caller carries :func:`friction_direction`'s
         recursion, as :class:`~psmforce.estimators.data.hybrid_inputs.SamplePrior` does), and
         the HEX10's (fx, fy, fz) readings where the law has a cross-talk."""
-        plist, friction, crosstalk = self._plist_terms
+        plist, friction, leaks = self._plist_terms
         if direction is None:  # the hot path of a stream: plain floats, no numpy
             if friction:
                 self._needs_direction(direction)
             direction = _NO_DIRECTION
-        if hex10_force is None and crosstalk:
+        if hex10_force is None and leaks:
             self._needs_reading(hex10_force)
-        out = _model(plist, positions, efforts, velocities, g_hex, direction, math, hex10_force)
+        out = _model(plist, positions, efforts, velocities, g_hex, direction, math, hex10_force,
+                     leaks)
         weights = self._wlist
         if weights is None:
             return out
@@ -520,15 +517,15 @@ class InternalForcePrior:
         return cached[1]
 
     @property
-    def _plist_terms(self) -> tuple[list[float], bool, bool]:
+    def _plist_terms(self) -> tuple[list[float], bool, list]:
         """:attr:`params` as floats, whether the law has friction (:attr:`has_friction`) and
-        whether it has the sensor's cross-talk (:attr:`has_crosstalk`)."""
+        its sensor's cross-talk terms (:func:`~.prior_law.active_leaks`; empty without
+        :attr:`has_crosstalk`), found once rather than per sample."""
         cached = getattr(self, "_plist_cache", None)
         if cached is None or cached[0] is not self.params:
             plist = [float(x) for x in self.params]
             cached = self._plist_cache = (self.params, (
-                plist, plist[_CAPSTAN] != 0.0 or plist[_PINS] != 0.0,
-                any(plist[i] != 0.0 for i in _CROSSTALK)))
+                plist, plist[_CAPSTAN] != 0.0 or plist[_PINS] != 0.0, active_leaks(plist)))
         return cached[1]
 
     # ------------------------------------------------------------ fit

@@ -110,10 +110,13 @@ the fx and fy columns of its cross-talk matrix, ``crosstalk_<into>_from_<source>
 SENSOR_CROSSTALK = CROSSTALK + CROSSTALK_LATERAL
 """Every cross-talk term of the law: each reads one of the sensor's force readings."""
 _CHANNEL = {c: k for k, c in enumerate(("fx", "fy", "fz", "tx", "ty", "tz"))}
-_LEAKS = tuple((NAMES.index(n), _CHANNEL[n.split("_")[1]],
-                _CHANNEL[n.split("_")[-1]] if "_from_" in n else 2) for n in SENSOR_CROSSTALK)
-"""(parameter index, the channel it leaks into, the reading it leaks from) of each
-:data:`SENSOR_CROSSTALK` term, channels in the order fx fy fz tx ty tz."""
+CROSSTALK_ENTRIES = {n: (_CHANNEL[n.split("_")[1]],
+                         _CHANNEL[n.split("_")[-1]] if "_from_" in n else 2)
+                     for n in SENSOR_CROSSTALK}
+"""Each :data:`SENSOR_CROSSTALK` term's entry (row: the channel it leaks into, column: the
+force reading it leaks from) of the sensor's cross-talk matrix (reading = X wrench), channels
+in the order fx fy fz tx ty tz."""
+_LEAKS = tuple((NAMES.index(n), *CROSSTALK_ENTRIES[n]) for n in SENSOR_CROSSTALK)
 _FORCE_BIASES = tuple(NAMES.index(n) for n in ("bias_fx", "bias_fy", "bias_fz"))
 CAPSTAN = ("capstan_mu", "capstan_pitch_gain", "capstan_roll_gain")
 """The capstan's terms: its exponent at the straight wrist (``capstan_mu``; 0: no capstan, and
@@ -217,13 +220,20 @@ class FrictionDirection:
         return self._state.step(_pair_travel(wrist_pitch, wrist_yaw, jaw))
 
 
-def sensor_crosstalk(wrench, p, hex10_force):
+def active_leaks(p) -> list:
+    """The :data:`SENSOR_CROSSTALK` terms of the parameters ``p`` that are not the plain number
+    0, as (value, channel it leaks into, reading it leaks from)."""
+    return [(p[i], into, src) for i, into, src in _LEAKS if not _is_zero(p[i])]
+
+
+def sensor_crosstalk(wrench, p, hex10_force, leaks=None):
     """The six channels ``wrench`` (fx fy fz tx ty tz; N, Nm) with the sensor's cross-talk
     added: each :data:`SENSOR_CROSSTALK` term of the parameters ``p`` (the law's, :data:`NAMES`
     order) times the force reading it leaks from, less that channel's bias (``hex10_force``:
     the sensor's (fx, fy, fz) readings, N; arrays, floats or CasADi expressions). A term that
-    is the plain number 0 is left out; with none left the reading is not needed (None)."""
-    leaks = [(p[i], into, src) for i, into, src in _LEAKS if not _is_zero(p[i])]
+    is the plain number 0 is left out; with none left the reading is not needed (None).
+    ``leaks``: :func:`active_leaks` of ``p``, where the caller keeps it (a stream, per sample)."""
+    leaks = active_leaks(p) if leaks is None else leaks
     if not leaks:
         return list(wrench)
     if hex10_force is None:
@@ -235,11 +245,11 @@ def sensor_crosstalk(wrench, p, hex10_force):
     return out
 
 
-def _model(p, pos, e, v, g_hex, z, xp, hex10_force=None):
+def _model(p, pos, e, v, g_hex, z, xp, hex10_force=None, leaks=None):
     """Vectorised model; ``xp`` is numpy or a CasADi-like namespace (see ``_CasadiOps``);
     ``z`` the pairs' friction direction states (:func:`friction_direction`); ``hex10_force``
     the HEX10's (fx, fy, fz) readings (N), which only the cross-talk terms read
-    (:func:`sensor_crosstalk`; None: they must be 0)."""
+    (:func:`sensor_crosstalk`, with ``leaks``; None: they must be 0)."""
     (T_tot, r_p, r_b, g_tw, c_dir, a_p, a_b, c_pm, m_d, l_d, rho,
      bfx, bfy, bfz, btx, bty, btz, mu, *rest) = [p[i] for i in range(len(PARAMETERS))]
     g_pitch, g_roll, c_pin, c_pp = rest[len(CROSSTALK):len(CROSSTALK) + 4]
@@ -281,7 +291,7 @@ def _model(p, pos, e, v, g_hex, z, xp, hex10_force=None):
     # moment of the distal weight at l_d e_z: (0,0,l) x (m g) = l m (-gy, gx, 0)
     wrench = (m_d * gx + bfx, m_d * gy + bfy, m_d * gz - S_sum + bfz,
               tx - l_d * m_d * gy + btx, ty + l_d * m_d * gx + bty, 0.0 * gz + btz)
-    return tuple(sensor_crosstalk(wrench, p, hex10_force))
+    return tuple(sensor_crosstalk(wrench, p, hex10_force, leaks))
 
 
 def _is_zero(x) -> bool:
