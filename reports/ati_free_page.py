@@ -441,7 +441,10 @@ def instrument_identification_tables(result: dict) -> str:
              + "). Per case, the final fit of `psmforce calibrate --free-space "
              "--known-loads`'s identification (`calibrate.identify_instrument`): its value, its "
              "error against the drawn tool's truth, and *fixed* (held at the design value: the "
-             "report or the jackknife over trial groups lists it), identified (free, not "
+             "report or the jackknife over trial groups lists it"
+             + (", or the jackknife over the weights' orientations"
+                if any(r.get("orientation_jackknife_groups") for r in result["runs"]) else "")
+             + "), identified (free, not "
              f"listed), **MISS** (identified, "
              f"{miss_rule(result['runs'][0], result['runs'])}). The last "
              f"column is the all-free fit of \"{last}\" (its first round).", ""]
@@ -480,9 +483,23 @@ def instrument_identification_tables(result: dict) -> str:
                             " The all-free fit's residual on its own recordings, RMS fz "
                             f"{run['all_free_residual']['fz']['rms']:.3g} N, tx "
                             f"{run['all_free_residual']['tx']['rms']:.3g} Nm.")
-                         + sag_sentence(run))
+                         + sag_sentence(run) + _orientation_sentence(run))
         lines.append("")
     return "\n".join(lines)
+
+
+def _orientation_sentence(run: dict) -> str:
+    """What the jackknife over the weights' orientations held in one run (a run written before
+    it existed says nothing)."""
+    from psmforce.identification.prior_identifiability import JACKKNIFE_OVER
+    groups = run.get("orientation_jackknife_groups")
+    if groups is None:
+        return ""
+    words = JACKKNIFE_OVER["orientation"][0]
+    held = [n for n, r in run["parameters"].items()
+            if r["status"] == "fixed" and words in (r.get("reason") or "")]
+    return (f" The jackknife over the {groups} orientations held: "
+            f"{', '.join(held) if held else 'nothing'}.")
 
 
 def load_path_holds_table(result: dict) -> str:

@@ -134,6 +134,8 @@ def _seed(seed: int, args, q_exc) -> list[dict]:
             "converged": prior.converged, "fit_time_s": time.perf_counter() - started,
             "n_samples": prior.info["n_samples"], "rounds": prior.info["selection"]["rounds"],
             "sag": prior.info["selection"]["sag"],
+            "orientation_jackknife_groups": prior.info["selection"][
+                "orientation_jackknife_groups"],
             "capstan_mu_over_training": bench_capstan_over([t.frame for t in free + loads],
                                                            tool),
             "all_free_residual": all_free_residual(prior, free + loads)})

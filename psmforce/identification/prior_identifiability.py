@@ -1,6 +1,6 @@
 """Which parameters of the internal-force prior the fitted data pin down
 (:func:`identifiability`, reported in ``InternalForcePrior.info["identifiability"]``;
-:func:`add_trial_spread` adds the jackknife over trials that
+:func:`add_trial_spread` adds the jackknifes (over trials, over a design's orientations) that
 :mod:`psmforce.identification.prior_selection` runs, and that module fixes what is listed).
 
 The Fisher information of the scaled residuals gives the standard errors and correlations; it
@@ -317,24 +317,40 @@ def _imprecision(name: str, value: float, se: float) -> str:
             f"3 SE are {3 * se / abs(value):.0%} of the value")
 
 
-def add_trial_spread(report: dict, params, jackknife_se: dict[str, float], groups: int) -> dict:
-    """Add the trial jackknife to an :func:`identifiability` report, in place, and return it.
+def add_trial_spread(report: dict, params, jackknife_se: dict[str, float], groups: int,
+                     over: str = "trials") -> dict:
+    """Add a jackknife to an :func:`identifiability` report, in place, and return it.
 
     ``jackknife_se``: per free parameter, the delete-a-group jackknife standard error over
-    ``groups`` groups of whole trials (:func:`psmforce.identification.prior_selection.
-    trial_jackknife`). Unlike the sandwich standard errors it needs no noise model: whatever
-    varies between trials (coloured effort disturbance, the discs' stuck state, sensor drift,
-    effects outside the law that each trial excites differently) moves the refits. A parameter
-    whose 3 jackknife standard errors exceed :func:`precision_needed` joins
-    ``not_identifiable`` with that reason (or has it appended)."""
+    ``groups`` groups (:func:`psmforce.identification.prior_selection.trial_jackknife`);
+    ``over``: what a group holds, :data:`JACKKNIFE_OVER` (whole trials, or the known loads'
+    orientations). Unlike the sandwich standard errors it needs no noise model: whatever varies
+    between trials (coloured effort disturbance, the discs' stuck state, sensor drift, effects
+    outside the law that each trial excites differently), or between the poses a design holds,
+    moves the refits. A parameter whose 3 jackknife standard errors exceed
+    :func:`precision_needed` joins ``not_identifiable`` with that reason (or has it appended);
+    the standard errors are kept under ``jackknife_standard_errors`` (trials) or
+    ``orientation_jackknife_standard_errors``."""
+    if over not in JACKKNIFE_OVER:
+        raise ValueError(f"over must be one of {sorted(JACKKNIFE_OVER)}, got {over!r}")
     reasons = report["not_identifiable"]
-    report["jackknife_standard_errors"] = {n: float(x) for n, x in jackknife_se.items()}
-    report["jackknife_groups"] = int(groups)
+    prefix = "" if over == "trials" else f"{over}_"
+    report[f"{prefix}jackknife_standard_errors"] = {n: float(x) for n, x in jackknife_se.items()}
+    report[f"{prefix}jackknife_groups"] = int(groups)
     for name, se in jackknife_se.items():
         value = float(params[NAMES.index(name)])
         if 3 * se > precision_needed(name, value):
             unit = PARAMETERS[NAMES.index(name)][1]
-            why = (f"varies between groups of trials: {value:.4g} +- {se:.2g} {unit} (1 SE, "
-                   f"jackknife over {groups} groups of trials), " + _imprecision(name, value, se))
+            why = (f"{JACKKNIFE_OVER[over][0]}: {value:.4g} +- {se:.2g} {unit} (1 SE, "
+                   f"jackknife over {groups} {JACKKNIFE_OVER[over][1]}), "
+                   + _imprecision(name, value, se))
             reasons[name] = f"{reasons[name]}; {why}" if name in reasons else why
     return report
+
+
+JACKKNIFE_OVER = {
+    "trials": ("varies between groups of trials", "groups of trials"),
+    "orientation": ("rests on the orientations the loads hang in",
+                    "orientations, each left out with every mass hung in it")}
+"""What a jackknife's group holds -> (the reason's words, the groups' words)
+(:func:`add_trial_spread`)."""

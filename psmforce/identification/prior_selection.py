@@ -15,7 +15,15 @@ reasons (:func:`_tier`): first the structural ones (at a bound, too few slack sa
 correlation beyond 0.99, errors in variables), and only on a fit without them the statistical
 ones (standard errors, jackknife), then those only tied to a listed parameter: a degenerate fit
 (a pretension at its bound) makes every other estimate wander, and fixing the pretension may
-free bias_fz. The final
+free bias_fz.
+
+A designed experiment (known weights hung in a few orientations, every mass in every one) adds a
+second jackknife (``pose_labels``): each orientation left out with every mass hung in it. The
+trial jackknife removes whole masses, so every refit keeps every orientation, and a term that one
+orientation alone pins down looks as precise as any; leaving that orientation out moves it. It
+runs once a round has nothing else to hold (its refits cost one per orientation), with the same
+rule (3 standard errors within the needed precision), and what it lists is held as the trial
+jackknife's is. The final
 fit's ``info["selection"]`` holds each round, the fixed parameters with the reason and the value
 they had when they were listed, and ``info["verdict"]`` the one line that names the identified,
 the fixed and the at-bound parameters (:func:`verdict_line`; printed by ``psmforce fit-prior``).
@@ -31,7 +39,8 @@ so the parameters it reports, and what it holds, are those of the sag it took.
 converge.
 
 Cost: one fit and :data:`JACKKNIFE_GROUPS` warm-started refits per round (2-3 rounds on the
-default bench); with the load path, a round or more per sag pass (1-2 passes on the ATI-free
+default bench), and one refit per orientation in each round that the orientations' jackknife
+judges; with the load path, a round or more per sag pass (1-2 passes on the ATI-free
 study's recordings).
 """
 
@@ -98,7 +107,8 @@ def trial_jackknife(frames, prior: InternalForcePrior, fixed: dict[str, float],
                     inputs: str = "efforts", labels=None,
                     compliance=None) -> dict[str, float] | None:
     """Delete-a-group jackknife standard error of each free parameter over ``groups`` groups of
-    whole trials (trial k in group k mod ``groups``, or in group ``labels[k]``): refit without
+    whole trials (trial k in group k mod ``groups``, or in group ``labels[k]``; a label None
+    keeps that trial in every refit): refit without
     each group, warm-started at ``prior``'s parameters, ``se^2 = (G - 1) / G sum_g (p_g -
     mean p)^2`` (SI units). None when there are fewer trials than groups. ``fixed``: every
     parameter the fit of ``prior`` held, the reading's included; the refits hold exactly these.
@@ -111,10 +121,11 @@ def trial_jackknife(frames, prior: InternalForcePrior, fixed: dict[str, float],
     if len(frames) < groups or groups < 2:
         return None
     labels = [k % groups for k in range(len(frames))] if labels is None else list(labels)
-    if len(labels) != len(frames) or not all(isinstance(g, int) and 0 <= g < groups
-                                             for g in labels):
+    if len(labels) != len(frames) or not all(
+            g is None or (isinstance(g, int) and not isinstance(g, bool) and 0 <= g < groups)
+            for g in labels):
         raise IdentificationInputError(f"jackknife labels must be {len(frames)} integers in "
-                                       f"[0, {groups}), one per recording")
+                                       f"[0, {groups}) or None, one per recording")
     start = {n: float(x) for n, x in zip(NAMES, prior.params) if n not in fixed}
     refits = []
     for g in range(groups):
@@ -183,12 +194,15 @@ def fit_identified(recordings, *, psm=None, provenance=None, design: dict | None
                    groups: int = JACKKNIFE_GROUPS, max_rounds: int = MAX_ROUNDS,
                    max_iter: int = 500, inputs: str = "efforts",
                    jackknife_labels=None, crosstalk: bool | None = None,
-                   sag_passes: int = SAG_PASSES) -> InternalForcePrior:
+                   sag_passes: int = SAG_PASSES, pose_labels=None) -> InternalForcePrior:
     """Fit the prior with only what the data identify free (module docstring); the rest held at
     ``design`` (default :data:`DESIGN`; a partial dict overrides some entries). ``inputs``: what
     the law reads as wrist torques (:meth:`InternalForcePrior.fit`); ``jackknife_labels``: each
     recording's jackknife group (:func:`trial_jackknife`, :func:`design_groups`);
-    ``crosstalk``: as :meth:`InternalForcePrior.fit`.
+    ``crosstalk``: as :meth:`InternalForcePrior.fit`; ``pose_labels``: each recording's
+    orientation in a designed experiment (an int from 0, the same for every mass hung in that
+    orientation), None for a recording outside the design (free space), for the orientations'
+    jackknife (module docstring); with fewer than two orientations it does not run.
 
     With the load path, the rounds sag the wrist with the design's values
     (:mod:`~psmforce.identification.load_path`); once they have nothing left to hold, the
@@ -205,13 +219,14 @@ def fit_identified(recordings, *, psm=None, provenance=None, design: dict | None
     if unknown:
         raise IdentificationInputError(f"design: unknown parameters {unknown} (one of {NAMES})")
     frames = _frames(recordings)
+    poses = _pose_groups(pose_labels, len(frames))
     fixed = held_by_reading(inputs, crosstalk)
     why_fixed = {n: {"value": x, "reason": HELD_BY_READING_REASON[n], "fitted_when_listed": None,
                      "round": 0} for n, x in fixed.items()}
     rounds = []
     select = dict(frames=frames, fixed=fixed, why_fixed=why_fixed, rounds=rounds, design=design,
                   psm=psm, provenance=provenance, max_rounds=max_rounds, max_iter=max_iter,
-                  inputs=inputs, groups=groups, labels=jackknife_labels)
+                  inputs=inputs, groups=groups, labels=jackknife_labels, poses=poses)
     prior = _select(compliance=None, **select)
     sag = None
     if inputs == "load_path":
@@ -233,6 +248,7 @@ def fit_identified(recordings, *, psm=None, provenance=None, design: dict | None
                   "jackknife) calls not identifiable, hold them at their design values, refit; "
                   "until nothing is listed",
         "design": design, "jackknife_groups": groups if len(frames) >= groups else None,
+        "orientation_jackknife_groups": poses[1] if poses else None,
         "rounds": rounds, "fixed": why_fixed,
         "identified": [n for n in free if n not in still],
         "still_not_identifiable": still,
@@ -243,10 +259,40 @@ def fit_identified(recordings, *, psm=None, provenance=None, design: dict | None
     return prior
 
 
+def _pose_groups(pose_labels, n_frames: int):
+    """(labels, number of orientations) for the orientations' jackknife, or None when
+    ``pose_labels`` is None or names fewer than two orientations."""
+    if pose_labels is None:
+        return None
+    labels = list(pose_labels)
+    if len(labels) != n_frames or not all(
+            g is None or (isinstance(g, int) and not isinstance(g, bool) and g >= 0)
+            for g in labels):
+        raise IdentificationInputError(f"pose_labels must be {n_frames} integers >= 0 or None, "
+                                       f"one per recording")
+    used = sorted({g for g in labels if g is not None})
+    if len(used) < 2:
+        return None
+    rank = {g: k for k, g in enumerate(used)}
+    return [None if g is None else rank[g] for g in labels], len(used)
+
+
+def _tiers(listed: dict) -> list[dict]:
+    """The reasons ``listed`` by tier (:func:`_tier`), a parameter tied to a listed pretension
+    moved to the last (judged again once the pretension is held)."""
+    tiers = [{n: r for n, r in listed.items() if _tier(r) == t} for t in range(3)]
+    if "pretension_total" in tiers[0]:  # the data see bias_fz - T_tot and T_tot x g_twist:
+        for name in TIED_TO_PRETENSION:  # judged again once the pretension is held
+            if name in tiers[0]:
+                tiers[2][name] = tiers[0].pop(name)
+    return tiers
+
+
 def _select(*, frames, fixed, why_fixed, rounds, design, psm, provenance, max_rounds, max_iter,
-            inputs, groups, labels, compliance) -> InternalForcePrior:
+            inputs, groups, labels, poses, compliance) -> InternalForcePrior:
     """Rounds of :func:`fit_identified` (fit, report with the jackknife, hold one tier of what
-    it lists) with the load path's sag ``compliance`` (None: the design's), at most
+    it lists; the orientations' jackknife, ``poses`` from :func:`_pose_groups`, once nothing
+    else is listed) with the load path's sag ``compliance`` (None: the design's), at most
     ``max_rounds``; ``fixed``, ``why_fixed`` and ``rounds`` are updated in place. Returns the
     last round's fit."""
     start = None  # a later pass starts where the last fit ended
@@ -261,18 +307,19 @@ def _select(*, frames, fixed, why_fixed, rounds, design, psm, provenance, max_ro
                                compliance=compliance)
         if jack is not None:
             add_trial_spread(report, prior.params, jack, groups)
+        to_fix = next((t for t in _tiers(report["not_identifiable"]) if t), {})
+        if not to_fix and poses is not None:
+            pose_jack = trial_jackknife(frames, prior, fixed, poses[1], psm, max_iter, inputs,
+                                        poses[0], compliance=compliance)
+            if pose_jack is not None:
+                add_trial_spread(report, prior.params, pose_jack, poses[1], over="orientation")
+            to_fix = next((t for t in _tiers(report["not_identifiable"]) if t), {})
         listed = dict(report["not_identifiable"])
         rounds.append({"fixed": sorted(fixed), "converged": prior.converged,
                        "parameters": {n: float(x) for n, x in zip(NAMES, prior.params)},
                        "bounds_hit": list(prior.info["bounds_hit"]), "not_identifiable": listed,
                        **({"sag": "design" if compliance is None else "own"}
                           if inputs == "load_path" else {})})
-        tiers = [{n: r for n, r in listed.items() if _tier(r) == t} for t in range(3)]
-        if "pretension_total" in tiers[0]:  # the data see bias_fz - T_tot and T_tot x g_twist:
-            for name in TIED_TO_PRETENSION:  # judged again once the pretension is held
-                if name in tiers[0]:
-                    tiers[2][name] = tiers[0].pop(name)
-        to_fix = next((t for t in tiers if t), {})
         if (not to_fix or len(fixed) + len(to_fix) >= len(NAMES)
                 or round_ == max_rounds - 1):  # fix only what a refit follows
             return prior

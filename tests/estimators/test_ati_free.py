@@ -230,3 +230,24 @@ def test_known_loads_identify_the_instrument_through_the_load_path(tmp_path):
         "verdict"]
     assert set(report["identified"]).isdisjoint(report["fixed"])
     assert all(f["reason"] for f in report["fixed"].values())
+
+
+def test_hold_orientations_are_read_from_the_held_joints():
+    """Holds whose joints, as held (second half), agree within the tolerance share a label,
+    whatever move into the pose came first; free space gets None; another mass in the same
+    orientation gets the same label."""
+    from psmforce.estimators.training.ati_free import ORIENTATION_TOLERANCE_RAD, hold_orientations
+    rng = np.random.default_rng(0)
+
+    def hold(pose, condition=KNOWN_LOAD_CONDITION, approach=0.0):
+        q = np.tile(np.r_[0.3, 0.2, 0.15, pose, 0.0], (100, 1)) + 1e-3 * rng.standard_normal(
+            (100, 7))
+        q[:40, 3:6] += approach  # the wrist moving into the pose
+        return Trial(path="x.csv", condition=condition, split="train",
+                     frame=pd.DataFrame(q, columns=list(JOINT_POSITIONS)))
+    a, b = (0.0, 0.7, 0.0), (0.0, -0.7, 0.0)
+    near = (0.0, 0.7 + 0.5 * ORIENTATION_TOLERANCE_RAD, 0.0)
+    far = (0.0, 0.7 + 2 * ORIENTATION_TOLERANCE_RAD, 0.0)
+    trials = [hold(a, "Free"), hold(a), hold(b, approach=0.3), hold(near, approach=-0.3),
+              hold(b), hold(far)]
+    assert hold_orientations(trials) == [None, 0, 1, 0, 1, 2]

@@ -281,3 +281,61 @@ def test_a_sag_pass_is_a_round_that_holds_what_it_lists(monkeypatch):
     assert sel["sag"]["passes"][0]["change"] > 0.01 > sel["sag"]["passes"][1]["change"]
     assert fit_identified([object(), object()], inputs="load_path", sag_passes=0).info[
         "selection"]["sag"]["compliance"] == asdict(WristCompliance.design())
+
+
+def test_the_orientations_jackknife_holds_a_term_one_orientation_pins(monkeypatch):
+    """Two masses hung in three orientations beside free space: the trial jackknife removes
+    whole masses, so every refit keeps every orientation and a term only one orientation pins
+    looks precise. The orientations' jackknife (once nothing else is listed) leaves each out
+    with both masses, keeps the free-space recordings in every refit, and holds that term;
+    without ``pose_labels`` the term stays identified."""
+    import psmforce.identification.prior_selection as selection
+    from psmforce.identification.errors import IdentificationInputError
+    from psmforce.identification.prior_selection import design_groups
+    free = [("free", k) for k in range(4)]
+    holds = [(mass, pose) for mass in (0.1, 0.2) for pose in range(3)]
+    frames = free + holds
+    seen = []
+
+    def fit(frames, *, fixed, **kw):
+        seen.append(list(frames))
+        values = {**DESIGN, "cable_radius": 1.2e-3 if (0.1, 0) in frames or (0.2, 0) in frames
+                  else 1.5e-3}  # orientation 0 alone pins it
+        return InternalForcePrior(
+            params=np.array([fixed.get(n, values[n]) for n in NAMES]), converged=True,
+            info={"identifiability": {"not_identifiable": {}}, "bounds_hit": [],
+                  "provenance": {}})
+    monkeypatch.setattr(selection.InternalForcePrior, "fit", staticmethod(fit))
+    groups = design_groups([None] * 4 + [m for m, _ in holds])
+    poses = [None] * 4 + [p for _, p in holds]
+    sel = fit_identified(frames, jackknife_labels=groups, pose_labels=poses).info["selection"]
+    reason = sel["fixed"]["cable_radius"]["reason"]
+    assert reason.startswith("rests on the orientations the loads hang in")
+    assert "jackknife over 3 orientations" in reason and sel["fixed"]["cable_radius"]["round"] == 1
+    assert sel["orientation_jackknife_groups"] == 3 and "cable_radius" not in sel["identified"]
+    # the first round: the fit, 4 trial groups, then the 3 orientations, free space in each
+    assert [sorted(set(f) - set(free)) for f in seen[5:8]] == [
+        [h for h in holds if h[1] != p] for p in range(3)]
+    assert all(set(free) <= set(f) for f in seen[5:8])
+    seen.clear()
+    sel = fit_identified(frames, jackknife_labels=groups).info["selection"]
+    assert "cable_radius" in sel["identified"] and sel["orientation_jackknife_groups"] is None
+    assert len(seen) == 5  # one round: the fit and the trial jackknife, nothing else
+    with pytest.raises(IdentificationInputError, match="pose_labels"):
+        fit_identified(frames, pose_labels=[0] * 3)
+    # one orientation is no design to leave out of: the jackknife does not run
+    assert fit_identified(frames, pose_labels=[None] * 4 + [0] * 6).info["selection"][
+        "orientation_jackknife_groups"] is None
+
+
+def test_a_jackknife_over_orientations_names_itself():
+    params = InternalForcePrior().params
+    c = NAMES.index("cable_radius")
+    report = {"not_identifiable": {}}
+    add_trial_spread(report, params, {"cable_radius": 0.2 * params[c]}, 8, over="orientation")
+    assert report["orientation_jackknife_groups"] == 8
+    assert "jackknife_standard_errors" not in report
+    assert report["not_identifiable"]["cable_radius"].startswith(
+        "rests on the orientations the loads hang in")
+    with pytest.raises(ValueError, match="over must be one of"):
+        add_trial_spread(report, params, {}, 8, over="poses")

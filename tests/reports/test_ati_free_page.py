@@ -90,3 +90,16 @@ def test_the_sag_sentence_says_whether_the_fits_own_sag_converged():
     none = {"passes": [{"change": 0.002}], "converged": True, "compliance": {"capstan_mu": 0.0}}
     assert "the design's, which the fit's own values already give;" in _sag_sentence(
         {"sag": none})
+
+
+def test_the_orientation_sentence_names_what_that_jackknife_held():
+    from reports.ati_free_page import _orientation_sentence
+    assert _orientation_sentence({}) == ""  # written before the jackknife existed
+    params = {"cable_radius": {"status": "fixed", "reason": "at its bound; rests on the "
+                               "orientations the loads hang in: 0.0013 +- 0.0002 m"},
+              "bias_fx": {"status": "fixed", "reason": "varies between groups of trials"},
+              "pretension_total": {"status": "identified", "reason": None}}
+    text = _orientation_sentence({"orientation_jackknife_groups": 8, "parameters": params})
+    assert text == " The jackknife over the 8 orientations held: cable_radius."
+    assert _orientation_sentence({"orientation_jackknife_groups": 16, "parameters": {
+        "bias_fx": params["bias_fx"]}}).endswith("held: nothing.")

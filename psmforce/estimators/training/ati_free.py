@@ -174,3 +174,34 @@ def known_load_trials(dataset: Dataset) -> list[Trial]:
                 f"{MAX_FREE_SPACE_FORCE_N} N): not a known-load recording")
         out.append(_with_targets(t, force))
     return out
+
+
+ORIENTATION_TOLERANCE_RAD = 0.05
+"""Two known-load holds whose held joints (:func:`hold_orientations`) differ by less than this
+(rad, every joint) hang their weight in the same orientation."""
+_HELD_JOINTS = (0, 1, 3, 4, 5)  # yaw, pitch, roll, wrist pitch, wrist yaw: what turns the weight
+
+
+def hold_orientations(trials: list[Trial]) -> list[int | None]:
+    """Each trial's orientation for the orientations' jackknife (``fit_identified(...,
+    pose_labels=...)``): known-load holds (:data:`KNOWN_LOAD_CONDITION`) whose joints, as held
+    (the median over the recording's second half, after any move into the pose), agree within
+    :data:`ORIENTATION_TOLERANCE_RAD` share a label (0, 1, ... in order of first appearance);
+    every other trial (free space) gets None. Read from the recordings, so a lab's own holds
+    need no pose field in their metadata."""
+    columns = [JOINT_POSITIONS[j] for j in _HELD_JOINTS]
+    centres: list[np.ndarray] = []
+    labels: list[int | None] = []
+    for t in trials:
+        if t.condition != KNOWN_LOAD_CONDITION:
+            labels.append(None)
+            continue
+        q = t.frame[columns].to_numpy(dtype=float)
+        held = np.median(q[len(q) // 2:], axis=0)
+        match = next((k for k, c in enumerate(centres)
+                      if np.max(np.abs(c - held)) < ORIENTATION_TOLERANCE_RAD), None)
+        if match is None:
+            centres.append(held)
+            match = len(centres) - 1
+        labels.append(match)
+    return labels

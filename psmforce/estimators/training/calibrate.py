@@ -64,7 +64,7 @@ import numpy as np
 from psmforce.estimators.training.ati_free import (  # noqa: F401  (re-exported: the module's API)
     KNOWN_LOAD_CONDITION, KNOWN_LOAD_FIELD, MAX_FREE_SPACE_FORCE_N, MIN_FREE_SPACE_TRIALS,
     CalibrationError,
-    check_minutes, free_space_trials, known_load_trials, trial_minutes)
+    check_minutes, free_space_trials, hold_orientations, known_load_trials, trial_minutes)
 from psmforce.estimators.training.checkpoint import load_checkpoint
 from psmforce.estimators.data.dataset import (Dataset, Trial, load_dataset, split_validation,
                                               trajectory_group)
@@ -177,7 +177,9 @@ def identify_instrument(trials: list[Trial], crosstalk: bool | str | None = None
     :func:`~psmforce.identification.prior_selection.fit_identified` on every trial, the
     insertion joint's columns left out (the arm's, not the instrument's); the jackknife over
     trial groups removes whole masses (each hung in every pose) and quarters of the free-space
-    recordings (:func:`~psmforce.identification.prior_selection.design_groups`). Returns the
+    recordings (:func:`~psmforce.identification.prior_selection.design_groups`), and a second
+    jackknife leaves out each orientation the weights hang in, with every mass hung in it
+    (:func:`~psmforce.estimators.training.ati_free.hold_orientations`). Returns the
     :class:`~psmforce.identification.InternalForcePrior` (``inputs`` "load_path"); ``crosstalk``:
     the sensor's cross-talk it fits (:data:`~psmforce.identification.prior.CROSSTALK_CHOICES`;
     None: the load path's, the axial column)."""
@@ -186,6 +188,7 @@ def identify_instrument(trials: list[Trial], crosstalk: bool | str | None = None
     masses = [t.params.get(KNOWN_LOAD_FIELD) if t.condition == KNOWN_LOAD_CONDITION else None
               for t in trials]  # each mass hangs in every pose: a replicate of the design
     return fit_identified(frames, inputs="load_path", jackknife_labels=design_groups(masses),
+                          pose_labels=hold_orientations(trials),
                           provenance={"trials": [t.path for t in trials]}, crosstalk=crosstalk)
 
 
