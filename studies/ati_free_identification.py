@@ -25,7 +25,9 @@ trained. Usage::
 Seeds: 201 is the design seed (the load path with known weights was tried on its ATI-free
 recordings before this study existed); ``ATI_FREE_IDENTIFICATION_SEEDS`` in
 ``psmforce/experiments/seeds.py`` are fresh, declared before the run. Resumable: the recordings
-are kept under ``--work`` and reused. ``--rescore --json PATH`` judges a written JSON's misses
+are kept under ``--work`` and reused, and so is each case's row, by the library's code that
+wrote it only (seeds can run in separate processes sharing ``--work``, and a last command with
+every seed assembles the JSON from their rows). ``--rescore --json PATH`` judges a written JSON's misses
 again by today's rule (:func:`psmforce.experiments.prior_recovery.judge`), the fits untouched.
 """
 
@@ -109,9 +111,9 @@ def case_recordings(seed: int, label: str, args, q_exc):
 
 
 def _seed(seed: int, args, q_exc) -> list[dict]:
-    from psmforce.estimators.training.calibrate import identify_instrument, instrument_frames
-    from psmforce.experiments.prior_recovery import (bench_capstan_over, compare_selection,
-                                                     default_bench_truth, with_projection)
+    """Every case's row on one seed; a case row kept under ``args.work`` by the same code
+    (:func:`_code_digest`) is read back instead of fitted again."""
+    from psmforce.experiments.prior_recovery import default_bench_truth
     from psmforce.sim.params import InstrumentParams
 
     tool = InstrumentParams().sample(TOOL_SEED_OFFSET + seed, 1.0)
@@ -121,33 +123,56 @@ def _seed(seed: int, args, q_exc) -> list[dict]:
         if args.cases and label not in args.cases:
             continue
         free, loads, made = case_recordings(seed, label, args, q_exc)
-        started = time.perf_counter()
-        prior = identify_instrument(free + loads, crosstalk=CROSSTALK_OPTIONS[args.crosstalk])
-        row = {**compare_selection(prior, truth), "inputs": prior.inputs,
-               **({"crosstalk": CROSSTALK_OPTIONS[args.crosstalk]}
-                  if args.crosstalk != "reading" else {})}
-        with_projection(row, truth, instrument_frames(free + loads), prior.wrist_compliance)
-        row.update({
-            "seed": seed, "case": label, "masses_kg": list(masses), "poses": poses,
-            "weight_poses": list(_poses(poses)), "minutes": made["minutes"],
-            "left_out_unsafe": made["left_out_unsafe"], "verdict": prior.info["verdict"],
-            "converged": prior.converged, "fit_time_s": time.perf_counter() - started,
-            "n_samples": prior.info["n_samples"], "rounds": prior.info["selection"]["rounds"],
-            "sag": prior.info["selection"]["sag"],
-            "orientation_jackknife_groups": prior.info["selection"][
-                "orientation_jackknife_groups"],
-            "capstan_mu_over_training": bench_capstan_over([t.frame for t in free + loads],
-                                                           tool),
-            "all_free_residual": all_free_residual(prior, free + loads)})
-        rows.append(row)
-        print(f"seed {seed}, {label}: {row['fit_time_s']:.0f} s, misses {row['misses']}\n"
-              f"  verdict: {row['verdict']}", flush=True)
-        for name, r in row["parameters"].items():
-            rel = r["relative_error"]
-            print(f"  {name:22s} truth {r['truth']!s:>10.10s}  fitted {r['fitted']:>11.4g}"
-                  f"  {'' if rel is None else f'{100 * rel:6.1f} %':>8s}  {r['status']}",
-                  flush=True)
+        kept = Path(made["out"]).parent / f"row_{args.crosstalk}_{_code_digest()}.json"
+        rows.append(kept_json(kept, lambda: _case(seed, label, args, free, loads, made, tool,
+                                                  truth)))
     return rows
+
+
+def _code_digest() -> str:
+    """12 hex digits of the library's source: a kept case row is reused only by the code that
+    wrote it."""
+    import hashlib
+
+    import psmforce
+    digest = hashlib.sha256()
+    for path in sorted(Path(psmforce.__file__).parent.rglob("*.py")):
+        digest.update(path.read_bytes())
+    return digest.hexdigest()[:12]
+
+
+def _case(seed: int, label: str, args, free, loads, made, tool, truth) -> dict:
+    """One case's identification on one seed, compared with the drawn tool's truth."""
+    from psmforce.estimators.training.calibrate import identify_instrument, instrument_frames
+    from psmforce.experiments.prior_recovery import (bench_capstan_over, compare_selection,
+                                                     with_projection)
+    masses, poses = CASES[label]
+    started = time.perf_counter()
+    prior = identify_instrument(free + loads, crosstalk=CROSSTALK_OPTIONS[args.crosstalk])
+    row = {**compare_selection(prior, truth), "inputs": prior.inputs,
+           **({"crosstalk": CROSSTALK_OPTIONS[args.crosstalk]}
+              if args.crosstalk != "reading" else {})}
+    with_projection(row, truth, instrument_frames(free + loads), prior.wrist_compliance)
+    row.update({
+        "seed": seed, "case": label, "masses_kg": list(masses), "poses": poses,
+        "weight_poses": list(_poses(poses)), "minutes": made["minutes"],
+        "left_out_unsafe": made["left_out_unsafe"], "verdict": prior.info["verdict"],
+        "converged": prior.converged, "fit_time_s": time.perf_counter() - started,
+        "n_samples": prior.info["n_samples"], "rounds": prior.info["selection"]["rounds"],
+        "sag": prior.info["selection"]["sag"],
+        "orientation_jackknife_groups": prior.info["selection"][
+            "orientation_jackknife_groups"],
+        "capstan_mu_over_training": bench_capstan_over([t.frame for t in free + loads],
+                                                       tool),
+        "all_free_residual": all_free_residual(prior, free + loads)})
+    print(f"seed {seed}, {label}: {row['fit_time_s']:.0f} s, misses {row['misses']}\n"
+          f"  verdict: {row['verdict']}", flush=True)
+    for name, r in row["parameters"].items():
+        rel = r["relative_error"]
+        print(f"  {name:22s} truth {r['truth']!s:>10.10s}  fitted {r['fitted']:>11.4g}"
+              f"  {'' if rel is None else f'{100 * rel:6.1f} %':>8s}  {r['status']}",
+              flush=True)
+    return row
 
 
 def _poses(poses: str) -> list[str]:
