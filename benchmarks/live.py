@@ -41,6 +41,13 @@ session put on a 1 kHz clock (:func:`psmforce.live.sim_robot.bench_recording`): 
   goal of :data:`RESIDENCE_GOAL_P99_MS` at p99;
 * ``dds_busy_core``: the same for a third of the time while another process keeps one core
   busy;
+* ``node_network_after_answer``, ``dds_network_after_answer``,
+  ``dds_busy_core_network_after_answer``: ``node``, ``dds`` and ``dds_busy_core`` again with the
+  network after the answer (``serve --network after-answer``; the estimator's
+  ``network_after_answer``): the network step of the sample it is due on runs once that answer
+  is written (its time in ``after_the_answer``), outside the answer's residence;
+  ``network_after_answer_accuracy``: what it costs the estimate, the shipped bench model over the
+  session (NRMSE per axis before and after the answer, and the two estimates' difference, N);
 * ``dds_rate_measured``: the same for 5 s without ``--input-rate`` (the node measures the rate
   from the first stamps): ``first_answer_ms`` is what a user starting the node sees;
 * ``burst``: 5000 samples of the 1 kHz stream published at 10 times its rate (10 kHz for 0.5 s,
@@ -153,11 +160,12 @@ def decode_figures(frame) -> dict:
     return out
 
 
-def node_figures(ckpt: Path, frame) -> dict:
+def node_figures(ckpt: Path, frame, network_after_answer: bool = False) -> dict:
     from psmforce.live.node import ForceNode
-    est = StreamingEstimator.from_checkpoint(ckpt, input_rate_hz=1000.0, psm=PSM())
+    est = StreamingEstimator.from_checkpoint(ckpt, input_rate_hz=1000.0, psm=PSM(),
+                                             network_after_answer=network_after_answer)
     node = ForceNode(est)
-    wall, cpu, flags = [], [], 0
+    wall, cpu, after, flags = [], [], [], 0
     wall_clock, cpu_clock = time.perf_counter_ns, time.thread_time_ns
     for stream, message in _messages(frame):
         w0, c0 = wall_clock(), cpu_clock()
@@ -165,7 +173,9 @@ def node_figures(ckpt: Path, frame) -> dict:
         for answer in answers:
             node.encode(answer)
         w1, c1 = wall_clock(), cpu_clock()
+        est.advance()  # the step an answer deferred, as serve runs it once the answer is out
         if stream == "hex10":
+            after.append(wall_clock() - w1)
             wall.append(w1 - w0)
             cpu.append(c1 - c0)
             flags |= answers[0].flags
@@ -178,13 +188,39 @@ def node_figures(ckpt: Path, frame) -> dict:
     other = (k % est.decimation != 0) & (k >= WARMUP)
     out = {"messages": int(len(wall) - WARMUP), "backend": est.backend_name,
            "decimation": est.decimation, "model_rate_hz": est.rate_hz,
-           "input_rate_hz": est.input_rate_hz, "lag_s": est.lag_s(), "budget_ms": PERIOD_MS}
+           "input_rate_hz": est.input_rate_hz, "lag_s": est.lag_s(), "budget_ms": PERIOD_MS,
+           "network_after_answer": network_after_answer}
     for name, mask in (("all", k >= WARMUP), ("network_steps", network),
                        ("physics_and_filter_only", other)):
         out[name] = {**_percentiles(wall[mask]),
                      "cpu": {k2: v for k2, v in _percentiles(cpu[mask]).items() if k2 != "n"},
                      "over_budget_fraction": float((wall[mask] > PERIOD_MS).mean())}
+    if network_after_answer:  # the deferred steps, after the answers of the messages they follow
+        out["after_the_answer"] = _percentiles(np.array(after)[network] * 1e-6)
     return out
+
+
+def network_after_answer_accuracy(frame) -> dict:
+    """What answering before the network step costs the estimate: the shipped bench model
+    (:mod:`psmforce.live.bench_model`) over the session, per axis, its NRMSE against the ATI
+    (% of the ATI's range, after its warm-up) with the network before and after the answer, and
+    how far the two estimates lie apart (N)."""
+    from psmforce.io.recording import TARGETS
+    from psmforce.live.bench_model import shipped_checkpoint
+    ckpt = shipped_checkpoint()
+    estimates = {order: StreamingEstimator.from_checkpoint(
+        ckpt, input_rate_hz=1000.0, network_after_answer=order == "after_answer"
+    ).predict_recording(frame) for order in ("before_answer", "after_answer")}
+    settled = slice(WARMUP, None)
+    truth = frame[list(TARGETS)].to_numpy(np.float64)[settled]
+    span = truth.max(axis=0) - truth.min(axis=0)
+    nrmse = {order: (100 * np.sqrt(((e[settled] - truth) ** 2).mean(axis=0)) / span).tolist()
+             for order, e in estimates.items()}
+    apart = estimates["after_answer"][settled] - estimates["before_answer"][settled]
+    return {"checkpoint": "the shipped bench model (psmforce/live/data)",
+            "axes": list(TARGETS), "nrmse_percent": nrmse,
+            "difference_rms_N": np.sqrt((apart ** 2).mean(axis=0)).tolist(),
+            "difference_max_N": np.abs(apart).max(axis=0).tolist()}
 
 
 def _cpu_s(pid: int) -> float:
@@ -194,7 +230,7 @@ def _cpu_s(pid: int) -> float:
 
 
 def dds_figures(ckpt: Path, frame, seconds: float, tmp: Path, *, input_rate: bool = True,
-                busy_core: bool = False) -> dict:
+                busy_core: bool = False, network: str = "before-answer") -> dict:
     from cyclonedds.core import (
         InstanceState,
         Policy,
@@ -230,7 +266,7 @@ def dds_figures(ckpt: Path, frame, seconds: float, tmp: Path, *, input_rate: boo
     node = subprocess.Popen(
         [sys.executable, "-m", "psmforce.cli.main", "serve", str(ckpt), "--domain-id", str(domain_id),
          *(["--input-rate", "1000"] if input_rate else []), "--sync-stamps", "--idle-stop", "3",
-         "--json", str(tmp / "node.json")], env=env, stdout=subprocess.PIPE,
+         "--network", network, "--json", str(tmp / "node.json")], env=env, stdout=subprocess.PIPE,
         stderr=subprocess.PIPE, text=True)
     robot = burner = None
     received: dict[int, int] = {}
@@ -281,7 +317,7 @@ def dds_figures(ckpt: Path, frame, seconds: float, tmp: Path, *, input_rate: boo
     first_answer = min(received.values()) - sent["sent_ns"][0] if received else None
     n = len(sent["stamps_ns"])
     return {"seconds": seconds, "input_rate_given": input_rate, "busy_core": busy_core,
-            "hex10_sent": n, "node_received": report["received"]["hex10"],
+            "network": network, "hex10_sent": n, "node_received": report["received"]["hex10"],
             "node_lost": n - report["received"]["hex10"],
             "node_added_latency": _percentiles(added),
             "node_residence": report["residence_ms"],
@@ -379,9 +415,15 @@ def main() -> tuple[dict, str | None]:
                              "seconds": float(frame["time"].iloc[-1])}
         result["decode"] = decode_figures(frame)
         result["node"] = node_figures(ckpt, frame)
+        result["node_network_after_answer"] = node_figures(ckpt, frame, True)
+        result["network_after_answer_accuracy"] = network_after_answer_accuracy(frame)
         result["dds"] = dds_figures(ckpt, frame, args.seconds, tmp)
+        result["dds_network_after_answer"] = dds_figures(ckpt, frame, args.seconds, tmp,
+                                                         network="after-answer")
         result["dds_busy_core"] = dds_figures(ckpt, frame, args.seconds / 3, tmp,
                                               busy_core=True)
+        result["dds_busy_core_network_after_answer"] = dds_figures(
+            ckpt, frame, args.seconds / 3, tmp, busy_core=True, network="after-answer")
         result["dds_rate_measured"] = dds_figures(ckpt, frame, 5.0, tmp, input_rate=False)
         result["burst"] = burst_figures(ckpt, frame, tmp)
         result["burst_busy_core"] = burst_figures(ckpt, frame, tmp, busy_core=True)
@@ -419,6 +461,15 @@ def _print(r: dict) -> None:
     print(f"the node's residence (taken to written, its own clock): p50 {own['median_ms']:.3f} "
           f"ms, p99 {own['p99_ms']:.3f} ms, max {own['max_ms']:.2f} ms (goal p99 <= "
           f"{RESIDENCE_GOAL_P99_MS:g} ms: {'met' if link['residence_goal_met'] else 'NOT met'})")
+    for name in ("dds_network_after_answer", "dds_busy_core_network_after_answer"):
+        after = r[name]
+        print(f"{name}: node residence p50 {after['node_residence']['median_ms']:.3f} ms, p99 "
+              f"{after['node_residence']['p99_ms']:.3f} ms; node-added latency p99 "
+              f"{after['node_added_latency']['p99_ms']:.3f} ms; node lost {after['node_lost']}")
+    acc = r["network_after_answer_accuracy"]
+    print(f"the network after the answer, shipped bench model on the session: NRMSE % before "
+          f"{[round(v, 2) for v in acc['nrmse_percent']['before_answer']]}, after "
+          f"{[round(v, 2) for v in acc['nrmse_percent']['after_answer']]}")
     busy = r["dds_busy_core"]
     print(f"one core busy, {busy['seconds']:g} s: {busy['hex10_sent']} sent, node lost "
           f"{busy['node_lost']}, answers lost {100 * busy['lost_fraction']:.3f} %, latency p99 "

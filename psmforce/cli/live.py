@@ -24,6 +24,11 @@ def _needs(module: str, feature: str) -> None:
                            f"pip install 'psmforce[ros]'")
 
 
+NETWORK_ORDER = {"before-answer": False, "after-answer": True}
+"""``--network``: the estimator's ``network_after_answer``
+(:mod:`psmforce.estimators.runtime.streaming`)."""
+
+
 def _topics(args) -> dict:
     return {k: v for k, v in (("js", args.topic_js), ("jaw", args.topic_jaw),
                               ("hex10", args.topic_hex10)) if v is not None}
@@ -42,7 +47,7 @@ def replay_command(args) -> dict:
     report = replay(args.bag, _checkpoint(args, False), args.out, arm=args.arm, topics=topics,
                     input_rate_hz=args.input_rate, post_filter=args.post_filter,
                     tare_on_start=args.tare_on_start, sync=args.sync_stamps,
-                    realtime=args.realtime,
+                    realtime=args.realtime, network_after_answer=NETWORK_ORDER[args.network],
                     view_port=args.port if args.view else None, view_wait_s=args.view_wait,
                     view_hold_s=None)
     print(f"wrote {report['out']} ({report['answers']} estimates at "
@@ -87,7 +92,8 @@ def _serve(args, stop: threading.Event) -> dict:
                    tare_s=args.tare_s, reader_best_effort=args.reader_qos == "best-effort",
                    writer_best_effort=args.writer_qos == "best-effort",
                    sync=args.sync_stamps or args.sim, sync_wait_s=args.sync_wait,
-                   domain_id=domain(args.domain_id), post_filter=args.post_filter)
+                   domain_id=domain(args.domain_id), post_filter=args.post_filter,
+                   network_after_answer=NETWORK_ORDER[args.network])
     print(f"psmforce serve: domain {domain(args.domain_id)}, discovery "
           f"{discovery()[0].lower()}, listening on "
           f"{', '.join(node.input_topics.values())}; publishing "
@@ -161,6 +167,12 @@ def _common(p: argparse.ArgumentParser, *, shipped: bool = False) -> None:
                    help="the HEX10 stream's rate (default: measured from its stamps); a whole "
                         "multiple of the model's training rate")
     p.add_argument("--post-filter", default="none", choices=["none", "median", "lowpass"])
+    p.add_argument("--network", choices=list(NETWORK_ORDER), default="before-answer",
+                   help="when the network steps on the sample it is due for (one in D, the "
+                        "input rate over the model's): before-answer (default), or "
+                        "after-answer: that sample is answered with the step before's "
+                        "residual and its own step runs once the answer is out, one input "
+                        "period more of lag on the residual (docs/live.md)")
     p.add_argument("--tare-on-start", action="store_true",
                    help="tare on the first 0.5 s after warm-up: the arm still, touching nothing")
     p.add_argument("--sync-stamps", action="store_true",

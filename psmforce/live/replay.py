@@ -85,14 +85,15 @@ def replay(bag: str | Path, checkpoint: str | Path, out: str | Path, *, arm: str
            post_filter: str = "none", backend: str = "auto", tare_on_start: bool = False,
            tare_s: float = 0.5, sync: bool = False, realtime: bool = False,
            view_port: int | None = None, view_wait_s: float = 0.0,
-           view_hold_s: float | None = 0.0) -> dict:
+           view_hold_s: float | None = 0.0, network_after_answer: bool = False) -> dict:
     """Play ``bag`` through the node for ``checkpoint``; write ``out`` (``.mcap``) and its
     layout; return a summary (messages, answers, rate, decimation, flag counts, topics).
     ``topics``: stream -> topic overrides as ``convert`` takes them (js, jaw, hex10, ati).
     ``sync``: pair the streams by stamp (:class:`psmforce.live.node.ForceNode`).
     ``view_wait_s``: with ``view_port``, how long to wait for a client to subscribe to the
     estimate before playing (module docstring); ``view_hold_s``: how long the server stays up
-    after the last message (None: until interrupted)."""
+    after the last message (None: until interrupted). ``network_after_answer``: the
+    estimator's option (:mod:`psmforce.estimators.runtime.streaming`), as ``serve`` runs it."""
     from psmforce.robot import PSM
     from psmforce.live.view import LiveView, McapOut, write_layout
     bag, out = Path(bag), Path(out)
@@ -128,7 +129,7 @@ def replay(bag: str | Path, checkpoint: str | Path, out: str | Path, *, arm: str
                            f"come at {measured:.4g} Hz: give the rate of the stream, or none")
         estimator = StreamingEstimator.from_checkpoint(
             checkpoint, input_rate_hz=input_rate_hz, psm=PSM(), post_filter=post_filter,
-            backend=backend)
+            backend=backend, network_after_answer=network_after_answer)
         node = ForceNode(estimator, arm=arm, tare_s=tare_s, sync=sync)
         if tare_on_start:
             node.request_tare()

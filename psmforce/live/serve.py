@@ -36,7 +36,11 @@ Residence. The node's own share of the latency, apart from the transport's: per 
 the moment its HEX10 message was taken from the reader to the moment its last output was
 written (``time.perf_counter_ns``, the node's clock), kept for the last :data:`RESIDENCE_KEPT`
 answers and reported as ``residence_ms`` (median, p99, max): the work of the answer and of the
-messages taken with it ahead of it, none of the transport's or the other processes'.
+messages taken with it ahead of it, none of the transport's or the other processes'. With
+``network_after_answer`` (an option of the estimator, passed through ``options``; ``serve
+--network after-answer``) the network step an answer owes runs once its outputs are written,
+outside that answer's residence; a message that arrives meanwhile waits in its reader, which its
+own residence does not count either (``benchmarks/live.py``'s ``node_added_latency`` does).
 
 The domain: ``domain_id``, else ``ROS_DOMAIN_ID``, else 0, as ROS 2 does; the discovery range:
 ``ROS_AUTOMATIC_DISCOVERY_RANGE``, ``ROS_STATIC_PEERS`` and ``ROS_LOCALHOST_ONLY`` read as ROS 2
@@ -245,6 +249,8 @@ class DdsNode:
             self.published += 1
             self.last_answer = answer
             self._flag_values[answer.flags] = self._flag_values.get(answer.flags, 0) + 1
+        # the network step an answer deferred (network_after_answer), now that it is written
+        self._estimator.advance()
         if len(self._taken_ns) > RESIDENCE_KEPT:  # stamps never answered (a repeated stamp)
             self._taken_ns.clear()
 

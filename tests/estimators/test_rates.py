@@ -18,7 +18,7 @@ from psmforce.estimators.data.hybrid_inputs import hybrid_columns
 from psmforce.core.integrity import seal
 from psmforce.estimators.data.rates import (DEFAULT_SAMPLE_RATE_HZ, AntiAlias, RateError,
                                             decimation_factor, recording_rate_hz, trials_rate_hz)
-from psmforce.estimators.runtime.streaming import StreamingError, StreamingEstimator
+from psmforce.estimators.runtime.streaming import Flags, StreamingError, StreamingEstimator
 from tests.estimators.test_streaming import (StandInPrior, model_and_scalers, one_thread, recording)  # noqa: F401
 
 CONFIG = {"d_model": 16, "n_heads": 2, "d_ff": 32, "attention_window": 8}
@@ -140,6 +140,72 @@ def test_gaps_count_input_samples_and_the_lag_is_stated():
     # one at 1 kHz within 1 %), plus a hold of 4.5 ms on average
     assert est.lag_s() == pytest.approx(np.sqrt(2) / (2 * np.pi * 40) + 0.0045, rel=1e-2)
     assert _estimator(100.0).lag_s() == 0.0
+
+
+def _stream_with_bases(est, rows, advance=False):
+    """Each answer's force and the physics base it carries (N, HEX10 frame), and its flags;
+    ``advance``: call :meth:`StreamingEstimator.advance` after every answer, as a node does."""
+    forces, bases, flags = [], [], []
+    for r in rows:
+        out = est.step(r)
+        forces.append(out.force_hex10)
+        bases.append(est.inputs.base.copy())
+        flags.append(out.flags)
+        if advance:
+            est.advance()
+    return np.stack(forces), np.stack(bases), np.array(flags)
+
+
+def test_the_network_after_the_answer_holds_the_step_before_one_sample_longer():
+    """``network_after_answer``: the sample the network is due on is answered with the
+    previous step's residual, every other answer is unchanged, the step count is the same,
+    the batch path follows it, and one input period of lag is stated."""
+    rows = _fast(600, 10).to_dict("records")
+    before = _estimator(1000.0, backend="numpy")
+    force_b, base_b, flags_b = _stream_with_bases(before, rows)
+    after = _estimator(1000.0, backend="numpy", network_after_answer=True)
+    steps = []
+    step = after._net.step
+    after._net.step = lambda x: (steps.append(1), step(x))[1]
+    force_a, base_a, flags_a = _stream_with_bases(after, rows, advance=True)
+    assert len(steps) == 60  # the same steps, later
+    np.testing.assert_allclose(base_a, base_b, atol=1e-12)  # the physics is not deferred
+    residual_b, residual_a = force_b - base_b, force_a - base_a
+    ticks = np.arange(10, 600, 10)
+    others = np.setdiff1d(np.arange(600), ticks)
+    np.testing.assert_allclose(residual_a[others], residual_b[others], atol=1e-9)
+    np.testing.assert_allclose(residual_a[ticks], residual_b[ticks - 1], atol=1e-9)
+    assert np.abs(residual_a[ticks] - residual_b[ticks]).min() > 0  # it is the step before's
+    # the first sample steps before its answer: there is no earlier residual to hold
+    np.testing.assert_allclose(force_a[0], force_b[0], atol=1e-12)
+    batch = _estimator(1000.0, network_after_answer=True).predict_recording(_fast(600, 10))
+    np.testing.assert_allclose(force_a, batch, atol=2e-5)
+    # whether or when the node calls advance, the estimates are the same
+    lazy, _, _ = _stream_with_bases(_estimator(1000.0, backend="numpy",
+                                               network_after_answer=True), rows)
+    np.testing.assert_array_equal(lazy, force_a)
+    assert after.lag_s() == pytest.approx(before.lag_s() + 1e-3, abs=1e-12)
+    # warm-up counts the steps the residual has seen: one sample longer here
+    last_warm = 10 * (before.window - 1) - 1
+    assert flags_b[last_warm] & 1 and not flags_b[last_warm + 1] & 1
+    assert flags_a[last_warm + 1] & 1 and not flags_a[last_warm + 2] & 1
+
+
+def test_the_network_after_the_answer_changes_nothing_without_decimation_or_after_a_gap():
+    rows = _fast(300, 1).to_dict("records")
+    plain, _, _ = _stream_with_bases(_estimator(100.0, backend="numpy"), rows)
+    deferred = _estimator(100.0, backend="numpy", network_after_answer=True)
+    same, _, _ = _stream_with_bases(deferred, rows, advance=True)
+    np.testing.assert_array_equal(same, plain)  # at D = 1 each answer needs its own step
+    assert deferred.lag_s() == 0.0
+    rows = _fast(120, 10).to_dict("records")
+    rows = rows[:43] + rows[60:]  # 16 samples missing at 1 kHz: a gap, a restart
+    before, _, flags = _stream_with_bases(_estimator(1000.0, backend="numpy"), rows)
+    after, _, _ = _stream_with_bases(_estimator(1000.0, backend="numpy",
+                                                network_after_answer=True), rows)
+    restart = int(np.flatnonzero(flags & Flags.GAP)[0])
+    assert restart == 43
+    np.testing.assert_allclose(after[restart], before[restart], atol=1e-12)  # steps first
 
 
 def test_anti_alias_step_equals_offline_and_attenuates_above_the_model_nyquist():

@@ -171,6 +171,52 @@ def test_serve_measuring_the_rate_loses_nothing(tmp_path):
         == stamps.tolist()
 
 
+@pytest.mark.slow
+def test_serve_with_the_network_after_the_answer_writes_each_answer_before_its_step(tmp_path):
+    """``network_after_answer``: every network step after the first runs once the answer of
+    the sample it is due on is written, and the answers equal the estimator's own stream with
+    that option (issue 47, item 8: the network off the answer's path)."""
+    import threading
+
+    from cyclonedds.core import Policy, Qos
+    from cyclonedds.util import duration
+
+    from psmforce.estimators.runtime.streaming import StreamingEstimator
+    from psmforce.live.sim_robot import play
+    from psmforce.live.serve import DdsNode
+    from psmforce.robot import PSM
+    n = 300
+    ckpt = checkpoint(tmp_path / "h.pt", rate_hz=100.0)
+    frame = recording(n)
+    frame["time"] = np.arange(n) / 1000.0
+    participant = DomainParticipant(100 + (os.getpid() + 70) % 100)
+    node = DdsNode(ckpt, participant, sync=True, input_rate_hz=1000.0,
+                   network_after_answer=True)
+    written_at_step = []
+    step = node._estimator._net.step
+    node._estimator._net.step = lambda x: (written_at_step.append(node.published), step(x))[1]
+    deep = Qos(Policy.Reliability.Reliable(duration(milliseconds=100)),
+               Policy.History.KeepLast(4 * n))
+    reader = DataReader(participant, Topic(participant, dds.dds_topic(
+        node.output_topics["hex10"]), dds.WrenchStamped), qos=deep)
+    robot = threading.Thread(target=play, args=(frame, participant),
+                             kwargs={"start_ns": START_NS})
+    robot.start()
+    report = node.spin(duration_s=60, idle_stop_s=1.0)
+    robot.join(30)
+    assert report["answers_published"] == n, report
+    # the first step comes before the first answer; each later one after its sample's answer
+    assert written_at_step == [0] + list(range(11, n + 1, 10))
+    got = [m for m in reader.take(N=n) if m.sample_info.valid_data]
+    force = np.array([[m.wrench.force.x, m.wrench.force.y, m.wrench.force.z] for m in got])
+    est = StreamingEstimator.from_checkpoint(ckpt, input_rate_hz=1000.0, psm=PSM(),
+                                             network_after_answer=True)
+    stamps = START_NS + np.arange(n) * 10**6
+    expected = [est.step(dict(row, time=s * 1e-9)).force_hex10
+                for row, s in zip(frame.to_dict("records"), stamps)]
+    np.testing.assert_allclose(force, expected, atol=1e-6)
+
+
 def test_serve_skips_and_counts_messages_that_do_not_decode(tmp_path, capsys):
     """Bytes that DDS delivers but that are not the topic's message are counted and skipped
     with one line per stream, never fatal: every good HEX10 message is answered. (Cyclone DDS

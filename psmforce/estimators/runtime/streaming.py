@@ -69,6 +69,17 @@ sample is answered: force = the latest network residual + the physics base (prio
 insertion force) of the current filtered sample. Lag of an answer at ``D`` > 1: the anti-alias
 filter's group delay (:meth:`StreamingEstimator.lag_s`, 5.6 ms for a 100 Hz model) for the base,
 plus up to ``D - 1`` input periods for the residual (9 ms at 1 kHz / 100 Hz); ``D`` = 1 adds none.
+
+The network after the answer (``network_after_answer=True``, at ``D`` > 1). A node's answer need
+not wait for the network: the sample on which the network is due is answered with the residual
+of the step before, and its own step runs afterwards, in the ``D - 1`` input periods before the
+residual is next needed (:meth:`StreamingEstimator.advance`, which a node calls once its answer
+is written; :meth:`StreamingEstimator.step` runs a step still owed before it reads its sample,
+so the estimates never depend on whether or when ``advance`` is called). The residual's hold
+becomes 1 to ``D`` input periods instead of 0 to ``D - 1``: one input period more of lag on the
+residual (1 ms at 1 kHz), none on the base; the first sample after a (re)start still steps
+before its answer, having no residual to hold. At ``D`` = 1 every answer needs its own step, so
+the option changes nothing there.
 ``max_gap_samples``, the gap check and the post-filter count input samples; ``window`` and
 ``WARMING_UP`` count network steps.
 
@@ -161,7 +172,8 @@ class StreamingEstimator:
     (:meth:`from_checkpoint`). ``rate_hz``: the rate the network was trained at (Hz).
     ``input_rate_hz``: the rate samples arrive at, a whole multiple of ``rate_hz`` (default:
     ``rate_hz``; module docstring, Rates). ``psm``: a ``psmforce.robot.PSM`` for base-frame output
-    (``step(..., base_frame=True)``).
+    (``step(..., base_frame=True)``). ``network_after_answer``: at a decimation above 1, the
+    network steps after the answer it is due for (module docstring; :meth:`advance`).
     """
 
     def __init__(self, model: torch.nn.Module, features: Sequence[str], input_scaler,
@@ -170,7 +182,8 @@ class StreamingEstimator:
                  max_gap_samples: int = 5, backend: str = "auto",
                  post_filter: str = "none", median_kernel: int = 11, lowpass_hz: float = 5.0,
                  lowpass_order: int = 2, extrapolation_z: float = 5.0,
-                 input_range: tuple[Sequence[float], Sequence[float]] | None = None, psm=None):
+                 input_range: tuple[Sequence[float], Sequence[float]] | None = None, psm=None,
+                 network_after_answer: bool = False):
         model = as_streamable(model, len(features))
         why = not_streamable(model)
         if why is not None:
@@ -197,6 +210,9 @@ class StreamingEstimator:
         self.rate_hz = rate_hz
         """The rate the network runs at (Hz): the rate it was trained at."""
         self.max_gap_samples = max_gap_samples
+        self.network_after_answer = bool(network_after_answer)
+        """Whether, at a decimation above 1, the network steps after its answer (module
+        docstring)."""
         self.window = model.window
         self._filter_options = {"kind": post_filter, "median_kernel": median_kernel,
                                 "lowpass_hz": lowpass_hz, "lowpass_order": lowpass_order}
@@ -232,6 +248,7 @@ class StreamingEstimator:
         self._std = np.zeros(3)
         self._held_std = np.full(3, np.nan)
         self._outside = np.zeros(n_feat, bool)
+        self._owed_x = np.zeros(n_feat, np.float32)  # the inputs of a step owed (advance)
         self.reset()
 
     @classmethod
@@ -281,7 +298,27 @@ class StreamingEstimator:
         0 Hz, plus the mean hold of the network's residual, ``(D - 1) / 2`` input periods
         (at most ``D - 1``); 0 when the input rate is the model's. The post-filter's own lag
         is :meth:`psmforce.estimators.runtime.postfilter.CausalFilter.lag_samples`."""
-        return self.anti_alias.lag_s() + (self.decimation - 1) / 2 / self.input_rate_hz
+        return self.anti_alias.lag_s() + ((self.decimation - 1) / 2 + self._deferring()) \
+            / self.input_rate_hz
+
+    def _deferring(self) -> bool:
+        return self.network_after_answer and self.decimation > 1
+
+    def advance(self) -> None:
+        """Run the network step the last answer deferred (``network_after_answer``; module
+        docstring); nothing when none is owed. A node calls it once the answer is written, so
+        the step runs in the time before the next sample; :meth:`step` runs it otherwise."""
+        if self._owed:
+            self._owed = False
+            self._network_step(self._owed_x)
+
+    def _network_step(self, x: np.ndarray) -> None:
+        self._seen += 1  # steps the residual has seen: WARMING_UP until the window's worth
+        y = self._net.step(x)
+        np.multiply(y[:3], self._y_std, out=self._residual)
+        np.add(self._residual, self._y_mean, out=self._residual)
+        if self._variance:
+            std_newton(y[3:], self._y_std, out=self._std)
 
     def reset(self) -> None:
         """Forget all history (network cache, filter, timestamps): the next sample starts over."""
@@ -296,6 +333,8 @@ class StreamingEstimator:
         self.filter.reset()
         self.anti_alias.reset()
         self._phase = 0  # input samples since the last network step, modulo the decimation
+        self._owed = False  # a network step deferred past its answer (advance)
+        self._fresh = True  # no residual yet: the first step is never deferred
         self._seen = 0
         self._tainted = 0  # outputs left that remember an extrapolating input
 
@@ -366,6 +405,7 @@ class StreamingEstimator:
         if base_frame and not hasattr(self, "_hex_rotation"):
             raise StreamingError("base-frame output needs the PSM model: construct the estimator "
                                  "with psm=psmforce.robot.PSM()")
+        self.advance()  # a step the last answer deferred comes before this sample
         read = self._read(sample, time, overload)
         if read is None:
             return self._held_estimate(Flags.INVALID_INPUT, base_frame)
@@ -401,11 +441,12 @@ class StreamingEstimator:
             if not extrapolating:
                 np.greater(inputs.x, self._hi, out=self._outside)
                 extrapolating = self._outside.any()
-            y = self._net.step(inputs.x)
-            np.multiply(y[:3], self._y_std, out=residual)
-            np.add(residual, self._y_mean, out=residual)
-            if self._variance:
-                std_newton(y[3:], self._y_std, out=std)
+            if self._fresh or not self._deferring():
+                self._network_step(inputs.x)
+            else:  # answered with the step before's residual; this one's step runs after
+                np.copyto(self._owed_x, inputs.x)
+                self._owed = True
+            self._fresh = False
         force = self._force
         if len(inputs.base):
             np.add(residual, inputs.base, out=force)
@@ -419,7 +460,6 @@ class StreamingEstimator:
         if not all(map(math.isfinite, filtered_values)):
             self._restart()
             return self._held_estimate(flags | Flags.RESET, base_frame)
-        self._seen += tick
         if extrapolating:
             self._tainted = self._memory
         if self._tainted > 0:
@@ -451,6 +491,8 @@ class StreamingEstimator:
         x, base = self.inputs.frame(frame)
         y = self.model.predict_sequence(x[::self.decimation]).astype(np.float64)
         y = np.repeat(y, self.decimation, axis=0)[:len(x)]  # each answer: the latest step
+        if self._deferring():  # each answer after the first: the step before its sample's
+            y = np.concatenate([y[:1], y[:-1]])
         force = y[:, :3] * self._y_std + self._y_mean
         if base.shape[1]:
             force = force + base
