@@ -69,6 +69,8 @@ sample is answered: force = the latest network residual + the physics base (prio
 insertion force) of the current filtered sample. Lag of an answer at ``D`` > 1: the anti-alias
 filter's group delay (:meth:`StreamingEstimator.lag_s`, 5.6 ms for a 100 Hz model) for the base,
 plus up to ``D - 1`` input periods for the residual (9 ms at 1 kHz / 100 Hz); ``D`` = 1 adds none.
+``max_gap_samples``, the gap check and the post-filter count input samples; ``window`` and
+``WARMING_UP`` count network steps.
 
 The network after the answer (``network_after_answer=True``, at ``D`` > 1). A node's answer need
 not wait for the network: the sample on which the network is due is answered with the residual
@@ -80,8 +82,6 @@ becomes 1 to ``D`` input periods instead of 0 to ``D - 1``: one input period mor
 residual (1 ms at 1 kHz), none on the base; the first sample after a (re)start still steps
 before its answer, having no residual to hold. At ``D`` = 1 every answer needs its own step, so
 the option changes nothing there.
-``max_gap_samples``, the gap check and the post-filter count input samples; ``window`` and
-``WARMING_UP`` count network steps.
 
 Uncertainty: a network that predicts its variance (:mod:`psmforce.estimators.networks.uncertainty`,
 the hybrid trained with ``{"uncertainty": true}``) gives each :class:`Estimate` a ``std_hex10``, the
@@ -296,7 +296,8 @@ class StreamingEstimator:
     def lag_s(self) -> float:
         """Lag (s) the decimation adds to an answer: the anti-alias filter's group delay at
         0 Hz, plus the mean hold of the network's residual, ``(D - 1) / 2`` input periods
-        (at most ``D - 1``); 0 when the input rate is the model's. The post-filter's own lag
+        (at most ``D - 1``), one period more with ``network_after_answer``; 0 when the input
+        rate is the model's. The post-filter's own lag
         is :meth:`psmforce.estimators.runtime.postfilter.CausalFilter.lag_samples`."""
         return self.anti_alias.lag_s() + ((self.decimation - 1) / 2 + self._deferring()) \
             / self.input_rate_hz
