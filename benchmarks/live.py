@@ -162,8 +162,9 @@ def decode_figures(frame) -> dict:
 
 def node_figures(ckpt: Path, frame, network_after_answer: bool = False) -> dict:
     from psmforce.live.node import ForceNode
-    est = StreamingEstimator.from_checkpoint(ckpt, input_rate_hz=1000.0, psm=PSM(),
-                                             network_after_answer=network_after_answer)
+    # the option only when asked: node_ab.py runs this on revisions that predate it
+    order = {"network_after_answer": True} if network_after_answer else {}
+    est = StreamingEstimator.from_checkpoint(ckpt, input_rate_hz=1000.0, psm=PSM(), **order)
     node = ForceNode(est)
     wall, cpu, after, flags = [], [], [], 0
     wall_clock, cpu_clock = time.perf_counter_ns, time.thread_time_ns
@@ -173,7 +174,8 @@ def node_figures(ckpt: Path, frame, network_after_answer: bool = False) -> dict:
         for answer in answers:
             node.encode(answer)
         w1, c1 = wall_clock(), cpu_clock()
-        est.advance()  # the step an answer deferred, as serve runs it once the answer is out
+        if network_after_answer:  # the step an answer deferred, once the answer is out
+            est.advance()
         if stream == "hex10":
             after.append(wall_clock() - w1)
             wall.append(w1 - w0)
@@ -266,7 +268,8 @@ def dds_figures(ckpt: Path, frame, seconds: float, tmp: Path, *, input_rate: boo
     node = subprocess.Popen(
         [sys.executable, "-m", "psmforce.cli.main", "serve", str(ckpt), "--domain-id", str(domain_id),
          *(["--input-rate", "1000"] if input_rate else []), "--sync-stamps", "--idle-stop", "3",
-         "--network", network, "--json", str(tmp / "node.json")], env=env, stdout=subprocess.PIPE,
+         *(["--network", network] if network != "before-answer" else []),
+         "--json", str(tmp / "node.json")], env=env, stdout=subprocess.PIPE,
         stderr=subprocess.PIPE, text=True)
     robot = burner = None
     received: dict[int, int] = {}

@@ -438,7 +438,47 @@ def latency(streaming: dict, live: dict) -> str:
             lines += [burst(live["burst_busy_core"])]
         lines += [f"| first answer after the first HEX10 message, rate measured by the node "
                   f"(no `--input-rate`) | {first:.0f} ms |"]
+    if "dds_network_after_answer" in live:  # issue 47 item 8: the network off the answer's path
+        lines += network_order(live)
     return "\n".join(lines + [""])
+
+
+def network_order(live: dict) -> list[str]:
+    """The two orders of ``serve --network``, from one run of ``benchmarks/live.py``: what the
+    node's residence and added latency are with the network's step before or after the answer
+    of the sample it is due on, and what answering first costs the estimate."""
+    def p99s(t):
+        return f"{t['median_ms']:.3f} / {t['p99_ms']:.3f} / {t['max_ms']:.2f}"
+
+    orders = {"before-answer (default)": (live["node"], live["dds"], live["dds_busy_core"]),
+              "after-answer": (live["node_network_after_answer"], live["dds_network_after_answer"],
+                               live["dds_busy_core_network_after_answer"])}
+    acc = live["network_after_answer_accuracy"]
+    lines = ["", "`serve --network`: the same run with the network's step before the answer of "
+             "the sample it is due on and after it (`after-answer` answers that sample with the "
+             "step before's residual, one input period older). Times p50 / p99 / max in ms.", "",
+             "| order | in-process, every message | in-process, messages the network is due on "
+             "| residence over DDS | node-added latency | residence, one core busy "
+             "| messages the node lost (steady; busy) |", "|---|---|---|---|---|---|---|"]
+    for name, (node, dds, busy) in orders.items():
+        lines.append(f"| {name} | {p99s(node['all'])} | {p99s(node['network_steps'])} "
+                     f"| {p99s(dds['node_residence'])} | {p99s(dds['node_added_latency'])} "
+                     f"| {p99s(busy['node_residence'])} | {dds['node_lost']:,}; "
+                     f"{busy['node_lost']:,} |")
+    after = live["node_network_after_answer"].get("after_the_answer")
+    if after:
+        lines += ["", f"The deferred step, run once the answer is written: {p99s(after)} ms."]
+    nrmse = acc["nrmse_percent"]
+    lines += ["", f"What it costs the estimate ({acc['checkpoint']}, the session above, NRMSE % "
+              "of the ATI's range):", "",
+              "| order | " + " | ".join(a.rsplit("_", 1)[-1].capitalize() for a in acc["axes"])
+              + " |",
+              "|---|" + "---|" * len(acc["axes"]),
+              "| before-answer | " + " | ".join(f"{v:.2f}" for v in nrmse["before_answer"]) + " |",
+              "| after-answer | " + " | ".join(f"{v:.2f}" for v in nrmse["after_answer"]) + " |",
+              "| the two estimates apart, RMS N | "
+              + " | ".join(f"{v:.3f}" for v in acc["difference_rms_N"]) + " |"]
+    return lines
 
 
 def node_ab(result: dict) -> str:

@@ -22,3 +22,19 @@ def test_the_window_steps_cost_is_the_ratio_of_the_runs_medians_and_only_when_me
     del streaming["paper_transformer_pipeline"]   # a run made before window models streamed
     older = latency(streaming, live)
     assert "window model's step" not in older and "paper transformer pipeline" not in older
+
+
+def test_the_network_orders_table_reads_both_orders_from_one_run_and_only_when_measured():
+    streaming, live = _committed("streaming.json"), _committed("live.json")
+    live["node_network_after_answer"]["all"]["p99_ms"] = 0.123456
+    live["dds_network_after_answer"]["node_residence"]["p99_ms"] = 7.654321
+    live["network_after_answer_accuracy"]["nrmse_percent"]["after_answer"][2] = 12.345
+    text = latency(streaming, live)
+    after = next(line for line in text.splitlines() if line.startswith("| after-answer |"))
+    assert "/ 0.123 /" in after and "/ 7.654 /" in after
+    accuracy = [line for line in text.splitlines() if line.startswith("| after-answer | ")][-1]
+    assert accuracy.endswith("| 12.35 |")
+    for key in ("dds_network_after_answer", "node_network_after_answer"):
+        del live[key]   # a run made before the option existed
+    del live["dds_busy_core_network_after_answer"], live["network_after_answer_accuracy"]
+    assert "serve --network" not in latency(streaming, live)
