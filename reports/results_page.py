@@ -428,6 +428,9 @@ def latency(streaming: dict, live: dict) -> str:
             lines += [f"| the node's residence per answer (taken off the reader to last output "
                       f"written, its own clock{goal}) | {three(own)}: goal "
                       + ("met" if d["residence_goal_met"] else "**not met**") + " |"]
+        if d.get("node_residence_writes"):  # what the DDS writes alone take of it
+            lines += [f"| of which the four DDS writes per answer (the same answers) | "
+                      f"{three(d['node_residence_writes'])} |"]
         lines += [f"| steady {live['session']['rate_hz']:.0f} Hz, {d['seconds']:.0f} s: "
                   f"messages the node lost | {d['node_lost']:,} of {d['hex10_sent']:,} |",
                   f"| one core busy, {busy['seconds']:.0f} s: messages the node lost; "

@@ -464,6 +464,9 @@ def test_a_10x_burst_loses_nothing(tmp_path):
     assert result["answers_published"] == n
     own = result["residence_ms"]  # every answer's residence, taken to written (serve, Residence)
     assert own["n"] == n and 0 < own["median_ms"] <= own["p99_ms"] <= own["max_ms"], own
+    writes = result["residence_writes_ms"]  # a share of the same answers' residences
+    assert writes["n"] == n and 0 < writes["median_ms"] <= own["median_ms"], (writes, own)
+    assert writes["max_ms"] <= own["max_ms"], (writes, own)
 
 
 def test_the_discovery_range_is_read_as_ros_2_jazzy_reads_it(monkeypatch):

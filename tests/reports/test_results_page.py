@@ -38,3 +38,12 @@ def test_the_network_orders_table_reads_both_orders_from_one_run_and_only_when_m
         del live[key]   # a run made before the option existed
     del live["dds_busy_core_network_after_answer"], live["network_after_answer_accuracy"]
     assert "serve --network" not in latency(streaming, live)
+
+
+def test_the_writes_share_of_the_residence_is_a_row_only_when_measured():
+    streaming, live = _committed("streaming.json"), _committed("live.json")
+    live["dds"]["node_residence_writes"] = {"median_ms": 0.25, "p99_ms": 0.5, "max_ms": 3.0}
+    assert "| of which the four DDS writes per answer (the same answers) | p50 0.25 ms, p99 " \
+           "0.50 ms, max 3.0 ms |" in latency(streaming, live)
+    live["dds"].pop("node_residence_writes")
+    assert "DDS writes per answer" not in latency(streaming, live)
