@@ -27,7 +27,10 @@ recordings before this study existed); ``ATI_FREE_IDENTIFICATION_SEEDS`` in
 ``psmforce/experiments/seeds.py`` are fresh, declared before the run. Resumable: the recordings
 are kept under ``--work`` and reused, and so is each case's row, by the library's code that
 wrote it only (seeds can run in separate processes sharing ``--work``, and a last command with
-every seed assembles the JSON from their rows). ``--rescore --json PATH`` judges a written JSON's misses
+every seed assembles the JSON from their rows). ``--held-values checked`` also holds what the
+held design values, each off by its tolerance, would move beyond its needed precision
+(``fit_identified(design_tolerance=DESIGN_TOLERANCE)``; its rows are kept apart and record the
+tolerances). ``--rescore --json PATH`` judges a written JSON's misses
 again by today's rule (:func:`psmforce.experiments.prior_recovery.judge`), the fits untouched.
 """
 
@@ -123,7 +126,8 @@ def _seed(seed: int, args, q_exc) -> list[dict]:
         if args.cases and label not in args.cases:
             continue
         free, loads, made = case_recordings(seed, label, args, q_exc)
-        kept = Path(made["out"]).parent / f"row_{args.crosstalk}_{_code_digest()}.json"
+        held = "_checked" if args.held_values == "checked" else ""
+        kept = Path(made["out"]).parent / f"row_{args.crosstalk}{held}_{_code_digest()}.json"
         rows.append(kept_json(kept, lambda: _case(seed, label, args, free, loads, made, tool,
                                                   truth)))
     return rows
@@ -148,10 +152,14 @@ def _case(seed: int, label: str, args, free, loads, made, tool, truth) -> dict:
                                                      with_projection)
     masses, poses = CASES[label]
     started = time.perf_counter()
-    prior = identify_instrument(free + loads, crosstalk=CROSSTALK_OPTIONS[args.crosstalk])
+    from psmforce.identification.prior_selection import DESIGN_TOLERANCE
+    checked = args.held_values == "checked"
+    prior = identify_instrument(free + loads, crosstalk=CROSSTALK_OPTIONS[args.crosstalk],
+                                design_tolerance=DESIGN_TOLERANCE if checked else None)
     row = {**compare_selection(prior, truth), "inputs": prior.inputs,
            **({"crosstalk": CROSSTALK_OPTIONS[args.crosstalk]}
-              if args.crosstalk != "reading" else {})}
+              if args.crosstalk != "reading" else {}),
+           **({"design_tolerance": DESIGN_TOLERANCE} if checked else {})}
     with_projection(row, truth, instrument_frames(free + loads), prior.wrist_compliance)
     row.update({
         "seed": seed, "case": label, "masses_kg": list(masses), "poses": poses,
@@ -226,6 +234,10 @@ def main(argv=None) -> dict:
     ap.add_argument("--crosstalk", choices=list(CROSSTALK_OPTIONS), default="reading",
                     help="the HEX10's cross-talk the identification fits (default: the load "
                          "path's, the axial column; full: its lateral columns too)")
+    ap.add_argument("--held-values", choices=("as-held", "checked"), default="as-held",
+                    help="checked: also hold what the held design values, each off by its "
+                         "tolerance (prior_selection.DESIGN_TOLERANCE), would move beyond its "
+                         "needed precision (default as-held: no such check)")
     ap.add_argument("--rescore", action="store_true",
                     help="judge the misses of --json again by today's rule "
                          "(experiments.prior_recovery.judge), the fits untouched; rewrites it")

@@ -534,7 +534,8 @@ class InternalForcePrior:
             fixed: dict[str, float] | None = None, initial: dict[str, float] | None = None,
             report: bool = True, inputs: str = "efforts",
             crosstalk: bool | str | None = None, compliance=None,
-            reference: InternalForcePrior | None = None) -> InternalForcePrior:
+            reference: InternalForcePrior | None = None,
+            held_tolerance: dict[str, float] | None = None) -> InternalForcePrior:
         """Fit on recordings (DataFrames of ``psmforce.io.recording`` or paths).
 
         Where target columns ``ati_fx..ati_fz`` exist, the known external force (HEX10 frame) is
@@ -564,6 +565,10 @@ class InternalForcePrior:
         projection of one law onto the law as ``fixed`` holds it (a parameter's truth as a held
         law can carry it, ``psmforce.experiments.prior_recovery.projected_truth``); it reads
         what ``inputs`` give, and ``info["reference"]`` records its parameters.
+        ``held_tolerance``: how far each held value may be off its truth (name -> SI), for the
+        report's check of what rests on held values (:func:`identifiability`); a friction or
+        cross-talk term held at 0 with a tolerance is read (its state, the readings) for that
+        check only, the fitted law still does without it.
         """
         import casadi as ca
 
@@ -580,8 +585,11 @@ class InternalForcePrior:
         no_friction = all(fixed.get(NAMES[i]) == 0.0 for i in _FRICTION_STATE)
         no_crosstalk = all(fixed.get(NAMES[i]) == 0.0 for i in _CROSSTALK)  # nor the readings
         # the reference law reads the friction state and the readings if it has the terms
-        read_direction = not no_friction or (reference is not None and reference.has_friction)
-        read_force = not no_crosstalk or (reference is not None and reference.has_crosstalk)
+        guarded = {n for n, t in (held_tolerance or {}).items() if t > 0} if report else set()
+        read_direction = (not no_friction or (reference is not None and reference.has_friction)
+                          or bool(guarded & {NAMES[i] for i in _FRICTION_STATE}))
+        read_force = (not no_crosstalk or (reference is not None and reference.has_crosstalk)
+                      or bool(guarded & {NAMES[i] for i in _CROSSTALK}))
         parts, axial = [], []
         sources = []
         for rec in recordings:
@@ -614,6 +622,7 @@ class InternalForcePrior:
         if reference is not None:  # the reference's law, on the same inputs and samples
             y = reference.law_arrays(pos, e, v, g, zd if reference.has_friction else None,
                                      force_read if reference.has_crosstalk else None)
+        seen = (zd, force_read)  # what the report's held-value check reads (held_tolerance)
         if no_friction:
             zd = np.zeros_like(zd)  # the fitted law reads no friction state
         if no_crosstalk:
@@ -674,9 +683,10 @@ class InternalForcePrior:
             **({"wrist_compliance": asdict(compliance)} if compliance is not None else {}),
             **({"reference": dict(zip(NAMES, map(float, reference.params)))}
                if reference is not None else {}),
-            **({"identifiability": identifiability(params, fixed, (pos, e, v, g, zd, force_read),
+            **({"identifiability": identifiability(params, fixed, (pos, e, v, g, *seen),
                                                    y, mask, ch_scale,
-                                                   efforts_read=inputs == "efforts")}
+                                                   efforts_read=inputs == "efforts",
+                                                   held_tolerance=held_tolerance)}
                if report else {}),
             "slack_samples_fraction": float(np.mean(_slack_any(prior.params, roll, e))),
             "train_metrics": channel_metrics(y, fitted, mask),

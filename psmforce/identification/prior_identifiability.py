@@ -98,8 +98,19 @@ def jacobian_grams(params, free, inputs, mask, ch_scale, chunk: int = 20000, y=N
     return gram
 
 
+def held_value_shifts(gram, n_free: int, tolerance) -> np.ndarray:
+    """(F, H) how far each of the first ``n_free`` parameters of ``gram`` ((6, F + H, F + H)
+    per channel Jacobian grams, :func:`jacobian_grams`, the free parameters then the held ones)
+    moves, to first order, when each held parameter is off by its ``tolerance`` (H,): the fit's
+    normal equations ``G_ff dp_f = -G_fh dp_h`` with G the channels' sum, as the fit weighs
+    them. Physical units of the free parameters."""
+    total = np.asarray(gram).sum(axis=0)
+    return (-np.linalg.pinv(total[:n_free, :n_free]) @ total[:n_free, n_free:]
+            * np.asarray(tolerance, dtype=float)[None, :])
+
+
 def identifiability(params, fixed, inputs, y, mask, ch_scale, chunk: int = 20000, *,
-                    efforts_read: bool = True) -> dict:
+                    efforts_read: bool = True, held_tolerance: dict | None = None) -> dict:
     """Which parameters the fitted data pin down, at the optimum ``params``.
 
     ``inputs`` = (positions, efforts, velocities, g_hex, direction[, hex10_force]); ``y``, ``mask``,
@@ -133,14 +144,24 @@ def identifiability(params, fixed, inputs, y, mask, ch_scale, chunk: int = 20000
     the law explains worse than a constant (R^2 below :data:`MIN_CHANNEL_R2`: lack of fit, the
     value then carries what the law misses); pulley radii, pretension, twist gain, bias_fz where fewer
     than 200 samples are slack by more than 3 noise standard deviations (only slack separates
-    them; the smooth max's curvature would otherwise "identify" them from noise).
+    them; the smooth max's curvature would otherwise "identify" them from noise); one that
+    rests on held design values: ``held_tolerance`` (name -> how far a held value may be off
+    its truth, SI) moves it, to first order (:func:`held_value_shifts`, the held parameters'
+    shifts added in quadrature), by more than its needed precision. A standard error sees the
+    noise only; a design value held off its truth biases every free parameter correlated with
+    it, however small their standard errors (``held_value_shift`` in the report).
     """
     pos, e, v, g = inputs[:4]
     free = [i for i, n in enumerate(NAMES) if n not in fixed]
     span = np.array([p[3] - p[2] for p in PARAMETERS])
     used = mask > 0
 
-    gram = jacobian_grams(params, free, inputs, mask, ch_scale, chunk, y)
+    held_tolerance = held_tolerance or {}
+    held = [i for i, n in enumerate(NAMES) if n in fixed and held_tolerance.get(n, 0.0) > 0.0]
+    gram_all = jacobian_grams(params, free + held, inputs, mask, ch_scale, chunk, y)
+    gram = gram_all[:, :len(free), :len(free)]
+    shifts = (held_value_shifts(gram_all, len(free), [held_tolerance[NAMES[i]] for i in held])
+              if held and free else np.zeros((len(free), 0)))
     sq, n_res = np.zeros(6), np.zeros(6)
     for start in range(0, len(pos), chunk):
         sl = slice(start, start + chunk)
@@ -227,6 +248,13 @@ def identifiability(params, fixed, inputs, y, mask, ch_scale, chunk: int = 20000
                        f"than a constant on the fitted data (R^2 "
                        f"{', '.join(f'{r2[c]:.3g}' for c in bad)}): its value carries what the "
                        f"law misses there")
+        moved = float(np.sqrt(np.sum(shifts[k] ** 2)))
+        if moved > precision_needed(name, value):
+            by = [NAMES[held[j]] for j in np.argsort(-np.abs(shifts[k]))[:3]]
+            why.append(f"rests on held design values: were they off by their tolerance, it "
+                       f"would move {moved:.2g} {unit} (first order), more than the "
+                       f"{precision_needed(name, value):.2g} it is judged by; most by "
+                       f"{', '.join(by)}")
         if name in rel and rel[name] < MIN_INPUT_RELIABILITY:
             why.append(f"errors in variables: the wrist efforts' noise leaves a reliability of "
                        f"{rel[name]:.2f} in its regressor (the pair differentials), so the fit "
@@ -260,6 +288,8 @@ def identifiability(params, fixed, inputs, y, mask, ch_scale, chunk: int = 20000
             "readings_white_noise": {c: float(x) for c, x in zip(CHANNELS, white * ch_scale)}}
            if efforts_read else {}),
         "clear_slack_samples": {"pitch": n_slack[0], "blade": n_slack[1]},
+        "held_value_shift": {NAMES[i]: float(np.sqrt(np.sum(shifts[k] ** 2)))
+                             for k, i in enumerate(free)} if held else {},
         "not_identifiable": reasons,
         "fixed": sorted(fixed),
     }

@@ -23,7 +23,12 @@ trial jackknife removes whole masses, so every refit keeps every orientation, an
 orientation alone pins down looks as precise as any; leaving that orientation out moves it. It
 runs once a round has nothing else to hold (its refits cost one per orientation), with the same
 rule (3 standard errors within the needed precision), and what it lists is held as the trial
-jackknife's is. The final
+jackknife's is. Given how far each design value may be off (``design_tolerance``, for
+example :data:`DESIGN_TOLERANCE`), every round also lists a free parameter that the held values,
+each off by that much, would move beyond its needed precision (to first order: "rests on held
+design values", :func:`~psmforce.identification.prior_identifiability.held_value_shifts`): no
+spread of the data sees the bias a held value puts on the parameters correlated with it. The
+final
 fit's ``info["selection"]`` holds each round, the fixed parameters with the reason and the value
 they had when they were listed, and ``info["verdict"]`` the one line that names the identified,
 the fixed and the at-bound parameters (:func:`verdict_line`; printed by ``psmforce fit-prior``).
@@ -90,6 +95,31 @@ without ``--tool-seed``) the instrument parameters' design values equal the benc
 construction, and the biases' design value 0 is not their truth (the tare leaves an offset);
 ``fixed`` in the report says which were held. A user holds their own instrument's values
 (``fit_identified(design=...)``)."""
+
+DESIGN_TOLERANCE = {
+    # twice the tool-to-tool spread the bench draws instruments with (InstrumentParams.sample,
+    # docs/simulator.md section 10: lognormal 0.15 pretension, 0.08 radii, 0.3 twist and path,
+    # 0.1 asymmetry, cross-talk 0.006 and 0.3 mm), where the design value is the nominal one
+    "pretension_total": 1.8, "pulley_radius_pitch": 3.2e-4, "pulley_radius_blade": 2.4e-4,
+    "twist_gain": 0.018, "asymmetry_pitch": 0.2, "asymmetry_blade": 0.2,
+    "pitch_path_tension": 0.54, "pitch_path_pretension": 0.54,
+    # a friction held at 0 ("none by design"): the real EndoWrist's friction-load slope is
+    # 0.27-0.44 over its seven folders (docs/simulator.md section 12b), sinh(mu) for a capstan
+    "capstan_mu": 0.45,
+    **dict.fromkeys(("crosstalk_fx", "crosstalk_fy"), 0.012),
+    **dict.fromkeys(("crosstalk_tx", "crosstalk_ty", "crosstalk_tz"), 6e-4),
+    **{n: 0.012 if n.split("_")[1] in ("fx", "fy", "fz") else 6e-4 for n in CROSSTALK_LATERAL},
+    # the tare's residual offset (the bench's 0.05 N per axis, twice)
+    "bias_fx": 0.1, "bias_fy": 0.1, "bias_fz": 0.1,
+}
+"""How far a design value in :data:`DESIGN` may be off an instrument's truth (SI): what the
+report's held-value check (:func:`~psmforce.identification.prior_identifiability.
+identifiability`, "rests on held design values") moves the held values by, when asked
+(``fit_identified(design_tolerance=DESIGN_TOLERANCE)``). A parameter not
+listed is not moved (design values known exactly on the bench: the distal mass and its
+distance, the cable radius, the capstan's configuration gains, the pins, the moment offsets,
+none of which is drawn per tool). A user holding their own values gives their own
+(``fit_identified(design_tolerance=...)``)."""
 
 MAX_ROUNDS = 6
 """Fit - report - fix rounds at most; the report lists what is still unidentified after them."""
@@ -194,7 +224,8 @@ def fit_identified(recordings, *, psm=None, provenance=None, design: dict | None
                    groups: int = JACKKNIFE_GROUPS, max_rounds: int = MAX_ROUNDS,
                    max_iter: int = 500, inputs: str = "efforts",
                    jackknife_labels=None, crosstalk: bool | None = None,
-                   sag_passes: int = SAG_PASSES, pose_labels=None) -> InternalForcePrior:
+                   sag_passes: int = SAG_PASSES, pose_labels=None,
+                   design_tolerance: dict | None = None) -> InternalForcePrior:
     """Fit the prior with only what the data identify free (module docstring); the rest held at
     ``design`` (default :data:`DESIGN`; a partial dict overrides some entries). ``inputs``: what
     the law reads as wrist torques (:meth:`InternalForcePrior.fit`); ``jackknife_labels``: each
@@ -203,6 +234,10 @@ def fit_identified(recordings, *, psm=None, provenance=None, design: dict | None
     orientation in a designed experiment (an int from 0, the same for every mass hung in that
     orientation), None for a recording outside the design (free space), for the orientations'
     jackknife (module docstring); with fewer than two orientations it does not run.
+    ``design_tolerance``: how far each held design value may be off (name -> SI, for example
+    :data:`DESIGN_TOLERANCE`; 0 or absent: not moved): a free parameter that the held values
+    off by that much would move beyond its needed precision is held as well ("rests on held
+    design values"); None (the default, as every committed figure was written): no such check.
 
     With the load path, the rounds sag the wrist with the design's values
     (:mod:`~psmforce.identification.load_path`); once they have nothing left to hold, the
@@ -212,6 +247,12 @@ def fit_identified(recordings, *, psm=None, provenance=None, design: dict | None
     differ by under :data:`SAG_TOLERANCE`. ``info["selection"]["sag"]`` records each pass, and
     each round the sag it took; ``sag_passes=0`` keeps the design's sag."""
     design = {**DESIGN, **(design or {})}
+    tolerance = dict(design_tolerance or {})
+    if (set(tolerance) - set(NAMES) or not all(
+            isinstance(t, (int, float)) and not isinstance(t, bool) and np.isfinite(t) and t >= 0
+            for t in tolerance.values())):
+        raise IdentificationInputError(f"design_tolerance: values must be finite numbers >= 0 "
+                                       f"for parameters of {NAMES}")
     if isinstance(sag_passes, bool) or not isinstance(sag_passes, int) or sag_passes < 0:
         raise IdentificationInputError(f"sag_passes must be an integer >= 0, got "
                                        f"{sag_passes!r}")
@@ -226,7 +267,8 @@ def fit_identified(recordings, *, psm=None, provenance=None, design: dict | None
     rounds = []
     select = dict(frames=frames, fixed=fixed, why_fixed=why_fixed, rounds=rounds, design=design,
                   psm=psm, provenance=provenance, max_rounds=max_rounds, max_iter=max_iter,
-                  inputs=inputs, groups=groups, labels=jackknife_labels, poses=poses)
+                  inputs=inputs, groups=groups, labels=jackknife_labels, poses=poses,
+                  tolerance=tolerance)
     prior = _select(compliance=None, **select)
     sag = None
     if inputs == "load_path":
@@ -247,7 +289,7 @@ def fit_identified(recordings, *, psm=None, provenance=None, design: dict | None
         "method": "fit, list the parameters the identifiability report (with the trial "
                   "jackknife) calls not identifiable, hold them at their design values, refit; "
                   "until nothing is listed",
-        "design": design, "jackknife_groups": groups if len(frames) >= groups else None,
+        "design": design, "design_tolerance": tolerance, "jackknife_groups": groups if len(frames) >= groups else None,
         "orientation_jackknife_groups": poses[1] if poses else None,
         "rounds": rounds, "fixed": why_fixed,
         "identified": [n for n in free if n not in still],
@@ -289,7 +331,7 @@ def _tiers(listed: dict) -> list[dict]:
 
 
 def _select(*, frames, fixed, why_fixed, rounds, design, psm, provenance, max_rounds, max_iter,
-            inputs, groups, labels, poses, compliance) -> InternalForcePrior:
+            inputs, groups, labels, poses, compliance, tolerance) -> InternalForcePrior:
     """Rounds of :func:`fit_identified` (fit, report with the jackknife, hold one tier of what
     it lists; the orientations' jackknife, ``poses`` from :func:`_pose_groups`, once nothing
     else is listed) with the load path's sag ``compliance`` (None: the design's), at most
@@ -301,7 +343,8 @@ def _select(*, frames, fixed, why_fixed, rounds, design, psm, provenance, max_ro
     for round_ in range(max_rounds):
         prior = InternalForcePrior.fit(frames, psm=psm, provenance=provenance, fixed=fixed,
                                        initial=start, max_iter=max_iter, inputs=inputs,
-                                       crosstalk="full", compliance=compliance)
+                                       crosstalk="full", compliance=compliance,
+                                       held_tolerance=tolerance)
         report = prior.info["identifiability"]
         jack = trial_jackknife(frames, prior, fixed, groups, psm, max_iter, inputs, labels,
                                compliance=compliance)

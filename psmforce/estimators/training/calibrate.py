@@ -171,7 +171,8 @@ def instrument_frames(trials: list[Trial]) -> list:
     return [t.frame.drop(columns=list(INSERTION_COLUMNS), errors="ignore") for t in trials]
 
 
-def identify_instrument(trials: list[Trial], crosstalk: bool | str | None = None):
+def identify_instrument(trials: list[Trial], crosstalk: bool | str | None = None,
+                        design_tolerance: dict | None = None):
     """The instrument identified from recordings whose external force is known (module
     docstring, "The instrument identified"): the load path's
     :func:`~psmforce.identification.prior_selection.fit_identified` on every trial, the
@@ -182,14 +183,16 @@ def identify_instrument(trials: list[Trial], crosstalk: bool | str | None = None
     (:func:`~psmforce.estimators.training.ati_free.hold_orientations`). Returns the
     :class:`~psmforce.identification.InternalForcePrior` (``inputs`` "load_path"); ``crosstalk``:
     the sensor's cross-talk it fits (:data:`~psmforce.identification.prior.CROSSTALK_CHOICES`;
-    None: the load path's, the axial column)."""
+    None: the load path's, the axial column); ``design_tolerance``: how far each held design
+    value may be off, for the check of what rests on them (``fit_identified``; None: none)."""
     from psmforce.identification.prior_selection import design_groups, fit_identified
     frames = instrument_frames(trials)
     masses = [t.params.get(KNOWN_LOAD_FIELD) if t.condition == KNOWN_LOAD_CONDITION else None
               for t in trials]  # each mass hangs in every pose: a replicate of the design
     return fit_identified(frames, inputs="load_path", jackknife_labels=design_groups(masses),
                           pose_labels=hold_orientations(trials),
-                          provenance={"trials": [t.path for t in trials]}, crosstalk=crosstalk)
+                          provenance={"trials": [t.path for t in trials]}, crosstalk=crosstalk,
+                          design_tolerance=design_tolerance)
 
 
 def instrument_report(prior) -> dict:
