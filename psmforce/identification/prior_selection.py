@@ -47,6 +47,10 @@ Cost: one fit and :data:`JACKKNIFE_GROUPS` warm-started refits per round (2-3 ro
 default bench), and one refit per orientation in each round that the orientations' jackknife
 judges; with the load path, a round or more per sag pass (1-2 passes on the ATI-free
 study's recordings).
+
+Size: one procedure (the rounds, the two jackknifes, the sag's fixed point) with the design
+values and their tolerances it holds and checks against, kept together because each round's
+rule reads all of them; the report it reads lives in :mod:`.prior_identifiability`.
 """
 
 from __future__ import annotations
