@@ -103,3 +103,34 @@ def test_the_orientation_sentence_names_what_that_jackknife_held():
     assert text == " The jackknife over the 8 orientations held: cable_radius."
     assert _orientation_sentence({"orientation_jackknife_groups": 16, "parameters": {
         "bias_fx": params["bias_fx"]}}).endswith("held: nothing.")
+
+
+def _identification(seed_runs: dict, crosstalk: str = "reading") -> dict:
+    """An ATI-free identification study's JSON: (seed, case) -> {name: (status, reason)}."""
+    settings = {"scale": 0.05, "free_minutes": 1.5, "excitation_minutes": 1.5,
+                "excitation_seed": 0, "hold_s": 10.0, "crosstalk": crosstalk, "json": "x.json"}
+    runs = [{"seed": seed, "case": case, "misses": [n for n, (s, _) in p.items() if s == "miss"],
+             "parameters": {n: {"status": "identified" if s == "miss" else s, "reason": r}
+                            for n, (s, r) in p.items()}}
+            for (seed, case), p in seed_runs.items()]
+    return {"command": "python studies/ati_free_identification.py", "simulator_version": "2.1",
+            "design_seed": 201, "settings": settings, "runs": runs}
+
+
+def test_the_held_values_check_is_read_against_the_same_rows_as_held():
+    from reports.ati_free_page import held_values_check_table
+    key = (433, "8 poses")
+    as_held = _identification({key: {"radius": ("miss", None), "pretension": ("identified", None),
+                                     "mass": ("fixed", "slack")},
+                               (9, "other"): {"radius": ("identified", None)}})
+    checked = _identification({key: {"radius": ("fixed", "rests on held design values: ..."),
+                                     "pretension": ("identified", None),
+                                     "mass": ("fixed", "slack")},
+                               (8, "unpaired"): {"radius": ("miss", None)}})
+    text = held_values_check_table((checked, as_held))
+    row = next(line for line in text.splitlines() if line.startswith("| 433 |"))
+    assert row == "| 433 | 8 poses | radius → none | 1 → 1 | radius |"
+    assert "| 8 |" not in text and "| 9 |" not in text   # rows only one of the two ran
+    assert "misses 1 as held, 0 checked" in text
+    with pytest.raises(ValueError, match="crosstalk"):
+        held_values_check_table((checked, _identification({key: {}}, crosstalk="full")))
