@@ -536,12 +536,11 @@ PAIRED_SETTINGS = ("scale", "free_minutes", "excitation_minutes", "excitation_se
 """The study's settings two runs share when their rows are the same recordings and fit."""
 
 
-def held_values_check_table(results: tuple) -> str:
+def held_values_check_table(checked: dict, *as_held_results: dict) -> str:
     """The identification with the check of what rests on held design values against the same
     seeds and cases without it (``studies/ati_free_identification.py --held-values checked``
     against the committed runs as held): per seed and case, the misses, the parameters
     identified within the needed precision of the truth, and what the check held."""
-    checked, *as_held_results = results
     for res in as_held_results:
         differ = [k for k in PAIRED_SETTINGS if res["settings"].get(k) != checked["settings"][k]]
         if differ or res["simulator_version"] != checked["simulator_version"]:

@@ -127,10 +127,10 @@ def test_the_held_values_check_is_read_against_the_same_rows_as_held():
                                      "pretension": ("identified", None),
                                      "mass": ("fixed", "slack")},
                                (8, "unpaired"): {"radius": ("miss", None)}})
-    text = held_values_check_table((checked, as_held))
+    text = held_values_check_table(checked, as_held)
     row = next(line for line in text.splitlines() if line.startswith("| 433 |"))
     assert row == "| 433 | 8 poses | radius → none | 1 → 1 | radius |"
     assert "| 8 |" not in text and "| 9 |" not in text   # rows only one of the two ran
     assert "misses 1 as held, 0 checked" in text
     with pytest.raises(ValueError, match="crosstalk"):
-        held_values_check_table((checked, _identification({key: {}}, crosstalk="full")))
+        held_values_check_table(checked, _identification({key: {}}, crosstalk="full"))
