@@ -45,7 +45,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from psmforce.cli.options import CROSSTALK_OPTIONS  # noqa: E402
+from psmforce.cli.options import CROSSTALK_OPTIONS, HELD_VALUES  # noqa: E402
 from psmforce.experiments.report import kept_json  # noqa: E402
 from studies.ati_free import MINUTES_SLACK, TOOL_SEED_OFFSET, _excitation  # noqa: E402
 
@@ -234,7 +234,7 @@ def main(argv=None) -> dict:
     ap.add_argument("--crosstalk", choices=list(CROSSTALK_OPTIONS), default="reading",
                     help="the HEX10's cross-talk the identification fits (default: the load "
                          "path's, the axial column; full: its lateral columns too)")
-    ap.add_argument("--held-values", choices=("as-held", "checked"), default="as-held",
+    ap.add_argument("--held-values", choices=HELD_VALUES, default="as-held",
                     help="checked: also hold what the held design values, each off by its "
                          "tolerance (prior_selection.DESIGN_TOLERANCE), would move beyond its "
                          "needed precision (default as-held: no such check)")

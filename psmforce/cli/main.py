@@ -282,6 +282,10 @@ def _parser() -> argparse.ArgumentParser:
                         "tip, each metadata.json trial entry (train/KnownLoad) with its mass as "
                         "'known_load_kg'; the force is that weight in the HEX10 frame from the "
                         "recorded joints (docs/ati_free.md)")
+    p.add_argument("--held-values", choices=options.HELD_VALUES, default="as-held",
+                   help="with --known-loads: 'checked' also holds what the design values held "
+                        "for the instrument, each off by its tolerance, would move beyond its "
+                        "needed precision (docs/identification.md section 2; default as-held)")
     training_arguments(p, "the calibration report")
     remount.add_remount_command(add)  # after a re-mount: the prior's per-mount values only
 

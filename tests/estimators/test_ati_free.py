@@ -251,3 +251,20 @@ def test_hold_orientations_are_read_from_the_held_joints():
     trials = [hold(a, "Free"), hold(a), hold(b, approach=0.3), hold(near, approach=-0.3),
               hold(b), hold(far)]
     assert hold_orientations(trials) == [None, 0, 1, 0, 1, 2]
+
+
+def test_the_held_values_check_is_asked_for_with_known_loads_only(tmp_path, capsys):
+    """``calibrate --held-values checked`` reaches the instrument's identification through the
+    load path only; without known loads it is refused by name, and the library refuses a value
+    it does not know."""
+    from psmforce.cli.main import main
+    from psmforce.cli.options import HELD_VALUES
+    from psmforce.estimators.training import calibrate as calibration
+    assert HELD_VALUES == calibration.HELD_VALUES
+    argv = ["calibrate", str(tmp_path / "m.pt"), "--data", str(tmp_path), "--out",
+            str(tmp_path / "o.pt"), "--free-space", "--held-values", "checked"]
+    assert main(argv) == 2
+    assert "--held-values: only with --known-loads" in capsys.readouterr().err
+    with pytest.raises(calibration.CalibrationError, match="held_values must be one of"):
+        calibration.calibrate(tmp_path / "m.pt", tmp_path, tmp_path / "o.pt", free_space=True,
+                              held_values="loose")

@@ -213,10 +213,16 @@ PRIOR_REFITS = ("all", "per_mount")
 """How :func:`calibrate` refits the hybrid's prior without an ATI (its ``prior_refit``)."""
 
 
+HELD_VALUES = ("as-held", "checked")
+"""What the instrument's identification does with the design values it holds
+(:func:`calibrate`'s ``held_values``)."""
+
+
 def calibrate(checkpoint: str | Path, data_dir: str | Path, out: str | Path, *,
               minutes: float = DEFAULT_MINUTES, epochs: int = 100, seed: int = 0,
               device: str = "cpu", train_config=None, free_space: bool = False,
-              known_loads: str | Path | None = None, prior_refit: str = "all") -> dict:
+              known_loads: str | Path | None = None, prior_refit: str = "all",
+              held_values: str = "as-held") -> dict:
     """Calibrate a trained checkpoint to the instrument recorded in ``data_dir`` from its first
     ``minutes`` of calibration trials (module docstring) and write ``out``. ``seed``: the validation
     split and the finetuning's shuffling; ``train_config``: a
@@ -229,7 +235,10 @@ def calibrate(checkpoint: str | Path, data_dir: str | Path, out: str | Path, *,
     checkpoint's values; ``"per_mount"``, only the pretension and the force offsets
     (:data:`~psmforce.identification.prior_remount.FORCE_PER_MOUNT`) re-estimated on the
     free-space recordings, every other parameter the checkpoint's, as after a re-mount
-    (docs/ati_free.md section 3)."""
+    (docs/ati_free.md section 3). ``held_values`` (with ``known_loads``): ``"checked"`` also
+    holds what the held design values, each off by its
+    :data:`~psmforce.identification.prior_selection.DESIGN_TOLERANCE`, would move beyond its
+    needed precision (:func:`identify_instrument`); ``"as-held"``: no such check."""
     from psmforce.identification import InternalForcePrior
     from psmforce.identification.errors import NotConvergedError
     from psmforce.identification.prior import NAMES, held_by_reading
@@ -242,6 +251,8 @@ def calibrate(checkpoint: str | Path, data_dir: str | Path, out: str | Path, *,
     if prior_refit not in PRIOR_REFITS or (prior_refit != "all" and not free_space):
         raise CalibrationError(f"prior_refit must be one of {PRIOR_REFITS} ('per_mount' only "
                                f"without an ATI, free_space=True), got {prior_refit!r}")
+    if held_values not in HELD_VALUES:
+        raise CalibrationError(f"held_values must be one of {HELD_VALUES}, got {held_values!r}")
     if known_loads is not None and not free_space:
         raise CalibrationError("known_loads: only without an ATI (free_space=True, "
                                "--free-space); an ATI calibration reads the loads it measures")
@@ -263,7 +274,9 @@ def calibrate(checkpoint: str | Path, data_dir: str | Path, out: str | Path, *,
     if loads_root is not None:
         from psmforce.identification.errors import IdentificationInputError
         try:
-            instrument = instrument_report(identify_instrument(chosen))
+            from psmforce.identification.prior_selection import DESIGN_TOLERANCE
+            instrument = instrument_report(identify_instrument(
+                chosen, design_tolerance=DESIGN_TOLERANCE if held_values == "checked" else None))
         except IdentificationInputError as err:
             raise CalibrationError(f"{known_loads}: identifying the instrument through the "
                                    f"load path: {err}") from None
