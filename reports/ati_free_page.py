@@ -555,7 +555,8 @@ def held_values_check_table(checked: dict, *as_held_results: dict) -> str:
              + "). Identified: free and within the needed precision of the truth (a miss is "
              "free and not).", "",
              "| seed | case | misses, as held → checked | identified, as held → checked "
-             "| held by the check |", "|---|---|---|---|---|"]
+             "| held with the check's reason (in the round it listed them) |",
+             "|---|---|---|---|---|"]
     totals = {"as held": [0, 0], "checked": [0, 0]}
     for run in checked["runs"]:
         before = as_held_runs.get((run["seed"], run["case"]))

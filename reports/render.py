@@ -53,6 +53,8 @@ ATI_FREE_IDENTIFICATION_LATERAL = (ROOT / "results" / "benchmarks"
                                    / "ati_free_identification_lateral.json")
 ATI_FREE_IDENTIFICATION = ROOT / "results" / "benchmarks" / "ati_free_identification.json"
 LOAD_PATH_HOLDS = ROOT / "results" / "benchmarks" / "load_path_holds.json"
+ATI_FREE_IDENTIFICATION_CHECKED = (ROOT / "results" / "benchmarks"
+                                   / "ati_free_identification_checked.json")
 ATI_FREE_IDENTIFICATION_BLIND = (ROOT / "results" / "benchmarks"
                                  / "ati_free_identification_blind.json")
 COMPARISON = ROOT / "results" / "ports" / "none" / "results.json"
@@ -219,6 +221,9 @@ BLOCKS = (
     (ATI_FREE, "instrument-identification-lateral",
      (ATI_FREE_IDENTIFICATION, ATI_FREE_IDENTIFICATION_BLIND, ATI_FREE_IDENTIFICATION_LATERAL),
      identification_page.lateral_crosstalk_table),
+    (ATI_FREE, "instrument-identification-held-check",
+     (ATI_FREE_IDENTIFICATION_CHECKED, ATI_FREE_IDENTIFICATION),
+     ati_free_page.held_values_check_table),
     (ATI_FREE, "hex10-compression", HEX10_COMPRESSION, ati_free_page.hex10_compression_table),
     (RESULTS, "hybrid-plateau", HYBRID_PLATEAU, _hybrid_plateau_table),
     (RESULTS, "prior-ablation-tables", PRIOR_ABLATION, results_page.prior_ablation_tables),
