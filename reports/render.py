@@ -55,6 +55,8 @@ ATI_FREE_IDENTIFICATION = ROOT / "results" / "benchmarks" / "ati_free_identifica
 LOAD_PATH_HOLDS = ROOT / "results" / "benchmarks" / "load_path_holds.json"
 ATI_FREE_IDENTIFICATION_CHECKED = (ROOT / "results" / "benchmarks"
                                    / "ati_free_identification_checked.json")
+ATI_FREE_IDENTIFICATION_BLIND_CHECKED = (ROOT / "results" / "benchmarks"
+                                         / "ati_free_identification_blind_checked.json")
 ATI_FREE_IDENTIFICATION_BLIND = (ROOT / "results" / "benchmarks"
                                  / "ati_free_identification_blind.json")
 COMPARISON = ROOT / "results" / "ports" / "none" / "results.json"
@@ -223,6 +225,9 @@ BLOCKS = (
      identification_page.lateral_crosstalk_table),
     (ATI_FREE, "instrument-identification-held-check",
      (ATI_FREE_IDENTIFICATION_CHECKED, ATI_FREE_IDENTIFICATION),
+     ati_free_page.held_values_check_table),
+    (ATI_FREE, "instrument-identification-held-check-blind",
+     (ATI_FREE_IDENTIFICATION_BLIND_CHECKED, ATI_FREE_IDENTIFICATION_BLIND),
      ati_free_page.held_values_check_table),
     (ATI_FREE, "hex10-compression", HEX10_COMPRESSION, ati_free_page.hex10_compression_table),
     (RESULTS, "hybrid-plateau", HYBRID_PLATEAU, _hybrid_plateau_table),
