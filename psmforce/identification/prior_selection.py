@@ -293,7 +293,8 @@ def fit_identified(recordings, *, psm=None, provenance=None, design: dict | None
         "method": "fit, list the parameters the identifiability report (with the trial "
                   "jackknife) calls not identifiable, hold them at their design values, refit; "
                   "until nothing is listed",
-        "design": design, "design_tolerance": tolerance, "jackknife_groups": groups if len(frames) >= groups else None,
+        "design": design, "design_tolerance": tolerance,
+        "jackknife_groups": groups if len(frames) >= groups else None,
         "orientation_jackknife_groups": poses[1] if poses else None,
         "rounds": rounds, "fixed": why_fixed,
         "identified": [n for n in free if n not in still],
