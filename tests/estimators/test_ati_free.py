@@ -268,3 +268,6 @@ def test_the_held_values_check_is_asked_for_with_known_loads_only(tmp_path, caps
     with pytest.raises(calibration.CalibrationError, match="held_values must be one of"):
         calibration.calibrate(tmp_path / "m.pt", tmp_path, tmp_path / "o.pt", free_space=True,
                               held_values="loose")
+    with pytest.raises(calibration.CalibrationError, match="only with known_loads"):
+        calibration.calibrate(tmp_path / "m.pt", tmp_path, tmp_path / "o.pt", free_space=True,
+                              held_values="checked")

@@ -253,6 +253,9 @@ def calibrate(checkpoint: str | Path, data_dir: str | Path, out: str | Path, *,
                                f"without an ATI, free_space=True), got {prior_refit!r}")
     if held_values not in HELD_VALUES:
         raise CalibrationError(f"held_values must be one of {HELD_VALUES}, got {held_values!r}")
+    if held_values != "as-held" and known_loads is None:
+        raise CalibrationError("held_values: only with known_loads (the instrument's "
+                               "identification through the load path)")
     if known_loads is not None and not free_space:
         raise CalibrationError("known_loads: only without an ATI (free_space=True, "
                                "--free-space); an ATI calibration reads the loads it measures")
