@@ -622,7 +622,9 @@ class InternalForcePrior:
         if reference is not None:  # the reference's law, on the same inputs and samples
             y = reference.law_arrays(pos, e, v, g, zd if reference.has_friction else None,
                                      force_read if reference.has_crosstalk else None)
-        seen = (zd, force_read)  # what the report's held-value check reads (held_tolerance)
+        # what the report reads: the held-value check (held_tolerance) also the states and
+        # readings of the terms it moves; without it, what the fitted law reads (below)
+        seen = (zd, force_read)
         if no_friction:
             zd = np.zeros_like(zd)  # the fitted law reads no friction state
         if no_crosstalk:
@@ -683,7 +685,9 @@ class InternalForcePrior:
             **({"wrist_compliance": asdict(compliance)} if compliance is not None else {}),
             **({"reference": dict(zip(NAMES, map(float, reference.params)))}
                if reference is not None else {}),
-            **({"identifiability": identifiability(params, fixed, (pos, e, v, g, *seen),
+            **({"identifiability": identifiability(params, fixed,
+                                                   (pos, e, v, g, *(seen if guarded else
+                                                                    (zd, force_read))),
                                                    y, mask, ch_scale,
                                                    efforts_read=inputs == "efforts",
                                                    held_tolerance=held_tolerance)}
