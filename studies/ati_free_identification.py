@@ -30,7 +30,9 @@ wrote it only (seeds can run in separate processes sharing ``--work``, and a las
 every seed assembles the JSON from their rows). ``--held-values checked`` also holds what the
 held design values, each off by its tolerance, would move beyond its needed precision
 (``fit_identified(design_tolerance=DESIGN_TOLERANCE)``; its rows are kept apart and record the
-tolerances). ``--rescore --json PATH`` judges a written JSON's misses
+tolerances). ``--jackknife-unit sign_pair`` leaves each sign pair of orientations out together in
+the jackknife over the weights' orientations, instead of each orientation alone (the paired
+designs' unit; rows kept apart as well). ``--rescore --json PATH`` judges a written JSON's misses
 again by today's rule (:func:`psmforce.experiments.prior_recovery.judge`), the fits untouched.
 """
 
@@ -45,7 +47,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from psmforce.cli.options import CROSSTALK_OPTIONS, HELD_VALUES  # noqa: E402
+from psmforce.cli.options import CROSSTALK_OPTIONS, HELD_VALUES, JACKKNIFE_UNITS  # noqa: E402
 from psmforce.experiments.report import kept_json  # noqa: E402
 from studies.ati_free import MINUTES_SLACK, TOOL_SEED_OFFSET, _excitation  # noqa: E402
 
@@ -127,7 +129,9 @@ def _seed(seed: int, args, q_exc) -> list[dict]:
             continue
         free, loads, made = case_recordings(seed, label, args, q_exc)
         held = "_checked" if args.held_values == "checked" else ""
-        kept = Path(made["out"]).parent / f"row_{args.crosstalk}{held}_{_code_digest()}.json"
+        unit = "" if args.jackknife_unit == "orientation" else f"_{args.jackknife_unit}"
+        kept = Path(made["out"]).parent / (f"row_{args.crosstalk}{held}{unit}_"
+                                           f"{_code_digest()}.json")
         rows.append(kept_json(kept, lambda: _case(seed, label, args, free, loads, made, tool,
                                                   truth)))
     return rows
@@ -155,7 +159,8 @@ def _case(seed: int, label: str, args, free, loads, made, tool, truth) -> dict:
     from psmforce.identification.prior_selection import DESIGN_TOLERANCE
     checked = args.held_values == "checked"
     prior = identify_instrument(free + loads, crosstalk=CROSSTALK_OPTIONS[args.crosstalk],
-                                design_tolerance=DESIGN_TOLERANCE if checked else None)
+                                design_tolerance=DESIGN_TOLERANCE if checked else None,
+                                jackknife_unit=args.jackknife_unit)
     row = {**compare_selection(prior, truth), "inputs": prior.inputs,
            **({"crosstalk": CROSSTALK_OPTIONS[args.crosstalk]}
               if args.crosstalk != "reading" else {}),
@@ -170,6 +175,7 @@ def _case(seed: int, label: str, args, free, loads, made, tool, truth) -> dict:
         "sag": prior.info["selection"]["sag"],
         "orientation_jackknife_groups": prior.info["selection"][
             "orientation_jackknife_groups"],
+        "orientation_jackknife_unit": prior.info["selection"]["orientation_jackknife_unit"],
         "capstan_mu_over_training": bench_capstan_over([t.frame for t in free + loads],
                                                        tool),
         "all_free_residual": all_free_residual(prior, free + loads)})
@@ -238,6 +244,9 @@ def main(argv=None) -> dict:
                     help="checked: also hold what the held design values, each off by its "
                          "tolerance (prior_selection.DESIGN_TOLERANCE), would move beyond its "
                          "needed precision (default as-held: no such check)")
+    ap.add_argument("--jackknife-unit", choices=JACKKNIFE_UNITS, default="orientation",
+                    help="what the jackknife over the weights' orientations leaves out at a "
+                         "time: each orientation (default) or each sign pair of them")
     ap.add_argument("--rescore", action="store_true",
                     help="judge the misses of --json again by today's rule "
                          "(experiments.prior_recovery.judge), the fits untouched; rewrites it")

@@ -286,6 +286,10 @@ def _parser() -> argparse.ArgumentParser:
                    help="with --known-loads: 'checked' also holds what the design values held "
                         "for the instrument, each off by its tolerance, would move beyond its "
                         "needed precision (docs/identification.md section 2; default as-held)")
+    p.add_argument("--jackknife-unit", choices=options.JACKKNIFE_UNITS, default="orientation",
+                   help="with --known-loads: what the jackknife over the weights' orientations "
+                        "leaves out at a time: one orientation, or a sign pair (an orientation "
+                        "and its opposite, for weights hung in sign pairs; default orientation)")
     training_arguments(p, "the calibration report")
     remount.add_remount_command(add)  # after a re-mount: the prior's per-mount values only
 

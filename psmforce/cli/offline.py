@@ -307,16 +307,18 @@ def calibrate_command(args) -> dict:
     if args.known_loads is not None and not args.free_space:
         raise ValueError("--known-loads: only with --free-space (a calibration with the ATI "
                          "measures its loads)")
-    if args.held_values != "as-held" and args.known_loads is None:
-        raise ValueError("--held-values: only with --known-loads (the instrument's "
-                         "identification through the load path)")
+    for flag, value, default in (("--held-values", args.held_values, "as-held"),
+                                 ("--jackknife-unit", args.jackknife_unit, "orientation")):
+        if value != default and args.known_loads is None:
+            raise ValueError(f"{flag}: only with --known-loads (the instrument's "
+                             f"identification through the load path)")
     if args.known_loads is not None and not Path(args.known_loads).is_dir():
         raise ValueError(f"--known-loads: {args.known_loads} is not a dataset folder")
     from psmforce.estimators.training.calibrate import calibrate
     result = calibrate(args.checkpoint, args.data, args.out, minutes=args.minutes,
                        epochs=args.epochs, seed=args.seed, device=args.device,
                        free_space=args.free_space, known_loads=args.known_loads,
-                       held_values=args.held_values)
+                       held_values=args.held_values, jackknife_unit=args.jackknife_unit)
     record = result["calibration"]
     print(f"calibrated on {len(record['trials'])} trials, {record['minutes_used']:.2f} min "
           f"(Free {record['minutes_by_condition']['Free']:.2f}, Traction "

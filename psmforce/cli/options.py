@@ -187,6 +187,10 @@ HELD_VALUES = ("as-held", "checked")
 """``--held-values`` (psmforce.estimators.training.calibrate.HELD_VALUES, without importing the
 library)."""
 
+JACKKNIFE_UNITS = ("orientation", "sign_pair")
+"""``--jackknife-unit`` (psmforce.estimators.training.ati_free.JACKKNIFE_UNITS, without importing
+the library)."""
+
 CROSSTALK_OPTIONS = {"reading": None, "none": False, "axial": True, "full": "full"}
 """``--crosstalk`` -> the fit's ``crosstalk`` (psmforce.identification.prior.CROSSTALK_CHOICES,
 without importing the library): as the reading does, none, the axial column, every force

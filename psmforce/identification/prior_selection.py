@@ -23,7 +23,9 @@ trial jackknife removes whole masses, so every refit keeps every orientation, an
 orientation alone pins down looks as precise as any; leaving that orientation out moves it. It
 runs once a round has nothing else to hold (its refits cost one per orientation), with the same
 rule (3 standard errors within the needed precision), and what it lists is held as the trial
-jackknife's is. Given how far each design value may be off (``design_tolerance``, for
+jackknife's is. In a paired design (each orientation hung beside its opposite) the unit can be
+the pair (``pose_unit="sign_pair"``): one orientation left out alone leaves its opposite
+unbalanced, which moves the terms the pair's difference cancels. Given how far each design value may be off (``design_tolerance``, for
 example :data:`DESIGN_TOLERANCE`), every round also lists a free parameter that the held values,
 each off by that much, would move beyond its needed precision (to first order: "rests on held
 design values", :func:`~psmforce.identification.prior_identifiability.held_value_shifts`): no
@@ -62,7 +64,8 @@ import numpy as np
 from psmforce.identification.errors import IdentificationInputError
 from psmforce.identification.prior import (HELD_BY_READING_REASON, held_by_reading,
                                            InternalForcePrior)
-from psmforce.identification.prior_identifiability import RECOVERY_TOLERANCE, add_trial_spread
+from psmforce.identification.prior_identifiability import (JACKKNIFE_OVER, RECOVERY_TOLERANCE,
+                                                        add_trial_spread)
 from psmforce.identification.prior_law import CROSSTALK_LATERAL, NAMES, at_bound
 from psmforce.io.recording import read_recording
 
@@ -229,6 +232,7 @@ def fit_identified(recordings, *, psm=None, provenance=None, design: dict | None
                    max_iter: int = 500, inputs: str = "efforts",
                    jackknife_labels=None, crosstalk: bool | None = None,
                    sag_passes: int = SAG_PASSES, pose_labels=None,
+                   pose_unit: str = "orientation",
                    design_tolerance: dict | None = None) -> InternalForcePrior:
     """Fit the prior with only what the data identify free (module docstring); the rest held at
     ``design`` (default :data:`DESIGN`; a partial dict overrides some entries). ``inputs``: what
@@ -238,6 +242,9 @@ def fit_identified(recordings, *, psm=None, provenance=None, design: dict | None
     orientation in a designed experiment (an int from 0, the same for every mass hung in that
     orientation), None for a recording outside the design (free space), for the orientations'
     jackknife (module docstring); with fewer than two orientations it does not run.
+    ``pose_unit``: what one of those labels groups, ``"orientation"`` or ``"sign_pair"`` (an
+    orientation and its opposite, a paired design's unit:
+    :func:`~psmforce.estimators.training.ati_free.hold_orientations`), for the reason it gives.
     ``design_tolerance``: how far each held design value may be off (name -> SI, for example
     :data:`DESIGN_TOLERANCE`; 0 or absent: not moved): a free parameter that the held values
     off by that much would move beyond its needed precision is held as well ("rests on held
@@ -264,7 +271,7 @@ def fit_identified(recordings, *, psm=None, provenance=None, design: dict | None
     if unknown:
         raise IdentificationInputError(f"design: unknown parameters {unknown} (one of {NAMES})")
     frames = _frames(recordings)
-    poses = _pose_groups(pose_labels, len(frames))
+    poses = _pose_groups(pose_labels, len(frames), pose_unit)
     fixed = held_by_reading(inputs, crosstalk)
     why_fixed = {n: {"value": x, "reason": HELD_BY_READING_REASON[n], "fitted_when_listed": None,
                      "round": 0} for n, x in fixed.items()}
@@ -296,6 +303,7 @@ def fit_identified(recordings, *, psm=None, provenance=None, design: dict | None
         "design": design, "design_tolerance": tolerance,
         "jackknife_groups": groups if len(frames) >= groups else None,
         "orientation_jackknife_groups": poses[1] if poses else None,
+        "orientation_jackknife_unit": poses[2] if poses else None,
         "rounds": rounds, "fixed": why_fixed,
         "identified": [n for n in free if n not in still],
         "still_not_identifiable": still,
@@ -306,9 +314,13 @@ def fit_identified(recordings, *, psm=None, provenance=None, design: dict | None
     return prior
 
 
-def _pose_groups(pose_labels, n_frames: int):
-    """(labels, number of orientations) for the orientations' jackknife, or None when
-    ``pose_labels`` is None or names fewer than two orientations."""
+def _pose_groups(pose_labels, n_frames: int, unit: str):
+    """(labels, number of groups, ``unit``) for the orientations' jackknife, or None when
+    ``pose_labels`` is None or names fewer than two groups."""
+    if unit not in JACKKNIFE_OVER or unit == "trials":
+        raise IdentificationInputError(f"pose_unit must be one of "
+                                       f"{[u for u in JACKKNIFE_OVER if u != 'trials']}, "
+                                       f"got {unit!r}")
     if pose_labels is None:
         return None
     labels = list(pose_labels)
@@ -321,7 +333,7 @@ def _pose_groups(pose_labels, n_frames: int):
     if len(used) < 2:
         return None
     rank = {g: k for k, g in enumerate(used)}
-    return [None if g is None else rank[g] for g in labels], len(used)
+    return [None if g is None else rank[g] for g in labels], len(used), unit
 
 
 def _tiers(listed: dict) -> list[dict]:
@@ -360,7 +372,7 @@ def _select(*, frames, fixed, why_fixed, rounds, design, psm, provenance, max_ro
             pose_jack = trial_jackknife(frames, prior, fixed, poses[1], psm, max_iter, inputs,
                                         poses[0], compliance=compliance)
             if pose_jack is not None:
-                add_trial_spread(report, prior.params, pose_jack, poses[1], over="orientation")
+                add_trial_spread(report, prior.params, pose_jack, poses[1], over=poses[2])
             to_fix = next((t for t in _tiers(report["not_identifiable"]) if t), {})
         listed = dict(report["not_identifiable"])
         rounds.append({"fixed": sorted(fixed), "converged": prior.converged,

@@ -253,6 +253,31 @@ def test_hold_orientations_are_read_from_the_held_joints():
     assert hold_orientations(trials) == [None, 0, 1, 0, 1, 2]
 
 
+def test_sign_pairs_group_each_orientation_with_its_opposite():
+    """Unit "sign_pair": an orientation and its opposite (the same arm pose and roll, the
+    wrist's pitch and yaw negated) share a label, whatever mass hangs in either; a straight
+    wrist, an orientation whose opposite is not held, and one that differs in roll stay alone;
+    free space gets None."""
+    from psmforce.estimators.training.ati_free import (JACKKNIFE_UNITS, CalibrationError,
+                                                       hold_orientations)
+    from psmforce.identification.prior_identifiability import JACKKNIFE_OVER
+    rng = np.random.default_rng(1)
+
+    def hold(roll, pitch, yaw, condition=KNOWN_LOAD_CONDITION):
+        q = np.tile(np.r_[0.3, 0.2, 0.15, roll, pitch, yaw, 0.0], (60, 1)) + 1e-3 * (
+            rng.standard_normal((60, 7)))
+        return Trial(path="x.csv", condition=condition, split="train",
+                     frame=pd.DataFrame(q, columns=list(JOINT_POSITIONS)))
+    trials = [hold(0, 0.7, 0, "Free"), hold(0, 0.7, 0.7), hold(1.57, 0.7, 0),
+              hold(0, -0.7, -0.7), hold(0, 0, 0), hold(-1.57, -0.7, 0), hold(0, 0.7, 0.7),
+              hold(1.57, -0.7, 0), hold(0, 0, 0.7)]
+    assert hold_orientations(trials) == [None, 0, 1, 2, 3, 4, 0, 5, 6]
+    assert hold_orientations(trials, "sign_pair") == [None, 0, 1, 0, 2, 3, 0, 1, 4]
+    assert set(JACKKNIFE_UNITS) == set(JACKKNIFE_OVER) - {"trials"}
+    with pytest.raises(CalibrationError, match="unit must be one of"):
+        hold_orientations(trials, "pair")
+
+
 def test_the_held_values_check_is_asked_for_with_known_loads_only(tmp_path, capsys):
     """``calibrate --held-values checked`` reaches the instrument's identification through the
     load path only; without known loads it is refused by name, and the library refuses a value
@@ -271,3 +296,22 @@ def test_the_held_values_check_is_asked_for_with_known_loads_only(tmp_path, caps
     with pytest.raises(calibration.CalibrationError, match="only with known_loads"):
         calibration.calibrate(tmp_path / "m.pt", tmp_path, tmp_path / "o.pt", free_space=True,
                               held_values="checked")
+
+
+def test_the_sign_pair_jackknife_is_asked_for_with_known_loads_only(tmp_path, capsys):
+    """``calibrate --jackknife-unit sign_pair`` is refused by name without known loads, by the
+    CLI and by the library, and the library refuses a unit it does not know."""
+    from psmforce.cli.main import main
+    from psmforce.cli.options import JACKKNIFE_UNITS
+    from psmforce.estimators.training import calibrate as calibration
+    assert JACKKNIFE_UNITS == calibration.JACKKNIFE_UNITS
+    argv = ["calibrate", str(tmp_path / "m.pt"), "--data", str(tmp_path), "--out",
+            str(tmp_path / "o.pt"), "--free-space", "--jackknife-unit", "sign_pair"]
+    assert main(argv) == 2
+    assert "--jackknife-unit: only with --known-loads" in capsys.readouterr().err
+    with pytest.raises(calibration.CalibrationError, match="jackknife_unit must be one of"):
+        calibration.calibrate(tmp_path / "m.pt", tmp_path, tmp_path / "o.pt", free_space=True,
+                              jackknife_unit="pairs")
+    with pytest.raises(calibration.CalibrationError, match="jackknife_unit: only with"):
+        calibration.calibrate(tmp_path / "m.pt", tmp_path, tmp_path / "o.pt", free_space=True,
+                              jackknife_unit="sign_pair")

@@ -326,6 +326,19 @@ def test_the_orientations_jackknife_holds_a_term_one_orientation_pins(monkeypatc
     # one orientation is no design to leave out of: the jackknife does not run
     assert fit_identified(frames, pose_labels=[None] * 4 + [0] * 6).info["selection"][
         "orientation_jackknife_groups"] is None
+    # a sign pair as the unit: orientations 0 and 1 leave together, and the reason says so
+    seen.clear()
+    pairs = [None] * 4 + [{0: 0, 1: 0, 2: 1}[p] for _, p in holds]
+    sel = fit_identified(frames, jackknife_labels=groups, pose_labels=pairs,
+                         pose_unit="sign_pair").info["selection"]
+    assert sel["fixed"]["cable_radius"]["reason"].startswith(
+        "rests on the sign pairs of orientations the loads hang in")
+    assert sel["orientation_jackknife_groups"] == 2
+    assert sel["orientation_jackknife_unit"] == "sign_pair"
+    assert [sorted(set(f) - set(free)) for f in seen[5:7]] == [
+        [h for h in holds if h[1] == 2], [h for h in holds if h[1] != 2]]
+    with pytest.raises(IdentificationInputError, match="pose_unit must be one of"):
+        fit_identified(frames, pose_labels=pairs, pose_unit="trials")
 
 
 def test_a_jackknife_over_orientations_names_itself():

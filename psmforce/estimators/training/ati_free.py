@@ -182,13 +182,21 @@ ORIENTATION_TOLERANCE_RAD = 0.05
 _HELD_JOINTS = (0, 1, 3, 4, 5)  # yaw, pitch, roll, wrist pitch, wrist yaw: what turns the weight
 
 
-def hold_orientations(trials: list[Trial]) -> list[int | None]:
-    """Each trial's orientation for the orientations' jackknife (``fit_identified(...,
-    pose_labels=...)``): known-load holds (:data:`KNOWN_LOAD_CONDITION`) whose joints, as held
-    (the median over the recording's second half, after any move into the pose), agree within
-    :data:`ORIENTATION_TOLERANCE_RAD` share a label (0, 1, ... in order of first appearance);
-    every other trial (free space) gets None. Read from the recordings, so a lab's own holds
-    need no pose field in their metadata."""
+def hold_orientations(trials: list[Trial], unit: str = "orientation") -> list[int | None]:
+    """Each trial's group for the orientations' jackknife (``fit_identified(...,
+    pose_labels=..., pose_unit=unit)``): known-load holds (:data:`KNOWN_LOAD_CONDITION`) whose
+    joints, as held (the median over the recording's second half, after any move into the
+    pose), agree within :data:`ORIENTATION_TOLERANCE_RAD` share a label (0, 1, ... in order of
+    first appearance); every other trial (free space) gets None. Read from the recordings, so a
+    lab's own holds need no pose field in their metadata.
+
+    ``unit`` (:data:`JACKKNIFE_UNITS`): ``"orientation"``, each orientation its own group;
+    ``"sign_pair"``, an orientation and its opposite (the same arm pose and roll, the wrist's
+    pitch and yaw negated: a paired design's two halves, :data:`psmforce.cli.excitation.
+    WEIGHT_WRIST_POSES_PAIRED`) one group, labelled in order of the pair's first appearance;
+    an orientation without its opposite among the holds stays a group alone."""
+    if unit not in JACKKNIFE_UNITS:
+        raise CalibrationError(f"unit must be one of {JACKKNIFE_UNITS}, got {unit!r}")
     columns = [JOINT_POSITIONS[j] for j in _HELD_JOINTS]
     centres: list[np.ndarray] = []
     labels: list[int | None] = []
@@ -204,4 +212,32 @@ def hold_orientations(trials: list[Trial]) -> list[int | None]:
             centres.append(held)
             match = len(centres) - 1
         labels.append(match)
-    return labels
+    if unit == "orientation":
+        return labels
+    group = _sign_pairs(centres)
+    rank = {g: k for k, g in enumerate(dict.fromkeys(group[k] for k in labels if k is not None))}
+    return [None if k is None else rank[group[k]] for k in labels]
+
+
+JACKKNIFE_UNITS = ("orientation", "sign_pair")
+"""What the orientations' jackknife leaves out at a time (:func:`hold_orientations`)."""
+
+
+def _sign_pairs(centres: list[np.ndarray]) -> list[int]:
+    """Per orientation (held joints as :data:`_HELD_JOINTS`), the index of the first orientation
+    of its sign pair: the same yaw, pitch and roll, the wrist's pitch and yaw negated, within
+    :data:`ORIENTATION_TOLERANCE_RAD`. A straight wrist is its own opposite and stays alone, and
+    each orientation pairs at most once."""
+    mirror = np.array([1.0, 1.0, 1.0, -1.0, -1.0])
+    group = list(range(len(centres)))
+    paired: set[int] = set()
+    for k, c in enumerate(centres):
+        if k in paired:
+            continue
+        partner = next((m for m in range(k + 1, len(centres)) if m not in paired
+                        and np.max(np.abs(centres[m] - mirror * c)) < ORIENTATION_TOLERANCE_RAD
+                        and np.max(np.abs(c[3:])) >= ORIENTATION_TOLERANCE_RAD), None)
+        if partner is not None:
+            group[partner] = k
+            paired |= {k, partner}
+    return group

@@ -63,8 +63,8 @@ import numpy as np
 
 from psmforce.estimators.training.ati_free import (  # noqa: F401  (re-exported: the module's API)
     KNOWN_LOAD_CONDITION, KNOWN_LOAD_FIELD, MAX_FREE_SPACE_FORCE_N, MIN_FREE_SPACE_TRIALS,
-    CalibrationError,
-    check_minutes, free_space_trials, hold_orientations, known_load_trials, trial_minutes)
+    CalibrationError, JACKKNIFE_UNITS, check_minutes, free_space_trials, hold_orientations,
+    known_load_trials, trial_minutes)
 from psmforce.estimators.training.checkpoint import load_checkpoint
 from psmforce.estimators.data.dataset import (Dataset, Trial, load_dataset, split_validation,
                                               trajectory_group)
@@ -172,7 +172,8 @@ def instrument_frames(trials: list[Trial]) -> list:
 
 
 def identify_instrument(trials: list[Trial], crosstalk: bool | str | None = None,
-                        design_tolerance: dict | None = None):
+                        design_tolerance: dict | None = None,
+                        jackknife_unit: str = "orientation"):
     """The instrument identified from recordings whose external force is known (module
     docstring, "The instrument identified"): the load path's
     :func:`~psmforce.identification.prior_selection.fit_identified` on every trial, the
@@ -184,13 +185,16 @@ def identify_instrument(trials: list[Trial], crosstalk: bool | str | None = None
     :class:`~psmforce.identification.InternalForcePrior` (``inputs`` "load_path"); ``crosstalk``:
     the sensor's cross-talk it fits (:data:`~psmforce.identification.prior.CROSSTALK_CHOICES`;
     None: the load path's, the axial column); ``design_tolerance``: how far each held design
-    value may be off, for the check of what rests on them (``fit_identified``; None: none)."""
+    value may be off, for the check of what rests on them (``fit_identified``; None: none);
+    ``jackknife_unit``: what the second jackknife leaves out at a time, an orientation or a sign
+    pair of them (:data:`~psmforce.estimators.training.ati_free.JACKKNIFE_UNITS`)."""
     from psmforce.identification.prior_selection import design_groups, fit_identified
     frames = instrument_frames(trials)
     masses = [t.params.get(KNOWN_LOAD_FIELD) if t.condition == KNOWN_LOAD_CONDITION else None
               for t in trials]  # each mass hangs in every pose: a replicate of the design
     return fit_identified(frames, inputs="load_path", jackknife_labels=design_groups(masses),
-                          pose_labels=hold_orientations(trials),
+                          pose_labels=hold_orientations(trials, jackknife_unit),
+                          pose_unit=jackknife_unit,
                           provenance={"trials": [t.path for t in trials]}, crosstalk=crosstalk,
                           design_tolerance=design_tolerance)
 
@@ -222,7 +226,7 @@ def calibrate(checkpoint: str | Path, data_dir: str | Path, out: str | Path, *,
               minutes: float = DEFAULT_MINUTES, epochs: int = 100, seed: int = 0,
               device: str = "cpu", train_config=None, free_space: bool = False,
               known_loads: str | Path | None = None, prior_refit: str = "all",
-              held_values: str = "as-held") -> dict:
+              held_values: str = "as-held", jackknife_unit: str = "orientation") -> dict:
     """Calibrate a trained checkpoint to the instrument recorded in ``data_dir`` from its first
     ``minutes`` of calibration trials (module docstring) and write ``out``. ``seed``: the validation
     split and the finetuning's shuffling; ``train_config``: a
@@ -238,7 +242,11 @@ def calibrate(checkpoint: str | Path, data_dir: str | Path, out: str | Path, *,
     (docs/ati_free.md section 3). ``held_values`` (with ``known_loads``): ``"checked"`` also
     holds what the held design values, each off by its
     :data:`~psmforce.identification.prior_selection.DESIGN_TOLERANCE`, would move beyond its
-    needed precision (:func:`identify_instrument`); ``"as-held"``: no such check."""
+    needed precision (:func:`identify_instrument`); ``"as-held"``: no such check.
+    ``jackknife_unit`` (with ``known_loads``): what the identification's jackknife over the
+    weights' orientations leaves out at a time, ``"orientation"`` or ``"sign_pair"`` (an
+    orientation with its opposite, for a paired design:
+    :func:`~psmforce.estimators.training.ati_free.hold_orientations`)."""
     from psmforce.identification import InternalForcePrior
     from psmforce.identification.errors import NotConvergedError
     from psmforce.identification.prior import NAMES, held_by_reading
@@ -253,9 +261,14 @@ def calibrate(checkpoint: str | Path, data_dir: str | Path, out: str | Path, *,
                                f"without an ATI, free_space=True), got {prior_refit!r}")
     if held_values not in HELD_VALUES:
         raise CalibrationError(f"held_values must be one of {HELD_VALUES}, got {held_values!r}")
-    if held_values != "as-held" and known_loads is None:
-        raise CalibrationError("held_values: only with known_loads (the instrument's "
-                               "identification through the load path)")
+    if jackknife_unit not in JACKKNIFE_UNITS:
+        raise CalibrationError(f"jackknife_unit must be one of {JACKKNIFE_UNITS}, got "
+                               f"{jackknife_unit!r}")
+    for name, value, default in (("held_values", held_values, "as-held"),
+                                 ("jackknife_unit", jackknife_unit, "orientation")):
+        if value != default and known_loads is None:
+            raise CalibrationError(f"{name}: only with known_loads (the instrument's "
+                                   f"identification through the load path)")
     if known_loads is not None and not free_space:
         raise CalibrationError("known_loads: only without an ATI (free_space=True, "
                                "--free-space); an ATI calibration reads the loads it measures")
@@ -279,7 +292,8 @@ def calibrate(checkpoint: str | Path, data_dir: str | Path, out: str | Path, *,
         try:
             from psmforce.identification.prior_selection import DESIGN_TOLERANCE
             instrument = instrument_report(identify_instrument(
-                chosen, design_tolerance=DESIGN_TOLERANCE if held_values == "checked" else None))
+                chosen, design_tolerance=DESIGN_TOLERANCE if held_values == "checked" else None,
+                jackknife_unit=jackknife_unit))
         except IdentificationInputError as err:
             raise CalibrationError(f"{known_loads}: identifying the instrument through the "
                                    f"load path: {err}") from None
