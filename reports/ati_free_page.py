@@ -495,10 +495,12 @@ def _orientation_sentence(run: dict) -> str:
     groups = run.get("orientation_jackknife_groups")
     if groups is None:
         return ""
-    words = JACKKNIFE_OVER["orientation"][0]
+    unit = run.get("orientation_jackknife_unit") or "orientation"
+    words = JACKKNIFE_OVER[unit][0]
     held = [n for n, r in run["parameters"].items()
             if r["status"] == "fixed" and words in (r.get("reason") or "")]
-    return (f" The jackknife over the {groups} orientations held: "
+    return (f" The jackknife over the {groups} "
+            f"{'orientations' if unit == 'orientation' else 'sign pairs of orientations'} held: "
             f"{', '.join(held) if held else 'nothing'}.")
 
 
@@ -541,45 +543,81 @@ def held_values_check_table(checked: dict, *as_held_results: dict) -> str:
     seeds and cases without it (``studies/ati_free_identification.py --held-values checked``
     against the committed runs as held): per seed and case, the misses, the parameters
     identified within the needed precision of the truth, and what the check held."""
-    for res in as_held_results:
-        differ = [k for k in PAIRED_SETTINGS if res["settings"].get(k) != checked["settings"][k]]
-        if differ or res["simulator_version"] != checked["simulator_version"]:
+    return _variant_table(checked, as_held_results, names=("as held", "checked"),
+                          against="as held", held_words=HELD_CHECK_WORDS, also_same=(),
+                          when="the check was added after seeing seed 433's eight-pose misses",
+                          held_column="held with the check's reason (in the round it listed "
+                                      "them)")
+
+
+def sign_pair_jackknife_table(pairs: dict, *orientation_results: dict) -> str:
+    """The identification with the jackknife over the weights' orientations left out by sign
+    pair (``studies/ati_free_identification.py --jackknife-unit sign_pair``) against the same
+    seeds and cases with each orientation left out alone: per seed and case, the misses, the
+    parameters identified within the needed precision of the truth, and what the pairs'
+    jackknife held."""
+    from psmforce.identification.prior_identifiability import JACKKNIFE_OVER
+    return _variant_table(pairs, orientation_results, names=("orientations", "sign pairs"),
+                          against="with each orientation left out alone", held_words=JACKKNIFE_OVER["sign_pair"][0], also_same=("held_values",),
+                          when="the pairs' unit was tried after the orientations' jackknife "
+                               "had held the radii on some of these rows",
+                          held_column="held by the sign pairs' jackknife")
+
+
+_SETTING_DEFAULTS = {"held_values": "as-held", "jackknife_unit": "orientation"}
+"""A study setting a run written before it existed ran at."""
+
+
+def _variant_table(variant: dict, baselines, *, names: tuple[str, str], against: str,
+                   held_words: str, also_same: tuple[str, ...], when: str,
+                   held_column: str) -> str:
+    """One variant of the identification against the same seeds and cases of ``baselines``
+    (refused unless they share the recordings and fit: :data:`PAIRED_SETTINGS` and
+    ``also_same``): per row the misses and the parameters identified within the needed
+    precision, ``names`` (baseline, variant), and what the variant held with a reason
+    containing ``held_words``; rows only one side ran are left out."""
+    def setting(result, key):
+        return result["settings"].get(key, _SETTING_DEFAULTS.get(key))
+    for res in baselines:
+        differ = [k for k in (*PAIRED_SETTINGS, *also_same)
+                  if setting(res, k) != setting(variant, k)]
+        if differ or res["simulator_version"] != variant["simulator_version"]:
             raise ValueError(f"{res['settings']['json']}: not the same recordings and fit as "
-                             f"the checked run ({differ or 'simulator version'} differ)")
-    as_held_runs = {(r["seed"], r["case"]): r for res in as_held_results for r in res["runs"]}
-    lines = ["", f"`{checked['command']}` (simulator {checked['simulator_version']}; seed "
-             f"{checked['design_seed']} is the design seed; the check was added after seeing "
-             "seed 433's eight-pose misses) against the same seeds and cases as held "
-             "(the tables above: "
-             + ", ".join(f"`{res['settings']['json']}`" for res in as_held_results)
+                             f"the {names[1]} run ({differ or 'simulator version'} differ)")
+    before_runs = {(r["seed"], r["case"]): r for res in baselines for r in res["runs"]}
+    lines = ["", f"`{variant['command']}` (simulator {variant['simulator_version']}; seed "
+             f"{variant['design_seed']} is the design seed; {when}) against the same seeds and "
+             f"cases {against} (the tables above: "
+             + ", ".join(f"`{res['settings']['json']}`" for res in baselines)
              + "). Identified: free and within the needed precision of the truth (a miss is "
              "free and not).", "",
-             "| seed | case | misses, as held → checked | identified, as held → checked "
-             "| held with the check's reason (in the round it listed them) |",
+             f"| seed | case | misses, {names[0]} → {names[1]} | identified, {names[0]} → "
+             f"{names[1]} | {held_column} |",
              "|---|---|---|---|---|"]
-    totals = {"as held": [0, 0], "checked": [0, 0]}
-    for run in checked["runs"]:
-        before = as_held_runs.get((run["seed"], run["case"]))
+    totals = {name: [0, 0] for name in names}
+
+    def counts(r):
+        good = [n for n, p in r["parameters"].items()
+                if p["status"] == "identified" and n not in r["misses"]]
+        return r["misses"], good
+    for run in variant["runs"]:
+        before = before_runs.get((run["seed"], run["case"]))
         if before is None:
             continue
-
-        def counts(r):
-            good = [n for n, p in r["parameters"].items()
-                    if p["status"] == "identified" and n not in r["misses"]]
-            return r["misses"], good
         (miss0, good0), (miss1, good1) = counts(before), counts(run)
-        totals["as held"][0] += len(miss0)
-        totals["as held"][1] += len(good0)
-        totals["checked"][0] += len(miss1)
-        totals["checked"][1] += len(good1)
+        for name, miss, good in ((names[0], miss0, good0), (names[1], miss1, good1)):
+            totals[name][0] += len(miss)
+            totals[name][1] += len(good)
         held = [n for n, p in run["parameters"].items()
-                if p["status"] == "fixed" and HELD_CHECK_WORDS in (p.get("reason") or "")]
+                if p["status"] == "fixed" and held_words in (p.get("reason") or "")]
         lost = [n for n in good0 if n not in good1]
+        gained = [n for n in good1 if n not in good0]
         lines.append(f"| {run['seed']} | {run['case']} | {', '.join(miss0) or 'none'} → "
                      f"{', '.join(miss1) or 'none'} | {len(good0)} → {len(good1)}"
                      + (f" (no longer: {', '.join(lost)})" if lost else "")
+                     + (f" (now also: {', '.join(gained)})" if gained else "")
                      + f" | {', '.join(held) or 'nothing'} |")
-    lines += ["", f"Over these rows: misses {totals['as held'][0]} as held, "
-              f"{totals['checked'][0]} checked; parameters identified within the needed "
-              f"precision {totals['as held'][1]} as held, {totals['checked'][1]} checked."]
+    lines += ["", f"Over these rows: misses {totals[names[0]][0]} {names[0]}, "
+              f"{totals[names[1]][0]} {names[1]}; parameters identified within the needed "
+              f"precision {totals[names[0]][1]} {names[0]}, {totals[names[1]][1]} {names[1]}."]
     return "\n".join(lines + [""])

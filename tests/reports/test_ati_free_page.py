@@ -134,3 +134,26 @@ def test_the_held_values_check_is_read_against_the_same_rows_as_held():
     assert "misses 1 as held, 0 checked" in text
     with pytest.raises(ValueError, match="crosstalk"):
         held_values_check_table(checked, _identification({key: {}}, crosstalk="full"))
+
+
+def test_the_sign_pair_jackknife_is_read_against_the_same_rows_by_orientation():
+    """The pairs' table pairs rows by seed and case, names what the pairs' jackknife held and
+    what it identifies that the orientations' did not, and refuses a baseline whose held values
+    were checked (another fit)."""
+    from reports.ati_free_page import sign_pair_jackknife_table
+    key = (434, "16 paired poses")
+    by_orientation = _identification({key: {
+        "radius": ("fixed", "rests on the orientations the loads hang in: ..."),
+        "pretension": ("identified", None), "bias": ("identified", None)}})
+    pairs = _identification({key: {
+        "radius": ("identified", None), "pretension": ("identified", None),
+        "bias": ("fixed", "rests on the sign pairs of orientations the loads hang in: ...")}})
+    text = sign_pair_jackknife_table(pairs, by_orientation)
+    row = next(line for line in text.splitlines() if line.startswith("| 434 |"))
+    assert row == ("| 434 | 16 paired poses | none → none | 2 → 2 (no longer: bias) "
+                   "(now also: radius) | bias |")
+    assert "misses 0 orientations, 0 sign pairs" in text
+    checked = {**by_orientation, "settings": {**by_orientation["settings"],
+                                              "held_values": "checked"}}
+    with pytest.raises(ValueError, match="held_values"):
+        sign_pair_jackknife_table(pairs, checked)
