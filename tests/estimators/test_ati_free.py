@@ -278,40 +278,26 @@ def test_sign_pairs_group_each_orientation_with_its_opposite():
         hold_orientations(trials, "pair")
 
 
-def test_the_held_values_check_is_asked_for_with_known_loads_only(tmp_path, capsys):
-    """``calibrate --held-values checked`` reaches the instrument's identification through the
-    load path only; without known loads it is refused by name, and the library refuses a value
-    it does not know."""
+@pytest.mark.parametrize("option, choices, asked, unknown", [
+    ("held_values", "HELD_VALUES", "checked", "loose"),
+    ("jackknife_unit", "JACKKNIFE_UNITS", "sign_pair", "pairs")])
+def test_the_identifications_options_are_asked_for_with_known_loads_only(
+        tmp_path, capsys, option, choices, asked, unknown):
+    """``calibrate --held-values checked`` and ``--jackknife-unit sign_pair`` reach the
+    instrument's identification through the load path only; without known loads each is
+    refused by name, by the CLI and by the library, and the library refuses a value it does not
+    know. The CLI's choices are the library's."""
+    from psmforce.cli import options
     from psmforce.cli.main import main
-    from psmforce.cli.options import HELD_VALUES
     from psmforce.estimators.training import calibrate as calibration
-    assert HELD_VALUES == calibration.HELD_VALUES
+    assert getattr(options, choices) == getattr(calibration, choices)
+    flag = "--" + option.replace("_", "-")
     argv = ["calibrate", str(tmp_path / "m.pt"), "--data", str(tmp_path), "--out",
-            str(tmp_path / "o.pt"), "--free-space", "--held-values", "checked"]
+            str(tmp_path / "o.pt"), "--free-space", flag, asked]
     assert main(argv) == 2
-    assert "--held-values: only with --known-loads" in capsys.readouterr().err
-    with pytest.raises(calibration.CalibrationError, match="held_values must be one of"):
-        calibration.calibrate(tmp_path / "m.pt", tmp_path, tmp_path / "o.pt", free_space=True,
-                              held_values="loose")
-    with pytest.raises(calibration.CalibrationError, match="only with known_loads"):
-        calibration.calibrate(tmp_path / "m.pt", tmp_path, tmp_path / "o.pt", free_space=True,
-                              held_values="checked")
-
-
-def test_the_sign_pair_jackknife_is_asked_for_with_known_loads_only(tmp_path, capsys):
-    """``calibrate --jackknife-unit sign_pair`` is refused by name without known loads, by the
-    CLI and by the library, and the library refuses a unit it does not know."""
-    from psmforce.cli.main import main
-    from psmforce.cli.options import JACKKNIFE_UNITS
-    from psmforce.estimators.training import calibrate as calibration
-    assert JACKKNIFE_UNITS == calibration.JACKKNIFE_UNITS
-    argv = ["calibrate", str(tmp_path / "m.pt"), "--data", str(tmp_path), "--out",
-            str(tmp_path / "o.pt"), "--free-space", "--jackknife-unit", "sign_pair"]
-    assert main(argv) == 2
-    assert "--jackknife-unit: only with --known-loads" in capsys.readouterr().err
-    with pytest.raises(calibration.CalibrationError, match="jackknife_unit must be one of"):
-        calibration.calibrate(tmp_path / "m.pt", tmp_path, tmp_path / "o.pt", free_space=True,
-                              jackknife_unit="pairs")
-    with pytest.raises(calibration.CalibrationError, match="jackknife_unit: only with"):
-        calibration.calibrate(tmp_path / "m.pt", tmp_path, tmp_path / "o.pt", free_space=True,
-                              jackknife_unit="sign_pair")
+    assert f"{flag}: only with --known-loads" in capsys.readouterr().err
+    paths = (tmp_path / "m.pt", tmp_path, tmp_path / "o.pt")
+    with pytest.raises(calibration.CalibrationError, match=f"{option} must be one of"):
+        calibration.calibrate(*paths, free_space=True, **{option: unknown})
+    with pytest.raises(calibration.CalibrationError, match=f"{option}: only with known_loads"):
+        calibration.calibrate(*paths, free_space=True, **{option: asked})
