@@ -558,7 +558,8 @@ def sign_pair_jackknife_table(pairs: dict, *orientation_results: dict) -> str:
     jackknife held."""
     from psmforce.identification.prior_identifiability import JACKKNIFE_OVER
     return _variant_table(pairs, orientation_results, names=("orientations", "sign pairs"),
-                          against="with each orientation left out alone", held_words=JACKKNIFE_OVER["sign_pair"][0], also_same=("held_values",),
+                          against="with each orientation left out alone",
+                          held_words=JACKKNIFE_OVER["sign_pair"][0], also_same=("held_values",),
                           when="the pairs' unit was tried after the orientations' jackknife "
                                "had held the radii on some of these rows",
                           held_column="held by the sign pairs' jackknife")

@@ -354,12 +354,12 @@ def add_trial_spread(report: dict, params, jackknife_se: dict[str, float], group
     ``jackknife_se``: per free parameter, the delete-a-group jackknife standard error over
     ``groups`` groups (:func:`psmforce.identification.prior_selection.trial_jackknife`);
     ``over``: what a group holds, :data:`JACKKNIFE_OVER` (whole trials, or the known loads'
-    orientations, alone or in sign pairs). Unlike the sandwich standard errors it needs no noise model: whatever varies
-    between trials (coloured effort disturbance, the discs' stuck state, sensor drift, effects
-    outside the law that each trial excites differently), or between the poses a design holds,
-    moves the refits. A parameter whose 3 jackknife standard errors exceed
-    :func:`precision_needed` joins ``not_identifiable`` with that reason (or has it appended);
-    the standard errors are kept under ``jackknife_standard_errors`` (trials) or
+    orientations, alone or in sign pairs). Unlike the sandwich standard errors it needs no
+    noise model: whatever varies between trials (coloured effort disturbance, the discs' stuck
+    state, sensor drift, effects outside the law that each trial excites differently), or
+    between the poses a design holds, moves the refits. A parameter whose 3 jackknife standard
+    errors exceed :func:`precision_needed` joins ``not_identifiable`` with that reason (or has
+    it appended); the standard errors are kept under ``jackknife_standard_errors`` (trials) or
     ``<over>_jackknife_standard_errors``."""
     if over not in JACKKNIFE_OVER:
         raise ValueError(f"over must be one of {sorted(JACKKNIFE_OVER)}, got {over!r}")

@@ -18,22 +18,22 @@ ones (standard errors, jackknife), then those only tied to a listed parameter: a
 free bias_fz.
 
 A designed experiment (known weights hung in a few orientations, every mass in every one) adds a
-second jackknife (``pose_labels``): each orientation left out with every mass hung in it. The
-trial jackknife removes whole masses, so every refit keeps every orientation, and a term that one
-orientation alone pins down looks as precise as any; leaving that orientation out moves it. It
-runs once a round has nothing else to hold (its refits cost one per orientation), with the same
-rule (3 standard errors within the needed precision), and what it lists is held as the trial
-jackknife's is. In a paired design (each orientation hung beside its opposite) the unit can be
-the pair (``pose_unit="sign_pair"``): one orientation left out alone leaves its opposite
-unbalanced, which moves the terms the pair's difference cancels. Given how far each design value may be off (``design_tolerance``, for
-example :data:`DESIGN_TOLERANCE`), every round also lists a free parameter that the held values,
-each off by that much, would move beyond its needed precision (to first order: "rests on held
-design values", :func:`~psmforce.identification.prior_identifiability.held_value_shifts`): no
-spread of the data sees the bias a held value puts on the parameters correlated with it. The
-final
-fit's ``info["selection"]`` holds each round, the fixed parameters with the reason and the value
-they had when they were listed, and ``info["verdict"]`` the one line that names the identified,
-the fixed and the at-bound parameters (:func:`verdict_line`; printed by ``psmforce fit-prior``).
+second jackknife (``pose_labels``): each orientation left out with every mass hung in it. The trial
+jackknife removes whole masses, so every refit keeps every orientation, and a term that one
+orientation alone pins down looks as precise as any; leaving that orientation out moves it. It runs
+once a round has nothing else to hold (its refits cost one per orientation), with the same rule (3
+standard errors within the needed precision), and what it lists is held as the trial jackknife's is.
+In a paired design (each orientation hung beside its opposite) the unit can be the pair
+(``pose_unit="sign_pair"``): one orientation left out alone leaves its opposite unbalanced, which
+moves the terms the pair's difference cancels. Given how far each design value may be off
+(``design_tolerance``, for example :data:`DESIGN_TOLERANCE`), every round also lists a free
+parameter that the held values, each off by that much, would move beyond its needed precision (to
+first order: "rests on held design values",
+:func:`~psmforce.identification.prior_identifiability.held_value_shifts`): no spread of the data
+sees the bias a held value puts on the parameters correlated with it. The final fit's
+``info["selection"]`` holds each round, the fixed parameters with the reason and the value they had
+when they were listed, and ``info["verdict"]`` the one line that names the identified, the fixed and
+the at-bound parameters (:func:`verdict_line`; printed by ``psmforce fit-prior``).
 
 Read through the load path, the tip force's moments are taken where the wrist sags, and the sag
 depends on the law's own pretension, radii and friction (:mod:`~psmforce.identification.
