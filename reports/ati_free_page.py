@@ -586,8 +586,11 @@ def _variant_table(variant: dict, baselines, *, names: tuple[str, str], against:
             raise ValueError(f"{res['settings']['json']}: not the same recordings and fit as "
                              f"the {names[1]} run ({differ or 'simulator version'} differ)")
     before_runs = {(r["seed"], r["case"]): r for res in baselines for r in res["runs"]}
-    lines = ["", f"`{variant['command']}` (simulator {variant['simulator_version']}; seed "
-             f"{variant['design_seed']} is the design seed; {when}) against the same seeds and "
+    seeds = ((f"seed {variant['design_seed']} is the design seed")
+             if variant["design_seed"] in variant["settings"].get("seeds", ()) else
+             "no design seed among them")
+    lines = ["", f"`{variant['command']}` (simulator {variant['simulator_version']}; {seeds}; "
+             f"{when}) against the same seeds and "
              f"cases {against} (the tables above: "
              + ", ".join(f"`{res['settings']['json']}`" for res in baselines)
              + "). Identified: free and within the needed precision of the truth (a miss is "

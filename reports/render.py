@@ -61,6 +61,8 @@ ATI_FREE_IDENTIFICATION_BLIND = (ROOT / "results" / "benchmarks"
                                  / "ati_free_identification_blind.json")
 ATI_FREE_IDENTIFICATION_PAIRS = (ROOT / "results" / "benchmarks"
                                  / "ati_free_identification_pairs.json")
+ATI_FREE_IDENTIFICATION_BLIND_PAIRS = (ROOT / "results" / "benchmarks"
+                                       / "ati_free_identification_blind_pairs.json")
 COMPARISON = ROOT / "results" / "ports" / "none" / "results.json"
 PORTS = ROOT / "results" / "benchmarks" / "port_comparison.json"
 ANOTHER_TOOL = ROOT / "results" / "benchmarks" / "another_tool.json"
@@ -233,6 +235,9 @@ BLOCKS = (
      ati_free_page.held_values_check_table),
     (ATI_FREE, "instrument-identification-sign-pairs",
      (ATI_FREE_IDENTIFICATION_PAIRS, ATI_FREE_IDENTIFICATION),
+     ati_free_page.sign_pair_jackknife_table),
+    (ATI_FREE, "instrument-identification-sign-pairs-blind",
+     (ATI_FREE_IDENTIFICATION_BLIND_PAIRS, ATI_FREE_IDENTIFICATION_BLIND),
      ati_free_page.sign_pair_jackknife_table),
     (ATI_FREE, "hex10-compression", HEX10_COMPRESSION, ati_free_page.hex10_compression_table),
     (RESULTS, "hybrid-plateau", HYBRID_PLATEAU, _hybrid_plateau_table),

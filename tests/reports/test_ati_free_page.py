@@ -153,6 +153,9 @@ def test_the_sign_pair_jackknife_is_read_against_the_same_rows_by_orientation():
     assert row == ("| 434 | 16 paired poses | none → none | 2 → 2 (no longer: bias) "
                    "(now also: radius) | bias |")
     assert "misses 0 orientations, 0 sign pairs" in text
+    assert "no design seed among them" in text  # the fixture's seeds are 434 only
+    with_design = {**pairs, "settings": {**pairs["settings"], "seeds": [201, 434]}}
+    assert "seed 201 is the design seed" in sign_pair_jackknife_table(with_design, by_orientation)
     checked = {**by_orientation, "settings": {**by_orientation["settings"],
                                               "held_values": "checked"}}
     with pytest.raises(ValueError, match="held_values"):
