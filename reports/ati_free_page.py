@@ -261,6 +261,7 @@ ATI_FREE_ROWS = {
     "free": "(a) ATI-free: free space", "free+self": "(b) ATI-free: + self-loading",
     "free+self+weights": "(c) ATI-free: + known weights",
     "free+self+paired": "(c') ATI-free: + the identifying weights",
+    "identified:free+self+paired": "(c'') as (c'), the identified instrument in the prior",
     "per_mount:free+self": "(b') as (b), the prior refitted per mount only",
     "network_alone:free": "network alone, (a)'s data", "network_alone:free+self": "network alone, (b)'s data",
     "network_alone:free+self+weights": "network alone, (c)'s data",
@@ -268,6 +269,7 @@ ATI_FREE_ROWS = {
     "physics_alone:free": "physics alone, (a)'s prior", "physics_alone:free+self": "physics alone, (b)'s prior",
     "physics_alone:free+self+weights": "physics alone, (c)'s prior",
     "physics_alone:free+self+paired": "physics alone, (c')'s prior",
+    "physics_alone:identified:free+self+paired": "physics alone, (c'')'s prior",
     "ati_same_minutes": "(d) ATI: (c)'s minutes",
     "ati_same_minutes_paired": "(d') ATI: (c')'s minutes", "ati_full": "(e) ATI: full data",
     "source": "source hybrid (other tool), as is"}
@@ -290,7 +292,8 @@ def _fresh_seed_goals(result: dict) -> list[str]:
     before any run on them): per goal arm and reference, each fresh seed's largest error ratio
     over both metrics and the three axes, against the goal."""
     from studies.ati_free import FRESH_SEEDS, GOALS, same_minutes
-    fresh = [str(s) for s in FRESH_SEEDS if str(s) in result["records"]]
+    declared = result.get("fresh_seeds", FRESH_SEEDS)  # a run written before the field: these
+    fresh = [str(s) for s in declared if str(s) in result["records"]]
     if not fresh:
         return []
     lines = ["", f"On the fresh seeds alone ({', '.join(fresh)}, declared in the study before "
@@ -356,11 +359,14 @@ def ati_free_tables(result: dict) -> str:
     lines += _fresh_seed_goals(result)
     lines += ["", "The prior's parameters against the bench's (the drawn tool; relative error "
               "per seed; held: kept at the source model's value, in (a)-(c) because the data "
-              "could not pin it down, in (b') by design):", "",
+              "could not pin it down, in (b') by design"
+              + ("; load path: held at the instrument's identified value"
+                 if any("identified:free+self+paired" in result["runs"][k] for k in seeds)
+                 else "") + "):", "",
               "| arm | parameter | truth (seed " + seeds[0] + ") | status per seed "
               "| relative error per seed | within 10 % |", "|---|---|---|---|---|---|"]
     for arm in ("free", "free+self", "free+self+weights", "free+self+paired",
-                "per_mount:free+self"):
+                "identified:free+self+paired", "per_mount:free+self"):
         if any(arm not in result["runs"][k] for k in seeds):  # a study run before the arm
             continue
         per_seed = [result["runs"][k][arm]["prior_against_truth"] for k in seeds]
@@ -379,13 +385,52 @@ def ati_free_tables(result: dict) -> str:
     return "\n".join(lines) + "\n"
 
 
+def _effect_rows(rows) -> tuple[list[str], dict[str, list[str]]]:
+    """Table rows of paired ratios, one per ``(label, a, b)`` (``a``, ``b``: per seed, the
+    row's ``{metric: {axis: NRMSE}}``), a over b per metric and axis, and the cells by verdict."""
+    from psmforce.experiments.paired import paired_by_axis
+    lines, verdicts = [], {}
+    for label, a, b in rows:
+        cells = []
+        for m in ("causal", "paper"):
+            ratios = paired_by_axis([x[m] for x in a], [x[m] for x in b], ERROR_AXES)
+            cells += [_paired(r.to_dict()) for r in ratios.values()]
+            for axis, r in ratios.items():
+                verdicts.setdefault(r.verdict, []).append(f"{label}, {m} {axis}")
+        lines.append(f"| {label} | " + " | ".join(cells) + " |")
+    return lines, verdicts
+
+
+def identified_effect_table(result: dict) -> str:
+    """What carrying the instrument's identification into the estimator's prior changes: (c'')
+    over (c') on the same bench seeds, the calibrated hybrid and the physics alone, geometric
+    mean ratio [95 % t interval on log ratios] per axis and metric, and the cells whose interval
+    lies wholly below or above 1."""
+    from studies.ati_free import IDENTIFIED_ARM, PAIRED_ARM
+    seeds = [k for k, r in result["records"].items() if IDENTIFIED_ARM in r and PAIRED_ARM in r]
+    lines = ["", f"(c'') over (c'), the same row on the same bench seeds ({', '.join(seeds)}): "
+             "geometric mean [95 % t interval on log ratios]; below 1: carrying the "
+             "identification helps.", "",
+             "| row | causal Fx | causal Fy | causal Fz | paper Fx | paper Fy | paper Fz |",
+             "|---|---|---|---|---|---|---|"]
+    table, verdicts = _effect_rows(
+        (label, [result["records"][k][prefix + IDENTIFIED_ARM]["nrmse_pct"] for k in seeds],
+         [result["records"][k][prefix + PAIRED_ARM]["nrmse_pct"] for k in seeds])
+        for prefix, label in (("", "the calibrated hybrid"), ("physics_alone:", "physics alone")))
+    lines += table
+    lines += ["", "Intervals wholly below 1 (carrying helps): "
+              + ("; ".join(verdicts.get("ahead", [])) or "none") + ".", "",
+              "Intervals wholly above 1 (carrying hurts): "
+              + ("; ".join(verdicts.get("behind", [])) or "none") + "."]
+    return "\n".join(lines) + "\n"
+
+
 def crosstalk_effect_table(held: dict, fitted: dict) -> str:
     """Each row of the ATI-free study with the HEX10's cross-talk fitted in every hybrid's prior
     (``fitted``, ``--prior-crosstalk``) over the same row with it held (``held``), paired on
     the bench seeds both ran: geometric mean ratio [95 % t interval on log ratios] per axis and
     metric, then the cells whose interval lies wholly below or above 1. Refused for studies
     whose settings differ."""
-    from psmforce.experiments.paired import paired_by_axis
     same = ("scale", "free_minutes", "excitation_minutes", "excitation_seed", "masses", "hold_s",
             "calibration_epochs", "quick")
     differ = [k for k in same if held["settings"].get(k) != fitted["settings"].get(k)]
@@ -399,19 +444,12 @@ def crosstalk_effect_table(held: dict, fitted: dict) -> str:
              "log ratios]; below 1: the term helps.", "",
              "| row | causal Fx | causal Fy | causal Fz | paper Fx | paper Fy | paper Fz |",
              "|---|---|---|---|---|---|---|"]
-    verdicts = {}
-    for key, label in ATI_FREE_ROWS.items():
-        if not all(key in held["records"][k] and key in fitted["records"][k] for k in seeds):
-            continue
-        cells = []
-        for m in ("causal", "paper"):
-            ratios = paired_by_axis([fitted["records"][k][key]["nrmse_pct"][m] for k in seeds],
-                                    [held["records"][k][key]["nrmse_pct"][m] for k in seeds],
-                                    ERROR_AXES)
-            cells += [_paired(r.to_dict()) for r in ratios.values()]
-            for a, r in ratios.items():
-                verdicts.setdefault(r.verdict, []).append(f"{label}, {m} {a}")
-        lines.append(f"| {label} | " + " | ".join(cells) + " |")
+    table, verdicts = _effect_rows(
+        (label, [fitted["records"][k][key]["nrmse_pct"] for k in seeds],
+         [held["records"][k][key]["nrmse_pct"] for k in seeds])
+        for key, label in ATI_FREE_ROWS.items()
+        if all(key in held["records"][k] and key in fitted["records"][k] for k in seeds))
+    lines += table
     lines += ["", "Intervals wholly below 1 (the term helps): "
               + ("; ".join(verdicts.get("ahead", [])) or "none") + ".", "",
               "Intervals wholly above 1 (the term hurts): "
@@ -563,6 +601,20 @@ def sign_pair_jackknife_table(pairs: dict, *orientation_results: dict) -> str:
                           when="the pairs' unit was tried after the orientations' jackknife "
                                "had held the radii on some of these rows",
                           held_column="held by the sign pairs' jackknife")
+
+
+def both_guards_table(both: dict, *pairs_results: dict) -> str:
+    """The identification with both guards (``--jackknife-unit sign_pair --held-values
+    checked``) against the same seeds and cases with the sign pairs' jackknife alone: per seed
+    and case, the misses, the parameters identified within the needed precision of the truth,
+    and what the check of the held values held on top of the pairs."""
+    return _variant_table(both, pairs_results, names=("sign pairs", "sign pairs + checked"),
+                          against="with the sign pairs' jackknife alone",
+                          held_words=HELD_CHECK_WORDS, also_same=("jackknife_unit",),
+                          when="both guards together were run after each had been seen alone "
+                               "on these rows",
+                          held_column="held with the check's reason (in the round it listed "
+                                      "them)")
 
 
 _SETTING_DEFAULTS = {"held_values": "as-held", "jackknife_unit": "orientation"}

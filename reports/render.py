@@ -63,6 +63,8 @@ ATI_FREE_IDENTIFICATION_PAIRS = (ROOT / "results" / "benchmarks"
                                  / "ati_free_identification_pairs.json")
 ATI_FREE_IDENTIFICATION_BLIND_PAIRS = (ROOT / "results" / "benchmarks"
                                        / "ati_free_identification_blind_pairs.json")
+ATI_FREE_IDENTIFICATION_BLIND_PAIRS_CHECKED = (
+    ROOT / "results" / "benchmarks" / "ati_free_identification_blind_pairs_checked.json")
 COMPARISON = ROOT / "results" / "ports" / "none" / "results.json"
 PORTS = ROOT / "results" / "benchmarks" / "port_comparison.json"
 ANOTHER_TOOL = ROOT / "results" / "benchmarks" / "another_tool.json"
@@ -239,6 +241,9 @@ BLOCKS = (
     (ATI_FREE, "instrument-identification-sign-pairs-blind",
      (ATI_FREE_IDENTIFICATION_BLIND_PAIRS, ATI_FREE_IDENTIFICATION_BLIND),
      ati_free_page.sign_pair_jackknife_table),
+    (ATI_FREE, "instrument-identification-both-guards-blind",
+     (ATI_FREE_IDENTIFICATION_BLIND_PAIRS_CHECKED, ATI_FREE_IDENTIFICATION_BLIND_PAIRS),
+     ati_free_page.both_guards_table),
     (ATI_FREE, "hex10-compression", HEX10_COMPRESSION, ati_free_page.hex10_compression_table),
     (RESULTS, "hybrid-plateau", HYBRID_PLATEAU, _hybrid_plateau_table),
     (RESULTS, "prior-ablation-tables", PRIOR_ABLATION, results_page.prior_ablation_tables),

@@ -77,7 +77,7 @@ FRESH_SEEDS = (204, 205)
 cross-talk option, the rule that a free-space refit never holds a sensor offset); 204 and 205
 were declared here, unseen, before any run of the study on them."""
 GOALS = {"free+self+weights": 1.3, "free+self+paired": 1.3, "free+self": 1.5,
-         "per_mount:free+self": 1.5}
+         "per_mount:free+self": 1.5, "identified:free+self+paired": 1.3}
 """Arm -> the largest error ratio against an ATI-trained hybrid the issue accepts, per axis."""
 ATI_FREE = ("free", "free+self", "free+self+weights", "free+self+paired")
 REFERENCES = ("ati_same_minutes", "ati_same_minutes_paired", "ati_full")
@@ -116,12 +116,25 @@ prior_refit="per_mount")``). Added after (b)'s results on seeds 201-203 were see
 most of the law, the pretension among it): a choice made on those seeds."""
 
 
+IDENTIFIED_ARM = "identified:" + PAIRED_ARM
+"""(c')'s recordings with the instrument's identification carried into the estimator's prior:
+what the load path identified held at its identified values, the rest refitted on the efforts
+(``calibrate(..., prior_refit="identified")``). Added after every other arm had been seen on
+seeds 201-205 (section 4's reading: "the identification the weights make possible does not reach
+the estimator"); :data:`IDENTIFIED_FRESH_SEEDS` were declared for it before any run on them."""
+IDENTIFIED_FRESH_SEEDS = (206, 207, 208)
+"""Bench seeds declared for :data:`IDENTIFIED_ARM` before any run of the study on them."""
+ARM_SETS = {"all": "every arm",
+            "identified": "(c'), (c'') and what they are paired with: the source hybrid, (d') "
+                          "and (e), the physics alone of (c') and (c'')"}
+"""``--arms``: which rows a run computes (the others are left out of its tables)."""
+
+
 def rows() -> list[str]:
     """Every row of the table: the ATI-free arms, their ablations, the references, the source."""
-    return (list(ATI_FREE) + [PER_MOUNT_ARM] + [f"{v}:{a}" for v in ("network_alone",
-                                                                     "physics_alone")
-                                                for a in ATI_FREE]
-            + list(REFERENCES) + ["source"])
+    return (list(ATI_FREE) + [PER_MOUNT_ARM, IDENTIFIED_ARM]
+            + [f"{v}:{a}" for v in ("network_alone", "physics_alone") for a in ATI_FREE]
+            + ["physics_alone:" + IDENTIFIED_ARM] + list(REFERENCES) + ["source"])
 
 
 def paired_table(records: dict[int, dict], against: str, names=None) -> dict:
@@ -168,11 +181,13 @@ def goal_misses(paired: dict) -> dict:
 
 
 def prior_against_truth(after: dict[str, float], truth: dict[str, float | None],
-                        held: dict[str, float], by_reading=()) -> dict:
+                        held: dict[str, float], by_reading=(), carried=()) -> dict:
     """Per parameter: truth (None: no counterpart on the bench), fitted, relative error (None
     where the truth is None or 0), status (``held`` from the checkpoint: not identifiable from
     the data; ``held by the reading``: ``by_reading``, the law's term the fit never frees, such
-    as the cross-talk without ``--prior-crosstalk``; ``no counterpart``; ``fitted``) and whether a fitted one recovers the truth
+    as the cross-talk without ``--prior-crosstalk``; ``load path``: ``carried``, held at the
+    instrument's identified value, judged as a fitted one; ``no counterpart``; ``fitted``) and
+    whether a fitted one recovers the truth
     (:func:`~psmforce.identification.prior_identifiability.recovered`: within
     10 %, an offset within the sensor's resolution; None for a constant
     whose truth is 0)."""
@@ -181,9 +196,10 @@ def prior_against_truth(after: dict[str, float], truth: dict[str, float | None],
     for name, value in after.items():
         true = truth.get(name)
         rel = abs(value / true - 1.0) if true not in (None, 0.0) else None
-        status = ("held" if name in held else "held by the reading" if name in by_reading
+        status = ("held" if name in held else "load path" if name in carried
+                  else "held by the reading" if name in by_reading
                   else "no counterpart" if true is None else "fitted")
-        judged = status == "fitted" and (rel is not None or is_offset(name))
+        judged = status in ("fitted", "load path") and (rel is not None or is_offset(name))
         table[name] = {"truth": true, "fitted": float(value), "relative_error": rel,
                        "absolute_error": None if true is None else abs(value - true),
                        "status": status,
@@ -274,7 +290,7 @@ def _calibrate(ckpt: Path, data: Path, out: Path, seed: int, args, minutes: floa
                                                    "epochs_run", "converged", "stopped_by")},
             "prior": None if prior is None else {
                 k: prior[k] for k in ("parameters_after", "held_from_checkpoint",
-                                      "held_by_reading")},
+                                      "held_by_reading", "held_at_identified")},
             "instrument": None if instrument is None else {
                 k: instrument[k] for k in ("parameters", "identified", "at_bound", "verdict")}}
 
@@ -316,9 +332,11 @@ def _seed(seed: int, args, q_exc: np.ndarray) -> tuple[dict, dict]:
     runs = {"minutes": made["minutes"], "left_out_unsafe": made["left_out_unsafe"],
             "minutes_paired": made_paired["minutes"],
             "left_out_unsafe_paired": made_paired["left_out_unsafe"]}
+    full = args.arms == "all"   # else what the identified arm is paired with (ARM_SETS)
     runs["source_hybrid"] = _train(source, work / "source_hybrid.pt", seed, args)
-    runs["source_network"] = _train(source, work / "source_network.pt", seed, args,
-                                    use_prior=False)
+    if full:
+        runs["source_network"] = _train(source, work / "source_network.pt", seed, args,
+                                        use_prior=False)
     runs["ati_full"] = _train(tool, work / "tool_hybrid.pt", seed, args)
     records = {"source": kept_json(work / "records" / "source.json",
                                lambda: _score(work / "source_hybrid.pt", tool)),
@@ -327,8 +345,11 @@ def _seed(seed: int, args, q_exc: np.ndarray) -> tuple[dict, dict]:
     exc_minutes = made["minutes"]["excitation"] + MINUTES_SLACK
     truth = default_bench_truth(InstrumentParams().sample(tool_seed, 1.0))
     for arm, spec in arms(args.free_minutes + MINUTES_SLACK, exc_minutes).items():
+        if not full and arm != PAIRED_ARM:
+            continue
         loads = loads_dir[spec["known_loads"]]
-        for variant, ckpt in (("", "source_hybrid.pt"), ("network_alone:", "source_network.pt")):
+        for variant, ckpt in (("", "source_hybrid.pt"),
+                              ("network_alone:", "source_network.pt"))[:2 if full else 1]:
             name = variant + arm
             out = work / "arms" / (name.replace(":", "_").replace("+", "_") + ".pt")
             runs[name] = kept_json(out.with_suffix(".cal.json"), lambda: _calibrate(
@@ -344,20 +365,34 @@ def _seed(seed: int, args, q_exc: np.ndarray) -> tuple[dict, dict]:
                 runs[name]["prior_against_truth"] = prior_against_truth(
                     prior["parameters_after"], truth, prior["held_from_checkpoint"],
                     prior["held_by_reading"])
-    out = work / "arms" / "per_mount_free_self.pt"
-    spec = arms(args.free_minutes + MINUTES_SLACK, exc_minutes)["free+self"]
-    runs[PER_MOUNT_ARM] = kept_json(out.with_suffix(".cal.json"), lambda: _calibrate(
+    if full:
+        out = work / "arms" / "per_mount_free_self.pt"
+        spec = arms(args.free_minutes + MINUTES_SLACK, exc_minutes)["free+self"]
+        runs[PER_MOUNT_ARM] = kept_json(out.with_suffix(".cal.json"), lambda: _calibrate(
+            work / "source_hybrid.pt", free_dir / FREE_SPACE, out, seed, args,
+            spec["minutes"], free_space=True, prior_refit="per_mount"))
+        records[PER_MOUNT_ARM] = kept_json(work / "records" / f"{out.stem}.json",
+                                           lambda: _score(out, tool))
+        prior = runs[PER_MOUNT_ARM]["prior"]
+        runs[PER_MOUNT_ARM]["prior_against_truth"] = prior_against_truth(
+            prior["parameters_after"], truth, prior["held_from_checkpoint"],
+            prior["held_by_reading"])
+    out = work / "arms" / "identified_free_self_paired.pt"
+    spec = arms(args.free_minutes + MINUTES_SLACK, exc_minutes)[PAIRED_ARM]
+    runs[IDENTIFIED_ARM] = kept_json(out.with_suffix(".cal.json"), lambda: _calibrate(
         work / "source_hybrid.pt", free_dir / FREE_SPACE, out, seed, args, spec["minutes"],
-        free_space=True, prior_refit="per_mount"))
-    records[PER_MOUNT_ARM] = kept_json(work / "records" / f"{out.stem}.json",
-                                       lambda: _score(out, tool))
-    prior = runs[PER_MOUNT_ARM]["prior"]
-    runs[PER_MOUNT_ARM]["prior_against_truth"] = prior_against_truth(
+        free_space=True, known_loads=loads_dir["paired"], prior_refit="identified"))
+    records[IDENTIFIED_ARM] = kept_json(work / "records" / f"{out.stem}.json",
+                                        lambda: _score(out, tool))
+    records["physics_alone:" + IDENTIFIED_ARM] = kept_json(
+        work / "records" / f"{out.stem}_physics.json", lambda: _score_physics(out, tool))
+    prior = runs[IDENTIFIED_ARM]["prior"]
+    runs[IDENTIFIED_ARM]["prior_against_truth"] = prior_against_truth(
         prior["parameters_after"], truth, prior["held_from_checkpoint"],
-        prior["held_by_reading"])
+        prior["held_by_reading"], prior["held_at_identified"])
     available = sum(map(_minutes_of, _ati_pool(tool)))
     for ref, arm in (("ati_same_minutes", "free+self+weights"),
-                     ("ati_same_minutes_paired", PAIRED_ARM)):
+                     ("ati_same_minutes_paired", PAIRED_ARM))[0 if full else 1:]:
         wanted = runs[arm]["calibration"]["minutes_used"]
         minutes = min(wanted, available)
         out = work / "arms" / f"{ref}.pt"
@@ -414,6 +449,9 @@ def main(argv=None) -> dict:
                     help="(c')'s known masses (kg), each hung in the sixteen paired poses, "
                          "approached (default 0.05 0.1 0.2)")
     ap.add_argument("--hold-s", type=float, default=10.0)
+    ap.add_argument("--arms", choices=tuple(ARM_SETS), default="all",
+                    help="every arm (default), or 'identified': (c'), (c'') and what they are "
+                         "paired with")
     ap.add_argument("--calibration-epochs", type=int, default=500)
     ap.add_argument("--quick", action="store_true",
                     help="one capped epoch per training and calibration: mechanics only")
@@ -439,8 +477,8 @@ def main(argv=None) -> dict:
         records[seed], runs[seed] = _seed(seed, args, q_exc)
         print(f"seed {seed}: causal NRMSE % " + "; ".join(
             f"{n} " + "/".join(f"{records[seed][n]['nrmse_pct']['causal'][a]:.2f}" for a in AXES)
-            for n in ("free+self+weights", PAIRED_ARM, "ati_same_minutes",
-                      "ati_same_minutes_paired", "ati_full")), flush=True)
+            for n in ("free+self+weights", PAIRED_ARM, IDENTIFIED_ARM, "ati_same_minutes",
+                      "ati_same_minutes_paired", "ati_full") if n in records[seed]), flush=True)
     paired = {ref: paired_table(records, ref) for ref in REFERENCES}
     flags = _flags(runs)
     converged = all(v is True for v in flags.values())
@@ -461,6 +499,7 @@ def main(argv=None) -> dict:
         "metrics": "NRMSE % per axis; causal = raw per-sample estimate after the first-0.5 s "
                    "tare; paper = + centred median k = 71 (psmforce.estimators.evaluation)",
         "goals": {a: f"<= {g}x the ATI-trained hybrid's error, every axis" for a, g in GOALS.items()},
+        "fresh_seeds": [s for s in args.seeds if s in FRESH_SEEDS + IDENTIFIED_FRESH_SEEDS],
         "summary": summary(records),
         "paired": paired,
         "goal_check": {ref: goal_misses(p) for ref, p in paired.items()},

@@ -290,6 +290,11 @@ def _parser() -> argparse.ArgumentParser:
                    help="with --known-loads: what the jackknife over the weights' orientations "
                         "leaves out at a time: one orientation, or a sign pair (an orientation "
                         "and its opposite, for weights hung in sign pairs; default orientation)")
+    p.add_argument("--prior-refit", choices=options.PRIOR_REFITS, default="all",
+                   help="with --known-loads: 'identified' holds what the instrument's "
+                        "identification through the load path identified at its identified "
+                        "values in the estimator's prior and refits the rest (docs/ati_free.md "
+                        "section 4.3); default all, the prior refitted on the efforts alone")
     training_arguments(p, "the calibration report")
     remount.add_remount_command(add)  # after a re-mount: the prior's per-mount values only
 

@@ -308,7 +308,8 @@ def calibrate_command(args) -> dict:
         raise ValueError("--known-loads: only with --free-space (a calibration with the ATI "
                          "measures its loads)")
     for flag, value, default in (("--held-values", args.held_values, "as-held"),
-                                 ("--jackknife-unit", args.jackknife_unit, "orientation")):
+                                 ("--jackknife-unit", args.jackknife_unit, "orientation"),
+                                 ("--prior-refit", args.prior_refit, "all")):
         if value != default and args.known_loads is None:
             raise ValueError(f"{flag}: only with --known-loads (the instrument's "
                              f"identification through the load path)")
@@ -318,7 +319,8 @@ def calibrate_command(args) -> dict:
     result = calibrate(args.checkpoint, args.data, args.out, minutes=args.minutes,
                        epochs=args.epochs, seed=args.seed, device=args.device,
                        free_space=args.free_space, known_loads=args.known_loads,
-                       held_values=args.held_values, jackknife_unit=args.jackknife_unit)
+                       held_values=args.held_values, jackknife_unit=args.jackknife_unit,
+                       prior_refit=args.prior_refit)
     record = result["calibration"]
     print(f"calibrated on {len(record['trials'])} trials, {record['minutes_used']:.2f} min "
           f"(Free {record['minutes_by_condition']['Free']:.2f}, Traction "
@@ -333,6 +335,10 @@ def calibrate_command(args) -> dict:
               f"{', '.join(sorted(held))}")
     if record.get("instrument_identification"):  # with known loads, through the load path
         print(f"instrument (load path): {record['instrument_identification']['verdict']}")
+    carried = (record["prior_refit"] or {}).get("held_at_identified")
+    if carried:
+        print(f"held in the prior at the instrument's identified values: "
+              f"{', '.join(sorted(carried))}")
     return result
 
 

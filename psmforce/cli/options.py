@@ -191,6 +191,10 @@ JACKKNIFE_UNITS = ("orientation", "sign_pair")
 """``--jackknife-unit`` (psmforce.estimators.training.ati_free.JACKKNIFE_UNITS, without importing
 the library)."""
 
+PRIOR_REFITS = ("all", "identified")
+"""``calibrate --prior-refit`` (psmforce.estimators.training.calibrate.PRIOR_REFITS without
+"per_mount", which ``psmforce remount`` runs; without importing the library)."""
+
 CROSSTALK_OPTIONS = {"reading": None, "none": False, "axial": True, "full": "full"}
 """``--crosstalk`` -> the fit's ``crosstalk`` (psmforce.identification.prior.CROSSTALK_CHOICES,
 without importing the library): as the reading does, none, the axial column, every force

@@ -160,3 +160,58 @@ def test_the_sign_pair_jackknife_is_read_against_the_same_rows_by_orientation():
                                               "held_values": "checked"}}
     with pytest.raises(ValueError, match="held_values"):
         sign_pair_jackknife_table(pairs, checked)
+
+
+def test_both_guards_are_read_against_the_sign_pairs_alone():
+    """Both guards' table names what the check held on top of the pairs, and refuses a
+    baseline whose jackknife left orientations out alone (another fit)."""
+    from reports.ati_free_page import both_guards_table
+    key = (434, "16 paired poses")
+
+    def run(held_values, radius):
+        study = _identification({key: {"radius": radius, "pretension": ("identified", None)}})
+        study["settings"].update(held_values=held_values, jackknife_unit="sign_pair")
+        return study
+    pairs = run("as-held", ("miss", None))
+    both = run("checked", ("fixed", "rests on held design values: ..."))
+    row = next(line for line in both_guards_table(both, pairs).splitlines()
+               if line.startswith("| 434 |"))
+    assert row == "| 434 | 16 paired poses | radius → none | 1 → 1 | radius |"
+    by_orientation = {**pairs, "settings": {**pairs["settings"], "jackknife_unit": "orientation"}}
+    with pytest.raises(ValueError, match="jackknife_unit"):
+        both_guards_table(both, by_orientation)
+
+
+def test_carrying_the_identification_is_paired_with_c_prime_by_seed():
+    """(c'') over (c'), the hybrid and the physics alone, on the seeds that ran both; a seed
+    without (c'') is left out, and a halved error is named as helping."""
+    from reports.ati_free_page import identified_effect_table
+    from studies.ati_free import IDENTIFIED_ARM, PAIRED_ARM
+
+    def score(fy):
+        return {"nrmse_pct": {m: {"Fx": 1.0, "Fy": fy, "Fz": 3.0} for m in ("causal", "paper")}}
+    records = {s: {PAIRED_ARM: score(e), IDENTIFIED_ARM: score(e / 2),
+                   "physics_alone:" + PAIRED_ARM: score(e),
+                   "physics_alone:" + IDENTIFIED_ARM: score(e * 1.01)}
+               for s, e in (("201", 4.0), ("206", 2.0), ("207", 3.0))}
+    records["208"] = {PAIRED_ARM: score(1.0)}
+    text = identified_effect_table({"records": records})
+    assert "(201, 206, 207)" in text
+    hybrid = next(line for line in text.splitlines() if line.startswith("| the calibrated"))
+    assert hybrid.count("0.50x [") == 2 and hybrid.count("1.00x") == 4
+    helps = text.split("(carrying helps): ")[1].split("\n")[0]
+    assert helps == "the calibrated hybrid, causal Fy; the calibrated hybrid, paper Fy."
+    assert "physics alone, causal Fy" in text.split("(carrying hurts): ")[1]
+
+
+def test_the_fresh_seeds_are_the_ones_the_run_declares():
+    """A run that names its fresh seeds is read with them, not with the study's first ones."""
+    from reports.ati_free_page import _fresh_seed_goals
+
+    def score(fx):
+        return {"nrmse_pct": {m: {"Fx": fx, "Fy": 1.0, "Fz": 1.0} for m in ("causal", "paper")}}
+    rows = {"free+self+paired": score(1.0), "ati_same_minutes_paired": score(1.0),
+            "ati_full": score(1.0)}
+    result = {"fresh_seeds": [206], "records": {"204": rows, "206": rows}}
+    lines = _fresh_seed_goals(result)
+    assert "(206, declared" in lines[1] and "seed 204" not in "\n".join(lines)

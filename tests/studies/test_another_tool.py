@@ -244,7 +244,46 @@ def test_a_per_mount_refit_moves_only_the_pretension_and_force_offsets(benches, 
     old, new = load_checkpoint(benches / "hybrid.pt").prior(), load_checkpoint(out).prior()
     moved = {n for n, a, b in zip(NAMES, old.params, new.params) if a != b}
     assert moved and moved <= set(FORCE_PER_MOUNT)
-    with pytest.raises(CalibrationError, match="per_mount' only without an ATI"):
+    with pytest.raises(CalibrationError,
+                       match="'per_mount' and 'identified' only without an ATI"):
         calibrate(benches / "hybrid.pt", benches / "tool", tmp_path / "x.pt",
                   prior_refit="per_mount")
+
+
+@pytest.mark.slow
+def test_an_identified_refit_holds_what_the_load_path_identified(benches, tmp_path,
+                                                                  monkeypatch):
+    """prior_refit="identified" (docs/ati_free.md section 4.3): each parameter the instrument's
+    identification through the load path identified is held at its identified value in the
+    estimator's prior, the sensor's offsets excepted (this mount's, refitted); the rest is
+    refitted as "all" does. Refused without known loads. The identification itself is
+    tests/estimators/test_ati_free.py's; here it is replaced by a report with known values."""
+    from psmforce.cli.excitation import weight_poses
+    from psmforce.estimators.training import calibrate as calibration
+    from psmforce.identification.prior_law import NAMES
+    from psmforce.sim.ati_free import FREE_SPACE, KNOWN_LOADS, simulate_ati_free
+    simulate_ati_free(tmp_path / "g", seed=3, scale=0.01, free_minutes=0.3,
+                      weight_poses=weight_poses(), masses_kg=(0.1,), hold_s=2.0, tool_seed=3,
+                      tool_spread=2.0)
+    identified = {"pretension_total": 7.5, "pulley_radius_pitch": 1.8e-3, "bias_fx": 0.2}
+    old = load_checkpoint(benches / "hybrid.pt").prior()
+    report = {"parameters": dict(zip(NAMES, old.params.tolist())) | identified,
+              "identified": list(identified), "fixed": {}, "at_bound": [], "verdict": "test",
+              "converged": True, "reading": "load path"}
+    monkeypatch.setattr(calibration, "identify_instrument", lambda *a, **k: None)
+    monkeypatch.setattr(calibration, "instrument_report", lambda prior: report)
+    out = tmp_path / "identified.pt"
+    summary = calibrate(benches / "hybrid.pt", tmp_path / "g" / FREE_SPACE, out, minutes=0.3,
+                        epochs=1, train_config=CHEAP, free_space=True,
+                        known_loads=tmp_path / "g" / KNOWN_LOADS, prior_refit="identified")
+    refit = summary["calibration"]["prior_refit"]
+    carried = {"pretension_total": 7.5, "pulley_radius_pitch": 1.8e-3}
+    assert refit["refit"] == "identified" and refit["held_at_identified"] == carried
+    assert set(refit["held_from_checkpoint"]).isdisjoint(carried)
+    new = dict(zip(NAMES, load_checkpoint(out).prior().params.tolist()))
+    assert {n: new[n] for n in carried} == carried
+    assert new["bias_fx"] != 0.2                       # an offset is refitted, not carried
+    with pytest.raises(CalibrationError, match="prior_refit: only with known_loads"):
+        calibrate(benches / "hybrid.pt", tmp_path / "g" / FREE_SPACE, tmp_path / "x.pt",
+                  free_space=True, prior_refit="identified")
 

@@ -9,8 +9,8 @@ from pathlib import Path
 import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
-from studies.ati_free import (ATI_FREE, AXES, GOALS, PAIRED_ARM, PER_MOUNT_ARM,  # noqa: E402
-                              REFERENCES, arms, goal_misses, paired_table, prior_against_truth,
+from studies.ati_free import (ATI_FREE, AXES, GOALS, IDENTIFIED_ARM,  # noqa: E402
+                              PAIRED_ARM, PER_MOUNT_ARM, REFERENCES, arms, goal_misses, paired_table, prior_against_truth,
                               rows, same_minutes, summary)
 
 
@@ -36,13 +36,15 @@ def test_each_row_is_held_to_the_ati_calibration_of_its_own_minutes():
     assert PAIRED_ARM not in by_ref["ati_same_minutes"]
     assert "free+self+weights" not in by_ref["ati_same_minutes_paired"]
     assert by_ref["ati_same_minutes_paired"] == {
-        PAIRED_ARM, "network_alone:" + PAIRED_ARM, "physics_alone:" + PAIRED_ARM}
+        PAIRED_ARM, "network_alone:" + PAIRED_ARM, "physics_alone:" + PAIRED_ARM,
+        IDENTIFIED_ARM, "physics_alone:" + IDENTIFIED_ARM}   # (c'') has (c')'s recordings
     assert "ati_same_minutes_paired" not in by_ref["ati_same_minutes"]
     assert {"ati_full", "source"} <= by_ref["ati_same_minutes"]
     assert set(by_ref["ati_full"]) == set(rows()) - {"ati_full"}
-    # the goal check of (d') judges (c') alone, at (c)'s goal
-    assert set(goal_misses(paired_table(records, "ati_same_minutes_paired"))) == {PAIRED_ARM}
-    assert GOALS[PAIRED_ARM] == GOALS["free+self+weights"]
+    # the goal check of (d') judges (c') and (c''), at (c)'s goal
+    assert set(goal_misses(paired_table(records, "ati_same_minutes_paired"))) == {
+        PAIRED_ARM, IDENTIFIED_ARM}
+    assert GOALS[PAIRED_ARM] == GOALS[IDENTIFIED_ARM] == GOALS["free+self+weights"]
 
 
 def _score(fx, fy, fz):
@@ -123,3 +125,15 @@ def test_a_term_the_reading_holds_is_named_so_and_not_judged():
     assert got["crosstalk_fy"]["status"] == got["capstan_mu"]["status"] == "held by the reading"
     assert got["crosstalk_fy"]["within"] is None
     assert got["crosstalk_fx"]["status"] == "fitted" and got["crosstalk_fx"]["within"] is False
+
+
+def test_a_term_carried_from_the_load_path_is_named_so_and_judged():
+    """(c'')'s prior holds what the instrument's identification identified at its value:
+    "load path", and judged against the truth as a fitted term is."""
+    after = {"pretension_total": 6.3, "crosstalk_fy": 0.03, "bias_fx": 0.1}
+    truth = {"pretension_total": 6.0, "crosstalk_fy": 0.02, "bias_fx": 0.1}
+    got = prior_against_truth(after, truth, held={}, carried={"pretension_total": 6.3,
+                                                              "crosstalk_fy": 0.03})
+    assert got["pretension_total"]["status"] == got["crosstalk_fy"]["status"] == "load path"
+    assert got["pretension_total"]["within"] is True and got["crosstalk_fy"]["within"] is False
+    assert got["bias_fx"]["status"] == "fitted"

@@ -51,6 +51,19 @@ recording is fitted that way too, what the data cannot pin down held at the desi
 (:func:`psmforce.identification.prior_selection.fit_identified`, clenched samples left out), and
 the report's ``instrument_identification`` names what came back. It identifies the instrument;
 the checkpoint's prior stays the efforts' one, which a streaming estimator can run.
+
+**The identified instrument in the prior** (``prior_refit="identified"``, ``psmforce calibrate
+--prior-refit identified``, with ``known_loads``). The estimator's prior keeps its law and its
+reading (the efforts), but what the load path identified is held at the identified values
+instead of being refitted as a curve: the pretension, the radii, the capstan, the sensor's
+cross-talk where the weights pinned them down. The efforts then fit what is left (the offsets
+among it: this mount's), the identifiability rule holding what they cannot pin down at the
+checkpoint's values as ``"all"`` does. The provenance's ``prior_refit.held_at_identified`` lists
+the carried values (docs/ati_free.md section 4.3).
+
+Size: one calibration with its three refits of the prior and the instrument's identification
+beside it, in the order a lab runs them; the ATI-free recordings' selection and checks are
+:mod:`psmforce.estimators.training.ati_free`'s.
 """
 
 from __future__ import annotations
@@ -213,7 +226,16 @@ def instrument_report(prior) -> dict:
             "at_bound": list(sel["at_bound"]), "verdict": prior.info["verdict"]}
 
 
-PRIOR_REFITS = ("all", "per_mount")
+def identified_values(instrument: dict) -> dict[str, float]:
+    """What :func:`instrument_report`'s identification carries into the estimator's prior: each
+    parameter it identified, at its identified value (SI), the sensor's offsets left out (this
+    mount's: the efforts' refit takes them on the same recordings)."""
+    from psmforce.identification.prior_identifiability import is_offset
+    return {n: float(instrument["parameters"][n]) for n in instrument["identified"]
+            if not is_offset(n)}
+
+
+PRIOR_REFITS = ("all", "per_mount", "identified")
 """How :func:`calibrate` refits the hybrid's prior without an ATI (its ``prior_refit``)."""
 
 
@@ -239,7 +261,11 @@ def calibrate(checkpoint: str | Path, data_dir: str | Path, out: str | Path, *,
     checkpoint's values; ``"per_mount"``, only the pretension and the force offsets
     (:data:`~psmforce.identification.prior_remount.FORCE_PER_MOUNT`) re-estimated on the
     free-space recordings, every other parameter the checkpoint's, as after a re-mount
-    (docs/ati_free.md section 3). ``held_values`` (with ``known_loads``): ``"checked"`` also
+    (docs/ati_free.md section 3); ``"identified"`` (with ``known_loads``), what the instrument's
+    identification through the load path identified held at its identified values (the
+    sensor's offsets excepted: this mount's, refitted), the rest refitted as ``"all"`` does
+    (module docstring, "The identified instrument in the prior"). ``held_values`` (with
+    ``known_loads``): ``"checked"`` also
     holds what the held design values, each off by its
     :data:`~psmforce.identification.prior_selection.DESIGN_TOLERANCE`, would move beyond its
     needed precision (:func:`identify_instrument`); ``"as-held"``: no such check.
@@ -257,8 +283,12 @@ def calibrate(checkpoint: str | Path, data_dir: str | Path, out: str | Path, *,
         raise TrainingError(f"out {out} is the checkpoint being calibrated: refusing to write "
                             f"over its input (give another file)")
     if prior_refit not in PRIOR_REFITS or (prior_refit != "all" and not free_space):
-        raise CalibrationError(f"prior_refit must be one of {PRIOR_REFITS} ('per_mount' only "
-                               f"without an ATI, free_space=True), got {prior_refit!r}")
+        raise CalibrationError(f"prior_refit must be one of {PRIOR_REFITS} ('per_mount' and "
+                               f"'identified' only without an ATI, free_space=True), got "
+                               f"{prior_refit!r}")
+    if prior_refit == "identified" and known_loads is None:
+        raise CalibrationError("prior_refit: only with known_loads for 'identified' (it holds "
+                               "the instrument's identification through the load path)")
     if held_values not in HELD_VALUES:
         raise CalibrationError(f"held_values must be one of {HELD_VALUES}, got {held_values!r}")
     if jackknife_unit not in JACKKNIFE_UNITS:
@@ -311,7 +341,7 @@ def calibrate(checkpoint: str | Path, data_dir: str | Path, out: str | Path, *,
         # the trained insertion model is kept.
         frames = [t.frame.drop(columns=list(INSERTION_COLUMNS)) for t in train_trials]
         provenance = {"trials": [t.path for t in train_trials]}
-        held, unseen = {}, {}
+        held, unseen, carried = {}, {}, {}
         if prior_refit == "per_mount":
             from psmforce.identification.errors import IdentificationInputError
             from psmforce.identification.prior_remount import FORCE_PER_MOUNT, recalibrate
@@ -323,17 +353,19 @@ def calibrate(checkpoint: str | Path, data_dir: str | Path, out: str | Path, *,
             held = {n: float(old.params[NAMES.index(n)]) for n in NAMES
                     if n not in FORCE_PER_MOUNT}
         else:  # the law the checkpoint was trained with: with or without the cross-talk
-            fitted = InternalForcePrior.fit(frames, provenance=provenance,
+            carried = identified_values(instrument) if prior_refit == "identified" else {}
+            fitted = InternalForcePrior.fit(frames, provenance=provenance, fixed=carried or None,
                                             crosstalk=old.crosstalk)
-        if free_space and prior_refit == "all":
+        if free_space and prior_refit != "per_mount":
             # Without an ATI what the recordings cannot excite (the fit's own identifiability
             # report names it) keeps the checkpoint's value instead of drifting with noise; an
             # offset is this mount's, never the checkpoint's (module docstring).
             unseen = fitted.info.get("identifiability", {}).get("not_identifiable", {})
             held = {n: float(old.params[NAMES.index(n)]) for n in sorted(unseen)
-                    if not is_offset(n)}
+                    if not is_offset(n) and n not in carried}
             if held:
-                fitted = InternalForcePrior.fit(frames, provenance=provenance, fixed=held,
+                fitted = InternalForcePrior.fit(frames, provenance=provenance,
+                                                fixed={**held, **carried},
                                                 crosstalk=old.crosstalk)
         new = dataclasses.replace(fitted, insertion=old.insertion)
         try:
@@ -346,13 +378,14 @@ def calibrate(checkpoint: str | Path, data_dir: str | Path, out: str | Path, *,
         errors = {role: {"before": _prior_free_error(old, trials),
                          "after": _prior_free_error(new, trials)}
                   for role, trials in (("train", train_trials), ("validation", val_trials))}
-        reading = (held_by_reading(new.inputs, old.crosstalk) if prior_refit == "all"
+        reading = (held_by_reading(new.inputs, old.crosstalk) if prior_refit != "per_mount"
                    else {})
         prior_report = {
             "refitted_on": [t.path for t in train_trials],
             "insertion_model": "kept from the checkpoint (the arm's, not the tool's)",
             "held_from_checkpoint": held, "refit": prior_refit,
-            "held_by_reading": sorted(n for n in reading if n not in held),
+            "held_at_identified": carried,
+            "held_by_reading": sorted(n for n in reading if n not in held and n not in carried),
             "offsets_refitted_although_listed": sorted(n for n in unseen if is_offset(n)),
             "free_space_rms_n": {r: e for r, e in errors.items() if e["before"] is not None},
             "parameters_before": dict(zip(NAMES, old.params.tolist())),
