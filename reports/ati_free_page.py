@@ -422,6 +422,18 @@ def identified_effect_table(result: dict) -> str:
               + ("; ".join(verdicts.get("ahead", [])) or "none") + ".", "",
               "Intervals wholly above 1 (carrying hurts): "
               + ("; ".join(verdicts.get("behind", [])) or "none") + "."]
+    rows = (PAIRED_ARM, IDENTIFIED_ARM, "physics_alone:" + PAIRED_ARM,
+            "physics_alone:" + IDENTIFIED_ARM, "ati_full")
+    lines += ["", "Per seed, causal NRMSE % Fx / Fy, and what (c'') carried from the load path "
+              "(its prior's `held_at_identified`, when the run recorded it):", "",
+              "| seed | carried | " + " | ".join(ATI_FREE_ROWS[r] for r in rows) + " |",
+              "|---|---|" + "---|" * len(rows)]
+    for k in seeds:
+        prior = result.get("runs", {}).get(k, {}).get(IDENTIFIED_ARM, {}).get("prior") or {}
+        carried = ", ".join(f"`{n}`" for n in prior.get("held_at_identified", {})) or "nothing"
+        cells = [" / ".join(f"{result['records'][k][r]['nrmse_pct']['causal'][a]:.2f}"
+                            for a in ("Fx", "Fy")) for r in rows]
+        lines.append(f"| {k} | {carried} | " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n"
 
 

@@ -63,6 +63,7 @@ ATI_FREE_IDENTIFICATION_PAIRS = (ROOT / "results" / "benchmarks"
                                  / "ati_free_identification_pairs.json")
 ATI_FREE_IDENTIFICATION_BLIND_PAIRS = (ROOT / "results" / "benchmarks"
                                        / "ati_free_identification_blind_pairs.json")
+ATI_FREE_IDENTIFIED = ROOT / "results" / "benchmarks" / "ati_free_identified.json"
 ATI_FREE_IDENTIFICATION_BLIND_PAIRS_CHECKED = (
     ROOT / "results" / "benchmarks" / "ati_free_identification_blind_pairs_checked.json")
 COMPARISON = ROOT / "results" / "ports" / "none" / "results.json"
@@ -221,6 +222,9 @@ BLOCKS = (
     (ATI_FREE, "ati-free-crosstalk-tables", ATI_FREE_CROSSTALK, ati_free_page.ati_free_tables),
     (ATI_FREE, "ati-free-crosstalk-effect", (ATI_FREE_RESULT, ATI_FREE_CROSSTALK),
      ati_free_page.crosstalk_effect_table),
+    (ATI_FREE, "ati-free-identified-tables", ATI_FREE_IDENTIFIED, ati_free_page.ati_free_tables),
+    (ATI_FREE, "ati-free-identified-effect", ATI_FREE_IDENTIFIED,
+     ati_free_page.identified_effect_table),
     (ATI_FREE, "instrument-identification-tables", ATI_FREE_IDENTIFICATION,
      ati_free_page.instrument_identification_tables),
     (ATI_FREE, "load-path-holds", LOAD_PATH_HOLDS, ati_free_page.load_path_holds_table),

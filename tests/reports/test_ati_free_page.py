@@ -192,10 +192,14 @@ def test_carrying_the_identification_is_paired_with_c_prime_by_seed():
         return {"nrmse_pct": {m: {"Fx": 1.0, "Fy": fy, "Fz": 3.0} for m in ("causal", "paper")}}
     records = {s: {PAIRED_ARM: score(e), IDENTIFIED_ARM: score(e / 2),
                    "physics_alone:" + PAIRED_ARM: score(e),
-                   "physics_alone:" + IDENTIFIED_ARM: score(e * 1.01)}
+                   "physics_alone:" + IDENTIFIED_ARM: score(e * 1.01), "ati_full": score(1.0)}
                for s, e in (("201", 4.0), ("206", 2.0), ("207", 3.0))}
     records["208"] = {PAIRED_ARM: score(1.0)}
-    text = identified_effect_table({"records": records})
+    runs = {"201": {IDENTIFIED_ARM: {"prior": {"held_at_identified": {"crosstalk_fy": 0.02}}}}}
+    text = identified_effect_table({"records": records, "runs": runs})
+    assert "| 201 | `crosstalk_fy` | 1.00 / 4.00 | 1.00 / 2.00 | 1.00 / 4.00 | 1.00 / 4.04 | " \
+        "1.00 / 1.00 |" in text
+    assert "| 206 | nothing |" in text and "| 208 |" not in text
     assert "(201, 206, 207)" in text
     hybrid = next(line for line in text.splitlines() if line.startswith("| the calibrated"))
     assert hybrid.count("0.50x [") == 2 and hybrid.count("1.00x") == 4
