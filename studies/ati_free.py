@@ -5,6 +5,8 @@
         --json results/benchmarks/ati_free_crosstalk.json
     python studies/ati_free.py --quick --seeds 201 --scale 0.02 --free-minutes 1 \
         --json /tmp/ati_free_smoke.json
+    python studies/ati_free.py --seeds 201 206 207 208 --arms identified \
+        --json results/benchmarks/ati_free_identified.json
 
 ``--prior-crosstalk``: every hybrid's prior also fits the HEX10's cross-talk (``psmforce train
 --prior-crosstalk``; a calibration refits the law its checkpoint has), in its own work folder;
@@ -41,6 +43,9 @@ hybrid trained with the ATI on the tool's whole train split from scratch; and ``
 source hybrid as it is. Ablations of (a)-(c'): ``network_alone`` (the hybrid without the prior, ``use_prior=False``, trained on the
 same source bench and calibrated on the same ATI-free data) and ``physics_alone`` (the arm's
 calibrated prior with no network: the hybrid's base, ``comp_fx, comp_fy, insertion_fz``).
+(c'') ``identified:free+self+paired`` (:data:`IDENTIFIED_ARM`): (c')'s recordings calibrated with
+``prior_refit="identified"``, what the load path identified held in the estimator's prior, with
+its physics alone; ``--arms identified`` runs only (c'), (c'') and what they are paired with.
 
 Scores: NRMSE % per axis, causal and paper metric (``psmforce.estimators.evaluation``), on the
 tool bench's test Palpation + Traction trials; paired ratios over seeds
