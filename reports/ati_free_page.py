@@ -408,8 +408,12 @@ def identified_effect_table(result: dict) -> str:
     lies wholly below or above 1."""
     from studies.ati_free import IDENTIFIED_ARM, PAIRED_ARM
     seeds = [k for k, r in result["records"].items() if IDENTIFIED_ARM in r and PAIRED_ARM in r]
-    lines = ["", f"(c'') over (c'), the same row on the same bench seeds ({', '.join(seeds)}): "
-             "geometric mean [95 % t interval on log ratios]; below 1: carrying the "
+    unit = result.get("settings", {}).get("jackknife_unit", "orientation")
+    how = "" if unit == "orientation" else (
+        f" ((c'')'s identification with its jackknife over the weights' orientations by "
+        f"{unit.replace('_', ' ')}; (c')'s by orientation)")
+    lines = ["", f"(c'') over (c'), the same row on the same bench seeds ({', '.join(seeds)})"
+             f"{how}: geometric mean [95 % t interval on log ratios]; below 1: carrying the "
              "identification helps.", "",
              "| row | causal Fx | causal Fy | causal Fz | paper Fx | paper Fy | paper Fz |",
              "|---|---|---|---|---|---|---|"]

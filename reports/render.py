@@ -64,6 +64,7 @@ ATI_FREE_IDENTIFICATION_PAIRS = (ROOT / "results" / "benchmarks"
 ATI_FREE_IDENTIFICATION_BLIND_PAIRS = (ROOT / "results" / "benchmarks"
                                        / "ati_free_identification_blind_pairs.json")
 ATI_FREE_IDENTIFIED = ROOT / "results" / "benchmarks" / "ati_free_identified.json"
+ATI_FREE_IDENTIFIED_PAIRS = ROOT / "results" / "benchmarks" / "ati_free_identified_pairs.json"
 ATI_FREE_IDENTIFICATION_BLIND_PAIRS_CHECKED = (
     ROOT / "results" / "benchmarks" / "ati_free_identification_blind_pairs_checked.json")
 COMPARISON = ROOT / "results" / "ports" / "none" / "results.json"
@@ -224,6 +225,8 @@ BLOCKS = (
      ati_free_page.crosstalk_effect_table),
     (ATI_FREE, "ati-free-identified-tables", ATI_FREE_IDENTIFIED, ati_free_page.ati_free_tables),
     (ATI_FREE, "ati-free-identified-effect", ATI_FREE_IDENTIFIED,
+     ati_free_page.identified_effect_table),
+    (ATI_FREE, "ati-free-identified-pairs-effect", ATI_FREE_IDENTIFIED_PAIRS,
      ati_free_page.identified_effect_table),
     (ATI_FREE, "instrument-identification-tables", ATI_FREE_IDENTIFICATION,
      ati_free_page.instrument_identification_tables),

@@ -382,11 +382,13 @@ def _seed(seed: int, args, q_exc: np.ndarray) -> tuple[dict, dict]:
         runs[PER_MOUNT_ARM]["prior_against_truth"] = prior_against_truth(
             prior["parameters_after"], truth, prior["held_from_checkpoint"],
             prior["held_by_reading"])
-    out = work / "arms" / "identified_free_self_paired.pt"
+    unit = "" if args.jackknife_unit == "orientation" else "_" + args.jackknife_unit
+    out = work / "arms" / f"identified_free_self_paired{unit}.pt"
     spec = arms(args.free_minutes + MINUTES_SLACK, exc_minutes)[PAIRED_ARM]
     runs[IDENTIFIED_ARM] = kept_json(out.with_suffix(".cal.json"), lambda: _calibrate(
         work / "source_hybrid.pt", free_dir / FREE_SPACE, out, seed, args, spec["minutes"],
-        free_space=True, known_loads=loads_dir["paired"], prior_refit="identified"))
+        free_space=True, known_loads=loads_dir["paired"], prior_refit="identified",
+        jackknife_unit=args.jackknife_unit))
     records[IDENTIFIED_ARM] = kept_json(work / "records" / f"{out.stem}.json",
                                         lambda: _score(out, tool))
     records["physics_alone:" + IDENTIFIED_ARM] = kept_json(
@@ -454,6 +456,11 @@ def main(argv=None) -> dict:
                     help="(c')'s known masses (kg), each hung in the sixteen paired poses, "
                          "approached (default 0.05 0.1 0.2)")
     ap.add_argument("--hold-s", type=float, default=10.0)
+    ap.add_argument("--jackknife-unit", choices=("orientation", "sign_pair"),
+                    default="orientation",
+                    help="(c'')'s identification: what its jackknife over the weights' "
+                         "orientations leaves out at a time (psmforce calibrate "
+                         "--jackknife-unit; (c') keeps the default)")
     ap.add_argument("--arms", choices=tuple(ARM_SETS), default="all",
                     help="every arm (default), or 'identified': (c'), (c'') and what they are "
                          "paired with")

@@ -200,6 +200,10 @@ def test_carrying_the_identification_is_paired_with_c_prime_by_seed():
     assert "| 201 | `crosstalk_fy` | 1.00 / 4.00 | 1.00 / 2.00 | 1.00 / 4.00 | 1.00 / 4.04 | " \
         "1.00 / 1.00 |" in text
     assert "| 206 | nothing |" in text and "| 208 |" not in text
+    paired_unit = identified_effect_table({"records": records, "runs": runs,
+                                           "settings": {"jackknife_unit": "sign_pair"}})
+    assert "jackknife over the weights' orientations by sign pair" in paired_unit
+    assert "by sign pair" not in text
     assert "(201, 206, 207)" in text
     hybrid = next(line for line in text.splitlines() if line.startswith("| the calibrated"))
     assert hybrid.count("0.50x [") == 2 and hybrid.count("1.00x") == 4
