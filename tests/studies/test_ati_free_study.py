@@ -10,8 +10,8 @@ import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 from studies.ati_free import (ATI_FREE, AXES, GOALS, IDENTIFIED_ARM,  # noqa: E402
-                              PAIRED_ARM, PER_MOUNT_ARM, REFERENCES, arms, goal_misses, paired_table, prior_against_truth,
-                              rows, same_minutes, summary)
+                              PAIRED_ARM, PER_MOUNT_ARM, REFERENCES, arms, goal_misses,
+                              paired_table, prior_against_truth, rows, same_minutes, summary)
 
 
 def test_arms_add_the_excitation_then_the_weights():
