@@ -349,54 +349,41 @@ def _seed(seed: int, args, q_exc: np.ndarray) -> tuple[dict, dict]:
                                  lambda: _score(work / "tool_hybrid.pt", tool))}
     exc_minutes = made["minutes"]["excitation"] + MINUTES_SLACK
     truth = default_bench_truth(InstrumentParams().sample(tool_seed, 1.0))
-    for arm, spec in arms(args.free_minutes + MINUTES_SLACK, exc_minutes).items():
+
+    def calibrated(name: str, out: Path, ckpt: str, minutes: float, physics: bool, **kw):
+        """One ATI-free calibration of ``ckpt`` to the tool (kept under ``out``): its run and
+        score, with ``physics`` its prior's score alone, and its prior against the truth."""
+        runs[name] = kept_json(out.with_suffix(".cal.json"), lambda: _calibrate(
+            work / ckpt, free_dir / FREE_SPACE, out, seed, args, minutes, free_space=True, **kw))
+        records[name] = kept_json(work / "records" / f"{out.stem}.json",
+                                  lambda: _score(out, tool))
+        if physics:
+            records["physics_alone:" + name] = kept_json(
+                work / "records" / f"{out.stem}_physics.json", lambda: _score_physics(out, tool))
+        prior = runs[name]["prior"]
+        if prior is not None:   # the network alone has none
+            runs[name]["prior_against_truth"] = prior_against_truth(
+                prior["parameters_after"], truth, prior["held_from_checkpoint"],
+                prior["held_by_reading"], prior.get("held_at_identified", {}))
+
+    spec_of = arms(args.free_minutes + MINUTES_SLACK, exc_minutes)
+    for arm, spec in spec_of.items():
         if not full and arm != PAIRED_ARM:
             continue
-        loads = loads_dir[spec["known_loads"]]
         for variant, ckpt in (("", "source_hybrid.pt"),
                               ("network_alone:", "source_network.pt"))[:2 if full else 1]:
             name = variant + arm
-            out = work / "arms" / (name.replace(":", "_").replace("+", "_") + ".pt")
-            runs[name] = kept_json(out.with_suffix(".cal.json"), lambda: _calibrate(
-                work / ckpt, free_dir / FREE_SPACE, out, seed, args, spec["minutes"],
-                free_space=True, known_loads=loads))
-            records[name] = kept_json(work / "records" / f"{out.stem}.json",
-                                  lambda: _score(out, tool))
-            if not variant:
-                records["physics_alone:" + arm] = kept_json(
-                    work / "records" / f"{out.stem}_physics.json",
-                    lambda: _score_physics(out, tool))
-                prior = runs[name]["prior"]
-                runs[name]["prior_against_truth"] = prior_against_truth(
-                    prior["parameters_after"], truth, prior["held_from_checkpoint"],
-                    prior["held_by_reading"])
+            calibrated(name, work / "arms" / (name.replace(":", "_").replace("+", "_") + ".pt"),
+                       ckpt, spec["minutes"], physics=not variant,
+                       known_loads=loads_dir[spec["known_loads"]])
     if full:
-        out = work / "arms" / "per_mount_free_self.pt"
-        spec = arms(args.free_minutes + MINUTES_SLACK, exc_minutes)["free+self"]
-        runs[PER_MOUNT_ARM] = kept_json(out.with_suffix(".cal.json"), lambda: _calibrate(
-            work / "source_hybrid.pt", free_dir / FREE_SPACE, out, seed, args,
-            spec["minutes"], free_space=True, prior_refit="per_mount"))
-        records[PER_MOUNT_ARM] = kept_json(work / "records" / f"{out.stem}.json",
-                                           lambda: _score(out, tool))
-        prior = runs[PER_MOUNT_ARM]["prior"]
-        runs[PER_MOUNT_ARM]["prior_against_truth"] = prior_against_truth(
-            prior["parameters_after"], truth, prior["held_from_checkpoint"],
-            prior["held_by_reading"])
+        calibrated(PER_MOUNT_ARM, work / "arms" / "per_mount_free_self.pt", "source_hybrid.pt",
+                   spec_of["free+self"]["minutes"], physics=False, prior_refit="per_mount")
     unit = "" if args.jackknife_unit == "orientation" else "_" + args.jackknife_unit
-    out = work / "arms" / f"identified_free_self_paired{unit}.pt"
-    spec = arms(args.free_minutes + MINUTES_SLACK, exc_minutes)[PAIRED_ARM]
-    runs[IDENTIFIED_ARM] = kept_json(out.with_suffix(".cal.json"), lambda: _calibrate(
-        work / "source_hybrid.pt", free_dir / FREE_SPACE, out, seed, args, spec["minutes"],
-        free_space=True, known_loads=loads_dir["paired"], prior_refit="identified",
-        jackknife_unit=args.jackknife_unit))
-    records[IDENTIFIED_ARM] = kept_json(work / "records" / f"{out.stem}.json",
-                                        lambda: _score(out, tool))
-    records["physics_alone:" + IDENTIFIED_ARM] = kept_json(
-        work / "records" / f"{out.stem}_physics.json", lambda: _score_physics(out, tool))
-    prior = runs[IDENTIFIED_ARM]["prior"]
-    runs[IDENTIFIED_ARM]["prior_against_truth"] = prior_against_truth(
-        prior["parameters_after"], truth, prior["held_from_checkpoint"],
-        prior["held_by_reading"], prior["held_at_identified"])
+    calibrated(IDENTIFIED_ARM, work / "arms" / f"identified_free_self_paired{unit}.pt",
+               "source_hybrid.pt", spec_of[PAIRED_ARM]["minutes"], physics=True,
+               known_loads=loads_dir["paired"], prior_refit="identified",
+               jackknife_unit=args.jackknife_unit)
     available = sum(map(_minutes_of, _ati_pool(tool)))
     for ref, arm in (("ati_same_minutes", "free+self+weights"),
                      ("ati_same_minutes_paired", PAIRED_ARM))[0 if full else 1:]:
