@@ -693,3 +693,95 @@ def _variant_table(variant: dict, baselines, *, names: tuple[str, str], against:
               f"{totals[names[1]][0]} {names[1]}; parameters identified within the needed "
               f"precision {totals[names[0]][1]} {names[0]}, {totals[names[1]][1]} {names[1]}."]
     return "\n".join(lines + [""])
+
+
+HOLD_RULE_SAME = ("scale", "free_minutes", "excitation_minutes", "excitation_seed",
+                  "paired_masses", "hold_s", "calibration_epochs", "quick", "jackknife_unit",
+                  "prior_crosstalk")
+"""Settings an ATI-free study run with the hold rule ``"unresolved"`` shares with the runs it is
+paired with (:func:`hold_rule_table`)."""
+
+
+def hold_rule_table(unresolved: dict, *imprecise: dict) -> str:
+    """(c'') with its identification's hold rule ``"unresolved"`` (``studies/ati_free.py
+    --hold-rule unresolved``) against the same seeds with the 10 % rule (``"imprecise"``, the
+    runs ``imprecise``; refused unless they share the recordings and the calibration): per seed,
+    what each carried into the prior (estimated values marked), the causal lateral errors of
+    the calibrated hybrid and its physics alone, and (e); each carried estimate against the
+    bench's truth and its own uncertainty; the paired ratio unresolved / imprecise on the fresh
+    seeds (:data:`studies.ati_free.HOLD_RULE_FRESH_SEEDS`) and on the design seeds."""
+    from studies.ati_free import HOLD_RULE_FRESH_SEEDS, IDENTIFIED_ARM
+    if unresolved["settings"].get("hold_rule") != "unresolved":
+        raise ValueError("the first study must be run with --hold-rule unresolved")
+    for res in imprecise:
+        differ = [k for k in HOLD_RULE_SAME
+                  if res["settings"].get(k) != unresolved["settings"].get(k)]
+        if differ or res["settings"].get("hold_rule", "imprecise") != "imprecise":
+            raise ValueError(f"an ATI-free study does not pair with the unresolved run: "
+                             f"settings {differ or ['hold_rule']} differ")
+    base = {k: (res["records"][k], res.get("runs", {}).get(k, {}))
+            for res in imprecise for k in res["records"] if IDENTIFIED_ARM in res["records"][k]}
+    seeds = [k for k, r in unresolved["records"].items() if IDENTIFIED_ARM in r and k in base]
+    fresh = [k for k in seeds if int(k) in HOLD_RULE_FRESH_SEEDS]
+    design = [k for k in seeds if k not in fresh]
+    lines = ["", f"(c'') with the hold rule `unresolved` against (c'') with the 10 % rule "
+             f"(`imprecise`) on bench seeds {', '.join(seeds)} (fresh, declared before any run "
+             f"on them: {', '.join(fresh) or 'none'}; the others are design seeds for the "
+             "rule). Carried: what (c'')'s prior holds at the load path's values, estimated ones "
+             "(kept free by the rule) in italics. Causal NRMSE % Fx / Fy.", "",
+             "| seed | carried, imprecise | carried, unresolved | (c'') imprecise | (c'') "
+             "unresolved | physics alone, imprecise | physics alone, unresolved | (e) ATI full |",
+             "|---|---|---|---|---|---|---|---|"]
+    truth_rows = []
+    for k in seeds:
+        rows, runs = base[k]
+        new_rows, new_run = unresolved["records"][k], unresolved["runs"][k][IDENTIFIED_ARM]
+        estimated = (new_run.get("instrument") or {}).get("estimated", {})
+
+        def carried(run):
+            held = ((run.get(IDENTIFIED_ARM) or {}).get("prior") or {}).get(
+                "held_at_identified", {})
+            return ", ".join(f"*{n}*" if n in estimated else n for n in held) or "nothing"
+
+        def lateral(r):
+            return " / ".join(f"{r['nrmse_pct']['causal'][a]:.2f}" for a in ("Fx", "Fy"))
+        lines.append(f"| {k}{' (fresh)' if k in fresh else ''} | {carried(runs)} | "
+                     f"{carried(unresolved['runs'][k])} | {lateral(rows[IDENTIFIED_ARM])} | "
+                     f"{lateral(new_rows[IDENTIFIED_ARM])} | "
+                     f"{lateral(rows['physics_alone:' + IDENTIFIED_ARM])} | "
+                     f"{lateral(new_rows['physics_alone:' + IDENTIFIED_ARM])} | "
+                     f"{lateral(new_rows['ati_full'])} |")
+        against = new_run.get("prior_against_truth", {})
+        for name, e in sorted(estimated.items()):
+            truth = (against.get(name) or {}).get("truth")
+            if truth is None or name not in (new_run["prior"] or {}).get("held_at_identified",
+                                                                           {}):
+                continue
+            off = abs(e["value"] - truth)
+            truth_rows.append(f"| {k} | {name} | {e['value']:.4g} ± {e['uncertainty']:.2g} | "
+                              f"{truth:.4g} | {off / abs(truth):.0%} | "
+                              + ("yes" if off <= e["uncertainty"] else "**no**") + " |")
+    lines += ["", "Each carried estimate against the bench's truth: value ± its uncertainty "
+              "(3 of its largest standard errors plus the held values' shift), the truth, the "
+              "relative error, and whether the truth lies within the uncertainty.", "",
+              "| seed | parameter | estimated | truth | error | truth within |",
+              "|---|---|---|---|---|---|", *(truth_rows or ["| none | | | | | |"])]
+    for which, group in (("fresh", fresh), ("design", design)):
+        if not group:
+            continue
+        lines += ["", f"Unresolved over imprecise on the {which} seeds ({', '.join(group)}): "
+                  "geometric mean [95 % t interval on log ratios]; below 1: the rule helps.", "",
+                  "| row | causal Fx | causal Fy | causal Fz | paper Fx | paper Fy | paper Fz |",
+                  "|---|---|---|---|---|---|---|"]
+        table, verdicts = _effect_rows(
+            (label, [unresolved["records"][k][prefix + IDENTIFIED_ARM]["nrmse_pct"]
+                     for k in group],
+             [base[k][0][prefix + IDENTIFIED_ARM]["nrmse_pct"] for k in group])
+            for prefix, label in (("", "the calibrated hybrid"),
+                                  ("physics_alone:", "physics alone")))
+        lines += table + ["", "Intervals wholly below 1 (the rule helps): "
+                          + ("; ".join(verdicts.get("ahead", [])) or "none") + "; wholly "
+                          "above 1 (it hurts): "
+                          + ("; ".join(verdicts.get("behind", [])) or "none") + "."]
+    lines += _fresh_seed_goals({**unresolved, "fresh_seeds": [int(k) for k in fresh]})
+    return "\n".join(lines) + "\n"

@@ -302,7 +302,8 @@ def _calibrate(ckpt: Path, data: Path, out: Path, seed: int, args, minutes: floa
                 k: prior[k] for k in ("parameters_after", "held_from_checkpoint",
                                       "held_by_reading", "held_at_identified")},
             "instrument": None if instrument is None else {
-                k: instrument[k] for k in ("parameters", "identified", "at_bound", "verdict")}}
+                k: instrument[k] for k in ("parameters", "identified", "estimated", "at_bound",
+                                           "verdict")}}
 
 
 def _excitation(work: Path, args) -> np.ndarray:
@@ -385,10 +386,11 @@ def _seed(seed: int, args, q_exc: np.ndarray) -> tuple[dict, dict]:
         calibrated(PER_MOUNT_ARM, work / "arms" / "per_mount_free_self.pt", "source_hybrid.pt",
                    spec_of["free+self"]["minutes"], physics=False, prior_refit="per_mount")
     unit = "" if args.jackknife_unit == "orientation" else "_" + args.jackknife_unit
+    unit += "" if args.hold_rule == "imprecise" else "_" + args.hold_rule
     calibrated(IDENTIFIED_ARM, work / "arms" / f"identified_free_self_paired{unit}.pt",
                "source_hybrid.pt", spec_of[PAIRED_ARM]["minutes"], physics=True,
                known_loads=loads_dir["paired"], prior_refit="identified",
-               jackknife_unit=args.jackknife_unit)
+               jackknife_unit=args.jackknife_unit, hold_rule=args.hold_rule)
     available = sum(map(_minutes_of, _ati_pool(tool)))
     for ref, arm in (("ati_same_minutes", "free+self+weights"),
                      ("ati_same_minutes_paired", PAIRED_ARM))[0 if full else 1:]:
@@ -453,6 +455,10 @@ def main(argv=None) -> dict:
                     help="(c'')'s identification: what its jackknife over the weights' "
                          "orientations leaves out at a time (psmforce calibrate "
                          "--jackknife-unit; (c') keeps the default)")
+    ap.add_argument("--hold-rule", choices=("imprecise", "unresolved"), default="imprecise",
+                    help="(c'')'s identification: what it holds at design values among the "
+                         "parameters listed for their precision alone (psmforce calibrate "
+                         "--hold-rule; (c') keeps the default)")
     ap.add_argument("--arms", choices=tuple(ARM_SETS), default="all",
                     help="every arm (default), or 'identified': (c'), (c'') and what they are "
                          "paired with")

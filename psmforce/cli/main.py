@@ -290,6 +290,12 @@ def _parser() -> argparse.ArgumentParser:
                    help="with --known-loads: what the jackknife over the weights' orientations "
                         "leaves out at a time: one orientation, or a sign pair (an orientation "
                         "and its opposite, for weights hung in sign pairs; default orientation)")
+    p.add_argument("--hold-rule", choices=options.HOLD_RULES, default="imprecise",
+                   help="with --known-loads: what the instrument's identification holds at "
+                        "design values among the parameters it lists for their precision alone: "
+                        "every one (imprecise, the default), or only those whose design value "
+                        "the data do not reject (unresolved: the others kept free, named "
+                        "estimated, and carried by --prior-refit identified)")
     p.add_argument("--prior-refit", choices=options.PRIOR_REFITS, default="all",
                    help="with --known-loads: 'identified' holds what the instrument's "
                         "identification through the load path identified at its identified "

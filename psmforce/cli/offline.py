@@ -309,7 +309,8 @@ def calibrate_command(args) -> dict:
                          "measures its loads)")
     for flag, value, default in (("--held-values", args.held_values, "as-held"),
                                  ("--jackknife-unit", args.jackknife_unit, "orientation"),
-                                 ("--prior-refit", args.prior_refit, "all")):
+                                 ("--prior-refit", args.prior_refit, "all"),
+                                 ("--hold-rule", args.hold_rule, "imprecise")):
         if value != default and args.known_loads is None:
             raise ValueError(f"{flag}: only with --known-loads (the instrument's "
                              f"identification through the load path)")
@@ -320,7 +321,7 @@ def calibrate_command(args) -> dict:
                        epochs=args.epochs, seed=args.seed, device=args.device,
                        free_space=args.free_space, known_loads=args.known_loads,
                        held_values=args.held_values, jackknife_unit=args.jackknife_unit,
-                       prior_refit=args.prior_refit)
+                       prior_refit=args.prior_refit, hold_rule=args.hold_rule)
     record = result["calibration"]
     print(f"calibrated on {len(record['trials'])} trials, {record['minutes_used']:.2f} min "
           f"(Free {record['minutes_by_condition']['Free']:.2f}, Traction "

@@ -191,6 +191,10 @@ JACKKNIFE_UNITS = ("orientation", "sign_pair")
 """``--jackknife-unit`` (psmforce.estimators.training.ati_free.JACKKNIFE_UNITS, without importing
 the library)."""
 
+HOLD_RULES = ("imprecise", "unresolved")
+"""``calibrate --hold-rule`` (psmforce.identification.prior_selection.HOLD_RULES, without
+importing the library)."""
+
 PRIOR_REFITS = ("all", "identified")
 """``calibrate --prior-refit`` (psmforce.estimators.training.calibrate.PRIOR_REFITS without
 "per_mount", which ``psmforce remount`` runs; without importing the library)."""

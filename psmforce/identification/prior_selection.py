@@ -35,6 +35,16 @@ sees the bias a held value puts on the parameters correlated with it. The final 
 when they were listed, and ``info["verdict"]`` the one line that names the identified, the fixed and
 the at-bound parameters (:func:`verdict_line`; printed by ``psmforce fit-prior``).
 
+What is held among the imprecise is a rule (``hold_rule``, :data:`HOLD_RULES`). ``"imprecise"`` holds
+every parameter listed, the 10 % precision rule included. ``"unresolved"`` keeps free a parameter
+listed for its precision alone (standard errors, a jackknife, the held values' shift: never a
+structural reason) whose design value may be off the instrument's (a tolerance in
+:data:`DESIGN_TOLERANCE`, or the user's ``design_tolerance``; a value known exactly is held) and
+which the data reject: farther from it than 3 of its largest standard errors plus the held
+values' shift (:func:`design_rejected`). Held, such a parameter
+would sit at a value the data place beyond the estimate's own uncertainty, the worse of the two;
+it is named ``estimated`` with that uncertainty (the verdict's own list), not identified.
+
 Read through the load path, the tip force's moments are taken where the wrist sags, and the sag
 depends on the law's own pretension, radii and friction (:mod:`~psmforce.identification.
 load_path`). The rounds sag it with the design's values until they have nothing left to hold;
@@ -133,6 +143,43 @@ MAX_ROUNDS = 6
 JACKKNIFE_GROUPS = 4
 """Groups of whole trials the jackknife leaves out one at a time (trial k goes to group
 k mod 4, so every group holds every condition)."""
+HOLD_RULES = ("imprecise", "unresolved")
+"""What :func:`fit_identified` (``hold_rule``) holds at its design value among the parameters listed
+for their precision alone: ``"imprecise"`` every one (the 10 % rule; every figure written before
+the choice existed); ``"unresolved"`` only those whose design value the data do not reject
+(:func:`design_rejected`), the others kept free and named estimated (module docstring)."""
+
+
+def design_rejected(report: dict, params, design: dict,
+                    uncertain=tuple(DESIGN_TOLERANCE)) -> dict[str, float]:
+    """Free parameter -> its uncertainty (SI) for each one in ``uncertain`` (whose design value
+    may be off the instrument's: by default those :data:`DESIGN_TOLERANCE` lists; one known
+    exactly is never rejected) whose distance from its value in ``design`` exceeds it; the
+    uncertainty is 3 times the largest of its standard errors in the identifiability ``report``
+    (sandwich, every jackknife added) plus the shift the held values' tolerance gives it
+    (``held_value_shift``: a bias, added, not a spread)."""
+    kinds = [se for key, se in report.items() if key.endswith("standard_errors")]
+    shift = report.get("held_value_shift", {})
+    out = {}
+    for name in (n for n in report["standard_errors"] if n in uncertain):
+        uncertainty = 3 * max(kind.get(name, 0.0) for kind in kinds) + shift.get(name, 0.0)
+        if abs(float(params[NAMES.index(name)]) - design[name]) > uncertainty:
+            out[name] = float(uncertainty)
+    return out
+
+
+def _holding(report: dict, params, design: dict, hold_rule: str,
+             tolerance: dict) -> tuple[dict, dict]:
+    """(what ``report`` lists that ``hold_rule`` holds: name -> reason, what it keeps free as
+    estimated: name -> uncertainty); the design values that may be off: those ``tolerance``
+    gives a tolerance above 0, else those :data:`DESIGN_TOLERANCE` lists."""
+    listed = report["not_identifiable"]
+    if hold_rule == "imprecise":
+        return dict(listed), {}
+    uncertain = [n for n, t in tolerance.items() if t > 0] if tolerance else DESIGN_TOLERANCE
+    rejected = design_rejected(report, params, design, uncertain)
+    estimated = {n: rejected[n] for n, why in listed.items() if _tier(why) == 1 and n in rejected}
+    return {n: why for n, why in listed.items() if n not in estimated}, estimated
 
 
 def _frames(recordings) -> list:
@@ -233,7 +280,8 @@ def fit_identified(recordings, *, psm=None, provenance=None, design: dict | None
                    jackknife_labels=None, crosstalk: bool | None = None,
                    sag_passes: int = SAG_PASSES, pose_labels=None,
                    pose_unit: str = "orientation",
-                   design_tolerance: dict | None = None) -> InternalForcePrior:
+                   design_tolerance: dict | None = None,
+                   hold_rule: str = "imprecise") -> InternalForcePrior:
     """Fit the prior with only what the data identify free (module docstring); the rest held at
     ``design`` (default :data:`DESIGN`; a partial dict overrides some entries). ``inputs``: what
     the law reads as wrist torques (:meth:`InternalForcePrior.fit`); ``jackknife_labels``: each
@@ -249,6 +297,9 @@ def fit_identified(recordings, *, psm=None, provenance=None, design: dict | None
     :data:`DESIGN_TOLERANCE`; 0 or absent: not moved): a free parameter that the held values
     off by that much would move beyond its needed precision is held as well ("rests on held
     design values"); None (the default, as every committed figure was written): no such check.
+    ``hold_rule`` (:data:`HOLD_RULES`): what is held among the parameters listed for their precision
+    alone; ``"unresolved"`` keeps those whose design value the data reject free, named in
+    ``info["selection"]["estimated"]`` (value, uncertainty: :func:`design_rejected`).
 
     With the load path, the rounds sag the wrist with the design's values
     (:mod:`~psmforce.identification.load_path`); once they have nothing left to hold, the
@@ -267,6 +318,9 @@ def fit_identified(recordings, *, psm=None, provenance=None, design: dict | None
     if isinstance(sag_passes, bool) or not isinstance(sag_passes, int) or sag_passes < 0:
         raise IdentificationInputError(f"sag_passes must be an integer >= 0, got "
                                        f"{sag_passes!r}")
+    if hold_rule not in HOLD_RULES:
+        raise IdentificationInputError(f"hold_rule must be one of {HOLD_RULES}, got "
+                                       f"{hold_rule!r}")
     unknown = sorted(set(design) - set(NAMES))
     if unknown:
         raise IdentificationInputError(f"design: unknown parameters {unknown} (one of {NAMES})")
@@ -279,7 +333,7 @@ def fit_identified(recordings, *, psm=None, provenance=None, design: dict | None
     select = dict(frames=frames, fixed=fixed, why_fixed=why_fixed, rounds=rounds, design=design,
                   psm=psm, provenance=provenance, max_rounds=max_rounds, max_iter=max_iter,
                   inputs=inputs, groups=groups, labels=jackknife_labels, poses=poses,
-                  tolerance=tolerance)
+                  tolerance=tolerance, hold_rule=hold_rule)
     prior = _select(compliance=None, **select)
     sag = None
     if inputs == "load_path":
@@ -294,7 +348,8 @@ def fit_identified(recordings, *, psm=None, provenance=None, design: dict | None
             taken = given
         sag = {"passes": passes, "converged": passes[-1]["change"] < SAG_TOLERANCE,
                "compliance": asdict(taken)}
-    still = sorted(prior.info["identifiability"]["not_identifiable"])
+    estimated = rounds[-1]["estimated"]
+    still = sorted(set(prior.info["identifiability"]["not_identifiable"]) - set(estimated))
     free = [n for n in NAMES if n not in fixed]
     prior.info["selection"] = {
         "method": "fit, list the parameters the identifiability report (with the trial "
@@ -305,7 +360,10 @@ def fit_identified(recordings, *, psm=None, provenance=None, design: dict | None
         "orientation_jackknife_groups": poses[1] if poses else None,
         "orientation_jackknife_unit": poses[2] if poses else None,
         "rounds": rounds, "fixed": why_fixed,
-        "identified": [n for n in free if n not in still],
+        "hold_rule": hold_rule,
+        "identified": [n for n in free if n not in still and n not in estimated],
+        "estimated": {n: {"value": float(prior.params[NAMES.index(n)]), "uncertainty": u}
+                      for n, u in estimated.items()},
         "still_not_identifiable": still,
         "at_bound": list(prior.info["bounds_hit"]),
         **({"sag": sag} if sag is not None else {}),
@@ -348,12 +406,13 @@ def _tiers(listed: dict) -> list[dict]:
 
 
 def _select(*, frames, fixed, why_fixed, rounds, design, psm, provenance, max_rounds, max_iter,
-            inputs, groups, labels, poses, compliance, tolerance) -> InternalForcePrior:
+            inputs, groups, labels, poses, compliance, tolerance,
+            hold_rule) -> InternalForcePrior:
     """Rounds of :func:`fit_identified` (fit, report with the jackknife, hold one tier of what
     it lists; the orientations' jackknife, ``poses`` from :func:`_pose_groups`, once nothing
     else is listed) with the load path's sag ``compliance`` (None: the design's), at most
-    ``max_rounds``; ``fixed``, ``why_fixed`` and ``rounds`` are updated in place. Returns the
-    last round's fit."""
+    ``max_rounds``; ``fixed``, ``why_fixed`` and ``rounds`` are updated in place; what is held
+    follows ``hold_rule`` (:func:`_holding`). Returns the last round's fit."""
     start = None  # a later pass starts where the last fit ended
     if rounds:
         start = {n: x for n, x in rounds[-1]["parameters"].items() if n not in fixed}
@@ -367,17 +426,20 @@ def _select(*, frames, fixed, why_fixed, rounds, design, psm, provenance, max_ro
                                compliance=compliance)
         if jack is not None:
             add_trial_spread(report, prior.params, jack, groups)
-        to_fix = next((t for t in _tiers(report["not_identifiable"]) if t), {})
+        held, estimated = _holding(report, prior.params, design, hold_rule, tolerance)
+        to_fix = next((t for t in _tiers(held) if t), {})
         if not to_fix and poses is not None:
             pose_jack = trial_jackknife(frames, prior, fixed, poses[1], psm, max_iter, inputs,
                                         poses[0], compliance=compliance)
             if pose_jack is not None:
                 add_trial_spread(report, prior.params, pose_jack, poses[1], over=poses[2])
-            to_fix = next((t for t in _tiers(report["not_identifiable"]) if t), {})
+            held, estimated = _holding(report, prior.params, design, hold_rule, tolerance)
+            to_fix = next((t for t in _tiers(held) if t), {})
         listed = dict(report["not_identifiable"])
         rounds.append({"fixed": sorted(fixed), "converged": prior.converged,
                        "parameters": {n: float(x) for n, x in zip(NAMES, prior.params)},
                        "bounds_hit": list(prior.info["bounds_hit"]), "not_identifiable": listed,
+                       "estimated": estimated,
                        **({"sag": "design" if compliance is None else "own"}
                           if inputs == "load_path" else {})})
         if (not to_fix or len(fixed) + len(to_fix) >= len(NAMES)
@@ -410,12 +472,17 @@ def _tier(reason: str) -> int:
     return 2 if reason.startswith("tied to") else 1
 
 
+def _relative(uncertainty: float, value: float) -> str:
+    return f"+-{uncertainty / abs(value):.0%}" if value else f"+-{uncertainty:.2g}"
+
+
 def _names(names) -> str:
     return ", ".join(names) if names else "none"
 
 
 def verdict_line(selection: dict) -> str:
-    """One line: the identified free parameters, those held at design values, those still not
+    """One line: the identified free parameters, those held at design values, those estimated
+    (``hold_rule="unresolved"``: free, with their relative uncertainty), those still not
     identifiable (a fit that ran out of rounds), those at a bound; never "passes" while the
     report lists a free parameter."""
     still, bound = selection["still_not_identifiable"], selection["at_bound"]
@@ -424,6 +491,12 @@ def verdict_line(selection: dict) -> str:
             f"resolution): "
             f"{_names(selection['identified'])}; fixed at design values (not identifiable): "
             f"{_names(sorted(selection['fixed']))}")
+    estimated = selection.get("estimated", {})
+    if estimated:
+        line += ("; estimated (free: the data reject its design value, but 3 SE exceed "
+                 f"{RECOVERY_TOLERANCE:.0%}): " + ", ".join(
+                     f"{n} ({_relative(e['uncertainty'], e['value'])})"
+                     for n, e in sorted(estimated.items())))
     if still:
         line += f"; free but NOT identifiable: {_names(still)}"
     line += f"; at a bound: {_names(bound)}"

@@ -278,6 +278,26 @@ def test_sign_pairs_group_each_orientation_with_its_opposite():
         hold_orientations(trials, "pair")
 
 
+def test_the_hold_rule_is_asked_for_with_known_loads_only(tmp_path, capsys):
+    """``calibrate --hold-rule unresolved`` chooses what the instrument's identification holds:
+    without known loads it is refused by name (CLI and library), an unknown rule too; the CLI's
+    choices are the identification's (:data:`~psmforce.identification.prior_selection.
+    HOLD_RULES`)."""
+    from psmforce.cli import options
+    from psmforce.cli.main import main
+    from psmforce.estimators.training.calibrate import CalibrationError, calibrate
+    from psmforce.identification.prior_selection import HOLD_RULES
+    assert options.HOLD_RULES == HOLD_RULES
+    paths = (tmp_path / "m.pt", tmp_path, tmp_path / "o.pt")
+    assert main(["calibrate", str(paths[0]), "--data", str(tmp_path), "--out", str(paths[2]),
+                 "--free-space", "--hold-rule", "unresolved"]) == 2
+    assert "--hold-rule: only with --known-loads" in capsys.readouterr().err
+    with pytest.raises(CalibrationError, match="hold_rule must be one of"):
+        calibrate(*paths, free_space=True, hold_rule="loose")
+    with pytest.raises(CalibrationError, match="hold_rule: only with known_loads"):
+        calibrate(*paths, free_space=True, hold_rule="unresolved")
+
+
 @pytest.mark.parametrize("option, choices, asked, unknown", [
     ("held_values", "HELD_VALUES", "checked", "loose"),
     ("jackknife_unit", "JACKKNIFE_UNITS", "sign_pair", "pairs"),

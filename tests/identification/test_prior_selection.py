@@ -397,3 +397,71 @@ def test_a_free_parameter_resting_on_a_held_value_is_listed_and_only_then():
     assert 0 < small["held_value_shift"]["pretension_total"] < 0.6
     none, reason = listed(None)
     assert none["held_value_shift"] == {} and "rests on held design values" not in reason
+
+
+def test_the_design_value_is_rejected_beyond_three_of_the_largest_standard_errors_and_the_shift():
+    """:func:`design_rejected`: the uncertainty is 3 times the largest standard error of any
+    kind (sandwich, each jackknife) plus the held values' shift; a parameter farther than that
+    from its design value is listed with it, one within it is not, nor one whose design value
+    is known exactly."""
+    from psmforce.identification.prior_selection import design_rejected
+    params = InternalForcePrior().params.copy()
+    params[NAMES.index("capstan_mu")] = 0.2
+    params[NAMES.index("crosstalk_fx")] = 0.01
+    report = {"standard_errors": {"capstan_mu": 0.01, "crosstalk_fx": 0.001},
+              "jackknife_standard_errors": {"capstan_mu": 0.02},
+              "orientation_jackknife_standard_errors": {"crosstalk_fx": 0.002},
+              "held_value_shift": {"crosstalk_fx": 0.003}}
+    design = {**DESIGN, "capstan_mu": 0.0, "crosstalk_fx": 0.0}
+    assert design_rejected(report, params, design) == pytest.approx(
+        {"capstan_mu": 0.06, "crosstalk_fx": 0.009})
+    report["held_value_shift"]["crosstalk_fx"] = 0.005  # 0.006 + 0.005 > 0.01: not rejected
+    assert set(design_rejected(report, params, design)) == {"capstan_mu"}
+    assert design_rejected(report, params, {**design, "capstan_mu": 0.15}) == {}
+    # a design value known exactly (not among the uncertain) is never rejected
+    assert design_rejected(report, params, design, uncertain=("crosstalk_fx",)) == {}
+
+
+def test_the_unresolved_rule_keeps_free_only_what_the_data_place_off_its_design_value(monkeypatch):
+    """``hold_rule="unresolved"``: a parameter listed for its precision alone whose design value
+    the data reject stays free, named estimated with its uncertainty (in the selection and the
+    verdict), neither identified nor held; one within its uncertainty of the design value, and
+    one listed for a structural reason, and one whose design value is known exactly, are held
+    as under the 10 % rule ("imprecise", the default, which holds all four). An unknown rule is refused by name."""
+    import psmforce.identification.prior_selection as selection
+    from psmforce.identification.errors import IdentificationInputError
+    values = {**DESIGN, "asymmetry_pitch": 0.5, "twist_gain": 0.031, "cable_radius": 1e-4,
+              "distal_com_distance": 0.02}
+    se = {"asymmetry_pitch": 0.05, "twist_gain": 0.002, "cable_radius": 1e-6,
+          "distal_com_distance": 5e-4}
+    reasons = {"asymmetry_pitch": "0.5 +- 0.05 (1 SE): 3 SE are 30% of the value",
+               "twist_gain": "0.031 +- 0.002 (1 SE): 3 SE are 19% of the value",
+               "cable_radius": "at its bound (0.0001 m): set by the bound, not by the data",
+               "distal_com_distance": "0.02 +- 0.0005 m (1 SE): 3 SE are 7.5% of the value; "
+                                      "varies between groups of trials"}
+
+    def fit(frames, *, fixed, **kw):
+        return InternalForcePrior(
+            params=np.array([fixed.get(n, values[n]) for n in NAMES]), converged=True,
+            info={"identifiability": {
+                "not_identifiable": {n: r for n, r in reasons.items() if n not in fixed},
+                "standard_errors": {n: se.get(n, 0.0) for n in NAMES if n not in fixed}},
+                "bounds_hit": [], "provenance": {}})
+    monkeypatch.setattr(selection.InternalForcePrior, "fit", staticmethod(fit))
+    strict = fit_identified([object()]).info
+    assert {"asymmetry_pitch", "twist_gain", "cable_radius"} <= set(strict["selection"]["fixed"])
+    assert strict["selection"]["estimated"] == {} and "estimated" not in strict["verdict"]
+    info = fit_identified([object()], hold_rule="unresolved").info
+    sel = info["selection"]
+    assert sel["hold_rule"] == "unresolved"
+    assert sel["estimated"] == {"asymmetry_pitch": {"value": 0.5,
+                                                    "uncertainty": pytest.approx(0.15)}}
+    # twist_gain: within its uncertainty of the design; cable_radius: structural;
+    # distal_com_distance: its design value known exactly (no tolerance): all three held
+    assert {"twist_gain", "cable_radius", "distal_com_distance"} <= set(sel["fixed"])
+    assert "asymmetry_pitch" not in sel["fixed"] and "asymmetry_pitch" not in sel["identified"]
+    assert sel["still_not_identifiable"] == []
+    assert "estimated (free: the data reject its design value" in info["verdict"]
+    assert "asymmetry_pitch (+-30%)" in info["verdict"]
+    with pytest.raises(IdentificationInputError, match="hold_rule must be one of"):
+        fit_identified([object()], hold_rule="loose")

@@ -223,3 +223,51 @@ def test_the_fresh_seeds_are_the_ones_the_run_declares():
     result = {"fresh_seeds": [206], "records": {"204": rows, "206": rows}}
     lines = _fresh_seed_goals(result)
     assert "(206, declared" in lines[1] and "seed 204" not in "\n".join(lines)
+
+
+def test_the_hold_rule_is_paired_with_the_10_percent_rule_by_seed():
+    """(c'') under the rule "unresolved" against (c'') under the 10 % rule on the seeds both
+    ran, fresh and design seeds paired apart; estimated values are marked where carried and
+    each is judged against the bench's truth by its own uncertainty; a run that does not share
+    the recordings, or is not the unresolved rule's, is refused."""
+    from reports.ati_free_page import hold_rule_table
+    from studies.ati_free import IDENTIFIED_ARM, PAIRED_ARM
+
+    def score(fy):
+        return {"nrmse_pct": {m: {"Fx": 1.0, "Fy": fy, "Fz": 3.0} for m in ("causal", "paper")}}
+
+    def rows(fy):
+        return {IDENTIFIED_ARM: score(fy), "physics_alone:" + IDENTIFIED_ARM: score(2 * fy),
+                PAIRED_ARM: score(1.0), "ati_same_minutes_paired": score(1.0),
+                "ati_full": score(1.0)}
+
+    def run(carried, estimated=None, truth=None):
+        return {IDENTIFIED_ARM: {
+            "prior": {"held_at_identified": carried},
+            "instrument": {"estimated": estimated or {}},
+            "prior_against_truth": {n: {"truth": t} for n, t in (truth or {}).items()}}}
+    settings = {"scale": 0.05, "jackknife_unit": "orientation"}
+    seeds = ("206", "209", "210", "211")
+    old = {"settings": settings, "records": {k: rows(2.0) for k in seeds},
+           "runs": {k: run({"crosstalk_tz": 1e-4}) for k in seeds}}
+    estimated = {"crosstalk_fy": {"value": 0.0068, "uncertainty": 0.0015},
+                 "capstan_mu": {"value": 0.18, "uncertainty": 0.01}}
+    new = {"settings": {**settings, "hold_rule": "unresolved"},
+           "records": {k: rows(1.0) for k in seeds},
+           "runs": {k: run({"crosstalk_tz": 1e-4, "crosstalk_fy": 0.0068, "capstan_mu": 0.18},
+                           estimated, {"crosstalk_fy": 0.0072, "capstan_mu": 0.2})
+                    for k in seeds}}
+    text = hold_rule_table(new, old)
+    assert "| 209 (fresh) | crosstalk_tz | crosstalk_tz, *crosstalk_fy*, *capstan_mu* | " \
+        "1.00 / 2.00 | 1.00 / 1.00 | 1.00 / 4.00 | 1.00 / 2.00 | 1.00 / 1.00 |" in text
+    assert "| 206 | crosstalk_tz |" in text
+    assert "| 209 | crosstalk_fy | 0.0068 ± 0.0015 | 0.0072 | 6% | yes |" in text
+    assert "| 209 | capstan_mu | 0.18 ± 0.01 | 0.2 | 10% | **no** |" in text
+    fresh = text.split("on the fresh seeds (209, 210, 211)")[1].split("design seeds")[0]
+    assert fresh.count("0.50x") == 4 and "(the rule helps): the calibrated hybrid, causal Fy" \
+        in fresh
+    assert "on the design seeds (206)" in text
+    with pytest.raises(ValueError, match="--hold-rule unresolved"):
+        hold_rule_table(old, old)
+    with pytest.raises(ValueError, match=r"settings \['scale'\] differ"):
+        hold_rule_table(new, {**old, "settings": {**settings, "scale": 0.1}})

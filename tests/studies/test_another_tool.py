@@ -254,9 +254,9 @@ def test_a_per_mount_refit_moves_only_the_pretension_and_force_offsets(benches, 
 def test_an_identified_refit_holds_what_the_load_path_identified(benches, tmp_path,
                                                                   monkeypatch):
     """prior_refit="identified" (docs/ati_free.md section 4.3): each parameter the instrument's
-    identification through the load path identified is held at its identified value in the
-    estimator's prior, the sensor's offsets excepted (this mount's, refitted); the rest is
-    refitted as "all" does. Refused without known loads. The identification itself is
+    identification through the load path identified, or estimated (its design value rejected,
+    ``hold_rule="unresolved"``), is held at its value in the estimator's prior, the sensor's
+    offsets excepted (this mount's, refitted); the rest is refitted as "all" does. Refused without known loads. The identification itself is
     tests/estimators/test_ati_free.py's; here it is replaced by a report with known values."""
     from psmforce.cli.excitation import weight_poses
     from psmforce.estimators.training import calibrate as calibration
@@ -267,8 +267,11 @@ def test_an_identified_refit_holds_what_the_load_path_identified(benches, tmp_pa
                       tool_spread=2.0)
     identified = {"pretension_total": 7.5, "pulley_radius_pitch": 1.8e-3, "bias_fx": 0.2}
     old = load_checkpoint(benches / "hybrid.pt").prior()
-    report = {"parameters": dict(zip(NAMES, old.params.tolist())) | identified,
-              "identified": list(identified), "fixed": {}, "at_bound": [], "verdict": "test",
+    estimated = {"pulley_radius_blade": {"value": 1.6e-3, "uncertainty": 3e-4}}
+    report = {"parameters": dict(zip(NAMES, old.params.tolist())) | identified
+              | {"pulley_radius_blade": 1.6e-3},
+              "identified": list(identified), "estimated": estimated, "fixed": {},
+              "at_bound": [], "verdict": "test",
               "converged": True, "reading": "load path"}
     monkeypatch.setattr(calibration, "identify_instrument", lambda *a, **k: None)
     monkeypatch.setattr(calibration, "instrument_report", lambda prior: report)
@@ -277,7 +280,8 @@ def test_an_identified_refit_holds_what_the_load_path_identified(benches, tmp_pa
                         epochs=1, train_config=CHEAP, free_space=True,
                         known_loads=tmp_path / "g" / KNOWN_LOADS, prior_refit="identified")
     refit = summary["calibration"]["prior_refit"]
-    carried = {"pretension_total": 7.5, "pulley_radius_pitch": 1.8e-3}
+    carried = {"pretension_total": 7.5, "pulley_radius_pitch": 1.8e-3,
+               "pulley_radius_blade": 1.6e-3}
     assert refit["refit"] == "identified" and refit["held_at_identified"] == carried
     assert set(refit["held_from_checkpoint"]).isdisjoint(carried)
     new = dict(zip(NAMES, load_checkpoint(out).prior().params.tolist()))

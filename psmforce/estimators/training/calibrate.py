@@ -186,7 +186,7 @@ def instrument_frames(trials: list[Trial]) -> list:
 
 def identify_instrument(trials: list[Trial], crosstalk: bool | str | None = None,
                         design_tolerance: dict | None = None,
-                        jackknife_unit: str = "orientation"):
+                        jackknife_unit: str = "orientation", hold_rule: str = "imprecise"):
     """The instrument identified from recordings whose external force is known (module
     docstring, "The instrument identified"): the load path's
     :func:`~psmforce.identification.prior_selection.fit_identified` on every trial, the
@@ -200,7 +200,9 @@ def identify_instrument(trials: list[Trial], crosstalk: bool | str | None = None
     None: the load path's, the axial column); ``design_tolerance``: how far each held design
     value may be off, for the check of what rests on them (``fit_identified``; None: none);
     ``jackknife_unit``: what the second jackknife leaves out at a time, an orientation or a sign
-    pair of them (:data:`~psmforce.estimators.training.ati_free.JACKKNIFE_UNITS`)."""
+    pair of them (:data:`~psmforce.estimators.training.ati_free.JACKKNIFE_UNITS`);
+    ``hold_rule``: what it holds among the parameters listed for their precision alone
+    (:data:`~psmforce.identification.prior_selection.HOLD_RULES`)."""
     from psmforce.identification.prior_selection import design_groups, fit_identified
     frames = instrument_frames(trials)
     masses = [t.params.get(KNOWN_LOAD_FIELD) if t.condition == KNOWN_LOAD_CONDITION else None
@@ -209,18 +211,20 @@ def identify_instrument(trials: list[Trial], crosstalk: bool | str | None = None
                           pose_labels=hold_orientations(trials, jackknife_unit),
                           pose_unit=jackknife_unit,
                           provenance={"trials": [t.path for t in trials]}, crosstalk=crosstalk,
-                          design_tolerance=design_tolerance)
+                          design_tolerance=design_tolerance, hold_rule=hold_rule)
 
 
 def instrument_report(prior) -> dict:
     """JSON-ready summary of :func:`identify_instrument`'s prior: parameters (SI), identified,
-    fixed at design values with the reason, at a bound, the verdict line."""
+    estimated (``hold_rule="unresolved"``: free, the design value rejected, with its
+    uncertainty), fixed at design values with the reason, at a bound, the verdict line."""
     from psmforce.identification.prior import NAMES
     sel = prior.info["selection"]
     return {"reading": "load path (the known external force's moments; clenched samples out)",
             "converged": prior.converged,
             "parameters": {n: float(x) for n, x in zip(NAMES, prior.params)},
             "identified": list(sel["identified"]),
+            "estimated": dict(sel.get("estimated", {})),
             "fixed": {n: {"value": f["value"], "reason": f["reason"]}
                       for n, f in sel["fixed"].items()},
             "at_bound": list(sel["at_bound"]), "verdict": prior.info["verdict"]}
@@ -228,11 +232,12 @@ def instrument_report(prior) -> dict:
 
 def identified_values(instrument: dict) -> dict[str, float]:
     """What :func:`instrument_report`'s identification carries into the estimator's prior: each
-    parameter it identified, at its identified value (SI), the sensor's offsets left out (this
-    mount's: the efforts' refit takes them on the same recordings)."""
+    parameter it identified or estimated (its design value rejected by the data), at its value
+    (SI), the sensor's offsets left out (this mount's: the efforts' refit takes them on the same
+    recordings)."""
     from psmforce.identification.prior_identifiability import is_offset
-    return {n: float(instrument["parameters"][n]) for n in instrument["identified"]
-            if not is_offset(n)}
+    carried = [*instrument["identified"], *instrument.get("estimated", {})]
+    return {n: float(instrument["parameters"][n]) for n in carried if not is_offset(n)}
 
 
 PRIOR_REFITS = ("all", "per_mount", "identified")
@@ -248,7 +253,8 @@ def calibrate(checkpoint: str | Path, data_dir: str | Path, out: str | Path, *,
               minutes: float = DEFAULT_MINUTES, epochs: int = 100, seed: int = 0,
               device: str = "cpu", train_config=None, free_space: bool = False,
               known_loads: str | Path | None = None, prior_refit: str = "all",
-              held_values: str = "as-held", jackknife_unit: str = "orientation") -> dict:
+              held_values: str = "as-held", jackknife_unit: str = "orientation",
+              hold_rule: str = "imprecise") -> dict:
     """Calibrate a trained checkpoint to the instrument recorded in ``data_dir`` from its first
     ``minutes`` of calibration trials (module docstring) and write ``out``. ``seed``: the validation
     split and the finetuning's shuffling; ``train_config``: a
@@ -272,7 +278,12 @@ def calibrate(checkpoint: str | Path, data_dir: str | Path, out: str | Path, *,
     ``jackknife_unit`` (with ``known_loads``): what the identification's jackknife over the
     weights' orientations leaves out at a time, ``"orientation"`` or ``"sign_pair"`` (an
     orientation with its opposite, for a paired design:
-    :func:`~psmforce.estimators.training.ati_free.hold_orientations`)."""
+    :func:`~psmforce.estimators.training.ati_free.hold_orientations`). ``hold_rule`` (with
+    ``known_loads``): what the identification holds among the parameters listed for their
+    precision alone (:data:`~psmforce.identification.prior_selection.HOLD_RULES`):
+    ``"imprecise"`` every one, ``"unresolved"`` only those
+    whose design value the data do not reject, the others estimated (and carried by
+    ``"identified"``)."""
     from psmforce.identification import InternalForcePrior
     from psmforce.identification.errors import NotConvergedError
     from psmforce.identification.prior import NAMES, held_by_reading
@@ -294,8 +305,12 @@ def calibrate(checkpoint: str | Path, data_dir: str | Path, out: str | Path, *,
     if jackknife_unit not in JACKKNIFE_UNITS:
         raise CalibrationError(f"jackknife_unit must be one of {JACKKNIFE_UNITS}, got "
                                f"{jackknife_unit!r}")
+    from psmforce.identification.prior_selection import HOLD_RULES
+    if hold_rule not in HOLD_RULES:
+        raise CalibrationError(f"hold_rule must be one of {HOLD_RULES}, got {hold_rule!r}")
     for name, value, default in (("held_values", held_values, "as-held"),
-                                 ("jackknife_unit", jackknife_unit, "orientation")):
+                                 ("jackknife_unit", jackknife_unit, "orientation"),
+                                 ("hold_rule", hold_rule, "imprecise")):
         if value != default and known_loads is None:
             raise CalibrationError(f"{name}: only with known_loads (the instrument's "
                                    f"identification through the load path)")
@@ -323,7 +338,7 @@ def calibrate(checkpoint: str | Path, data_dir: str | Path, out: str | Path, *,
             from psmforce.identification.prior_selection import DESIGN_TOLERANCE
             instrument = instrument_report(identify_instrument(
                 chosen, design_tolerance=DESIGN_TOLERANCE if held_values == "checked" else None,
-                jackknife_unit=jackknife_unit))
+                jackknife_unit=jackknife_unit, hold_rule=hold_rule))
         except IdentificationInputError as err:
             raise CalibrationError(f"{known_loads}: identifying the instrument through the "
                                    f"load path: {err}") from None
