@@ -270,6 +270,8 @@ ATI_FREE_ROWS = {
     "physics_alone:free+self+weights": "physics alone, (c)'s prior",
     "physics_alone:free+self+paired": "physics alone, (c')'s prior",
     "physics_alone:identified:free+self+paired": "physics alone, (c'')'s prior",
+    "network_off_carried:identified:free+self+paired": "(c'') with the network kept out of "
+                                                       "the lateral axes the physics carries",
     "ati_same_minutes": "(d) ATI: (c)'s minutes",
     "ati_same_minutes_paired": "(d') ATI: (c')'s minutes", "ati_full": "(e) ATI: full data",
     "source": "source hybrid (other tool), as is"}
@@ -287,10 +289,11 @@ def _paired(p: dict) -> str:
     return f"{p['mean_ratio']:.2f}x [{p['low']:.2f}, {p['high']:.2f}]"
 
 
-def _fresh_seed_goals(result: dict) -> list[str]:
+def _fresh_seed_goals(result: dict, goals: dict | None = None) -> list[str]:
     """The goals on the study's fresh seeds alone (``studies.ati_free.FRESH_SEEDS``, declared
     before any run on them): per goal arm and reference, each fresh seed's largest error ratio
-    over both metrics and the three axes, against the goal."""
+    over both metrics and the three axes, against the goal (``goals``: arm -> goal, default the
+    study's ``GOALS``)."""
     from studies.ati_free import FRESH_SEEDS, GOALS, same_minutes
     declared = result.get("fresh_seeds", FRESH_SEEDS)  # a run written before the field: these
     fresh = [str(s) for s in declared if str(s) in result["records"]]
@@ -300,7 +303,7 @@ def _fresh_seed_goals(result: dict) -> list[str]:
              "any run on them): each seed's largest error ratio over both metrics and the three "
              "axes.", "", "| row | against | " + " | ".join(f"seed {s}" for s in fresh)
              + " | goal |", "|---|---|" + "---|" * len(fresh) + "---|"]
-    for arm, goal in GOALS.items():
+    for arm, goal in (GOALS if goals is None else goals).items():
         for ref in (same_minutes(arm), "ati_full"):
             name = ATI_FREE_ROWS[ref].split(" ", 1)[0]
             cells = []
@@ -710,7 +713,8 @@ def hold_rule_table(unresolved: dict, *imprecise: dict) -> str:
     the calibrated hybrid and its physics alone, and (e); each carried estimate against the
     bench's truth and its own uncertainty; the paired ratio unresolved / imprecise on the fresh
     seeds (:data:`studies.ati_free.HOLD_RULE_FRESH_SEEDS`) and on the design seeds."""
-    from studies.ati_free import HOLD_RULE_FRESH_SEEDS, IDENTIFIED_ARM
+    from studies.ati_free import (GOALS, HOLD_RULE_FRESH_SEEDS, IDENTIFIED_ARM,
+                                  network_off_carried)
     if unresolved["settings"].get("hold_rule") != "unresolved":
         raise ValueError("the first study must be run with --hold-rule unresolved")
     for res in imprecise:
@@ -721,6 +725,11 @@ def hold_rule_table(unresolved: dict, *imprecise: dict) -> str:
                              f"settings {differ or ['hold_rule']} differ")
     base = {k: (res["records"][k], res.get("runs", {}).get(k, {}))
             for res in imprecise for k in res["records"] if IDENTIFIED_ARM in res["records"][k]}
+    switched = "network_off_carried:" + IDENTIFIED_ARM
+    records = {k: {**r, switched: network_off_carried(
+        r[IDENTIFIED_ARM], r["physics_alone:" + IDENTIFIED_ARM],
+        (unresolved["runs"][k][IDENTIFIED_ARM]["prior"] or {}).get("held_at_identified", {}))}
+        for k, r in unresolved["records"].items() if IDENTIFIED_ARM in r}
     seeds = [k for k, r in unresolved["records"].items() if IDENTIFIED_ARM in r and k in base]
     fresh = [k for k in seeds if int(k) in HOLD_RULE_FRESH_SEEDS]
     design = [k for k in seeds if k not in fresh]
@@ -730,12 +739,13 @@ def hold_rule_table(unresolved: dict, *imprecise: dict) -> str:
              "rule). Carried: what (c'')'s prior holds at the load path's values, estimated ones "
              "(kept free by the rule) in italics. Causal NRMSE % Fx / Fy.", "",
              "| seed | carried, imprecise | carried, unresolved | (c'') imprecise | (c'') "
-             "unresolved | physics alone, imprecise | physics alone, unresolved | (e) ATI full |",
-             "|---|---|---|---|---|---|---|---|"]
+             "unresolved | physics alone, imprecise | physics alone, unresolved | (c'') "
+             "unresolved, the network off the carried axes | (e) ATI full |",
+             "|---|---|---|---|---|---|---|---|---|"]
     truth_rows = []
     for k in seeds:
         rows, runs = base[k]
-        new_rows, new_run = unresolved["records"][k], unresolved["runs"][k][IDENTIFIED_ARM]
+        new_rows, new_run = records[k], unresolved["runs"][k][IDENTIFIED_ARM]
         estimated = (new_run.get("instrument") or {}).get("estimated", {})
 
         def carried(run):
@@ -750,7 +760,7 @@ def hold_rule_table(unresolved: dict, *imprecise: dict) -> str:
                      f"{lateral(new_rows[IDENTIFIED_ARM])} | "
                      f"{lateral(rows['physics_alone:' + IDENTIFIED_ARM])} | "
                      f"{lateral(new_rows['physics_alone:' + IDENTIFIED_ARM])} | "
-                     f"{lateral(new_rows['ati_full'])} |")
+                     f"{lateral(records[k][switched])} | {lateral(new_rows['ati_full'])} |")
         against = new_run.get("prior_against_truth", {})
         for name, e in sorted(estimated.items()):
             truth = (against.get(name) or {}).get("truth")
@@ -770,7 +780,8 @@ def hold_rule_table(unresolved: dict, *imprecise: dict) -> str:
         if not group:
             continue
         lines += ["", f"Unresolved over imprecise on the {which} seeds ({', '.join(group)}): "
-                  "geometric mean [95 % t interval on log ratios]; below 1: the rule helps.", "",
+                  "geometric mean [95 % t interval on log ratios]; below 1: the rule helps (the "
+                  "last row: keeping the network off the carried axes helps).", "",
                   "| row | causal Fx | causal Fy | causal Fz | paper Fx | paper Fy | paper Fz |",
                   "|---|---|---|---|---|---|---|"]
         table, verdicts = _effect_rows(
@@ -779,9 +790,19 @@ def hold_rule_table(unresolved: dict, *imprecise: dict) -> str:
              [base[k][0][prefix + IDENTIFIED_ARM]["nrmse_pct"] for k in group])
             for prefix, label in (("", "the calibrated hybrid"),
                                   ("physics_alone:", "physics alone")))
-        lines += table + ["", "Intervals wholly below 1 (the rule helps): "
+        switch, switch_verdicts = _effect_rows([(
+            "the network off the carried axes, over the hybrid (both unresolved)",
+            [records[k][switched]["nrmse_pct"] for k in group],
+            [records[k][IDENTIFIED_ARM]["nrmse_pct"] for k in group])])
+        table += switch
+        for verdict, cells in switch_verdicts.items():
+            verdicts.setdefault(verdict, []).extend(cells)
+        lines += table + ["", "Intervals wholly below 1 (helps): "
                           + ("; ".join(verdicts.get("ahead", [])) or "none") + "; wholly "
-                          "above 1 (it hurts): "
+                          "above 1 (hurts): "
                           + ("; ".join(verdicts.get("behind", [])) or "none") + "."]
-    lines += _fresh_seed_goals({**unresolved, "fresh_seeds": [int(k) for k in fresh]})
+    lines += _fresh_seed_goals({**unresolved, "records": records,
+                                "fresh_seeds": [int(k) for k in fresh]},
+                               {IDENTIFIED_ARM: GOALS[IDENTIFIED_ARM],
+                                switched: GOALS[IDENTIFIED_ARM]})
     return "\n".join(lines) + "\n"

@@ -134,6 +134,26 @@ HOLD_RULE_FRESH_SEEDS = (209, 210, 211)
 rule for what it holds at design values (the load path left the lateral cross-talk held on
 206 and 208 by its 10 % precision rule, its estimates within about 5 % of the truth on three of
 four: an observation on those seeds, so they are design seeds for any change of that rule)."""
+CARRIED_AXES = {"Fx": "crosstalk_fx", "Fy": "crosstalk_fy"}
+"""Lateral axis -> the cross-talk term (the axial reading into it) whose value, carried from the
+load path into (c'')'s prior, makes the physics carry that axis into contact
+(:func:`network_off_carried`)."""
+
+
+def network_off_carried(hybrid: dict, physics: dict, carried) -> dict:
+    """The score of (c'') with the network kept out of each lateral axis the physics carries:
+    per axis in :data:`CARRIED_AXES` whose term is in ``carried`` (the prior's
+    ``held_at_identified``), the physics alone's error, else the calibrated hybrid's (the
+    metrics are per axis, so this is the score of the estimator that switches). A selection
+    that reads no contact data, only what the identification carried; declared before any run
+    on :data:`HOLD_RULE_FRESH_SEEDS`, after the physics alone was seen ahead laterally on the
+    design seeds 201 and 207. Not an option of ``calibrate``: measured here first."""
+    off = {axis for axis, term in CARRIED_AXES.items() if term in carried}
+    return {"nrmse_pct": {m: {a: (physics if a in off else hybrid)["nrmse_pct"][m][a]
+                              for a in AXES} for m in METRICS},
+            "physics_axes": sorted(off)}
+
+
 ARM_SETS = {"all": "every arm",
             "identified": "(c'), (c'') and what they are paired with: the source hybrid, (d') "
                           "and (e), the physics alone of (c') and (c'')"}

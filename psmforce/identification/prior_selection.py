@@ -35,15 +35,17 @@ sees the bias a held value puts on the parameters correlated with it. The final 
 when they were listed, and ``info["verdict"]`` the one line that names the identified, the fixed and
 the at-bound parameters (:func:`verdict_line`; printed by ``psmforce fit-prior``).
 
-What is held among the imprecise is a rule (``hold_rule``, :data:`HOLD_RULES`). ``"imprecise"`` holds
-every parameter listed, the 10 % precision rule included. ``"unresolved"`` keeps free a parameter
-listed for its precision alone (standard errors, a jackknife, the held values' shift: never a
-structural reason) whose design value may be off the instrument's (a tolerance in
+What is held among the imprecise is a rule (``hold_rule``, :data:`HOLD_RULES`). ``"imprecise"``
+holds every parameter listed, the 10 % precision rule included. ``"unresolved"`` keeps free a
+parameter listed for its precision alone (standard errors, a jackknife, the held values' shift:
+never a structural reason) whose design value may be off the instrument's (a tolerance in
 :data:`DESIGN_TOLERANCE`, or the user's ``design_tolerance``; a value known exactly is held) and
 which the data reject: farther from it than 3 of its largest standard errors plus the held
-values' shift (:func:`design_rejected`). Held, such a parameter
-would sit at a value the data place beyond the estimate's own uncertainty, the worse of the two;
-it is named ``estimated`` with that uncertainty (the verdict's own list), not identified.
+values' shift (:func:`design_rejected`). Held, such a parameter would sit at a value the data
+place beyond the estimate's own uncertainty, the worse of the two; and every parameter
+correlated with it would take its error, so a round that holds it can list what it did not
+list before. It is named ``estimated`` with that uncertainty (the verdict's own list), not
+identified.
 
 Read through the load path, the tip force's moments are taken where the wrist sags, and the sag
 depends on the law's own pretension, radii and friction (:mod:`~psmforce.identification.

@@ -427,7 +427,8 @@ def test_the_unresolved_rule_keeps_free_only_what_the_data_place_off_its_design_
     the data reject stays free, named estimated with its uncertainty (in the selection and the
     verdict), neither identified nor held; one within its uncertainty of the design value, and
     one listed for a structural reason, and one whose design value is known exactly, are held
-    as under the 10 % rule ("imprecise", the default, which holds all four). An unknown rule is refused by name."""
+    as under the 10 % rule ("imprecise", the default, which holds all four). An unknown rule is
+    refused by name."""
     import psmforce.identification.prior_selection as selection
     from psmforce.identification.errors import IdentificationInputError
     values = {**DESIGN, "asymmetry_pitch": 0.5, "twist_gain": 0.031, "cable_radius": 1e-4,

@@ -256,8 +256,9 @@ def test_an_identified_refit_holds_what_the_load_path_identified(benches, tmp_pa
     """prior_refit="identified" (docs/ati_free.md section 4.3): each parameter the instrument's
     identification through the load path identified, or estimated (its design value rejected,
     ``hold_rule="unresolved"``), is held at its value in the estimator's prior, the sensor's
-    offsets excepted (this mount's, refitted); the rest is refitted as "all" does. Refused without known loads. The identification itself is
-    tests/estimators/test_ati_free.py's; here it is replaced by a report with known values."""
+    offsets excepted (this mount's, refitted); the rest is refitted as "all" does. Refused
+    without known loads. The identification itself is tests/estimators/test_ati_free.py's; here
+    it is replaced by a report with known values."""
     from psmforce.cli.excitation import weight_poses
     from psmforce.estimators.training import calibrate as calibration
     from psmforce.identification.prior_law import NAMES

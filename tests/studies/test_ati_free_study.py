@@ -137,3 +137,19 @@ def test_a_term_carried_from_the_load_path_is_named_so_and_judged():
     assert got["pretension_total"]["status"] == got["crosstalk_fy"]["status"] == "load path"
     assert got["pretension_total"]["within"] is True and got["crosstalk_fy"]["within"] is False
     assert got["bias_fx"]["status"] == "fitted"
+
+
+def test_the_network_is_kept_out_of_exactly_the_lateral_axes_whose_crosstalk_was_carried():
+    """Per axis, the physics alone's error where the axial cross-talk into that axis was carried
+    into the prior, the hybrid's elsewhere (Fz always the hybrid's), both metrics alike."""
+    from studies.ati_free import network_off_carried
+
+    def score(fx, fy, fz):
+        return {"nrmse_pct": {m: {"Fx": fx, "Fy": fy, "Fz": fz} for m in ("causal", "paper")}}
+    hybrid, physics = score(1.0, 2.0, 3.0), score(10.0, 20.0, 30.0)
+    got = network_off_carried(hybrid, physics, {"crosstalk_fy": 0.01, "crosstalk_tz": 1e-4})
+    assert got["nrmse_pct"]["paper"] == {"Fx": 1.0, "Fy": 20.0, "Fz": 3.0}
+    assert got["physics_axes"] == ["Fy"]
+    both = network_off_carried(hybrid, physics, ["crosstalk_fx", "crosstalk_fy"])
+    assert both["nrmse_pct"]["causal"] == {"Fx": 10.0, "Fy": 20.0, "Fz": 3.0}
+    assert network_off_carried(hybrid, physics, {})["nrmse_pct"] == hybrid["nrmse_pct"]
