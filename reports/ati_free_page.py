@@ -289,10 +289,11 @@ def _paired(p: dict) -> str:
     return f"{p['mean_ratio']:.2f}x [{p['low']:.2f}, {p['high']:.2f}]"
 
 
-def _fresh_seed_goals(result: dict, goals: dict | None = None) -> list[str]:
+def _fresh_seed_goals(result: dict, goals: dict | None = None,
+                      axes: tuple[str, ...] = ERROR_AXES) -> list[str]:
     """The goals on the study's fresh seeds alone (``studies.ati_free.FRESH_SEEDS``, declared
     before any run on them): per goal arm and reference, each fresh seed's largest error ratio
-    over both metrics and the three axes, against the goal (``goals``: arm -> goal, default the
+    over both metrics and ``axes``, against the goal (``goals``: arm -> goal, default the
     study's ``GOALS``)."""
     from studies.ati_free import FRESH_SEEDS, GOALS, same_minutes
     declared = result.get("fresh_seeds", FRESH_SEEDS)  # a run written before the field: these
@@ -300,8 +301,9 @@ def _fresh_seed_goals(result: dict, goals: dict | None = None) -> list[str]:
     if not fresh:
         return []
     lines = ["", f"On the fresh seeds alone ({', '.join(fresh)}, declared in the study before "
-             "any run on them): each seed's largest error ratio over both metrics and the three "
-             "axes.", "", "| row | against | " + " | ".join(f"seed {s}" for s in fresh)
+             "any run on them): each seed's largest error ratio over both metrics and "
+             + ("the three axes" if axes == ERROR_AXES else "the axes " + ", ".join(axes))
+             + ".", "", "| row | against | " + " | ".join(f"seed {s}" for s in fresh)
              + " | goal |", "|---|---|" + "---|" * len(fresh) + "---|"]
     for arm, goal in (GOALS if goals is None else goals).items():
         for ref in (same_minutes(arm), "ati_full"):
@@ -313,7 +315,7 @@ def _fresh_seed_goals(result: dict, goals: dict | None = None) -> list[str]:
                     cells = []
                     break
                 worst = max((rows[arm]["nrmse_pct"][m][a] / rows[ref]["nrmse_pct"][m][a], m, a)
-                            for m in ("causal", "paper") for a in ERROR_AXES)
+                            for m in ("causal", "paper") for a in axes)
                 cells.append(f"{worst[0]:.2f}x ({worst[1]} {worst[2]})"
                              + ("" if worst[0] <= goal else " **miss**"))
             if cells:
@@ -801,8 +803,9 @@ def hold_rule_table(unresolved: dict, *imprecise: dict) -> str:
                           + ("; ".join(verdicts.get("ahead", [])) or "none") + "; wholly "
                           "above 1 (hurts): "
                           + ("; ".join(verdicts.get("behind", [])) or "none") + "."]
-    lines += _fresh_seed_goals({**unresolved, "records": records,
-                                "fresh_seeds": [int(k) for k in fresh]},
-                               {IDENTIFIED_ARM: GOALS[IDENTIFIED_ARM],
-                                switched: GOALS[IDENTIFIED_ARM]})
+    for axes in (("Fx", "Fy"), ("Fx", "Fy", "Fz")):
+        lines += _fresh_seed_goals({**unresolved, "records": records,
+                                    "fresh_seeds": [int(k) for k in fresh]},
+                                   {IDENTIFIED_ARM: GOALS[IDENTIFIED_ARM],
+                                    switched: GOALS[IDENTIFIED_ARM]}, axes)
     return "\n".join(lines) + "\n"

@@ -65,6 +65,8 @@ ATI_FREE_IDENTIFICATION_BLIND_PAIRS = (ROOT / "results" / "benchmarks"
                                        / "ati_free_identification_blind_pairs.json")
 ATI_FREE_IDENTIFIED = ROOT / "results" / "benchmarks" / "ati_free_identified.json"
 ATI_FREE_IDENTIFIED_PAIRS = ROOT / "results" / "benchmarks" / "ati_free_identified_pairs.json"
+ATI_FREE_IDENTIFIED_FRESH = ROOT / "results" / "benchmarks" / "ati_free_identified_fresh.json"
+ATI_FREE_UNRESOLVED = ROOT / "results" / "benchmarks" / "ati_free_unresolved.json"
 ATI_FREE_IDENTIFICATION_BLIND_PAIRS_CHECKED = (
     ROOT / "results" / "benchmarks" / "ati_free_identification_blind_pairs_checked.json")
 COMPARISON = ROOT / "results" / "ports" / "none" / "results.json"
@@ -228,6 +230,10 @@ BLOCKS = (
      ati_free_page.identified_effect_table),
     (ATI_FREE, "ati-free-identified-pairs-effect", ATI_FREE_IDENTIFIED_PAIRS,
      ati_free_page.identified_effect_table),
+    (ATI_FREE, "ati-free-unresolved-tables", ATI_FREE_UNRESOLVED, ati_free_page.ati_free_tables),
+    (ATI_FREE, "ati-free-hold-rule",
+     (ATI_FREE_UNRESOLVED, ATI_FREE_IDENTIFIED, ATI_FREE_IDENTIFIED_FRESH),
+     ati_free_page.hold_rule_table),
     (ATI_FREE, "instrument-identification-tables", ATI_FREE_IDENTIFICATION,
      ati_free_page.instrument_identification_tables),
     (ATI_FREE, "load-path-holds", LOAD_PATH_HOLDS, ati_free_page.load_path_holds_table),

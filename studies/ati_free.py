@@ -7,6 +7,10 @@
         --json /tmp/ati_free_smoke.json
     python studies/ati_free.py --seeds 201 206 207 208 --arms identified \
         --json results/benchmarks/ati_free_identified.json
+    python studies/ati_free.py --seeds 209 210 211 --arms identified \
+        --json results/benchmarks/ati_free_identified_fresh.json
+    python studies/ati_free.py --seeds 206 208 209 210 211 --arms identified \
+        --hold-rule unresolved --json results/benchmarks/ati_free_unresolved.json
 
 ``--prior-crosstalk``: every hybrid's prior also fits the HEX10's cross-talk (``psmforce train
 --prior-crosstalk``; a calibration refits the law its checkpoint has), in its own work folder;
@@ -46,6 +50,9 @@ calibrated prior with no network: the hybrid's base, ``comp_fx, comp_fy, inserti
 (c'') ``identified:free+self+paired`` (:data:`IDENTIFIED_ARM`): (c')'s recordings calibrated with
 ``prior_refit="identified"``, what the load path identified held in the estimator's prior, with
 its physics alone; ``--arms identified`` runs only (c'), (c'') and what they are paired with.
+``--hold-rule unresolved``: (c'')'s identification keeps free, as estimated, what the data place
+off its design value (:data:`psmforce.identification.prior_selection.HOLD_RULES`; its own
+files in the work folder), measured on :data:`HOLD_RULE_FRESH_SEEDS` (docs/ati_free.md 4.4).
 
 Scores: NRMSE % per axis, causal and paper metric (``psmforce.estimators.evaluation``), on the
 tool bench's test Palpation + Traction trials; paired ratios over seeds
