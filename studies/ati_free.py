@@ -9,7 +9,7 @@
         --json results/benchmarks/ati_free_identified.json
     python studies/ati_free.py --seeds 209 210 211 --arms identified \
         --json results/benchmarks/ati_free_identified_fresh.json
-    python studies/ati_free.py --seeds 206 208 209 210 211 --arms identified \
+    python studies/ati_free.py --seeds 206 207 208 209 210 211 --arms identified \
         --hold-rule unresolved --json results/benchmarks/ati_free_unresolved.json
 
 ``--prior-crosstalk``: every hybrid's prior also fits the HEX10's cross-talk (``psmforce train
