@@ -750,15 +750,16 @@ def hold_rule_table(unresolved: dict, *imprecise: dict) -> str:
         new_rows, new_run = records[k], unresolved["runs"][k][IDENTIFIED_ARM]
         estimated = (new_run.get("instrument") or {}).get("estimated", {})
 
-        def carried(run):
+        def carried(run, marked=()):
             held = ((run.get(IDENTIFIED_ARM) or {}).get("prior") or {}).get(
                 "held_at_identified", {})
-            return ", ".join(f"*{n}*" if n in estimated else n for n in held) or "nothing"
+            return ", ".join(f"*{n}*" if n in marked else n for n in held) or "nothing"
 
         def lateral(r):
             return " / ".join(f"{r['nrmse_pct']['causal'][a]:.2f}" for a in ("Fx", "Fy"))
         lines.append(f"| {k}{' (fresh)' if k in fresh else ''} | {carried(runs)} | "
-                     f"{carried(unresolved['runs'][k])} | {lateral(rows[IDENTIFIED_ARM])} | "
+                     f"{carried(unresolved['runs'][k], estimated)} | "
+                     f"{lateral(rows[IDENTIFIED_ARM])} | "
                      f"{lateral(new_rows[IDENTIFIED_ARM])} | "
                      f"{lateral(rows['physics_alone:' + IDENTIFIED_ARM])} | "
                      f"{lateral(new_rows['physics_alone:' + IDENTIFIED_ARM])} | "

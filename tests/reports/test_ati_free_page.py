@@ -264,6 +264,10 @@ def test_the_hold_rule_is_paired_with_the_10_percent_rule_by_seed():
         "1.00 / 2.00 | 1.00 / 1.00 | 1.00 / 4.00 | 1.00 / 2.00 | 1.00 / 2.00 | 1.00 / 1.00 |" \
         in text
     assert "| 206 | crosstalk_tz |" in text
+    # a name the unresolved run estimated is marked in its own column only
+    old["runs"]["209"][IDENTIFIED_ARM]["prior"]["held_at_identified"] = {"crosstalk_fy": 0.007}
+    assert "| 209 (fresh) | crosstalk_fy | crosstalk_tz, *crosstalk_fy*" in hold_rule_table(
+        new, old)
     assert "| 209 | crosstalk_fy | 0.0068 ± 0.0015 | 0.0072 | 6% | yes |" in text
     assert "| 209 | capstan_mu | 0.18 ± 0.01 | 0.2 | 10% | **no** |" in text
     fresh = text.split("on the fresh seeds (209, 210, 211)")[1].split("design seeds")[0]
