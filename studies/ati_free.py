@@ -141,6 +141,12 @@ HOLD_RULE_FRESH_SEEDS = (209, 210, 211)
 rule for what it holds at design values (the load path left the lateral cross-talk held on
 206 and 208 by its 10 % precision rule, its estimates within about 5 % of the truth on three of
 four: an observation on those seeds, so they are design seeds for any change of that rule)."""
+NETWORK_OFF_FRESH_SEEDS = (212, 213, 214)
+"""Bench seeds declared, before any run of the study on them, to judge the checkpoint option that
+keeps the network out of the lateral axes the physics carries (``psmforce calibrate --network-off
+carried``, scored by :func:`network_off_carried`): it tied the calibrated hybrid on
+:data:`HOLD_RULE_FRESH_SEEDS` and led it on 206-208 (docs/ati_free.md 4.4), so every seed up to
+211 is a design seed for it."""
 CARRIED_AXES = {"Fx": "crosstalk_fx", "Fy": "crosstalk_fy"}
 """Lateral axis -> the cross-talk term (the axial reading into it) whose value, carried from the
 load path into (c'')'s prior, makes the physics carry that axis into contact
@@ -537,7 +543,8 @@ def main(argv=None) -> dict:
                    "tare; paper = + centred median k = 71 (psmforce.estimators.evaluation)",
         "goals": {a: f"<= {g}x the ATI-trained hybrid's error, every axis" for a, g in GOALS.items()},
         "fresh_seeds": [s for s in args.seeds if s in FRESH_SEEDS + IDENTIFIED_FRESH_SEEDS
-                                                    + HOLD_RULE_FRESH_SEEDS],
+                                                    + HOLD_RULE_FRESH_SEEDS
+                                                    + NETWORK_OFF_FRESH_SEEDS],
         "summary": summary(records),
         "paired": paired,
         "goal_check": {ref: goal_misses(p) for ref, p in paired.items()},
