@@ -272,6 +272,8 @@ ATI_FREE_ROWS = {
     "physics_alone:identified:free+self+paired": "physics alone, (c'')'s prior",
     "network_off_carried:identified:free+self+paired": "(c'') with the network kept out of "
                                                        "the lateral axes the physics carries",
+    "network_off:identified:free+self+paired": "(c'') as calibrate --network-off carried "
+                                               "writes it",
     "ati_same_minutes": "(d) ATI: (c)'s minutes",
     "ati_same_minutes_paired": "(d') ATI: (c')'s minutes", "ati_full": "(e) ATI: full data",
     "source": "source hybrid (other tool), as is"}

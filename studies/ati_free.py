@@ -77,6 +77,7 @@ from pathlib import Path
 
 import numpy as np
 
+from psmforce.estimators.training.calibrate import CARRIED_AXES  # noqa: F401  (the library's)
 from psmforce.experiments.report import kept_json
 
 AXES = ("Fx", "Fy", "Fz")
@@ -89,7 +90,8 @@ FRESH_SEEDS = (204, 205)
 cross-talk option, the rule that a free-space refit never holds a sensor offset); 204 and 205
 were declared here, unseen, before any run of the study on them."""
 GOALS = {"free+self+weights": 1.3, "free+self+paired": 1.3, "free+self": 1.5,
-         "per_mount:free+self": 1.5, "identified:free+self+paired": 1.3}
+         "per_mount:free+self": 1.5, "identified:free+self+paired": 1.3,
+         "network_off:identified:free+self+paired": 1.3}
 """Arm -> the largest error ratio against an ATI-trained hybrid the issue accepts, per axis."""
 ATI_FREE = ("free", "free+self", "free+self+weights", "free+self+paired")
 REFERENCES = ("ati_same_minutes", "ati_same_minutes_paired", "ati_full")
@@ -147,10 +149,12 @@ keeps the network out of the lateral axes the physics carries (``psmforce calibr
 carried``, scored by :func:`network_off_carried`): it tied the calibrated hybrid on
 :data:`HOLD_RULE_FRESH_SEEDS` and led it on 206-208 (docs/ati_free.md 4.4), so every seed up to
 211 is a design seed for it."""
-CARRIED_AXES = {"Fx": "crosstalk_fx", "Fy": "crosstalk_fy"}
-"""Lateral axis -> the cross-talk term (the axial reading into it) whose value, carried from the
-load path into (c'')'s prior, makes the physics carry that axis into contact
-(:func:`network_off_carried`)."""
+NETWORK_OFF_ARM = "network_off:" + IDENTIFIED_ARM
+"""(c'')'s checkpoint as ``psmforce calibrate --network-off carried`` writes it: its
+``physics_only_axes`` the lateral axes whose cross-talk the identification carried, answered by
+the prior alone, scored through the evaluation as any checkpoint (the same finetuning, so the
+same network; :func:`network_off_carried` composes the same score from (c'') and its physics
+alone). Declared with :data:`NETWORK_OFF_FRESH_SEEDS`."""
 
 
 def network_off_carried(hybrid: dict, physics: dict, carried) -> dict:
@@ -160,7 +164,8 @@ def network_off_carried(hybrid: dict, physics: dict, carried) -> dict:
     metrics are per axis, so this is the score of the estimator that switches). A selection
     that reads no contact data, only what the identification carried; declared before any run
     on :data:`HOLD_RULE_FRESH_SEEDS`, after the physics alone was seen ahead laterally on the
-    design seeds 201 and 207. Not an option of ``calibrate``: measured here first."""
+    design seeds 201 and 207; since then ``psmforce calibrate --network-off carried``
+    (:data:`NETWORK_OFF_ARM` scores its checkpoint)."""
     off = {axis for axis, term in CARRIED_AXES.items() if term in carried}
     return {"nrmse_pct": {m: {a: (physics if a in off else hybrid)["nrmse_pct"][m][a]
                               for a in AXES} for m in METRICS},
@@ -177,7 +182,8 @@ def rows() -> list[str]:
     """Every row of the table: the ATI-free arms, their ablations, the references, the source."""
     return (list(ATI_FREE) + [PER_MOUNT_ARM, IDENTIFIED_ARM]
             + [f"{v}:{a}" for v in ("network_alone", "physics_alone") for a in ATI_FREE]
-            + ["physics_alone:" + IDENTIFIED_ARM] + list(REFERENCES) + ["source"])
+            + ["physics_alone:" + IDENTIFIED_ARM, NETWORK_OFF_ARM] + list(REFERENCES)
+            + ["source"])
 
 
 def paired_table(records: dict[int, dict], against: str, names=None) -> dict:
@@ -424,6 +430,10 @@ def _seed(seed: int, args, q_exc: np.ndarray) -> tuple[dict, dict]:
                "source_hybrid.pt", spec_of[PAIRED_ARM]["minutes"], physics=True,
                known_loads=loads_dir["paired"], prior_refit="identified",
                jackknife_unit=args.jackknife_unit, hold_rule=args.hold_rule)
+    off = work / "arms" / f"identified_free_self_paired{unit}_network_off.pt"
+    records[NETWORK_OFF_ARM] = kept_json(work / "records" / f"{off.stem}.json", lambda: _score(
+        _network_off(work / "arms" / f"identified_free_self_paired{unit}.pt", off,
+                     (runs[IDENTIFIED_ARM]["prior"] or {}).get("held_at_identified", {})), tool))
     available = sum(map(_minutes_of, _ati_pool(tool)))
     for ref, arm in (("ati_same_minutes", "free+self+weights"),
                      ("ati_same_minutes_paired", PAIRED_ARM))[0 if full else 1:]:
@@ -435,6 +445,16 @@ def _seed(seed: int, args, q_exc: np.ndarray) -> tuple[dict, dict]:
             "minutes_wanted": wanted, "minutes_available": available})
         records[ref] = kept_json(work / "records" / f"{ref}.json", lambda: _score(out, tool))
     return records, runs
+
+
+def _network_off(calibrated: Path, out: Path, carried: dict) -> Path:
+    """``calibrated`` written to ``out`` as ``calibrate --network-off carried`` would have
+    written it (the option is set after the finetuning, which it does not change)."""
+    from psmforce.estimators.training.calibrate import network_off_axes
+    from psmforce.estimators.training.checkpoint import load_checkpoint
+    ckpt = load_checkpoint(calibrated)
+    ckpt.physics_only_axes = network_off_axes("carried", carried)
+    return ckpt.save(out)
 
 
 def _minutes_of(trial) -> float:

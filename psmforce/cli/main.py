@@ -301,6 +301,11 @@ def _parser() -> argparse.ArgumentParser:
                         "identification through the load path identified at its identified "
                         "values in the estimator's prior and refits the rest (docs/ati_free.md "
                         "section 4.3); default all, the prior refitted on the efforts alone")
+    p.add_argument("--network-off", nargs="+", default=["none"], metavar="RULE_OR_AXIS",
+                   help="axes whose estimate is the prior alone, the network's residual not "
+                        "added: 'carried' (with --prior-refit identified: each lateral axis "
+                        "whose cross-talk the identification carried into the prior, "
+                        "docs/ati_free.md section 4.5), or axis names (Fx Fy Fz); default none")
     training_arguments(p, "the calibration report")
     remount.add_remount_command(add)  # after a re-mount: the prior's per-mount values only
 

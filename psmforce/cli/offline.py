@@ -314,6 +314,10 @@ def calibrate_command(args) -> dict:
         if value != default and args.known_loads is None:
             raise ValueError(f"{flag}: only with --known-loads (the instrument's "
                              f"identification through the load path)")
+    network_off = options.network_off(args.network_off)
+    if network_off == "carried" and args.prior_refit != "identified":
+        raise ValueError("--network-off carried: only with --prior-refit identified (the axes "
+                         "whose cross-talk the identification carried into the prior)")
     if args.known_loads is not None and not Path(args.known_loads).is_dir():
         raise ValueError(f"--known-loads: {args.known_loads} is not a dataset folder")
     from psmforce.estimators.training.calibrate import calibrate
@@ -321,7 +325,8 @@ def calibrate_command(args) -> dict:
                        epochs=args.epochs, seed=args.seed, device=args.device,
                        free_space=args.free_space, known_loads=args.known_loads,
                        held_values=args.held_values, jackknife_unit=args.jackknife_unit,
-                       prior_refit=args.prior_refit, hold_rule=args.hold_rule)
+                       prior_refit=args.prior_refit, hold_rule=args.hold_rule,
+                       network_off=network_off)
     record = result["calibration"]
     print(f"calibrated on {len(record['trials'])} trials, {record['minutes_used']:.2f} min "
           f"(Free {record['minutes_by_condition']['Free']:.2f}, Traction "
@@ -340,6 +345,11 @@ def calibrate_command(args) -> dict:
     if carried:
         print(f"held in the prior at the instrument's identified values: "
               f"{', '.join(sorted(carried))}")
+    if network_off != "none":
+        axes = record["physics_only_axes"]["axes"]
+        print("the prior alone answers " + (", ".join(axes) if axes else "no axis")
+              + (" (the identification carried no lateral cross-talk)"
+                 if not axes and network_off == "carried" else ""))
     return result
 
 

@@ -199,6 +199,23 @@ PRIOR_REFITS = ("all", "identified")
 """``calibrate --prior-refit`` (psmforce.estimators.training.calibrate.PRIOR_REFITS without
 "per_mount", which ``psmforce remount`` runs; without importing the library)."""
 
+NETWORK_OFF_RULES = ("none", "carried")
+"""``calibrate --network-off`` rules (psmforce.estimators.training.calibrate.NETWORK_OFF_RULES,
+without importing the library); axis names are the alternative."""
+
+
+def network_off(values: list[str]):
+    """``calibrate --network-off``'s words as the library's ``network_off``: one rule of
+    :data:`NETWORK_OFF_RULES`, or distinct axis names (Fx Fy Fz), else a one-line error."""
+    if len(values) == 1 and values[0] in NETWORK_OFF_RULES:
+        return values[0]
+    axes = ("Fx", "Fy", "Fz")
+    if any(v not in axes for v in values) or len(set(values)) != len(values):
+        raise ValueError(f"--network-off: one of {', '.join(NETWORK_OFF_RULES)} or distinct "
+                         f"axis names of {' '.join(axes)}, got {' '.join(values)}")
+    return tuple(values)
+
+
 CROSSTALK_OPTIONS = {"reading": None, "none": False, "axial": True, "full": "full"}
 """``--crosstalk`` -> the fit's ``crosstalk`` (psmforce.identification.prior.CROSSTALK_CHOICES,
 without importing the library): as the reading does, none, the axial column, every force

@@ -324,3 +324,28 @@ def test_the_identifications_options_are_asked_for_with_known_loads_only(
         calibration.calibrate(*paths, free_space=True, **{option: unknown})
     with pytest.raises(calibration.CalibrationError, match=f"{option}: only with known_loads"):
         calibration.calibrate(*paths, free_space=True, **{option: asked})
+
+
+def test_network_off_is_refused_where_it_cannot_hold(tmp_path, capsys):
+    """``calibrate --network-off``: 'carried' needs the identified prior (CLI and library); axis
+    names must be distinct axes (CLI and library); the CLI's rules are the library's."""
+    from psmforce.cli import options
+    from psmforce.cli.main import main
+    from psmforce.estimators.training import calibrate as calibration
+    assert options.NETWORK_OFF_RULES == calibration.NETWORK_OFF_RULES
+    argv = ["calibrate", str(tmp_path / "m.pt"), "--data", str(tmp_path), "--out",
+            str(tmp_path / "o.pt"), "--free-space", "--network-off"]
+    assert main(argv + ["carried"]) == 2
+    assert "--network-off carried: only with --prior-refit identified" in (
+        capsys.readouterr().err)
+    assert main(argv + ["Fx", "Fw"]) == 2
+    assert "--network-off: one of none, carried or distinct axis names" in (
+        capsys.readouterr().err)
+    paths = (tmp_path / "m.pt", tmp_path, tmp_path / "o.pt")
+    with pytest.raises(calibration.CalibrationError, match="'carried' only with prior_refit"):
+        calibration.calibrate(*paths, free_space=True, network_off="carried")
+    with pytest.raises(calibration.CalibrationError, match="distinct axis names"):
+        calibration.calibrate(*paths, free_space=True, network_off=("Fy", "Fy"))
+    assert calibration.network_off_axes(("Fz", "Fx"), {}) == ("Fx", "Fz")
+    assert calibration.network_off_axes("carried", {"crosstalk_fx": 0.01}) == ("Fx",)
+    assert calibration.network_off_axes("none", {"crosstalk_fx": 0.01}) == ()

@@ -257,8 +257,10 @@ def test_an_identified_refit_holds_what_the_load_path_identified(benches, tmp_pa
     identification through the load path identified, or estimated (its design value rejected,
     ``hold_rule="unresolved"``), is held at its value in the estimator's prior, the sensor's
     offsets excepted (this mount's, refitted); the rest is refitted as "all" does. Refused
-    without known loads. The identification itself is tests/estimators/test_ati_free.py's; here
-    it is replaced by a report with known values."""
+    without known loads. With ``network_off="carried"`` the lateral axis whose cross-talk was
+    carried is answered by the prior alone (docs/ati_free.md section 4.5). The identification
+    itself is tests/estimators/test_ati_free.py's; here it is replaced by a report with known
+    values."""
     from psmforce.cli.excitation import weight_poses
     from psmforce.estimators.training import calibrate as calibration
     from psmforce.identification.prior_law import NAMES
@@ -266,7 +268,8 @@ def test_an_identified_refit_holds_what_the_load_path_identified(benches, tmp_pa
     simulate_ati_free(tmp_path / "g", seed=3, scale=0.01, free_minutes=0.3,
                       weight_poses=weight_poses(), masses_kg=(0.1,), hold_s=2.0, tool_seed=3,
                       tool_spread=2.0)
-    identified = {"pretension_total": 7.5, "pulley_radius_pitch": 1.8e-3, "bias_fx": 0.2}
+    identified = {"pretension_total": 7.5, "pulley_radius_pitch": 1.8e-3, "bias_fx": 0.2,
+                  "crosstalk_fy": 0.004}
     old = load_checkpoint(benches / "hybrid.pt").prior()
     estimated = {"pulley_radius_blade": {"value": 1.6e-3, "uncertainty": 3e-4}}
     report = {"parameters": dict(zip(NAMES, old.params.tolist())) | identified
@@ -279,15 +282,35 @@ def test_an_identified_refit_holds_what_the_load_path_identified(benches, tmp_pa
     out = tmp_path / "identified.pt"
     summary = calibrate(benches / "hybrid.pt", tmp_path / "g" / FREE_SPACE, out, minutes=0.3,
                         epochs=1, train_config=CHEAP, free_space=True,
-                        known_loads=tmp_path / "g" / KNOWN_LOADS, prior_refit="identified")
+                        known_loads=tmp_path / "g" / KNOWN_LOADS, prior_refit="identified",
+                        network_off="carried")
     refit = summary["calibration"]["prior_refit"]
     carried = {"pretension_total": 7.5, "pulley_radius_pitch": 1.8e-3,
-               "pulley_radius_blade": 1.6e-3}
+               "pulley_radius_blade": 1.6e-3, "crosstalk_fy": 0.004}
     assert refit["refit"] == "identified" and refit["held_at_identified"] == carried
     assert set(refit["held_from_checkpoint"]).isdisjoint(carried)
     new = dict(zip(NAMES, load_checkpoint(out).prior().params.tolist()))
     assert {n: new[n] for n in carried} == carried
     assert new["bias_fx"] != 0.2                       # an offset is refitted, not carried
+    # crosstalk_fy carried, crosstalk_fx not: the prior alone answers Fy, the hybrid Fx and Fz
+    record = load_checkpoint(out)
+    assert record.physics_only_axes == ("Fy",)
+    assert summary["calibration"]["physics_only_axes"] == {
+        "axes": ["Fy"], "rule": "carried",
+        "why": {"Fy": "crosstalk_fy held at its identified value in the prior"}}
+    from psmforce.estimators.data.dataset import Dataset
+    from psmforce.estimators.evaluation.evaluate import predict_trial
+    tool = load_dataset(benches / "tool")
+    record.derive(Dataset(tool.root, tool.select(split="test")[:1], tool.metadata))
+    trial = tool.select(split="test")[0]
+    estimate = predict_trial(record, trial)
+    np.testing.assert_allclose(estimate[:, 1], trial.frame[record.base_columns[1]], atol=1e-9)
+    assert not np.allclose(estimate[:, 0], trial.frame[record.base_columns[0]], atol=1e-3)
+    with pytest.raises(CalibrationError, match="network_off: .*needs a residual model"):
+        calibrate(benches / "fcn.pt", tmp_path / "g" / FREE_SPACE, tmp_path / "x.pt",
+                  free_space=True, known_loads=tmp_path / "g" / KNOWN_LOADS,
+                  prior_refit="identified", network_off="carried")
+    assert not (tmp_path / "x.pt").exists()
     with pytest.raises(CalibrationError, match="prior_refit: only with known_loads"):
         calibrate(benches / "hybrid.pt", tmp_path / "g" / FREE_SPACE, tmp_path / "x.pt",
                   free_space=True, prior_refit="identified")

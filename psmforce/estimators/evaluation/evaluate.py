@@ -58,7 +58,8 @@ def predict_trial(setup: TrainedModel, trial: Trial, *, batch: int = 8192,
     a ``window``-sample warm-up, as in its training. A closed-form model
     (:class:`psmforce.estimators.networks.contract.ClosedFormModel`) predicts all full windows at
     once, in numpy. Every model's output then goes the same way: un-scaled where its
-    ``output_space`` is ``"scaled"``, its base columns added.
+    ``output_space`` is ``"scaled"``, its base columns added (the residual left out on the
+    checkpoint's ``physics_only_axes``: :func:`~psmforce.estimators.training.checkpoint.residual_gain`).
 
     ``with_std``: (estimates, (N, 3) standard deviation per axis in N), for a model that predicts
     its variance (:func:`psmforce.estimators.networks.uncertainty.std_newton`); refused for one that
@@ -77,7 +78,7 @@ def predict_trial(setup: TrainedModel, trial: Trial, *, batch: int = 8192,
     if model.output_space == "scaled":
         mean = setup.target_scaler.inverse(mean)
     if setup.base_columns:
-        mean = mean + base_matrix(trial, setup.base_columns)
+        mean = mean * setup.residual_gain() + base_matrix(trial, setup.base_columns)
     if with_std:
         return mean, std_newton(out[:, 3:], setup.target_scaler.std)
     return mean

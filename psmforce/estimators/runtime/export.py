@@ -25,7 +25,8 @@ its last ``window`` inputs (:mod:`psmforce.estimators.runtime.window_stream`):
 
 Per sample a node computes ``comp = HEX10 - prior(sample)`` (when features use ``comp_*``),
 ``x = (features - mean_in) / std_in``, runs the graph, and returns
-``y[0:3] * std_out + mean_out + base`` (N, HEX10 frame), and with uncertainty the std
+``y[0:3] * std_out + mean_out + base`` (N, HEX10 frame; the base alone on the checkpoint's
+``physics_only_axes``), and with uncertainty the std
 ``exp(y[3:6] / 2) * std_out`` (N). :func:`run_export` does exactly that with
 ONNX Runtime from the written files; tests/estimators/test_export.py checks it against the Python
 :class:`psmforce.estimators.runtime.streaming.StreamingEstimator`.
@@ -58,7 +59,8 @@ import pandas as pd
 import torch
 
 from psmforce.estimators.data.bounds import physical_bounds
-from psmforce.estimators.training.checkpoint import load_checkpoint
+from psmforce.estimators.training.checkpoint import (load_checkpoint, physics_only_problem,
+                                                     residual_gain)
 from psmforce.estimators.data.dataset import Scaler
 from psmforce.io.recording import TIME
 from psmforce.core.integrity import check_version, seal, sha256_bytes, verify
@@ -137,7 +139,8 @@ def _export(checkpoint: str | Path, out_dir: str | Path) -> dict:
             "state = zeros for each graph.state entry (name, shape, dtype), at start only",
             "y, <name>_out per state entry = graph(x, state)  (then state <name> = <name>_out)",
             "force_hex10_N = y[0:3] * target_scaler.std + target_scaler.mean + base_columns  (per "
-            "axis; an empty base entry adds nothing on that axis)",
+            "axis; an empty base entry adds nothing on that axis; on each axis of "
+            "physics_only_axes, Fx Fy Fz = columns 0 1 2, base_columns alone)",
             *([f"std_hex10_N = {_STD_FORMULA}  (only if uncertainty is not null)"]
               if predicts_variance(model) else []),
             "warming up while samples since start < window",
@@ -216,7 +219,8 @@ def run_export(out_dir: str | Path, frame: pd.DataFrame, *, with_std: bool = Fal
         y[i] = stepper.step(inputs.x)
         if len(inputs.base):
             base[i] = inputs.base
-    forces = y[:, :3] * target.std + target.mean + base
+    forces = (y[:, :3] * target.std + target.mean) * residual_gain(
+        spec.get("physics_only_axes", [])) + base
     if not np.isfinite(forces).all():
         row = int(np.argmax(~np.isfinite(forces).all(axis=1)))
         raise ExportError(f"row {row}: the graph of {where} gave a force that is not finite")
@@ -287,6 +291,10 @@ def _check_spec(spec: dict, where: Path) -> None:
                 and (std >= Scaler.MIN_STD).all()):
             raise bad(f"a scaler is not {n} means and stds >= {Scaler.MIN_STD:g}, finite in "
                       f"float32")
+    why = physics_only_problem(spec.get("physics_only_axes", []), spec.get("base_columns", []),
+                               width == 6)
+    if why is not None:
+        raise bad(why)
     if not isinstance(state, list):
         raise bad("graph.state must be a list")
     for entry in state:

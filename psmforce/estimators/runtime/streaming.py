@@ -115,7 +115,8 @@ import pandas as pd
 import torch
 
 from psmforce.estimators.data.bounds import MAX_FORCE_N, physical_bounds
-from psmforce.estimators.training.checkpoint import load_checkpoint
+from psmforce.estimators.training.checkpoint import (load_checkpoint, physics_only_problem,
+                                                     residual_gain)
 from psmforce.estimators.data.hybrid_inputs import HexRotation, HybridInputs
 from psmforce.estimators.runtime.postfilter import CausalFilter
 from psmforce.estimators.data.rates import AntiAlias, RateError, check_rate, decimation_factor
@@ -170,6 +171,8 @@ class StreamingEstimator:
     (streamed by :func:`psmforce.estimators.runtime.window_stream.as_streamable`); ``features``,
     ``input_scaler``, ``target_scaler``, ``base_columns``, ``prior``: as stored in the checkpoint
     (:meth:`from_checkpoint`). ``rate_hz``: the rate the network was trained at (Hz).
+    ``physics_only_axes``: axes answered by the base alone
+    (:func:`psmforce.estimators.training.checkpoint.residual_gain`).
     ``input_rate_hz``: the rate samples arrive at, a whole multiple of ``rate_hz`` (default:
     ``rate_hz``; module docstring, Rates). ``psm``: a ``psmforce.robot.PSM`` for base-frame output
     (``step(..., base_frame=True)``). ``network_after_answer``: at a decimation above 1, the
@@ -183,7 +186,7 @@ class StreamingEstimator:
                  post_filter: str = "none", median_kernel: int = 11, lowpass_hz: float = 5.0,
                  lowpass_order: int = 2, extrapolation_z: float = 5.0,
                  input_range: tuple[Sequence[float], Sequence[float]] | None = None, psm=None,
-                 network_after_answer: bool = False):
+                 network_after_answer: bool = False, physics_only_axes: Sequence[str] = ()):
         model = as_streamable(model, len(features))
         why = not_streamable(model)
         if why is not None:
@@ -193,6 +196,9 @@ class StreamingEstimator:
                                  f"{len(features)} given")
         if len(base_columns) not in (0, 3):
             raise StreamingError(f"base needs 0 or 3 columns, got {list(base_columns)}")
+        why = physics_only_problem(physics_only_axes, base_columns, predicts_variance(model))
+        if why is not None:
+            raise StreamingError(why)
         try:
             rate_hz = check_rate(rate_hz)
         except RateError as err:
@@ -219,8 +225,12 @@ class StreamingEstimator:
         self._set_rates(rate_hz if input_rate_hz is None else input_rate_hz)
         self._net = make_backend(model, backend)
         self.backend_name = self._net.backend
-        self._y_mean = np.asarray(target_scaler.mean, np.float64)
-        self._y_std = np.asarray(target_scaler.std, np.float64)
+        # the residual's un-scaling, zeroed on the physics-only axes: those answer the base alone
+        gain = residual_gain(physics_only_axes)
+        self._y_mean = np.asarray(target_scaler.mean, np.float64) * gain
+        self._y_std = np.asarray(target_scaler.std, np.float64) * gain
+        self.physics_only_axes = tuple(physics_only_axes)
+        """Axes answered by the base alone (the checkpoint's ``physics_only_axes``)."""
         n_feat = len(self.inputs.features)
         if input_range is not None:
             lo, hi = (np.asarray(v, np.float64) for v in input_range)
@@ -268,7 +278,8 @@ class StreamingEstimator:
                                  f"and runs at that rate, not {rate!r}; give the stream's rate "
                                  f"as input_rate_hz")
         return cls(ckpt.model, ckpt.features, ckpt.input_scaler, ckpt.target_scaler,
-                   ckpt.base_columns, ckpt.prior(), rate_hz=ckpt.sample_rate_hz, **options)
+                   ckpt.base_columns, ckpt.prior(), rate_hz=ckpt.sample_rate_hz,
+                   physics_only_axes=ckpt.physics_only_axes, **options)
 
     def _set_rates(self, input_rate_hz: float) -> None:
         try:

@@ -61,6 +61,16 @@ among it: this mount's), the identifiability rule holding what they cannot pin d
 checkpoint's values as ``"all"`` does. The provenance's ``prior_refit.held_at_identified`` lists
 the carried values (docs/ati_free.md section 4.3).
 
+**The network kept off the axes the physics carries** (``network_off``, ``psmforce calibrate
+--network-off``). A network finetuned without an ATI has never seen a loaded cable; where the
+identification pinned down the HEX10's cross-talk of the axial reading into a lateral axis
+(:data:`CARRIED_AXES`) and the prior holds it (``prior_refit="identified"``), the physics carries
+that axis into contact and the network's residual there only adds what it learnt in free space.
+``network_off="carried"`` writes those axes as the checkpoint's ``physics_only_axes``
+(:func:`psmforce.estimators.training.checkpoint.residual_gain`): a choice made from what the
+identification carried, never from contact data. Axis names instead set them by hand. The
+record's ``physics_only_axes`` says which, and why (docs/ati_free.md section 4.5).
+
 Size: one calibration with its three refits of the prior and the instrument's identification
 beside it, in the order a lab runs them; the ATI-free recordings' selection and checks are
 :mod:`psmforce.estimators.training.ati_free`'s.
@@ -244,6 +254,32 @@ PRIOR_REFITS = ("all", "per_mount", "identified")
 """How :func:`calibrate` refits the hybrid's prior without an ATI (its ``prior_refit``)."""
 
 
+CARRIED_AXES = {"Fx": "crosstalk_fx", "Fy": "crosstalk_fy"}
+"""Lateral axis -> the HEX10's cross-talk term (the axial reading into that axis) which, held at
+its identified value in the prior, lets the physics carry the axis into contact: the internal
+axial force grows with the tip load there, and only the cross-talk turns it into a lateral
+reading (module docstring, "The network kept off the axes the physics carries")."""
+NETWORK_OFF_RULES = ("none", "carried")
+"""``network_off`` as a rule: no axis, or :data:`CARRIED_AXES`' axes whose term the prior holds
+at its identified value; a sequence of axis names sets them by hand."""
+
+
+def network_off_axes(network_off, carried) -> tuple[str, ...]:
+    """The axes ``network_off`` keeps the network off (:data:`NETWORK_OFF_RULES`, or axis
+    names of :data:`psmforce.io.recording.AXES`), given the prior's values held at the
+    identification's (``carried``: names -> values), in axis order."""
+    from psmforce.io.recording import AXES
+    if network_off == "none":
+        return ()
+    if network_off == "carried":
+        return tuple(a for a, term in CARRIED_AXES.items() if term in carried)
+    if isinstance(network_off, str) or not all(a in AXES for a in network_off) \
+            or len(set(network_off)) != len(network_off):
+        raise CalibrationError(f"network_off must be one of {NETWORK_OFF_RULES} or distinct "
+                               f"axis names of {list(AXES)}, got {network_off!r}")
+    return tuple(a for a in AXES if a in network_off)
+
+
 HELD_VALUES = ("as-held", "checked")
 """What the instrument's identification does with the design values it holds
 (:func:`calibrate`'s ``held_values``)."""
@@ -254,7 +290,7 @@ def calibrate(checkpoint: str | Path, data_dir: str | Path, out: str | Path, *,
               device: str = "cpu", train_config=None, free_space: bool = False,
               known_loads: str | Path | None = None, prior_refit: str = "all",
               held_values: str = "as-held", jackknife_unit: str = "orientation",
-              hold_rule: str = "imprecise") -> dict:
+              hold_rule: str = "imprecise", network_off="none") -> dict:
     """Calibrate a trained checkpoint to the instrument recorded in ``data_dir`` from its first
     ``minutes`` of calibration trials (module docstring) and write ``out``. ``seed``: the validation
     split and the finetuning's shuffling; ``train_config``: a
@@ -283,7 +319,8 @@ def calibrate(checkpoint: str | Path, data_dir: str | Path, out: str | Path, *,
     precision alone (:data:`~psmforce.identification.prior_selection.HOLD_RULES`):
     ``"imprecise"`` every one, ``"unresolved"`` only those
     whose design value the data do not reject, the others estimated (and carried by
-    ``"identified"``)."""
+    ``"identified"``). ``network_off``: the axes whose estimate is the prior alone
+    (:func:`network_off_axes`; ``"carried"`` only with ``prior_refit="identified"``)."""
     from psmforce.identification import InternalForcePrior
     from psmforce.identification.errors import NotConvergedError
     from psmforce.identification.prior import NAMES, held_by_reading
@@ -317,7 +354,16 @@ def calibrate(checkpoint: str | Path, data_dir: str | Path, out: str | Path, *,
     if known_loads is not None and not free_space:
         raise CalibrationError("known_loads: only without an ATI (free_space=True, "
                                "--free-space); an ATI calibration reads the loads it measures")
+    if network_off == "carried" and prior_refit != "identified":
+        raise CalibrationError("network_off: 'carried' only with prior_refit='identified' (the "
+                               "axes whose cross-talk the identification carried into the prior)")
+    wanted = network_off_axes(network_off, {t: 0.0 for t in CARRIED_AXES.values()})
     ckpt = load_checkpoint(checkpoint, device)
+    from psmforce.estimators.training.checkpoint import physics_only_problem
+    from psmforce.estimators.networks.uncertainty import predicts_variance
+    why = physics_only_problem(wanted, ckpt.base_columns, predicts_variance(ckpt.model))
+    if why is not None:  # before minutes of fitting, not at the save
+        raise CalibrationError(f"network_off: {checkpoint}: {why}")
     dataset = load_dataset(data_dir, require_targets=not free_space)
     chosen = (free_space_trials if free_space else calibration_trials)(dataset, minutes)
     loads_root = None
@@ -405,6 +451,8 @@ def calibrate(checkpoint: str | Path, data_dir: str | Path, out: str | Path, *,
             "free_space_rms_n": {r: e for r, e in errors.items() if e["before"] is not None},
             "parameters_before": dict(zip(NAMES, old.params.tolist())),
             "parameters_after": dict(zip(NAMES, new.params.tolist()))}
+    carried_now = (prior_report or {}).get("held_at_identified", {})
+    ckpt.physics_only_axes = network_off_axes(network_off, carried_now)
     ckpt.derive(calibration)
     cfg = train_config or TrainConfig()
     cfg = TrainConfig(**{**cfg.to_dict(), "max_epochs": epochs, "seed": seed, "device": device})
@@ -427,6 +475,12 @@ def calibrate(checkpoint: str | Path, data_dir: str | Path, out: str | Path, *,
                     "minutes": round(trial_minutes(t), 4)} for t in chosen],
         "prior_refit": prior_report,
         "instrument_identification": instrument,
+        "physics_only_axes": {
+            "axes": list(ckpt.physics_only_axes),
+            "rule": network_off if isinstance(network_off, str) else "by hand",
+            "why": {a: f"{t} held at its identified value in the prior"
+                    for a, t in CARRIED_AXES.items() if a in ckpt.physics_only_axes}
+            if network_off == "carried" else {}},
         "finetune_config": cfg.to_dict(),
         "trainable_parameters": report["trainable_parameters"],
         "epochs_run": report["epochs_run"], "stopped_by": report["stopped_by"],

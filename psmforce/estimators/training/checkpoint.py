@@ -55,6 +55,19 @@ columns).
 training and validation trials, the SHA-256 of each of those recordings (``trial_sha256``), so a
 test set repeating them is found by content
 (:func:`psmforce.estimators.data.sanity.repeated_recordings`).
+
+**Physics-only axes** (``physics_only_axes``, optional, absent = none; ``psmforce calibrate
+--network-off``). A residual model's estimate is ``residual + base`` on every axis; on an axis
+named here it is the base alone (the prior's estimate): the network's residual, its target
+scaler's mean included, is not added there. It is for an axis the physics carries better than a
+network that never saw it loaded (an ATI-free calibration, docs/ati_free.md section 4.5).
+:func:`residual_gain` is the one definition evaluation, streaming and export apply. Allowed only
+with 3 base columns (without a base the axis would read 0 N) and not for a network that
+predicts its variance (its std describes the residual it would no longer add); names are of
+:data:`psmforce.io.recording.AXES`.
+
+Size: the record, its file and every check of what is read back from it, in one place, so that
+what a checkpoint may hold is stated once.
 """
 
 from __future__ import annotations
@@ -70,7 +83,7 @@ from typing import Sequence
 import numpy as np
 import torch
 
-from psmforce.estimators.data.dataset import Scaler
+from psmforce.estimators.data.dataset import NO_BASE, Scaler
 from psmforce.estimators.data.sanity import file_sha256
 from psmforce.estimators.data.hybrid_inputs import prior_from_json
 from psmforce.core.integrity import check_version, seal, sha256_bytes, verify
@@ -78,6 +91,8 @@ from psmforce.estimators.data.rates import DEFAULT_SAMPLE_RATE_HZ
 from psmforce.estimators.networks.recipes import (DERIVATIONS, build_model, origin, recipe,
                                                   require_recipe)
 from psmforce.core.files import MAX_DATA_BYTES, atomic_path, check_input_file
+from psmforce.estimators.networks.uncertainty import predicts_variance
+from psmforce.io.recording import AXES
 
 FORMAT = "psmforce-checkpoint"
 FORMAT_VERSION = 3
@@ -89,6 +104,35 @@ _UPGRADABLE_VERSIONS = (2, 3)
 
 class CheckpointError(ValueError):
     """A checkpoint that cannot be read, or does not fit the setup it is asked to serve."""
+
+
+def residual_gain(physics_only_axes: Sequence[str] = ()) -> np.ndarray:
+    """(3,) per axis of :data:`~psmforce.io.recording.AXES`: 1.0 where the network's un-scaled
+    residual is added to the base, 0.0 on ``physics_only_axes`` (module docstring)."""
+    return np.array([0.0 if a in physics_only_axes else 1.0 for a in AXES])
+
+
+def physics_only_problem(physics_only_axes, base_columns: Sequence[str],
+                         variance: bool) -> str | None:
+    """Why ``physics_only_axes`` cannot be set on a model with these base columns (and a
+    variance output or not), or None when it can (module docstring)."""
+    axes = physics_only_axes
+    if not isinstance(axes, (list, tuple)) or not all(isinstance(a, str) for a in axes):
+        return f"physics_only_axes must be a list of axis names of {list(AXES)}, got {axes!r}"
+    unknown = [a for a in axes if a not in AXES]
+    if unknown or len(set(axes)) != len(axes):
+        return (f"physics_only_axes must be distinct axis names of {list(AXES)}, got "
+                f"{list(axes)}")
+    if axes and len(base_columns) != 3:
+        return (f"physics_only_axes {list(axes)} needs a residual model (3 base columns, the "
+                f"physics it falls back to); this one has none")
+    bare = [a for a in axes if base_columns[AXES.index(a)] == NO_BASE]
+    if bare:
+        return (f"physics_only_axes {bare}: no base column on that axis, so it would read 0 N")
+    if axes and variance:
+        return (f"physics_only_axes {list(axes)} is refused for a network that predicts its "
+                f"variance: its std describes the residual those axes would not add")
+    return None
 
 
 @dataclass
@@ -118,6 +162,13 @@ class TrainedModel:
     sample_rate_hz: float | None = None
     """The rate (Hz) of the samples the model was trained on (:func:`psmforce.estimators.data.rates.trials_rate_hz`);
     None where unknown, written as null and read as :data:`psmforce.estimators.data.rates.DEFAULT_SAMPLE_RATE_HZ`."""
+    physics_only_axes: tuple[str, ...] = ()
+    """Axes (of :data:`~psmforce.io.recording.AXES`) whose estimate is the base alone, the
+    network's residual not added (module docstring, "Physics-only axes")."""
+
+    def residual_gain(self) -> np.ndarray:
+        """(3,) 1.0 where the residual is added, 0.0 on :attr:`physics_only_axes`."""
+        return residual_gain(self.physics_only_axes)
 
     @property
     def recipe(self):
@@ -142,6 +193,7 @@ class TrainedModel:
                 "target_scaler": self.target_scaler.to_dict(),
                 "base_columns": list(self.base_columns), "derivation": self.derivation,
                 "sample_rate_hz": self.sample_rate_hz,
+                "physics_only_axes": list(self.physics_only_axes),
                 "versions": self.versions, "provenance": self.provenance,
                 **({"recipe": home} if (home := origin(self.model_name)) else {})}
 
@@ -151,6 +203,10 @@ class TrainedModel:
             raise CheckpointError(f"{path}: nothing to save, the '{self.model_name}' model is "
                                   f"not trained")
         path = Path(path)
+        why = physics_only_problem(self.physics_only_axes, self.base_columns,
+                                   predicts_variance(self.model))
+        if why is not None:
+            raise CheckpointError(f"{path}: {why}")
         state = {k: v.detach().cpu() for k, v in self.model.state_dict().items()}
         if "trial_sha256" not in self.provenance:
             hashes = _hash_trials(self.provenance)
@@ -316,12 +372,17 @@ def _load(path: Path, device: str, versions: tuple[int, ...]) -> TrainedModel:
         raise CheckpointError(f"{path}: weights do not fit model '{meta['model']}' with "
                               f"{len(features)} inputs and config {meta['config']} "
                               f"({_first_line(err)})") from None
+    physics_only = meta.get("physics_only_axes", [])
+    why = physics_only_problem(physics_only, meta["base_columns"], predicts_variance(model))
+    if why is not None:
+        raise CheckpointError(f"{path}: corrupt checkpoint ({why})")
     model.to(device).eval()
     return TrainedModel(meta["model"], meta["config"], features,
                         Scaler.from_dict(meta["input_scaler"]),
                         Scaler.from_dict(meta["target_scaler"]), tuple(meta["base_columns"]),
                         meta["derivation"], prior_json or None, model,
-                        meta.get("provenance", {}), meta.get("versions", {}), float(rate))
+                        meta.get("provenance", {}), meta.get("versions", {}), float(rate),
+                        tuple(physics_only))
 
 
 def _check_metadata(meta: dict, path: Path) -> None:
