@@ -375,5 +375,6 @@ class DdsNode:
             est = node.estimator
             out.update(input_rate_hz=est.input_rate_hz, model_rate_hz=est.rate_hz,
                        decimation=est.decimation, lag_s=est.lag_s(),
+                       physics_only_axes=list(est.physics_only_axes),
                        tare_offset_N=node.offset.tolist(), unpaired=node.unpaired)
         return out

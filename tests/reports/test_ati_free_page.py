@@ -282,3 +282,46 @@ def test_the_hold_rule_is_paired_with_the_10_percent_rule_by_seed():
         hold_rule_table(old, old)
     with pytest.raises(ValueError, match=r"settings \['scale'\] differ"):
         hold_rule_table(new, {**old, "settings": {**settings, "scale": 0.1}})
+
+
+def test_the_network_off_checkpoint_is_read_beside_what_it_is_composed_of():
+    """(c'') as ``calibrate --network-off carried`` writes it: per seed the axes the prior alone
+    answers (those whose cross-talk was carried), its errors beside (c''), the physics alone,
+    (d') and (e); a checkpoint score that differs from the one composed of (c'') and its
+    physics alone is marked; ratios and goals on the declared fresh seeds (212-214) apart from
+    the others; a run without the rule or the row is refused."""
+    from reports.ati_free_page import network_off_table
+    from studies.ati_free import IDENTIFIED_ARM, NETWORK_OFF_ARM
+
+    def score(fx, fy, fz=3.0):
+        return {"nrmse_pct": {m: {"Fx": fx, "Fy": fy, "Fz": fz} for m in ("causal", "paper")}}
+
+    def rows(off_fy):
+        return {IDENTIFIED_ARM: score(1.0, 2.0), "physics_alone:" + IDENTIFIED_ARM:
+                score(4.0, 1.0, 6.0), NETWORK_OFF_ARM: score(1.0, off_fy),
+                "ati_same_minutes_paired": score(1.0, 1.0), "ati_full": score(1.0, 1.0, 2.0)}
+    seeds = ("211", "212", "213", "214")
+    result = {"settings": {"hold_rule": "unresolved"},
+              "records": {k: rows(1.0) for k in seeds},
+              "runs": {k: {IDENTIFIED_ARM: {"prior": {"held_at_identified": {
+                  "crosstalk_fy": 0.007, "pretension_total": 6.0}}}} for k in seeds}}
+    result["records"]["214"][NETWORK_OFF_ARM] = score(1.0, 1.5)   # not what it is made of
+    text = network_off_table(result)
+    assert "| 212 (fresh) | Fy | 1.00 / 1.00 / 3.00 | 1.00 / 2.00 / 3.00 | 4.00 / 1.00 / 6.00 " \
+        "| 1.00 / 1.00 / 3.00 | 1.00 / 1.00 / 2.00 | yes |" in text
+    assert "| 214 (fresh) | Fy |" in text and text.count("| **no** |") == 1
+    assert "| 211 | Fy |" in text and "on the design seeds (211)" in text
+    fresh = text.split("on the fresh seeds (212, 213, 214)")[1].split("design seeds")[0]
+    # Fy: 1/2, 1/2, 1.5/2 over (c''); Fz: 3 over 2 against (e), behind it on every seed
+    assert "| (c'') | 1.00x [1.00, 1.00] | 0.57x [0.32, 1.02] |" in fresh
+    assert "| (e) | 1.00x [1.00, 1.00] | 1.14x [0.64, 2.05] | 1.50x [1.50, 1.50] |" in fresh
+    assert "wholly above 1 (behind): (e), causal Fz; (e), paper Fz." in fresh
+    goals = text.split("the axes Fx, Fy.")[1].split("the three axes.")
+    assert "writes it | (e) | 1.00x (paper Fy) | 1.00x (paper Fy) | 1.50x (paper Fy) " \
+        "**miss** |" in goals[0]
+    assert "writes it | (e) | 1.50x (paper Fz) **miss** |" in goals[1]
+    with pytest.raises(ValueError, match="--hold-rule unresolved"):
+        network_off_table({**result, "settings": {}})
+    with pytest.raises(ValueError, match="has no network_off"):
+        network_off_table({**result, "records": {k: {IDENTIFIED_ARM: score(1, 1)}
+                                                 for k in seeds}})
