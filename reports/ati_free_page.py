@@ -274,10 +274,17 @@ ATI_FREE_ROWS = {
                                                        "the lateral axes the physics carries",
     "network_off:identified:free+self+paired": "(c'') as calibrate --network-off carried "
                                                "writes it",
+    "no_finetune:identified:free+self+paired": "(c'')'s prior under the source network, not "
+                                               "finetuned",
+    "network_off_carried:no_finetune:identified:free+self+paired": "(c'')'s prior under the "
+        "source network, not finetuned, the network off the carried axes",
     "ati_same_minutes": "(d) ATI: (c)'s minutes",
     "ati_same_minutes_paired": "(d') ATI: (c')'s minutes", "ati_full": "(e) ATI: full data",
     "source": "source hybrid (other tool), as is"}
 ERROR_AXES = ("Fx", "Fy", "Fz")
+NO_FINETUNE_OFF = "network_off_carried:no_finetune:identified:free+self+paired"
+"""The row :func:`network_off_table` composes: not finetuned, and the network kept off the
+carried axes (:func:`studies.ati_free.network_off_carried`)."""
 
 
 def _mean_sd(cell) -> str:
@@ -816,62 +823,80 @@ def hold_rule_table(unresolved: dict, *imprecise: dict) -> str:
 
 def network_off_table(result: dict) -> str:
     """(c'') as ``psmforce calibrate --network-off carried`` writes it (``studies/ati_free.py
-    --hold-rule unresolved``'s :data:`studies.ati_free.NETWORK_OFF_ARM`): per seed, the axes the
-    prior alone answers and the causal errors of it, (c'') as it is, the physics alone, (d') and
-    (e); whether the scored checkpoint equals the score composed from (c'') and its physics
-    alone (:func:`studies.ati_free.network_off_carried`); its paired ratios over (c''), (d') and
-    (e) on the seeds declared for it (:data:`studies.ati_free.NETWORK_OFF_FRESH_SEEDS`) and on the
-    others; and its goals on those fresh seeds, laterally and on all three axes."""
+    --hold-rule unresolved``'s :data:`studies.ati_free.NETWORK_OFF_ARM`) and, where the run has
+    it, (c'')'s prior under the source network not finetuned
+    (:data:`studies.ati_free.NO_FINETUNE_ARM`) alone and composed with the network kept off the
+    carried axes: per seed, the axes the prior alone answers and each row's causal errors beside
+    (c''), the physics alone, (d') and (e); whether the scored checkpoint equals the score
+    composed from (c'') and its physics alone (:func:`studies.ati_free.network_off_carried`);
+    paired ratios on the seeds declared for it (:data:`studies.ati_free.NETWORK_OFF_FRESH_SEEDS`)
+    and on the others; the goals on those fresh seeds, laterally and on all three axes."""
     from psmforce.estimators.training.calibrate import network_off_axes
     from studies.ati_free import (GOALS, IDENTIFIED_ARM, NETWORK_OFF_ARM,
-                                  NETWORK_OFF_FRESH_SEEDS, network_off_carried)
+                                  NETWORK_OFF_FRESH_SEEDS, NO_FINETUNE_ARM, network_off_carried)
     if result["settings"].get("hold_rule") != "unresolved":
         raise ValueError("the study must be run with --hold-rule unresolved")
     seeds = [k for k, r in result["records"].items() if NETWORK_OFF_ARM in r]
     if not seeds:
         raise ValueError(f"the study has no {NETWORK_OFF_ARM} row")
     fresh = [k for k in seeds if int(k) in NETWORK_OFF_FRESH_SEEDS]
-    rows = ((NETWORK_OFF_ARM, "network off"), (IDENTIFIED_ARM, "(c'')"),
-            ("physics_alone:" + IDENTIFIED_ARM, "physics alone"),
+    physics = "physics_alone:" + IDENTIFIED_ARM
+    both = NO_FINETUNE_OFF
+    carried = {k: (result["runs"][k][IDENTIFIED_ARM]["prior"] or {}).get("held_at_identified",
+                                                                          {}) for k in seeds}
+    records = {k: dict(result["records"][k]) for k in seeds}
+    unfinetuned = all(NO_FINETUNE_ARM in r for r in records.values())
+    for k, r in records.items():
+        if unfinetuned:
+            r[both] = network_off_carried(r[NO_FINETUNE_ARM], r[physics], carried[k])
+    rows = ((NETWORK_OFF_ARM, "network off"),
+            *(((NO_FINETUNE_ARM, "not finetuned"), (both, "not finetuned, network off"))
+              if unfinetuned else ()),
+            (IDENTIFIED_ARM, "(c'')"), (physics, "physics alone"),
             ("ati_same_minutes_paired", "(d')"), ("ati_full", "(e)"))
+    label = dict(rows)
     lines = ["", f"(c'') with `--network-off carried` on bench seeds {', '.join(seeds)} (fresh, "
              f"declared before any run on them: {', '.join(fresh) or 'none'}). Off: the axes "
              "the prior alone answers (each lateral axis whose cross-talk the identification "
-             "carried). Causal NRMSE % Fx / Fy / Fz.", "",
-             "| seed | off | " + " | ".join(label for _, label in rows)
+             "carried)"
+             + ("; not finetuned: (c'')'s prior under the source network as trained" if
+                unfinetuned else "") + ". Causal NRMSE % Fx / Fy / Fz.", "",
+             "| seed | off | " + " | ".join(name for _, name in rows)
              + " | checkpoint = composed |", "|---|---|" + "---|" * len(rows) + "---|"]
     for k in seeds:
-        r = result["records"][k]
-        carried = (result["runs"][k][IDENTIFIED_ARM]["prior"] or {}).get(
-            "held_at_identified", {})
-        composed = network_off_carried(r[IDENTIFIED_ARM], r["physics_alone:" + IDENTIFIED_ARM],
-                                       carried)
+        r = records[k]
+        composed = network_off_carried(r[IDENTIFIED_ARM], r[physics], carried[k])
         same = all(abs(composed["nrmse_pct"][m][a] - r[NETWORK_OFF_ARM]["nrmse_pct"][m][a])
                    <= 1e-6 * max(1.0, abs(composed["nrmse_pct"][m][a]))
                    for m in ("causal", "paper") for a in ERROR_AXES)
         lines.append(f"| {k}{' (fresh)' if k in fresh else ''} | "
-                     f"{', '.join(network_off_axes('carried', carried)) or 'none'} | "
+                     f"{', '.join(network_off_axes('carried', carried[k])) or 'none'} | "
                      + " | ".join(" / ".join(f"{r[row]['nrmse_pct']['causal'][a]:.2f}"
                                              for a in ERROR_AXES) for row, _ in rows)
                      + f" | {'yes' if same else '**no**'} |")
+    pairs = [(NETWORK_OFF_ARM, ref) for ref in (IDENTIFIED_ARM, physics,
+                                                "ati_same_minutes_paired", "ati_full")]
+    if unfinetuned:
+        pairs += [(NO_FINETUNE_ARM, IDENTIFIED_ARM), (NO_FINETUNE_ARM, "ati_full"),
+                  (both, NETWORK_OFF_ARM), (both, "ati_full")]
     for which, group in (("fresh", fresh), ("design", [k for k in seeds if k not in fresh])):
         if not group:
             continue
-        lines += ["", f"The network off the carried axes over each reference on the {which} "
-                  f"seeds ({', '.join(group)}): geometric mean [95 % t interval on log ratios]; "
-                  "below 1: ahead of the reference.", "",
-                  "| over | causal Fx | causal Fy | causal Fz | paper Fx | paper Fy | paper Fz |",
+        lines += ["", f"Paired ratios on the {which} seeds ({', '.join(group)}): geometric "
+                  "mean [95 % t interval on log ratios]; below 1: the first row ahead.", "",
+                  "| ratio | causal Fx | causal Fy | causal Fz | paper Fx | paper Fy | paper Fz |",
                   "|---|---|---|---|---|---|---|"]
         table, verdicts = _effect_rows(
-            (label, [result["records"][k][NETWORK_OFF_ARM]["nrmse_pct"] for k in group],
-             [result["records"][k][row]["nrmse_pct"] for k in group])
-            for row, label in rows[1:])
+            (f"{label[a]} / {label[b]}", [records[k][a]["nrmse_pct"] for k in group],
+             [records[k][b]["nrmse_pct"] for k in group]) for a, b in pairs)
         lines += table + ["", "Intervals wholly below 1 (ahead): "
                           + ("; ".join(verdicts.get("ahead", [])) or "none") + "; wholly "
                           "above 1 (behind): "
                           + ("; ".join(verdicts.get("behind", [])) or "none") + "."]
+    goals = {IDENTIFIED_ARM: GOALS[IDENTIFIED_ARM], NETWORK_OFF_ARM: GOALS[NETWORK_OFF_ARM]}
+    if unfinetuned:
+        goals |= {NO_FINETUNE_ARM: GOALS[NO_FINETUNE_ARM], both: GOALS[NO_FINETUNE_ARM]}
     for axes in (("Fx", "Fy"), ERROR_AXES):
-        lines += _fresh_seed_goals({**result, "fresh_seeds": [int(k) for k in fresh]},
-                                   {IDENTIFIED_ARM: GOALS[IDENTIFIED_ARM],
-                                    NETWORK_OFF_ARM: GOALS[NETWORK_OFF_ARM]}, axes)
+        lines += _fresh_seed_goals({**result, "records": records,
+                                    "fresh_seeds": [int(k) for k in fresh]}, goals, axes)
     return "\n".join(lines) + "\n"

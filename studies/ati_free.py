@@ -91,7 +91,8 @@ cross-talk option, the rule that a free-space refit never holds a sensor offset)
 were declared here, unseen, before any run of the study on them."""
 GOALS = {"free+self+weights": 1.3, "free+self+paired": 1.3, "free+self": 1.5,
          "per_mount:free+self": 1.5, "identified:free+self+paired": 1.3,
-         "network_off:identified:free+self+paired": 1.3}
+         "network_off:identified:free+self+paired": 1.3,
+         "no_finetune:identified:free+self+paired": 1.3}
 """Arm -> the largest error ratio against an ATI-trained hybrid the issue accepts, per axis."""
 ATI_FREE = ("free", "free+self", "free+self+weights", "free+self+paired")
 REFERENCES = ("ati_same_minutes", "ati_same_minutes_paired", "ati_full")
@@ -149,6 +150,13 @@ keeps the network out of the lateral axes the physics carries (``psmforce calibr
 carried``, scored by :func:`network_off_carried`): it tied the calibrated hybrid on
 :data:`HOLD_RULE_FRESH_SEEDS` and led it on 206-208 (docs/ati_free.md 4.4), so every seed up to
 211 is a design seed for it."""
+NO_FINETUNE_ARM = "no_finetune:" + IDENTIFIED_ARM
+"""(c'')'s refitted prior under the source hybrid's network as it was trained (no finetuning
+on the ATI-free recordings): what the finetuning itself changes. Declared before any result on
+:data:`NETWORK_OFF_FRESH_SEEDS` was seen, after (c'')'s axial error was seen above the
+uncalibrated source hybrid's on 206-211 (``ati_free_unresolved.json``: the source near (e) on
+Fz, the calibrated hybrid 1.1-1.5x it), which suggested that finetuning on recordings whose
+external force is zero or small teaches the network to answer little."""
 NETWORK_OFF_ARM = "network_off:" + IDENTIFIED_ARM
 """(c'')'s checkpoint as ``psmforce calibrate --network-off carried`` writes it: its
 ``physics_only_axes`` the lateral axes whose cross-talk the identification carried, answered by
@@ -182,7 +190,8 @@ def rows() -> list[str]:
     """Every row of the table: the ATI-free arms, their ablations, the references, the source."""
     return (list(ATI_FREE) + [PER_MOUNT_ARM, IDENTIFIED_ARM]
             + [f"{v}:{a}" for v in ("network_alone", "physics_alone") for a in ATI_FREE]
-            + ["physics_alone:" + IDENTIFIED_ARM, NETWORK_OFF_ARM] + list(REFERENCES)
+            + ["physics_alone:" + IDENTIFIED_ARM, NETWORK_OFF_ARM, NO_FINETUNE_ARM]
+            + list(REFERENCES)
             + ["source"])
 
 
@@ -434,6 +443,11 @@ def _seed(seed: int, args, q_exc: np.ndarray) -> tuple[dict, dict]:
     records[NETWORK_OFF_ARM] = kept_json(work / "records" / f"{off.stem}.json", lambda: _score(
         _network_off(work / "arms" / f"identified_free_self_paired{unit}.pt", off,
                      (runs[IDENTIFIED_ARM]["prior"] or {}).get("held_at_identified", {})), tool))
+    unfinetuned = work / "arms" / f"identified_free_self_paired{unit}_no_finetune.pt"
+    records[NO_FINETUNE_ARM] = kept_json(
+        work / "records" / f"{unfinetuned.stem}.json", lambda: _score(_prior_only_refit(
+            work / "source_hybrid.pt", work / "arms" / f"identified_free_self_paired{unit}.pt",
+            unfinetuned), tool))
     available = sum(map(_minutes_of, _ati_pool(tool)))
     for ref, arm in (("ati_same_minutes", "free+self+weights"),
                      ("ati_same_minutes_paired", PAIRED_ARM))[0 if full else 1:]:
@@ -454,6 +468,16 @@ def _network_off(calibrated: Path, out: Path, carried: dict) -> Path:
     from psmforce.estimators.training.checkpoint import load_checkpoint
     ckpt = load_checkpoint(calibrated)
     ckpt.physics_only_axes = network_off_axes("carried", carried)
+    return ckpt.save(out)
+
+
+def _prior_only_refit(source: Path, calibrated: Path, out: Path) -> Path:
+    """``source`` with ``calibrated``'s prior (the same features and scalers: a calibration
+    keeps them) written to ``out``: the calibration without its finetuning."""
+    from psmforce.estimators.training.checkpoint import load_checkpoint
+    ckpt = load_checkpoint(source)
+    ckpt.prior_json = load_checkpoint(calibrated).prior_json
+    ckpt.provenance = {**ckpt.provenance, "prior_from": str(calibrated)}
     return ckpt.save(out)
 
 

@@ -289,9 +289,10 @@ def test_the_network_off_checkpoint_is_read_beside_what_it_is_composed_of():
     answers (those whose cross-talk was carried), its errors beside (c''), the physics alone,
     (d') and (e); a checkpoint score that differs from the one composed of (c'') and its
     physics alone is marked; ratios and goals on the declared fresh seeds (212-214) apart from
-    the others; a run without the rule or the row is refused."""
+    the others; the source network not finetuned, alone and with the network off the carried
+    axes, where the run has it; a run without the rule or the row is refused."""
     from reports.ati_free_page import network_off_table
-    from studies.ati_free import IDENTIFIED_ARM, NETWORK_OFF_ARM
+    from studies.ati_free import IDENTIFIED_ARM, NETWORK_OFF_ARM, NO_FINETUNE_ARM
 
     def score(fx, fy, fz=3.0):
         return {"nrmse_pct": {m: {"Fx": fx, "Fy": fy, "Fz": fz} for m in ("causal", "paper")}}
@@ -311,15 +312,31 @@ def test_the_network_off_checkpoint_is_read_beside_what_it_is_composed_of():
         "| 1.00 / 1.00 / 3.00 | 1.00 / 1.00 / 2.00 | yes |" in text
     assert "| 214 (fresh) | Fy |" in text and text.count("| **no** |") == 1
     assert "| 211 | Fy |" in text and "on the design seeds (211)" in text
+    assert "not finetuned" not in text
     fresh = text.split("on the fresh seeds (212, 213, 214)")[1].split("design seeds")[0]
     # Fy: 1/2, 1/2, 1.5/2 over (c''); Fz: 3 over 2 against (e), behind it on every seed
-    assert "| (c'') | 1.00x [1.00, 1.00] | 0.57x [0.32, 1.02] |" in fresh
-    assert "| (e) | 1.00x [1.00, 1.00] | 1.14x [0.64, 2.05] | 1.50x [1.50, 1.50] |" in fresh
-    assert "wholly above 1 (behind): (e), causal Fz; (e), paper Fz." in fresh
+    assert "| network off / (c'') | 1.00x [1.00, 1.00] | 0.57x [0.32, 1.02] |" in fresh
+    assert "| network off / (e) | 1.00x [1.00, 1.00] | 1.14x [0.64, 2.05] | " \
+        "1.50x [1.50, 1.50] |" in fresh
+    assert "wholly above 1 (behind): network off / (e), causal Fz; network off / (e), paper " \
+        "Fz." in fresh
     goals = text.split("the axes Fx, Fy.")[1].split("the three axes.")
     assert "writes it | (e) | 1.00x (paper Fy) | 1.00x (paper Fy) | 1.50x (paper Fy) " \
         "**miss** |" in goals[0]
     assert "writes it | (e) | 1.50x (paper Fz) **miss** |" in goals[1]
+    # the source network not finetuned: Fz at (e)'s, Fy its own 3.0 where not carried by physics
+    for k in seeds:
+        result["records"][k][NO_FINETUNE_ARM] = score(1.0, 3.0, 2.0)
+    text = network_off_table(result)
+    assert "| 212 (fresh) | Fy | 1.00 / 1.00 / 3.00 | 1.00 / 3.00 / 2.00 | 1.00 / 1.00 / 2.00 |" \
+        in text
+    fresh = text.split("on the fresh seeds (212, 213, 214)")[1].split("design seeds")[0]
+    assert "| not finetuned / (c'') | 1.00x [1.00, 1.00] | 1.50x [1.50, 1.50] | " \
+        "0.67x [0.67, 0.67] |" in fresh
+    assert "| not finetuned, network off / (e) | 1.00x [1.00, 1.00] | 1.00x [1.00, 1.00] | " \
+        "1.00x [1.00, 1.00] |" in fresh
+    goals = text.split("the three axes.")[1]
+    assert "not finetuned, the network off the carried axes | (e) | 1.00x" in goals
     with pytest.raises(ValueError, match="--hold-rule unresolved"):
         network_off_table({**result, "settings": {}})
     with pytest.raises(ValueError, match="has no network_off"):

@@ -215,6 +215,7 @@ def _evaluate(checkpoint: str | Path, data_dir: str | Path, out_dir: str | Path,
     conditions = sorted({t.condition for t in trials})
     result = {"checkpoint": str(checkpoint), "model": ckpt.model_name, "data_dir": str(data_dir),
               "split": split, "eval_start_sample": EVAL_START, "bias_correction": bias,
+              "physics_only_axes": list(ckpt.physics_only_axes),
               "overall": score(preds, trials, bias=bias),
               "by_condition": {c: score(preds, [t for t in trials if t.condition == c], bias=bias)
                                for c in conditions},

@@ -69,7 +69,9 @@ that axis into contact and the network's residual there only adds what it learnt
 ``network_off="carried"`` writes those axes as the checkpoint's ``physics_only_axes``
 (:func:`psmforce.estimators.training.checkpoint.residual_gain`): a choice made from what the
 identification carried, never from contact data. Axis names instead set them by hand. The
-record's ``physics_only_axes`` says which, and why (docs/ati_free.md section 4.5).
+record's ``physics_only_axes`` says which, and why (docs/ati_free.md section 4.5). A calibration
+decides them anew for the new instrument (the default, ``"none"``, clears a checkpoint's); a
+re-mount (``psmforce remount``) keeps them.
 
 Size: one calibration with its three refits of the prior and the instrument's identification
 beside it, in the order a lab runs them; the ATI-free recordings' selection and checks are
