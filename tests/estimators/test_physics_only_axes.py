@@ -6,13 +6,14 @@ what cannot honour it is refused."""
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
 import torch
 
 from psmforce.core.integrity import seal
-from psmforce.estimators.data.dataset import NO_BASE, Trial
+from psmforce.estimators.data.dataset import NO_BASE, Dataset, Trial
 from psmforce.estimators.data.hybrid_inputs import (BASE_COLUMNS, HYBRID_FEATURES,
                                                     add_prior_columns, hybrid_columns)
 from psmforce.estimators.evaluation.evaluate import predict_trial
@@ -47,16 +48,9 @@ def test_what_cannot_honour_physics_only_axes_is_named(axes, base, variance, pro
 
 
 def _trial(frame, prior) -> Trial:
-    class _Dataset:  # add_prior_columns needs only add_columns
-        def __init__(self, trial):
-            self.trial = trial
-
-        def add_columns(self, fn):
-            for k, v in fn(self.trial).items():
-                self.trial.frame[k] = v
-
+    """One recording as a test trial, the prior's columns added."""
     trial = Trial("t.csv", "Free", "test", frame.copy())
-    add_prior_columns(_Dataset(trial), prior)
+    add_prior_columns(Dataset(Path("."), [trial], {}), prior)
     return trial
 
 
