@@ -45,9 +45,9 @@ def _simulated(seed: int, remount_seed: int = 1):
 
 @pytest.fixture(scope="module")
 def lab(tmp_path_factory):
-    """A hybrid checkpoint (the design-value prior with an insertion model, a small network), a
-    folder with one free-space recording of the re-mounted tool (CSV directly in it), and a
-    test set of another recording of it."""
+    """A hybrid checkpoint (the design-value prior with an insertion model, a small network,
+    Fy answered by the prior alone), a folder with one free-space recording of the re-mounted
+    tool (CSV directly in it), and a test set of another recording of it."""
     root = tmp_path_factory.mktemp("remount")
     torch.set_num_threads(1)
     features, base = hybrid_columns(True)
@@ -56,7 +56,8 @@ def lab(tmp_path_factory):
                            derivation="prior",
                            prior_json=prior_to_json(InternalForcePrior(converged=True,
                                                                        insertion=INSERTION)),
-                           provenance={"seed": 3}).save(root / "tool.pt")
+                           provenance={"seed": 3},
+                           physics_only_axes=("Fy",)).save(root / "tool.pt")
     _write(_simulated(1), root / "mount2" / "excitation.csv")
     _write(_simulated(2), root / "heldout" / "test" / "Free" / "free_0.csv")
     assert main(["index", str(root / "heldout")]) == 0
@@ -94,6 +95,7 @@ def test_only_the_per_mount_values_move_into_a_new_checkpoint(lab, tmp_path, cap
     assert np.array_equal(p_old.axis_weights, p_new.axis_weights)
     assert p_new.insertion.to_dict() == p_old.insertion.to_dict()
     assert new.features == old.features and new.base_columns == old.base_columns
+    assert new.physics_only_axes == old.physics_only_axes == ("Fy",)   # a re-mount keeps them
     assert new.input_scaler.to_dict() == old.input_scaler.to_dict()
     assert new.target_scaler.to_dict() == old.target_scaler.to_dict()
     s_old, s_new = old.model.state_dict(), new.model.state_dict()
