@@ -131,7 +131,12 @@ def test_save_and_the_stream_refuse_what_cannot_honour_it(tmp_path):
     with pytest.raises(ck.CheckpointError, match="needs a residual model"):
         no_base.save(tmp_path / "x.pt")
     assert not (tmp_path / "x.pt").exists()
+    variance, xs, ys = model_and_scalers(len(HYBRID_FEATURES), uncertainty=True)
     with pytest.raises(StreamingError, match="predicts its variance"):
-        variance, xs, ys = model_and_scalers(len(HYBRID_FEATURES), uncertainty=True)
         StreamingEstimator(variance, HYBRID_FEATURES, xs, ys, BASE_COLUMNS, StandInPrior(),
                            physics_only_axes=("Fx",))
+    record = ck.TrainedModel("hybrid", CONFIG, HYBRID_FEATURES, xs, ys, BASE_COLUMNS,
+                             model=variance, physics_only_axes=("Fx",))
+    frame = recording(50)
+    with pytest.raises(ValueError, match="predicts its variance"):
+        predict_trial(record, _trial(frame, StandInPrior()), with_std=True)

@@ -29,7 +29,8 @@ from typing import Mapping, Sequence
 import numpy as np
 import torch
 
-from psmforce.estimators.training.checkpoint import TrainedModel, load_checkpoint
+from psmforce.estimators.training.checkpoint import (TrainedModel, load_checkpoint,
+                                                     physics_only_problem)
 from psmforce.estimators.networks.contract import ClosedFormModel, TrainableNetwork, is_chunk
 from psmforce.estimators.data.dataset import Trial, base_matrix, load_dataset, sliding_windows
 from psmforce.estimators.evaluation.metrics import POSTPROCESSING, axis_metrics, postprocess
@@ -65,6 +66,10 @@ def predict_trial(setup: TrainedModel, trial: Trial, *, batch: int = 8192,
     its variance (:func:`psmforce.estimators.networks.uncertainty.std_newton`); refused for one that
     does not."""
     model = setup.model
+    why = physics_only_problem(setup.physics_only_axes, setup.base_columns,
+                               predicts_variance(model))
+    if why is not None:  # save and load refuse it; a record built in memory too
+        raise ValueError(why)
     if with_std and not predicts_variance(model):
         raise ValueError(f"the '{setup.model_name}' model predicts no variance (it was not "
                          f"trained with uncertainty), so it has no std")
