@@ -278,6 +278,8 @@ ATI_FREE_ROWS = {
                                                "finetuned",
     "network_off_carried:no_finetune:identified:free+self+paired": "(c'')'s prior under the "
         "source network, not finetuned, the network off the carried axes",
+    "prior_only:identified:free+self+paired": "(c'')'s prior under the source network, not "
+                                              "finetuned, the prior alone on Fx and Fy",
     "ati_same_minutes": "(d) ATI: (c)'s minutes",
     "ati_same_minutes_paired": "(d') ATI: (c')'s minutes", "ati_full": "(e) ATI: full data",
     "source": "source hybrid (other tool), as is"}

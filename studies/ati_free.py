@@ -92,7 +92,8 @@ were declared here, unseen, before any run of the study on them."""
 GOALS = {"free+self+weights": 1.3, "free+self+paired": 1.3, "free+self": 1.5,
          "per_mount:free+self": 1.5, "identified:free+self+paired": 1.3,
          "network_off:identified:free+self+paired": 1.3,
-         "no_finetune:identified:free+self+paired": 1.3}
+         "no_finetune:identified:free+self+paired": 1.3,
+         "prior_only:identified:free+self+paired": 1.3}
 """Arm -> the largest error ratio against an ATI-trained hybrid the issue accepts, per axis."""
 ATI_FREE = ("free", "free+self", "free+self+weights", "free+self+paired")
 REFERENCES = ("ati_same_minutes", "ati_same_minutes_paired", "ati_full")
@@ -157,6 +158,16 @@ on the ATI-free recordings): what the finetuning itself changes. Declared before
 uncalibrated source hybrid's on 206-211 (``ati_free_unresolved.json``: the source near (e) on
 Fz, the calibrated hybrid 1.1-1.5x it), which suggested that finetuning on recordings whose
 external force is zero or small teaches the network to answer little."""
+PRIOR_ONLY_ARM = "prior_only:" + IDENTIFIED_ARM
+"""(c'')'s refitted prior under the source network not finetuned, with the prior alone on both
+lateral axes (``psmforce calibrate --prior-refit identified --no-finetune --network-off Fx
+Fy``): the finetuning left out because it raised the axial error on every seed it was
+measured on, the lateral axes to the physics because the physics alone carried them at or near
+(e) there. Chosen after :data:`NO_FINETUNE_ARM` and :data:`NETWORK_OFF_ARM` were seen on 212
+and 213, which makes every seed up to 214 a design seed for it; judged on
+:data:`PRIOR_ONLY_FRESH_SEEDS`, declared with it before any run on them."""
+PRIOR_ONLY_FRESH_SEEDS = (215, 216, 217)
+"""Bench seeds declared for :data:`PRIOR_ONLY_ARM` before any run of the study on them."""
 NETWORK_OFF_ARM = "network_off:" + IDENTIFIED_ARM
 """(c'')'s checkpoint as ``psmforce calibrate --network-off carried`` writes it: its
 ``physics_only_axes`` the lateral axes whose cross-talk the identification carried, answered by
@@ -190,7 +201,8 @@ def rows() -> list[str]:
     """Every row of the table: the ATI-free arms, their ablations, the references, the source."""
     return (list(ATI_FREE) + [PER_MOUNT_ARM, IDENTIFIED_ARM]
             + [f"{v}:{a}" for v in ("network_alone", "physics_alone") for a in ATI_FREE]
-            + ["physics_alone:" + IDENTIFIED_ARM, NETWORK_OFF_ARM, NO_FINETUNE_ARM]
+            + ["physics_alone:" + IDENTIFIED_ARM, NETWORK_OFF_ARM, NO_FINETUNE_ARM,
+               PRIOR_ONLY_ARM]
             + list(REFERENCES)
             + ["source"])
 
@@ -448,6 +460,10 @@ def _seed(seed: int, args, q_exc: np.ndarray) -> tuple[dict, dict]:
         work / "records" / f"{unfinetuned.stem}.json", lambda: _score(_prior_only_refit(
             work / "source_hybrid.pt", work / "arms" / f"identified_free_self_paired{unit}.pt",
             unfinetuned), tool))
+    prior_only = work / "arms" / f"identified_free_self_paired{unit}_prior_only.pt"
+    records[PRIOR_ONLY_ARM] = kept_json(
+        work / "records" / f"{prior_only.stem}.json", lambda: _score(_network_off(
+            unfinetuned, prior_only, {}, axes=("Fx", "Fy")), tool))
     available = sum(map(_minutes_of, _ati_pool(tool)))
     for ref, arm in (("ati_same_minutes", "free+self+weights"),
                      ("ati_same_minutes_paired", PAIRED_ARM))[0 if full else 1:]:
@@ -461,13 +477,13 @@ def _seed(seed: int, args, q_exc: np.ndarray) -> tuple[dict, dict]:
     return records, runs
 
 
-def _network_off(calibrated: Path, out: Path, carried: dict) -> Path:
-    """``calibrated`` written to ``out`` as ``calibrate --network-off carried`` would have
-    written it (the option is set after the finetuning, which it does not change)."""
+def _network_off(calibrated: Path, out: Path, carried: dict, axes=None) -> Path:
+    """``calibrated`` written to ``out`` as ``calibrate --network-off carried`` (or ``axes``)
+    would have written it (the option is set after the finetuning, which it does not change)."""
     from psmforce.estimators.training.calibrate import network_off_axes
     from psmforce.estimators.training.checkpoint import load_checkpoint
     ckpt = load_checkpoint(calibrated)
-    ckpt.physics_only_axes = network_off_axes("carried", carried)
+    ckpt.physics_only_axes = network_off_axes("carried" if axes is None else axes, carried)
     return ckpt.save(out)
 
 
@@ -588,7 +604,8 @@ def main(argv=None) -> dict:
         "goals": {a: f"<= {g}x the ATI-trained hybrid's error, every axis" for a, g in GOALS.items()},
         "fresh_seeds": [s for s in args.seeds if s in FRESH_SEEDS + IDENTIFIED_FRESH_SEEDS
                                                     + HOLD_RULE_FRESH_SEEDS
-                                                    + NETWORK_OFF_FRESH_SEEDS],
+                                                    + NETWORK_OFF_FRESH_SEEDS
+                                                    + PRIOR_ONLY_FRESH_SEEDS],
         "summary": summary(records),
         "paired": paired,
         "goal_check": {ref: goal_misses(p) for ref, p in paired.items()},

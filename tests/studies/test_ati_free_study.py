@@ -10,7 +10,7 @@ import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 from studies.ati_free import (ATI_FREE, AXES, GOALS, IDENTIFIED_ARM,  # noqa: E402
-                              NETWORK_OFF_ARM, NO_FINETUNE_ARM,
+                              NETWORK_OFF_ARM, NO_FINETUNE_ARM, PRIOR_ONLY_ARM,
                               PAIRED_ARM, PER_MOUNT_ARM, REFERENCES, arms, goal_misses,
                               paired_table, prior_against_truth, rows, same_minutes, summary)
 
@@ -39,13 +39,13 @@ def test_each_row_is_held_to_the_ati_calibration_of_its_own_minutes():
     assert by_ref["ati_same_minutes_paired"] == {
         PAIRED_ARM, "network_alone:" + PAIRED_ARM, "physics_alone:" + PAIRED_ARM,
         IDENTIFIED_ARM, "physics_alone:" + IDENTIFIED_ARM,   # (c'') has (c')'s recordings
-        NETWORK_OFF_ARM, NO_FINETUNE_ARM}
+        NETWORK_OFF_ARM, NO_FINETUNE_ARM, PRIOR_ONLY_ARM}
     assert "ati_same_minutes_paired" not in by_ref["ati_same_minutes"]
     assert {"ati_full", "source"} <= by_ref["ati_same_minutes"]
     assert set(by_ref["ati_full"]) == set(rows()) - {"ati_full"}
     # the goal check of (d') judges (c') and (c''), at (c)'s goal
     assert set(goal_misses(paired_table(records, "ati_same_minutes_paired"))) == {
-        PAIRED_ARM, IDENTIFIED_ARM, NETWORK_OFF_ARM, NO_FINETUNE_ARM}
+        PAIRED_ARM, IDENTIFIED_ARM, NETWORK_OFF_ARM, NO_FINETUNE_ARM, PRIOR_ONLY_ARM}
     assert GOALS[PAIRED_ARM] == GOALS[IDENTIFIED_ARM] == GOALS["free+self+weights"] \
         == GOALS[NETWORK_OFF_ARM] == GOALS[NO_FINETUNE_ARM]
 
