@@ -306,6 +306,9 @@ def _parser() -> argparse.ArgumentParser:
                         "added: 'carried' (with --prior-refit identified: each lateral axis "
                         "whose cross-talk the identification carried into the prior, "
                         "docs/ati_free.md section 4.5), or axis names (Fx Fy Fz); default none")
+    p.add_argument("--no-finetune", action="store_true",
+                   help="refit the prior only and keep the network as trained (no epoch runs; "
+                        "a model without a prior is refused)")
     training_arguments(p, "the calibration report")
     remount.add_remount_command(add)  # after a re-mount: the prior's per-mount values only
 

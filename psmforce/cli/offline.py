@@ -326,7 +326,7 @@ def calibrate_command(args) -> dict:
                        free_space=args.free_space, known_loads=args.known_loads,
                        held_values=args.held_values, jackknife_unit=args.jackknife_unit,
                        prior_refit=args.prior_refit, hold_rule=args.hold_rule,
-                       network_off=network_off)
+                       network_off=network_off, finetune=not args.no_finetune)
     record = result["calibration"]
     print(f"calibrated on {len(record['trials'])} trials, {record['minutes_used']:.2f} min "
           f"(Free {record['minutes_by_condition']['Free']:.2f}, Traction "
@@ -334,7 +334,9 @@ def calibrate_command(args) -> dict:
           + (f", KnownLoad {record['minutes_by_condition']['KnownLoad']:.2f}"
              if record["known_loads_dir"] else "") + ")"
           + (", prior refitted" if record["prior_refit"] else "")
-          + f"; {record['epochs_run']} epochs ({record['stopped_by']}); wrote {args.out}")
+          + (f"; {record['epochs_run']} epochs ({record['stopped_by']})" if record.get(
+              "finetuned", True) else "; the network kept as trained (not finetuned)")
+          + f"; wrote {args.out}")
     held = (record["prior_refit"] or {}).get("held_from_checkpoint")
     if held:  # without an ATI: what these recordings could not pin down (docs/ati_free.md)
         print(f"not identifiable from these recordings, held at the checkpoint's values: "

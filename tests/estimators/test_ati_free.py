@@ -181,6 +181,13 @@ def test_cli_names_what_the_free_space_recordings_could_not_pin_down(tmp_path, c
     assert main(argv) == 0
     assert "instrument (load path): identified (free, 3 SE within 10%): cable_radius" in (
         capsys.readouterr().out)
+    # --no-finetune reaches the library and the line says the network was kept
+    asked = {}
+    monkeypatch.setattr(calibration, "calibrate",
+                        lambda *a, **k: asked.update(k) or {"calibration": record})
+    record["finetuned"] = False
+    assert main(argv + ["--no-finetune"]) == 0 and asked["finetune"] is False
+    assert "the network kept as trained (not finetuned)" in capsys.readouterr().out
 
 
 @pytest.mark.slow

@@ -258,7 +258,8 @@ def test_an_identified_refit_holds_what_the_load_path_identified(benches, tmp_pa
     ``hold_rule="unresolved"``), is held at its value in the estimator's prior, the sensor's
     offsets excepted (this mount's, refitted); the rest is refitted as "all" does. Refused
     without known loads. With ``network_off="carried"`` the lateral axis whose cross-talk was
-    carried is answered by the prior alone (docs/ati_free.md section 4.5). The identification
+    carried is answered by the prior alone (docs/ati_free.md section 4.5); with
+    ``finetune=False`` the same prior under the network as trained. The identification
     itself is tests/estimators/test_ati_free.py's; here it is replaced by a report with known
     values."""
     from psmforce.cli.excitation import weight_poses
@@ -306,6 +307,26 @@ def test_an_identified_refit_holds_what_the_load_path_identified(benches, tmp_pa
     estimate = predict_trial(record, trial)
     np.testing.assert_allclose(estimate[:, 1], trial.frame[record.base_columns[1]], atol=1e-9)
     assert not np.allclose(estimate[:, 0], trial.frame[record.base_columns[0]], atol=1e-3)
+    # without finetuning: the same refit of the prior, the source network unchanged
+    kept = tmp_path / "kept.pt"
+    plain = calibrate(benches / "hybrid.pt", tmp_path / "g" / FREE_SPACE, kept, minutes=0.3,
+                      epochs=1, train_config=CHEAP, free_space=True,
+                      known_loads=tmp_path / "g" / KNOWN_LOADS, prior_refit="identified",
+                      network_off=("Fx", "Fy"), finetune=False)
+    assert plain["calibration"]["finetuned"] is False and plain["epochs_run"] == 0
+    unfinetuned, source = load_checkpoint(kept), load_checkpoint(benches / "hybrid.pt")
+    assert np.array_equal(unfinetuned.prior().params, record.prior().params)
+    assert unfinetuned.physics_only_axes == ("Fx", "Fy")
+    assert all(torch.equal(a, b) for a, b in zip(unfinetuned.model.state_dict().values(),
+                                                 source.model.state_dict().values()))
+    assert not all(torch.equal(a, b) for a, b in zip(record.model.state_dict().values(),
+                                                     source.model.state_dict().values()))
+    with pytest.raises(CalibrationError, match="without a prior, so nothing would be"):
+        calibrate(benches / "fcn.pt", tmp_path / "g" / FREE_SPACE, tmp_path / "x.pt",
+                  free_space=True, finetune=False)
+    with pytest.raises(CalibrationError, match="finetune must be True or False"):
+        calibrate(benches / "hybrid.pt", tmp_path / "g" / FREE_SPACE, tmp_path / "x.pt",
+                  free_space=True, finetune="no")
     with pytest.raises(CalibrationError, match="network_off: .*needs a residual model"):
         calibrate(benches / "fcn.pt", tmp_path / "g" / FREE_SPACE, tmp_path / "x.pt",
                   free_space=True, known_loads=tmp_path / "g" / KNOWN_LOADS,

@@ -61,6 +61,12 @@ among it: this mount's), the identifiability rule holding what they cannot pin d
 checkpoint's values as ``"all"`` does. The provenance's ``prior_refit.held_at_identified`` lists
 the carried values (docs/ati_free.md section 4.3).
 
+**Without finetuning** (``finetune=False``, ``psmforce calibrate --no-finetune``). The prior is
+refitted as above (on the same training part of the split) and the network kept as trained: no
+epoch runs. Without an ATI the finetuning sees only recordings whose external force is zero or a
+small weight, and on the bench it raised the axial error of every calibration it was measured
+on (docs/ati_free.md section 4.5); the record says ``"finetuned": false``.
+
 **The network kept off the axes the physics carries** (``network_off``, ``psmforce calibrate
 --network-off``). A network finetuned without an ATI has never seen a loaded cable; where the
 identification pinned down the HEX10's cross-talk of the axial reading into a lateral axis
@@ -292,7 +298,8 @@ def calibrate(checkpoint: str | Path, data_dir: str | Path, out: str | Path, *,
               device: str = "cpu", train_config=None, free_space: bool = False,
               known_loads: str | Path | None = None, prior_refit: str = "all",
               held_values: str = "as-held", jackknife_unit: str = "orientation",
-              hold_rule: str = "imprecise", network_off="none") -> dict:
+              hold_rule: str = "imprecise", network_off="none",
+              finetune: bool = True) -> dict:
     """Calibrate a trained checkpoint to the instrument recorded in ``data_dir`` from its first
     ``minutes`` of calibration trials (module docstring) and write ``out``. ``seed``: the validation
     split and the finetuning's shuffling; ``train_config``: a
@@ -322,7 +329,9 @@ def calibrate(checkpoint: str | Path, data_dir: str | Path, out: str | Path, *,
     ``"imprecise"`` every one, ``"unresolved"`` only those
     whose design value the data do not reject, the others estimated (and carried by
     ``"identified"``). ``network_off``: the axes whose estimate is the prior alone
-    (:func:`network_off_axes`; ``"carried"`` only with ``prior_refit="identified"``)."""
+    (:func:`network_off_axes`; ``"carried"`` only with ``prior_refit="identified"``).
+    ``finetune=False``: the prior refitted, the network left as trained (module docstring,
+    "Without finetuning"); refused for a model without a prior (nothing would change)."""
     from psmforce.identification import InternalForcePrior
     from psmforce.identification.errors import NotConvergedError
     from psmforce.identification.prior import NAMES, held_by_reading
@@ -360,7 +369,12 @@ def calibrate(checkpoint: str | Path, data_dir: str | Path, out: str | Path, *,
         raise CalibrationError("network_off: 'carried' only with prior_refit='identified' (the "
                                "axes whose cross-talk the identification carried into the prior)")
     wanted = network_off_axes(network_off, {t: 0.0 for t in CARRIED_AXES.values()})
+    if not isinstance(finetune, bool):
+        raise CalibrationError(f"finetune must be True or False, got {finetune!r}")
     ckpt = load_checkpoint(checkpoint, device)
+    if not finetune and ckpt.prior_json is None:
+        raise CalibrationError(f"finetune=False: {checkpoint} holds a '{ckpt.model_name}' model "
+                               f"without a prior, so nothing would be calibrated")
     from psmforce.estimators.training.checkpoint import physics_only_problem
     from psmforce.estimators.networks.uncertainty import predicts_variance
     why = physics_only_problem(wanted, ckpt.base_columns, predicts_variance(ckpt.model))
@@ -458,7 +472,9 @@ def calibrate(checkpoint: str | Path, data_dir: str | Path, out: str | Path, *,
     ckpt.derive(calibration)
     cfg = train_config or TrainConfig()
     cfg = TrainConfig(**{**cfg.to_dict(), "max_epochs": epochs, "seed": seed, "device": device})
-    report = finetune_model(ckpt, train_trials, val_trials, cfg, desc="calibrate")
+    report = (finetune_model(ckpt, train_trials, val_trials, cfg, desc="calibrate") if finetune
+              else {"trainable_parameters": 0, "epochs_run": 0, "stopped_by": "not finetuned",
+                    "converged": None, "best_val_loss": None})
     roles = {t.path: "train" for t in train_trials} | {t.path: "validation" for t in val_trials}
     record = {
         "data_dir": str(data_dir), "tool": dataset.metadata.get("tool"),
@@ -483,7 +499,8 @@ def calibrate(checkpoint: str | Path, data_dir: str | Path, out: str | Path, *,
             "why": {a: f"{t} held at its identified value in the prior"
                     for a, t in CARRIED_AXES.items() if a in ckpt.physics_only_axes}
             if network_off == "carried" else {}},
-        "finetune_config": cfg.to_dict(),
+        "finetuned": finetune,
+        "finetune_config": cfg.to_dict() if finetune else None,
         "trainable_parameters": report["trainable_parameters"],
         "epochs_run": report["epochs_run"], "stopped_by": report["stopped_by"],
         "converged": report["converged"], "best_val_loss": report["best_val_loss"]}
