@@ -833,54 +833,106 @@ def network_off_table(result: dict) -> str:
     composed from (c'') and its physics alone (:func:`studies.ati_free.network_off_carried`);
     paired ratios on the seeds declared for it (:data:`studies.ati_free.NETWORK_OFF_FRESH_SEEDS`)
     and on the others; the goals on those fresh seeds, laterally and on all three axes."""
-    from psmforce.estimators.training.calibrate import network_off_axes
     from studies.ati_free import (GOALS, IDENTIFIED_ARM, NETWORK_OFF_ARM,
                                   NETWORK_OFF_FRESH_SEEDS, NO_FINETUNE_ARM, network_off_carried)
-    if result["settings"].get("hold_rule") != "unresolved":
-        raise ValueError("the study must be run with --hold-rule unresolved")
-    seeds = [k for k, r in result["records"].items() if NETWORK_OFF_ARM in r]
-    if not seeds:
-        raise ValueError(f"the study has no {NETWORK_OFF_ARM} row")
-    fresh = [k for k in seeds if int(k) in NETWORK_OFF_FRESH_SEEDS]
+    seeds, records, carried = _unresolved_rows(result, NETWORK_OFF_ARM)
     physics = "physics_alone:" + IDENTIFIED_ARM
-    both = NO_FINETUNE_OFF
-    carried = {k: (result["runs"][k][IDENTIFIED_ARM]["prior"] or {}).get("held_at_identified",
-                                                                          {}) for k in seeds}
-    records = {k: dict(result["records"][k]) for k in seeds}
     unfinetuned = all(NO_FINETUNE_ARM in r for r in records.values())
     for k, r in records.items():
         if unfinetuned:
-            r[both] = network_off_carried(r[NO_FINETUNE_ARM], r[physics], carried[k])
+            r[NO_FINETUNE_OFF] = network_off_carried(r[NO_FINETUNE_ARM], r[physics], carried[k])
     rows = ((NETWORK_OFF_ARM, "network off"),
-            *(((NO_FINETUNE_ARM, "not finetuned"), (both, "not finetuned, network off"))
-              if unfinetuned else ()),
+            *(((NO_FINETUNE_ARM, "not finetuned"), (NO_FINETUNE_OFF, "not finetuned, network "
+                                                                     "off")) if unfinetuned
+              else ()),
             (IDENTIFIED_ARM, "(c'')"), (physics, "physics alone"),
             ("ati_same_minutes_paired", "(d')"), ("ati_full", "(e)"))
-    label = dict(rows)
-    lines = ["", f"(c'') with `--network-off carried` on bench seeds {', '.join(seeds)} (fresh, "
-             f"declared before any run on them: {', '.join(fresh) or 'none'}). Off: the axes "
-             "the prior alone answers (each lateral axis whose cross-talk the identification "
-             "carried)"
-             + ("; not finetuned: (c'')'s prior under the source network as trained" if
-                unfinetuned else "") + ". Causal NRMSE % Fx / Fy / Fz.", "",
-             "| seed | off | " + " | ".join(name for _, name in rows)
-             + " | checkpoint = composed |", "|---|---|" + "---|" * len(rows) + "---|"]
-    for k in seeds:
+    pairs = [(NETWORK_OFF_ARM, ref) for ref in (IDENTIFIED_ARM, physics,
+                                                "ati_same_minutes_paired", "ati_full")]
+    goals = {IDENTIFIED_ARM: GOALS[IDENTIFIED_ARM], NETWORK_OFF_ARM: GOALS[NETWORK_OFF_ARM]}
+    if unfinetuned:
+        pairs += [(NO_FINETUNE_ARM, IDENTIFIED_ARM), (NO_FINETUNE_ARM, "ati_full"),
+                  (NO_FINETUNE_OFF, NETWORK_OFF_ARM), (NO_FINETUNE_OFF, "ati_full")]
+        goals |= {NO_FINETUNE_ARM: GOALS[NO_FINETUNE_ARM], NO_FINETUNE_OFF: GOALS[NO_FINETUNE_ARM]}
+
+    def same(k: str) -> str:
         r = records[k]
         composed = network_off_carried(r[IDENTIFIED_ARM], r[physics], carried[k])
-        same = all(abs(composed["nrmse_pct"][m][a] - r[NETWORK_OFF_ARM]["nrmse_pct"][m][a])
-                   <= 1e-6 * max(1.0, abs(composed["nrmse_pct"][m][a]))
-                   for m in ("causal", "paper") for a in ERROR_AXES)
+        return "yes" if all(
+            abs(composed["nrmse_pct"][m][a] - r[NETWORK_OFF_ARM]["nrmse_pct"][m][a])
+            <= 1e-6 * max(1.0, abs(composed["nrmse_pct"][m][a]))
+            for m in ("causal", "paper") for a in ERROR_AXES) else "**no**"
+    intro = (f"(c'') with `--network-off carried` on bench seeds {', '.join(seeds)}. Off: the "
+             "axes the prior alone answers (each lateral axis whose cross-talk the "
+             "identification carried)"
+             + ("; not finetuned: (c'')'s prior under the source network as trained" if
+                unfinetuned else ""))
+    return _rows_against_references(result, records, carried, NETWORK_OFF_FRESH_SEEDS, rows,
+                                    pairs, goals, intro, ("checkpoint = composed", same))
+
+
+def prior_only_table(result: dict) -> str:
+    """(c'')'s prior under the source network not finetuned, the prior alone on Fx and Fy
+    (:data:`studies.ati_free.PRIOR_ONLY_ARM`: ``psmforce calibrate --prior-refit identified
+    --no-finetune --network-off Fx Fy``): per seed its causal errors beside (c''), the network
+    kept off the carried axes, the physics alone, (d') and (e); paired ratios on the seeds
+    declared for it (:data:`studies.ati_free.PRIOR_ONLY_FRESH_SEEDS`) and on the others; the
+    goals on those fresh seeds, on all three axes and laterally."""
+    from studies.ati_free import (GOALS, IDENTIFIED_ARM, NETWORK_OFF_ARM, NO_FINETUNE_ARM,
+                                  PRIOR_ONLY_ARM, PRIOR_ONLY_FRESH_SEEDS)
+    seeds, records, carried = _unresolved_rows(result, PRIOR_ONLY_ARM)
+    physics = "physics_alone:" + IDENTIFIED_ARM
+    rows = ((PRIOR_ONLY_ARM, "prior only"), (NO_FINETUNE_ARM, "not finetuned"),
+            (NETWORK_OFF_ARM, "network off"), (IDENTIFIED_ARM, "(c'')"),
+            (physics, "physics alone"), ("ati_same_minutes_paired", "(d')"),
+            ("ati_full", "(e)"))
+    pairs = [(PRIOR_ONLY_ARM, ref) for ref in (IDENTIFIED_ARM, NETWORK_OFF_ARM,
+                                               "ati_same_minutes_paired", "ati_full")]
+    goals = {IDENTIFIED_ARM: GOALS[IDENTIFIED_ARM], NETWORK_OFF_ARM: GOALS[NETWORK_OFF_ARM],
+             PRIOR_ONLY_ARM: GOALS[PRIOR_ONLY_ARM]}
+    intro = (f"Prior only: `--prior-refit identified --no-finetune --network-off Fx Fy` on "
+             f"bench seeds {', '.join(seeds)}")
+    return _rows_against_references(result, records, carried, PRIOR_ONLY_FRESH_SEEDS, rows,
+                                    pairs, goals, intro)
+
+
+def _unresolved_rows(result: dict, subject: str) -> tuple[list[str], dict, dict]:
+    """(the seeds with the ``subject`` row, their records copied, what (c'')'s prior carried
+    per seed) of a study run with ``--hold-rule unresolved``; anything else refused."""
+    from studies.ati_free import IDENTIFIED_ARM
+    if result["settings"].get("hold_rule") != "unresolved":
+        raise ValueError("the study must be run with --hold-rule unresolved")
+    seeds = [k for k, r in result["records"].items() if subject in r]
+    if not seeds:
+        raise ValueError(f"the study has no {subject} row")
+    carried = {k: (result["runs"][k][IDENTIFIED_ARM]["prior"] or {}).get("held_at_identified",
+                                                                          {}) for k in seeds}
+    return seeds, {k: dict(result["records"][k]) for k in seeds}, carried
+
+
+def _rows_against_references(result: dict, records: dict, carried: dict, declared, rows,
+                             pairs, goals: dict, intro: str, check=None) -> str:
+    """The per-seed table of ``rows`` (causal NRMSE per axis, the lateral axes the network is
+    kept off by ``carried``, and ``check``'s column: (title, seed -> cell)), the paired ratios
+    ``pairs`` on the ``declared`` fresh seeds and on the others, and ``goals`` on the fresh
+    seeds, laterally and on all three axes."""
+    from psmforce.estimators.training.calibrate import network_off_axes
+    seeds = list(records)
+    fresh = [k for k in seeds if int(k) in declared]
+    label = dict(rows)
+    lines = ["", f"{intro} (fresh, declared before any run on them: "
+             f"{', '.join(fresh) or 'none'}). Carried: the lateral axes whose cross-talk the "
+             "identification carried into the prior. Causal NRMSE % Fx / Fy / Fz.", "",
+             "| seed | carried | " + " | ".join(name for _, name in rows)
+             + (f" | {check[0]} |" if check else " |"),
+             "|---|---|" + "---|" * (len(rows) + bool(check))]
+    for k in seeds:
+        r = records[k]
         lines.append(f"| {k}{' (fresh)' if k in fresh else ''} | "
                      f"{', '.join(network_off_axes('carried', carried[k])) or 'none'} | "
                      + " | ".join(" / ".join(f"{r[row]['nrmse_pct']['causal'][a]:.2f}"
                                              for a in ERROR_AXES) for row, _ in rows)
-                     + f" | {'yes' if same else '**no**'} |")
-    pairs = [(NETWORK_OFF_ARM, ref) for ref in (IDENTIFIED_ARM, physics,
-                                                "ati_same_minutes_paired", "ati_full")]
-    if unfinetuned:
-        pairs += [(NO_FINETUNE_ARM, IDENTIFIED_ARM), (NO_FINETUNE_ARM, "ati_full"),
-                  (both, NETWORK_OFF_ARM), (both, "ati_full")]
+                     + (f" | {check[1](k)} |" if check else " |"))
     for which, group in (("fresh", fresh), ("design", [k for k in seeds if k not in fresh])):
         if not group:
             continue
@@ -895,9 +947,6 @@ def network_off_table(result: dict) -> str:
                           + ("; ".join(verdicts.get("ahead", [])) or "none") + "; wholly "
                           "above 1 (behind): "
                           + ("; ".join(verdicts.get("behind", [])) or "none") + "."]
-    goals = {IDENTIFIED_ARM: GOALS[IDENTIFIED_ARM], NETWORK_OFF_ARM: GOALS[NETWORK_OFF_ARM]}
-    if unfinetuned:
-        goals |= {NO_FINETUNE_ARM: GOALS[NO_FINETUNE_ARM], both: GOALS[NO_FINETUNE_ARM]}
     for axes in (("Fx", "Fy"), ERROR_AXES):
         lines += _fresh_seed_goals({**result, "records": records,
                                     "fresh_seeds": [int(k) for k in fresh]}, goals, axes)

@@ -342,3 +342,32 @@ def test_the_network_off_checkpoint_is_read_beside_what_it_is_composed_of():
     with pytest.raises(ValueError, match="has no network_off"):
         network_off_table({**result, "records": {k: {IDENTIFIED_ARM: score(1, 1)}
                                                  for k in seeds}})
+
+
+def test_the_prior_only_calibration_is_judged_on_its_own_fresh_seeds():
+    """``--no-finetune --network-off Fx Fy``: per seed beside the other (c'') rows; ratios and
+    goals on its declared fresh seeds (215-217) apart from the design seeds."""
+    from reports.ati_free_page import prior_only_table
+    from studies.ati_free import (IDENTIFIED_ARM, NETWORK_OFF_ARM, NO_FINETUNE_ARM,
+                                  PRIOR_ONLY_ARM)
+
+    def score(fx, fy, fz):
+        return {"nrmse_pct": {m: {"Fx": fx, "Fy": fy, "Fz": fz} for m in ("causal", "paper")}}
+    rows = {PRIOR_ONLY_ARM: score(1.0, 1.0, 2.4), NO_FINETUNE_ARM: score(3.0, 3.0, 2.4),
+            NETWORK_OFF_ARM: score(1.0, 1.0, 3.0), IDENTIFIED_ARM: score(2.0, 2.0, 3.0),
+            "physics_alone:" + IDENTIFIED_ARM: score(1.0, 1.0, 5.0),
+            "ati_same_minutes_paired": score(1.0, 1.0, 2.0), "ati_full": score(1.0, 1.0, 2.0)}
+    seeds = ("213", "215", "216", "217")
+    result = {"settings": {"hold_rule": "unresolved"}, "records": {k: rows for k in seeds},
+              "runs": {k: {IDENTIFIED_ARM: {"prior": {"held_at_identified": {
+                  "crosstalk_fx": 0.005}}}} for k in seeds}}
+    text = prior_only_table(result)
+    assert "| 216 (fresh) | Fx | 1.00 / 1.00 / 2.40 | 3.00 / 3.00 / 2.40 |" in text
+    fresh = text.split("on the fresh seeds (215, 216, 217)")[1].split("design seeds")[0]
+    assert "| prior only / (e) | 1.00x [1.00, 1.00] | 1.00x [1.00, 1.00] | " \
+        "1.20x [1.20, 1.20] |" in fresh
+    assert "| prior only / (c'') | 0.50x [0.50, 0.50] |" in fresh
+    goals = text.split("the three axes.")[1]
+    assert "the prior alone on Fx and Fy | (e) | 1.20x (paper Fz) | 1.20x (paper Fz) | " \
+        "1.20x (paper Fz) | <= 1.3x |" in goals
+    assert "on the design seeds (213)" in text
