@@ -862,11 +862,10 @@ def network_off_table(result: dict) -> str:
             abs(composed["nrmse_pct"][m][a] - r[NETWORK_OFF_ARM]["nrmse_pct"][m][a])
             <= 1e-6 * max(1.0, abs(composed["nrmse_pct"][m][a]))
             for m in ("causal", "paper") for a in ERROR_AXES) else "**no**"
-    intro = (f"(c'') with `--network-off carried` on bench seeds {', '.join(seeds)}. Off: the "
-             "axes the prior alone answers (each lateral axis whose cross-talk the "
-             "identification carried)"
+    intro = ("(c'') with `--network-off carried`", "Network off: the lateral axes carried are "
+             "answered by the prior alone"
              + ("; not finetuned: (c'')'s prior under the source network as trained" if
-                unfinetuned else ""))
+                unfinetuned else "") + ".")
     return _rows_against_references(result, records, carried, NETWORK_OFF_FRESH_SEEDS, rows,
                                     pairs, goals, intro, ("checkpoint = composed", same))
 
@@ -890,8 +889,9 @@ def prior_only_table(result: dict) -> str:
                                                "ati_same_minutes_paired", "ati_full")]
     goals = {IDENTIFIED_ARM: GOALS[IDENTIFIED_ARM], NETWORK_OFF_ARM: GOALS[NETWORK_OFF_ARM],
              PRIOR_ONLY_ARM: GOALS[PRIOR_ONLY_ARM]}
-    intro = (f"Prior only: `--prior-refit identified --no-finetune --network-off Fx Fy` on "
-             f"bench seeds {', '.join(seeds)}")
+    intro = ("Prior only: `--prior-refit identified --no-finetune --network-off Fx Fy`",
+             "Not finetuned: (c'')'s prior under the source network as trained; network off: "
+             "(c'') with `--network-off carried`.")
     return _rows_against_references(result, records, carried, PRIOR_ONLY_FRESH_SEEDS, rows,
                                     pairs, goals, intro)
 
@@ -911,18 +911,20 @@ def _unresolved_rows(result: dict, subject: str) -> tuple[list[str], dict, dict]
 
 
 def _rows_against_references(result: dict, records: dict, carried: dict, declared, rows,
-                             pairs, goals: dict, intro: str, check=None) -> str:
+                             pairs, goals: dict, intro: tuple[str, str], check=None) -> str:
     """The per-seed table of ``rows`` (causal NRMSE per axis, the lateral axes the network is
-    kept off by ``carried``, and ``check``'s column: (title, seed -> cell)), the paired ratios
+    kept off by ``carried``, and ``check``'s column: (title, seed -> cell); ``intro``: the
+    subject and what the other rows are), the paired ratios
     ``pairs`` on the ``declared`` fresh seeds and on the others, and ``goals`` on the fresh
     seeds, laterally and on all three axes."""
     from psmforce.estimators.training.calibrate import network_off_axes
     seeds = list(records)
     fresh = [k for k in seeds if int(k) in declared]
     label = dict(rows)
-    lines = ["", f"{intro} (fresh, declared before any run on them: "
-             f"{', '.join(fresh) or 'none'}). Carried: the lateral axes whose cross-talk the "
-             "identification carried into the prior. Causal NRMSE % Fx / Fy / Fz.", "",
+    lines = ["", f"{intro[0]} on bench seeds {', '.join(seeds)} (fresh, declared before any run "
+             f"on them: {', '.join(fresh) or 'none'}). {intro[1]} Carried: the lateral axes "
+             "whose cross-talk the identification carried into the prior. Causal NRMSE % "
+             "Fx / Fy / Fz.", "",
              "| seed | carried | " + " | ".join(name for _, name in rows)
              + (f" | {check[0]} |" if check else " |"),
              "|---|---|" + "---|" * (len(rows) + bool(check))]
