@@ -155,9 +155,9 @@ NO_FINETUNE_ARM = "no_finetune:" + IDENTIFIED_ARM
 """(c'')'s refitted prior under the source hybrid's network as it was trained (no finetuning
 on the ATI-free recordings): what the finetuning itself changes. Declared before any result on
 :data:`NETWORK_OFF_FRESH_SEEDS` was seen, after (c'')'s axial error was seen above the
-uncalibrated source hybrid's on 206-211 (``ati_free_unresolved.json``: the source near (e) on
-Fz, the calibrated hybrid 1.1-1.5x it), which suggested that finetuning on recordings whose
-external force is zero or small teaches the network to answer little."""
+uncalibrated source hybrid's on every seed of 206-211 (``ati_free_unresolved.json``, the
+source near (e) on Fz), which suggested that finetuning on recordings whose external force is
+zero or small teaches the network to answer little."""
 PRIOR_ONLY_ARM = "prior_only:" + IDENTIFIED_ARM
 """(c'')'s refitted prior under the source network not finetuned, with the prior alone on both
 lateral axes (``psmforce calibrate --prior-refit identified --no-finetune --network-off Fx
