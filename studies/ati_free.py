@@ -168,6 +168,17 @@ and 213, which makes every seed up to 214 a design seed for it; judged on
 :data:`PRIOR_ONLY_FRESH_SEEDS`, declared with it before any run on them."""
 PRIOR_ONLY_FRESH_SEEDS = (215, 216, 217)
 """Bench seeds declared for :data:`PRIOR_ONLY_ARM` before any run of the study on them."""
+NETWORK_PRIOR_ARM = "network_prior:" + IDENTIFIED_ARM
+""":data:`PRIOR_ONLY_ARM` with the network reading the prior it was trained with (``psmforce
+calibrate --prior-refit identified --no-finetune --network-off Fx Fy --network-prior
+trained``): the refitted prior answers Fx and Fy alone, while the network's inputs, and so its
+axial estimate, stay the source hybrid's as trained. Chosen after the source hybrid as it was,
+uncalibrated, had the lower axial error than :data:`PRIOR_ONLY_ARM` on every seed of 212-217
+(the refit changes the inputs of a network it does not finetune), which makes every seed up to
+217 a design seed for it; judged on :data:`NETWORK_PRIOR_FRESH_SEEDS`, declared with it before
+any run on them."""
+NETWORK_PRIOR_FRESH_SEEDS = (218, 219, 220)
+"""Bench seeds declared for :data:`NETWORK_PRIOR_ARM` before any run of the study on them."""
 NETWORK_OFF_ARM = "network_off:" + IDENTIFIED_ARM
 """(c'')'s checkpoint as ``psmforce calibrate --network-off carried`` writes it: its
 ``physics_only_axes`` the lateral axes whose cross-talk the identification carried, answered by
