@@ -280,6 +280,8 @@ ATI_FREE_ROWS = {
         "source network, not finetuned, the network off the carried axes",
     "prior_only:identified:free+self+paired": "(c'')'s prior under the source network, not "
                                               "finetuned, the prior alone on Fx and Fy",
+    "network_prior:identified:free+self+paired": "the source hybrid as trained, (c'')'s prior "
+                                                 "alone on Fx and Fy (--network-prior trained)",
     "ati_same_minutes": "(d) ATI: (c)'s minutes",
     "ati_same_minutes_paired": "(d') ATI: (c')'s minutes", "ati_full": "(e) ATI: full data",
     "source": "source hybrid (other tool), as is"}
@@ -893,6 +895,30 @@ def prior_only_table(result: dict) -> str:
              "Not finetuned: (c'')'s prior under the source network as trained; network off: "
              "(c'') with `--network-off carried`.")
     return _rows_against_references(result, records, carried, PRIOR_ONLY_FRESH_SEEDS, rows,
+                                    pairs, goals, intro)
+
+
+def network_prior_table(result: dict) -> str:
+    """The prior-only calibration with the network reading the prior it was trained with
+    (:data:`studies.ati_free.NETWORK_PRIOR_ARM`: ``psmforce calibrate --prior-refit identified
+    --no-finetune --network-off Fx Fy --network-prior trained``): per seed its causal errors
+    beside the prior only, the source hybrid as it was, (c''), (d') and (e); paired ratios on
+    the seeds declared for it (:data:`studies.ati_free.NETWORK_PRIOR_FRESH_SEEDS`) and on the
+    others; the goals on those fresh seeds, on all three axes and laterally."""
+    from studies.ati_free import (GOALS, IDENTIFIED_ARM, NETWORK_PRIOR_ARM,
+                                  NETWORK_PRIOR_FRESH_SEEDS, PRIOR_ONLY_ARM)
+    seeds, records, carried = _unresolved_rows(result, NETWORK_PRIOR_ARM)
+    rows = ((NETWORK_PRIOR_ARM, "trained prior"), (PRIOR_ONLY_ARM, "prior only"),
+            ("source", "source as is"), (IDENTIFIED_ARM, "(c'')"),
+            ("ati_same_minutes_paired", "(d')"), ("ati_full", "(e)"))
+    pairs = [(NETWORK_PRIOR_ARM, ref) for ref in (PRIOR_ONLY_ARM, "source",
+                                                  "ati_same_minutes_paired", "ati_full")]
+    goals = {PRIOR_ONLY_ARM: GOALS[PRIOR_ONLY_ARM], NETWORK_PRIOR_ARM: GOALS[NETWORK_PRIOR_ARM]}
+    intro = ("Trained prior: `--prior-refit identified --no-finetune --network-off Fx Fy "
+             "--network-prior trained`",
+             "Prior only: the same without `--network-prior trained` (the network reads the "
+             "refitted prior); source as is: the source hybrid uncalibrated.")
+    return _rows_against_references(result, records, carried, NETWORK_PRIOR_FRESH_SEEDS, rows,
                                     pairs, goals, intro)
 
 

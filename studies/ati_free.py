@@ -93,7 +93,8 @@ GOALS = {"free+self+weights": 1.3, "free+self+paired": 1.3, "free+self": 1.5,
          "per_mount:free+self": 1.5, "identified:free+self+paired": 1.3,
          "network_off:identified:free+self+paired": 1.3,
          "no_finetune:identified:free+self+paired": 1.3,
-         "prior_only:identified:free+self+paired": 1.3}
+         "prior_only:identified:free+self+paired": 1.3,
+         "network_prior:identified:free+self+paired": 1.3}
 """Arm -> the largest error ratio against an ATI-trained hybrid the issue accepts, per axis."""
 ATI_FREE = ("free", "free+self", "free+self+weights", "free+self+paired")
 REFERENCES = ("ati_same_minutes", "ati_same_minutes_paired", "ati_full")
@@ -187,6 +188,15 @@ same network; :func:`network_off_carried` composes the same score from (c'') and
 alone). Declared with :data:`NETWORK_OFF_FRESH_SEEDS`."""
 
 
+FRESH_SEEDS_BY_CLAIM = {
+    "the ATI-free arms (a)-(c')": FRESH_SEEDS, IDENTIFIED_ARM: IDENTIFIED_FRESH_SEEDS,
+    "the identification's hold rule (--hold-rule unresolved)": HOLD_RULE_FRESH_SEEDS,
+    NETWORK_OFF_ARM: NETWORK_OFF_FRESH_SEEDS, NO_FINETUNE_ARM: NETWORK_OFF_FRESH_SEEDS,
+    PRIOR_ONLY_ARM: PRIOR_ONLY_FRESH_SEEDS, NETWORK_PRIOR_ARM: NETWORK_PRIOR_FRESH_SEEDS}
+"""What each declaration of fresh seeds was made for: a seed is fresh for its own claim only (a
+seed fresh for one row is a design seed for every row chosen after it was seen)."""
+
+
 def network_off_carried(hybrid: dict, physics: dict, carried) -> dict:
     """The score of (c'') with the network kept out of each lateral axis the physics carries:
     per axis in :data:`CARRIED_AXES` whose term is in ``carried`` (the prior's
@@ -213,7 +223,7 @@ def rows() -> list[str]:
     return (list(ATI_FREE) + [PER_MOUNT_ARM, IDENTIFIED_ARM]
             + [f"{v}:{a}" for v in ("network_alone", "physics_alone") for a in ATI_FREE]
             + ["physics_alone:" + IDENTIFIED_ARM, NETWORK_OFF_ARM, NO_FINETUNE_ARM,
-               PRIOR_ONLY_ARM]
+               PRIOR_ONLY_ARM, NETWORK_PRIOR_ARM]
             + list(REFERENCES)
             + ["source"])
 
@@ -475,6 +485,11 @@ def _seed(seed: int, args, q_exc: np.ndarray) -> tuple[dict, dict]:
     records[PRIOR_ONLY_ARM] = kept_json(
         work / "records" / f"{prior_only.stem}.json", lambda: _score(_network_off(
             unfinetuned, prior_only, {}, axes=("Fx", "Fy")), tool))
+    own = work / "arms" / f"identified_free_self_paired{unit}_network_prior.pt"
+    records[NETWORK_PRIOR_ARM] = kept_json(
+        work / "records" / f"{own.stem}.json", lambda: _score(_network_prior(
+            work / "source_hybrid.pt", work / "arms" / f"identified_free_self_paired{unit}.pt",
+            own), tool))
     available = sum(map(_minutes_of, _ati_pool(tool)))
     for ref, arm in (("ati_same_minutes", "free+self+weights"),
                      ("ati_same_minutes_paired", PAIRED_ARM))[0 if full else 1:]:
@@ -505,6 +520,18 @@ def _prior_only_refit(source: Path, calibrated: Path, out: Path) -> Path:
     ckpt = load_checkpoint(source)
     ckpt.prior_json = load_checkpoint(calibrated).prior_json
     ckpt.provenance = {**ckpt.provenance, "prior_from": str(calibrated)}
+    return ckpt.save(out)
+
+
+def _network_prior(source: Path, calibrated: Path, out: Path) -> Path:
+    """``source`` as trained (its prior, network and scalers) with ``calibrated``'s refitted
+    prior as its physics-only axes' own on Fx and Fy, written to ``out``: what ``calibrate
+    --no-finetune --network-off Fx Fy --network-prior trained`` writes."""
+    from psmforce.estimators.training.checkpoint import load_checkpoint
+    ckpt = load_checkpoint(source)
+    ckpt.physics_prior_json = load_checkpoint(calibrated).prior_json
+    ckpt.physics_only_axes = ("Fx", "Fy")
+    ckpt.provenance = {**ckpt.provenance, "physics_prior_from": str(calibrated)}
     return ckpt.save(out)
 
 
@@ -613,10 +640,10 @@ def main(argv=None) -> dict:
         "metrics": "NRMSE % per axis; causal = raw per-sample estimate after the first-0.5 s "
                    "tare; paper = + centred median k = 71 (psmforce.estimators.evaluation)",
         "goals": {a: f"<= {g}x the ATI-trained hybrid's error, every axis" for a, g in GOALS.items()},
-        "fresh_seeds": [s for s in args.seeds if s in FRESH_SEEDS + IDENTIFIED_FRESH_SEEDS
-                                                    + HOLD_RULE_FRESH_SEEDS
-                                                    + NETWORK_OFF_FRESH_SEEDS
-                                                    + PRIOR_ONLY_FRESH_SEEDS],
+        "fresh_seeds": [s for s in args.seeds
+                        if any(s in seeds for seeds in FRESH_SEEDS_BY_CLAIM.values())],
+        "fresh_seeds_by_claim": {claim: [s for s in args.seeds if s in seeds]
+                                 for claim, seeds in FRESH_SEEDS_BY_CLAIM.items()},
         "summary": summary(records),
         "paired": paired,
         "goal_check": {ref: goal_misses(p) for ref, p in paired.items()},

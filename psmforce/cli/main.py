@@ -309,6 +309,11 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--no-finetune", action="store_true",
                    help="refit the prior only and keep the network as trained (no epoch runs; "
                         "a model without a prior is refused)")
+    p.add_argument("--network-prior", choices=options.NETWORK_PRIORS, default="calibrated",
+                   help="with --free-space and --network-off: which prior the network reads, "
+                        "the refitted one (calibrated, the default) or the one it was trained "
+                        "with (trained: the refitted prior then answers the --network-off axes "
+                        "alone, docs/ati_free.md section 4.7)")
     training_arguments(p, "the calibration report")
     remount.add_remount_command(add)  # after a re-mount: the prior's per-mount values only
 

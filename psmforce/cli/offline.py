@@ -326,7 +326,8 @@ def calibrate_command(args) -> dict:
                        free_space=args.free_space, known_loads=args.known_loads,
                        held_values=args.held_values, jackknife_unit=args.jackknife_unit,
                        prior_refit=args.prior_refit, hold_rule=args.hold_rule,
-                       network_off=network_off, finetune=not args.no_finetune)
+                       network_off=network_off, finetune=not args.no_finetune,
+                       network_prior=args.network_prior)
     record = result["calibration"]
     print(f"calibrated on {len(record['trials'])} trials, {record['minutes_used']:.2f} min "
           f"(Free {record['minutes_by_condition']['Free']:.2f}, Traction "
@@ -351,7 +352,9 @@ def calibrate_command(args) -> dict:
         axes = record["physics_only_axes"]["axes"]
         print("the prior alone answers " + (", ".join(axes) if axes else "no axis")
               + (" (the identification carried no lateral cross-talk)"
-                 if not axes and network_off == "carried" else ""))
+                 if not axes and network_off == "carried" else "")
+              + ("; the network reads the prior it was trained with"
+                 if args.network_prior == "trained" else ""))
     return result
 
 

@@ -204,6 +204,11 @@ NETWORK_OFF_RULES = ("none", "carried")
 without importing the library); axis names are the alternative."""
 
 
+NETWORK_PRIORS = ("calibrated", "trained")
+"""``calibrate --network-prior`` (psmforce.estimators.training.calibrate.NETWORK_PRIORS, without
+importing the library)."""
+
+
 def network_off(values: list[str]):
     """``calibrate --network-off``'s words as the library's ``network_off``: one rule of
     :data:`NETWORK_OFF_RULES`, or distinct axis names (Fx Fy Fz), else a one-line error."""

@@ -376,5 +376,7 @@ class DdsNode:
             out.update(input_rate_hz=est.input_rate_hz, model_rate_hz=est.rate_hz,
                        decimation=est.decimation, lag_s=est.lag_s(),
                        physics_only_axes=list(est.physics_only_axes),
+                       physics_only_prior=("its own" if est.inputs.physics_prior is not None
+                                           else "the network's"),
                        tare_offset_N=node.offset.tolist(), unpaired=node.unpaired)
         return out

@@ -344,6 +344,20 @@ def test_the_network_off_checkpoint_is_read_beside_what_it_is_composed_of():
                                                  for k in seeds}})
 
 
+def _unresolved_run(rows: dict, seeds) -> dict:
+    """A ``--hold-rule unresolved`` run with ``rows`` on every seed, (c'')'s prior carrying
+    the cross-talk into Fx."""
+    from studies.ati_free import IDENTIFIED_ARM
+    return {"settings": {"hold_rule": "unresolved"}, "records": {k: rows for k in seeds},
+            "runs": {k: {IDENTIFIED_ARM: {"prior": {"held_at_identified": {
+                "crosstalk_fx": 0.005}}}} for k in seeds}}
+
+
+def score(fx, fy, fz):
+    """One row's NRMSE, the same by both metrics."""
+    return {"nrmse_pct": {m: {"Fx": fx, "Fy": fy, "Fz": fz} for m in ("causal", "paper")}}
+
+
 def test_the_prior_only_calibration_is_judged_on_its_own_fresh_seeds():
     """``--no-finetune --network-off Fx Fy``: per seed beside the other (c'') rows; ratios and
     goals on its declared fresh seeds (215-217) apart from the design seeds."""
@@ -351,16 +365,12 @@ def test_the_prior_only_calibration_is_judged_on_its_own_fresh_seeds():
     from studies.ati_free import (IDENTIFIED_ARM, NETWORK_OFF_ARM, NO_FINETUNE_ARM,
                                   PRIOR_ONLY_ARM)
 
-    def score(fx, fy, fz):
-        return {"nrmse_pct": {m: {"Fx": fx, "Fy": fy, "Fz": fz} for m in ("causal", "paper")}}
     rows = {PRIOR_ONLY_ARM: score(1.0, 1.0, 2.4), NO_FINETUNE_ARM: score(3.0, 3.0, 2.4),
             NETWORK_OFF_ARM: score(1.0, 1.0, 3.0), IDENTIFIED_ARM: score(2.0, 2.0, 3.0),
             "physics_alone:" + IDENTIFIED_ARM: score(1.0, 1.0, 5.0),
             "ati_same_minutes_paired": score(1.0, 1.0, 2.0), "ati_full": score(1.0, 1.0, 2.0)}
     seeds = ("213", "215", "216", "217")
-    result = {"settings": {"hold_rule": "unresolved"}, "records": {k: rows for k in seeds},
-              "runs": {k: {IDENTIFIED_ARM: {"prior": {"held_at_identified": {
-                  "crosstalk_fx": 0.005}}}} for k in seeds}}
+    result = _unresolved_run(rows, seeds)
     text = prior_only_table(result)
     assert "| 216 (fresh) | Fx | 1.00 / 1.00 / 2.40 | 3.00 / 3.00 / 2.40 |" in text
     fresh = text.split("on the fresh seeds (215, 216, 217)")[1].split("design seeds")[0]
@@ -371,3 +381,28 @@ def test_the_prior_only_calibration_is_judged_on_its_own_fresh_seeds():
     assert "the prior alone on Fx and Fy | (e) | 1.20x (paper Fz) | 1.20x (paper Fz) | " \
         "1.20x (paper Fz) | <= 1.3x |" in goals
     assert "on the design seeds (213)" in text
+
+
+def test_the_network_prior_calibration_is_judged_on_its_own_fresh_seeds():
+    """``--network-prior trained``: per seed beside the prior only, the source as it was and
+    the references; ratios and goals on its declared fresh seeds (218-220) apart from the
+    seeds seen before it was chosen (prior only's fresh seeds among them)."""
+    from reports.ati_free_page import network_prior_table
+    from studies.ati_free import IDENTIFIED_ARM, NETWORK_PRIOR_ARM, PRIOR_ONLY_ARM
+
+    rows = {NETWORK_PRIOR_ARM: score(1.0, 1.0, 2.2), PRIOR_ONLY_ARM: score(1.0, 1.0, 2.4),
+            "source": score(3.0, 3.0, 2.2), IDENTIFIED_ARM: score(2.0, 2.0, 3.0),
+            "ati_same_minutes_paired": score(1.0, 1.0, 2.0), "ati_full": score(1.0, 1.0, 2.0)}
+    seeds = ("216", "218", "219", "220")
+    result = _unresolved_run(rows, seeds)
+    text = network_prior_table(result)
+    assert "| 219 (fresh) | Fx | 1.00 / 1.00 / 2.20 | 1.00 / 1.00 / 2.40 | " \
+        "3.00 / 3.00 / 2.20 |" in text
+    assert "| 216 | Fx |" in text   # seen before the row was chosen: not fresh for it
+    fresh = text.split("on the fresh seeds (218, 219, 220)")[1].split("design seeds")[0]
+    assert "| trained prior / (e) | 1.00x [1.00, 1.00] | 1.00x [1.00, 1.00] | " \
+        "1.10x [1.10, 1.10] |" in fresh
+    assert "| trained prior / source as is | 0.33x [0.33, 0.33] |" in fresh
+    goals = text.split("the three axes.")[1]
+    assert "| (e) | 1.10x (paper Fz) | 1.10x (paper Fz) | 1.10x (paper Fz) | <= 1.3x |" in goals
+    assert "on the design seeds (216)" in text

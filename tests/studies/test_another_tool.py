@@ -321,6 +321,40 @@ def test_an_identified_refit_holds_what_the_load_path_identified(benches, tmp_pa
                                                  source.model.state_dict().values()))
     assert not all(torch.equal(a, b) for a, b in zip(record.model.state_dict().values(),
                                                      source.model.state_dict().values()))
+    # the network reading the prior it was trained with: the refit is the physics axes' own
+    own = tmp_path / "own.pt"
+    trained = calibrate(benches / "hybrid.pt", tmp_path / "g" / FREE_SPACE, own, minutes=0.3,
+                        epochs=1, train_config=CHEAP, free_space=True,
+                        known_loads=tmp_path / "g" / KNOWN_LOADS, prior_refit="identified",
+                        network_off=("Fx", "Fy"), finetune=False, network_prior="trained")
+    assert trained["calibration"]["network_prior"] == "trained"
+    assert plain["calibration"]["network_prior"] == "calibrated"
+    both = load_checkpoint(own)
+    assert both.prior_json == source.prior_json
+    assert np.array_equal(both.physics_prior().params, record.prior().params)
+    assert both.physics_only_axes == ("Fx", "Fy")
+    assert all(torch.equal(a, b) for a, b in zip(both.model.state_dict().values(),
+                                                 source.model.state_dict().values()))
+    from studies.ati_free import _network_prior   # the study's row is what the command writes
+    rebuilt = load_checkpoint(_network_prior(benches / "hybrid.pt", kept, tmp_path / "np.pt"))
+    assert (rebuilt.prior_json, rebuilt.physics_only_axes) == (both.prior_json,
+                                                                both.physics_only_axes)
+    assert np.array_equal(rebuilt.physics_prior().params, both.physics_prior().params)
+
+    def estimate(checkpoint):   # the trial's derived columns are each checkpoint's own
+        checkpoint.derive(Dataset(tool.root, [trial], tool.metadata))
+        return predict_trial(checkpoint, trial)
+    with_own = estimate(both)
+    np.testing.assert_allclose(with_own[:, :2], estimate(unfinetuned)[:, :2],
+                               atol=1e-9)   # the same refitted prior's base laterally
+    np.testing.assert_allclose(with_own[:, 2], estimate(source)[:, 2], atol=1e-9)
+    assert not np.allclose(with_own[:, 2], estimate(unfinetuned)[:, 2], atol=1e-6)  # its inputs
+    with pytest.raises(CalibrationError, match="'trained' needs network_off axes"):
+        calibrate(benches / "hybrid.pt", tmp_path / "g" / FREE_SPACE, tmp_path / "x.pt",
+                  free_space=True, network_prior="trained")
+    with pytest.raises(CalibrationError, match="network_prior must be one of"):
+        calibrate(benches / "hybrid.pt", tmp_path / "g" / FREE_SPACE, tmp_path / "x.pt",
+                  free_space=True, network_off=("Fx",), network_prior="source")
     with pytest.raises(CalibrationError, match="without a prior, so nothing would be"):
         calibrate(benches / "fcn.pt", tmp_path / "g" / FREE_SPACE, tmp_path / "x.pt",
                   free_space=True, finetune=False)

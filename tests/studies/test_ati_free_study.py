@@ -10,7 +10,8 @@ import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 from studies.ati_free import (ATI_FREE, AXES, GOALS, IDENTIFIED_ARM,  # noqa: E402
-                              NETWORK_OFF_ARM, NO_FINETUNE_ARM, PRIOR_ONLY_ARM,
+                              NETWORK_OFF_ARM, NETWORK_PRIOR_ARM, NO_FINETUNE_ARM,
+                              PRIOR_ONLY_ARM,
                               PAIRED_ARM, PER_MOUNT_ARM, REFERENCES, arms, goal_misses,
                               paired_table, prior_against_truth, rows, same_minutes, summary)
 
@@ -39,15 +40,16 @@ def test_each_row_is_held_to_the_ati_calibration_of_its_own_minutes():
     assert by_ref["ati_same_minutes_paired"] == {
         PAIRED_ARM, "network_alone:" + PAIRED_ARM, "physics_alone:" + PAIRED_ARM,
         IDENTIFIED_ARM, "physics_alone:" + IDENTIFIED_ARM,   # (c'') has (c')'s recordings
-        NETWORK_OFF_ARM, NO_FINETUNE_ARM, PRIOR_ONLY_ARM}
+        NETWORK_OFF_ARM, NO_FINETUNE_ARM, PRIOR_ONLY_ARM, NETWORK_PRIOR_ARM}
     assert "ati_same_minutes_paired" not in by_ref["ati_same_minutes"]
     assert {"ati_full", "source"} <= by_ref["ati_same_minutes"]
     assert set(by_ref["ati_full"]) == set(rows()) - {"ati_full"}
     # the goal check of (d') judges (c') and (c''), at (c)'s goal
     assert set(goal_misses(paired_table(records, "ati_same_minutes_paired"))) == {
-        PAIRED_ARM, IDENTIFIED_ARM, NETWORK_OFF_ARM, NO_FINETUNE_ARM, PRIOR_ONLY_ARM}
+        PAIRED_ARM, IDENTIFIED_ARM, NETWORK_OFF_ARM, NO_FINETUNE_ARM, PRIOR_ONLY_ARM,
+        NETWORK_PRIOR_ARM}
     assert GOALS[PAIRED_ARM] == GOALS[IDENTIFIED_ARM] == GOALS["free+self+weights"] \
-        == GOALS[NETWORK_OFF_ARM] == GOALS[NO_FINETUNE_ARM]
+        == GOALS[NETWORK_OFF_ARM] == GOALS[NO_FINETUNE_ARM] == GOALS[NETWORK_PRIOR_ARM]
 
 
 def _score(fx, fy, fz):
@@ -156,3 +158,14 @@ def test_the_network_is_kept_out_of_exactly_the_lateral_axes_whose_crosstalk_was
     both = network_off_carried(hybrid, physics, ["crosstalk_fx", "crosstalk_fy"])
     assert both["nrmse_pct"]["causal"] == {"Fx": 10.0, "Fy": 20.0, "Fz": 3.0}
     assert network_off_carried(hybrid, physics, {})["nrmse_pct"] == hybrid["nrmse_pct"]
+
+
+def test_each_claim_is_judged_on_the_seeds_declared_for_it():
+    """The network-prior row's fresh seeds were declared for it alone, after every seed any
+    earlier claim was judged on (each of those a design seed for it)."""
+    from studies.ati_free import FRESH_SEEDS_BY_CLAIM, NETWORK_PRIOR_FRESH_SEEDS
+    assert FRESH_SEEDS_BY_CLAIM[NETWORK_PRIOR_ARM] == NETWORK_PRIOR_FRESH_SEEDS
+    assert FRESH_SEEDS_BY_CLAIM[PRIOR_ONLY_ARM] != NETWORK_PRIOR_FRESH_SEEDS
+    earlier = {s for claim, seeds in FRESH_SEEDS_BY_CLAIM.items()
+               if claim != NETWORK_PRIOR_ARM for s in seeds}
+    assert max(earlier) < min(NETWORK_PRIOR_FRESH_SEEDS)

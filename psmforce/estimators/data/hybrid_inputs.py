@@ -66,6 +66,19 @@ direction in the HEX10 frame comes from the PSM's forward kinematics, once per s
 
 :class:`HybridInputs` turns raw recorded signals into the network's scaled-input order and the
 base, for a whole recording (vectorised) or one sample (preallocated buffers).
+
+**A prior of the physics-only axes' own** (``physics_prior``; a checkpoint's
+``physics_prior_json``, ``psmforce calibrate --network-prior trained``). An axis answered by the
+base alone (a checkpoint's ``physics_only_axes``) needs no network, so its base may come from a
+prior other than the one the network reads: a calibration that refits the prior without
+finetuning the network can leave the network's inputs as it was trained on them and let the
+refitted prior answer the physics-only axes alone. Every other column, the network's inputs and
+the base of the axes it answers, comes from ``prior``. :func:`physics_base` (a whole recording)
+and :meth:`HybridInputs.sample` (one sample, the prior's state carried as the other's) compute
+it the same way; only :data:`PHYSICS_BASE_COLUMNS` can be answered so.
+
+Size: the inputs' columns, the prior's per-sample interface and the two priors' bases, one
+contract for training, evaluation, streaming and export.
 """
 
 from __future__ import annotations
@@ -77,7 +90,7 @@ import pandas as pd
 
 from psmforce.estimators.data.dataset import FEATURE_SETS, NO_BASE, resolve_features, target_matrix
 from psmforce.robot.conventions import INSERTION_JOINT, JOINTS, WRIST_JOINTS
-from psmforce.io.recording import (HEX10, HEX10_FORCE, JOINT_EFFORTS, JOINT_POSITIONS,
+from psmforce.io.recording import (AXES, HEX10, HEX10_FORCE, JOINT_EFFORTS, JOINT_POSITIONS,
                                  JOINT_VELOCITIES, PAPER_FEATURES, joint_column)
 
 COMPENSATED_HEX10 = tuple(f"comp_{c}" for c in HEX10)
@@ -186,6 +199,41 @@ def compensated_hex10(frame: pd.DataFrame, prior) -> dict[str, np.ndarray]:
     if getattr(prior, "insertion", None) is not None:
         comp[INSERTION_FZ] = prior.insertion_axial_force(frame)
     return comp
+
+
+PHYSICS_BASE_COLUMNS = COMPENSATED_HEX10[:3] + (INSERTION_FZ,)
+"""Base columns a prior computes, so that a prior of the physics-only axes' own can answer them
+(module docstring, "A prior of the physics-only axes' own")."""
+
+
+def physics_base_problem(base_columns: Sequence[str], physics_axes: Sequence[str]) -> str | None:
+    """Why a prior of their own cannot answer ``physics_axes`` (a checkpoint's
+    ``physics_only_axes``) of a model with these base columns, or None when it can."""
+    if not physics_axes:
+        return ("a prior for the physics-only axes needs at least one such axis (it would "
+                "answer nothing)")
+    if len(base_columns) != 3:
+        return "a prior for the physics-only axes needs a residual model (3 base columns)"
+    bare = [a for a in physics_axes if a not in AXES
+            or base_columns[AXES.index(a)] not in PHYSICS_BASE_COLUMNS]
+    if bare:
+        return (f"a prior for the physics-only axes {bare}: their base columns do not come "
+                f"from a prior (only {list(PHYSICS_BASE_COLUMNS)} do)")
+    return None
+
+
+def physics_base(frame: pd.DataFrame, prior, base_columns: Sequence[str],
+                 physics_axes: Sequence[str]) -> dict[int, np.ndarray]:
+    """{axis index: (N,) base} of each of ``physics_axes`` computed with ``prior``, the prior of
+    the physics-only axes' own, for a whole recording (module docstring)."""
+    why = physics_base_problem(base_columns, physics_axes)
+    if why is not None:
+        raise HybridInputError(why)
+    cols = compensated_hex10(frame, prior)
+    needed = {AXES.index(a): base_columns[AXES.index(a)] for a in physics_axes}
+    if INSERTION_FZ in needed.values() and INSERTION_FZ not in cols:
+        raise HybridInputError(f"column {INSERTION_FZ!r} needs a prior with an insertion model")
+    return {k: cols[c] for k, c in needed.items()}
 
 
 def _check_reads_efforts(prior) -> None:
@@ -323,7 +371,8 @@ class HybridInputs:
     """
 
     def __init__(self, features: Sequence[str], base_columns: Sequence[str], input_scaler,
-                 prior=None, extra_columns: Sequence[str] = (), psm=None):
+                 prior=None, extra_columns: Sequence[str] = (), psm=None, *,
+                 physics_prior=None, physics_axes: Sequence[str] = ()):
         self.features, self.base_columns = tuple(features), tuple(base_columns)
         derived = set(PRIOR_COLUMNS)
         uses_prior = any(c in derived for c in self.features + self.base_columns)
@@ -339,6 +388,18 @@ class HybridInputs:
                if c not in derived and c != NO_BASE]
         if self.prior is not None:
             raw += list(HEX10) + list(self.prior.input_columns)
+        self.physics_prior, self.physics_axes = None, tuple(physics_axes)
+        """The prior of the physics-only axes' own (None: :attr:`prior` answers them too)."""
+        if physics_prior is not None:
+            why = physics_base_problem(self.base_columns, self.physics_axes)
+            if why is not None:
+                raise HybridInputError(why)
+            self.physics_prior = sample_prior(physics_prior, psm)
+            needed = [self.base_columns[AXES.index(a)] for a in self.physics_axes]
+            if INSERTION_FZ in needed and getattr(self.physics_prior, "insertion", None) is None:
+                raise HybridInputError(f"column {INSERTION_FZ!r} needs a prior with an "
+                                       f"insertion model")
+            raw += list(HEX10) + list(self.physics_prior.input_columns)
         self.raw_columns = tuple(dict.fromkeys(raw))
         source = self.raw_columns + PRIOR_COLUMNS + (NO_BASE,)  # the last slot stays 0
         self._feature_index = np.array([source.index(c) for c in self.features])
@@ -365,6 +426,19 @@ class HybridInputs:
         kept = [k for k, i in enumerate(outputs) if i != 6 or self._has_insertion]
         self._prior_slots = n_raw + 6 + np.array(kept)
         self._prior_order = np.array([outputs[k] for k in kept])
+        if self.physics_prior is not None:
+            # per physics-only axis: base = HEX10 entry - internal entry (a comp_* column) or
+            # + the insertion entry (insertion_fz, output 6), one gather each per sample
+            self._physics_index = np.array([self.raw_columns.index(c)
+                                            for c in self.physics_prior.input_columns])
+            self._physics_k = np.array([AXES.index(a) for a in self.physics_axes])
+            cols = [self.base_columns[k] for k in self._physics_k]
+            comp = [COMPENSATED_HEX10.index(c) if c != INSERTION_FZ else None for c in cols]
+            self._physics_hex = np.array([self.raw_columns.index(HEX10[j]) if j is not None
+                                          else 0 for j in comp])
+            self._physics_hex_gain = np.array([0.0 if j is None else 1.0 for j in comp])
+            self._physics_out = np.array([6 if j is None else j for j in comp])
+            self._physics_sign = np.array([1.0 if j is None else -1.0 for j in comp])
         self._x64 = np.zeros(len(self.features))
         self.x = np.zeros(len(self.features), np.float32)
         self.base = np.zeros(len(self.base_columns))
@@ -382,6 +456,10 @@ class HybridInputs:
         x = ((x - self._mean) / self._std).astype(np.float32)
         base = (np.column_stack([cols[c] for c in self.base_columns]) if self.base_columns
                 else np.zeros((len(frame), 0)))
+        if self.physics_prior is not None:
+            for k, column in physics_base(frame, self.physics_prior, self.base_columns,
+                                          self.physics_axes).items():
+                base[:, k] = column
         return x, base
 
     def sample(self, raw: np.ndarray) -> None:
@@ -398,3 +476,8 @@ class HybridInputs:
         np.divide(self._x64, self._std, out=self._x64)
         self.x[:] = self._x64
         source.take(self._base_index, out=self.base)
+        if self.physics_prior is not None:
+            raw_view = self._raw_view
+            internal = self.physics_prior.predict_sample(raw_view[self._physics_index])
+            self.base[self._physics_k] = (self._physics_hex_gain * raw_view[self._physics_hex]
+                                          + self._physics_sign * internal[self._physics_out])

@@ -33,6 +33,7 @@ from psmforce.estimators.training.checkpoint import (TrainedModel, load_checkpoi
                                                      physics_only_problem)
 from psmforce.estimators.networks.contract import ClosedFormModel, TrainableNetwork, is_chunk
 from psmforce.estimators.data.dataset import Trial, base_matrix, load_dataset, sliding_windows
+from psmforce.estimators.data.hybrid_inputs import physics_base
 from psmforce.estimators.evaluation.metrics import POSTPROCESSING, axis_metrics, postprocess
 from psmforce.estimators.evaluation.tables import automated_table, modes_table, uncertainty_table
 from psmforce.estimators.networks.uncertainty import (output_width, predicts_variance, std_newton,
@@ -60,7 +61,9 @@ def predict_trial(setup: TrainedModel, trial: Trial, *, batch: int = 8192,
     (:class:`psmforce.estimators.networks.contract.ClosedFormModel`) predicts all full windows at
     once, in numpy. Every model's output then goes the same way: un-scaled where its
     ``output_space`` is ``"scaled"``, its base columns added (the residual left out on the
-    checkpoint's ``physics_only_axes``: :func:`~psmforce.estimators.training.checkpoint.residual_gain`).
+    checkpoint's ``physics_only_axes``: :func:`~psmforce.estimators.training.checkpoint.residual_gain`;
+    their base from the checkpoint's prior of their own where it holds one:
+    :func:`~psmforce.estimators.data.hybrid_inputs.physics_base`).
 
     ``with_std``: (estimates, (N, 3) standard deviation per axis in N), for a model that predicts
     its variance (:func:`psmforce.estimators.networks.uncertainty.std_newton`); refused for one that
@@ -83,7 +86,12 @@ def predict_trial(setup: TrainedModel, trial: Trial, *, batch: int = 8192,
     if model.output_space == "scaled":
         mean = setup.target_scaler.inverse(mean)
     if setup.base_columns:
-        mean = mean * setup.residual_gain() + base_matrix(trial, setup.base_columns)
+        base = base_matrix(trial, setup.base_columns)
+        if setup.physics_prior_json is not None:  # the physics-only axes answered by their own
+            for k, column in physics_base(trial.frame, setup.physics_prior(),
+                                          setup.base_columns, setup.physics_only_axes).items():
+                base[:, k] = column
+        mean = mean * setup.residual_gain() + base
     if with_std:
         return mean, std_newton(out[:, 3:], setup.target_scaler.std)
     return mean
@@ -221,6 +229,8 @@ def _evaluate(checkpoint: str | Path, data_dir: str | Path, out_dir: str | Path,
     result = {"checkpoint": str(checkpoint), "model": ckpt.model_name, "data_dir": str(data_dir),
               "split": split, "eval_start_sample": EVAL_START, "bias_correction": bias,
               "physics_only_axes": list(ckpt.physics_only_axes),
+              "physics_only_prior": ("its own" if ckpt.physics_prior_json is not None
+                                     else "the network's"),
               "overall": score(preds, trials, bias=bias),
               "by_condition": {c: score(preds, [t for t in trials if t.condition == c], bias=bias)
                                for c in conditions},

@@ -17,6 +17,7 @@ its last ``window`` inputs (:mod:`psmforce.estimators.runtime.window_stream`):
     everything else the pipeline needs, in order (see its ``pipeline`` entry): the recorded
     ``raw_columns``, ``features`` (network input order), ``base_columns``, ``input_scaler`` and
     ``target_scaler`` (mean, std per column), the ``prior`` (its own JSON, from its ``save``), the
+    ``physics_prior`` (null, or the physics-only axes' own prior, the same JSON), the
     graph's ``x``, ``y`` and ``state`` tensors (name, shape, dtype), the receptive field ``window``
     (warm-up, samples), ``sample_rate_hz`` (the rate the model was trained at and must be stepped
     at, Hz; 100 for a checkpoint that does not record it, :mod:`psmforce.estimators.data.rates`),
@@ -26,7 +27,8 @@ its last ``window`` inputs (:mod:`psmforce.estimators.runtime.window_stream`):
 Per sample a node computes ``comp = HEX10 - prior(sample)`` (when features use ``comp_*``),
 ``x = (features - mean_in) / std_in``, runs the graph, and returns
 ``y[0:3] * std_out + mean_out + base`` (N, HEX10 frame; the base alone on the checkpoint's
-``physics_only_axes``), and with uncertainty the std
+``physics_only_axes``, computed with ``physics_prior`` where the JSON holds one), and with
+uncertainty the std
 ``exp(y[3:6] / 2) * std_out`` (N). :func:`run_export` does exactly that with
 ONNX Runtime from the written files; tests/estimators/test_export.py checks it against the Python
 :class:`psmforce.estimators.runtime.streaming.StreamingEstimator`.
@@ -65,7 +67,8 @@ from psmforce.estimators.data.dataset import Scaler
 from psmforce.io.recording import TIME
 from psmforce.core.integrity import check_version, seal, sha256_bytes, verify
 from psmforce.estimators.networks.recipes import MAX_STATE_FLOATS
-from psmforce.estimators.data.hybrid_inputs import HybridInputs, prior_from_json
+from psmforce.estimators.data.hybrid_inputs import (HybridInputs, physics_base_problem,
+                                                    prior_from_json)
 from psmforce.estimators.runtime.steppers import (OPSET, OnnxStepper, StreamingError,
                                                   TorchStepper, not_streamable, state_spec,
                                                   step_onnx_bytes)
@@ -111,7 +114,9 @@ def _export(checkpoint: str | Path, out_dir: str | Path) -> dict:
         raise ExportError(f"{checkpoint}: the '{ckpt.model_name}' model does not follow the "
                           f"step protocol (psmforce.estimators.runtime.steppers): {why}")
     model = model.eval()
-    inputs = HybridInputs(ckpt.features, ckpt.base_columns, ckpt.input_scaler, ckpt.prior())
+    inputs = HybridInputs(ckpt.features, ckpt.base_columns, ckpt.input_scaler, ckpt.prior(),
+                          physics_prior=ckpt.physics_prior(),
+                          physics_axes=ckpt.physics_only_axes)
     state = state_spec(model)
     for entry in state:   # what run_export would refuse to read back is never written
         if math.prod(entry["shape"]) > MAX_STATE_FLOATS:
@@ -125,6 +130,8 @@ def _export(checkpoint: str | Path, out_dir: str | Path) -> dict:
         **ckpt.metadata(), "window": model.window,
         "raw_columns": list(inputs.raw_columns),
         "prior": json.loads(ckpt.prior_json) if ckpt.prior_json else None,
+        "physics_prior": (json.loads(ckpt.physics_prior_json) if ckpt.physics_prior_json
+                          else None),
         "graph": {"x": {"shape": [1, model.n_features], "dtype": "float32"},
                   "y": {"shape": [1, output_width(model)], "dtype": "float32"}, "state": state},
         "uncertainty": _uncertainty_spec(model),
@@ -141,6 +148,9 @@ def _export(checkpoint: str | Path, out_dir: str | Path) -> dict:
             "force_hex10_N = y[0:3] * target_scaler.std + target_scaler.mean + base_columns  (per "
             "axis; an empty base entry adds nothing on that axis; on each axis of "
             "physics_only_axes, Fx Fy Fz = columns 0 1 2, base_columns alone)",
+            *(["base_columns on physics_only_axes = the same columns computed with "
+               "physics_prior in place of prior (its own state, stepped every sample)"]
+              if ckpt.physics_prior_json else []),
             *([f"std_hex10_N = {_STD_FORMULA}  (only if uncertainty is not null)"]
               if predicts_variance(model) else []),
             "warming up while samples since start < window",
@@ -191,11 +201,15 @@ def run_export(out_dir: str | Path, frame: pd.DataFrame, *, with_std: bool = Fal
     spec, onnx_bytes = read_export(out)
     where = out / JSON_NAME
     try:
-        prior = None
+        prior, physics = None, None
         if spec["prior"] is not None:
             prior = prior_from_json(json.dumps(spec["prior"]))
+        if spec.get("physics_prior") is not None:
+            physics = prior_from_json(json.dumps(spec["physics_prior"]))
         inputs = HybridInputs(spec["features"], spec["base_columns"],
-                              Scaler.from_dict(spec["input_scaler"]), prior)
+                              Scaler.from_dict(spec["input_scaler"]), prior,
+                              physics_prior=physics,
+                              physics_axes=spec.get("physics_only_axes", []))
     except (TypeError, KeyError, ValueError) as err:
         raise ExportError(f"{where}: cannot set up its inputs ({type(err).__name__}: "
                           f"{str(err)[:200]})") from None
@@ -293,6 +307,9 @@ def _check_spec(spec: dict, where: Path) -> None:
                       f"float32")
     why = physics_only_problem(spec.get("physics_only_axes", []), spec.get("base_columns", []),
                                width == 6)
+    if why is None and spec.get("physics_prior") is not None:
+        why = physics_base_problem(spec.get("base_columns", []),
+                                   spec.get("physics_only_axes", []))
     if why is not None:
         raise bad(why)
     if not isinstance(state, list):

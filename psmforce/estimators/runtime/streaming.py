@@ -172,7 +172,9 @@ class StreamingEstimator:
     ``input_scaler``, ``target_scaler``, ``base_columns``, ``prior``: as stored in the checkpoint
     (:meth:`from_checkpoint`). ``rate_hz``: the rate the network was trained at (Hz).
     ``physics_only_axes``: axes answered by the base alone
-    (:func:`psmforce.estimators.training.checkpoint.residual_gain`).
+    (:func:`psmforce.estimators.training.checkpoint.residual_gain`); ``physics_prior``: their
+    own prior, else None (``prior`` answers them: :mod:`psmforce.estimators.data.hybrid_inputs`,
+    "A prior of the physics-only axes' own").
     ``input_rate_hz``: the rate samples arrive at, a whole multiple of ``rate_hz`` (default:
     ``rate_hz``; module docstring, Rates). ``psm``: a ``psmforce.robot.PSM`` for base-frame output
     (``step(..., base_frame=True)``). ``network_after_answer``: at a decimation above 1, the
@@ -186,7 +188,8 @@ class StreamingEstimator:
                  post_filter: str = "none", median_kernel: int = 11, lowpass_hz: float = 5.0,
                  lowpass_order: int = 2, extrapolation_z: float = 5.0,
                  input_range: tuple[Sequence[float], Sequence[float]] | None = None, psm=None,
-                 network_after_answer: bool = False, physics_only_axes: Sequence[str] = ()):
+                 network_after_answer: bool = False, physics_only_axes: Sequence[str] = (),
+                 physics_prior=None):
         model = as_streamable(model, len(features))
         why = not_streamable(model)
         if why is not None:
@@ -210,7 +213,8 @@ class StreamingEstimator:
         self.model = model.eval()
         self.inputs = HybridInputs(features, base_columns, input_scaler, prior,
                                    extra_columns=CHAIN_POSITIONS if psm is not None else (),
-                                   psm=psm)
+                                   psm=psm, physics_prior=physics_prior,
+                                   physics_axes=physics_only_axes)
         self.columns = self.inputs.raw_columns
         """The recorded signals :meth:`step` reads, in the order an array sample must follow."""
         self.rate_hz = rate_hz
@@ -279,7 +283,8 @@ class StreamingEstimator:
                                  f"as input_rate_hz")
         return cls(ckpt.model, ckpt.features, ckpt.input_scaler, ckpt.target_scaler,
                    ckpt.base_columns, ckpt.prior(), rate_hz=ckpt.sample_rate_hz,
-                   physics_only_axes=ckpt.physics_only_axes, **options)
+                   physics_only_axes=ckpt.physics_only_axes,
+                   physics_prior=ckpt.physics_prior(), **options)
 
     def _set_rates(self, input_rate_hz: float) -> None:
         try:

@@ -79,6 +79,16 @@ record's ``physics_only_axes`` says which, and why (docs/ati_free.md section 4.5
 decides them anew for the new instrument (the default, ``"none"``, clears a checkpoint's); a
 re-mount (``psmforce remount``) keeps them.
 
+**The network's own prior** (``network_prior="trained"``, ``psmforce calibrate --network-prior
+trained``; with ``network_off`` axes, without an ATI). The refit changes the prior the network
+reads, and a network that is not finetuned then reads inputs it was never trained on: on the
+bench, not finetuned, the source hybrid's axial error was lower with the prior it was trained
+with than with the refitted one on every seed compared (docs/ati_free.md section 4.7). With
+``"trained"`` the checkpoint keeps its prior for the network and holds the refitted one as the
+physics-only axes' own (``physics_prior_json``,
+:mod:`psmforce.estimators.training.checkpoint`), which answers those axes alone. A calibration
+decides it anew; the record's ``network_prior`` says which.
+
 Size: one calibration with its three refits of the prior and the instrument's identification
 beside it, in the order a lab runs them; the ATI-free recordings' selection and checks are
 :mod:`psmforce.estimators.training.ati_free`'s.
@@ -288,6 +298,12 @@ def network_off_axes(network_off, carried) -> tuple[str, ...]:
     return tuple(a for a in AXES if a in network_off)
 
 
+NETWORK_PRIORS = ("calibrated", "trained")
+"""Which prior the network reads after :func:`calibrate` (its ``network_prior``): the refitted
+one, or the one it was trained with, the refitted prior then answering the physics-only axes
+alone (module docstring, "The network's own prior")."""
+
+
 HELD_VALUES = ("as-held", "checked")
 """What the instrument's identification does with the design values it holds
 (:func:`calibrate`'s ``held_values``)."""
@@ -299,7 +315,7 @@ def calibrate(checkpoint: str | Path, data_dir: str | Path, out: str | Path, *,
               known_loads: str | Path | None = None, prior_refit: str = "all",
               held_values: str = "as-held", jackknife_unit: str = "orientation",
               hold_rule: str = "imprecise", network_off="none",
-              finetune: bool = True) -> dict:
+              finetune: bool = True, network_prior: str = "calibrated") -> dict:
     """Calibrate a trained checkpoint to the instrument recorded in ``data_dir`` from its first
     ``minutes`` of calibration trials (module docstring) and write ``out``. ``seed``: the validation
     split and the finetuning's shuffling; ``train_config``: a
@@ -331,7 +347,11 @@ def calibrate(checkpoint: str | Path, data_dir: str | Path, out: str | Path, *,
     ``"identified"``). ``network_off``: the axes whose estimate is the prior alone
     (:func:`network_off_axes`; ``"carried"`` only with ``prior_refit="identified"``).
     ``finetune=False``: the prior refitted, the network left as trained (module docstring,
-    "Without finetuning"); refused for a model without a prior (nothing would change)."""
+    "Without finetuning"); refused for a model without a prior (nothing would change).
+    ``network_prior`` (:data:`NETWORK_PRIORS`): ``"trained"`` keeps the checkpoint's prior as
+    the one the network reads and stores the refitted prior as the physics-only axes' own
+    (module docstring, "The network's own prior"); it needs ``network_off`` axes (checked again
+    once ``"carried"`` has named them) and, without ``free_space``, is refused."""
     from psmforce.identification import InternalForcePrior
     from psmforce.identification.errors import NotConvergedError
     from psmforce.identification.prior import NAMES, held_by_reading
@@ -369,9 +389,20 @@ def calibrate(checkpoint: str | Path, data_dir: str | Path, out: str | Path, *,
         raise CalibrationError("network_off: 'carried' only with prior_refit='identified' (the "
                                "axes whose cross-talk the identification carried into the prior)")
     wanted = network_off_axes(network_off, {t: 0.0 for t in CARRIED_AXES.values()})
+    if network_prior not in NETWORK_PRIORS:
+        raise CalibrationError(f"network_prior must be one of {NETWORK_PRIORS}, got "
+                               f"{network_prior!r}")
+    if network_prior == "trained" and (not wanted or not free_space):
+        raise CalibrationError("network_prior: 'trained' needs network_off axes and "
+                               "free_space=True (the refitted prior answers the axes the "
+                               "network is kept off; with an ATI the network is finetuned on "
+                               "the prior it reads)")
     if not isinstance(finetune, bool):
         raise CalibrationError(f"finetune must be True or False, got {finetune!r}")
     ckpt = load_checkpoint(checkpoint, device)
+    if network_prior == "trained" and ckpt.prior_json is None:
+        raise CalibrationError(f"network_prior: 'trained': {checkpoint} holds a "
+                               f"'{ckpt.model_name}' model without a prior")
     if not finetune and ckpt.prior_json is None:
         raise CalibrationError(f"finetune=False: {checkpoint} holds a '{ckpt.model_name}' model "
                                f"without a prior, so nothing would be calibrated")
@@ -446,7 +477,10 @@ def calibrate(checkpoint: str | Path, data_dir: str | Path, out: str | Path, *,
                                                 crosstalk=old.crosstalk)
         new = dataclasses.replace(fitted, insertion=old.insertion)
         try:
-            ckpt.prior_json = prior_to_json(new)
+            if network_prior == "trained":
+                ckpt.physics_prior_json = prior_to_json(new)
+            else:
+                ckpt.prior_json, ckpt.physics_prior_json = prior_to_json(new), None
         except NotConvergedError as err:
             raise CalibrationError(f"{data_dir}: the prior's refit on the calibration trials "
                                    f"did not converge ({err}); give more --minutes") from None
@@ -469,6 +503,10 @@ def calibrate(checkpoint: str | Path, data_dir: str | Path, out: str | Path, *,
             "parameters_after": dict(zip(NAMES, new.params.tolist()))}
     carried_now = (prior_report or {}).get("held_at_identified", {})
     ckpt.physics_only_axes = network_off_axes(network_off, carried_now)
+    if network_prior == "trained" and not ckpt.physics_only_axes:
+        raise CalibrationError(f"network_prior: 'trained': {network_off!r} named no axis here "
+                               f"(the identification carried no lateral cross-talk), so the "
+                               f"refitted prior would answer nothing; nothing written")
     ckpt.derive(calibration)
     cfg = train_config or TrainConfig()
     cfg = TrainConfig(**{**cfg.to_dict(), "max_epochs": epochs, "seed": seed, "device": device})
@@ -500,6 +538,7 @@ def calibrate(checkpoint: str | Path, data_dir: str | Path, out: str | Path, *,
                     for a, t in CARRIED_AXES.items() if a in ckpt.physics_only_axes}
             if network_off == "carried" else {}},
         "finetuned": finetune,
+        "network_prior": network_prior,
         "finetune_config": cfg.to_dict() if finetune else None,
         "trainable_parameters": report["trainable_parameters"],
         "epochs_run": report["epochs_run"], "stopped_by": report["stopped_by"],

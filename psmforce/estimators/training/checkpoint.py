@@ -66,6 +66,15 @@ with 3 base columns (without a base the axis would read 0 N) and not for a netwo
 predicts its variance (its std describes the residual it would no longer add); names are of
 :data:`psmforce.io.recording.AXES`.
 
+**A prior of the physics-only axes' own** (``physics_prior_json``, optional, absent = none;
+``psmforce calibrate --network-prior trained``): the base of the physics-only axes computed with
+this prior instead of ``prior_json``, which the network's inputs (and the base of the axes it
+answers) keep reading (:mod:`psmforce.estimators.data.hybrid_inputs`, "A prior of the
+physics-only axes' own"). Stored beside the prior, with its own ``physics_prior_sha256`` in the
+sealed metadata; allowed only with physics-only axes whose base columns a prior computes
+(:func:`~psmforce.estimators.data.hybrid_inputs.physics_base_problem`), and parsed at load as
+strictly as any prior.
+
 Size: the record, its file and every check of what is read back from it, in one place, so that
 what a checkpoint may hold is stated once.
 """
@@ -85,7 +94,7 @@ import torch
 
 from psmforce.estimators.data.dataset import NO_BASE, Scaler
 from psmforce.estimators.data.sanity import file_sha256
-from psmforce.estimators.data.hybrid_inputs import prior_from_json
+from psmforce.estimators.data.hybrid_inputs import physics_base_problem, prior_from_json
 from psmforce.core.integrity import check_version, seal, sha256_bytes, verify
 from psmforce.estimators.data.rates import DEFAULT_SAMPLE_RATE_HZ
 from psmforce.estimators.networks.recipes import (DERIVATIONS, build_model, origin, recipe,
@@ -165,6 +174,9 @@ class TrainedModel:
     physics_only_axes: tuple[str, ...] = ()
     """Axes (of :data:`~psmforce.io.recording.AXES`) whose estimate is the base alone, the
     network's residual not added (module docstring, "Physics-only axes")."""
+    physics_prior_json: str | None = None
+    """The prior of the physics-only axes' own as its JSON, else None: :attr:`prior_json`
+    answers them too (module docstring)."""
 
     def residual_gain(self) -> np.ndarray:
         """(3,) 1.0 where the residual is added, 0.0 on :attr:`physics_only_axes`."""
@@ -177,6 +189,10 @@ class TrainedModel:
     def prior(self):
         """The internal-force prior (an ``InternalForcePrior``), or None without one."""
         return prior_from_json(self.prior_json) if self.prior_json else None
+
+    def physics_prior(self):
+        """The prior of the physics-only axes' own, or None (:attr:`physics_prior_json`)."""
+        return prior_from_json(self.physics_prior_json) if self.physics_prior_json else None
 
     def derive(self, dataset) -> None:
         """Add the derived columns this model reads (Jacobian maps, prior columns) to every
@@ -205,6 +221,9 @@ class TrainedModel:
         path = Path(path)
         why = physics_only_problem(self.physics_only_axes, self.base_columns,
                                    predicts_variance(self.model))
+        if why is None and self.physics_prior_json is not None:
+            why = _physics_prior_problem(self.physics_prior_json, self.physics_only_axes,
+                                         self.base_columns)
         if why is not None:
             raise CheckpointError(f"{path}: {why}")
         state = {k: v.detach().cpu() for k, v in self.model.state_dict().items()}
@@ -213,10 +232,13 @@ class TrainedModel:
             if hashes:
                 self.provenance = {**self.provenance, "trial_sha256": hashes}
         prior_json = self.prior_json or ""
+        physics = ({"physics_prior_sha256": sha256_bytes(self.physics_prior_json.encode())}
+                   if self.physics_prior_json is not None else {})
         meta = seal({"format": FORMAT, "format_version": FORMAT_VERSION, **self.metadata(),
                      "versions": _versions(), "weights_sha256": weights_sha256(state),
-                     "prior_sha256": sha256_bytes(prior_json.encode())})
-        payload = {"meta": json.dumps(meta), "prior_json": prior_json, "state_dict": state}
+                     "prior_sha256": sha256_bytes(prior_json.encode()), **physics})
+        payload = {"meta": json.dumps(meta), "prior_json": prior_json, "state_dict": state,
+                   **({"physics_prior_json": self.physics_prior_json} if physics else {})}
         path.parent.mkdir(parents=True, exist_ok=True)
         with atomic_path(path) as tmp:
             torch.save(payload, tmp)
@@ -326,6 +348,7 @@ def _load(path: Path, device: str, versions: tuple[int, ...]) -> TrainedModel:
         meta = json.loads(payload["meta"])
         state = payload["state_dict"]
         prior_json = payload.get("prior_json", "")
+        physics_prior_json = payload.get("physics_prior_json")
         version = meta.get("format_version")
     except (TypeError, KeyError, IndexError, AttributeError, json.JSONDecodeError):
         raise CheckpointError(f"{path}: not a psmforce checkpoint (no metadata)") from None
@@ -353,6 +376,12 @@ def _load(path: Path, device: str, versions: tuple[int, ...]) -> TrainedModel:
                 or sha256_bytes(prior_json.encode()) != meta.get("prior_sha256"):
             raise CheckpointError(f"{path}: corrupt checkpoint (the prior does not match its "
                                   f"SHA-256 checksum)")
+        expected = meta.get("physics_prior_sha256")
+        if (physics_prior_json is not None or expected is not None) and (
+                not isinstance(physics_prior_json, str)
+                or sha256_bytes(physics_prior_json.encode()) != expected):
+            raise CheckpointError(f"{path}: corrupt checkpoint (the physics-only axes' prior "
+                                  f"does not match its SHA-256 checksum)")
     _check_metadata(meta, path)
     rate = meta.get("sample_rate_hz")
     rate = DEFAULT_SAMPLE_RATE_HZ if rate is None else rate
@@ -374,6 +403,8 @@ def _load(path: Path, device: str, versions: tuple[int, ...]) -> TrainedModel:
                               f"({_first_line(err)})") from None
     physics_only = meta.get("physics_only_axes", [])
     why = physics_only_problem(physics_only, meta["base_columns"], predicts_variance(model))
+    if why is None and physics_prior_json is not None:
+        why = _physics_prior_problem(physics_prior_json, physics_only, meta["base_columns"])
     if why is not None:
         raise CheckpointError(f"{path}: corrupt checkpoint ({why})")
     model.to(device).eval()
@@ -382,7 +413,20 @@ def _load(path: Path, device: str, versions: tuple[int, ...]) -> TrainedModel:
                         Scaler.from_dict(meta["target_scaler"]), tuple(meta["base_columns"]),
                         meta["derivation"], prior_json or None, model,
                         meta.get("provenance", {}), meta.get("versions", {}), float(rate),
-                        tuple(physics_only))
+                        tuple(physics_only), physics_prior_json)
+
+
+def _physics_prior_problem(text: str, physics_only_axes, base_columns) -> str | None:
+    """Why ``text`` cannot be a checkpoint's prior of the physics-only axes' own (module
+    docstring), or None: the axes' base must come from a prior, and the JSON must read as one."""
+    why = physics_base_problem(base_columns, physics_only_axes)
+    if why is not None:
+        return why
+    try:
+        prior_from_json(text)
+    except ValueError as err:  # the strict loading of any prior (IdentificationInputError)
+        return f"the physics-only axes' prior does not read as a prior ({_first_line(err)})"
+    return None
 
 
 def _check_metadata(meta: dict, path: Path) -> None:

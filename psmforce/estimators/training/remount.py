@@ -122,6 +122,11 @@ def recalibrate_checkpoint(checkpoint, data, out) -> dict:
     if ckpt.prior_json is None:
         raise RemountError(f"{checkpoint}: a '{ckpt.model_name}' model without an internal-force "
                            "prior: nothing to recalibrate after a re-mount (a hybrid has one)")
+    if ckpt.physics_prior_json is not None:  # two priors, one mount: not re-estimated apart
+        raise RemountError(f"{checkpoint}: holds a prior of its physics-only axes' own "
+                           f"(calibrate --network-prior trained); re-mounting it is not "
+                           f"supported: calibrate the checkpoint it came from again on this "
+                           f"mount's recordings")
     old = ckpt.prior()
     recordings = remount_recordings(data)
     frames = [read_recording(path) for _, path in recordings]
