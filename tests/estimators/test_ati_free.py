@@ -188,6 +188,15 @@ def test_cli_names_what_the_free_space_recordings_could_not_pin_down(tmp_path, c
     record["finetuned"] = False
     assert main(argv + ["--no-finetune"]) == 0 and asked["finetune"] is False
     assert "the network kept as trained (not finetuned)" in capsys.readouterr().out
+    # --network-prior trained reaches the library and the last line says what the network reads
+    record["physics_only_axes"] = {"axes": ["Fx", "Fy"], "rule": "by hand", "why": {}}
+    assert main(argv + ["--no-finetune", "--network-off", "Fx", "Fy", "--network-prior",
+                        "trained"]) == 0
+    assert asked["network_prior"] == "trained" and asked["network_off"] == ("Fx", "Fy")
+    assert "the prior alone answers Fx, Fy; the network reads the prior it was trained with" \
+        in capsys.readouterr().out
+    assert main(argv) == 0 and asked["network_prior"] == "calibrated"
+    capsys.readouterr()
 
 
 @pytest.mark.slow
@@ -340,6 +349,7 @@ def test_network_off_is_refused_where_it_cannot_hold(tmp_path, capsys):
     from psmforce.cli.main import main
     from psmforce.estimators.training import calibrate as calibration
     assert options.NETWORK_OFF_RULES == calibration.NETWORK_OFF_RULES
+    assert options.NETWORK_PRIORS == calibration.NETWORK_PRIORS
     argv = ["calibrate", str(tmp_path / "m.pt"), "--data", str(tmp_path), "--out",
             str(tmp_path / "o.pt"), "--free-space", "--network-off"]
     assert main(argv + ["carried"]) == 2

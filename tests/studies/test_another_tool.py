@@ -352,6 +352,10 @@ def test_an_identified_refit_holds_what_the_load_path_identified(benches, tmp_pa
     with pytest.raises(CalibrationError, match="'trained' needs network_off axes"):
         calibrate(benches / "hybrid.pt", tmp_path / "g" / FREE_SPACE, tmp_path / "x.pt",
                   free_space=True, network_prior="trained")
+    with pytest.raises(CalibrationError, match="'trained': .*fcn.pt holds a 'fcn' model "
+                                               "without a prior"):
+        calibrate(benches / "fcn.pt", tmp_path / "g" / FREE_SPACE, tmp_path / "x.pt",
+                  free_space=True, network_off=("Fx",), network_prior="trained")
     with pytest.raises(CalibrationError, match="network_prior must be one of"):
         calibrate(benches / "hybrid.pt", tmp_path / "g" / FREE_SPACE, tmp_path / "x.pt",
                   free_space=True, network_off=("Fx",), network_prior="source")
