@@ -165,6 +165,7 @@ def test_evaluate_writes_the_causal_table(data, tmp_path):
     assert f"{causal['Fx']['nrmse_pct']:.2f}" in md
     assert result["eval_start_sample"] == EVAL_START
     assert result["physics_only_axes"] == []    # the result says which axes the physics answers
+    assert result["physics_only_prior"] == "the network's"   # and with which prior
 
 
 def test_a_plugin_that_cannot_serve_is_refused_by_name():
