@@ -81,9 +81,8 @@ re-mount (``psmforce remount``) keeps them.
 
 **The network's own prior** (``network_prior="trained"``, ``psmforce calibrate --network-prior
 trained``; with ``network_off`` axes, without an ATI). The refit changes the prior the network
-reads, and a network that is not finetuned then reads inputs it was never trained on: on the
-bench, not finetuned, the source hybrid's axial error was lower with the prior it was trained
-with than with the refitted one on every seed compared (docs/ati_free.md section 4.7). With
+reads, and a network that is not finetuned then reads inputs it was never trained on (what
+that costs on the bench along the shaft: docs/ati_free.md section 4.7). With
 ``"trained"`` the checkpoint keeps its prior for the network and holds the refitted one as the
 physics-only axes' own (``physics_prior_json``,
 :mod:`psmforce.estimators.training.checkpoint`), which answers those axes alone. A calibration
