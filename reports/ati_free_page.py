@@ -282,7 +282,11 @@ ATI_FREE_ROWS = {
                                               "finetuned, the prior alone on Fx and Fy",
     "network_prior:identified:free+self+paired": "the source hybrid as trained, (c'')'s prior "
                                                  "alone on Fx and Fy (--network-prior trained)",
+    "network_prior:identified:free+self": "(b'') (b)'s recordings, the instrument identified "
+                                          "with the clenches' lateral forces, its prior alone "
+                                          "on Fx and Fy (--network-prior trained)",
     "ati_same_minutes": "(d) ATI: (c)'s minutes",
+    "ati_same_minutes_self": "(d_b) ATI: (b)'s minutes",
     "ati_same_minutes_paired": "(d') ATI: (c')'s minutes", "ati_full": "(e) ATI: full data",
     "source": "source hybrid (other tool), as is"}
 ERROR_AXES = ("Fx", "Fy", "Fz")

@@ -94,10 +94,11 @@ GOALS = {"free+self+weights": 1.3, "free+self+paired": 1.3, "free+self": 1.5,
          "network_off:identified:free+self+paired": 1.3,
          "no_finetune:identified:free+self+paired": 1.3,
          "prior_only:identified:free+self+paired": 1.3,
-         "network_prior:identified:free+self+paired": 1.3}
+         "network_prior:identified:free+self+paired": 1.3,
+         "network_prior:identified:free+self": 1.5}
 """Arm -> the largest error ratio against an ATI-trained hybrid the issue accepts, per axis."""
 ATI_FREE = ("free", "free+self", "free+self+weights", "free+self+paired")
-REFERENCES = ("ati_same_minutes", "ati_same_minutes_paired", "ati_full")
+REFERENCES = ("ati_same_minutes", "ati_same_minutes_paired", "ati_same_minutes_self", "ati_full")
 PAIRED_ARM = "free+self+paired"
 """(c'): the known weights of the design under which the load path identifies the instrument
 (``studies/ati_free_identification.py``, chosen there on its own seeds before this arm ran here):
@@ -122,7 +123,9 @@ def arms(free_minutes: float, excitation_minutes: float) -> dict[str, dict]:
 
 def same_minutes(row: str) -> str:
     """The ATI calibration on as many minutes as ``row``'s data: (d') for (c') and its
-    ablations, (d) for every other row."""
+    ablations, (d_b) for :data:`SELF_LOADING_ARM`, (d) for every other row."""
+    if row == SELF_LOADING_ARM:
+        return "ati_same_minutes_self"
     return "ati_same_minutes_paired" if row.endswith(PAIRED_ARM) else "ati_same_minutes"
 
 
@@ -180,6 +183,18 @@ uncalibrated, had the lower axial error than :data:`PRIOR_ONLY_ARM` on every see
 any run on them."""
 NETWORK_PRIOR_FRESH_SEEDS = (218, 219, 220)
 """Bench seeds declared for :data:`NETWORK_PRIOR_ARM` before any run of the study on them."""
+SELF_LOADING_ARM = "network_prior:identified:free+self"
+"""(b)'s recordings (the paper's free-space motion and the excitation with its clenches, no
+weight) through :data:`NETWORK_PRIOR_ARM`'s recipe: ``psmforce calibrate --free-space
+--prior-refit identified --hold-rule unresolved --clenched-lateral --no-finetune --network-off
+Fx Fy --network-prior trained``, the instrument identified through the load path on those
+recordings alone with the clenched samples' lateral forces counted. Chosen after the
+identification on (b)'s recordings of 212-217 was seen to carry the lateral cross-talk on most
+of them that way, where without the clenches it carried none on 212 and 213 (a throwaway script,
+no contact score), so every seed up to 220 is a design seed for it; judged on :data:`SELF_LOADING_FRESH_SEEDS`, declared with it
+before any run on them, against (e) and (d_b), the ATI calibration on (b)'s minutes."""
+SELF_LOADING_FRESH_SEEDS = (221, 222, 223)
+"""Bench seeds declared for :data:`SELF_LOADING_ARM` before any run of the study on them."""
 NETWORK_OFF_ARM = "network_off:" + IDENTIFIED_ARM
 """(c'')'s checkpoint as ``psmforce calibrate --network-off carried`` writes it: its
 ``physics_only_axes`` the lateral axes whose cross-talk the identification carried, answered by
@@ -192,7 +207,8 @@ FRESH_SEEDS_BY_CLAIM = {
     "the ATI-free arms (a)-(c')": FRESH_SEEDS, IDENTIFIED_ARM: IDENTIFIED_FRESH_SEEDS,
     "the identification's hold rule (--hold-rule unresolved)": HOLD_RULE_FRESH_SEEDS,
     NETWORK_OFF_ARM: NETWORK_OFF_FRESH_SEEDS, NO_FINETUNE_ARM: NETWORK_OFF_FRESH_SEEDS,
-    PRIOR_ONLY_ARM: PRIOR_ONLY_FRESH_SEEDS, NETWORK_PRIOR_ARM: NETWORK_PRIOR_FRESH_SEEDS}
+    PRIOR_ONLY_ARM: PRIOR_ONLY_FRESH_SEEDS, NETWORK_PRIOR_ARM: NETWORK_PRIOR_FRESH_SEEDS,
+    SELF_LOADING_ARM: SELF_LOADING_FRESH_SEEDS}
 """What each declaration of fresh seeds was made for: a seed is fresh for its own claim only (a
 seed fresh for one row is a design seed for every row chosen after it was seen)."""
 
@@ -214,7 +230,9 @@ def network_off_carried(hybrid: dict, physics: dict, carried) -> dict:
 
 ARM_SETS = {"all": "every arm",
             "identified": "(c'), (c'') and what they are paired with: the source hybrid, (d') "
-                          "and (e), the physics alone of (c') and (c'')"}
+                          "and (e), the physics alone of (c') and (c'')",
+            "self-loading": ":data:`SELF_LOADING_ARM` and what it is paired with: the source "
+                            "hybrid, (d_b) and (e)"}
 """``--arms``: which rows a run computes (the others are left out of its tables)."""
 
 
@@ -223,7 +241,7 @@ def rows() -> list[str]:
     return (list(ATI_FREE) + [PER_MOUNT_ARM, IDENTIFIED_ARM]
             + [f"{v}:{a}" for v in ("network_alone", "physics_alone") for a in ATI_FREE]
             + ["physics_alone:" + IDENTIFIED_ARM, NETWORK_OFF_ARM, NO_FINETUNE_ARM,
-               PRIOR_ONLY_ARM, NETWORK_PRIOR_ARM]
+               PRIOR_ONLY_ARM, NETWORK_PRIOR_ARM, SELF_LOADING_ARM]
             + list(REFERENCES)
             + ["source"])
 
@@ -412,19 +430,8 @@ def _seed(seed: int, args, q_exc: np.ndarray) -> tuple[dict, dict]:
         free_dir, seed=seed, scale=args.scale, free_minutes=args.free_minutes,
         excitation_q=q_exc, weight_poses=weight_poses(), masses_kg=tuple(args.masses),
         hold_s=args.hold_s, tool_seed=tool_seed))
-    # (c')'s weights in their own folder; its free space repeats the one above (same seeds)
-    paired_dir = work / "ati_free_paired"
-    made_paired = kept_json(work / "ati_free_paired.json", lambda: simulate_ati_free(
-        paired_dir, seed=seed, scale=args.scale, free_minutes=args.free_minutes,
-        excitation_q=q_exc, weight_poses=weight_poses(WEIGHT_WRIST_POSES_PAIRED),
-        masses_kg=tuple(args.paired_masses), hold_s=args.hold_s, tool_seed=tool_seed,
-        approach_rad=APPROACH_RAD))
-    loads_dir = {None: None, "weights": free_dir / KNOWN_LOADS,
-                 "paired": paired_dir / KNOWN_LOADS}
-    runs = {"minutes": made["minutes"], "left_out_unsafe": made["left_out_unsafe"],
-            "minutes_paired": made_paired["minutes"],
-            "left_out_unsafe_paired": made_paired["left_out_unsafe"]}
-    full = args.arms == "all"   # else what the identified arm is paired with (ARM_SETS)
+    runs = {"minutes": made["minutes"], "left_out_unsafe": made["left_out_unsafe"]}
+    full = args.arms == "all"   # else what the arm set's rows are paired with (ARM_SETS)
     runs["source_hybrid"] = _train(source, work / "source_hybrid.pt", seed, args)
     if full:
         runs["source_network"] = _train(source, work / "source_network.pt", seed, args,
@@ -436,6 +443,17 @@ def _seed(seed: int, args, q_exc: np.ndarray) -> tuple[dict, dict]:
                                  lambda: _score(work / "tool_hybrid.pt", tool))}
     exc_minutes = made["minutes"]["excitation"] + MINUTES_SLACK
     truth = default_bench_truth(InstrumentParams().sample(tool_seed, 1.0))
+    spec_of = arms(args.free_minutes + MINUTES_SLACK, exc_minutes)
+    available = sum(map(_minutes_of, _ati_pool(tool)))
+
+    def ati_same_minutes(ref: str, wanted: float) -> None:
+        """The source hybrid calibrated with the ATI on ``wanted`` minutes of the tool's bench
+        (fewer where it holds fewer), kept as ``ref``."""
+        out = work / "arms" / f"{ref}.pt"
+        runs[ref] = kept_json(out.with_suffix(".cal.json"), lambda: _calibrate(
+            work / "source_hybrid.pt", tool, out, seed, args, min(wanted, available) - 1e-3) | {
+            "minutes_wanted": wanted, "minutes_available": available})
+        records[ref] = kept_json(work / "records" / f"{ref}.json", lambda: _score(out, tool))
 
     def calibrated(name: str, out: Path, ckpt: str, minutes: float, physics: bool, **kw):
         """One ATI-free calibration of ``ckpt`` to the tool (kept under ``out``): its run and
@@ -453,7 +471,25 @@ def _seed(seed: int, args, q_exc: np.ndarray) -> tuple[dict, dict]:
                 prior["parameters_after"], truth, prior["held_from_checkpoint"],
                 prior["held_by_reading"], prior.get("held_at_identified", {}))
 
-    spec_of = arms(args.free_minutes + MINUTES_SLACK, exc_minutes)
+    if args.arms == "self-loading":
+        calibrated(SELF_LOADING_ARM, work / "arms" / "identified_free_self_network_prior.pt",
+                   "source_hybrid.pt", spec_of["free+self"]["minutes"], physics=False,
+                   prior_refit="identified", hold_rule="unresolved", clenched_lateral=True,
+                   finetune=False, network_off=("Fx", "Fy"), network_prior="trained")
+        ati_same_minutes("ati_same_minutes_self",
+                         runs[SELF_LOADING_ARM]["calibration"]["minutes_used"])
+        return records, runs
+    # (c')'s weights in their own folder; its free space repeats the one above (same seeds)
+    paired_dir = work / "ati_free_paired"
+    made_paired = kept_json(work / "ati_free_paired.json", lambda: simulate_ati_free(
+        paired_dir, seed=seed, scale=args.scale, free_minutes=args.free_minutes,
+        excitation_q=q_exc, weight_poses=weight_poses(WEIGHT_WRIST_POSES_PAIRED),
+        masses_kg=tuple(args.paired_masses), hold_s=args.hold_s, tool_seed=tool_seed,
+        approach_rad=APPROACH_RAD))
+    loads_dir = {None: None, "weights": free_dir / KNOWN_LOADS,
+                 "paired": paired_dir / KNOWN_LOADS}
+    runs.update({"minutes_paired": made_paired["minutes"],
+                 "left_out_unsafe_paired": made_paired["left_out_unsafe"]})
     for arm, spec in spec_of.items():
         if not full and arm != PAIRED_ARM:
             continue
@@ -490,16 +526,9 @@ def _seed(seed: int, args, q_exc: np.ndarray) -> tuple[dict, dict]:
         work / "records" / f"{own.stem}.json", lambda: _score(_network_prior(
             work / "source_hybrid.pt", work / "arms" / f"identified_free_self_paired{unit}.pt",
             own), tool))
-    available = sum(map(_minutes_of, _ati_pool(tool)))
     for ref, arm in (("ati_same_minutes", "free+self+weights"),
                      ("ati_same_minutes_paired", PAIRED_ARM))[0 if full else 1:]:
-        wanted = runs[arm]["calibration"]["minutes_used"]
-        minutes = min(wanted, available)
-        out = work / "arms" / f"{ref}.pt"
-        runs[ref] = kept_json(out.with_suffix(".cal.json"), lambda: _calibrate(
-            work / "source_hybrid.pt", tool, out, seed, args, minutes - 1e-3) | {
-            "minutes_wanted": wanted, "minutes_available": available})
-        records[ref] = kept_json(work / "records" / f"{ref}.json", lambda: _score(out, tool))
+        ati_same_minutes(ref, runs[arm]["calibration"]["minutes_used"])
     return records, runs
 
 
@@ -553,10 +582,13 @@ def _ati_pool(tool: Path) -> list:
 
 
 def _flags(runs: dict[int, dict]) -> dict:
-    """Every training's and calibration's convergence flag, per seed and run."""
+    """Every training's and calibration's convergence flag, per seed and run (a calibration
+    that finetunes nothing has none)."""
     out = {}
     for seed, r in runs.items():
         for name, v in r.items():
+            if isinstance(v, dict) and v.get("calibration", {}).get("epochs_run") == 0:
+                continue
             if isinstance(v, dict) and ("converged" in v or "calibration" in v):
                 flag = v.get("converged", v.get("calibration", {}).get("converged"))
                 out[f"seed {seed}: {name}"] = flag
@@ -591,8 +623,10 @@ def main(argv=None) -> dict:
                          "parameters listed for their precision alone (psmforce calibrate "
                          "--hold-rule; (c') keeps the default)")
     ap.add_argument("--arms", choices=tuple(ARM_SETS), default="all",
-                    help="every arm (default), or 'identified': (c'), (c'') and what they are "
-                         "paired with")
+                    help="every arm (default), 'identified': (c'), (c'') and what they are "
+                         "paired with, or 'self-loading': (b)'s recordings through the "
+                         "identification with the clenches' lateral forces (SELF_LOADING_ARM) "
+                         "and what it is paired with")
     ap.add_argument("--calibration-epochs", type=int, default=500)
     ap.add_argument("--quick", action="store_true",
                     help="one capped epoch per training and calibration: mechanics only")
@@ -618,8 +652,9 @@ def main(argv=None) -> dict:
         records[seed], runs[seed] = _seed(seed, args, q_exc)
         print(f"seed {seed}: causal NRMSE % " + "; ".join(
             f"{n} " + "/".join(f"{records[seed][n]['nrmse_pct']['causal'][a]:.2f}" for a in AXES)
-            for n in ("free+self+weights", PAIRED_ARM, IDENTIFIED_ARM, "ati_same_minutes",
-                      "ati_same_minutes_paired", "ati_full") if n in records[seed]), flush=True)
+            for n in ("free+self+weights", PAIRED_ARM, IDENTIFIED_ARM, SELF_LOADING_ARM,
+                      "ati_same_minutes", "ati_same_minutes_paired", "ati_same_minutes_self",
+                      "ati_full") if n in records[seed]), flush=True)
     paired = {ref: paired_table(records, ref) for ref in REFERENCES}
     flags = _flags(runs)
     converged = all(v is True for v in flags.values())

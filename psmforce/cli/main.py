@@ -283,24 +283,33 @@ def _parser() -> argparse.ArgumentParser:
                         "'known_load_kg'; the force is that weight in the HEX10 frame from the "
                         "recorded joints (docs/ati_free.md)")
     p.add_argument("--held-values", choices=options.HELD_VALUES, default="as-held",
-                   help="with --known-loads: 'checked' also holds what the design values held "
+                   help="with --known-loads or --prior-refit identified: 'checked' also holds what the design values held "
                         "for the instrument, each off by its tolerance, would move beyond its "
                         "needed precision (docs/identification.md section 2; default as-held)")
     p.add_argument("--jackknife-unit", choices=options.JACKKNIFE_UNITS, default="orientation",
-                   help="with --known-loads: what the jackknife over the weights' orientations "
+                   help="with --known-loads or --prior-refit identified: what the jackknife over "
+                        "the weights' orientations "
                         "leaves out at a time: one orientation, or a sign pair (an orientation "
                         "and its opposite, for weights hung in sign pairs; default orientation)")
     p.add_argument("--hold-rule", choices=options.HOLD_RULES, default="imprecise",
-                   help="with --known-loads: what the instrument's identification holds at "
+                   help="with --known-loads or --prior-refit identified: what the instrument's "
+                        "identification holds at "
                         "design values among the parameters it lists for their precision alone: "
                         "every one (imprecise, the default), or only those whose design value "
                         "the data do not reject (unresolved: the others kept free, named "
                         "estimated, and carried by --prior-refit identified)")
+    p.add_argument("--clenched-lateral", action="store_true",
+                   help="with --known-loads or --prior-refit identified: the identification "
+                        "counts the lateral forces of the samples where the jaws are clenched "
+                        "on each other, which pin down the sensor's lateral cross-talk of the "
+                        "axial force without a weight (docs/ati_free.md section 4.8)")
     p.add_argument("--prior-refit", choices=options.PRIOR_REFITS, default="all",
-                   help="with --known-loads: 'identified' holds what the instrument's "
-                        "identification through the load path identified at its identified "
+                   help="with --free-space: 'identified' holds what the instrument's "
+                        "identification through the load path (on the known loads and the "
+                        "free space, or on the free space alone) identified at its identified "
                         "values in the estimator's prior and refits the rest (docs/ati_free.md "
-                        "section 4.3); default all, the prior refitted on the efforts alone")
+                        "sections 4.3 and 4.8); default all, the prior refitted on the efforts "
+                        "alone")
     p.add_argument("--network-off", nargs="+", default=["none"], metavar="RULE_OR_AXIS",
                    help="axes whose estimate is the prior alone, the network's residual not "
                         "added: 'carried' (with --prior-refit identified: each lateral axis "

@@ -307,13 +307,16 @@ def calibrate_command(args) -> dict:
     if args.known_loads is not None and not args.free_space:
         raise ValueError("--known-loads: only with --free-space (a calibration with the ATI "
                          "measures its loads)")
+    if args.prior_refit != "all" and not args.free_space:
+        raise ValueError(f"--prior-refit {args.prior_refit}: only with --free-space (a "
+                         f"calibration with the ATI refits the prior on its own loads)")
     for flag, value, default in (("--held-values", args.held_values, "as-held"),
                                  ("--jackknife-unit", args.jackknife_unit, "orientation"),
-                                 ("--prior-refit", args.prior_refit, "all"),
-                                 ("--hold-rule", args.hold_rule, "imprecise")):
-        if value != default and args.known_loads is None:
-            raise ValueError(f"{flag}: only with --known-loads (the instrument's "
-                             f"identification through the load path)")
+                                 ("--hold-rule", args.hold_rule, "imprecise"),
+                                 ("--clenched-lateral", args.clenched_lateral, False)):
+        if value != default and args.known_loads is None and args.prior_refit != "identified":
+            raise ValueError(f"{flag}: only with --known-loads or --prior-refit identified (the "
+                             f"instrument's identification through the load path)")
     network_off = options.network_off(args.network_off)
     if network_off == "carried" and args.prior_refit != "identified":
         raise ValueError("--network-off carried: only with --prior-refit identified (the axes "
@@ -327,7 +330,8 @@ def calibrate_command(args) -> dict:
                        held_values=args.held_values, jackknife_unit=args.jackknife_unit,
                        prior_refit=args.prior_refit, hold_rule=args.hold_rule,
                        network_off=network_off, finetune=not args.no_finetune,
-                       network_prior=args.network_prior)
+                       network_prior=args.network_prior,
+                       clenched_lateral=args.clenched_lateral)
     record = result["calibration"]
     print(f"calibrated on {len(record['trials'])} trials, {record['minutes_used']:.2f} min "
           f"(Free {record['minutes_by_condition']['Free']:.2f}, Traction "

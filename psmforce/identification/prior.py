@@ -272,12 +272,15 @@ def held_by_reading(inputs: str, crosstalk: bool | str | None = None) -> dict[st
 
 
 def fit_arrays(frame, inputs: str, psm=None, targets: bool = True, direction: bool = True,
-               compliance=None):
+               compliance=None, clenched_lateral: bool = False):
     """(model inputs, target, mask) of one recording for a prior reading ``inputs``
     (:data:`INPUTS`); ``targets=False`` skips the target (None, None); ``direction``: as
     :func:`arrays_from_frame`; ``compliance``: the wrist's
     (:class:`~psmforce.identification.load_path.WristCompliance`) the load path sags it with
-    (None: the design's)."""
+    (None: the design's). The load path leaves clenched samples out; ``clenched_lateral`` keeps
+    their lateral force channels: a grip internal to the jaws loads the cables, which cross the
+    section along the shaft, and no lateral force, so there the HEX10's fx and fy read what the
+    law has (the distal weight, the cross-talk of the axial reading the grip moves)."""
     a = arrays_from_frame(frame, psm, direction)
     y, mask = internal_wrench_target(frame) if targets else (None, None)
     if inputs == "load_path":
@@ -287,7 +290,8 @@ def fit_arrays(frame, inputs: str, psm=None, targets: bool = True, direction: bo
         if targets:  # the tip force's moment is known: every sample's moments count
             y[:, 3:] -= tip_moment
             mask[:, 3:] = mask[:, :1]
-            mask[clenched(frame)] = 0.0  # an unknown grip loads the blade pairs
+            # an unknown grip loads the blade pairs: the axial force and the moments
+            mask[clenched(frame), 2 if clenched_lateral else 0:] = 0.0
     return a, y, mask
 
 
@@ -448,7 +452,9 @@ class InternalForcePrior:
         the fit's sample mask): the figure ``info["train_metrics"]`` holds, on any
         recordings."""
         parts = [fit_arrays(f, self.inputs, psm, direction=self.has_friction,
-                            compliance=self.wrist_compliance) for f in recordings]
+                            compliance=self.wrist_compliance,
+                            clenched_lateral=self.info.get("clenched_lateral", False))
+                 for f in recordings]
         law = [self.law_arrays(*_check_arrays(a["positions"], a["efforts"], a["velocities"],
                                               a["g_hex"], a["direction"]),
                                a["hex10_force"] if self.has_crosstalk else None)
@@ -535,7 +541,8 @@ class InternalForcePrior:
             report: bool = True, inputs: str = "efforts",
             crosstalk: bool | str | None = None, compliance=None,
             reference: InternalForcePrior | None = None,
-            held_tolerance: dict[str, float] | None = None) -> InternalForcePrior:
+            held_tolerance: dict[str, float] | None = None,
+            clenched_lateral: bool = False) -> InternalForcePrior:
         """Fit on recordings (DataFrames of ``psmforce.io.recording`` or paths).
 
         Where target columns ``ati_fx..ati_fz`` exist, the known external force (HEX10 frame) is
@@ -560,6 +567,8 @@ class InternalForcePrior:
         ``compliance``: with the load path, the
         :class:`~psmforce.identification.load_path.WristCompliance` that sags the wrist (None:
         the design's), kept in ``info["wrist_compliance"]``.
+        ``clenched_lateral``: with the load path, the clenched samples' lateral force channels
+        count (:func:`fit_arrays`), ``info["clenched_lateral"]`` says so.
         ``reference``: fit the law to that prior's law (before its axis weights) on the
         recordings' own inputs instead of to their readings, with the same samples counted: the
         projection of one law onto the law as ``fixed`` holds it (a parameter's truth as a held
@@ -574,6 +583,11 @@ class InternalForcePrior:
 
         held = held_by_reading(inputs, crosstalk)
         compliance = _compliance(compliance, inputs)
+        if clenched_lateral is not False and (clenched_lateral is not True
+                                              or inputs != "load_path"):
+            raise IdentificationInputError(f"clenched_lateral: True only with inputs='load_path' "
+                                           f"(the efforts reading counts clenched samples), got "
+                                           f"{clenched_lateral!r} with {inputs!r}")
         if reference is not None and not isinstance(reference, InternalForcePrior):
             raise IdentificationInputError(f"reference must be an InternalForcePrior, got "
                                            f"{type(reference).__name__}")
@@ -599,7 +613,7 @@ class InternalForcePrior:
             else:
                 sources.append("<DataFrame>")
             a, y, mask = fit_arrays(rec, inputs, psm, direction=read_direction,
-                                    compliance=compliance)
+                                    compliance=compliance, clenched_lateral=clenched_lateral)
             parts.append((a, y, mask))
             if all(t in rec.columns for t in TARGETS) and \
                     {_INSERTION_VELOCITY, _INSERTION_EFFORT} <= set(rec.columns):
@@ -683,6 +697,7 @@ class InternalForcePrior:
             "fixed": {n: float(x) for n, x in fixed.items()},
             "inputs": inputs,
             **({"wrist_compliance": asdict(compliance)} if compliance is not None else {}),
+            **({"clenched_lateral": True} if clenched_lateral else {}),
             **({"reference": dict(zip(NAMES, map(float, reference.params)))}
                if reference is not None else {}),
             **({"identifiability": identifiability(params, fixed,
@@ -788,6 +803,9 @@ class InternalForcePrior:
         if isinstance(info, dict) and info.get("inputs", "efforts") not in INPUTS:
             raise IdentificationInputError(f"{path}: 'info.inputs' must be one of {INPUTS}, "
                                            f"got {info.get('inputs')!r}")
+        if isinstance(info, dict) and info.get("clenched_lateral", True) is not True:
+            raise IdentificationInputError(f"{path}: 'info.clenched_lateral' must be true where "
+                                           f"present, got {info['clenched_lateral']!r}")
         if isinstance(info, dict) and "wrist_compliance" in info:
             from psmforce.identification.load_path import WristCompliance
             WristCompliance.from_dict(info["wrist_compliance"],

@@ -47,6 +47,18 @@ correlated with it would take its error, so a round that holds it can list what 
 list before. It is named ``estimated`` with that uncertainty (the verdict's own list), not
 identified.
 
+The jaws clenched on each other (``clenched_lateral``, through the load path). The load path
+leaves clenched samples out: the grip is internal to the jaws, no tip force shows it, and it
+loads the blade pairs, so the axial force and the moments there are not the law's. It puts no
+lateral force through the section, though (the cables cross it along the shaft), and it moves
+the axial reading by several newtons: there the lateral channels read the distal weight and the
+sensor's cross-talk of that axial reading, which the law has. Counted, they give each lateral
+channel's cross-talk a span of the axial reading that free space alone does not have (there the
+axial force stays near the pretension's rest level, and the offset and the cross-talk are
+correlated above 0.99); left out, a cross-talk the clenches would pin down is held at its
+design value 0 and the offset takes its share of the rest level, which a loaded cable then
+carries into the lateral estimate in contact.
+
 Read through the load path, the tip force's moments are taken where the wrist sags, and the sag
 depends on the law's own pretension, radii and friction (:mod:`~psmforce.identification.
 load_path`). The rounds sag it with the design's values until they have nothing left to hold;
@@ -216,10 +228,10 @@ def trial_jackknife(frames, prior: InternalForcePrior, fixed: dict[str, float],
     refits = []
     for g in range(groups):
         kept = [f for f, label in zip(frames, labels) if label != g]
-        refits.append(InternalForcePrior.fit(kept, psm=psm, fixed=fixed, initial=start,
-                                             report=False, max_iter=max_iter,
-                                             inputs=inputs, crosstalk="full",
-                                             compliance=compliance).params)
+        refits.append(InternalForcePrior.fit(
+            kept, psm=psm, fixed=fixed, initial=start, report=False, max_iter=max_iter,
+            inputs=inputs, crosstalk="full", compliance=compliance,
+            clenched_lateral=prior.info.get("clenched_lateral", False)).params)
     p = np.array(refits)
     se = np.sqrt((groups - 1) / groups * np.sum((p - p.mean(axis=0)) ** 2, axis=0))
     return {n: float(se[i]) for i, n in enumerate(NAMES) if n not in fixed}
@@ -283,7 +295,8 @@ def fit_identified(recordings, *, psm=None, provenance=None, design: dict | None
                    sag_passes: int = SAG_PASSES, pose_labels=None,
                    pose_unit: str = "orientation",
                    design_tolerance: dict | None = None,
-                   hold_rule: str = "imprecise") -> InternalForcePrior:
+                   hold_rule: str = "imprecise",
+                   clenched_lateral: bool = False) -> InternalForcePrior:
     """Fit the prior with only what the data identify free (module docstring); the rest held at
     ``design`` (default :data:`DESIGN`; a partial dict overrides some entries). ``inputs``: what
     the law reads as wrist torques (:meth:`InternalForcePrior.fit`); ``jackknife_labels``: each
@@ -302,6 +315,8 @@ def fit_identified(recordings, *, psm=None, provenance=None, design: dict | None
     ``hold_rule`` (:data:`HOLD_RULES`): what is held among the parameters listed for their precision
     alone; ``"unresolved"`` keeps those whose design value the data reject free, named in
     ``info["selection"]["estimated"]`` (value, uncertainty: :func:`design_rejected`).
+    ``clenched_lateral``: with the load path, every fit counts the clenched samples' lateral
+    force channels (:meth:`InternalForcePrior.fit`; module docstring, "The jaws clenched").
 
     With the load path, the rounds sag the wrist with the design's values
     (:mod:`~psmforce.identification.load_path`); once they have nothing left to hold, the
@@ -323,6 +338,10 @@ def fit_identified(recordings, *, psm=None, provenance=None, design: dict | None
     if hold_rule not in HOLD_RULES:
         raise IdentificationInputError(f"hold_rule must be one of {HOLD_RULES}, got "
                                        f"{hold_rule!r}")
+    if clenched_lateral is not False and (clenched_lateral is not True
+                                          or inputs != "load_path"):
+        raise IdentificationInputError(f"clenched_lateral: True only with inputs='load_path', "
+                                       f"got {clenched_lateral!r} with {inputs!r}")
     unknown = sorted(set(design) - set(NAMES))
     if unknown:
         raise IdentificationInputError(f"design: unknown parameters {unknown} (one of {NAMES})")
@@ -335,7 +354,7 @@ def fit_identified(recordings, *, psm=None, provenance=None, design: dict | None
     select = dict(frames=frames, fixed=fixed, why_fixed=why_fixed, rounds=rounds, design=design,
                   psm=psm, provenance=provenance, max_rounds=max_rounds, max_iter=max_iter,
                   inputs=inputs, groups=groups, labels=jackknife_labels, poses=poses,
-                  tolerance=tolerance, hold_rule=hold_rule)
+                  tolerance=tolerance, hold_rule=hold_rule, clenched_lateral=clenched_lateral)
     prior = _select(compliance=None, **select)
     sag = None
     if inputs == "load_path":
@@ -363,6 +382,7 @@ def fit_identified(recordings, *, psm=None, provenance=None, design: dict | None
         "orientation_jackknife_unit": poses[2] if poses else None,
         "rounds": rounds, "fixed": why_fixed,
         "hold_rule": hold_rule,
+        **({"clenched_lateral": True} if clenched_lateral else {}),
         "identified": [n for n in free if n not in still and n not in estimated],
         "estimated": {n: {"value": float(prior.params[NAMES.index(n)]), "uncertainty": u}
                       for n, u in estimated.items()},
@@ -409,7 +429,7 @@ def _tiers(listed: dict) -> list[dict]:
 
 def _select(*, frames, fixed, why_fixed, rounds, design, psm, provenance, max_rounds, max_iter,
             inputs, groups, labels, poses, compliance, tolerance,
-            hold_rule) -> InternalForcePrior:
+            hold_rule, clenched_lateral) -> InternalForcePrior:
     """Rounds of :func:`fit_identified` (fit, report with the jackknife, hold one tier of what
     it lists; the orientations' jackknife, ``poses`` from :func:`_pose_groups`, once nothing
     else is listed) with the load path's sag ``compliance`` (None: the design's), at most
@@ -422,7 +442,8 @@ def _select(*, frames, fixed, why_fixed, rounds, design, psm, provenance, max_ro
         prior = InternalForcePrior.fit(frames, psm=psm, provenance=provenance, fixed=fixed,
                                        initial=start, max_iter=max_iter, inputs=inputs,
                                        crosstalk="full", compliance=compliance,
-                                       held_tolerance=tolerance)
+                                       held_tolerance=tolerance,
+                                       clenched_lateral=clenched_lateral)
         report = prior.info["identifiability"]
         jack = trial_jackknife(frames, prior, fixed, groups, psm, max_iter, inputs, labels,
                                compliance=compliance)

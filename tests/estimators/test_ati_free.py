@@ -294,9 +294,10 @@ def test_sign_pairs_group_each_orientation_with_its_opposite():
         hold_orientations(trials, "pair")
 
 
-def test_the_hold_rule_is_asked_for_with_known_loads_only(tmp_path, capsys):
+def test_the_hold_rule_is_asked_for_with_the_identification_only(tmp_path, capsys):
     """``calibrate --hold-rule unresolved`` chooses what the instrument's identification holds:
-    without known loads it is refused by name (CLI and library), an unknown rule too; the CLI's
+    without known loads or ``--prior-refit identified`` it is refused by name (CLI and
+    library), an unknown rule too; the CLI's
     choices are the identification's (:data:`~psmforce.identification.prior_selection.
     HOLD_RULES`)."""
     from psmforce.cli import options
@@ -317,29 +318,52 @@ def test_the_hold_rule_is_asked_for_with_known_loads_only(tmp_path, capsys):
 @pytest.mark.parametrize("option, choices, asked, unknown", [
     ("held_values", "HELD_VALUES", "checked", "loose"),
     ("jackknife_unit", "JACKKNIFE_UNITS", "sign_pair", "pairs"),
-    ("prior_refit", "PRIOR_REFITS", "identified", "curve")])
-def test_the_identifications_options_are_asked_for_with_known_loads_only(
+    ("clenched_lateral", None, True, "yes")])
+def test_the_identifications_options_are_asked_for_with_the_identification_only(
         tmp_path, capsys, option, choices, asked, unknown):
-    """``calibrate --held-values checked``, ``--jackknife-unit sign_pair`` and ``--prior-refit
-    identified`` need the instrument's identification through the load path; without known
-    loads each is refused by name, by the CLI and by the library, and the library refuses a
-    value it does not know. The CLI's choices are the library's (less "per_mount", which
-    ``psmforce remount`` runs)."""
+    """``calibrate --held-values checked``, ``--jackknife-unit sign_pair`` and
+    ``--clenched-lateral`` set the instrument's identification through the load path, which
+    runs with known loads or ``--prior-refit identified``; without either each is refused by
+    name, by the CLI and by the library, and the library refuses a value it does not know. The
+    CLI's choices are the library's."""
     from psmforce.cli import options
     from psmforce.cli.main import main
     from psmforce.estimators.training import calibrate as calibration
-    library = tuple(c for c in getattr(calibration, choices) if c != "per_mount")
-    assert getattr(options, choices) == library
+    if choices is not None:
+        assert getattr(options, choices) == getattr(calibration, choices)
     flag = "--" + option.replace("_", "-")
     argv = ["calibrate", str(tmp_path / "m.pt"), "--data", str(tmp_path), "--out",
-            str(tmp_path / "o.pt"), "--free-space", flag, asked]
+            str(tmp_path / "o.pt"), "--free-space", flag] + ([] if asked is True else [asked])
     assert main(argv) == 2
-    assert f"{flag}: only with --known-loads" in capsys.readouterr().err
+    assert (f"{flag}: only with --known-loads or --prior-refit identified"
+            in capsys.readouterr().err)
     paths = (tmp_path / "m.pt", tmp_path, tmp_path / "o.pt")
-    with pytest.raises(calibration.CalibrationError, match=f"{option} must be one of"):
+    with pytest.raises(calibration.CalibrationError,
+                       match=f"{option} must be (one of|True or False)"):
         calibration.calibrate(*paths, free_space=True, **{option: unknown})
-    with pytest.raises(calibration.CalibrationError, match=f"{option}: only with known_loads"):
+    with pytest.raises(calibration.CalibrationError, match=f"{option}: only with known_loads "
+                                                         f"or prior_refit='identified'"):
         calibration.calibrate(*paths, free_space=True, **{option: asked})
+
+
+def test_prior_refit_is_asked_for_without_an_ati_only(tmp_path, capsys):
+    """``calibrate --prior-refit identified`` runs the identification on the free-space
+    recordings (with or without known loads); with the ATI it is refused by name (CLI and
+    library), and an unknown refit too. The CLI's choices are the library's less "per_mount",
+    which ``psmforce remount`` runs."""
+    from psmforce.cli import options
+    from psmforce.cli.main import main
+    from psmforce.estimators.training import calibrate as calibration
+    assert options.PRIOR_REFITS == tuple(c for c in calibration.PRIOR_REFITS
+                                         if c != "per_mount")
+    argv = ["calibrate", str(tmp_path / "m.pt"), "--data", str(tmp_path), "--out",
+            str(tmp_path / "o.pt"), "--prior-refit", "identified"]
+    assert main(argv) == 2
+    assert "--prior-refit identified: only with --free-space" in capsys.readouterr().err
+    paths = (tmp_path / "m.pt", tmp_path, tmp_path / "o.pt")
+    for kw in ({"prior_refit": "curve", "free_space": True}, {"prior_refit": "identified"}):
+        with pytest.raises(calibration.CalibrationError, match="prior_refit must be one of"):
+            calibration.calibrate(*paths, **kw)
 
 
 def test_network_off_is_refused_where_it_cannot_hold(tmp_path, capsys):

@@ -211,6 +211,32 @@ def test_clenched_samples_are_left_out_of_a_load_path_fit():
     assert (mask.sum(axis=1) == 0).tolist() == clenched(frame).tolist()
     _, _, kept = fit_arrays(frame, "efforts")
     assert kept[:, :3].all()
+    # the jaws clenched on each other put no lateral force through the section: with
+    # clenched_lateral their fx and fy count, the axial force and the moments still do not
+    _, _, lateral = fit_arrays(frame, "load_path", clenched_lateral=True)
+    grip = clenched(frame)
+    assert (lateral[:, :2] == mask[:, :2] + grip[:, None]).all()
+    assert (lateral[:, 2:] == mask[:, 2:]).all()
+    assert lateral[grip, :2].all() and not lateral[grip, 2:].any()
+
+
+def test_the_clenched_lateral_reading_is_the_load_paths_and_travels_with_the_prior():
+    """``clenched_lateral`` is a load path option (refused with the efforts reading, or given as
+    anything but a bool, by the fit and by the identification); a prior's info records it and
+    reads back only as true."""
+    from psmforce.identification.prior_selection import fit_identified
+    for call in (lambda: InternalForcePrior.fit([object()], clenched_lateral=True),
+                 lambda: InternalForcePrior.fit([object()], inputs="load_path",
+                                                clenched_lateral="yes"),
+                 lambda: fit_identified([], clenched_lateral=True)):
+        with pytest.raises(IdentificationInputError, match="clenched_lateral: True only with"):
+            call()
+    prior = InternalForcePrior(converged=True, info={"inputs": "load_path",
+                                                     "clenched_lateral": True})
+    assert InternalForcePrior.from_json(prior.to_json()).info["clenched_lateral"] is True
+    bad = InternalForcePrior(info={"inputs": "load_path", "clenched_lateral": 1}).to_dict()
+    with pytest.raises(IdentificationInputError, match="info.clenched_lateral"):
+        InternalForcePrior.from_dict(bad, "p.json")
 
 
 def test_a_jaw_held_at_closed_is_not_clenched_whatever_its_round_off():

@@ -370,7 +370,11 @@ def test_an_identified_refit_holds_what_the_load_path_identified(benches, tmp_pa
                   free_space=True, known_loads=tmp_path / "g" / KNOWN_LOADS,
                   prior_refit="identified", network_off="carried")
     assert not (tmp_path / "x.pt").exists()
-    with pytest.raises(CalibrationError, match="prior_refit: only with known_loads"):
+    with pytest.raises(CalibrationError, match="clenched_lateral: only with known_loads or "
+                                               "prior_refit='identified'"):
         calibrate(benches / "hybrid.pt", tmp_path / "g" / FREE_SPACE, tmp_path / "x.pt",
-                  free_space=True, prior_refit="identified")
+                  free_space=True, clenched_lateral=True)
+    with pytest.raises(CalibrationError, match="clenched_lateral must be True or False"):
+        calibrate(benches / "hybrid.pt", tmp_path / "g" / FREE_SPACE, tmp_path / "x.pt",
+                  free_space=True, prior_refit="identified", clenched_lateral="yes")
 

@@ -161,11 +161,16 @@ def test_the_network_is_kept_out_of_exactly_the_lateral_axes_whose_crosstalk_was
 
 
 def test_each_claim_is_judged_on_the_seeds_declared_for_it():
-    """The network-prior row's fresh seeds were declared for it alone, after every seed any
-    earlier claim was judged on (each of those a design seed for it)."""
-    from studies.ati_free import FRESH_SEEDS_BY_CLAIM, NETWORK_PRIOR_FRESH_SEEDS
+    """The network-prior row's fresh seeds, and then the self-loading row's, were declared for
+    it alone, after every seed any earlier claim was judged on (each of those a design seed for
+    it)."""
+    from studies.ati_free import (FRESH_SEEDS_BY_CLAIM, NETWORK_PRIOR_FRESH_SEEDS,
+                                  SELF_LOADING_ARM, SELF_LOADING_FRESH_SEEDS)
+    order = [PRIOR_ONLY_ARM, NETWORK_PRIOR_ARM, SELF_LOADING_ARM]
     assert FRESH_SEEDS_BY_CLAIM[NETWORK_PRIOR_ARM] == NETWORK_PRIOR_FRESH_SEEDS
+    assert FRESH_SEEDS_BY_CLAIM[SELF_LOADING_ARM] == SELF_LOADING_FRESH_SEEDS
     assert FRESH_SEEDS_BY_CLAIM[PRIOR_ONLY_ARM] != NETWORK_PRIOR_FRESH_SEEDS
-    earlier = {s for claim, seeds in FRESH_SEEDS_BY_CLAIM.items()
-               if claim != NETWORK_PRIOR_ARM for s in seeds}
-    assert max(earlier) < min(NETWORK_PRIOR_FRESH_SEEDS)
+    for k, claim in enumerate(order[1:], 1):
+        earlier = {s for c, seeds in FRESH_SEEDS_BY_CLAIM.items()
+                   if c not in order[k:] for s in seeds}
+        assert max(earlier) < min(FRESH_SEEDS_BY_CLAIM[claim]), claim

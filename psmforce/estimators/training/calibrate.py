@@ -43,20 +43,23 @@ mount's, and one held at it is carried by whatever shared term it is confounded 
 cross-talk, which multiplies a large mean axial reading, takes a held lateral offset's error and
 carries it into contact). They are always refitted.
 
-**The instrument identified** (with ``known_loads``). The estimator's prior reads the motor
+**The instrument identified** (with ``known_loads``, or ``prior_refit="identified"``). The
+estimator's prior reads the motor
 efforts, which carry the discs' friction: its values are a curve fit, not the instrument's. Where
 the external force is known (zero in free space, the weight on a known load) the cables can be
 read from the load path instead (:mod:`psmforce.identification.load_path`): every calibration
 recording is fitted that way too, what the data cannot pin down held at the design values
-(:func:`psmforce.identification.prior_selection.fit_identified`, clenched samples left out), and
-the report's ``instrument_identification`` names what came back. It identifies the instrument;
+(:func:`psmforce.identification.prior_selection.fit_identified`, clenched samples left out but
+for their lateral forces with ``clenched_lateral``), and the report's
+``instrument_identification`` names what came back. It identifies the instrument;
 the checkpoint's prior stays the efforts' one, which a streaming estimator can run.
 
 **The identified instrument in the prior** (``prior_refit="identified"``, ``psmforce calibrate
---prior-refit identified``, with ``known_loads``). The estimator's prior keeps its law and its
+--prior-refit identified``). The estimator's prior keeps its law and its
 reading (the efforts), but what the load path identified is held at the identified values
 instead of being refitted as a curve: the pretension, the radii, the capstan, the sensor's
-cross-talk where the weights pinned them down. The efforts then fit what is left (the offsets
+cross-talk where the weights, or the jaws clenched on each other (``clenched_lateral``), pinned
+them down. The efforts then fit what is left (the offsets
 among it: this mount's), the identifiability rule holding what they cannot pin down at the
 checkpoint's values as ``"all"`` does. The provenance's ``prior_refit.held_at_identified`` lists
 the carried values (docs/ati_free.md section 4.3).
@@ -213,7 +216,8 @@ def instrument_frames(trials: list[Trial]) -> list:
 
 def identify_instrument(trials: list[Trial], crosstalk: bool | str | None = None,
                         design_tolerance: dict | None = None,
-                        jackknife_unit: str = "orientation", hold_rule: str = "imprecise"):
+                        jackknife_unit: str = "orientation", hold_rule: str = "imprecise",
+                        clenched_lateral: bool = False):
     """The instrument identified from recordings whose external force is known (module
     docstring, "The instrument identified"): the load path's
     :func:`~psmforce.identification.prior_selection.fit_identified` on every trial, the
@@ -229,7 +233,9 @@ def identify_instrument(trials: list[Trial], crosstalk: bool | str | None = None
     ``jackknife_unit``: what the second jackknife leaves out at a time, an orientation or a sign
     pair of them (:data:`~psmforce.estimators.training.ati_free.JACKKNIFE_UNITS`);
     ``hold_rule``: what it holds among the parameters listed for their precision alone
-    (:data:`~psmforce.identification.prior_selection.HOLD_RULES`)."""
+    (:data:`~psmforce.identification.prior_selection.HOLD_RULES`); ``clenched_lateral``: the
+    clenched samples' lateral forces count (the jaws clenched on each other pin down the
+    sensor's lateral cross-talk of the axial reading; ``fit_identified``)."""
     from psmforce.identification.prior_selection import design_groups, fit_identified
     frames = instrument_frames(trials)
     masses = [t.params.get(KNOWN_LOAD_FIELD) if t.condition == KNOWN_LOAD_CONDITION else None
@@ -238,7 +244,8 @@ def identify_instrument(trials: list[Trial], crosstalk: bool | str | None = None
                           pose_labels=hold_orientations(trials, jackknife_unit),
                           pose_unit=jackknife_unit,
                           provenance={"trials": [t.path for t in trials]}, crosstalk=crosstalk,
-                          design_tolerance=design_tolerance, hold_rule=hold_rule)
+                          design_tolerance=design_tolerance, hold_rule=hold_rule,
+                          clenched_lateral=clenched_lateral)
 
 
 def instrument_report(prior) -> dict:
@@ -247,7 +254,9 @@ def instrument_report(prior) -> dict:
     uncertainty), fixed at design values with the reason, at a bound, the verdict line."""
     from psmforce.identification.prior import NAMES
     sel = prior.info["selection"]
-    return {"reading": "load path (the known external force's moments; clenched samples out)",
+    clenched = ("their lateral forces counted" if sel.get("clenched_lateral")
+                else "clenched samples out")
+    return {"reading": f"load path (the known external force's moments; {clenched})",
             "converged": prior.converged,
             "parameters": {n: float(x) for n, x in zip(NAMES, prior.params)},
             "identified": list(sel["identified"]),
@@ -314,7 +323,8 @@ def calibrate(checkpoint: str | Path, data_dir: str | Path, out: str | Path, *,
               known_loads: str | Path | None = None, prior_refit: str = "all",
               held_values: str = "as-held", jackknife_unit: str = "orientation",
               hold_rule: str = "imprecise", network_off="none",
-              finetune: bool = True, network_prior: str = "calibrated") -> dict:
+              finetune: bool = True, network_prior: str = "calibrated",
+              clenched_lateral: bool = False) -> dict:
     """Calibrate a trained checkpoint to the instrument recorded in ``data_dir`` from its first
     ``minutes`` of calibration trials (module docstring) and write ``out``. ``seed``: the validation
     split and the finetuning's shuffling; ``train_config``: a
@@ -327,23 +337,25 @@ def calibrate(checkpoint: str | Path, data_dir: str | Path, out: str | Path, *,
     checkpoint's values; ``"per_mount"``, only the pretension and the force offsets
     (:data:`~psmforce.identification.prior_remount.FORCE_PER_MOUNT`) re-estimated on the
     free-space recordings, every other parameter the checkpoint's, as after a re-mount
-    (docs/ati_free.md section 3); ``"identified"`` (with ``known_loads``), what the instrument's
-    identification through the load path identified held at its identified values (the
+    (docs/ati_free.md section 3); ``"identified"``, what the instrument's
+    identification through the load path (on the known loads and the free-space recordings, or
+    on these alone) identified held at its identified values (the
     sensor's offsets excepted: this mount's, refitted), the rest refitted as ``"all"`` does
     (module docstring, "The identified instrument in the prior"). ``held_values`` (with
-    ``known_loads``): ``"checked"`` also
+    the identification): ``"checked"`` also
     holds what the held design values, each off by its
     :data:`~psmforce.identification.prior_selection.DESIGN_TOLERANCE`, would move beyond its
     needed precision (:func:`identify_instrument`); ``"as-held"``: no such check.
-    ``jackknife_unit`` (with ``known_loads``): what the identification's jackknife over the
+    ``jackknife_unit`` (with the identification): what the identification's jackknife over the
     weights' orientations leaves out at a time, ``"orientation"`` or ``"sign_pair"`` (an
     orientation with its opposite, for a paired design:
     :func:`~psmforce.estimators.training.ati_free.hold_orientations`). ``hold_rule`` (with
-    ``known_loads``): what the identification holds among the parameters listed for their
+    the identification): what it holds among the parameters listed for their
     precision alone (:data:`~psmforce.identification.prior_selection.HOLD_RULES`):
     ``"imprecise"`` every one, ``"unresolved"`` only those
     whose design value the data do not reject, the others estimated (and carried by
-    ``"identified"``). ``network_off``: the axes whose estimate is the prior alone
+    ``"identified"``). ``clenched_lateral`` (with the identification): it counts the clenched
+    samples' lateral forces (:func:`identify_instrument`). ``network_off``: the axes whose estimate is the prior alone
     (:func:`network_off_axes`; ``"carried"`` only with ``prior_refit="identified"``).
     ``finetune=False``: the prior refitted, the network left as trained (module docstring,
     "Without finetuning"); refused for a model without a prior (nothing would change).
@@ -364,9 +376,6 @@ def calibrate(checkpoint: str | Path, data_dir: str | Path, out: str | Path, *,
         raise CalibrationError(f"prior_refit must be one of {PRIOR_REFITS} ('per_mount' and "
                                f"'identified' only without an ATI, free_space=True), got "
                                f"{prior_refit!r}")
-    if prior_refit == "identified" and known_loads is None:
-        raise CalibrationError("prior_refit: only with known_loads for 'identified' (it holds "
-                               "the instrument's identification through the load path)")
     if held_values not in HELD_VALUES:
         raise CalibrationError(f"held_values must be one of {HELD_VALUES}, got {held_values!r}")
     if jackknife_unit not in JACKKNIFE_UNITS:
@@ -375,12 +384,16 @@ def calibrate(checkpoint: str | Path, data_dir: str | Path, out: str | Path, *,
     from psmforce.identification.prior_selection import HOLD_RULES
     if hold_rule not in HOLD_RULES:
         raise CalibrationError(f"hold_rule must be one of {HOLD_RULES}, got {hold_rule!r}")
+    if not isinstance(clenched_lateral, bool):
+        raise CalibrationError(f"clenched_lateral must be True or False, got "
+                               f"{clenched_lateral!r}")
     for name, value, default in (("held_values", held_values, "as-held"),
                                  ("jackknife_unit", jackknife_unit, "orientation"),
-                                 ("hold_rule", hold_rule, "imprecise")):
-        if value != default and known_loads is None:
-            raise CalibrationError(f"{name}: only with known_loads (the instrument's "
-                                   f"identification through the load path)")
+                                 ("hold_rule", hold_rule, "imprecise"),
+                                 ("clenched_lateral", clenched_lateral, False)):
+        if value != default and known_loads is None and prior_refit != "identified":
+            raise CalibrationError(f"{name}: only with known_loads or prior_refit='identified' "
+                                   f"(the instrument's identification through the load path)")
     if known_loads is not None and not free_space:
         raise CalibrationError("known_loads: only without an ATI (free_space=True, "
                                "--free-space); an ATI calibration reads the loads it measures")
@@ -424,16 +437,17 @@ def calibrate(checkpoint: str | Path, data_dir: str | Path, out: str | Path, *,
                                    f"one of {data_dir}'s: give the known loads their own paths")
         chosen = chosen + known
     instrument = None
-    if loads_root is not None:
+    if loads_root is not None or prior_refit == "identified":
         from psmforce.identification.errors import IdentificationInputError
         try:
             from psmforce.identification.prior_selection import DESIGN_TOLERANCE
             instrument = instrument_report(identify_instrument(
                 chosen, design_tolerance=DESIGN_TOLERANCE if held_values == "checked" else None,
-                jackknife_unit=jackknife_unit, hold_rule=hold_rule))
+                jackknife_unit=jackknife_unit, hold_rule=hold_rule,
+                clenched_lateral=clenched_lateral))
         except IdentificationInputError as err:
-            raise CalibrationError(f"{known_loads}: identifying the instrument through the "
-                                   f"load path: {err}") from None
+            raise CalibrationError(f"{known_loads or data_dir}: identifying the instrument "
+                                   f"through the load path: {err}") from None
     train_trials, val_trials = split_validation(chosen, VALIDATION_FRACTION, seed)
     calibration = Dataset(dataset.root, chosen, dataset.metadata)
     prior_report = None
