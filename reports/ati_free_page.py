@@ -285,6 +285,9 @@ ATI_FREE_ROWS = {
     "network_prior:identified:free+self": "(b'') (b)'s recordings, the instrument identified "
                                           "with the clenches' lateral forces, its prior alone "
                                           "on Fx and Fy (--network-prior trained)",
+    "free_offsets:network_prior:identified:free+self": "(b''') as (b''), the lateral "
+                                                       "offsets never held "
+                                                       "(--free-lateral-offsets)",
     "ati_same_minutes": "(d) ATI: (c)'s minutes",
     "ati_same_minutes_self": "(d_b) ATI: (b)'s minutes",
     "ati_same_minutes_paired": "(d') ATI: (c')'s minutes", "ati_full": "(e) ATI: full data",
@@ -924,6 +927,59 @@ def network_prior_table(result: dict) -> str:
              "refitted prior); source as is: the source hybrid uncalibrated.")
     return _rows_against_references(result, records, carried, NETWORK_PRIOR_FRESH_SEEDS, rows,
                                     pairs, goals, intro)
+
+
+def self_loading_table(result: dict) -> str:
+    """(b)'s recordings through the network-prior recipe, the instrument identified with the
+    clenched samples' lateral forces counted (:data:`studies.ati_free.SELF_LOADING_ARM`:
+    ``psmforce calibrate --free-space --prior-refit identified --hold-rule unresolved
+    --clenched-lateral --no-finetune --network-off Fx Fy --network-prior trained``, no known
+    loads): per seed its causal errors beside the source hybrid as it was, (d_b) and (e), with
+    the lateral cross-talk it carried against the drawn tool's; paired ratios on the seeds
+    declared for it (:data:`studies.ati_free.SELF_LOADING_FRESH_SEEDS`) and on the others; the
+    goal on those fresh seeds, on all three axes and laterally."""
+    from studies.ati_free import SELF_LOADING_ARM, SELF_LOADING_FRESH_SEEDS
+    return _self_loading(result, SELF_LOADING_ARM, SELF_LOADING_FRESH_SEEDS, "(b'')", (),
+                         "`--prior-refit identified --hold-rule unresolved --clenched-lateral "
+                         "--no-finetune --network-off Fx Fy --network-prior trained`")
+
+
+def self_offsets_table(result: dict) -> str:
+    """:func:`self_loading_table` for :data:`studies.ati_free.SELF_OFFSETS_ARM` (the same with
+    ``--free-lateral-offsets``), beside (b'') and paired with it too, judged on
+    :data:`studies.ati_free.SELF_OFFSETS_FRESH_SEEDS`."""
+    from studies.ati_free import SELF_LOADING_ARM, SELF_OFFSETS_ARM, SELF_OFFSETS_FRESH_SEEDS
+    return _self_loading(result, SELF_OFFSETS_ARM, SELF_OFFSETS_FRESH_SEEDS, "(b''')",
+                         ((SELF_LOADING_ARM, "(b'')"),),
+                         "(b'') with `--free-lateral-offsets`")
+
+
+def _self_loading(result: dict, arm: str, declared, name: str, beside, recipe: str) -> str:
+    """The per-seed table, paired ratios and goal of one self-loading row ``arm`` (``name``;
+    ``beside``: other rows shown and paired with it; ``recipe``: what it is)."""
+    from psmforce.estimators.training.calibrate import CARRIED_AXES
+    from studies.ati_free import GOALS
+    seeds = [k for k, r in result["records"].items() if arm in r]
+    if not seeds:
+        raise ValueError(f"the study has no {arm} row")
+    runs = {k: result["runs"][k][arm] for k in seeds}
+    carried = {k: (runs[k]["prior"] or {}).get("held_at_identified", {}) for k in seeds}
+    rows = ((arm, name), *beside, ("source", "source as is"),
+            ("ati_same_minutes_self", "(d_b)"), ("ati_full", "(e)"))
+    pairs = [(arm, ref) for ref, _ in rows[1:]]
+
+    def recovered(k: str) -> str:
+        truth = runs[k]["prior_against_truth"]
+        cells = [f"{term} {truth[term]['fitted']:.4f} / {truth[term]['truth']:.4f}"
+                 for term in CARRIED_AXES.values() if term in carried[k]]
+        return "; ".join(cells) or "none carried"
+    intro = (f"{name}: {recipe} on (b)'s recordings (free space and the excitation's clenches, "
+             "no weight)",
+             "Source as is: the source hybrid uncalibrated (the row's Fz by construction); "
+             f"(d_b): the ATI calibration on as many minutes as {name} used.")
+    return _rows_against_references(
+        result, {k: dict(result["records"][k]) for k in seeds}, carried, declared, rows, pairs,
+        {arm: GOALS[arm]}, intro, ("cross-talk carried: fitted / the drawn tool's", recovered))
 
 
 def _unresolved_rows(result: dict, subject: str) -> tuple[list[str], dict, dict]:

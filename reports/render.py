@@ -70,6 +70,7 @@ ATI_FREE_UNRESOLVED = ROOT / "results" / "benchmarks" / "ati_free_unresolved.jso
 ATI_FREE_NETWORK_OFF = ROOT / "results" / "benchmarks" / "ati_free_network_off.json"
 ATI_FREE_PRIOR_ONLY = ROOT / "results" / "benchmarks" / "ati_free_prior_only.json"
 ATI_FREE_NETWORK_PRIOR = ROOT / "results" / "benchmarks" / "ati_free_network_prior.json"
+ATI_FREE_SELF_LOADING = ROOT / "results" / "benchmarks" / "ati_free_self_loading.json"
 ATI_FREE_IDENTIFICATION_BLIND_PAIRS_CHECKED = (
     ROOT / "results" / "benchmarks" / "ati_free_identification_blind_pairs_checked.json")
 COMPARISON = ROOT / "results" / "ports" / "none" / "results.json"
@@ -241,6 +242,10 @@ BLOCKS = (
     (ATI_FREE, "ati-free-prior-only", ATI_FREE_PRIOR_ONLY, ati_free_page.prior_only_table),
     (ATI_FREE, "ati-free-network-prior", ATI_FREE_NETWORK_PRIOR,
      ati_free_page.network_prior_table),
+    (ATI_FREE, "ati-free-self-loading", ATI_FREE_SELF_LOADING,
+     ati_free_page.self_loading_table),
+    (ATI_FREE, "ati-free-self-offsets", ATI_FREE_SELF_LOADING,
+     ati_free_page.self_offsets_table),
     (ATI_FREE, "instrument-identification-tables", ATI_FREE_IDENTIFICATION,
      ati_free_page.instrument_identification_tables),
     (ATI_FREE, "load-path-holds", LOAD_PATH_HOLDS, ati_free_page.load_path_holds_table),

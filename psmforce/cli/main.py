@@ -303,6 +303,11 @@ def _parser() -> argparse.ArgumentParser:
                         "counts the lateral forces of the samples where the jaws are clenched "
                         "on each other, which pin down the sensor's lateral cross-talk of the "
                         "axial force without a weight (docs/ati_free.md section 4.8)")
+    p.add_argument("--free-lateral-offsets", action="store_true",
+                   help="with --known-loads or --prior-refit identified: the identification "
+                        "never holds the HEX10's lateral force offsets at 0 (the tare's "
+                        "residual, this mount's), so the cross-talk beside each does not take "
+                        "its share of the rest level (docs/ati_free.md section 4.8)")
     p.add_argument("--prior-refit", choices=options.PRIOR_REFITS, default="all",
                    help="with --free-space: 'identified' holds what the instrument's "
                         "identification through the load path (on the known loads and the "

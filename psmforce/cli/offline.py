@@ -313,7 +313,8 @@ def calibrate_command(args) -> dict:
     for flag, value, default in (("--held-values", args.held_values, "as-held"),
                                  ("--jackknife-unit", args.jackknife_unit, "orientation"),
                                  ("--hold-rule", args.hold_rule, "imprecise"),
-                                 ("--clenched-lateral", args.clenched_lateral, False)):
+                                 ("--clenched-lateral", args.clenched_lateral, False),
+                                 ("--free-lateral-offsets", args.free_lateral_offsets, False)):
         if value != default and args.known_loads is None and args.prior_refit != "identified":
             raise ValueError(f"{flag}: only with --known-loads or --prior-refit identified (the "
                              f"instrument's identification through the load path)")
@@ -331,7 +332,8 @@ def calibrate_command(args) -> dict:
                        prior_refit=args.prior_refit, hold_rule=args.hold_rule,
                        network_off=network_off, finetune=not args.no_finetune,
                        network_prior=args.network_prior,
-                       clenched_lateral=args.clenched_lateral)
+                       clenched_lateral=args.clenched_lateral,
+                       free_lateral_offsets=args.free_lateral_offsets)
     record = result["calibration"]
     print(f"calibrated on {len(record['trials'])} trials, {record['minutes_used']:.2f} min "
           f"(Free {record['minutes_by_condition']['Free']:.2f}, Traction "

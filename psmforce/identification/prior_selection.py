@@ -57,7 +57,12 @@ channel's cross-talk a span of the axial reading that free space alone does not 
 axial force stays near the pretension's rest level, and the offset and the cross-talk are
 correlated above 0.99); left out, a cross-talk the clenches would pin down is held at its
 design value 0 and the offset takes its share of the rest level, which a loaded cable then
-carries into the lateral estimate in contact.
+carries into the lateral estimate in contact. The converse holds as well: a lateral offset
+held at its design value 0 (listed, for example, for its correlation with the axial offset,
+which the cross-talk reads the axial force less) leaves its share of the rest level to the
+cross-talk. A sensor offset has no design value (the tare leaves a residual, this mount's), so
+``free_lateral_offsets`` never holds ``bias_fx`` and ``bias_fy``: listed, they stay free and
+are named not identifiable, and the slope beside them is judged on its own.
 
 Read through the load path, the tip force's moments are taken where the wrist sags, and the sag
 depends on the law's own pretension, radii and friction (:mod:`~psmforce.identification.
@@ -157,6 +162,9 @@ MAX_ROUNDS = 6
 JACKKNIFE_GROUPS = 4
 """Groups of whole trials the jackknife leaves out one at a time (trial k goes to group
 k mod 4, so every group holds every condition)."""
+LATERAL_OFFSETS = ("bias_fx", "bias_fy")
+"""The HEX10's lateral force offsets: each the intercept of its channel's line in the axial
+reading, whose slope is the cross-talk (``fit_identified(free_lateral_offsets=True)``)."""
 HOLD_RULES = ("imprecise", "unresolved")
 """What :func:`fit_identified` (``hold_rule``) holds at its design value among the parameters listed
 for their precision alone: ``"imprecise"`` every one (the 10 % rule; every figure written before
@@ -183,11 +191,12 @@ def design_rejected(report: dict, params, design: dict,
 
 
 def _holding(report: dict, params, design: dict, hold_rule: str,
-             tolerance: dict) -> tuple[dict, dict]:
+             tolerance: dict, free_offsets=()) -> tuple[dict, dict]:
     """(what ``report`` lists that ``hold_rule`` holds: name -> reason, what it keeps free as
     estimated: name -> uncertainty); the design values that may be off: those ``tolerance``
-    gives a tolerance above 0, else those :data:`DESIGN_TOLERANCE` lists."""
-    listed = report["not_identifiable"]
+    gives a tolerance above 0, else those :data:`DESIGN_TOLERANCE` lists; ``free_offsets``
+    are never held (listed, they stay free and not identified)."""
+    listed = {n: why for n, why in report["not_identifiable"].items() if n not in free_offsets}
     if hold_rule == "imprecise":
         return dict(listed), {}
     uncertain = [n for n, t in tolerance.items() if t > 0] if tolerance else DESIGN_TOLERANCE
@@ -296,7 +305,8 @@ def fit_identified(recordings, *, psm=None, provenance=None, design: dict | None
                    pose_unit: str = "orientation",
                    design_tolerance: dict | None = None,
                    hold_rule: str = "imprecise",
-                   clenched_lateral: bool = False) -> InternalForcePrior:
+                   clenched_lateral: bool = False,
+                   free_lateral_offsets: bool = False) -> InternalForcePrior:
     """Fit the prior with only what the data identify free (module docstring); the rest held at
     ``design`` (default :data:`DESIGN`; a partial dict overrides some entries). ``inputs``: what
     the law reads as wrist torques (:meth:`InternalForcePrior.fit`); ``jackknife_labels``: each
@@ -317,6 +327,8 @@ def fit_identified(recordings, *, psm=None, provenance=None, design: dict | None
     ``info["selection"]["estimated"]`` (value, uncertainty: :func:`design_rejected`).
     ``clenched_lateral``: with the load path, every fit counts the clenched samples' lateral
     force channels (:meth:`InternalForcePrior.fit`; module docstring, "The jaws clenched").
+    ``free_lateral_offsets``: the lateral force offsets (:data:`LATERAL_OFFSETS`) are never held
+    at their design value 0 (module docstring, "The jaws clenched").
 
     With the load path, the rounds sag the wrist with the design's values
     (:mod:`~psmforce.identification.load_path`); once they have nothing left to hold, the
@@ -342,6 +354,9 @@ def fit_identified(recordings, *, psm=None, provenance=None, design: dict | None
                                           or inputs != "load_path"):
         raise IdentificationInputError(f"clenched_lateral: True only with inputs='load_path', "
                                        f"got {clenched_lateral!r} with {inputs!r}")
+    if not isinstance(free_lateral_offsets, bool):
+        raise IdentificationInputError(f"free_lateral_offsets must be True or False, got "
+                                       f"{free_lateral_offsets!r}")
     unknown = sorted(set(design) - set(NAMES))
     if unknown:
         raise IdentificationInputError(f"design: unknown parameters {unknown} (one of {NAMES})")
@@ -354,7 +369,8 @@ def fit_identified(recordings, *, psm=None, provenance=None, design: dict | None
     select = dict(frames=frames, fixed=fixed, why_fixed=why_fixed, rounds=rounds, design=design,
                   psm=psm, provenance=provenance, max_rounds=max_rounds, max_iter=max_iter,
                   inputs=inputs, groups=groups, labels=jackknife_labels, poses=poses,
-                  tolerance=tolerance, hold_rule=hold_rule, clenched_lateral=clenched_lateral)
+                  tolerance=tolerance, hold_rule=hold_rule, clenched_lateral=clenched_lateral,
+                  free_offsets=LATERAL_OFFSETS if free_lateral_offsets else ())
     prior = _select(compliance=None, **select)
     sag = None
     if inputs == "load_path":
@@ -383,6 +399,7 @@ def fit_identified(recordings, *, psm=None, provenance=None, design: dict | None
         "rounds": rounds, "fixed": why_fixed,
         "hold_rule": hold_rule,
         **({"clenched_lateral": True} if clenched_lateral else {}),
+        **({"free_lateral_offsets": True} if free_lateral_offsets else {}),
         "identified": [n for n in free if n not in still and n not in estimated],
         "estimated": {n: {"value": float(prior.params[NAMES.index(n)]), "uncertainty": u}
                       for n, u in estimated.items()},
@@ -429,7 +446,7 @@ def _tiers(listed: dict) -> list[dict]:
 
 def _select(*, frames, fixed, why_fixed, rounds, design, psm, provenance, max_rounds, max_iter,
             inputs, groups, labels, poses, compliance, tolerance,
-            hold_rule, clenched_lateral) -> InternalForcePrior:
+            hold_rule, clenched_lateral, free_offsets) -> InternalForcePrior:
     """Rounds of :func:`fit_identified` (fit, report with the jackknife, hold one tier of what
     it lists; the orientations' jackknife, ``poses`` from :func:`_pose_groups`, once nothing
     else is listed) with the load path's sag ``compliance`` (None: the design's), at most
@@ -449,14 +466,16 @@ def _select(*, frames, fixed, why_fixed, rounds, design, psm, provenance, max_ro
                                compliance=compliance)
         if jack is not None:
             add_trial_spread(report, prior.params, jack, groups)
-        held, estimated = _holding(report, prior.params, design, hold_rule, tolerance)
+        held, estimated = _holding(report, prior.params, design, hold_rule, tolerance,
+                                   free_offsets)
         to_fix = next((t for t in _tiers(held) if t), {})
         if not to_fix and poses is not None:
             pose_jack = trial_jackknife(frames, prior, fixed, poses[1], psm, max_iter, inputs,
                                         poses[0], compliance=compliance)
             if pose_jack is not None:
                 add_trial_spread(report, prior.params, pose_jack, poses[1], over=poses[2])
-            held, estimated = _holding(report, prior.params, design, hold_rule, tolerance)
+            held, estimated = _holding(report, prior.params, design, hold_rule, tolerance,
+                                       free_offsets)
             to_fix = next((t for t in _tiers(held) if t), {})
         listed = dict(report["not_identifiable"])
         rounds.append({"fixed": sorted(fixed), "converged": prior.converged,

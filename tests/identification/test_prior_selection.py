@@ -466,3 +466,34 @@ def test_the_unresolved_rule_keeps_free_only_what_the_data_place_off_its_design_
     assert "asymmetry_pitch (+-30%)" in info["verdict"]
     with pytest.raises(IdentificationInputError, match="hold_rule must be one of"):
         fit_identified([object()], hold_rule="loose")
+
+
+def test_free_lateral_offsets_are_never_held_whatever_their_reason(monkeypatch):
+    """``free_lateral_offsets=True``: ``bias_fx`` and ``bias_fy`` listed (here for a structural
+    correlation with ``bias_fz``, which the cross-talk reads the axial force less) stay free and
+    are named still not identifiable, while the axial offset is judged as before; without the option the same listing holds ``bias_fy`` at its design value 0. Anything
+    but a bool is refused by name."""
+    import psmforce.identification.prior_selection as selection
+    from psmforce.identification.errors import IdentificationInputError
+    values = {**DESIGN, "bias_fy": -0.15, "bias_fz": -1.0, "crosstalk_fy": 0.02}
+    combination = "correlation +0.9926 with bias_fz: the data see a combination of the two"
+    reasons = {"bias_fy": combination, "bias_fx": combination,
+               "bias_fz": "slack samples beyond the effort noise: 0 (pitch pair)"}
+
+    def fit(frames, *, fixed, **kw):
+        return InternalForcePrior(
+            params=np.array([fixed.get(n, values[n]) for n in NAMES]), converged=True,
+            info={"identifiability": {
+                "not_identifiable": {n: r for n, r in reasons.items() if n not in fixed},
+                "standard_errors": {n: 0.0 for n in NAMES if n not in fixed}},
+                "bounds_hit": [], "provenance": {}})
+    monkeypatch.setattr(selection.InternalForcePrior, "fit", staticmethod(fit))
+    held = fit_identified([object()], hold_rule="unresolved").info["selection"]
+    assert {"bias_fx", "bias_fy", "bias_fz"} <= set(held["fixed"])
+    sel = fit_identified([object()], hold_rule="unresolved",
+                         free_lateral_offsets=True).info["selection"]
+    assert sel["free_lateral_offsets"] is True and "free_lateral_offsets" not in held
+    assert "bias_fz" in sel["fixed"] and not {"bias_fx", "bias_fy"} & set(sel["fixed"])
+    assert {"bias_fx", "bias_fy"} <= set(sel["still_not_identifiable"])
+    with pytest.raises(IdentificationInputError, match="free_lateral_offsets must be True or"):
+        fit_identified([object()], free_lateral_offsets=1)

@@ -406,3 +406,35 @@ def test_the_network_prior_calibration_is_judged_on_its_own_fresh_seeds():
     goals = text.split("the three axes.")[1]
     assert "| (e) | 1.10x (paper Fz) | 1.10x (paper Fz) | 1.10x (paper Fz) | <= 1.3x |" in goals
     assert "on the design seeds (216)" in text
+
+
+def test_the_self_loading_calibration_is_judged_on_its_own_fresh_seeds():
+    """(b)'s recordings with the clenches' lateral forces (``SELF_LOADING_ARM``): per seed
+    beside the source as it was, (d_b) and (e), with the cross-talk it carried against the drawn
+    tool's; ratios and the 1.5x goal on its declared fresh seeds (221-223) apart from the design
+    seeds; a study without the row is refused."""
+    from reports.ati_free_page import self_loading_table
+    from studies.ati_free import SELF_LOADING_ARM
+
+    rows = {SELF_LOADING_ARM: score(1.0, 1.6, 2.2), "source": score(3.0, 3.0, 2.2),
+            "ati_same_minutes_self": score(1.0, 1.0, 2.0), "ati_full": score(1.0, 1.0, 2.0)}
+    seeds = ("218", "221", "222", "223")
+    truth = {"crosstalk_fx": {"fitted": 0.0051, "truth": 0.005},
+             "crosstalk_fy": {"fitted": 0.0, "truth": 0.004}}
+    result = {"records": {k: rows for k in seeds},
+              "runs": {k: {SELF_LOADING_ARM: {
+                  "prior": {"held_at_identified": {"crosstalk_fx": 0.0051}},
+                  "prior_against_truth": truth}} for k in seeds}}
+    text = self_loading_table(result)
+    assert "| 222 (fresh) | Fx | 1.00 / 1.60 / 2.20 | 3.00 / 3.00 / 2.20 | " \
+        "1.00 / 1.00 / 2.00 | 1.00 / 1.00 / 2.00 | crosstalk_fx 0.0051 / 0.0050 |" in text
+    assert "| 218 | Fx |" in text and "on the design seeds (218)" in text
+    fresh = text.split("on the fresh seeds (221, 222, 223)")[1].split("design seeds")[0]
+    assert "| (b'') / (e) | 1.00x [1.00, 1.00] | 1.60x [1.60, 1.60] | " \
+        "1.10x [1.10, 1.10] |" in fresh
+    goals = text.split("the axes Fx, Fy.")[1].split("the three axes.")[0]
+    assert "| (d_b) | 1.60x (paper Fy) **miss** | 1.60x (paper Fy) **miss** | " \
+        "1.60x (paper Fy) **miss** | <= 1.5x |" in goals
+    with pytest.raises(ValueError, match="has no network_prior:identified:free\\+self row"):
+        self_loading_table({**result, "records": {k: {"source": score(1, 1, 1)}
+                                                  for k in seeds}})

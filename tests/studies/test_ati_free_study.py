@@ -161,12 +161,12 @@ def test_the_network_is_kept_out_of_exactly_the_lateral_axes_whose_crosstalk_was
 
 
 def test_each_claim_is_judged_on_the_seeds_declared_for_it():
-    """The network-prior row's fresh seeds, and then the self-loading row's, were declared for
-    it alone, after every seed any earlier claim was judged on (each of those a design seed for
+    """The network-prior row's fresh seeds, then the self-loading rows', were each declared for
+    its row alone, after every seed any earlier claim was judged on (each of those a design seed for
     it)."""
     from studies.ati_free import (FRESH_SEEDS_BY_CLAIM, NETWORK_PRIOR_FRESH_SEEDS,
-                                  SELF_LOADING_ARM, SELF_LOADING_FRESH_SEEDS)
-    order = [PRIOR_ONLY_ARM, NETWORK_PRIOR_ARM, SELF_LOADING_ARM]
+                                  SELF_LOADING_ARM, SELF_LOADING_FRESH_SEEDS, SELF_OFFSETS_ARM)
+    order = [PRIOR_ONLY_ARM, NETWORK_PRIOR_ARM, SELF_LOADING_ARM, SELF_OFFSETS_ARM]
     assert FRESH_SEEDS_BY_CLAIM[NETWORK_PRIOR_ARM] == NETWORK_PRIOR_FRESH_SEEDS
     assert FRESH_SEEDS_BY_CLAIM[SELF_LOADING_ARM] == SELF_LOADING_FRESH_SEEDS
     assert FRESH_SEEDS_BY_CLAIM[PRIOR_ONLY_ARM] != NETWORK_PRIOR_FRESH_SEEDS

@@ -217,7 +217,7 @@ def instrument_frames(trials: list[Trial]) -> list:
 def identify_instrument(trials: list[Trial], crosstalk: bool | str | None = None,
                         design_tolerance: dict | None = None,
                         jackknife_unit: str = "orientation", hold_rule: str = "imprecise",
-                        clenched_lateral: bool = False):
+                        clenched_lateral: bool = False, free_lateral_offsets: bool = False):
     """The instrument identified from recordings whose external force is known (module
     docstring, "The instrument identified"): the load path's
     :func:`~psmforce.identification.prior_selection.fit_identified` on every trial, the
@@ -235,7 +235,9 @@ def identify_instrument(trials: list[Trial], crosstalk: bool | str | None = None
     ``hold_rule``: what it holds among the parameters listed for their precision alone
     (:data:`~psmforce.identification.prior_selection.HOLD_RULES`); ``clenched_lateral``: the
     clenched samples' lateral forces count (the jaws clenched on each other pin down the
-    sensor's lateral cross-talk of the axial reading; ``fit_identified``)."""
+    sensor's lateral cross-talk of the axial reading; ``fit_identified``);
+    ``free_lateral_offsets``: the lateral force offsets are never held at 0 (the intercepts
+    beside that cross-talk; ``fit_identified``)."""
     from psmforce.identification.prior_selection import design_groups, fit_identified
     frames = instrument_frames(trials)
     masses = [t.params.get(KNOWN_LOAD_FIELD) if t.condition == KNOWN_LOAD_CONDITION else None
@@ -245,7 +247,8 @@ def identify_instrument(trials: list[Trial], crosstalk: bool | str | None = None
                           pose_unit=jackknife_unit,
                           provenance={"trials": [t.path for t in trials]}, crosstalk=crosstalk,
                           design_tolerance=design_tolerance, hold_rule=hold_rule,
-                          clenched_lateral=clenched_lateral)
+                          clenched_lateral=clenched_lateral,
+                          free_lateral_offsets=free_lateral_offsets)
 
 
 def instrument_report(prior) -> dict:
@@ -324,7 +327,7 @@ def calibrate(checkpoint: str | Path, data_dir: str | Path, out: str | Path, *,
               held_values: str = "as-held", jackknife_unit: str = "orientation",
               hold_rule: str = "imprecise", network_off="none",
               finetune: bool = True, network_prior: str = "calibrated",
-              clenched_lateral: bool = False) -> dict:
+              clenched_lateral: bool = False, free_lateral_offsets: bool = False) -> dict:
     """Calibrate a trained checkpoint to the instrument recorded in ``data_dir`` from its first
     ``minutes`` of calibration trials (module docstring) and write ``out``. ``seed``: the validation
     split and the finetuning's shuffling; ``train_config``: a
@@ -355,7 +358,8 @@ def calibrate(checkpoint: str | Path, data_dir: str | Path, out: str | Path, *,
     ``"imprecise"`` every one, ``"unresolved"`` only those
     whose design value the data do not reject, the others estimated (and carried by
     ``"identified"``). ``clenched_lateral`` (with the identification): it counts the clenched
-    samples' lateral forces (:func:`identify_instrument`). ``network_off``: the axes whose estimate is the prior alone
+    samples' lateral forces; ``free_lateral_offsets``: it never holds the lateral force offsets
+    (:func:`identify_instrument`). ``network_off``: the axes whose estimate is the prior alone
     (:func:`network_off_axes`; ``"carried"`` only with ``prior_refit="identified"``).
     ``finetune=False``: the prior refitted, the network left as trained (module docstring,
     "Without finetuning"); refused for a model without a prior (nothing would change).
@@ -384,13 +388,15 @@ def calibrate(checkpoint: str | Path, data_dir: str | Path, out: str | Path, *,
     from psmforce.identification.prior_selection import HOLD_RULES
     if hold_rule not in HOLD_RULES:
         raise CalibrationError(f"hold_rule must be one of {HOLD_RULES}, got {hold_rule!r}")
-    if not isinstance(clenched_lateral, bool):
-        raise CalibrationError(f"clenched_lateral must be True or False, got "
-                               f"{clenched_lateral!r}")
+    for name, value in (("clenched_lateral", clenched_lateral),
+                        ("free_lateral_offsets", free_lateral_offsets)):
+        if not isinstance(value, bool):
+            raise CalibrationError(f"{name} must be True or False, got {value!r}")
     for name, value, default in (("held_values", held_values, "as-held"),
                                  ("jackknife_unit", jackknife_unit, "orientation"),
                                  ("hold_rule", hold_rule, "imprecise"),
-                                 ("clenched_lateral", clenched_lateral, False)):
+                                 ("clenched_lateral", clenched_lateral, False),
+                                 ("free_lateral_offsets", free_lateral_offsets, False)):
         if value != default and known_loads is None and prior_refit != "identified":
             raise CalibrationError(f"{name}: only with known_loads or prior_refit='identified' "
                                    f"(the instrument's identification through the load path)")
@@ -444,7 +450,7 @@ def calibrate(checkpoint: str | Path, data_dir: str | Path, out: str | Path, *,
             instrument = instrument_report(identify_instrument(
                 chosen, design_tolerance=DESIGN_TOLERANCE if held_values == "checked" else None,
                 jackknife_unit=jackknife_unit, hold_rule=hold_rule,
-                clenched_lateral=clenched_lateral))
+                clenched_lateral=clenched_lateral, free_lateral_offsets=free_lateral_offsets))
         except IdentificationInputError as err:
             raise CalibrationError(f"{known_loads or data_dir}: identifying the instrument "
                                    f"through the load path: {err}") from None
