@@ -192,8 +192,9 @@ Fx Fy --network-prior trained``, the instrument identified through the load path
 recordings alone with the clenched samples' lateral forces counted. Chosen after the
 identification on (b)'s recordings of 212-217 was seen to carry the lateral cross-talk on most
 of them that way, where without the clenches it carried none on 212 and 213 (a throwaway script,
-no contact score), so every seed up to 220 is a design seed for it; judged on :data:`SELF_LOADING_FRESH_SEEDS`, declared with it
-before any run on them, against (e) and (d_b), the ATI calibration on (b)'s minutes."""
+no contact score), so every seed up to 220 is a design seed for it; judged on
+:data:`SELF_LOADING_FRESH_SEEDS`, declared with it before any run on them, against (e) and
+(d_b), the ATI calibration on (b)'s minutes."""
 SELF_LOADING_FRESH_SEEDS = (221, 222, 223)
 """Bench seeds declared for :data:`SELF_LOADING_ARM` before any run of the study on them."""
 SELF_OFFSETS_ARM = "free_offsets:" + SELF_LOADING_ARM

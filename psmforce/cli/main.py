@@ -283,7 +283,8 @@ def _parser() -> argparse.ArgumentParser:
                         "'known_load_kg'; the force is that weight in the HEX10 frame from the "
                         "recorded joints (docs/ati_free.md)")
     p.add_argument("--held-values", choices=options.HELD_VALUES, default="as-held",
-                   help="with --known-loads or --prior-refit identified: 'checked' also holds what the design values held "
+                   help="with --known-loads or --prior-refit identified: 'checked' also holds "
+                        "what the design values held "
                         "for the instrument, each off by its tolerance, would move beyond its "
                         "needed precision (docs/identification.md section 2; default as-held)")
     p.add_argument("--jackknife-unit", choices=options.JACKKNIFE_UNITS, default="orientation",

@@ -323,10 +323,10 @@ def test_the_hold_rule_is_asked_for_with_the_identification_only(tmp_path, capsy
 def test_the_identifications_options_are_asked_for_with_the_identification_only(
         tmp_path, capsys, option, choices, asked, unknown):
     """``calibrate --held-values checked``, ``--jackknife-unit sign_pair``,
-    ``--clenched-lateral`` and ``--free-lateral-offsets`` set the instrument's identification through the load path, which
-    runs with known loads or ``--prior-refit identified``; without either each is refused by
-    name, by the CLI and by the library, and the library refuses a value it does not know. The
-    CLI's choices are the library's."""
+    ``--clenched-lateral`` and ``--free-lateral-offsets`` set the instrument's identification
+    through the load path, which runs with known loads or ``--prior-refit identified``; without
+    either each is refused by name, by the CLI and by the library, and the library refuses a
+    value it does not know. The CLI's choices are the library's."""
     from psmforce.cli import options
     from psmforce.cli.main import main
     from psmforce.estimators.training import calibrate as calibration

@@ -471,8 +471,9 @@ def test_the_unresolved_rule_keeps_free_only_what_the_data_place_off_its_design_
 def test_free_lateral_offsets_are_never_held_whatever_their_reason(monkeypatch):
     """``free_lateral_offsets=True``: ``bias_fx`` and ``bias_fy`` listed (here for a structural
     correlation with ``bias_fz``, which the cross-talk reads the axial force less) stay free and
-    are named still not identifiable, while the axial offset is judged as before; without the option the same listing holds ``bias_fy`` at its design value 0. Anything
-    but a bool is refused by name."""
+    are named still not identifiable, while the axial offset is judged as before; without the
+    option the same listing holds ``bias_fy`` at its design value 0. Anything but a bool is
+    refused by name."""
     import psmforce.identification.prior_selection as selection
     from psmforce.identification.errors import IdentificationInputError
     values = {**DESIGN, "bias_fy": -0.15, "bias_fz": -1.0, "crosstalk_fy": 0.02}
