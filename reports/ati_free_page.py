@@ -288,6 +288,9 @@ ATI_FREE_ROWS = {
     "free_offsets:network_prior:identified:free+self": "(b''') as (b''), the lateral "
                                                        "offsets never held "
                                                        "(--free-lateral-offsets)",
+    "least_uncertain:free_offsets:network_prior:identified:free+self":
+        "(b'''') as (b'''), the design value held only where better known "
+        "(--hold-rule least-uncertain)",
     "ati_same_minutes": "(d) ATI: (c)'s minutes",
     "ati_same_minutes_self": "(d_b) ATI: (b)'s minutes",
     "ati_same_minutes_paired": "(d') ATI: (c')'s minutes", "ati_full": "(e) ATI: full data",
@@ -952,6 +955,17 @@ def self_offsets_table(result: dict) -> str:
     return _self_loading(result, SELF_OFFSETS_ARM, SELF_OFFSETS_FRESH_SEEDS, "(b''')",
                          ((SELF_LOADING_ARM, "(b'')"),),
                          "(b'') with `--free-lateral-offsets`")
+
+
+def self_least_table(result: dict) -> str:
+    """:func:`self_loading_table` for :data:`studies.ati_free.SELF_LEAST_ARM` (the offsets
+    row with ``--hold-rule least-uncertain``), beside (b''') and (b''), paired with them too,
+    judged on :data:`studies.ati_free.SELF_LEAST_FRESH_SEEDS`."""
+    from studies.ati_free import (SELF_LEAST_ARM, SELF_LEAST_FRESH_SEEDS, SELF_LOADING_ARM,
+                                  SELF_OFFSETS_ARM)
+    return _self_loading(result, SELF_LEAST_ARM, SELF_LEAST_FRESH_SEEDS, "(b'''')",
+                         ((SELF_OFFSETS_ARM, "(b''')"), (SELF_LOADING_ARM, "(b'')")),
+                         "(b''') with `--hold-rule least-uncertain`")
 
 
 def _self_loading(result: dict, arm: str, declared, name: str, beside, recipe: str) -> str:

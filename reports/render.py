@@ -246,6 +246,8 @@ BLOCKS = (
      ati_free_page.self_loading_table),
     (ATI_FREE, "ati-free-self-offsets", ATI_FREE_SELF_LOADING,
      ati_free_page.self_offsets_table),
+    (ATI_FREE, "ati-free-self-least", ATI_FREE_SELF_LOADING,
+     ati_free_page.self_least_table),
     (ATI_FREE, "instrument-identification-tables", ATI_FREE_IDENTIFICATION,
      ati_free_page.instrument_identification_tables),
     (ATI_FREE, "load-path-holds", LOAD_PATH_HOLDS, ati_free_page.load_path_holds_table),

@@ -296,9 +296,11 @@ def _parser() -> argparse.ArgumentParser:
                    help="with --known-loads or --prior-refit identified: what the instrument's "
                         "identification holds at "
                         "design values among the parameters it lists for their precision alone: "
-                        "every one (imprecise, the default), or only those whose design value "
-                        "the data do not reject (unresolved: the others kept free, named "
-                        "estimated, and carried by --prior-refit identified)")
+                        "every one (imprecise, the default), only those whose design value "
+                        "the data do not reject (unresolved), or only those whose design value "
+                        "is known at least as well as the data know the estimate "
+                        "(least-uncertain); the others kept free, named estimated, and carried "
+                        "by --prior-refit identified")
     p.add_argument("--clenched-lateral", action="store_true",
                    help="with --known-loads or --prior-refit identified: the identification "
                         "counts the lateral forces of the samples where the jaws are clenched "

@@ -191,7 +191,7 @@ JACKKNIFE_UNITS = ("orientation", "sign_pair")
 """``--jackknife-unit`` (psmforce.estimators.training.ati_free.JACKKNIFE_UNITS, without importing
 the library)."""
 
-HOLD_RULES = ("imprecise", "unresolved")
+HOLD_RULES = ("imprecise", "unresolved", "least-uncertain")
 """``calibrate --hold-rule`` (psmforce.identification.prior_selection.HOLD_RULES, without
 importing the library)."""
 

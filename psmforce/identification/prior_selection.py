@@ -45,7 +45,13 @@ values' shift (:func:`design_rejected`). Held, such a parameter would sit at a v
 place beyond the estimate's own uncertainty, the worse of the two; and every parameter
 correlated with it would take its error, so a round that holds it can list what it did not
 list before. It is named ``estimated`` with that uncertainty (the verdict's own list), not
-identified.
+identified. ``"least-uncertain"`` keeps the better known of the two values instead: such a
+parameter is held only where its design value's tolerance is no larger than the data's
+uncertainty about the estimate (3 of its largest standard errors plus the held values' shift,
+:func:`data_uncertainty`), else kept free and named estimated, whether or not the data reject
+the design value. A design value known exactly is held. Where the tool-to-tool spread is wide
+and the data narrow, as a sensor's cross-talk read across the clenches (below), the estimate is
+the better value even when it lies within its own uncertainty of the design's.
 
 The jaws clenched on each other (``clenched_lateral``, through the load path). The load path
 leaves clenched samples out: the grip is internal to the jaws, no tip force shows it, and it
@@ -165,11 +171,13 @@ k mod 4, so every group holds every condition)."""
 LATERAL_OFFSETS = ("bias_fx", "bias_fy")
 """The HEX10's lateral force offsets: each the intercept of its channel's line in the axial
 reading, whose slope is the cross-talk (``fit_identified(free_lateral_offsets=True)``)."""
-HOLD_RULES = ("imprecise", "unresolved")
+HOLD_RULES = ("imprecise", "unresolved", "least-uncertain")
 """What :func:`fit_identified` (``hold_rule``) holds at its design value among the parameters listed
 for their precision alone: ``"imprecise"`` every one (the 10 % rule; every figure written before
 the choice existed); ``"unresolved"`` only those whose design value the data do not reject
-(:func:`design_rejected`), the others kept free and named estimated (module docstring)."""
+(:func:`design_rejected`); ``"least-uncertain"`` only those whose design value is known at
+least as well as the data know the estimate (its tolerance against :func:`data_uncertainty`);
+the others kept free and named estimated (module docstring)."""
 
 
 def design_rejected(report: dict, params, design: dict,
@@ -180,14 +188,21 @@ def design_rejected(report: dict, params, design: dict,
     uncertainty is 3 times the largest of its standard errors in the identifiability ``report``
     (sandwich, every jackknife added) plus the shift the held values' tolerance gives it
     (``held_value_shift``: a bias, added, not a spread)."""
-    kinds = [se for key, se in report.items() if key.endswith("standard_errors")]
-    shift = report.get("held_value_shift", {})
     out = {}
     for name in (n for n in report["standard_errors"] if n in uncertain):
-        uncertainty = 3 * max(kind.get(name, 0.0) for kind in kinds) + shift.get(name, 0.0)
+        uncertainty = data_uncertainty(report, name)
         if abs(float(params[NAMES.index(name)]) - design[name]) > uncertainty:
-            out[name] = float(uncertainty)
+            out[name] = uncertainty
     return out
+
+
+def data_uncertainty(report: dict, name: str) -> float:
+    """How well the data know free parameter ``name`` (SI): 3 times the largest of its
+    standard errors in the identifiability ``report`` (sandwich, every jackknife added) plus the
+    shift the held values' tolerance gives it (``held_value_shift``: a bias, added)."""
+    kinds = [se for key, se in report.items() if key.endswith("standard_errors")]
+    return float(3 * max(kind.get(name, 0.0) for kind in kinds)
+                 + report.get("held_value_shift", {}).get(name, 0.0))
 
 
 def _holding(report: dict, params, design: dict, hold_rule: str,
@@ -199,9 +214,14 @@ def _holding(report: dict, params, design: dict, hold_rule: str,
     listed = {n: why for n, why in report["not_identifiable"].items() if n not in free_offsets}
     if hold_rule == "imprecise":
         return dict(listed), {}
-    uncertain = [n for n, t in tolerance.items() if t > 0] if tolerance else DESIGN_TOLERANCE
-    rejected = design_rejected(report, params, design, uncertain)
-    estimated = {n: rejected[n] for n, why in listed.items() if _tier(why) == 1 and n in rejected}
+    tolerances = {n: t for n, t in tolerance.items() if t > 0} if tolerance else DESIGN_TOLERANCE
+    statistical = [n for n, why in listed.items() if _tier(why) == 1]
+    if hold_rule == "least-uncertain":
+        own = {n: data_uncertainty(report, n) for n in statistical}
+        estimated = {n: u for n, u in own.items() if tolerances.get(n, 0.0) > u}
+    else:
+        rejected = design_rejected(report, params, design, list(tolerances))
+        estimated = {n: rejected[n] for n in statistical if n in rejected}
     return {n: why for n, why in listed.items() if n not in estimated}, estimated
 
 

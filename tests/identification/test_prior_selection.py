@@ -464,6 +464,13 @@ def test_the_unresolved_rule_keeps_free_only_what_the_data_place_off_its_design_
     assert sel["still_not_identifiable"] == []
     assert "estimated (free: the data reject its design value" in info["verdict"]
     assert "asymmetry_pitch (+-30%)" in info["verdict"]
+    # "least-uncertain": twist_gain's tolerance (0.018) exceeds the data's 3 SE (0.006), so its
+    # estimate is kept although the data do not reject the design value; asymmetry_pitch too;
+    # the structural reason and the design value known exactly are held as before
+    least = fit_identified([object()], hold_rule="least-uncertain").info["selection"]
+    assert set(least["estimated"]) == {"asymmetry_pitch", "twist_gain"}
+    assert least["estimated"]["twist_gain"]["uncertainty"] == pytest.approx(0.006)
+    assert {"cable_radius", "distal_com_distance"} <= set(least["fixed"])
     with pytest.raises(IdentificationInputError, match="hold_rule must be one of"):
         fit_identified([object()], hold_rule="loose")
 

@@ -165,8 +165,10 @@ def test_each_claim_is_judged_on_the_seeds_declared_for_it():
     its row alone, after every seed any earlier claim was judged on (each of those a design seed for
     it)."""
     from studies.ati_free import (FRESH_SEEDS_BY_CLAIM, NETWORK_PRIOR_FRESH_SEEDS,
-                                  SELF_LOADING_ARM, SELF_LOADING_FRESH_SEEDS, SELF_OFFSETS_ARM)
-    order = [PRIOR_ONLY_ARM, NETWORK_PRIOR_ARM, SELF_LOADING_ARM, SELF_OFFSETS_ARM]
+                                  SELF_LEAST_ARM, SELF_LOADING_ARM, SELF_LOADING_FRESH_SEEDS,
+                                  SELF_OFFSETS_ARM)
+    order = [PRIOR_ONLY_ARM, NETWORK_PRIOR_ARM, SELF_LOADING_ARM, SELF_OFFSETS_ARM,
+             SELF_LEAST_ARM]
     assert FRESH_SEEDS_BY_CLAIM[NETWORK_PRIOR_ARM] == NETWORK_PRIOR_FRESH_SEEDS
     assert FRESH_SEEDS_BY_CLAIM[SELF_LOADING_ARM] == SELF_LOADING_FRESH_SEEDS
     assert FRESH_SEEDS_BY_CLAIM[PRIOR_ONLY_ARM] != NETWORK_PRIOR_FRESH_SEEDS
