@@ -11,6 +11,8 @@
         --json results/benchmarks/ati_free_identified_fresh.json
     python studies/ati_free.py --seeds 206 207 208 209 210 211 --arms identified \
         --hold-rule unresolved --json results/benchmarks/ati_free_unresolved.json
+    python studies/ati_free.py --seeds 212 213 214 215 216 217 218 219 220 221 222 223 224 225 \
+        226 227 228 229 --arms self-loading --json results/benchmarks/ati_free_self_loading.json
 
 ``--prior-crosstalk``: every hybrid's prior also fits the HEX10's cross-talk (``psmforce train
 --prior-crosstalk``; a calibration refits the law its checkpoint has), in its own work folder;
@@ -53,6 +55,9 @@ its physics alone; ``--arms identified`` runs only (c'), (c'') and what they are
 ``--hold-rule unresolved``: (c'')'s identification keeps free, as estimated, what the data place
 off its design value (:data:`psmforce.identification.prior_selection.HOLD_RULES`; its own
 files in the work folder), measured on :data:`HOLD_RULE_FRESH_SEEDS` (docs/ati_free.md 4.4).
+``--arms self-loading``: (b)'s recordings through section 4.7's recipe with the clenches'
+lateral forces (:data:`SELF_LOADING_ARMS`), the source hybrid, (d_b) and (e) (docs/ati_free.md
+4.8).
 
 Scores: NRMSE % per axis, causal and paper metric (``psmforce.estimators.evaluation``), on the
 tool bench's test Palpation + Traction trials; paired ratios over seeds
@@ -217,6 +222,11 @@ design seed for it; judged on :data:`SELF_LEAST_FRESH_SEEDS`, declared with it b
 them."""
 SELF_LEAST_FRESH_SEEDS = (227, 228, 229)
 """Bench seeds declared for :data:`SELF_LEAST_ARM` before any run of the study on them."""
+SELF_LOADING_ARMS = ((SELF_LOADING_ARM, "", "unresolved"),
+                     (SELF_OFFSETS_ARM, "_free_offsets", "unresolved"),
+                     (SELF_LEAST_ARM, "_least_uncertain", "least-uncertain"))
+"""The self-loading rows in the order they were declared: (row, its checkpoint's suffix, its
+hold rule); every one but the first with ``free_lateral_offsets``."""
 NETWORK_OFF_ARM = "network_off:" + IDENTIFIED_ARM
 """(c'')'s checkpoint as ``psmforce calibrate --network-off carried`` writes it: its
 ``physics_only_axes`` the lateral axes whose cross-talk the identification carried, answered by
@@ -497,22 +507,12 @@ def _seed(seed: int, args, q_exc: np.ndarray) -> tuple[dict, dict]:
                 prior["held_by_reading"], prior.get("held_at_identified", {}))
 
     if args.arms == "self-loading":
-        calibrated(SELF_LOADING_ARM, work / "arms" / "identified_free_self_network_prior.pt",
-                   "source_hybrid.pt", spec_of["free+self"]["minutes"], physics=False,
-                   prior_refit="identified", hold_rule="unresolved", clenched_lateral=True,
-                   finetune=False, network_off=("Fx", "Fy"), network_prior="trained")
-        calibrated(SELF_OFFSETS_ARM,
-                   work / "arms" / "identified_free_self_network_prior_free_offsets.pt",
-                   "source_hybrid.pt", spec_of["free+self"]["minutes"], physics=False,
-                   prior_refit="identified", hold_rule="unresolved", clenched_lateral=True,
-                   free_lateral_offsets=True, finetune=False, network_off=("Fx", "Fy"),
-                   network_prior="trained")
-        calibrated(SELF_LEAST_ARM,
-                   work / "arms" / "identified_free_self_network_prior_least_uncertain.pt",
-                   "source_hybrid.pt", spec_of["free+self"]["minutes"], physics=False,
-                   prior_refit="identified", hold_rule="least-uncertain", clenched_lateral=True,
-                   free_lateral_offsets=True, finetune=False, network_off=("Fx", "Fy"),
-                   network_prior="trained")
+        for arm, stem, rule in SELF_LOADING_ARMS:
+            calibrated(arm, work / "arms" / f"identified_free_self_network_prior{stem}.pt",
+                       "source_hybrid.pt", spec_of["free+self"]["minutes"], physics=False,
+                       prior_refit="identified", hold_rule=rule, clenched_lateral=True,
+                       finetune=False, network_off=("Fx", "Fy"), network_prior="trained",
+                       **({"free_lateral_offsets": True} if arm != SELF_LOADING_ARM else {}))
         ati_same_minutes("ati_same_minutes_self",
                          runs[SELF_LOADING_ARM]["calibration"]["minutes_used"])
         return records, runs
