@@ -237,11 +237,18 @@ def _bench_over_robot(calibration: dict, version: str) -> str:
             f"score against their published robot errors (Fx / Fy / Fz): {text}; {held}.")
 
 
+_SUBJECT_NAMES = {"hybrid_transformer": "The model `psmforce train` ships, `hybrid_transformer`,",
+                  "hybrid": "The hybrid with its causal network (`hybrid`)"}
+
+
 def _paired_words(point: dict) -> str:
-    """The paired verdicts of one comparison point in words, model by model ("ahead on Fz,
-    tied on Fy, behind on Fx"), both metrics at once where they agree."""
-    out = _pairs_in_words(point["paired"], {m: v["label"] for m, v in point["models"].items()})
-    return ("The hybrid is " + "; ".join(out) + ".") if out else ""
+    """The paired verdicts of one comparison point in words, one sentence per model of ours,
+    model by model ("ahead on Fz, tied on Fy, behind on Fx"), both metrics at once where they
+    agree."""
+    labels = {m: v["label"] for m, v in point["models"].items()}
+    return " ".join(f"{_SUBJECT_NAMES.get(subject, f'`{subject}`')} is "
+                    + "; ".join(_pairs_in_words(pairs, labels)) + "."
+                    for subject, pairs in point["paired"].items() if pairs)
 
 
 def _pairs_in_words(pairs: dict, labels: dict, seeds_of=None) -> list[str]:
@@ -304,14 +311,16 @@ def fresh_comparison(result: dict, calibration: dict | None = None) -> str:
     if not points:
         return "\nNo comparison on fresh seeds yet (`studies/comparison.py`).\n"
     lines = [""]
+    last_of = {p["version"]: p for p in points}   # the bench against the robot, said once
     for p in points:
         trained = ("every model trained to early stopping" if not p["not_converged"] else
                    f"NOT converged: {', '.join(p['not_converged'])}")
         lines += [f"On fresh bench seeds ({', '.join(map(str, p['seeds']))}, declared before "
                   f"they were run; simulator {p['version']}, scale {p['scale']:g} of the paper's "
-                  f"training data; {trained}): each model's error, and the hybrid's error over "
-                  f"each model's, paired by seed (geometric mean [{p['interval']}]; \"ahead\" "
-                  "only when the interval lies below 1, \"behind\" above 1, a tie otherwise). "
+                  f"training data; {trained}, on {p['device']}): each model's error, and each of our models' "
+                  "error over each other model's, paired by seed (geometric mean "
+                  f"[{p['interval']}]; \"ahead\" only when the interval lies below 1, "
+                  "\"behind\" above 1, a tie otherwise). "
                   + _paired_words(p), "",
                   "| model | causal Fx | causal Fy | causal Fz | paper Fx | paper Fy | paper Fz |",
                   "|---|---|---|---|---|---|---|"]
@@ -320,17 +329,19 @@ def fresh_comparison(result: dict, calibration: dict | None = None) -> str:
                          + " | ".join(spread_cell({"mean": v["summary"][mt][a]["mean"],
                                                   "std": v["summary"][mt][a]["sd"]})
                                       for mt in ("causal", "paper") for a in AXES) + " |")
-        for m, pr in p["paired"].items():
-            lines.append(f"| hybrid / {p['models'][m]['label']} | "
-                         + " | ".join(pr[mt][a]["text"] for mt in ("causal", "paper")
-                                      for a in AXES) + " |")
+        for subject, pairs in p["paired"].items():
+            for m, pr in pairs.items():
+                lines.append(f"| {subject} / {p['models'][m]['label']} | "
+                             + " | ".join(pr[mt][a]["text"] for mt in ("causal", "paper")
+                                          for a in AXES) + " |")
         left = ([f"Not compared (a training did not stop early): "
                  f"{', '.join(p['not_compared'])}."] if p["not_compared"] else [])
         lines += ["", "NRMSE % of the force on the tool (HEX10 frame), mean ± sd over seeds "
                   "(ddof 1), lower is better; causal: the raw per-sample estimate a haptic loop "
                   "gets, paper: the paper's offline post-processing (bias removed, centred "
                   "median)." + (f" {' '.join(left)}" if left else "")
-                  + (_bench_over_robot(calibration, p["version"]) if calibration else ""), ""]
+                  + (_bench_over_robot(calibration, p["version"])
+                     if calibration and p is last_of[p["version"]] else ""), ""]
     from psmforce.experiments.seeds import COMPARISON_SEEDS
     for v in sorted({p["version"] for p in points}):
         missing = sorted(set(COMPARISON_SEEDS) - {p["scale"] for p in points

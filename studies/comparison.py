@@ -6,11 +6,11 @@ For one simulator version and one scale (1.0 = the paper's amount of training da
 data efficiency or teleoperation) on :data:`psmforce.experiments.seeds.COMPARISON_SEEDS` of that
 scale, never used while designing (refused otherwise). Per model, axis and metric (causal: the
 raw per-sample estimate a haptic loop gets; paper: the paper's offline post-processing), the
-NRMSE % over seeds as mean and sample standard deviation (ddof 1), and the hybrid's error over
-each other model's, paired by seed: the geometric-mean ratio with a 95 % Student t interval on
-the per-seed log ratios (:mod:`psmforce.experiments.paired`). "ahead" only when the interval
-lies below 1, "behind" only above it, else "tie". A model whose trainings did not all stop early
-is shown and kept out of the verdicts.
+NRMSE % over seeds as mean and sample standard deviation (ddof 1), and each of our models'
+error over each other model's (:data:`SUBJECTS`), paired by seed: the geometric-mean ratio with a
+95 % Student t interval on the per-seed log ratios (:mod:`psmforce.experiments.paired`). "ahead"
+only when the interval lies below 1, "behind" only above it, else "tie". A model whose trainings
+did not all stop early is shown and kept out of the verdicts.
 
     python studies/comparison.py --version 2.3 --scale 0.1 --json results/benchmarks/comparison.json
 
@@ -38,12 +38,17 @@ from psmforce.experiments.seeds import COMPARISON_SEEDS, check_fresh  # noqa: E4
 from psmforce.estimators.evaluation.tables import spread_text  # noqa: E402
 
 MODELS = ("hybrid", "transformer", "fcn", "rocket", "lstm", "hybrid_transformer")
-"""In the table's order; the hybrid is compared with each of the others. ``hybrid_transformer``
+"""In the table's order; :data:`SUBJECTS` are paired with the others. ``hybrid_transformer``
 (the hybrid's physics read by the paper's transformer) replaced the hybrid as shipped by the
 rule of ``studies/hybrid_wide_confirm.py``, on seeds of its own, after this comparison's scale
 0.1 point was written. That point was built before each training was kept as a record, so it
 cannot gain a model without every other one retrained there; it stays as it is, and the new
 model is in every point written since."""
+SUBJECTS = ("hybrid_transformer", "hybrid")
+"""Our models, each paired with every other model: the one ``psmforce train`` ships first, then
+the hybrid with its causal network (its pair with the shipped one is the shipped one's, not
+repeated). A point written before the shipped model was in the comparison pairs the hybrid
+only."""
 AXES = ("Fx", "Fy", "Fz")
 METRICS = ("causal", "paper")
 
@@ -85,9 +90,10 @@ def records_from_results(results: dict) -> dict[int, dict[str, dict]]:
 def point(records: dict[int, dict[str, dict]], version: str, scale: float) -> dict:
     """The comparison of one scale from its records (``{seed: {model: record}}``, every model
     on every seed): per model its per-seed NRMSE, mean and sd (ddof 1) per metric and axis,
-    convergence and stops; the hybrid over each other model, paired by seed, per metric and
-    axis (only between models that all converged); per test condition each model's causal RMSE
-    (N), mean and sd (ddof 1) over seeds, to show where the errors come from."""
+    convergence and stops; each of :data:`SUBJECTS` over each other model, paired by seed, per
+    metric and axis (``paired[subject][model]``, only between models that all converged); per
+    test condition each model's causal RMSE (N), mean and sd (ddof 1) over seeds, to show where
+    the errors come from."""
     from psmforce.experiments.paired import mean_sd, paired_record
     from psmforce.experiments.plan import plan
     seeds = sorted(records)
@@ -104,13 +110,14 @@ def point(records: dict[int, dict[str, dict]], version: str, scale: float) -> di
             "stopped": [f"{r['training']['epochs_run']} epochs, {r['training']['stopped_by']}"
                         for r in rows],
             "training_seconds": [r["training"].get("seconds") for r in rows]}
-    paired = {}
-    hybrid = models.get("hybrid")
-    for m, other in models.items():
-        if m == "hybrid" or hybrid is None or not (hybrid["converged"] and other["converged"]):
-            continue
-        paired[m] = {mt: paired_record(hybrid["per_seed"][mt], other["per_seed"][mt], AXES)
-                     for mt in METRICS}
+    paired: dict[str, dict] = {}
+    for subject in (s for s in SUBJECTS if s in models and models[s]["converged"]):
+        ours = models[subject]["per_seed"]
+        pairs = {m: {mt: paired_record(ours[mt], other["per_seed"][mt], AXES) for mt in METRICS}
+                 for m, other in models.items()
+                 if m != subject and m not in paired and other["converged"]}
+        if pairs:
+            paired[subject] = pairs
     conditions = sorted(records[seeds[0]][present[0]]["causal_rmse_n_by_condition"]) \
         if present else []
     by_condition = {c: {m: {a: mean_sd([records[s][m]["causal_rmse_n_by_condition"][c][a]
@@ -122,7 +129,8 @@ def point(records: dict[int, dict[str, dict]], version: str, scale: float) -> di
                                           for m in models}),
             "models": models, "paired": paired,
             "not_converged": [m for m, v in models.items() if not v["converged"]],
-            "not_compared": [m for m in models if m != "hybrid" and m not in paired],
+            "not_compared": [m for m in models if m not in paired
+                             and not any(m in pairs for pairs in paired.values())],
             "interval": "95 % Student t on the log of the per-seed ratios (ddof 1), mapped back"}
 
 
@@ -138,8 +146,8 @@ def table(result: dict) -> str:
                          key=lambda kv: (kv[1]["version"], kv[1]["scale"])):
         lines += [f"**Simulator {p['version']}, scale {p['scale']:g}**, fresh seeds "
                   f"{', '.join(map(str, p['seeds']))} ({p['device']}); NRMSE %, mean ± sd over "
-                  "seeds (ddof 1); the hybrid's error over each model's, paired by seed, with the "
-                  f"{p['interval']}.", ""]
+                  "seeds (ddof 1); each of our models' error over each other model's, paired by "
+                  f"seed, with the {p['interval']}.", ""]
         for mt in METRICS:
             lines += [f"| {mt} | " + " | ".join(AXES) + " | converged |",
                       "|---|" + "---|" * (len(AXES) + 1)]
@@ -148,9 +156,10 @@ def table(result: dict) -> str:
                          for a in AXES]
                 lines.append(f"| {v['label']} | " + " | ".join(cells)
                              + f" | {'yes' if v['converged'] else 'NO'} |")
-            for m, pr in p["paired"].items():
-                lines.append(f"| hybrid / {p['models'][m]['label']} | "
-                             + " | ".join(pr[mt][a]["text"] for a in AXES) + " | |")
+            for subject, pairs in p["paired"].items():
+                for m, pr in pairs.items():
+                    lines.append(f"| {subject} / {p['models'][m]['label']} | "
+                                 + " | ".join(pr[mt][a]["text"] for a in AXES) + " | |")
             lines.append("")
         if p.get("by_condition"):
             lines += ["Where the errors come from: causal RMSE in N per test condition, mean ± sd "
@@ -164,7 +173,7 @@ def table(result: dict) -> str:
                     for a in AXES) + " |")
             lines.append("")
         if p["not_compared"]:
-            lines += [f"Not compared (a training did not stop early, or no hybrid): "
+            lines += [f"Not compared (a training did not stop early, or none of ours): "
                       f"{', '.join(p['not_compared'])}.", ""]
     if len(lines) == 1:
         lines += ["No point yet.", ""]
@@ -264,6 +273,13 @@ def _in_json(version: str):
     return listed
 
 
+def subject_keyed(paired: dict) -> dict:
+    """A point's pairs as ``{subject: {model: pair}}``; a point written before the comparison
+    had more than one of ours held the hybrid's pairs as ``{model: pair}``."""
+    flat = paired and all(set(v) <= set(METRICS) for v in paired.values())
+    return {"hybrid": paired} if flat else paired
+
+
 def assemble(records_dir: Path, json_path: Path, version: str, result: dict) -> dict:
     """``result`` with simulator ``version``'s records (those under ``records_dir`` over those
     ``json_path`` holds) and a point for every scale whose declared seeds all have every model;
@@ -273,7 +289,8 @@ def assemble(records_dir: Path, json_path: Path, version: str, result: dict) -> 
     by_scale: dict[float, dict[int, dict]] = {}
     for (scale, seed), models in sorted(records.items()):
         by_scale.setdefault(scale, {})[seed] = dict(sorted(models.items()))
-    result = {**result, "points": dict(result["points"]), "records": {
+    points = {k: {**p, "paired": subject_keyed(p["paired"])} for k, p in result["points"].items()}
+    result = {**result, "points": points, "records": {
         **result.get("records", {}), version: {
             f"{scale:g}": {str(seed): models for seed, models in by_seed.items()}
             for scale, by_seed in by_scale.items()}}}

@@ -38,9 +38,9 @@ def test_the_point_pairs_the_hybrid_with_each_model_and_keeps_the_unconverged_ou
     p = comparison.point(res, "2.3", 0.1)
     hybrid = p["models"]["hybrid"]["summary"]["causal"]["Fx"]
     assert hybrid["mean"] == pytest.approx(1.5) and hybrid["sd"] == pytest.approx(0.5)  # ddof 1
-    t = p["paired"]["transformer"]["causal"]["Fx"]
+    t = p["paired"]["hybrid"]["transformer"]["causal"]["Fx"]
     assert t["verdict"] == "ahead" and t["high"] < 1.0            # about 0.5x on every seed
-    assert p["not_converged"] == ["fcn"] and "fcn" not in p["paired"]
+    assert p["not_converged"] == ["fcn"] and "fcn" not in p["paired"]["hybrid"]
     assert p["not_compared"] == ["fcn"]
     text = comparison.table({"points": {"2.3 scale 0.1": p}})
     assert "| hybrid / Transformer (paper) | 0.5" in text and "| FCN |" in text
@@ -52,7 +52,7 @@ def test_the_point_pairs_the_hybrid_with_each_model_and_keeps_the_unconverged_ou
 def test_a_tie_when_the_interval_holds_one():
     res = _results({"hybrid": [1.0, 2.0, 1.5], "transformer": [0.8, 2.5, 1.5]})
     p = comparison.point(res, "2.3", 0.1)
-    r = p["paired"]["transformer"]["causal"]["Fx"]
+    r = p["paired"]["hybrid"]["transformer"]["causal"]["Fx"]
     assert r["low"] < 1.0 < r["high"] and r["verdict"] == "tie"
 
 
@@ -87,8 +87,8 @@ def test_the_first_screen_states_each_point_with_its_interval_and_the_bench_agai
     text = fresh_comparison({"points": {"2.3 scale 0.1": p}}, calibration)
     assert "| hybrid / Transformer (paper) | 1.00x [" in text and "] tie" in text  # holds 1
     assert "| hybrid / FCN" not in text and "| FCN (NOT converged) |" in text
-    assert "The hybrid is against the Transformer (paper) tied on every axis on both metrics." \
-        in text
+    assert ("The hybrid with its causal network (`hybrid`) is against the Transformer (paper) "
+            "tied on every axis on both metrics.") in text
     assert "NOT converged: fcn" in text and "Not compared (a training did not stop early): fcn" \
         in text
     assert "FCN 0.80x / 1.10x / 0.90x" in text and "held-out check, not run yet" in text
@@ -100,7 +100,7 @@ def test_the_first_screen_words_each_verdict_by_axis_and_metric():
     from reports.readme_page import fresh_comparison
     res = _results({"hybrid": [1.0, 2.0, 1.5], "transformer": [2.0, 4.1, 2.9]})
     p = comparison.point(res, "2.3", 0.1)
-    p["paired"]["transformer"]["paper"]["Fy"]["verdict"] = "behind"
+    p["paired"]["hybrid"]["transformer"]["paper"]["Fy"]["verdict"] = "behind"
     text = fresh_comparison({"points": {"2.3 scale 0.1": p}})
     assert ("against the Transformer (paper) causal ahead on every axis; paper metric ahead on "
             "Fx and Fz, behind on Fy.") in text
@@ -144,6 +144,31 @@ def test_records_add_up_across_fresh_work_folders_and_the_point_waits_for_every_
     assert all(set(models) == set(comparison.MODELS) - {"hybrid", "fcn"}
                for _, models in calls) and len(calls) == len(declared) - 2
     point = json.loads(out.read_text())["points"]["2.3 scale 0.25"]
-    assert point["seeds"] == sorted(declared) and point["paired"]["transformer"]["causal"][
-        "Fx"]["verdict"] == "ahead"
+    assert point["seeds"] == sorted(declared) and point["paired"]["hybrid"]["transformer"][
+        "causal"]["Fx"]["verdict"] == "ahead"
     assert "| hybrid / Transformer (paper) |" in capsys.readouterr().out
+
+
+def test_the_shipped_model_and_the_hybrid_are_each_paired_with_every_other_model_once():
+    res = _results({"hybrid": [1.0, 2.0, 1.5], "transformer": [2.0, 4.1, 2.9],
+                    "hybrid_transformer": [0.5, 1.0, 0.8], "fcn": [1.0, 2.1, 1.4]})
+    p = comparison.point(res, "2.3", 0.25)
+    assert list(p["paired"]) == ["hybrid_transformer", "hybrid"]
+    assert set(p["paired"]["hybrid_transformer"]) == {"hybrid", "transformer", "fcn"}
+    assert set(p["paired"]["hybrid"]) == {"transformer", "fcn"}    # its pair with ours is ours
+    assert p["paired"]["hybrid_transformer"]["hybrid"]["causal"]["Fx"]["verdict"] == "ahead"
+    text = comparison.table({"points": {"2.3 scale 0.25": p}})
+    assert "| hybrid_transformer / Transformer (paper) | 0.2" in text
+    assert "| hybrid / Transformer (paper) | 0.5" in text
+
+
+def test_a_point_written_before_the_shipped_model_keeps_the_hybrids_pairs(tmp_path):
+    """The scale 0.1 point held ``{model: pair}`` (the hybrid's); assembling reads it as the
+    hybrid's pairs, its figures unchanged."""
+    old = comparison.point(_results({"hybrid": [1.0, 2.0, 1.5],
+                                     "transformer": [2.0, 4.1, 2.9]}), "2.3", 0.1)
+    flat = {**old, "paired": old["paired"]["hybrid"]}
+    out = comparison.assemble(tmp_path / "records", tmp_path / "none.json", "2.3",
+                              {"points": {"2.3 scale 0.1": flat}})
+    assert out["points"]["2.3 scale 0.1"]["paired"] == old["paired"]
+    assert comparison.subject_keyed(old["paired"]) == old["paired"]
