@@ -177,7 +177,27 @@ def table(result: dict) -> str:
                       f"{', '.join(p['not_compared'])}.", ""]
     if len(lines) == 1:
         lines += ["No point yet.", ""]
-    return "\n".join(lines)
+    return "\n".join(lines + _in_progress(result))
+
+
+def _in_progress(result: dict) -> list[str]:
+    """One line per (version, scale) with records and no point yet: which models have a record
+    on which declared seeds, which have none; nothing is compared there."""
+    lines = []
+    for version, by_scale in sorted(result.get("records", {}).items()):
+        for scale, by_seed in sorted(by_scale.items(), key=lambda kv: float(kv[0])):
+            if f"{version} scale {float(scale):g}" in result.get("points", {}):
+                continue
+            declared = COMPARISON_SEEDS.get(float(scale), ())
+            done = {m: sorted(int(s) for s in by_seed if m in by_seed[s] and int(s) in declared)
+                    for m in MODELS}
+            have = "; ".join(f"{m} on {', '.join(map(str, seeds))}"
+                             for m, seeds in done.items() if seeds)
+            lines += [f"Simulator {version}, scale {float(scale):g}: in progress, no point yet "
+                      f"(nothing compared). Trained so far: {have or 'nothing'}; declared seeds "
+                      f"{', '.join(map(str, declared))}; no record yet: "
+                      f"{', '.join(m for m, seeds in done.items() if not seeds) or 'none'}.", ""]
+    return lines
 
 
 def main(argv=None) -> int:

@@ -172,3 +172,13 @@ def test_a_point_written_before_the_shipped_model_keeps_the_hybrids_pairs(tmp_pa
                               {"points": {"2.3 scale 0.1": flat}})
     assert out["points"]["2.3 scale 0.1"]["paired"] == old["paired"]
     assert comparison.subject_keyed(old["paired"]) == old["paired"]
+
+
+def test_a_scale_without_its_point_lists_what_is_trained_and_compares_nothing():
+    record = comparison.records_from_results(_result(101, {"fcn": 1.0}))[101]["fcn"]
+    text = comparison.table({"points": {}, "records": {"2.3": {"1": {"101": {"fcn": record},
+                                                                     "999": {"lstm": record}}}}})
+    assert ("Simulator 2.3, scale 1: in progress, no point yet (nothing compared). Trained so "
+            "far: fcn on 101; declared seeds 101, 102, 103; no record yet: hybrid, transformer, "
+            "rocket, lstm, hybrid_transformer.") in text      # an undeclared seed is not counted
+    assert "| hybrid" not in text
