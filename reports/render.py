@@ -104,6 +104,7 @@ EXCITATION_PAIRED = ROOT / "results" / "benchmarks" / "excitation_paired.json"
 RECIPE_SWAP = ROOT / "results" / "benchmarks" / "recipe_swap.json"
 BENCH_PAPER_CALIBRATION = ROOT / "results" / "benchmarks" / "bench_paper_calibration.json"
 FRESH_COMPARISON = ROOT / "results" / "benchmarks" / "comparison.json"
+BENCH_AGREEMENT = ROOT / "results" / "benchmarks" / "bench_agreement.json"
 HYBRID_CALIBRATED_DESIGN = ROOT / "results" / "benchmarks" / "hybrid_calibrated_design.json"
 HYBRID_WIDE_CONFIRM = ROOT / "results" / "benchmarks" / "hybrid_wide_confirm.json"
 ATI_FREE = ROOT / "docs" / "ati_free.md"
@@ -167,6 +168,11 @@ def _fresh_comparison_table(result: dict) -> str:
     return table(result)
 
 
+def _bench_agreement(result: dict) -> str:
+    from studies.bench_agreement import summary
+    return summary(result)
+
+
 def _hybrid_calibrated_design_table(result: dict) -> str:
     from studies.hybrid_calibrated_design import table
     return table(result)
@@ -216,6 +222,7 @@ BLOCKS = (
     (RESULTS, "bench-against-robot", LEARNING_CURVE, results_page.bench_against_robot),
     (RESULTS, "recipe-swap", RECIPE_SWAP, results_page.recipe_swap_tables),
     (RESULTS, "comparison-fresh-seeds", FRESH_COMPARISON, _fresh_comparison_table),
+    (RESULTS, "bench-agreement", BENCH_AGREEMENT, _bench_agreement),
     (RESULTS, "hybrid-calibrated-design", HYBRID_CALIBRATED_DESIGN,
      _hybrid_calibrated_design_table),
     (RESULTS, "hybrid-wide-confirm", HYBRID_WIDE_CONFIRM, _hybrid_wide_confirm_table),
