@@ -41,8 +41,10 @@ def _by_seed(cache: Path, task: str) -> dict[int, dict]:
 def _numbers(tree, path: str = "") -> dict[str, float]:
     """Every number in ``tree`` by its path (``/automated/paper/Fx/rmse_n``)."""
     if isinstance(tree, dict):
-        return {k: v for key, sub in tree.items() for k, v in _numbers(sub, f"{path}/{key}")
-                .items()}
+        out: dict[str, float] = {}
+        for key, sub in tree.items():
+            out.update(_numbers(sub, f"{path}/{key}"))
+        return out
     if isinstance(tree, (int, float)) and not isinstance(tree, bool):
         return {path: float(tree)}
     return {}
