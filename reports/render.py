@@ -188,7 +188,7 @@ BLOCKS = (
      readme_page.fresh_comparison),
     (README, "shipped-model", HYBRID_WIDE_CONFIRM, readme_page.shipped_model),
     (README, "transmission-summary", TRANSMISSION, readme_page.transmission_summary),
-    (README, "prior-ablation-summary", PRIOR_ABLATION, readme_page.prior_ablation_summary),
+    (RESULTS, "prior-ablation-summary", PRIOR_ABLATION, results_page.prior_ablation_summary),
     (IDENTIFICATION, "prior-recovery-table", PRIOR_RECOVERY,
      identification_page.prior_recovery_table),
     (IDENTIFICATION, "prior-default-recovery-table", PRIOR_RECOVERY_DEFAULT,

@@ -707,3 +707,51 @@ def port_design_table(result: dict) -> str:
     lines += ["", f"{sum(r['converged'] for r in runs)} of the {len(runs)} runs stopped by "
               "their patience.", ""]
     return "\n".join(lines)
+
+
+def prior_ablation_summary(result: dict) -> str:
+    """Section 2's summary: what the physics prior adds to the hybrid, per axis, as the ablation
+    measures it, in words (the tables below it hold every figure)."""
+    shipped = result["shipped"]
+    parts = []
+    for bench, variants in result["verdicts"].items():
+        v = variants[shipped]["causal"]
+        rows = result["summary"][bench]
+        cells = ", ".join(
+            f"{a} {rows[shipped]['causal'][a]['mean']:.2f} % against "
+            f"{rows['no_prior']['causal'][a]['mean']:.2f} % ({v[a]['verdict']})"
+            for a in ("Fx", "Fy", "Fz"))
+        parts.append(f"on the {bench} bench {cells}")
+    seeds = ", ".join(str(s) for s in result["seeds"])
+    stale = stale_no_prior_arm(result)
+    return ("\n" + (stale + "\n\n" if stale else "")
+            + "What the physics prior adds to the hybrid on the simulated bench (simulator "
+            f"{SIMULATOR_NOT_RECORDED['prior_ablation']}, scale "
+            f"{result['scale']:g}, bench seeds {seeds}, every run trained to early "
+            "stopping; causal NRMSE with the prior as shipped against the same network "
+            "without it, verdicts by the spread rule): " + "; ".join(parts)
+            + ". The crossing bench adds an internal lateral force the prior does not model. Each component of the prior is weighed on "
+            "validation trials (0: it explains nothing held out); "
+            + _lateral_weights(result) + ". " + _validation_choice(result) + "\n")
+
+
+def _validation_choice(result: dict) -> str:
+    """Which variant the validation trials prefer, and by how much."""
+    shipped = result["shipped"]
+    chosen = result["chosen_on_validation"]
+    ratios = chosen["validation_ratio_to_no_prior"]
+    prior_ratios = [r for v, r in ratios.items() if v != "no_prior"]
+    return (f"On the validation trials the variants with a prior score "
+            f"{min(prior_ratios):.3f}-{max(prior_ratios):.3f}x the error without it (mean over "
+            f"axes and benches); the lowest is {PRIOR_VARIANTS[chosen['variant']]}"
+            + ("" if chosen["variant"] == shipped else
+               f"; the shipped hybrid is {PRIOR_VARIANTS[shipped]}, "
+               f"{ratios[shipped] / ratios[chosen['variant']] - 1:.1%} above it") + ".")
+
+
+def _lateral_weights(result: dict) -> str:
+    """How many of the weighted prior's fits kept its lateral force components."""
+    weights = [t["axis_weights"][:2] for t in result["tasks"] if t["variant"] == "weighted"]
+    kept = sum(w > 0 for pair in weights for w in pair)
+    return (f"{kept} of its {2 * len(weights)} lateral force weights over "
+            f"{len(weights)} fits are above zero")
