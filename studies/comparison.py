@@ -196,8 +196,29 @@ def _in_progress(result: dict) -> list[str]:
             lines += [f"Simulator {version}, scale {float(scale):g}: in progress, no point yet "
                       f"(nothing compared). Trained so far: {have or 'nothing'}; declared seeds "
                       f"{', '.join(map(str, declared))}; no record yet: "
-                      f"{', '.join(m for m, seeds in done.items() if not seeds) or 'none'}.", ""]
+                      f"{', '.join(m for m, seeds in done.items() if not seeds) or 'none'}."
+                      + (_against_robot(by_seed, done) if float(scale) == 1.0 else ""), ""]
     return lines
+
+
+def _against_robot(by_seed: dict, done: dict[str, list[int]]) -> str:
+    """At the paper's amount of data: each model with a published robot figure (the paper's
+    Table III, :data:`psmforce.experiments.plan.PLAN`), its paper-metric NRMSE over the seeds it
+    has so far against that figure, as the calibration's band reads it."""
+    from psmforce.experiments.plan import plan
+    parts = []
+    for m, seeds in done.items():
+        published = plan(m).published_nrmse_pct
+        if not seeds or not published:
+            continue
+        mean = {a: sum(by_seed[str(s)][m]["nrmse_pct"]["paper"][a] for s in seeds) / len(seeds)
+                for a in AXES}
+        parts.append(f"{plan(m).label} " + " / ".join(f"{mean[a] / published[a]:.2f}x"
+                                                       for a in AXES)
+                     + f" (seed{'s' if len(seeds) > 1 else ''} {', '.join(map(str, seeds))})")
+    return (" On the paper's metric against the paper's robot (its Table III; mean over the "
+            "seeds so far over the published figure, Fx / Fy / Fz): " + "; ".join(parts) + "."
+            ) if parts else ""
 
 
 def main(argv=None) -> int:
