@@ -182,7 +182,8 @@ def table(result: dict) -> str:
 
 def _in_progress(result: dict) -> list[str]:
     """One line per (version, scale) with records and no point yet: which models have a record
-    on which declared seeds, which have none; nothing is compared there."""
+    on which declared seeds (and where a training did not stop early), which have none; nothing
+    is compared there."""
     lines = []
     for version, by_scale in sorted(result.get("records", {}).items()):
         for scale, by_seed in sorted(by_scale.items(), key=lambda kv: float(kv[0])):
@@ -191,8 +192,11 @@ def _in_progress(result: dict) -> list[str]:
             declared = COMPARISON_SEEDS.get(float(scale), ())
             done = {m: sorted(int(s) for s in by_seed if m in by_seed[s] and int(s) in declared)
                     for m in MODELS}
-            have = "; ".join(f"{m} on {', '.join(map(str, seeds))}"
-                             for m, seeds in done.items() if seeds)
+            unconverged = {m: [s for s in seeds if not by_seed[str(s)][m]["training"]
+                               ["converged"]] for m, seeds in done.items()}
+            have = "; ".join(f"{m} on {', '.join(map(str, seeds))}" + (
+                f" (NOT converged on {', '.join(map(str, unconverged[m]))})"
+                if unconverged[m] else "") for m, seeds in done.items() if seeds)
             lines += [f"Simulator {version}, scale {float(scale):g}: in progress, no point yet "
                       f"(nothing compared). Trained so far: {have or 'nothing'}; declared seeds "
                       f"{', '.join(map(str, declared))}; no record yet: "

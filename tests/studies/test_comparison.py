@@ -182,6 +182,9 @@ def test_a_scale_without_its_point_lists_what_is_trained_and_compares_nothing():
             "far: fcn on 101; declared seeds 101, 102, 103; no record yet: hybrid, transformer, "
             "rocket, lstm, hybrid_transformer.") in text      # an undeclared seed is not counted
     assert "| hybrid" not in text
+    record = {**record, "training": {**record["training"], "converged": False}}
+    assert "fcn on 101 (NOT converged on 101)" in comparison.table(
+        {"points": {}, "records": {"2.3": {"1": {"101": {"fcn": record}}}}})
     # at the paper's amount of data, each model with a published figure against it (paper
     # metric 2.0 here over 1.93 / 1.59 / 2.99)
     assert ("against the paper's robot (its Table III; mean over the seeds so far over the "
