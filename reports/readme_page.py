@@ -268,7 +268,8 @@ def fresh_comparison(result: dict, calibration: dict | None = None) -> str:
                    f"NOT converged: {', '.join(p['not_converged'])}")
         lines += [f"On fresh bench seeds ({', '.join(map(str, p['seeds']))}, declared before "
                   f"they were run; simulator {p['version']}, scale {p['scale']:g} of the paper's "
-                  f"training data; {trained}, on {p['device']}): each model's error, and each of our models' "
+                  f"training data; {trained}, on {p['device']}): each model's error, and each "
+                  "of our models' "
                   "error over each other model's, paired by seed (geometric mean "
                   f"[{p['interval']}]; \"ahead\" only when the interval lies below 1, "
                   "\"behind\" above 1, a tie otherwise). "

@@ -730,8 +730,9 @@ def prior_ablation_summary(result: dict) -> str:
             f"{result['scale']:g}, bench seeds {seeds}, every run trained to early "
             "stopping; causal NRMSE with the prior as shipped against the same network "
             "without it, verdicts by the spread rule): " + "; ".join(parts)
-            + ". The crossing bench adds an internal lateral force the prior does not model. Each component of the prior is weighed on "
-            "validation trials (0: it explains nothing held out); "
+            + ". The crossing bench adds an internal lateral force the prior does not model. "
+            "Each component of the prior is weighed on validation trials (0: it explains "
+            "nothing held out); "
             + _lateral_weights(result) + ". " + _validation_choice(result) + "\n")
 
 
