@@ -2,13 +2,15 @@
 ran partly on this machine's CPU and partly on a lent GPU whose numpy and scipy differ from
 ``constraints.txt`` (issue 45), each machine simulating the declared seeds' benches itself.
 
-For each bench seed both ``reproduce`` task caches hold (``<run>/work/cache``): whether the bench
-files are bit-identical (the SHA-256 the simulate task keeps), whether their layout is (trials,
-rows, minutes per split), and the largest relative difference between the floor's errors each
-machine computed (every figure of the ``floor`` task: the same scoring of each bench's signals).
+For each bench seed both ``reproduce`` runs' task caches hold (each run given as the folder
+``reproduce`` was given, ``studies/comparison.py``'s ``--work VERSION/scale_S``): whether the
+bench files are bit-identical (the SHA-256 the simulate task keeps), whether their layout is
+(trials, rows, minutes per split), and the largest relative difference between the floor's
+errors each machine computed (every figure of the ``floor`` task: the same scoring of each
+bench's signals).
 
-    python studies/bench_agreement.py --a runs/comparison/2.3/scale_0.25/work/cache --label-a cpu \\
-        --b <the GPU run's copy>/cache --label-b cuda --json results/benchmarks/bench_agreement.json
+    python studies/bench_agreement.py --a runs/comparison/2.3/scale_0.25 --label-a cpu \\
+        --b <the GPU run's copy> --label-b cuda --json results/benchmarks/bench_agreement.json
 """
 
 from __future__ import annotations
@@ -96,16 +98,21 @@ def summary(result: dict) -> str:
             f"on each differ by at most {largest:.1e} of their value.\n")
 
 
+def _cache(run: Path) -> Path:
+    """The task cache of the ``reproduce`` run in folder ``run``."""
+    return run / "work" / "cache"
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--a", type=Path, required=True, help="one run's task cache folder")
-    ap.add_argument("--b", type=Path, required=True, help="the other run's task cache folder")
+    ap.add_argument("--a", type=Path, required=True, help="one reproduce run's folder")
+    ap.add_argument("--b", type=Path, required=True, help="the other reproduce run's folder")
     ap.add_argument("--label-a", default="a")
     ap.add_argument("--label-b", default="b")
     ap.add_argument("--json", type=Path, required=True)
     args = ap.parse_args(argv)
     try:
-        result = agreement(args.a, args.b, args.label_a, args.label_b)
+        result = agreement(_cache(args.a), _cache(args.b), args.label_a, args.label_b)
         result["command"] = (f"python studies/bench_agreement.py --a {shown_path(args.a)} "
                              f"--label-a {args.label_a} --b {shown_path(args.b)} --label-b "
                              f"{args.label_b} --json {shown_path(args.json)}")

@@ -40,16 +40,18 @@ def test_bit_identical_rounded_and_different_benches_are_told_apart(tmp_path):
 
 
 def test_a_folder_that_is_not_a_task_cache_is_refused_in_one_line(tmp_path, capsys):
-    a = _cache(tmp_path / "a", {1: "x"}, {1: 0.1})
-    bad = tmp_path / "bad"
-    bad.mkdir()
+    _cache(tmp_path / "a" / "work" / "cache", {1: "x"}, {1: 0.1})    # a reproduce run's folder
+    a = tmp_path / "a"
+    bad = tmp_path / "bad" / "work" / "cache"
+    bad.mkdir(parents=True)
     (bad / "simulate-1.json").write_text('{"task": "train@1"}')
     out = tmp_path / "out.json"
-    assert bench_agreement.main(["--a", str(a), "--b", str(bad), "--json", str(out)]) == 2
+    assert bench_agreement.main(["--a", str(a), "--b", str(tmp_path / "bad"), "--json",
+                                 str(out)]) == 2
     err = capsys.readouterr().err
     assert "not a cached simulate task" in err and "Traceback" not in err
     assert not out.exists()
     empty = tmp_path / "empty"
-    empty.mkdir()
+    (empty / "work" / "cache").mkdir(parents=True)
     assert bench_agreement.main(["--a", str(a), "--b", str(empty), "--json", str(out)]) == 2
     assert "no bench seed in both" in capsys.readouterr().err and not out.exists()
