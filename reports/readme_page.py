@@ -298,6 +298,13 @@ def fresh_comparison(result: dict, calibration: dict | None = None) -> str:
     for v in sorted({p["version"] for p in points}):
         missing = sorted(set(COMPARISON_SEEDS) - {p["scale"] for p in points
                                                    if p["version"] == v})
+        started = [x for x in missing if result.get("records", {}).get(v, {}).get(f"{x:g}")]
+        if started:
+            lines += [f"In progress for simulator {v}, nothing compared there yet: scale "
+                      f"{', '.join(f'{x:g}' for x in started)} (what is trained so far, and "
+                      "against the robot, is listed under the comparison in `docs/results.md`).",
+                      ""]
+        missing = [x for x in missing if x not in started]
         if missing:
             lines += [f"Declared for simulator {v} and not measured yet, so nothing is claimed "
                       f"there: scale {', '.join(f'{x:g}' for x in missing)} (their seeds are "

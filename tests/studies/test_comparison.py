@@ -93,6 +93,10 @@ def test_the_first_screen_states_each_point_with_its_interval_and_the_bench_agai
         in text
     assert "FCN 0.80x / 1.10x / 0.90x" in text and "held-out check, not run yet" in text
     assert "not measured yet, so nothing is claimed there: scale 0.25, 1 (" in text
+    started = fresh_comparison({"points": {"2.3 scale 0.1": p},
+                                "records": {"2.3": {"1": {"101": {"fcn": {}}}}}}, calibration)
+    assert "In progress for simulator 2.3, nothing compared there yet: scale 1 (" in started
+    assert "not measured yet, so nothing is claimed there: scale 0.25 (" in started
     assert "No comparison on fresh seeds yet" in fresh_comparison({"points": {}})
 
 
