@@ -131,7 +131,7 @@ def lines(result: dict) -> list[str]:
                             for m, v in ref["nrmse_pct"].items()) + "."]
     rocket = paper.get("rocket")
     if rocket:
-        out += ["", f"MultiRocket-Hydra's paper figures ({_fmt(rocket['nrmse_pct'])}): "
+        out += ["", f"MultiRocket-Hydra's robot figures ({_fmt(rocket['nrmse_pct'])}): "
                 f"{rocket['source']}."]
     return out + [""]
 

@@ -174,7 +174,11 @@ def _bench_over_robot(calibration: dict, version: str) -> str:
             and r["paper_budget"]]
     if not rows:
         return ""
+    paper = calibration.get("paper", {})
     text = "; ".join(f"{r['label']} " + " / ".join(f"{r['ratio'][a]:.2f}x" for a in AXES)
+                     + (" (against the issue's figure, which no publication gives)"
+                        if not paper.get(r.get("model"), {}).get("source", "paper")
+                        .startswith("paper") else "")
                      for r in rows)
     held = calibration["verdicts"][version]["transformer_held_out"]
     if isinstance(held, dict):
@@ -185,7 +189,7 @@ def _bench_over_robot(calibration: dict, version: str) -> str:
     seeds = sorted({s for r in rows for s in r["seeds"]})
     return (f" On simulator {version} at the paper's amount of data (design seed"
             f"{'s' if len(seeds) > 1 else ''} {', '.join(map(str, seeds))}), the paper's models "
-            f"score against their published robot errors (Fx / Fy / Fz): {text}; {held}.")
+            f"score against the robot's errors in its Table III (Fx / Fy / Fz): {text}; {held}.")
 
 
 _SUBJECT_NAMES = {"hybrid_transformer": "The model `psmforce train` ships, `hybrid_transformer`,",

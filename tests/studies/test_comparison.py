@@ -92,6 +92,12 @@ def test_the_first_screen_states_each_point_with_its_interval_and_the_bench_agai
     assert "NOT converged: fcn" in text and "Not compared (a training did not stop early): fcn" \
         in text
     assert "FCN 0.80x / 1.10x / 0.90x" in text and "held-out check, not run yet" in text
+    issue_given = {**calibration, "paper": {"rocket": {"source": "given by the issue"}},
+                   "rows": calibration["rows"] + [{**calibration["rows"][0], "model": "rocket",
+                                                   "label": "MultiRocket-Hydra"}]}
+    assert ("FCN 0.80x / 1.10x / 0.90x; MultiRocket-Hydra 0.80x / 1.10x / 0.90x (against the "
+            "issue's figure, which no publication gives)") in fresh_comparison(
+        {"points": {"2.3 scale 0.1": p}}, issue_given)
     assert "not measured yet, so nothing is claimed there: scale 0.25, 1 (" in text
     started = fresh_comparison({"points": {"2.3 scale 0.1": p},
                                 "records": {"2.3": {"1": {"101": {"fcn": {}}}}}}, calibration)
