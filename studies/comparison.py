@@ -42,8 +42,8 @@ MODELS = ("hybrid", "transformer", "fcn", "rocket", "lstm", "hybrid_transformer"
 (the hybrid's physics read by the paper's transformer) replaced the hybrid as shipped by the
 rule of ``studies/hybrid_wide_confirm.py``, on seeds of its own, after this comparison's scale
 0.1 point was written. That point was built before each training was kept as a record, so it
-cannot gain a model without every other one retrained there; it stays as it is, and the new
-model is in every point written since."""
+gains the new model only with every other one retrained there (with records); until then it
+stands as it was, and the new model is in every point written since."""
 SUBJECTS = ("hybrid_transformer", "hybrid")
 """Our models, each paired with every other model: the one ``psmforce train`` ships first, then
 the hybrid with its causal network (its pair with the shipped one is the shipped one's, not
@@ -183,26 +183,38 @@ def table(result: dict) -> str:
 def _in_progress(result: dict) -> list[str]:
     """One line per (version, scale) with records and no point yet: which models have a record
     on which declared seeds (and where a training did not stop early), which have none; nothing
-    is compared there."""
+    is compared there. A point whose records are not all there yet (a rerun) says what is
+    trained of the rerun."""
     lines = []
     for version, by_scale in sorted(result.get("records", {}).items()):
         for scale, by_seed in sorted(by_scale.items(), key=lambda kv: float(kv[0])):
-            if f"{version} scale {float(scale):g}" in result.get("points", {}):
-                continue
             declared = COMPARISON_SEEDS.get(float(scale), ())
             done = {m: sorted(int(s) for s in by_seed if m in by_seed[s] and int(s) in declared)
                     for m in MODELS}
-            unconverged = {m: [s for s in seeds if not by_seed[str(s)][m]["training"]
-                               ["converged"]] for m, seeds in done.items()}
-            have = "; ".join(f"{m} on {', '.join(map(str, seeds))}" + (
-                f" (NOT converged on {', '.join(map(str, unconverged[m]))})"
-                if unconverged[m] else "") for m, seeds in done.items() if seeds)
+            if f"{version} scale {float(scale):g}" in result.get("points", {}):
+                if all(len(seeds) == len(declared) for seeds in done.values()):
+                    continue
+                lines += [f"Simulator {version}, scale {float(scale):g}: being retrained with "
+                          "a record per training; its point above, from earlier trainings, "
+                          "stands until every model has a record on every declared seed. "
+                          f"Trained so far: {_trained(by_seed, done)}.", ""]
+                continue
             lines += [f"Simulator {version}, scale {float(scale):g}: in progress, no point yet "
-                      f"(nothing compared). Trained so far: {have or 'nothing'}; declared seeds "
+                      f"(nothing compared). Trained so far: {_trained(by_seed, done)}; declared "
+                      f"seeds "
                       f"{', '.join(map(str, declared))}; no record yet: "
                       f"{', '.join(m for m, seeds in done.items() if not seeds) or 'none'}."
                       + (_against_robot(by_seed, done) if float(scale) == 1.0 else ""), ""]
     return lines
+
+
+def _trained(by_seed: dict, done: dict[str, list[int]]) -> str:
+    """Which models have a record on which seeds, and where a training did not stop early."""
+    unconverged = {m: [s for s in seeds if not by_seed[str(s)][m]["training"]["converged"]]
+                   for m, seeds in done.items()}
+    return "; ".join(f"{m} on {', '.join(map(str, seeds))}" + (
+        f" (NOT converged on {', '.join(map(str, unconverged[m]))})" if unconverged[m] else "")
+        for m, seeds in done.items() if seeds) or "nothing"
 
 
 def _against_robot(by_seed: dict, done: dict[str, list[int]]) -> str:

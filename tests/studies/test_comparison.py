@@ -210,3 +210,16 @@ def test_a_scale_without_its_point_lists_what_is_trained_and_compares_nothing():
                                                                      "Fz": 2.0}}}
     assert "FCN 2.07x / 1.26x / 0.67x (seed 101; Fx, Fz outside the band)" in comparison.table(
         {"points": {}, "records": {"2.3": {"1": {"101": {"fcn": far}}}}})
+
+
+def test_a_point_being_retrained_with_records_says_so_and_stands():
+    old = comparison.point(_results({"hybrid": [1.0, 2.0, 1.5],
+                                     "transformer": [2.0, 4.1, 2.9]}), "2.3", 0.1)
+    record = comparison.records_from_results(_result(101, {"fcn": 1.0}))[101]["fcn"]
+    result = {"points": {"2.3 scale 0.1": old}, "records": {"2.3": {"0.1": {"101": {
+        "fcn": record}}}}}
+    text = comparison.table(result)
+    assert ("Simulator 2.3, scale 0.1: being retrained with a record per training; its point "
+            "above, from earlier trainings, stands until every model has a record on every "
+            "declared seed. Trained so far: fcn on 101.") in text
+    assert "| hybrid / Transformer (paper) |" in text     # the point is still shown
