@@ -49,6 +49,11 @@ session put on a 1 kHz clock (:func:`psmforce.live.sim_robot.bench_recording`): 
   is written (its time in ``after_the_answer``), outside the answer's residence;
   ``network_after_answer_accuracy``: what it costs the estimate, the shipped bench model over the
   session (NRMSE per axis before and after the answer, and the two estimates' difference, N);
+* ``dds_realtime``, ``dds_realtime_network_after_answer``, ``dds_busy_core_realtime``,
+  ``dds_busy_core_realtime_network_after_answer``: ``dds`` and ``dds_busy_core`` again, both
+  orders, with the node under SCHED_FIFO (``serve --rt-priority`` :data:`RT_PRIORITY`; the
+  robot, this process and the busy one stay normal processes); ``realtime_refused`` instead,
+  the one line, where the system refuses it;
 * ``dds_rate_measured``: the same for 5 s without ``--input-rate`` (the node measures the rate
   from the first stamps): ``first_answer_ms`` is what a user starting the node sees;
 * ``burst``: 5000 samples of the 1 kHz stream published at 10 times its rate (10 kHz for 0.5 s,
@@ -91,6 +96,8 @@ PERIOD_MS = 1.0
 TARGET_P99_MS = 1.0
 RESIDENCE_GOAL_P99_MS = 0.3
 """Issue 47's goal for what the node adds (p99, ms); ``node_residence`` is measured against it."""
+RT_PRIORITY = 50
+"""``serve --rt-priority`` in the real-time runs: mid-range, below the kernel's own threads."""
 BURST_SPEED = 10.0
 """A controller's burst after a hiccup: this many times the stream's rate (issue 47)."""
 WARMUP = 500
@@ -232,8 +239,19 @@ def _cpu_s(pid: int) -> float:
     return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
 
 
+def realtime_refusal() -> str | None:
+    """Why this system refuses ``serve --rt-priority`` (asked of a fresh process), or None."""
+    code = ("from psmforce.live.serve import run_realtime\n"
+            f"try:\n    run_realtime({RT_PRIORITY})\n"
+            "except ValueError as err:\n    raise SystemExit(str(err))")
+    probe = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                           env=dict(os.environ, PYTHONPATH=str(ROOT)), timeout=120)
+    return None if probe.returncode == 0 else (probe.stderr.strip().splitlines() or ["?"])[-1]
+
+
 def dds_figures(ckpt: Path, frame, seconds: float, tmp: Path, *, input_rate: bool = True,
-                busy_core: bool = False, network: str = "before-answer") -> dict:
+                busy_core: bool = False, network: str = "before-answer",
+                rt_priority: int | None = None) -> dict:
     from cyclonedds.core import (
         InstanceState,
         Policy,
@@ -270,6 +288,7 @@ def dds_figures(ckpt: Path, frame, seconds: float, tmp: Path, *, input_rate: boo
         [sys.executable, "-m", "psmforce.cli.main", "serve", str(ckpt), "--domain-id", str(domain_id),
          *(["--input-rate", "1000"] if input_rate else []), "--sync-stamps", "--idle-stop", "3",
          *(["--network", network] if network != "before-answer" else []),
+         *(["--rt-priority", str(rt_priority)] if rt_priority is not None else []),
          "--json", str(tmp / "node.json")], env=env, stdout=subprocess.PIPE,
         stderr=subprocess.PIPE, text=True)
     robot = burner = None
@@ -321,7 +340,7 @@ def dds_figures(ckpt: Path, frame, seconds: float, tmp: Path, *, input_rate: boo
     first_answer = min(received.values()) - sent["sent_ns"][0] if received else None
     n = len(sent["stamps_ns"])
     return {"seconds": seconds, "input_rate_given": input_rate, "busy_core": busy_core,
-            "network": network, "hex10_sent": n, "node_received": report["received"]["hex10"],
+            "network": network, "scheduling": report.get("scheduling"), "hex10_sent": n, "node_received": report["received"]["hex10"],
             "node_lost": n - report["received"]["hex10"],
             "node_added_latency": _percentiles(added),
             "node_residence": report["residence_ms"],
@@ -429,6 +448,17 @@ def main() -> tuple[dict, str | None]:
                                               busy_core=True)
         result["dds_busy_core_network_after_answer"] = dds_figures(
             ckpt, frame, args.seconds / 3, tmp, busy_core=True, network="after-answer")
+        refused = realtime_refusal()
+        if refused is None:
+            for network in ("before-answer", "after-answer"):
+                tail = "" if network == "before-answer" else "_network_after_answer"
+                result[f"dds_realtime{tail}"] = dds_figures(
+                    ckpt, frame, args.seconds, tmp, network=network, rt_priority=RT_PRIORITY)
+                result[f"dds_busy_core_realtime{tail}"] = dds_figures(
+                    ckpt, frame, args.seconds / 3, tmp, busy_core=True, network=network,
+                    rt_priority=RT_PRIORITY)
+        else:
+            result["realtime_refused"] = refused
         result["dds_rate_measured"] = dds_figures(ckpt, frame, 5.0, tmp, input_rate=False)
         result["burst"] = burst_figures(ckpt, frame, tmp)
         result["burst_busy_core"] = burst_figures(ckpt, frame, tmp, busy_core=True)

@@ -443,7 +443,42 @@ def latency(streaming: dict, live: dict) -> str:
                   f"(no `--input-rate`) | {first:.0f} ms |"]
     if "dds_network_after_answer" in live:  # issue 47 item 8: the network off the answer's path
         lines += network_order(live)
+    if "dds_realtime" in live or "realtime_refused" in live:
+        lines += scheduling(live)
     return "\n".join(lines + [""])
+
+
+def scheduling(live: dict) -> list[str]:
+    """``serve --rt-priority``: the node's residence and added latency over DDS as a normal
+    process and under SCHED_FIFO, both orders of ``--network``, quiet and with a core busy,
+    from the same run of ``benchmarks/live.py``."""
+    if "dds_realtime" not in live:
+        return ["", f"`serve --rt-priority` was not measured: {live['realtime_refused']}"]
+
+    def cell(t, goal=None):
+        met = "" if goal is None else (" (goal met)" if t["p99_ms"] <= goal else "")
+        return f"{t['median_ms']:.3f} / {t['p99_ms']:.3f} / {t['max_ms']:.2f}{met}"
+
+    goal = live["dds"].get("residence_goal_p99_ms")
+    rows = {}
+    for tail, order in (("", "before-answer"), ("_network_after_answer", "after-answer")):
+        rows[f"normal, {order}"] = (live[f"dds{tail}"], live[f"dds_busy_core{tail}"])
+        rows[f"{live['dds_realtime']['scheduling']}, {order}"] = (
+            live[f"dds_realtime{tail}"], live[f"dds_busy_core_realtime{tail}"])
+    lines = ["", "`serve --rt-priority`: the node as a normal process and under SCHED_FIFO (the "
+             "robot, the subscriber and the busy process stay normal), the same run. Times p50 "
+             "/ p99 / max in ms" + (f"; the residence's goal is p99 <= {goal:g} ms" if goal
+                                    else "") + ".", "",
+             "| scheduling, order | residence over DDS | node-added latency | residence, one "
+             "core busy | node-added latency, one core busy | messages the node lost (steady; "
+             "busy) |", "|---|---|---|---|---|---|"]
+    for name, (quiet, busy) in rows.items():
+        lines.append(f"| {name} | {cell(quiet['node_residence'], goal)} "
+                     f"| {cell(quiet['node_added_latency'])} "
+                     f"| {cell(busy['node_residence'], goal)} "
+                     f"| {cell(busy['node_added_latency'])} "
+                     f"| {quiet['node_lost']:,}; {busy['node_lost']:,} |")
+    return lines
 
 
 def network_order(live: dict) -> list[str]:

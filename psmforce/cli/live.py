@@ -84,8 +84,9 @@ def _checkpoint(args, simulated: bool) -> str:
 
 
 def _serve(args, stop: threading.Event) -> dict:
-    from psmforce.live.serve import DdsNode, discovery, domain, participant as join
+    from psmforce.live.serve import DdsNode, discovery, domain, participant as join, run_realtime
     checkpoint = _checkpoint(args, args.sim)
+    scheduling = run_realtime(args.rt_priority)   # before the participant: its threads inherit
     participant = join(args.domain_id)
     node = DdsNode(checkpoint, participant, arm=args.arm, topics=_topics(args),
                    input_rate_hz=args.input_rate, tare_on_start=args.tare_on_start,
@@ -100,8 +101,8 @@ def _serve(args, stop: threading.Event) -> dict:
           f"{node.output_topics['hex10']} and {node.output_topics['base']}", flush=True)
     player = _start_sim(args, participant, stop) if args.sim and not stop.is_set() else None
     try:
-        return node.spin(duration_s=args.duration, stop=stop, idle_stop_s=args.idle_stop,
-                         progress_s=None if args.quiet else 1.0)
+        return {**node.spin(duration_s=args.duration, stop=stop, idle_stop_s=args.idle_stop,
+                            progress_s=None if args.quiet else 1.0), "scheduling": scheduling}
     finally:
         stop.set()
         if player is not None:
@@ -229,6 +230,11 @@ def add_live_commands(sub) -> None:
     p.add_argument("--best-effort", dest="reader_qos", action="store_const",
                    const="best-effort", help="the same as --reader-qos best-effort (the "
                    "writers stay reliable)")
+    p.add_argument("--rt-priority", type=options.number_in(1, 99, low_open=False,
+                                                           integer=True), metavar="N",
+                   help="run the node under Linux's SCHED_FIFO at priority N (1-99), ahead of "
+                        "every normal process: a short tail on a busy host (needs an rtprio "
+                        "limit or CAP_SYS_NICE; docs/live.md)")
     p.add_argument("--duration", type=options.SECONDS, metavar="S", help="stop after S seconds")
     p.add_argument("--idle-stop", type=options.SECONDS, metavar="S",
                    help="stop when no message came for S seconds after the first")

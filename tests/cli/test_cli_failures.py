@@ -212,6 +212,7 @@ def test_an_out_name_the_file_system_cannot_hold_is_refused_before_training(
     (["serve", "h.pt", "--input-rate", "1e9"], "--input-rate"),
     (["serve", "h.pt", "--domain-id", "300"], "--domain-id"),
     (["serve", "h.pt", "--domain-id", "-5"], "--domain-id"),
+    (["serve", "h.pt", "--rt-priority", "0"], "--rt-priority"),
     (["replay", "b", "h.pt", "--out", "o.mcap", "--port", "70000"], "--port"),
     (["replay", "b", "h.pt", "--out", "o.mcap", "--input-rate", "1000000000"], "--input-rate")])
 def test_sizes_and_durations_outside_their_bounds_are_refused_in_one_line(argv, option, capsys):

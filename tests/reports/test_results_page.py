@@ -47,3 +47,30 @@ def test_the_writes_share_of_the_residence_is_a_row_only_when_measured():
            "0.50 ms, max 3.0 ms |" in latency(streaming, live)
     live["dds"].pop("node_residence_writes")
     assert "DDS writes per answer" not in latency(streaming, live)
+
+
+def test_the_scheduling_table_reads_each_run_marks_the_goal_and_says_when_refused():
+    import copy
+    streaming, live = _committed("streaming.json"), _committed("live.json")
+    for key in [k for k in live if "realtime" in k]:
+        del live[key]
+    assert "serve --rt-priority" not in latency(streaming, live)   # a run made before it
+    for key in ("dds", "dds_busy_core", "dds_network_after_answer",
+                "dds_busy_core_network_after_answer"):
+        run = copy.deepcopy(live[key])
+        run["scheduling"] = "SCHED_FIFO 50"
+        live[key.replace("dds", "dds_realtime", 1).replace("dds_realtime_busy_core",
+                                                             "dds_busy_core_realtime")] = run
+    live["dds_realtime"]["node_residence"] = {"median_ms": 0.1, "p99_ms": 0.25, "max_ms": 1.0}
+    live["dds_busy_core_realtime"]["node_residence"] = {"median_ms": 0.1, "p99_ms": 0.35,
+                                                        "max_ms": 1.0}
+    rows = {line.split(" | ")[0]: line for line in latency(streaming, live).splitlines()
+            if line.startswith("| SCHED_FIFO 50, ") or line.startswith("| normal, ")}
+    assert len(rows) == 4
+    fifo = rows["| SCHED_FIFO 50, before-answer"]
+    assert "| 0.100 / 0.250 / 1.00 (goal met) |" in fifo          # 0.25 <= 0.3
+    assert "| 0.100 / 0.350 / 1.00 |" in fifo                      # 0.35 > 0.3: no mark
+    live = {k: v for k, v in live.items() if "realtime" not in k}
+    live["realtime_refused"] = "the system refused real-time priority 50 (Operation not permitted)"
+    assert ("`serve --rt-priority` was not measured: the system refused real-time priority 50"
+            in latency(streaming, live))

@@ -21,6 +21,7 @@ OPTIONS = (
     ("serve", ["--input-rate", "1e12"], "--input-rate"),
     ("serve", ["--domain-id", "300"], "--domain-id"),
     ("serve", ["--domain-id", "-5"], "--domain-id"),
+    ("serve", ["--rt-priority", "100"], "--rt-priority"),
     ("replay", ["--port", "70000"], "--port"),
     ("replay", ["--view-wait", "nan"], "--view-wait"),
 )
