@@ -49,7 +49,9 @@ width was carried by the rule of ``studies/hybrid_calibrated_design.py`` on desi
 after the comparison's seeds had shown the lateral deficit, so those cannot confirm it. Declared
 before any run on them. Also the seeds of the second candidate of ``studies/hybrid_wide_confirm.py``
 (the hybrid's physics read by the paper's transformer, stop 65): nothing about it was chosen on
-them, and the hybrid as shipped and every model there serve both candidates."""
+them, and the hybrid as shipped and every model there serve both candidates. That rule chose the
+shipped model on these seeds, so they cannot confirm it: its figures on fresh seeds are the
+comparison's (:data:`COMPARISON_SEEDS`), where it was entered after the choice."""
 
 
 def check_fresh(seeds, purpose: str) -> None:
