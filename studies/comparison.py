@@ -197,7 +197,10 @@ def _in_progress(result: dict) -> list[str]:
                 lines += [f"Simulator {version}, scale {float(scale):g}: being retrained with "
                           "a record per training; its point above, from earlier trainings, "
                           "stands until every model has a record on every declared seed. "
-                          f"Trained so far: {_trained(by_seed, done)}.", ""]
+                          f"Trained so far: {_trained(by_seed, done)}; no record on every "
+                          "declared seed yet: " + ", ".join(
+                              m for m, seeds in done.items() if len(seeds) < len(declared))
+                          + ".", ""]
                 continue
             lines += [f"Simulator {version}, scale {float(scale):g}: in progress, no point yet "
                       f"(nothing compared). Trained so far: {_trained(by_seed, done)}; declared "

@@ -221,5 +221,6 @@ def test_a_point_being_retrained_with_records_says_so_and_stands():
     text = comparison.table(result)
     assert ("Simulator 2.3, scale 0.1: being retrained with a record per training; its point "
             "above, from earlier trainings, stands until every model has a record on every "
-            "declared seed. Trained so far: fcn on 101.") in text
+            "declared seed. Trained so far: fcn on 101; no record on every declared seed yet: "
+            "hybrid, transformer, fcn, rocket, lstm, hybrid_transformer.") in text
     assert "| hybrid / Transformer (paper) |" in text     # the point is still shown
