@@ -340,7 +340,8 @@ def dds_figures(ckpt: Path, frame, seconds: float, tmp: Path, *, input_rate: boo
     first_answer = min(received.values()) - sent["sent_ns"][0] if received else None
     n = len(sent["stamps_ns"])
     return {"seconds": seconds, "input_rate_given": input_rate, "busy_core": busy_core,
-            "network": network, "scheduling": report.get("scheduling"), "hex10_sent": n, "node_received": report["received"]["hex10"],
+            "network": network, "scheduling": report.get("scheduling"), "hex10_sent": n,
+            "node_received": report["received"]["hex10"],
             "node_lost": n - report["received"]["hex10"],
             "node_added_latency": _percentiles(added),
             "node_residence": report["residence_ms"],
