@@ -241,7 +241,7 @@ def _cpu_s(pid: int) -> float:
 
 def realtime_refusal() -> str | None:
     """Why this system refuses ``serve --rt-priority`` (asked of a fresh process), or None."""
-    code = ("from psmforce.live.serve import run_realtime\n"
+    code = ("from psmforce.live.scheduling import run_realtime\n"
             f"try:\n    run_realtime({RT_PRIORITY})\n"
             "except ValueError as err:\n    raise SystemExit(str(err))")
     probe = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,

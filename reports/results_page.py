@@ -462,6 +462,8 @@ def scheduling(live: dict) -> list[str]:
     goal = live["dds"].get("residence_goal_p99_ms")
     rows = {}
     for tail, order in (("", "before-answer"), ("_network_after_answer", "after-answer")):
+        if f"dds{tail}" not in live or f"dds_realtime{tail}" not in live:
+            continue
         rows[f"normal, {order}"] = (live[f"dds{tail}"], live[f"dds_busy_core{tail}"])
         rows[f"{live['dds_realtime']['scheduling']}, {order}"] = (
             live[f"dds_realtime{tail}"], live[f"dds_busy_core_realtime{tail}"])

@@ -84,7 +84,8 @@ def _checkpoint(args, simulated: bool) -> str:
 
 
 def _serve(args, stop: threading.Event) -> dict:
-    from psmforce.live.serve import DdsNode, discovery, domain, participant as join, run_realtime
+    from psmforce.live.scheduling import run_realtime
+    from psmforce.live.serve import DdsNode, discovery, domain, participant as join
     checkpoint = _checkpoint(args, args.sim)
     scheduling = run_realtime(args.rt_priority)   # before the participant: its threads inherit
     participant = join(args.domain_id)

@@ -552,39 +552,10 @@ def test_a_node_with_discovery_off_sees_no_other_process_and_localhost_does(tmp_
     assert received["LOCALHOST"] > 0 and received["OFF"] == 0, received
 
 
-def test_a_real_time_priority_is_set_inherited_by_later_threads_or_refused_in_one_line(
-        monkeypatch):
-    """``serve --rt-priority``: SCHED_FIFO for the node's thread and the threads it starts after
-    (the participant's); a system that refuses it is one line that says how to allow it. In a
-    fresh process, so that this test's own process keeps its scheduling."""
-    from psmforce.live.serve import run_realtime
-    assert run_realtime(None) == "default (SCHED_OTHER)"
-    with pytest.raises(ValueError, match="integer in"):
-        run_realtime(0)
-    probe = ("import os, threading; from psmforce.live.serve import run_realtime\n"
-             "try:\n    print(run_realtime(10))\nexcept ValueError as err:\n"
-             "    print('refused', err); raise SystemExit\n"
-             "seen = []\nt = threading.Thread(target=lambda: seen.append("
-             "os.sched_getscheduler(0) == os.SCHED_FIFO)); t.start(); t.join()\n"
-             "print(os.sched_getscheduler(0) == os.SCHED_FIFO, seen[0])")
-    out = subprocess.run([sys.executable, "-c", probe], env=_env(), capture_output=True,
-                         text=True, timeout=60).stdout.splitlines()
-    if out[0].startswith("refused"):
-        assert "rtprio" in out[0]
-    else:
-        assert out == ["SCHED_FIFO 10", "True True"]
-    def refuse(*_):
-        raise PermissionError(1, "Operation not permitted")
-    monkeypatch.setattr(os, "sched_setscheduler", refuse)
-    with pytest.raises(ValueError, match=r"refused real-time priority 10 \(Operation not "
-                                         r"permitted\): allow it with an rtprio limit"):
-        run_realtime(10)
-
-
 @pytest.mark.slow
 @pytest.mark.e2e
 def test_serve_under_a_real_time_priority_answers_and_reports_it(tmp_path):
-    allowed = subprocess.run([sys.executable, "-c", "from psmforce.live.serve import "
+    allowed = subprocess.run([sys.executable, "-c", "from psmforce.live.scheduling import "
                               "run_realtime; run_realtime(10)"], env=_env(),
                              capture_output=True, text=True, timeout=60).returncode == 0
     if not allowed:
