@@ -54,6 +54,14 @@ session put on a 1 kHz clock (:func:`psmforce.live.sim_robot.bench_recording`): 
   orders, with the node under SCHED_FIFO (``serve --rt-priority`` :data:`RT_PRIORITY`; the
   robot, this process and the busy one stay normal processes); ``realtime_refused`` instead,
   the one line, where the system refuses it;
+* ``node_network_after_answer_paced``: ``node_network_after_answer`` with each message handled
+  1 ms after the one before and the process asleep in between, as at 1 kHz on the robot: the
+  same work, woken from sleep each time (its caches cold) instead of back to back;
+* ``dds_floor``, ``dds_floor_realtime``: ``dds`` for a third of the time with, in place of
+  ``serve``, the same node without its estimator (``benchmarks/live_floor.py``: each HEX10
+  message answered with four outputs encoded before and restamped), normal and under
+  SCHED_FIFO: what any node of this design adds on this host, the floor under ``serve``'s
+  figures;
 * ``dds_rate_measured``: the same for 5 s without ``--input-rate`` (the node measures the rate
   from the first stamps): ``first_answer_ms`` is what a user starting the node sees;
 * ``burst``: 5000 samples of the 1 kHz stream published at 10 times its rate (10 kHz for 0.5 s,
@@ -140,8 +148,8 @@ def _decoders() -> dict:
     """Per decoder, stream -> function of the CDR bytes: the project's (what ``serve`` uses)
     and ``cyclonedds``' Python classes (what a ``DataReader.take`` gives)."""
     from psmforce.live import cdr, dds
-    return {"psmforce.live.cdr": {"js": cdr.decode_joint_state, "jaw": cdr.decode_joint_state,
-                                  "hex10": cdr.decode_wrench_stamped},
+    return {"psmforce.live.cdr": {"js": cdr.Stream("JointState"), "jaw": cdr.Stream("JointState"),
+                                  "hex10": cdr.Stream("WrenchStamped")},
             "cyclonedds": {"js": dds.JointState.deserialize, "jaw": dds.JointState.deserialize,
                            "hex10": dds.WrenchStamped.deserialize}}
 
@@ -168,7 +176,10 @@ def decode_figures(frame) -> dict:
     return out
 
 
-def node_figures(ckpt: Path, frame, network_after_answer: bool = False) -> dict:
+def node_figures(ckpt: Path, frame, network_after_answer: bool = False,
+                 paced: bool = False) -> dict:
+    """``node`` (module docstring); ``paced``: each HEX10 message handled 1 ms after the one
+    before, the process asleep in between, as the live node at 1 kHz."""
     from psmforce.live.node import ForceNode
     # the option only when asked: node_ab.py runs this on revisions that predate it
     order = {"network_after_answer": True} if network_after_answer else {}
@@ -176,7 +187,11 @@ def node_figures(ckpt: Path, frame, network_after_answer: bool = False) -> dict:
     node = ForceNode(est)
     wall, cpu, after, flags = [], [], [], 0
     wall_clock, cpu_clock = time.perf_counter_ns, time.thread_time_ns
+    due = wall_clock()
     for stream, message in _messages(frame):
+        if paced and stream == "js":  # a sample's first message: wait for its millisecond
+            due += 1_000_000
+            time.sleep(max(0.0, (due - wall_clock()) * 1e-9))
         w0, c0 = wall_clock(), cpu_clock()
         answers = node.update(stream, message)
         for answer in answers:
@@ -199,7 +214,7 @@ def node_figures(ckpt: Path, frame, network_after_answer: bool = False) -> dict:
     out = {"messages": int(len(wall) - WARMUP), "backend": est.backend_name,
            "decimation": est.decimation, "model_rate_hz": est.rate_hz,
            "input_rate_hz": est.input_rate_hz, "lag_s": est.lag_s(), "budget_ms": PERIOD_MS,
-           "network_after_answer": network_after_answer}
+           "network_after_answer": network_after_answer, "paced": paced}
     for name, mask in (("all", k >= WARMUP), ("network_steps", network),
                        ("physics_and_filter_only", other)):
         out[name] = {**_percentiles(wall[mask]),
@@ -251,7 +266,7 @@ def realtime_refusal() -> str | None:
 
 def dds_figures(ckpt: Path, frame, seconds: float, tmp: Path, *, input_rate: bool = True,
                 busy_core: bool = False, network: str = "before-answer",
-                rt_priority: int | None = None) -> dict:
+                rt_priority: int | None = None, floor: bool = False) -> dict:
     from cyclonedds.core import (
         InstanceState,
         Policy,
@@ -284,13 +299,15 @@ def dds_figures(ckpt: Path, frame, seconds: float, tmp: Path, *, input_rate: boo
     for r in (reader, direct):
         waitset.attach(ReadCondition(r, SampleState.Any | ViewState.Any | InstanceState.Any))
     env = dict(os.environ, PYTHONPATH=str(ROOT))
-    node = subprocess.Popen(
-        [sys.executable, "-m", "psmforce.cli.main", "serve", str(ckpt), "--domain-id", str(domain_id),
-         *(["--input-rate", "1000"] if input_rate else []), "--sync-stamps", "--idle-stop", "3",
-         *(["--network", network] if network != "before-answer" else []),
-         *(["--rt-priority", str(rt_priority)] if rt_priority is not None else []),
-         "--json", str(tmp / "node.json")], env=env, stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE, text=True)
+    realtime = ["--rt-priority", str(rt_priority)] if rt_priority is not None else []
+    command = ([str(ROOT / "benchmarks" / "live_floor.py"), str(ckpt), "--domain-id",
+                str(domain_id), *realtime] if floor else
+               ["-m", "psmforce.cli.main", "serve", str(ckpt), "--domain-id", str(domain_id),
+                *(["--input-rate", "1000"] if input_rate else []), "--sync-stamps",
+                "--idle-stop", "3", *(["--network", network] if network != "before-answer"
+                                       else []), *realtime])
+    node = subprocess.Popen([sys.executable, *command, "--json", str(tmp / "node.json")],
+                            env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     robot = burner = None
     received: dict[int, int] = {}
     received_direct: dict[int, int] = {}
@@ -340,6 +357,7 @@ def dds_figures(ckpt: Path, frame, seconds: float, tmp: Path, *, input_rate: boo
     first_answer = min(received.values()) - sent["sent_ns"][0] if received else None
     n = len(sent["stamps_ns"])
     return {"seconds": seconds, "input_rate_given": input_rate, "busy_core": busy_core,
+            "node": "floor (benchmarks/live_floor.py)" if floor else "psmforce serve",
             "network": network, "scheduling": report.get("scheduling"), "hex10_sent": n,
             "node_received": report["received"]["hex10"],
             "node_lost": n - report["received"]["hex10"],
@@ -441,6 +459,7 @@ def main() -> tuple[dict, str | None]:
         result["decode"] = decode_figures(frame)
         result["node"] = node_figures(ckpt, frame)
         result["node_network_after_answer"] = node_figures(ckpt, frame, True)
+        result["node_network_after_answer_paced"] = node_figures(ckpt, frame, True, paced=True)
         result["network_after_answer_accuracy"] = network_after_answer_accuracy(frame)
         result["dds"] = dds_figures(ckpt, frame, args.seconds, tmp)
         result["dds_network_after_answer"] = dds_figures(ckpt, frame, args.seconds, tmp,
@@ -460,6 +479,11 @@ def main() -> tuple[dict, str | None]:
                     rt_priority=RT_PRIORITY)
         else:
             result["realtime_refused"] = refused
+        # the floor: the same node without its estimator (benchmarks/live_floor.py)
+        result["dds_floor"] = dds_figures(ckpt, frame, args.seconds / 3, tmp, floor=True)
+        if refused is None:
+            result["dds_floor_realtime"] = dds_figures(ckpt, frame, args.seconds / 3, tmp,
+                                                       floor=True, rt_priority=RT_PRIORITY)
         result["dds_rate_measured"] = dds_figures(ckpt, frame, 5.0, tmp, input_rate=False)
         result["burst"] = burst_figures(ckpt, frame, tmp)
         result["burst_busy_core"] = burst_figures(ckpt, frame, tmp, busy_core=True)
@@ -493,7 +517,8 @@ def _print(r: dict) -> None:
           f"{'met' if link['within_target'] else 'NOT met'}")
     added, own = link["node_added_latency"], link["node_residence"]
     print(f"node-added latency (answer minus the robot's own message, per message): p50 "
-          f"{added['median_ms']:.3f} ms, p99 {added['p99_ms']:.3f} ms, max {added['max_ms']:.2f} ms")
+          f"{added['median_ms']:.3f} ms, p99 {added['p99_ms']:.3f} ms, max "
+          f"{added['max_ms']:.2f} ms")
     writes = link["node_residence_writes"]
     print(f"of which the DDS writes: p50 {writes['median_ms']:.3f} ms, p99 {writes['p99_ms']:.3f} "
           f"ms, max {writes['max_ms']:.2f} ms")

@@ -445,7 +445,44 @@ def latency(streaming: dict, live: dict) -> str:
         lines += network_order(live)
     if "dds_realtime" in live or "realtime_refused" in live:
         lines += scheduling(live)
+    if "dds_floor" in live:
+        lines += floor(live)
     return "\n".join(lines + [""])
+
+
+def floor(live: dict) -> list[str]:
+    """What the node's own work adds over a node without it: ``benchmarks/live_floor.py``'s
+    echo node over the same transport, and the node's in-process time back to back and woken
+    from sleep at every message, from the same run of ``benchmarks/live.py``."""
+    def cell(t):
+        return f"{t['median_ms']:.3f} / {t['p99_ms']:.3f} / {t['max_ms']:.2f}"
+
+    rows = [("no estimator (the floor), normal", live["dds_floor"]),
+            ("no estimator (the floor), " + live.get("dds_floor_realtime", {}).get(
+                "scheduling", ""), live.get("dds_floor_realtime")),
+            ("`serve`, network after the answer, normal", live.get("dds_network_after_answer")),
+            ("`serve`, network after the answer, " + live.get(
+                "dds_realtime_network_after_answer", {}).get("scheduling", ""),
+             live.get("dds_realtime_network_after_answer"))]
+    lines = ["", "The floor: the same node without its estimator (`benchmarks/live_floor.py`: "
+             "every HEX10 message answered with four outputs encoded before), over the same "
+             "transport in the same run; what the node's own work adds is the difference. "
+             "Times p50 / p99 / max in ms.", "",
+             "| node | residence over DDS | node-added latency | messages the node lost |",
+             "|---|---|---|---|"]
+    lines += [f"| {name} | {cell(t['node_residence'])} | {cell(t['node_added_latency'])} "
+              f"| {t['node_lost']:,} of {t['hex10_sent']:,} |" for name, t in rows if t]
+    paced = live.get("node_network_after_answer_paced")
+    if paced and "node_network_after_answer" in live:
+        hot = live["node_network_after_answer"]["all"]
+        ratio = paced["all"]["median_ms"] / hot["median_ms"]
+        lines += ["", f"The node's work in-process, every message, network after the answer: "
+                  f"back to back {cell(hot)} ms; each message 1 ms after the one before, "
+                  f"the process asleep in between as on the robot, {cell(paced['all'])} ms "
+                  f"({ratio:.1f}x at the median"
+                  + ("; woken from sleep, the same work runs slower on this host" if ratio > 1.2
+                     else "") + ")."]
+    return lines
 
 
 def scheduling(live: dict) -> list[str]:

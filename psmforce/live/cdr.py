@@ -9,7 +9,8 @@ a string is its uint32 length including the NUL, its bytes and the NUL; a sequen
 count and its elements. ``tests/live/test_live_cdr.py`` checks every function here byte for byte
 against ``rosbags`` (:data:`psmforce.io.bags.messages.ROS2_TYPESTORE`) and ``cyclonedds``.
 
-Decoding (:func:`decode_joint_state`, :func:`decode_wrench_stamped`) reads either byte order
+Decoding (:func:`decode_joint_state`, :func:`decode_wrench_stamped`; per stream, :class:`Stream`,
+which decodes a stream's frame and joint names once) reads either byte order
 (encapsulation ``00 01``, little-endian, or ``00 00``, big-endian: plain CDR, what ROS 2's
 middlewares write) into light messages with the ROS 2 field names (``msg.name``,
 ``msg.header.stamp.sec``, ``msg.wrench.force.x``; a JointState's arrays are float64 numpy
@@ -285,3 +286,81 @@ def decode_joint_state(data: bytes) -> JointState:
     names = r.strings(r.count(5))  # a string: its length and its NUL at least
     arrays = [r.float64s(r.count(8)) for _ in range(3)]
     return JointState(header, names, *arrays)
+
+
+class _Layout(NamedTuple):
+    """What a stream's last fully decoded message fixes for the next ones (:class:`Stream`)."""
+    size: int
+    head: bytes
+    """Bytes 12 up to the first field after the names (frame, names): compared every message."""
+    encapsulation: bytes
+    order: str
+    counts: tuple[tuple[int, int], ...]
+    """(offset, value) of each array's length (JointState)."""
+    arrays: tuple[tuple[int, int], ...]
+    """(offset, length) of each float64 array."""
+    frame_id: str
+    names: tuple[str, ...]
+
+
+class Stream:
+    """:func:`decode_joint_state` (``kind="JointState"``) or :func:`decode_wrench_stamped`
+    (``"WrenchStamped"``) for the messages of one stream, which carry the same frame and joint
+    names message after message: those, and so where every value sits, are decoded once and
+    then compared with each message's bytes (its size, encapsulation, frame, names and array
+    lengths), so a matching message costs its stamp and its values alone; any other is decoded in
+    full (same messages, same :class:`CdrError`) and becomes the layout compared next."""
+
+    def __init__(self, kind: str):
+        if kind not in ("JointState", "WrenchStamped"):
+            raise ValueError(f"a stream decodes JointState or WrenchStamped, not {kind!r}")
+        self.kind = kind
+        self._layout: _Layout | None = None
+        self._full = decode_joint_state if kind == "JointState" else decode_wrench_stamped
+
+    def __call__(self, data: bytes):
+        layout = self._layout
+        if layout is None or len(data) != layout.size \
+                or not data.startswith(layout.encapsulation) \
+                or not data.startswith(layout.head, 12) \
+                or any(_UINT32[layout.order].unpack_from(data, at)[0] != n
+                       for at, n in layout.counts):
+            message = self._full(data)
+            self._layout = self._learn(data, message)
+            return message
+        sec, nanosec = _STAMP_OF[layout.order].unpack_from(data, 4)
+        header = Header(Time(sec, nanosec), layout.frame_id)
+        if self.kind == "WrenchStamped":
+            (at, _), = layout.arrays
+            v = _SIX[layout.order].unpack_from(data, at)
+            return WrenchStamped(header, Wrench(Vector3(*v[:3]), Vector3(*v[3:])))
+        dtype = _FLOAT64[layout.order]
+        return JointState(header, layout.names,
+                          *[np.frombuffer(data, dtype, n, at) if n else np.empty(0)
+                            for at, n in layout.arrays])
+
+    def _learn(self, data: bytes, message) -> _Layout:
+        """The layout of ``message``, just decoded in full from ``data``: the offsets the
+        full decoder's cursor reached, walked again."""
+        r = _Reader(data, self.kind)
+        r.header()
+        counts, arrays = [], []
+        if self.kind == "JointState":
+            r.strings(r.count(5))
+            head_end = r.pos
+            for _ in range(3):
+                n = r.count(8)
+                counts.append((r.pos - 4, n))
+                arrays.append((r.take(8 * n, 8) if n else r.pos, n))
+        else:
+            head_end = r.pos
+            arrays.append((r.take(48, 8), 6))
+        return _Layout(len(data), bytes(data[12:head_end]), bytes(data[:4]), r.order,
+                       tuple(counts), tuple(arrays), message.header.frame_id,
+                       getattr(message, "name", ()))
+
+
+_UINT32 = {o: struct.Struct(o + "I") for o in "<>"}
+_STAMP_OF = {o: struct.Struct(o + "iI") for o in "<>"}
+_SIX = {o: struct.Struct(o + "6d") for o in "<>"}
+_FLOAT64 = {o: np.dtype(o + "f8") for o in "<>"}

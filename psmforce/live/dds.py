@@ -27,7 +27,8 @@ No ``from __future__ import annotations`` here: ``cyclonedds`` reads the field t
 from dataclasses import dataclass, field
 
 import cyclonedds.idl.types as t
-from cyclonedds.core import Policy, Qos
+from cyclonedds._clayer import ddspy_take, ddspy_write
+from cyclonedds.core import DDSException, InstanceState, Policy, Qos, SampleState, ViewState
 from cyclonedds.idl import IdlStruct
 from cyclonedds.util import duration
 
@@ -158,10 +159,14 @@ TYPES = {"builtin_interfaces/msg/Time": Time, "std_msgs/msg/Header": Header,
 """The DDS structure of each ROS 2 message type used."""
 
 
+_ANY_STATE = SampleState.Any | ViewState.Any | InstanceState.Any
+"""Read, unread, new, old, alive or not: every sample a reader holds (once, not per take: the
+node takes from four readers per message)."""
+
+
 def write_raw(writer, data: bytes) -> None:
     """Write CDR bytes (:mod:`psmforce.live.cdr`, encapsulation header included) as one sample
     of ``writer``'s type, as ``DataWriter.write`` writes a serialised structure."""
-    from cyclonedds._clayer import ddspy_write
     if ddspy_write(writer._ref, data.ljust((len(data) + 3) & ~3, b"\0")) < 0:
         raise RuntimeError("a DDS write failed: the bytes are not a sample of the topic's type, "
                            "or the participant was closed")
@@ -172,9 +177,7 @@ def take_raw(reader, n: int) -> list:
     included; decoded by :mod:`psmforce.live.cdr`), each with its ``SampleInfo``: what
     ``DataReader.take`` does short of deserialising. Samples without data (a writer leaving)
     are dropped."""
-    from cyclonedds._clayer import ddspy_take
-    from cyclonedds.core import DDSException, InstanceState, SampleState, ViewState
-    taken = ddspy_take(reader._ref, SampleState.Any | ViewState.Any | InstanceState.Any, n)
+    taken = ddspy_take(reader._ref, _ANY_STATE, n)
     if isinstance(taken, int):
         raise DDSException(taken, f"Occurred while taking data in {reader!r}")
     return [(data, info) for data, info in taken if info.valid_data]

@@ -17,9 +17,11 @@ been had it woken the node; none is dropped (the readers keep
 :data:`psmforce.live.dds.DEPTH`).
 
 Decoding. Messages are taken as their CDR bytes and decoded by :mod:`psmforce.live.cdr`, not by
-the middleware's Python classes (``benchmarks/live.py`` times both). A message whose bytes do not
-decode is counted (``malformed`` in :meth:`DdsNode.report`, its reason printed once per stream)
-and skipped: the node goes on with the stream's previous message, flagged STALE if none follows.
+the middleware's Python classes (``benchmarks/live.py`` times both), a
+:class:`psmforce.live.cdr.Stream` per reader: a stream's frame and joint names are decoded once,
+not at every message. A message whose bytes do not decode is counted (``malformed`` in
+:meth:`DdsNode.report`, its reason printed once per stream) and skipped: the node goes on with
+the stream's previous message, flagged STALE if none follows.
 
 Rate. The estimator, with its network's backend (the slow part: the step graph is compiled), is
 built before the node subscribes, at ``input_rate_hz`` when given, else at the model's rate.
@@ -207,8 +209,8 @@ class DdsNode:
                 self._waitset.attach(ReadCondition(reader, mask))
         self._write, self._take = dds.write_raw, dds.take_raw
         self._take_order = ("hex10", "tare", "jaw", "js")
-        self._decode = {"js": cdr.decode_joint_state, "jaw": cdr.decode_joint_state,
-                        "hex10": cdr.decode_wrench_stamped, "tare": lambda data: None}
+        self._decode = {"js": cdr.Stream("JointState"), "jaw": cdr.Stream("JointState"),
+                        "hex10": cdr.Stream("WrenchStamped"), "tare": lambda data: None}
         self.received = {s: 0 for s in sources}
         self.malformed = {s: 0 for s in sources}
         self.published = 0

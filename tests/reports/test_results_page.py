@@ -40,6 +40,24 @@ def test_the_network_orders_table_reads_both_orders_from_one_run_and_only_when_m
     assert "serve --network" not in latency(streaming, live)
 
 
+def test_the_floor_table_reads_the_floor_runs_beside_the_node_and_only_when_measured():
+    streaming, live = _committed("streaming.json"), _committed("live.json")
+    live["dds_floor_realtime"]["node_residence"]["p99_ms"] = 0.0987
+    live["dds_realtime_network_after_answer"]["node_residence"]["p99_ms"] = 0.8766
+    live["node_network_after_answer_paced"]["all"]["median_ms"] = \
+        3 * live["node_network_after_answer"]["all"]["median_ms"]
+    text = latency(streaming, live).splitlines()
+    floor = next(line for line in text if line.startswith("| no estimator (the floor), SCHED"))
+    node = next(line for line in text if line.startswith("| `serve`, network after the answer, S"))
+    assert "/ 0.099 /" in floor
+    assert "/ 0.877 /" in node
+    assert any("(3.0x at the median; woken from sleep" in line for line in text)
+    del live["node_network_after_answer_paced"]
+    assert not any("at the median; woken" in line for line in latency(streaming, live).splitlines())
+    del live["dds_floor"], live["dds_floor_realtime"]   # a run made before the floor
+    assert "no estimator (the floor)" not in latency(streaming, live)
+
+
 def test_the_writes_share_of_the_residence_is_a_row_only_when_measured():
     streaming, live = _committed("streaming.json"), _committed("live.json")
     live["dds"]["node_residence_writes"] = {"median_ms": 0.25, "p99_ms": 0.5, "max_ms": 3.0}
