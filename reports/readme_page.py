@@ -8,6 +8,7 @@ from __future__ import annotations
 from reports.identification_page import LEARNED_BASELINES, MODEL_NAMES
 from reports.cells import spread_cell
 from psmforce.experiments.plan import PLAN
+from studies.bench_paper_calibration import published
 from studies.learning_curve import AXES, HYBRID, PAPER_SCALE, TRANSFORMER
 from psmforce.estimators.evaluation.tables import compare
 
@@ -174,11 +175,9 @@ def _bench_over_robot(calibration: dict, version: str) -> str:
             and r["paper_budget"]]
     if not rows:
         return ""
-    paper = calibration.get("paper", {})
     text = "; ".join(f"{r['label']} " + " / ".join(f"{r['ratio'][a]:.2f}x" for a in AXES)
-                     + (" (against the issue's figure, which no publication gives)"
-                        if not paper.get(r.get("model"), {}).get("source", "paper")
-                        .startswith("paper") else "")
+                     + ("" if published(r["model"]) else
+                        " (against the issue's figure, which no publication gives)")
                      for r in rows)
     held = calibration["verdicts"][version]["transformer_held_out"]
     if isinstance(held, dict):
