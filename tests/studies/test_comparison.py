@@ -82,7 +82,8 @@ def test_the_first_screen_states_each_point_with_its_interval_and_the_bench_agai
                     "fcn": [1.0, 2.1, 1.4]}, converged={"fcn": False})
     p = comparison.point(res, "2.3", 0.1)
     calibration = {"rows": [{"candidate": "2.3", "paper_budget": True, "label": "FCN",
-                             "seeds": [1], "ratio": {"Fx": 0.8, "Fy": 1.1, "Fz": 0.9}}],
+                             "model": "fcn", "seeds": [1],
+                             "ratio": {"Fx": 0.8, "Fy": 1.1, "Fz": 0.9}}],
                    "verdicts": {"2.3": {"transformer_held_out": "not checked"}}}
     text = fresh_comparison({"points": {"2.3 scale 0.1": p}}, calibration)
     assert "| hybrid / Transformer (paper) | 1.00x [" in text and "] tie" in text  # holds 1
@@ -92,9 +93,9 @@ def test_the_first_screen_states_each_point_with_its_interval_and_the_bench_agai
     assert "NOT converged: fcn" in text and "Not compared (a training did not stop early): fcn" \
         in text
     assert "FCN 0.80x / 1.10x / 0.90x" in text and "held-out check, not run yet" in text
-    issue_given = {**calibration, "paper": {"rocket": {"source": "given by the issue"}},
-                   "rows": calibration["rows"] + [{**calibration["rows"][0], "model": "rocket",
-                                                   "label": "MultiRocket-Hydra"}]}
+    # MultiRocket-Hydra's robot figure is the issue's (studies.bench_paper_calibration.published)
+    issue_given = {**calibration, "rows": calibration["rows"] + [
+        {**calibration["rows"][0], "model": "rocket", "label": "MultiRocket-Hydra"}]}
     assert ("FCN 0.80x / 1.10x / 0.90x; MultiRocket-Hydra 0.80x / 1.10x / 0.90x (against the "
             "issue's figure, which no publication gives)") in fresh_comparison(
         {"points": {"2.3 scale 0.1": p}}, issue_given)
