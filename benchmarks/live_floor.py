@@ -3,11 +3,12 @@
     python benchmarks/live_floor.py CHECKPOINT --domain-id N --json OUT [--rt-priority P]
 
 :class:`EchoNode` is :class:`psmforce.live.serve.DdsNode` (its readers, writers, wake-ups, takes,
-decoding and ordering, its residence bookkeeping) with :meth:`EchoNode._handle` answering each
-HEX10 message with four outputs encoded once and restamped with the message's stamp: no sample,
-no estimator step, no encoding. ``benchmarks/live.py`` runs it where it runs ``serve`` and
-measures it the same way (``dds_floor*``): what any node of this design adds on the host, so the
-node's own share is its figure less this one. Stops 3 s after the last message, as ``serve
+decoding and ordering, its residence bookkeeping, ``_keep_residence``) with
+:meth:`EchoNode._handle` answering each HEX10 message with four outputs encoded once and
+restamped with the message's stamp: no sample, no estimator step, no encoding.
+``benchmarks/live.py`` runs it where it runs ``serve`` and measures it the same way
+(``dds_floor*``): what any node of this design adds on the host, so the node's own share is its
+figure less this one. Stops 3 s after the last message, as ``serve
 --idle-stop 3`` does, and writes the report (:meth:`DdsNode.report` and ``scheduling``) to OUT.
 """
 
@@ -23,7 +24,7 @@ import time  # noqa: E402
 from psmforce.experiments.report import write_json  # noqa: E402
 from psmforce.io.bags.messages import stamp_ns  # noqa: E402
 from psmforce.live import cdr  # noqa: E402
-from psmforce.live.serve import RESIDENCE_KEPT, DdsNode, participant  # noqa: E402
+from psmforce.live.serve import DdsNode, participant  # noqa: E402
 
 
 class EchoNode(DdsNode):
@@ -46,11 +47,7 @@ class EchoNode(DdsNode):
         for name, data in self._echo.items():
             self._write(self.writers[name],
                         bytes(cdr.restamp(data, stamp)) if name in self._stamped else data)
-        written = time.perf_counter_ns()
-        slot = self._residences % RESIDENCE_KEPT
-        self._residence_ns[slot] = written - taken_ns
-        self._writes_ns[slot] = written - writing
-        self._residences += 1
+        self._keep_residence(taken_ns, writing, time.perf_counter_ns())
         self.published += 1
 
 

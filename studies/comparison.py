@@ -191,7 +191,8 @@ def _in_progress(result: dict) -> list[str]:
             declared = COMPARISON_SEEDS.get(float(scale), ())
             done = {m: sorted(int(s) for s in by_seed if m in by_seed[s] and int(s) in declared)
                     for m in MODELS}
-            if f"{version} scale {float(scale):g}" in result.get("points", {}):
+            standing = result.get("points", {}).get(f"{version} scale {float(scale):g}")
+            if standing is not None:
                 if all(len(seeds) == len(declared) for seeds in done.values()):
                     continue
                 lines += [f"Simulator {version}, scale {float(scale):g}: being retrained with "
@@ -200,7 +201,7 @@ def _in_progress(result: dict) -> list[str]:
                           f"Trained so far: {_trained(by_seed, done)}; no record on every "
                           "declared seed yet: " + ", ".join(
                               m for m, seeds in done.items() if len(seeds) < len(declared))
-                          + ".", ""]
+                          + "." + _against_point(standing, by_seed, done), ""]
                 continue
             lines += [f"Simulator {version}, scale {float(scale):g}: in progress, no point yet "
                       f"(nothing compared). Trained so far: {_trained(by_seed, done)}; declared "
@@ -209,6 +210,28 @@ def _in_progress(result: dict) -> list[str]:
                       f"{', '.join(m for m, seeds in done.items() if not seeds) or 'none'}."
                       + (_against_robot(by_seed, done) if float(scale) == 1.0 else ""), ""]
     return lines
+
+
+def _against_point(standing: dict, by_seed: dict, done: dict[str, list[int]]) -> str:
+    """How far a rerun's records lie from the standing point's per-seed NRMSE on the same
+    seeds: per model, the largest relative difference over seeds, metrics and axes (0: the
+    rerun reproduces the point)."""
+    apart = {}
+    for m, seeds in done.items():
+        if m not in standing["models"]:
+            continue
+        per_seed = standing["models"][m]["per_seed"]
+        gaps = [abs(by_seed[str(s)][m]["nrmse_pct"][mt][a] - per_seed[mt][k][a])
+                / abs(per_seed[mt][k][a])
+                for s in seeds if s in standing["seeds"]
+                for k in [standing["seeds"].index(s)] for mt in per_seed for a in AXES]
+        if gaps:
+            apart[m] = max(gaps)
+    if not apart:
+        return ""
+    return (" Against the standing point's per-seed NRMSE on the same seeds (largest relative "
+            "difference over seeds, metrics and axes): " + ", ".join(
+                f"{m} {'0' if gap == 0 else f'{gap:.1e}'}" for m, gap in apart.items()) + ".")
 
 
 def _trained(by_seed: dict, done: dict[str, list[int]]) -> str:

@@ -251,9 +251,7 @@ class DdsNode:
             written = time.perf_counter_ns()
             taken = self._taken_ns.pop(answer.stamp_ns, None)
             if taken is not None:
-                self._residence_ns[self._residences % RESIDENCE_KEPT] = written - taken
-                self._writes_ns[self._residences % RESIDENCE_KEPT] = written - writing
-                self._residences += 1
+                self._keep_residence(taken, writing, written)
             self.published += 1
             self.last_answer = answer
             self._flag_values[answer.flags] = self._flag_values.get(answer.flags, 0) + 1
@@ -261,6 +259,14 @@ class DdsNode:
         self._estimator.advance()
         if len(self._taken_ns) > RESIDENCE_KEPT:  # stamps never answered (a repeated stamp)
             self._taken_ns.clear()
+
+    def _keep_residence(self, taken_ns: int, writing_ns: int, written_ns: int) -> None:
+        """One answer's residence (module docstring, Residence) and its writes' share, kept
+        among the last :data:`RESIDENCE_KEPT`."""
+        slot = self._residences % RESIDENCE_KEPT
+        self._residence_ns[slot] = written_ns - taken_ns
+        self._writes_ns[slot] = written_ns - writing_ns
+        self._residences += 1
 
     def spin_once(self, timeout_s: float = 0.1) -> int:
         """Wait up to ``timeout_s`` for messages and handle all there are; returns how many."""

@@ -225,3 +225,11 @@ def test_a_point_being_retrained_with_records_says_so_and_stands():
             "declared seed. Trained so far: fcn on 101; no record on every declared seed yet: "
             "hybrid, transformer, fcn, rocket, lstm, hybrid_transformer.") in text
     assert "| hybrid / Transformer (paper) |" in text     # the point is still shown
+    assert "Against the standing point's" not in text   # fcn is not in the old point
+    # a rerun of the hybrid on 101: the same figures, then one 1 % off on one axis
+    same = comparison.records_from_results(_result(101, {"hybrid": 1.0}))[101]["hybrid"]
+    result["records"]["2.3"]["0.1"]["101"]["hybrid"] = same
+    assert ("(largest relative difference over seeds, metrics and axes): hybrid 0.") \
+        in comparison.table(result)
+    same["nrmse_pct"]["paper"]["Fy"] *= 1.01
+    assert "metrics and axes): hybrid 1.0e-02." in comparison.table(result)
