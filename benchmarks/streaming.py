@@ -56,7 +56,7 @@ from psmforce.estimators.runtime.postfilter import CausalFilter  # noqa: E402
 from psmforce.estimators.runtime.steppers import make_backend  # noqa: E402
 from psmforce.estimators.runtime.streaming import Flags, StreamingEstimator  # noqa: E402
 from psmforce.io.recording import PAPER_FEATURES, TARGETS  # noqa: E402
-from psmforce.experiments.report import shown_path, write_json  # noqa: E402
+from psmforce.experiments.report import cpu_model, shown_path, write_json  # noqa: E402
 
 TARGET_P99_MS = 1.0
 TARGET_SPEEDUP = 5.0
@@ -129,16 +129,6 @@ def _load(args, tmp: Path):
     return dataset, make, label, trained, model_config, prior is not None, data
 
 
-def _cpu_model() -> str:
-    """The processor's model name (``platform.processor()`` is empty on many Linux machines)."""
-    try:
-        with open("/proc/cpuinfo", encoding="utf-8") as f:
-            names = [ln.split(":", 1)[1].strip() for ln in f if ln.startswith("model name")]
-    except OSError:
-        names = []
-    return names[0] if names else platform.processor()
-
-
 def main() -> tuple[dict, str | None]:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--checkpoint")
@@ -162,7 +152,7 @@ def main() -> tuple[dict, str | None]:
                        + [f"--json {shown_path(args.json)}"] * bool(args.json))
     result = {"command": command,
               "machine": {"platform": platform.platform(), "processor": platform.processor(),
-                          "cpu": _cpu_model(),
+                          "cpu": cpu_model(),
                           "python": platform.python_version(), "torch": torch.__version__,
                           "threads": torch.get_num_threads()},
               "estimator": label, "with_prior": with_prior, "model": model_config,

@@ -60,9 +60,10 @@ def run_dir(work: Path, version: str, scale: float) -> Path:
 RECORD_KEYS = ("nrmse_pct", "causal_rmse_n_by_condition", "training", "bench", "device")
 """What one (seed, model) record holds: the test NRMSE % per metric and axis, the causal RMSE (N)
 per test condition and axis, the training's stop, the bench's simulator version, the device.
-Records written since the code that made them was kept also hold ``code`` (the package version
-and, run from a git checkout, its commit: ``reproduce``'s own), so a record that disagrees with
-a rerun can be traced to its code; older records lack it and are read all the same."""
+Records written since they were traced also hold ``code`` (the package version and, run from a
+git checkout, its commit) and ``machine`` (the processor and the instruction set torch ran on),
+``reproduce``'s own, so a record that disagrees with a rerun can be traced to its code or its
+machine; older records lack them and are read all the same."""
 
 
 def records_from_results(results: dict) -> dict[int, dict[str, dict]]:
@@ -87,7 +88,7 @@ def records_from_results(results: dict) -> dict[int, dict[str, dict]]:
                                                 "seconds")},
             "bench": results["benches"][f"automated seed {seed}"],
             "device": results["call"]["device"],
-            "code": results.get("code")}
+            "code": results.get("code"), "machine": results.get("machine")}
     return out
 
 

@@ -61,6 +61,17 @@ def shown_path(path: str | Path, under: str | Path | None = None) -> str:
     return os.path.relpath(path, repository())
 
 
+def cpu_model() -> str:
+    """The processor's model name (``platform.processor()`` is empty on many Linux machines)."""
+    import platform
+    try:
+        with open("/proc/cpuinfo", encoding="utf-8") as f:
+            names = [ln.split(":", 1)[1].strip() for ln in f if ln.startswith("model name")]
+    except OSError:
+        names = []
+    return names[0] if names else platform.processor()
+
+
 def repository() -> Path:
     """The checkout this package runs from (the folder above ``psmforce/`` holding its
     ``pyproject.toml``), else the working folder: an installed wheel has no repository."""

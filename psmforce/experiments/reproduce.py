@@ -68,6 +68,7 @@ from psmforce.estimators.evaluation.metrics import (AXES, POSTPROCESSING, axis_m
                                                   lowpass_lag_samples)
 from psmforce.estimators.networks.baselines import count_parameters
 from psmforce.experiments.plan import plan
+from psmforce.experiments.report import cpu_model
 from psmforce.estimators.networks.recipes import DERIVATIONS, RECIPES, recipe
 from psmforce.experiments.regimes import REGIMES, regime_settings
 from psmforce.estimators.training.resume import clear_state
@@ -538,6 +539,17 @@ def _code_version() -> dict:
     return {"psmforce": ours, "git_commit": commit}
 
 
+def _machine() -> dict:
+    """What a training's floats depend on besides the code, its inputs and its seed: the
+    processor, the instruction set torch dispatches its CPU kernels to (MKL and torch choose
+    kernels per processor, so a training on one seed may end a few rounding errors apart on
+    another machine, and one stopped by patience at another epoch), torch and its threads."""
+    return {"platform": platform.platform(), "cpu": cpu_model(),
+            "cpu_capability": torch.backends.cpu.get_cpu_capability(),
+            "cpu_count": os.cpu_count(), "torch": torch.__version__,
+            "torch_threads": torch.get_num_threads()}
+
+
 def _bench_versions(run_dir: Path, seeds: Sequence[int], teleop: bool) -> dict:
     """{bench: simulator version} from each simulated bench's metadata.json."""
     protocols = ("automated",) + (("teleop",) if teleop else ())
@@ -588,8 +600,7 @@ def _collect(call, seeds, models, variants, pre_by, ft_specs, ft, floors, starte
         "code": _code_version(), "benches": _bench_versions(out / "work", seeds, call["teleop"]),
         "budget": BUDGETS[call["budget"]], "executor": f"ray {ray_address}" if ray_address
         else "in-process",
-        "machine": {"platform": platform.platform(), "cpu_count": os.cpu_count(),
-                    "torch": torch.__version__, "torch_threads": torch.get_num_threads()},
+        "machine": _machine(),
         "started_utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime(started)),
         "duration_s": round(time.time() - started, 1),
         "all_converged": all(t["converged"] for t in training.values())

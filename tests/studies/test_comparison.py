@@ -21,7 +21,8 @@ def _result(seed: int, errors: dict, converged=None) -> dict:
             "automated_by_condition": by_condition,
             "call": {"models": list(errors), "seeds": [seed], "device": "cpu"},
             "benches": {f"automated seed {seed}": "2.3"},
-            "code": {"psmforce": "0.0.test", "git_commit": "abc1234"}}
+            "code": {"psmforce": "0.0.test", "git_commit": "abc1234"},
+            "machine": {"cpu": "a test CPU", "cpu_capability": "AVX2"}}
 
 
 def _results(errors: dict, converged=None) -> dict:
@@ -118,14 +119,16 @@ def test_the_first_screen_words_each_verdict_by_axis_and_metric():
             "Fx and Fz, behind on Fy.") in text
 
 
-def test_a_record_names_the_code_that_trained_it():
-    """The package version and commit reproduce reports ride in each record; a result from
-    before it reported them gives None, not an error."""
+def test_a_record_names_the_code_and_the_machine_that_trained_it():
+    """The package version, commit and machine reproduce reports ride in each record; a result
+    from before it reported them gives None, not an error."""
     result = _result(101, {"fcn": 1.0, "hybrid": 0.5})
     records = comparison.records_from_results(result)[101]
     assert {r["code"]["git_commit"] for r in records.values()} == {"abc1234"}
-    del result["code"]
-    assert comparison.records_from_results(result)[101]["fcn"]["code"] is None
+    assert {r["machine"]["cpu_capability"] for r in records.values()} == {"AVX2"}
+    del result["code"], result["machine"]
+    old = comparison.records_from_results(result)[101]["fcn"]
+    assert old["code"] is None and old["machine"] is None
 
 
 def test_records_add_up_across_fresh_work_folders_and_the_point_waits_for_every_one(
