@@ -7,6 +7,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import platform
 from pathlib import Path
 from typing import Any, Callable
 
@@ -63,7 +64,6 @@ def shown_path(path: str | Path, under: str | Path | None = None) -> str:
 
 def cpu_model() -> str:
     """The processor's model name (``platform.processor()`` is empty on many Linux machines)."""
-    import platform
     try:
         with open("/proc/cpuinfo", encoding="utf-8") as f:
             names = [ln.split(":", 1)[1].strip() for ln in f if ln.startswith("model name")]
