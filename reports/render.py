@@ -8,8 +8,9 @@ Each block sits between ``<!-- NAME: rendered by python -m reports -->`` and
 ``<!-- end NAME -->`` (:data:`BLOCKS`: page, JSON or tuple of JSONs, render function; one
 module of render functions per page: :mod:`reports.readme_page`,
 :mod:`reports.identification_page`, :mod:`reports.results_page`,
-:mod:`reports.simulator_page`, :mod:`reports.ati_free_page`); nothing outside the
-markers is touched. :data:`WHOLE_PAGES` are rewritten whole. Every block and page ends with a
+:mod:`reports.simulator_page`, :mod:`reports.ati_free_page`; a study that prints its own
+table, ``--render-only``, keeps it, and its block calls it there, so studies never import
+reports); nothing outside the markers is touched. :data:`WHOLE_PAGES` are rewritten whole. Every block and page ends with a
 visible line naming its JSON and the command that wrote it (:func:`source_line`), so a reader
 finds where a figure came from in one hop.
 ``tests/reports/test_rendered_docs.py`` holds every page equal to what its JSON renders.
@@ -26,7 +27,6 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from reports import ati_free_page  # noqa: E402
-from reports import bench_calibration_page  # noqa: E402
 from reports import identification_page  # noqa: E402
 from reports import integrity_page  # noqa: E402
 from reports import readme_page  # noqa: E402
@@ -183,6 +183,11 @@ def _hybrid_wide_confirm_table(result: dict) -> str:
     return table(result)
 
 
+def _bench_paper_calibration_table(result: dict) -> str:
+    from studies.bench_paper_calibration import table
+    return table(result)
+
+
 BLOCKS = (
     (README, "fresh-comparison", (FRESH_COMPARISON, BENCH_PAPER_CALIBRATION),
      readme_page.fresh_comparison),
@@ -227,7 +232,7 @@ BLOCKS = (
      _hybrid_calibrated_design_table),
     (RESULTS, "hybrid-wide-confirm", HYBRID_WIDE_CONFIRM, _hybrid_wide_confirm_table),
     (SIMULATOR, "bench-paper-calibration", BENCH_PAPER_CALIBRATION,
-     bench_calibration_page.bench_paper_calibration),
+     _bench_paper_calibration_table),
     (ATI_FREE, "excitation-tables", EXCITATION, ati_free_page.excitation_tables),
     (ATI_FREE, "excitation-paired", EXCITATION_PAIRED, ati_free_page.excitation_paired_summary),
     (ATI_FREE, "remount-tables", REMOUNT, ati_free_page.remount_tables),

@@ -1,9 +1,8 @@
-"""studies/bench_paper_calibration.py and its block (reports/bench_calibration_page.py): rows,
-verdicts and the rendered table from a reproduce result, without training anything."""
+"""studies/bench_paper_calibration.py: rows, verdicts and the rendered block (:func:`table`)
+from a reproduce result, without training anything."""
 
 import pytest
 
-from reports.bench_calibration_page import bench_paper_calibration
 from studies import bench_paper_calibration as cal
 
 
@@ -41,7 +40,7 @@ def test_verdict_and_block():
     assert v["not_at_paper_budget"] == ["lstm"] and "lstm" in v["substituted"]
     data.update({"paper": cal.PAPER, "band": list(cal.BAND), "verdicts": {"2.3": v},
                  "substitutes": cal.SUBSTITUTES})
-    text = bench_paper_calibration(data)
+    text = cal.table(data)
     assert "| LSTM (Yang et al.), on 2.3b's bench | 0.25 (below the paper's budget)" in text
     assert "no published source" in text
     # the version's own row at the paper's budget replaces the substitute, in verdict and table
@@ -49,7 +48,7 @@ def test_verdict_and_block():
     data = cal.merge(data, cal.rows("2.3", 1.0, own), cal.floor_rows("2.3", 1.0, own))
     v = cal.verdict(data, "2.3")
     assert v["met_at_paper_budget"] and v["substituted"] == {}
-    text = bench_paper_calibration({**data, "verdicts": {"2.3": v}})
+    text = cal.table({**data, "verdicts": {"2.3": v}})
     assert "on 2.3b's bench" not in text and "| LSTM (Yang et al.) | 1 |" in text
     with pytest.raises(SystemExit, match="design seeds"):
         cal.main(["--version", "2.3", "--seeds", "101", "--json", "/nonexistent/x.json"])
@@ -85,7 +84,7 @@ def test_the_held_out_transformer_is_checked_but_never_enters_the_band_rule():
     assert lateral["fcn_over_transformer"]["Fy"] == pytest.approx(1.6 / 1.3)
     assert lateral["met"]
     data.update({"paper": cal.PAPER, "band": list(cal.BAND), "verdicts": {"2.3": v}})
-    text = bench_paper_calibration(data)
+    text = cal.table(data)
     assert "| Transformer (paper) (held out) | 1 |" in text
     assert "outside the band: Fx (0.34x)" in text
     assert "(the robot's 1.33x / 1.21x): worse laterally, as on the robot." in text
