@@ -10,9 +10,9 @@ module of render functions per page: :mod:`reports.readme_page`,
 :mod:`reports.identification_page`, :mod:`reports.results_page`,
 :mod:`reports.simulator_page`, :mod:`reports.ati_free_page`; a study that prints its own
 table, ``--render-only``, keeps it, and its block calls it there, so studies never import
-reports); nothing outside the markers is touched. :data:`WHOLE_PAGES` are rewritten whole. Every block and page ends with a
-visible line naming its JSON and the command that wrote it (:func:`source_line`), so a reader
-finds where a figure came from in one hop.
+reports); nothing outside the markers is touched. :data:`WHOLE_PAGES` are rewritten whole.
+Every block and page ends with a visible line naming its JSON and the command that wrote it
+(:func:`source_line`), so a reader finds where a figure came from in one hop.
 ``tests/reports/test_rendered_docs.py`` holds every page equal to what its JSON renders.
 """
 

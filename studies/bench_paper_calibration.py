@@ -372,7 +372,7 @@ def _lines(result: dict) -> list[str]:
     and the held-out check's status."""
     if not result.get("rows"):
         return ["", "No calibration run yet.", ""]
-    low, high = result.get("band", (0.67, 1.5))
+    low, high = result.get("band", BAND)
     paper = result["paper"]
     out = ["", f"Paper metric (bias over the first 0.5 s, centred median of 71 samples), NRMSE % "
            f"on the automated test set, against the paper's Table III figure of each model's "
