@@ -41,9 +41,9 @@ MODELS = ("hybrid", "transformer", "fcn", "rocket", "lstm", "hybrid_transformer"
 """In the table's order; :data:`SUBJECTS` are paired with the others. ``hybrid_transformer``
 (the hybrid's physics read by the paper's transformer) replaced the hybrid as shipped by the
 rule of ``studies/hybrid_wide_confirm.py``, on seeds of its own, after this comparison's scale
-0.1 point was written. That point was built before each training was kept as a record, so it
-gains the new model only with every other one retrained there (with records); until then it
-stands as it was, and the new model is in every point written since."""
+0.1 point was first written. That point was built before each training was kept as a record;
+it was rebuilt from records, the new model in it, once every model had been retrained there
+(with records), and the new model is in every point written since."""
 SUBJECTS = ("hybrid_transformer", "hybrid")
 """Our models, each paired with every other model: the one ``psmforce train`` ships first, then
 the hybrid with its causal network (its pair with the shipped one is the shipped one's, not
