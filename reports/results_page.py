@@ -219,6 +219,9 @@ def recipe_swap_tables(result: dict) -> str:
     if result["not_converged"]:
         lines += ["", "Not every training stopped early in: " + ", ".join(result["not_converged"])
                   + " (left out of the comparisons)."]
+    if result["other_bench"]:
+        lines += ["", "On another bench (scale, seeds or simulator) than the first row's, so not "
+                  "paired with it: " + ", ".join(result["other_bench"]) + "."]
     return "\n".join(lines) + "\n"
 
 

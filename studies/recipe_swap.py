@@ -17,11 +17,14 @@ whose trainings did not all stop early is reported and kept out of the verdicts.
 
     python studies/recipe_swap.py --scale 0.05 --json results/benchmarks/recipe_swap.json
 
-Each (model, regime) cell is one resumable ``psmforce reproduce`` call into one ``--work`` folder
-(the benches simulated once); its results are kept under ``<work>/cells/`` as it finishes, so a
-killed run loses at most the training in progress, and ``--render-only`` assembles what is
-finished. ``--cells hybrid:paper transformer:dense`` runs some cells only (several processes on
-one ``--work`` must take disjoint cells, after one has simulated the benches: ``--benches-only``).
+The benches are those of one simulator version (``--version``, the default bench's unless
+given); one JSON holds the cells of one version, and only cells on the same bench (scale, seeds,
+version) are paired. Each (model, regime) cell is one resumable ``psmforce reproduce`` call into
+``<work>/<version>/scale_<scale>`` (the benches simulated once); its results are kept under
+``<work>/<version>/cells/`` as it finishes, so a killed run loses at most the training in
+progress, and ``--render-only`` assembles what is finished. ``--cells hybrid:paper
+transformer:dense`` runs some cells only (several processes on one ``--work`` must take
+disjoint cells, after one has simulated the benches: ``--benches-only``).
 """
 
 from __future__ import annotations
@@ -35,6 +38,7 @@ sys.path.insert(0, str(ROOT))
 
 from psmforce.experiments.report import shown_path, write_json  # noqa: E402
 from psmforce.experiments.seeds import RECIPE_SWAP_SEEDS, check_fresh  # noqa: E402
+from psmforce.sim.versions import DEFAULT_VERSION, VERSIONS  # noqa: E402
 from studies.records import read_json  # noqa: E402
 
 MODELS = ("hybrid", "transformer", "fcn")
@@ -60,18 +64,24 @@ def call_regime(model: str, regime: str) -> str:
     return "own" if same else regime
 
 
-def cell_path(work: Path, cell: str) -> Path:
-    return work / "cells" / f"{cell.replace(':', '_')}.json"
+def run_dir(work: Path, sim: str, scale: float) -> Path:
+    return work / sim / f"scale_{scale:g}"
 
 
-def run_cell(work: Path, scale: float, seeds, cell: str, threads: int, device: str,
+def cell_path(work: Path, sim: str, cell: str) -> Path:
+    return work / sim / "cells" / f"{cell.replace(':', '_')}.json"
+
+
+def run_cell(work: Path, sim: str, scale: float, seeds, cell: str, threads: int, device: str,
              budget: str = "full") -> None:
-    """Run (or resume) one cell and keep its per-seed figures under ``<work>/cells/``."""
+    """Run (or resume) one cell on simulator version ``sim``'s benches and keep its per-seed
+    figures under ``<work>/<sim>/cells/``."""
     from psmforce.experiments.reproduce import reproduce
     model, regime = cell.split(":")
-    results = reproduce(work / f"scale_{scale:g}", scale=scale, seeds=seeds, device=device,
+    results = reproduce(run_dir(work, sim, scale), scale=scale, seeds=seeds, device=device,
                         threads=threads, models=(model,), ablations=False, efficiency=False,
-                        teleop=False, regime=call_regime(model, regime), budget=budget)
+                        teleop=False, regime=call_regime(model, regime), budget=budget,
+                        sim_version=None if sim == DEFAULT_VERSION else sim)
     label = next(iter(results["automated_nrmse_pct_per_seed"]["causal"]))
     training = [t for key, t in results["training"].items() if key.startswith(model + " ")]
     kept = {"cell": cell, "model": model, "label": label, "regime": regime,
@@ -82,12 +92,17 @@ def run_cell(work: Path, scale: float, seeds, cell: str, threads: int, device: s
             "optimiser": training[0].get("optimiser"), "budget": budget,
             "simulator_versions": sorted(set(results["benches"].values())),
             "run": shown_path(work)}
-    write_json(cell_path(work, cell), kept)
+    write_json(cell_path(work, sim, cell), kept)
 
 
 def _pair(a: dict, b: dict, metric: str) -> dict:
     from psmforce.experiments.paired import paired_record
     return paired_record(a["per_seed"][metric], b["per_seed"][metric], AXES)
+
+
+def bench(cell: dict) -> tuple:
+    """What a cell was trained and scored on: only cells on the same bench are paired."""
+    return cell["scale"], tuple(cell["seeds"]), tuple(cell["simulator_versions"])
 
 
 def comparisons(cells: dict) -> dict:
@@ -96,7 +111,7 @@ def comparisons(cells: dict) -> dict:
     rows = {}
 
     def add(name: str, a: str, b: str) -> None:
-        if a in ok and b in ok and ok[a]["seeds"] == ok[b]["seeds"]:
+        if a in ok and b in ok and bench(ok[a]) == bench(ok[b]):
             rows[name] = {"a": a, "b": b, **{m: _pair(ok[a], ok[b], m) for m in METRICS}}
     for m in MODELS:
         add(f"{m}: dense over paper", f"{m}:dense", f"{m}:paper")
@@ -107,7 +122,8 @@ def comparisons(cells: dict) -> dict:
     return rows
 
 
-CELL_KEYS = ("cell", "model", "label", "seeds", "per_seed", "converged", "stopped")
+CELL_KEYS = ("cell", "model", "label", "scale", "seeds", "simulator_versions", "per_seed",
+             "converged", "stopped")
 """What a finished cell holds that the table reads."""
 
 
@@ -118,31 +134,40 @@ def _cell(record, where: str) -> dict:
     return check_record(record, where, name, CELLS, CELL_KEYS)
 
 
-def kept_cells(json_path: Path) -> dict:
+def kept_cells(json_path: Path, sim: str) -> dict:
     """The finished cells the study's JSON at ``json_path`` holds (none if it is absent),
-    checked."""
+    checked, all on simulator version ``sim`` (one JSON holds one version's cells)."""
     if not json_path.exists():
         return {}
     old = read_json(json_path, "recipe swap results")
     if not isinstance(old, dict) or not isinstance(old.get("cells", {}), dict):
         raise ValueError(f"{json_path}: not the recipe swap's results; move it aside")
-    return {c: _cell(v, f"{json_path}: cell {c}") for c, v in old.get("cells", {}).items()}
+    cells = {c: _cell(v, f"{json_path}: cell {c}") for c, v in old.get("cells", {}).items()}
+    other = sorted({v for c in cells.values() for v in c["simulator_versions"]} - {sim})
+    if other:
+        raise ValueError(f"{json_path}: holds cells on simulator {', '.join(other)}, not {sim}; "
+                         f"give --version {other[0]} or another --json")
+    return cells
 
 
-def assemble(work: Path, json_path: Path) -> dict:
-    """The study's JSON from its finished cells: those under ``work`` over those the JSON at
-    ``json_path`` already holds (``runs/`` is not committed: a rerun on a fresh checkout adds to
-    the committed cells instead of dropping them)."""
-    cells = kept_cells(json_path)
+def assemble(work: Path, json_path: Path, sim: str = DEFAULT_VERSION) -> dict:
+    """The study's JSON from its finished cells on simulator version ``sim``: those under
+    ``work`` over those the JSON at ``json_path`` already holds (``runs/`` is not committed: a
+    rerun on a fresh checkout adds to the committed cells instead of dropping them)."""
+    cells = kept_cells(json_path, sim)
     for c in CELLS:
-        if cell_path(work, c).is_file():
-            cells[c] = _cell(read_json(cell_path(work, c), "cell"), str(cell_path(work, c)))
+        if cell_path(work, sim, c).is_file():
+            cells[c] = _cell(read_json(cell_path(work, sim, c), "cell"),
+                             str(cell_path(work, sim, c)))
     cells = {c: cells[c] for c in CELLS if c in cells}
+    first = bench(next(iter(cells.values()))) if cells else None
+    version_flag = "" if sim == DEFAULT_VERSION else f" --version {sim}"
     figures = {
-        "command": f"python studies/recipe_swap.py --work {shown_path(work)} --json "
-                   f"{shown_path(json_path)}",
+        "command": f"python studies/recipe_swap.py{version_flag} --work {shown_path(work)} "
+                   f"--json {shown_path(json_path)}",
         "interval": "95 % Student t on the log of the per-seed ratios (ddof 1), mapped back",
         "cells": cells, "missing_cells": [c for c in CELLS if c not in cells],
+        "other_bench": [c for c, v in cells.items() if bench(v) != first],
         "not_converged": [c for c, v in cells.items() if not all(v["converged"])],
         "comparisons": comparisons(cells)}
     write_json(json_path, figures)
@@ -154,6 +179,8 @@ def main(argv=None) -> int:
     ap.add_argument("--scale", type=float, default=0.05)
     ap.add_argument("--seeds", type=int, nargs="+", default=list(RECIPE_SWAP_SEEDS))
     ap.add_argument("--cells", nargs="+", default=list(CELLS), choices=CELLS)
+    ap.add_argument("--version", default=DEFAULT_VERSION, choices=VERSIONS,
+                    help="the simulator version of the benches (default: the default bench's)")
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--device", default="cpu")
     ap.add_argument("--budget", default="full",
@@ -174,20 +201,21 @@ def main(argv=None) -> int:
         ap.error(f"--seeds: at least two distinct seeds for an interval, got {args.seeds}")
     if args.benches_only:
         from psmforce.experiments.reproduce import prepare_benches
-        prepare_benches(args.work / f"scale_{args.scale:g}", args.scale, args.seeds,
-                        teleop=False)
+        prepare_benches(run_dir(args.work, args.version, args.scale), args.scale, args.seeds,
+                        teleop=False,
+                        sim_version=None if args.version == DEFAULT_VERSION else args.version)
         return 0
     try:
         if not args.render_only:
-            kept = kept_cells(args.json)
+            kept = kept_cells(args.json, args.version)
+            wanted = (args.scale, tuple(args.seeds), (args.version,))
             for cell in sorted(args.cells, key=COST.get):
-                if cell in kept and kept[cell]["seeds"] == list(args.seeds) \
-                        and kept[cell].get("scale") == args.scale:
+                if cell in kept and bench(kept[cell]) == wanted:
                     continue   # finished in an earlier run (perhaps on another machine)
-                run_cell(args.work, args.scale, args.seeds, cell, args.threads, args.device,
-                         args.budget)
-                assemble(args.work, args.json)
-        assemble(args.work, args.json)
+                run_cell(args.work, args.version, args.scale, args.seeds, cell, args.threads,
+                         args.device, args.budget)
+                assemble(args.work, args.json, args.version)
+        assemble(args.work, args.json, args.version)
     except ValueError as err:   # a cell read back, or an output the guard refuses
         print(f"error: {err}", file=sys.stderr)
         return 2
