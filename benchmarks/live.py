@@ -54,6 +54,10 @@ session put on a 1 kHz clock (:func:`psmforce.live.sim_robot.bench_recording`): 
   orders, with the node under SCHED_FIFO (``serve --rt-priority`` :data:`RT_PRIORITY`; the
   robot, this process and the busy one stay normal processes); ``realtime_refused`` instead,
   the one line, where the system refuses it;
+* ``dds_busy_poll_network_after_answer``, ``dds_busy_core_busy_poll_network_after_answer``:
+  ``dds_network_after_answer`` and ``dds_busy_core_network_after_answer`` again with the node
+  polling instead of sleeping between messages (``serve --busy-poll``, a normal process: with
+  SCHED_FIFO it is refused), its core kept warm at the cost of a whole core;
 * ``node_network_after_answer_paced``: ``node_network_after_answer`` with each message handled
   1 ms after the one before and the process asleep in between, as at 1 kHz on the robot: the
   same work, woken from sleep each time (its caches cold) instead of back to back;
@@ -266,7 +270,8 @@ def realtime_refusal() -> str | None:
 
 def dds_figures(ckpt: Path, frame, seconds: float, tmp: Path, *, input_rate: bool = True,
                 busy_core: bool = False, network: str = "before-answer",
-                rt_priority: int | None = None, floor: bool = False) -> dict:
+                rt_priority: int | None = None, floor: bool = False,
+                busy_poll: bool = False) -> dict:
     from cyclonedds.core import (
         InstanceState,
         Policy,
@@ -305,7 +310,8 @@ def dds_figures(ckpt: Path, frame, seconds: float, tmp: Path, *, input_rate: boo
                ["-m", "psmforce.cli.main", "serve", str(ckpt), "--domain-id", str(domain_id),
                 *(["--input-rate", "1000"] if input_rate else []), "--sync-stamps",
                 "--idle-stop", "3", *(["--network", network] if network != "before-answer"
-                                       else []), *realtime])
+                                       else []), *realtime,
+                *(["--busy-poll"] if busy_poll else [])])
     node = subprocess.Popen([sys.executable, *command, "--json", str(tmp / "node.json")],
                             env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     robot = burner = None
@@ -358,7 +364,8 @@ def dds_figures(ckpt: Path, frame, seconds: float, tmp: Path, *, input_rate: boo
     n = len(sent["stamps_ns"])
     return {"seconds": seconds, "input_rate_given": input_rate, "busy_core": busy_core,
             "node": "floor (benchmarks/live_floor.py)" if floor else "psmforce serve",
-            "network": network, "scheduling": report.get("scheduling"), "hex10_sent": n,
+            "network": network, "scheduling": report.get("scheduling"), "busy_poll": busy_poll,
+            "hex10_sent": n,
             "node_received": report["received"]["hex10"],
             "node_lost": n - report["received"]["hex10"],
             "node_added_latency": _percentiles(added),
@@ -479,6 +486,11 @@ def main() -> tuple[dict, str | None]:
                     rt_priority=RT_PRIORITY)
         else:
             result["realtime_refused"] = refused
+        result["dds_busy_poll_network_after_answer"] = dds_figures(
+            ckpt, frame, args.seconds, tmp, network="after-answer", busy_poll=True)
+        result["dds_busy_core_busy_poll_network_after_answer"] = dds_figures(
+            ckpt, frame, args.seconds / 3, tmp, busy_core=True, network="after-answer",
+            busy_poll=True)
         # the floor: the same node without its estimator (benchmarks/live_floor.py)
         result["dds_floor"] = dds_figures(ckpt, frame, args.seconds / 3, tmp, floor=True)
         if refused is None:

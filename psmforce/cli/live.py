@@ -86,6 +86,9 @@ def _checkpoint(args, simulated: bool) -> str:
 def _serve(args, stop: threading.Event) -> dict:
     from psmforce.live.scheduling import run_realtime
     from psmforce.live.serve import DdsNode, discovery, domain, participant as join
+    if args.busy_poll and args.rt_priority is not None:
+        raise ValueError("--busy-poll with --rt-priority would keep every normal process off "
+                         "the node's core (a real-time thread that never sleeps); give one")
     checkpoint = _checkpoint(args, args.sim)
     scheduling = run_realtime(args.rt_priority)   # before the participant: its threads inherit
     participant = join(args.domain_id)
@@ -95,7 +98,7 @@ def _serve(args, stop: threading.Event) -> dict:
                    writer_best_effort=args.writer_qos == "best-effort",
                    sync=args.sync_stamps or args.sim, sync_wait_s=args.sync_wait,
                    domain_id=domain(args.domain_id), post_filter=args.post_filter,
-                   network_after_answer=NETWORK_ORDER[args.network])
+                   network_after_answer=NETWORK_ORDER[args.network], busy_poll=args.busy_poll)
     print(f"psmforce serve: domain {domain(args.domain_id)}, discovery "
           f"{discovery()[0].lower()}, listening on "
           f"{', '.join(node.input_topics.values())}; publishing "
@@ -236,6 +239,10 @@ def add_live_commands(sub) -> None:
                    help="run the node under Linux's SCHED_FIFO at priority N (1-99), ahead of "
                         "every normal process: a short tail on a busy host (needs an rtprio "
                         "limit or CAP_SYS_NICE; docs/live.md)")
+    p.add_argument("--busy-poll", action="store_true",
+                   help="poll for messages instead of sleeping between them: a shorter "
+                        "latency tail for a whole core's time (for a core set aside for the "
+                        "node; docs/live.md)")
     p.add_argument("--duration", type=options.SECONDS, metavar="S", help="stop after S seconds")
     p.add_argument("--idle-stop", type=options.SECONDS, metavar="S",
                    help="stop when no message came for S seconds after the first")

@@ -45,6 +45,14 @@ outside that answer's residence; a message that arrives meanwhile waits in its r
 own residence does not count either (``benchmarks/live.py``'s ``node_added_latency`` does).
 ``residence_writes_ms``: the same answers' time in the DDS writes alone (four per answer).
 
+Waiting. Between messages the node sleeps in the middleware's wait set, and each message wakes
+it on a core whose caches and clock the host has meanwhile given to others: its first
+microseconds run slow. With ``busy_poll`` (``serve --busy-poll``) it polls the wait set instead,
+never sleeping, and answers on a warm core: a shorter residence tail for a whole core's time,
+the trade of a real-time loop on a core set aside for it (``isolcpus``, docs/live.md). Each poll
+yields the core to any runnable thread of the same priority, so under SCHED_FIFO the
+middleware's receive threads still run.
+
 The domain: ``domain_id``, else ``ROS_DOMAIN_ID``, else 0, as ROS 2 does; the discovery range:
 ``ROS_AUTOMATIC_DISCOVERY_RANGE``, ``ROS_STATIC_PEERS`` and ``ROS_LOCALHOST_ONLY`` read as ROS 2
 Jazzy reads them (:func:`discovery`, :func:`participant`).
@@ -150,14 +158,17 @@ class DdsNode:
     """The live node (module docstring). ``topics``: stream -> topic overrides (js, jaw,
     hex10); ``sync``: pair the streams by stamp (:class:`psmforce.live.node.ForceNode`);
     ``sync_wait_s``: with ``sync``, how long a trigger waits for its partners (``max_wait_s`` of
-    :class:`psmforce.live.node.ForceNode`); ``options``: more keyword arguments of
-    :meth:`psmforce.estimators.runtime.streaming.StreamingEstimator.from_checkpoint` (post_filter, backend)."""
+    :class:`psmforce.live.node.ForceNode`); ``busy_poll``: wait for messages by polling the
+    readers, never sleeping (module docstring, Waiting); ``options``: more keyword arguments of
+    :meth:`psmforce.estimators.runtime.streaming.StreamingEstimator.from_checkpoint`
+    (post_filter, backend)."""
 
     def __init__(self, checkpoint, participant, *, arm: str = "PSM1",
                  topics: dict | None = None, input_rate_hz: float | None = None,
                  tare_on_start: bool = False, tare_s: float = 0.5,
                  reader_best_effort: bool = False, writer_best_effort: bool = False,
-                 sync: bool = False, sync_wait_s: float = 0.1, domain_id: int = 0, **options):
+                 sync: bool = False, sync_wait_s: float = 0.1, domain_id: int = 0,
+                 busy_poll: bool = False, **options):
         from cyclonedds.core import (
             InstanceState,
             ReadCondition,
@@ -174,6 +185,7 @@ class DdsNode:
         self.input_rate_hz, self.tare_on_start, self.tare_s = input_rate_hz, tare_on_start, tare_s
         check_sync_wait(sync_wait_s)  # before subscribing, not once the node is built
         self.sync, self.sync_wait_s = sync, sync_wait_s
+        self.busy_poll = busy_poll
         self.node: ForceNode | None = None
         self._held: list[tuple[str, object, int]] = []
         self._estimator = self._build_estimator(input_rate_hz)  # refused now, not at a message
@@ -271,7 +283,12 @@ class DdsNode:
     def spin_once(self, timeout_s: float = 0.1) -> int:
         """Wait up to ``timeout_s`` for messages and handle all there are; returns how many."""
         from cyclonedds.util import duration
-        self._waitset.wait(duration(microseconds=int(timeout_s * 1e6)))
+        if self.busy_poll:
+            deadline = time.perf_counter() + timeout_s
+            while not self._waitset.wait(0) and time.perf_counter() < deadline:
+                os.sched_yield()   # under SCHED_FIFO, lets the middleware's threads run
+        else:
+            self._waitset.wait(duration(microseconds=int(timeout_s * 1e6)))
         taken_ns = time.perf_counter_ns()
         batch = []
         # the trigger's reader first: the messages published before a HEX10 message arrive

@@ -171,20 +171,43 @@ def test_serve_measuring_the_rate_loses_nothing(tmp_path):
         == stamps.tolist()
 
 
+def _played_through(node, participant, frame, reader_qos) -> tuple[dict, np.ndarray]:
+    """``frame`` played by the simulated robot in a thread of ``participant`` to ``node``:
+    the node's report and the HEX10-frame forces a subscriber received."""
+    import threading
+
+    from psmforce.live.sim_robot import play
+    reader = DataReader(participant, Topic(participant, dds.dds_topic(
+        node.output_topics["hex10"]), dds.WrenchStamped), qos=reader_qos)
+    robot = threading.Thread(target=play, args=(frame, participant),
+                             kwargs={"start_ns": START_NS})
+    robot.start()
+    report = node.spin(duration_s=60, idle_stop_s=1.0)
+    robot.join(30)
+    got = [m for m in reader.take(N=len(frame)) if m.sample_info.valid_data]
+    return report, np.array([[m.wrench.force.x, m.wrench.force.y, m.wrench.force.z]
+                             for m in got])
+
+
+def _streamed(ckpt, frame, **options) -> list:
+    """The estimator's own HEX10-frame forces over ``frame`` stamped as the robot stamps it."""
+    from psmforce.estimators.runtime.streaming import StreamingEstimator
+    from psmforce.robot import PSM
+    est = StreamingEstimator.from_checkpoint(ckpt, input_rate_hz=1000.0, psm=PSM(), **options)
+    stamps = START_NS + np.arange(len(frame)) * 10**6
+    return [est.step(dict(row, time=s * 1e-9)).force_hex10
+            for row, s in zip(frame.to_dict("records"), stamps)]
+
+
 @pytest.mark.slow
 def test_serve_with_the_network_after_the_answer_writes_each_answer_before_its_step(tmp_path):
     """``network_after_answer``: every network step after the first runs once the answer of
     the sample it is due on is written, and the answers equal the estimator's own stream with
     that option (issue 47, item 8: the network off the answer's path)."""
-    import threading
-
     from cyclonedds.core import Policy, Qos
     from cyclonedds.util import duration
 
-    from psmforce.estimators.runtime.streaming import StreamingEstimator
-    from psmforce.live.sim_robot import play
     from psmforce.live.serve import DdsNode
-    from psmforce.robot import PSM
     n = 300
     ckpt = checkpoint(tmp_path / "h.pt", rate_hz=100.0)
     frame = recording(n)
@@ -197,24 +220,12 @@ def test_serve_with_the_network_after_the_answer_writes_each_answer_before_its_s
     node._estimator._net.step = lambda x: (written_at_step.append(node.published), step(x))[1]
     deep = Qos(Policy.Reliability.Reliable(duration(milliseconds=100)),
                Policy.History.KeepLast(4 * n))
-    reader = DataReader(participant, Topic(participant, dds.dds_topic(
-        node.output_topics["hex10"]), dds.WrenchStamped), qos=deep)
-    robot = threading.Thread(target=play, args=(frame, participant),
-                             kwargs={"start_ns": START_NS})
-    robot.start()
-    report = node.spin(duration_s=60, idle_stop_s=1.0)
-    robot.join(30)
+    report, force = _played_through(node, participant, frame, deep)
     assert report["answers_published"] == n, report
     # the first step comes before the first answer; each later one after its sample's answer
     assert written_at_step == [0] + list(range(11, n + 1, 10))
-    got = [m for m in reader.take(N=n) if m.sample_info.valid_data]
-    force = np.array([[m.wrench.force.x, m.wrench.force.y, m.wrench.force.z] for m in got])
-    est = StreamingEstimator.from_checkpoint(ckpt, input_rate_hz=1000.0, psm=PSM(),
-                                             network_after_answer=True)
-    stamps = START_NS + np.arange(n) * 10**6
-    expected = [est.step(dict(row, time=s * 1e-9)).force_hex10
-                for row, s in zip(frame.to_dict("records"), stamps)]
-    np.testing.assert_allclose(force, expected, atol=1e-6)
+    np.testing.assert_allclose(force, _streamed(ckpt, frame, network_after_answer=True),
+                               atol=1e-6)
 
 
 def test_serve_skips_and_counts_messages_that_do_not_decode(tmp_path, capsys):
@@ -311,6 +322,35 @@ def test_serve_refuses_a_checkpoint_before_it_subscribes(tmp_path, capsys):
     assert main(["serve", str(tmp_path / "missing.pt"), "--duration", "30"]) == 2
     out, err = capsys.readouterr()
     assert "missing.pt does not exist" in err and "listening" not in out
+
+
+@pytest.mark.slow
+def test_busy_poll_never_sleeps_and_answers_as_the_sleeping_node(tmp_path):
+    """``busy_poll``: the node polls its wait set (a zero timeout, every call) and its answers
+    are the estimator's own stream, every one published."""
+    from psmforce.live.serve import DdsNode
+    n = 200
+    ckpt = checkpoint(tmp_path / "h.pt", rate_hz=100.0)
+    frame = recording(n)
+    frame["time"] = np.arange(n) / 1000.0
+    participant = DomainParticipant(100 + (os.getpid() + 80) % 100)
+    node = DdsNode(ckpt, participant, sync=True, input_rate_hz=1000.0, busy_poll=True)
+    timeouts = []
+    wait = node._waitset.wait
+    node._waitset.wait = lambda timeout: (timeouts.append(timeout), wait(timeout))[1]
+    report, force = _played_through(node, participant, frame, dds.qos(reader=True))
+    assert report["answers_published"] == n, report
+    assert timeouts and set(timeouts) == {0}
+    assert len(force) == n
+    np.testing.assert_allclose(force, _streamed(ckpt, frame), atol=1e-6)
+
+
+def test_busy_poll_under_a_real_time_priority_is_refused_in_one_line(tmp_path, capsys):
+    from psmforce.cli.main import main
+    assert main(["serve", str(tmp_path / "h.pt"), "--busy-poll", "--rt-priority", "10",
+                 "--duration", "1"]) == 2
+    err = capsys.readouterr().err
+    assert "--busy-poll with --rt-priority" in err and "Traceback" not in err
 
 
 @pytest.mark.slow

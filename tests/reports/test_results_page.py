@@ -58,6 +58,24 @@ def test_the_floor_table_reads_the_floor_runs_beside_the_node_and_only_when_meas
     assert "no estimator (the floor)" not in latency(streaming, live)
 
 
+def test_the_busy_poll_rows_read_their_runs_and_only_when_measured():
+    import copy
+    streaming, live = _committed("streaming.json"), _committed("live.json")
+    quiet, busy = ("dds_busy_poll_network_after_answer",
+                   "dds_busy_core_busy_poll_network_after_answer")
+    live[quiet] = copy.deepcopy(live["dds_network_after_answer"])
+    live[busy] = copy.deepcopy(live["dds_busy_core_network_after_answer"])
+    live[quiet]["node_residence"]["p99_ms"] = 0.2345
+    live[busy]["node_added_latency"]["p99_ms"] = 4.321
+    text = latency(streaming, live).splitlines()
+    head = "| `serve --busy-poll`, network after the answer, normal"
+    assert "/ 0.234 /" in next(line for line in text if line.startswith(head + " |"))
+    assert "/ 4.321 /" in next(line for line in text
+                               if line.startswith(head + ", one core busy |"))
+    del live[quiet], live[busy]   # a run made before the option
+    assert "--busy-poll" not in latency(streaming, live)
+
+
 def test_the_writes_share_of_the_residence_is_a_row_only_when_measured():
     streaming, live = _committed("streaming.json"), _committed("live.json")
     live["dds"]["node_residence_writes"] = {"median_ms": 0.25, "p99_ms": 0.5, "max_ms": 3.0}
