@@ -87,6 +87,7 @@ TRAINING_GPU = ROOT / "results" / "benchmarks" / "training_gpu.json"
 STREAMING = ROOT / "results" / "benchmarks" / "streaming.json"
 LIVE = ROOT / "results" / "benchmarks" / "live.json"
 NODE_AB = ROOT / "results" / "benchmarks" / "node_ab.json"
+BUSY_POLL_AB = ROOT / "results" / "benchmarks" / "busy_poll_ab.json"
 RESULTS = ROOT / "docs" / "results.md"
 IDENTIFICATION = ROOT / "docs" / "identification.md"
 README = ROOT / "README.md"
@@ -300,6 +301,7 @@ BLOCKS = (
     (RESULTS, "training-gpu", TRAINING_GPU, results_page.training_gpu),
     (RESULTS, "latency", (STREAMING, LIVE), results_page.latency),
     (RESULTS, "node-ab", NODE_AB, results_page.node_ab),
+    (RESULTS, "busy-poll-ab", BUSY_POLL_AB, results_page.busy_poll_ab),
     (RESULTS, "status-table", COMPARISON, readme_page.status_table),
     (INTEGRITY, "fuzz-counts", FUZZ, integrity_page.fuzz_counts),
     (SIMULATOR, "cable-law-tables", SIM_CABLE_LAW, simulator_page.cable_law_tables),

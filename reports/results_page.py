@@ -11,6 +11,8 @@ shows the mean alone and ties).
 
 from __future__ import annotations
 
+import statistics
+
 from reports.cells import spread_cell
 from studies.learning_curve import (
     HYBRID,
@@ -466,7 +468,11 @@ def floor(live: dict) -> list[str]:
             ("`serve`, network after the answer, normal", live.get("dds_network_after_answer")),
             ("`serve`, network after the answer, " + live.get(
                 "dds_realtime_network_after_answer", {}).get("scheduling", ""),
-             live.get("dds_realtime_network_after_answer"))]
+             live.get("dds_realtime_network_after_answer")),
+            ("`serve --busy-poll`, network after the answer, normal",
+             live.get("dds_busy_poll_network_after_answer")),
+            ("`serve --busy-poll`, network after the answer, normal, one core busy",
+             live.get("dds_busy_core_busy_poll_network_after_answer"))]
     lines = ["", "The floor: the same node without its estimator (`benchmarks/live_floor.py`: "
              "every HEX10 message answered with four outputs encoded before), over the same "
              "transport in the same run; what the node's own work adds is the difference. "
@@ -591,6 +597,47 @@ def node_ab(result: dict) -> str:
                          for f in ("latency", "node_residence", "transport_latency")]
                 lines.append(f"| {result[side][:10]} | " + " | ".join(cells)
                              + f" | {r['node_lost']} of {r['sent']:,} |")
+    return "\n".join(lines + [""])
+
+
+WAITING = {"sleeping": "asleep between messages, normal",
+           "sleeping_realtime": "asleep between messages, SCHED_FIFO",
+           "busy_poll": "`--busy-poll`, normal"}
+
+
+def busy_poll_ab(result: dict) -> str:
+    """docs/results.md section 8: ``serve --busy-poll`` against the sleeping node, alternating
+    in one run (``benchmarks/busy_poll_ab.py``): each way's figures and the ratios per round."""
+    def median(runs, figure, stat):
+        return statistics.median(r[figure][stat] for r in runs)
+
+    lines = ["", f"How the node waits, alternating in one run (`{result['command']}`: "
+             f"{result['rounds']} rounds of {result['seconds']:g} s at 1 kHz per way, the order "
+             f"rotated each round, the network after the answer, {result['checkpoint']}, "
+             f"{result['machine']['cpus']} CPUs). ms, each way's median over its rounds:", "",
+             "| the node | residence p50 / p99 | node-added latency p50 / p99 | transport "
+             "alone p99 | messages the node lost | node CPU (cores) |", "|---|---|---|---|---|---|"]
+    for way, runs in result["runs"].items():
+        cells = [" / ".join(f"{median(runs, f, s):.3f}" for s in ("median_ms", "p99_ms"))
+                 for f in ("node_residence", "node_added_latency")]
+        lost = sum(r["node_lost"] for r in runs)
+        sent = sum(r["hex10_sent"] for r in runs)
+        cpu = statistics.median(r["node_cpu_fraction"] for r in runs)
+        lines.append(f"| {WAITING.get(way, way)} | {cells[0]} | {cells[1]} | "
+                     f"{median(runs, 'transport_latency', 'p99_ms'):.3f} | {lost:,} of "
+                     f"{sent:,} | {cpu:.2f} |")
+    if result.get("realtime_refused"):
+        lines += ["", f"SCHED_FIFO was not measured: {result['realtime_refused']}"]
+    lines += ["", "Ratios, the round's figure with `--busy-poll` over the other way's in the same "
+              "round (below 1: shorter with polling); the median over the rounds, each round's "
+              "in brackets:", "", "| ratio | residence p50 | residence p99 | node-added p50 | "
+              "node-added p99 |", "|---|---|---|---|---|"]
+    for name, by in result["ratios"].items():
+        other = WAITING.get(name.split(" / ")[1], name)
+        cells = [f"{r['median']:.2f} [" + ", ".join(f"{x:.2f}" for x in r["per_round"]) + "]"
+                 for r in (by[f"{f} {s}"] for f in ("node_residence", "node_added_latency")
+                           for s in ("median_ms", "p99_ms"))]
+        lines.append(f"| polling over {other} | " + " | ".join(cells) + " |")
     return "\n".join(lines + [""])
 
 

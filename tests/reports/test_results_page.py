@@ -3,7 +3,7 @@
 import json
 from pathlib import Path
 
-from reports.results_page import latency
+from reports.results_page import busy_poll_ab, latency
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -110,3 +110,26 @@ def test_the_scheduling_table_reads_each_run_marks_the_goal_and_says_when_refuse
     live["realtime_refused"] = "the system refused real-time priority 50 (Operation not permitted)"
     assert ("`serve --rt-priority` was not measured: the system refused real-time priority 50"
             in latency(streaming, live))
+
+
+def test_the_busy_poll_table_reads_each_ways_rounds_and_the_paired_ratios():
+    def run(p99, lost=0):
+        t = {"median_ms": 0.1, "p99_ms": p99, "max_ms": 2.0}
+        return {"node_residence": t, "node_added_latency": t, "transport_latency": t,
+                "node_lost": lost, "hex10_sent": 1000, "node_cpu_fraction": 0.5}
+    result = {"command": "python benchmarks/busy_poll_ab.py", "rounds": 3, "seconds": 20,
+              "checkpoint": "a hybrid", "machine": {"cpus": 2}, "realtime_refused": "no rtprio",
+              "runs": {"sleeping": [run(0.4), run(0.8), run(0.6, lost=2)],
+                       "busy_poll": [run(0.2), run(0.3), run(0.9)]},
+              "ratios": {"busy_poll / sleeping": {
+                  f"{f} {s}": {"per_round": [0.5, 0.375, 1.5], "median": 0.5}
+                  for f in ("node_residence", "node_added_latency")
+                  for s in ("median_ms", "p99_ms")}}}
+    text = busy_poll_ab(result).splitlines()
+    sleeping = next(line for line in text if line.startswith("| asleep between messages, normal"))
+    assert "| 0.100 / 0.600 |" in sleeping and "| 2 of 3,000 |" in sleeping
+    polling = next(line for line in text if line.startswith("| `--busy-poll`, normal"))
+    assert "| 0.100 / 0.300 |" in polling
+    ratio = next(line for line in text if line.startswith("| polling over asleep"))
+    assert ratio.count("0.50 [0.50, 0.38, 1.50]") == 4
+    assert any("SCHED_FIFO was not measured: no rtprio" in line for line in text)
