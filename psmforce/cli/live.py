@@ -84,11 +84,10 @@ def _checkpoint(args, simulated: bool) -> str:
 
 
 def _serve(args, stop: threading.Event) -> dict:
-    from psmforce.live.scheduling import run_realtime
+    from psmforce.live.scheduling import check_busy_poll, run_realtime
     from psmforce.live.serve import DdsNode, discovery, domain, participant as join
-    if args.busy_poll and args.rt_priority is not None:
-        raise ValueError("--busy-poll with --rt-priority would keep every normal process off "
-                         "the node's core (a real-time thread that never sleeps); give one")
+    if args.busy_poll:   # refused before the scheduling changes, not once the node is built
+        check_busy_poll(args.rt_priority is not None)
     checkpoint = _checkpoint(args, args.sim)
     scheduling = run_realtime(args.rt_priority)   # before the participant: its threads inherit
     participant = join(args.domain_id)

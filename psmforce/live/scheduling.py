@@ -4,7 +4,8 @@ A normal process waits for the other processes' time slices, so on a busy host t
 follows whatever else the cores run (docs/live.md, section 8). Under SCHED_FIFO it runs as soon
 as a message wakes it, ahead of every normal process; it sleeps between messages, and the
 kernel keeps a share of each second for normal processes (``sched_rt_runtime_us``), so it
-cannot starve them.
+cannot starve them. A node that polls instead of sleeping (``serve --busy-poll``) never gives
+its core back, so it is refused under a real-time policy (:func:`check_busy_poll`).
 """
 
 from __future__ import annotations
@@ -38,3 +39,15 @@ def run_realtime(priority: int | None) -> str:
                          "'@realtime - rtprio 99', the user in that group) or CAP_SYS_NICE, "
                          "or leave the priority out") from None
     return f"SCHED_FIFO {priority}"
+
+
+def check_busy_poll(realtime: bool | None = None) -> None:
+    """Refuse a node that polls without sleeping in a real-time thread: it would keep every
+    normal process off its core, the robot's and the subscribers' included. ``realtime``:
+    whether the node will run under a real-time policy (None: the calling thread's now)."""
+    if realtime is None:
+        realtime = hasattr(os, "sched_getscheduler") and os.sched_getscheduler(0) in (
+            os.SCHED_FIFO, os.SCHED_RR)
+    if realtime:
+        raise ValueError("busy polling in a real-time thread (--rt-priority) would keep every "
+                         "normal process off the node's core: give one or the other")

@@ -49,9 +49,9 @@ Waiting. Between messages the node sleeps in the middleware's wait set, and each
 it on a core whose caches and clock the host has meanwhile given to others: its first
 microseconds run slow. With ``busy_poll`` (``serve --busy-poll``) it polls the wait set instead,
 never sleeping, and answers on a warm core: a shorter residence tail for a whole core's time,
-the trade of a real-time loop on a core set aside for it (``isolcpus``, docs/live.md). Each poll
-yields the core to any runnable thread of the same priority, so under SCHED_FIFO the
-middleware's receive threads still run.
+the trade of a real-time loop on a core set aside for it (``isolcpus``, docs/live.md). Under a
+real-time policy it is refused (:func:`psmforce.live.scheduling.check_busy_poll`); each poll
+yields the core to any other runnable thread, the middleware's receive threads among them.
 
 The domain: ``domain_id``, else ``ROS_DOMAIN_ID``, else 0, as ROS 2 does; the discovery range:
 ``ROS_AUTOMATIC_DISCOVERY_RANGE``, ``ROS_STATIC_PEERS`` and ``ROS_LOCALHOST_ONLY`` read as ROS 2
@@ -74,6 +74,7 @@ from psmforce.io.bags.reading import resolve_topics
 from psmforce.live import cdr
 from psmforce.live.node import (OUTPUT_TYPES, TARE_TYPE, ForceNode, check_sync_wait,
                                  output_topics)
+from psmforce.live.scheduling import check_busy_poll
 
 RESIDENCE_KEPT = 1 << 17
 """Answers whose residence time is kept (2 min at 1 kHz), the latest ones."""
@@ -185,6 +186,8 @@ class DdsNode:
         self.input_rate_hz, self.tare_on_start, self.tare_s = input_rate_hz, tare_on_start, tare_s
         check_sync_wait(sync_wait_s)  # before subscribing, not once the node is built
         self.sync, self.sync_wait_s = sync, sync_wait_s
+        if busy_poll:
+            check_busy_poll()
         self.busy_poll = busy_poll
         self.node: ForceNode | None = None
         self._held: list[tuple[str, object, int]] = []
@@ -286,7 +289,7 @@ class DdsNode:
         if self.busy_poll:
             deadline = time.perf_counter() + timeout_s
             while not self._waitset.wait(0) and time.perf_counter() < deadline:
-                os.sched_yield()   # under SCHED_FIFO, lets the middleware's threads run
+                os.sched_yield()   # the middleware's receive threads may want this core
         else:
             self._waitset.wait(duration(microseconds=int(timeout_s * 1e6)))
         taken_ns = time.perf_counter_ns()

@@ -345,12 +345,20 @@ def test_busy_poll_never_sleeps_and_answers_as_the_sleeping_node(tmp_path):
     np.testing.assert_allclose(force, _streamed(ckpt, frame), atol=1e-6)
 
 
-def test_busy_poll_under_a_real_time_priority_is_refused_in_one_line(tmp_path, capsys):
+def test_busy_poll_under_a_real_time_priority_is_refused_in_one_line(tmp_path, capsys,
+                                                                     monkeypatch):
     from psmforce.cli.main import main
+    from psmforce.live.serve import DdsNode
     assert main(["serve", str(tmp_path / "h.pt"), "--busy-poll", "--rt-priority", "10",
                  "--duration", "1"]) == 2
     err = capsys.readouterr().err
-    assert "--busy-poll with --rt-priority" in err and "Traceback" not in err
+    assert "busy polling in a real-time thread (--rt-priority)" in err
+    assert "Traceback" not in err
+    # the library's node, in a thread already real-time: refused before it subscribes
+    monkeypatch.setattr(os, "sched_getscheduler", lambda pid: os.SCHED_FIFO)
+    participant = DomainParticipant(100 + (os.getpid() + 85) % 100)
+    with pytest.raises(ValueError, match="busy polling in a real-time thread"):
+        DdsNode(tmp_path / "h.pt", participant, busy_poll=True)
 
 
 @pytest.mark.slow

@@ -40,3 +40,17 @@ def test_a_real_time_priority_is_set_inherited_by_later_threads_or_refused_in_on
                                          r"permitted\): allow it with an rtprio limit"):
         run_realtime(10)
 
+
+
+def test_busy_polling_is_refused_in_a_real_time_thread_and_allowed_otherwise(monkeypatch):
+    """A node that never sleeps under SCHED_FIFO would starve every normal process on its core:
+    refused when asked for (the command line, before the scheduling changes) and when the
+    calling thread already is real-time (the library)."""
+    from psmforce.live.scheduling import check_busy_poll
+    with pytest.raises(ValueError, match=r"busy polling in a real-time thread \(--rt-priority\)"):
+        check_busy_poll(True)
+    check_busy_poll(False)
+    check_busy_poll()                       # this test's process is a normal one
+    monkeypatch.setattr(os, "sched_getscheduler", lambda pid: os.SCHED_FIFO)
+    with pytest.raises(ValueError, match="give one or the other"):
+        check_busy_poll()
