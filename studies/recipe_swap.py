@@ -199,6 +199,10 @@ def main(argv=None) -> int:
         ap.error(str(e))
     if len(set(args.seeds)) != len(args.seeds) or len(args.seeds) < 2:
         ap.error(f"--seeds: at least two distinct seeds for an interval, got {args.seeds}")
+    before = args.work / f"scale_{args.scale:g}"   # the layout before --version (the default's)
+    if before.is_dir() and not run_dir(args.work, DEFAULT_VERSION, args.scale).exists():
+        ap.error(f"{before} is a run of the layout before --version: move it, and "
+                 f"{args.work / 'cells'} with it, into {args.work / DEFAULT_VERSION}/")
     if args.benches_only:
         from psmforce.experiments.reproduce import prepare_benches
         prepare_benches(run_dir(args.work, args.version, args.scale), args.scale, args.seeds,

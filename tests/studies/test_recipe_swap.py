@@ -93,3 +93,12 @@ def test_a_json_of_another_simulator_version_is_refused_and_left_as_it_is(tmp_pa
     assert [a[1] for a in ran] == [other]
     assert study.read_json(fresh, "x")["command"].startswith(
         f"python studies/recipe_swap.py --version {other} ")
+
+
+def test_a_work_folder_of_the_layout_before_versions_is_named_not_run_again(tmp_path, capsys):
+    (tmp_path / "w" / "scale_0.05").mkdir(parents=True)
+    with pytest.raises(SystemExit):
+        study.main(["--work", str(tmp_path / "w"), "--json", str(tmp_path / "swap.json")])
+    assert f"move it, and {tmp_path / 'w' / 'cells'} with it, into " \
+           f"{tmp_path / 'w' / SIM}/" in capsys.readouterr().err
+    assert not (tmp_path / "swap.json").exists()
