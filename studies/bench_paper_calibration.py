@@ -16,7 +16,11 @@ held-out check (trained only on the version chosen, so that it cannot steer the 
 the hybrid is never looked at. The FCN must end worse than the transformer laterally, as on the
 robot (:func:`held_out_check`; "not checked" until the transformer has run on the version).
 Train the transformer only on the version chosen (``--models transformer``); its rows are
-marked ``held_out`` and never enter the band rule.
+marked ``held_out`` and never enter the band rule. Without such a row, the check reads the
+published comparison's records of the version at the paper's budget (``--comparison``:
+``studies/comparison.py``'s JSON), the transformer and the FCN on the fresh seeds both have:
+bench seeds declared after the version was chosen, so held out from its choice as well.
+``--verdicts-only`` draws the verdicts again from the rows and those records.
 
     python studies/bench_paper_calibration.py --version 2.3 --seeds 1 --models fcn rocket \\
         --json results/benchmarks/bench_paper_calibration.json
@@ -37,7 +41,6 @@ written (a later call adds or replaces rows of the same candidate, model and sca
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import time
 from pathlib import Path
@@ -47,6 +50,7 @@ sys.path.insert(0, str(ROOT))
 
 from psmforce.experiments.plan import PLAN  # noqa: E402
 from psmforce.experiments.report import write_json  # noqa: E402
+from studies.records import read_json  # noqa: E402
 
 AXES = ("Fx", "Fy", "Fz")
 BAND = (0.67, 1.5)
@@ -214,11 +218,11 @@ def floor_rows(name: str, scale: float, results: dict) -> dict:
             "range_n": {a: floor[a]["range_n"]["mean"] for a in AXES}}
 
 
-def verdict(data: dict, name: str) -> dict:
+def verdict(data: dict, name: str, comparison: dict | None = None) -> dict:
     """Whether candidate ``name`` meets the issue's rule on the rows written for it: every
     calibration model in the band on every axis at the paper's budget (a model trained on a
     smaller bench is reported but does not count as met), and the held-out transformer's checks
-    (:func:`held_out_check`)."""
+    (:func:`held_out_check`, with the published comparison's records ``comparison``)."""
     by_model = {}
     for r in data["rows"]:
         if r["model"] not in CALIBRATION_MODELS:
@@ -241,25 +245,57 @@ def verdict(data: dict, name: str) -> dict:
             "misses": misses, "not_at_paper_budget": not_at_budget, "missing": missing,
             "substituted": substituted,
             "met_at_paper_budget": not misses and not missing and not not_at_budget,
-            **held_out_check(data, name, by_model.get("fcn"))}
+            **held_out_check(data, name, by_model.get("fcn"), comparison)}
 
 
-def held_out_check(data: dict, name: str, fcn: dict | None) -> dict:
+COMPARISON_SOURCE = "the published comparison's records (fresh seeds)"
+
+
+def comparison_rows(comparison: dict | None, name: str) -> dict:
+    """The transformer's and the FCN's rows (the keys :func:`held_out_check` reads) from the
+    published comparison's records of version ``name`` at the paper's budget, on the seeds
+    both have (mean paper-metric NRMSE over those seeds); empty when there is none."""
+    by_seed = ((comparison or {}).get("records", {}).get(name, {}).get("1", {}))
+    seeds = sorted(int(s) for s, models in by_seed.items()
+                   if "transformer" in models and "fcn" in models)
+    out = {}
+    for model in ("transformer", "fcn"):
+        if not seeds:
+            break
+        bench = {a: sum(by_seed[str(s)][model]["nrmse_pct"]["paper"][a] for s in seeds)
+                 / len(seeds) for a in AXES}
+        ratio = {a: bench[a] / PAPER[model]["nrmse_pct"][a] for a in AXES}
+        out[model] = {"scale": 1.0, "paper_budget": True, "seeds": seeds,
+                      "bench_nrmse_pct": bench, "ratio": ratio,
+                      "in_band": {a: BAND[0] <= ratio[a] <= BAND[1] for a in AXES},
+                      "source": COMPARISON_SOURCE}
+    return out
+
+
+def held_out_check(data: dict, name: str, fcn: dict | None,
+                   comparison: dict | None = None) -> dict:
     """The paper's transformer on version ``name``'s own bench (its largest scale): its ratios and
     whether each lies in :data:`BAND`, and whether the FCN (``fcn``, the verdict's row) is worse
-    than it on Fx and Fy at the same scale, as on the robot. Strings saying why, when the
-    transformer or a matching FCN row is missing."""
+    than it on Fx and Fy at the same scale, as on the robot. Without a row of it here, both from
+    the published comparison's records (``comparison``, :func:`comparison_rows`). Strings saying
+    why, when the transformer or a matching FCN row is missing."""
     mine = [r for r in data["rows"] if r["candidate"] == name and r["model"] in HELD_OUT_MODELS]
+    published = {} if mine else comparison_rows(comparison, name)
+    if published:
+        mine, fcn = [published["transformer"]], published["fcn"]
     if not mine:
         return {"transformer_held_out": "not checked: the paper's transformer has not been "
                                         "trained on this version (it is trained only once a "
-                                        "version is chosen, never while calibrating)",
+                                        "version is chosen, never while calibrating), nor has "
+                                        "the published comparison a record of it at the "
+                                        "paper's budget yet",
                 "fcn_worse_than_transformer_laterally": "not checked (needs the transformer)"}
     t = max(mine, key=lambda r: r["scale"])
     check = {"scale": t["scale"], "paper_budget": t["paper_budget"], "seeds": t["seeds"],
              "ratio": t["ratio"], "in_band": t["in_band"],
              "misses": [f"{a} ({t['ratio'][a]:.2f}x)" for a in AXES if not t["in_band"][a]],
-             "met": all(t["in_band"].values()) and t["paper_budget"]}
+             "met": all(t["in_band"].values()) and t["paper_budget"],
+             "source": t.get("source", "this calibration's own training")}
     if fcn is None or fcn["scale"] != t["scale"] or fcn["seeds"] != t["seeds"]:
         lateral = "not checked (no FCN row on the transformer's scale and seeds)"
     else:
@@ -282,7 +318,7 @@ def merge(data: dict, new_rows: list[dict], floor: dict) -> dict:
     return data
 
 
-def stamped(data: dict, argv=None) -> dict:
+def stamped(data: dict, argv=None, comparison: dict | None = None) -> dict:
     """``data`` with what every write of the JSON records beside its rows: the command (``argv``,
     else the process's), the settings this script holds (band, paper figures, the 2.1
     reference, substitutes, notes, candidates, re-mount ranges, the registered versions) and
@@ -295,7 +331,7 @@ def stamped(data: dict, argv=None) -> dict:
                  "substitutes": SUBSTITUTES, "notes": NOTES, "candidates": CANDIDATES,
                  "remount_ranges": RANGES,
                  "registered": {v: versions.version(v).to_dict() for v in versions.VERSIONS}})
-    data["verdicts"] = {n: verdict(data, n) for n in
+    data["verdicts"] = {n: verdict(data, n, comparison) for n in
                         dict.fromkeys(r["candidate"] for r in data["rows"])}
     return data
 
@@ -352,9 +388,10 @@ def _held_out_line(v: dict, paper: dict) -> str:
     budget = "" if check["paper_budget"] else " (below the paper's budget: not met at it)"
     state = ("in band on every axis" if not check["misses"]
              else "outside the band: " + ", ".join(check["misses"]))
+    source = f"; {check['source']}" if check.get("source") == COMPARISON_SOURCE else ""
     line = (f"The paper's transformer (held out, scale {check['scale']:g}{budget}, seeds "
-            f"{', '.join(map(str, check['seeds']))}): {_fmt(check['ratio'], '{:.2f}x')}, "
-            f"{state}. ")
+            f"{', '.join(map(str, check['seeds']))}{source}): "
+            f"{_fmt(check['ratio'], '{:.2f}x')}, {state}. ")
     if isinstance(lateral, str):
         return line + f"The FCN worse than it laterally: {lateral}."
     ratio = lateral["fcn_over_transformer"]
@@ -459,16 +496,33 @@ def main(argv=None) -> None:
     ap.add_argument("--device", default="cpu",
                     help="where the networks train (cuda on a lent GPU: the held-out "
                          "transformer at the paper's budget needs one)")
+    ap.add_argument("--comparison", default=str(ROOT / "results" / "benchmarks" /
+                                                "comparison.json"),
+                    help="the published comparison's JSON, whose records at the paper's budget "
+                         "give the held-out check where this study has no transformer row")
+    ap.add_argument("--verdicts-only", action="store_true",
+                    help="draw the verdicts again (rows and the comparison's records), write")
     ap.add_argument("--render-only", action="store_true")
     ap.add_argument("--merge", nargs="*", default=[],
                     help="fold the rows of these JSONs (partial runs of this script, e.g. "
                          "candidates screened in parallel) into --json, then render")
     args = ap.parse_args(argv)
     path = Path(args.json)
-    data = json.loads(path.read_text()) if path.exists() else {}
+    try:
+        data = read_json(path, "calibration results") if path.exists() else {}
+        comparison = (read_json(Path(args.comparison), "the published comparison")
+                      if Path(args.comparison).exists() else None)
+    except ValueError as err:
+        raise SystemExit(f"error: {err}") from None
+    if args.verdicts_only:
+        if data.get("command") not in data.setdefault("commands", []):
+            data["commands"].append(data.get("command"))   # what wrote the rows
+        write_json(path, stamped(data, argv, comparison))
+        print(table(data))
+        return
     if args.merge:
         for other in args.merge:
-            part = json.loads(Path(other).read_text())
+            part = read_json(Path(other), "partial calibration results")
             for floor in part.get("floors", []):
                 data = merge(data, [r for r in part["rows"] if r["candidate"] == floor["candidate"]
                                     and r["scale"] == floor["scale"]], floor)
@@ -476,7 +530,7 @@ def main(argv=None) -> None:
                 data.setdefault(key, {}).update(part.get(key, {}))
             if part.get("command") not in data.setdefault("commands", []):
                 data["commands"].append(part.get("command"))
-        write_json(path, stamped(data, argv))
+        write_json(path, stamped(data, argv, comparison))
     if args.render_only or args.merge:
         print(table(data))
         return
@@ -504,7 +558,7 @@ def main(argv=None) -> None:
             data = merge(data, rows(name, scale, results), floor_rows(name, scale, results))
             data.setdefault("definitions", {})[name] = candidate_version(name).to_dict()
             data.setdefault("benches", {})[f"{name} scale {scale:g}"] = results["benches"]
-            stamped(data, argv)
+            stamped(data, argv, comparison)
             data.setdefault("seconds", {})[f"{name} scale {scale:g} {'+'.join(models)}"] = round(
                 time.time() - started, 1)
             write_json(path, data)

@@ -1,6 +1,8 @@
 """studies/bench_paper_calibration.py: rows, verdicts and the rendered block (:func:`table`)
 from a reproduce result, without training anything."""
 
+import copy
+
 import pytest
 
 from studies import bench_paper_calibration as cal
@@ -95,3 +97,51 @@ def test_the_held_out_transformer_is_checked_but_never_enters_the_band_rule():
     with pytest.raises(SystemExit, match="never on candidates"):
         cal.main(["--candidates", "2.3a", "--models", "transformer", "--json",
                   "/nonexistent/x.json"])
+
+
+def _comparison(by_seed: dict) -> dict:
+    """A published comparison's records of simulator 2.3 at the paper's budget: seed -> model ->
+    paper-metric NRMSE (Fx, Fy, Fz)."""
+    return {"records": {"2.3": {"1": {str(seed): {m: {"nrmse_pct": {"paper": dict(zip(
+        cal.AXES, values))}} for m, values in models.items()}
+        for seed, models in by_seed.items()}}}}
+
+
+def test_without_its_own_row_the_held_out_check_reads_the_published_comparisons_records(
+        tmp_path, capsys):
+    fcn = _result({"FCN": (1.9, 1.6, 3.0), "MultiRocket-Hydra": (2.2, 2.5, 2.7),
+                   "LSTM (Yang et al.)": (4.0, 4.4, 4.0)})
+    data = cal.merge({}, cal.rows("2.3", 1.0, fcn), cal.floor_rows("2.3", 1.0, fcn))
+    # seed 103 has no transformer yet: only 101 and 102 are paired
+    comparison = _comparison({101: {"transformer": (1.0, 1.2, 2.0), "fcn": (2.0, 1.0, 3.0)},
+                              102: {"transformer": (2.0, 1.4, 2.4), "fcn": (2.0, 2.0, 3.0)},
+                              103: {"fcn": (9.0, 9.0, 9.0)}})
+    v = cal.verdict(data, "2.3", comparison)
+    check = v["transformer_held_out"]
+    assert check["seeds"] == [101, 102] and check["source"] == cal.COMPARISON_SOURCE
+    assert check["ratio"]["Fx"] == pytest.approx(1.5 / 1.45)
+    assert check["ratio"]["Fy"] == pytest.approx(1.3 / 1.31) and check["met"]
+    lateral = v["fcn_worse_than_transformer_laterally"]
+    assert lateral["fcn_over_transformer"]["Fx"] == pytest.approx(2.0 / 1.5)
+    assert lateral["fcn_over_transformer"]["Fy"] == pytest.approx(1.5 / 1.3) and lateral["met"]
+    assert v["met_at_paper_budget"]            # the band rule reads the calibration rows only
+    # no seed with both: not checked, and says what is missing
+    v = cal.verdict(data, "2.3", _comparison({103: {"fcn": (2.0, 2.0, 3.0)}}))
+    assert "nor has the published comparison a record of it" in v["transformer_held_out"]
+    # a row of the calibration's own wins over the records
+    tr = _result({"Transformer (paper)": (0.5, 1.3, 2.2)})
+    own = cal.merge(copy.deepcopy(data), cal.rows("2.3", 1.0, tr),
+                    cal.floor_rows("2.3", 1.0, tr))
+    assert cal.verdict(own, "2.3", comparison)["transformer_held_out"]["seeds"] == [1]
+    # --verdicts-only: drawn again and written, the command that wrote the rows kept
+    path, records = tmp_path / "cal.json", tmp_path / "comparison.json"
+    cal.write_json(path, cal.stamped(data, ["--merge", "part.json"]))
+    cal.write_json(records, comparison)
+    cal.main(["--verdicts-only", "--json", str(path), "--comparison", str(records)])
+    written = cal.read_json(path, "x")
+    assert written["verdicts"]["2.3"]["transformer_held_out"]["seeds"] == [101, 102]
+    assert "python studies/bench_paper_calibration.py --merge part.json" in written["commands"]
+    assert "; the published comparison's records (fresh seeds)): 1.03x" in capsys.readouterr().out
+    records.write_text("{")
+    with pytest.raises(SystemExit, match="comparison.json: not JSON"):
+        cal.main(["--verdicts-only", "--json", str(path), "--comparison", str(records)])
