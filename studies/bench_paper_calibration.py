@@ -254,16 +254,27 @@ COMPARISON_SOURCE = "the published comparison's records (fresh seeds)"
 def comparison_rows(comparison: dict | None, name: str) -> dict:
     """The transformer's and the FCN's rows (the keys :func:`held_out_check` reads) from the
     published comparison's records of version ``name`` at the paper's budget, on the seeds
-    both have (mean paper-metric NRMSE over those seeds); empty when there is none."""
-    by_seed = ((comparison or {}).get("records", {}).get(name, {}).get("1", {}))
+    both have (mean paper-metric NRMSE over those seeds); empty when there is none. A JSON
+    read back that is not shaped as the comparison's is a ValueError naming what is wrong."""
+    by_seed = comparison or {}
+    for key in ("records", name, "1"):
+        by_seed = by_seed.get(key, {}) if isinstance(by_seed, dict) else None
+    if not isinstance(by_seed, dict) or not all(
+            isinstance(m, dict) and s.isdigit() for s, m in by_seed.items()):
+        raise ValueError(f"the published comparison: records of {name} at scale 1 are not "
+                         f"seed -> model -> record")
     seeds = sorted(int(s) for s, models in by_seed.items()
                    if "transformer" in models and "fcn" in models)
     out = {}
     for model in ("transformer", "fcn"):
         if not seeds:
             break
-        bench = {a: sum(by_seed[str(s)][model]["nrmse_pct"]["paper"][a] for s in seeds)
-                 / len(seeds) for a in AXES}
+        try:
+            paper = [by_seed[str(s)][model]["nrmse_pct"]["paper"] for s in seeds]
+            bench = {a: sum(float(p[a]) for p in paper) / len(seeds) for a in AXES}
+        except (KeyError, TypeError, ValueError):
+            raise ValueError(f"the published comparison: a record of {model} at scale 1 "
+                             f"lacks its paper-metric NRMSE per axis") from None
         ratio = {a: bench[a] / PAPER[model]["nrmse_pct"][a] for a in AXES}
         out[model] = {"scale": 1.0, "paper_budget": True, "seeds": seeds,
                       "bench_nrmse_pct": bench, "ratio": ratio,
@@ -512,6 +523,8 @@ def main(argv=None) -> None:
         data = read_json(path, "calibration results") if path.exists() else {}
         comparison = (read_json(Path(args.comparison), "the published comparison")
                       if Path(args.comparison).exists() else None)
+        for name in {r["candidate"] for r in data.get("rows", [])} | {args.version} - {None}:
+            comparison_rows(comparison, name)   # refused now, not after a training
     except ValueError as err:
         raise SystemExit(f"error: {err}") from None
     if args.verdicts_only:

@@ -145,3 +145,11 @@ def test_without_its_own_row_the_held_out_check_reads_the_published_comparisons_
     records.write_text("{")
     with pytest.raises(SystemExit, match="comparison.json: not JSON"):
         cal.main(["--verdicts-only", "--json", str(path), "--comparison", str(records)])
+    before = path.read_text()
+    for bad, says in (({"records": {"2.3": {"1": []}}}, "not seed -> model -> record"),
+                      ({"records": {"2.3": {"1": {"101": {"transformer": {}, "fcn": {}}}}}},
+                       "lacks its paper-metric NRMSE")):
+        cal.write_json(records, bad)
+        with pytest.raises(SystemExit, match=says):
+            cal.main(["--verdicts-only", "--json", str(path), "--comparison", str(records)])
+        assert path.read_text() == before                 # nothing written
