@@ -24,7 +24,8 @@ import time  # noqa: E402
 from psmforce.experiments.report import write_json  # noqa: E402
 from psmforce.io.bags.messages import stamp_ns  # noqa: E402
 from psmforce.live import cdr  # noqa: E402
-from psmforce.live.serve import DdsNode, participant  # noqa: E402
+from psmforce.live.discovery import participant  # noqa: E402
+from psmforce.live.serve import DdsNode  # noqa: E402
 
 
 class EchoNode(DdsNode):

@@ -145,7 +145,7 @@ def main(argv: list[str] | None = None) -> int:
     import argparse
     import json
 
-    from psmforce.live.serve import participant
+    from psmforce.live.discovery import participant
     parser = argparse.ArgumentParser(prog="python -m psmforce.live.sim_robot")
     parser.add_argument("recording")
     parser.add_argument("--domain-id", type=int)

@@ -520,7 +520,7 @@ def test_a_10x_burst_loses_nothing(tmp_path):
 def test_the_discovery_range_is_read_as_ros_2_jazzy_reads_it(monkeypatch):
     """Issue 47, item 7: ROS_AUTOMATIC_DISCOVERY_RANGE, ROS_STATIC_PEERS and ROS_LOCALHOST_ONLY
     were ignored; a domain outside [0, 232] was an internal error."""
-    from psmforce.live.serve import _discovery_config, discovery, domain
+    from psmforce.live.discovery import _discovery_config, discovery, domain
     for name in ("ROS_AUTOMATIC_DISCOVERY_RANGE", "ROS_STATIC_PEERS", "ROS_LOCALHOST_ONLY"):
         monkeypatch.delenv(name, raising=False)
     assert discovery() == ("SUBNET", []) and _discovery_config("SUBNET", []) is None
