@@ -84,8 +84,8 @@ def _checkpoint(args, simulated: bool) -> str:
 
 
 def _serve(args, stop: threading.Event) -> dict:
-    from psmforce.live.scheduling import check_busy_poll, run_realtime
     from psmforce.live.discovery import discovery, domain, participant as join
+    from psmforce.live.scheduling import check_busy_poll, run_realtime
     from psmforce.live.serve import DdsNode
     if args.busy_poll:   # refused before the scheduling changes, not once the node is built
         check_busy_poll(args.rt_priority is not None)

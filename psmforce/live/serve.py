@@ -87,7 +87,7 @@ class DdsNode:
     hex10); ``sync``: pair the streams by stamp (:class:`psmforce.live.node.ForceNode`);
     ``sync_wait_s``: with ``sync``, how long a trigger waits for its partners (``max_wait_s`` of
     :class:`psmforce.live.node.ForceNode`); ``busy_poll``: wait for messages by polling the
-    readers, never sleeping (module docstring, Waiting); ``options``: more keyword arguments of
+    wait set, never sleeping (module docstring, Waiting); ``options``: more keyword arguments of
     :meth:`psmforce.estimators.runtime.streaming.StreamingEstimator.from_checkpoint`
     (post_filter, backend)."""
 
