@@ -55,12 +55,16 @@ def _kept(r: dict) -> dict:
 
 def ratios(runs: dict, a: str, b: str) -> dict:
     """``a`` over ``b`` per round (the rounds pair them) and the median of those, per figure
-    and statistic."""
+    and statistic; a round whose ``b`` figure is 0 (below the clocks' resolution) has no ratio
+    (None), and the median is over the rounds that have one (None if none has)."""
     out = {}
     for f in FIGURES[:2]:
         for s in STATS:
-            per_round = [x[f][s] / y[f][s] for x, y in zip(runs[a], runs[b], strict=True)]
-            out[f"{f} {s}"] = {"per_round": per_round, "median": float(np.median(per_round))}
+            per_round = [x[f][s] / y[f][s] if y[f][s] > 0 else None
+                         for x, y in zip(runs[a], runs[b], strict=True)]
+            defined = [r for r in per_round if r is not None]
+            out[f"{f} {s}"] = {"per_round": per_round,
+                               "median": float(np.median(defined)) if defined else None}
     return out
 
 

@@ -634,7 +634,9 @@ def busy_poll_ab(result: dict) -> str:
               "node-added p99 |", "|---|---|---|---|---|"]
     for name, by in result["ratios"].items():
         other = WAITING.get(name.split(" / ")[1], name)
-        cells = [f"{r['median']:.2f} [" + ", ".join(f"{x:.2f}" for x in r["per_round"]) + "]"
+        def ratio(x):
+            return "n/a" if x is None else f"{x:.2f}"
+        cells = [f"{ratio(r['median'])} [" + ", ".join(map(ratio, r["per_round"])) + "]"
                  for r in (by[f"{f} {s}"] for f in ("node_residence", "node_added_latency")
                            for s in ("median_ms", "p99_ms"))]
         lines.append(f"| polling over {other} | " + " | ".join(cells) + " |")

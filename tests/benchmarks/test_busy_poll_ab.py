@@ -24,6 +24,10 @@ def test_the_ratios_pair_rounds_and_take_their_median():
     assert by["node_residence p99_ms"]["per_round"] == pytest.approx([0.5, 0.25, 1.0])
     assert by["node_residence p99_ms"]["median"] == pytest.approx(0.5)
     assert set(by) == {f"{f} {s}" for f in FIGURES[:2] for s in ("median_ms", "p99_ms")}
+    runs["sleeping"][0]["node_residence"]["p99_ms"] = 0.0   # below the clock's resolution
+    by = ratios(runs, "busy_poll", "sleeping")
+    assert by["node_residence p99_ms"]["per_round"][0] is None
+    assert by["node_residence p99_ms"]["median"] == pytest.approx(0.625)   # of 0.25 and 1.0
     runs["sleeping"].pop()
     with pytest.raises(ValueError):   # a round without its pair is not compared
         ratios(runs, "busy_poll", "sleeping")
