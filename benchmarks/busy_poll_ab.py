@@ -1,7 +1,4 @@
-"""The live node's ways of waiting and of collecting garbage, set against each other in one run.
-
-``serve --busy-poll`` against the node that sleeps between messages, and the garbage collector
-between answers against Python's automatic one.
+"""``serve --busy-poll`` against the node that sleeps between messages, alternating in one run.
 
     python benchmarks/busy_poll_ab.py [--rounds 3] [--seconds 20] [--json OUT.json]
 
@@ -15,10 +12,7 @@ always first:
 * ``sleeping``: the node as a normal process, asleep in the wait set between messages;
 * ``sleeping_realtime``: the same under SCHED_FIFO (``serve --rt-priority``
   :data:`benchmarks.live.RT_PRIORITY`), left out with the one line where the system refuses it;
-* ``busy_poll``: ``serve --busy-poll``, a normal process (with SCHED_FIFO it is refused);
-* ``busy_poll_automatic_gc``: the same with Python's garbage collector wherever Python runs it
-  (``serve --gc automatic``), where the others collect between answers only
-  (:mod:`psmforce.live.collector`).
+* ``busy_poll``: ``serve --busy-poll``, a normal process (with SCHED_FIFO it is refused).
 
 Writes, per way and round, the node's residence, its added latency and the transport alone
 (p50 / p99 / max, ms), the messages it lost and its CPU use; and per pair of ways, the ratios
@@ -47,8 +41,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import live  # noqa: E402
 
 WAYS = {"sleeping": {}, "sleeping_realtime": {"rt_priority": live.RT_PRIORITY},
-        "busy_poll": {"busy_poll": True},
-        "busy_poll_automatic_gc": {"busy_poll": True, "gc": "automatic"}}
+        "busy_poll": {"busy_poll": True}}
 """Each way of waiting: the keyword arguments of :func:`benchmarks.live.dds_figures`."""
 FIGURES = ("node_residence", "node_added_latency", "transport_latency")
 STATS = ("median_ms", "p99_ms")
@@ -57,8 +50,7 @@ STATS = ("median_ms", "p99_ms")
 def _kept(r: dict) -> dict:
     return {**{f: {k: r[f][k] for k in ("median_ms", "p99_ms", "max_ms")} for f in FIGURES},
             "node_lost": r["node_lost"], "hex10_sent": r["hex10_sent"],
-            "node_cpu_fraction": r["node_cpu_fraction"], "scheduling": r["scheduling"],
-            "gc": r["gc"]}
+            "node_cpu_fraction": r["node_cpu_fraction"], "scheduling": r["scheduling"]}
 
 
 def ratios(runs: dict, a: str, b: str) -> dict:

@@ -271,7 +271,7 @@ def realtime_refusal() -> str | None:
 def dds_figures(ckpt: Path, frame, seconds: float, tmp: Path, *, input_rate: bool = True,
                 busy_core: bool = False, network: str = "before-answer",
                 rt_priority: int | None = None, floor: bool = False,
-                busy_poll: bool = False, gc: str = "safe-points") -> dict:
+                busy_poll: bool = False) -> dict:
     from cyclonedds.core import (
         InstanceState,
         Policy,
@@ -311,8 +311,7 @@ def dds_figures(ckpt: Path, frame, seconds: float, tmp: Path, *, input_rate: boo
                 *(["--input-rate", "1000"] if input_rate else []), "--sync-stamps",
                 "--idle-stop", "3", *(["--network", network] if network != "before-answer"
                                        else []), *realtime,
-                *(["--busy-poll"] if busy_poll else []),
-                *(["--gc", gc] if gc != "safe-points" else [])])
+                *(["--busy-poll"] if busy_poll else [])])
     node = subprocess.Popen([sys.executable, *command, "--json", str(tmp / "node.json")],
                             env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     robot = burner = None
@@ -366,7 +365,6 @@ def dds_figures(ckpt: Path, frame, seconds: float, tmp: Path, *, input_rate: boo
     return {"seconds": seconds, "input_rate_given": input_rate, "busy_core": busy_core,
             "node": "floor (benchmarks/live_floor.py)" if floor else "psmforce serve",
             "network": network, "scheduling": report.get("scheduling"), "busy_poll": busy_poll,
-            "gc": report.get("gc"),
             "hex10_sent": n,
             "node_received": report["received"]["hex10"],
             "node_lost": n - report["received"]["hex10"],

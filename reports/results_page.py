@@ -602,14 +602,12 @@ def node_ab(result: dict) -> str:
 
 WAITING = {"sleeping": "asleep between messages, normal",
            "sleeping_realtime": "asleep between messages, SCHED_FIFO",
-           "busy_poll": "`--busy-poll`, normal",
-           "busy_poll_automatic_gc": "`--busy-poll --gc automatic`, normal"}
+           "busy_poll": "`--busy-poll`, normal"}
 
 
 def busy_poll_ab(result: dict) -> str:
-    """docs/results.md section 8: ``serve --busy-poll`` against the sleeping node (and, where
-    the run has it, against itself with Python's automatic garbage collector), alternating in one
-    run (``benchmarks/busy_poll_ab.py``): each way's figures and the ratios per round."""
+    """docs/results.md section 8: ``serve --busy-poll`` against the sleeping node, alternating
+    in one run (``benchmarks/busy_poll_ab.py``): each way's figures and the ratios per round."""
     def median(runs, figure, stat):
         return statistics.median(r[figure][stat] for r in runs)
 
@@ -630,12 +628,8 @@ def busy_poll_ab(result: dict) -> str:
                      f"{sent:,} | {cpu:.2f} |")
     if result.get("realtime_refused"):
         lines += ["", f"SCHED_FIFO was not measured: {result['realtime_refused']}"]
-    if "busy_poll_automatic_gc" in result["runs"]:
-        lines += ["", "Every node but the one marked `--gc automatic` collects garbage between "
-                  "answers only (`--gc safe-points`, the default)."]
     lines += ["", "Ratios, the round's figure with `--busy-poll` over the other way's in the same "
-              "round (below 1: shorter with `--busy-poll`); the median over the rounds, each "
-              "round's "
+              "round (below 1: shorter with polling); the median over the rounds, each round's "
               "in brackets:", "", "| ratio | residence p50 | residence p99 | node-added p50 | "
               "node-added p99 |", "|---|---|---|---|---|"]
     for name, by in result["ratios"].items():
@@ -645,7 +639,7 @@ def busy_poll_ab(result: dict) -> str:
         cells = [f"{ratio(r['median'])} [" + ", ".join(map(ratio, r["per_round"])) + "]"
                  for r in (by[f"{f} {s}"] for f in ("node_residence", "node_added_latency")
                            for s in ("median_ms", "p99_ms"))]
-        lines.append(f"| `--busy-poll` over {other} | " + " | ".join(cells) + " |")
+        lines.append(f"| polling over {other} | " + " | ".join(cells) + " |")
     return "\n".join(lines + [""])
 
 

@@ -98,8 +98,7 @@ def _serve(args, stop: threading.Event) -> dict:
                    writer_best_effort=args.writer_qos == "best-effort",
                    sync=args.sync_stamps or args.sim, sync_wait_s=args.sync_wait,
                    domain_id=domain(args.domain_id), post_filter=args.post_filter,
-                   network_after_answer=NETWORK_ORDER[args.network], busy_poll=args.busy_poll,
-                   gc_at_safe_points=args.gc == "safe-points")
+                   network_after_answer=NETWORK_ORDER[args.network], busy_poll=args.busy_poll)
     print(f"psmforce serve: domain {domain(args.domain_id)}, discovery "
           f"{discovery()[0].lower()}, listening on "
           f"{', '.join(node.input_topics.values())}; publishing "
@@ -244,9 +243,6 @@ def add_live_commands(sub) -> None:
                    help="poll for messages instead of sleeping between them: a shorter "
                         "latency tail for a whole core's time (for a core set aside for the "
                         "node; docs/live.md)")
-    p.add_argument("--gc", choices=["safe-points", "automatic"], default="safe-points",
-                   help="Python's garbage collector: between answers, never in one "
-                        "(safe-points, default), or wherever Python runs it (automatic)")
     p.add_argument("--duration", type=options.SECONDS, metavar="S", help="stop after S seconds")
     p.add_argument("--idle-stop", type=options.SECONDS, metavar="S",
                    help="stop when no message came for S seconds after the first")

@@ -53,11 +53,6 @@ the trade of a real-time loop on a core set aside for it (``isolcpus``, docs/liv
 real-time policy it is refused (:func:`psmforce.live.scheduling.check_busy_poll`); each poll
 yields the core to any other runnable thread, the middleware's receive threads among them.
 
-Collecting. While :meth:`DdsNode.spin` runs, Python's garbage collector runs between answers,
-never in one (``gc_at_safe_points``, the default; :mod:`psmforce.live.collector`): once every
-wake-up's answers are written and the deferred network step done, the collection the automatic
-collector would have run by then. ``serve --gc automatic`` leaves it where Python puts it.
-
 The participant it is given joins the domain as a ROS 2 node would
 (:mod:`psmforce.live.discovery`).
 """
@@ -76,7 +71,6 @@ from psmforce.estimators.runtime.streaming import StreamingEstimator
 from psmforce.io.bags.messages import stamp_ns
 from psmforce.io.bags.reading import resolve_topics
 from psmforce.live import cdr
-from psmforce.live.collector import SafePoints
 from psmforce.live.node import (OUTPUT_TYPES, TARE_TYPE, ForceNode, check_sync_wait,
                                  output_topics)
 from psmforce.live.scheduling import check_busy_poll
@@ -93,9 +87,7 @@ class DdsNode:
     hex10); ``sync``: pair the streams by stamp (:class:`psmforce.live.node.ForceNode`);
     ``sync_wait_s``: with ``sync``, how long a trigger waits for its partners (``max_wait_s`` of
     :class:`psmforce.live.node.ForceNode`); ``busy_poll``: wait for messages by polling the
-    wait set, never sleeping (module docstring, Waiting); ``gc_at_safe_points``: while
-    :meth:`spin` runs, collect garbage between answers only (module docstring, Collecting);
-    ``options``: more keyword arguments of
+    wait set, never sleeping (module docstring, Waiting); ``options``: more keyword arguments of
     :meth:`psmforce.estimators.runtime.streaming.StreamingEstimator.from_checkpoint`
     (post_filter, backend)."""
 
@@ -104,7 +96,7 @@ class DdsNode:
                  tare_on_start: bool = False, tare_s: float = 0.5,
                  reader_best_effort: bool = False, writer_best_effort: bool = False,
                  sync: bool = False, sync_wait_s: float = 0.1, domain_id: int = 0,
-                 busy_poll: bool = False, gc_at_safe_points: bool = True, **options):
+                 busy_poll: bool = False, **options):
         from cyclonedds.core import (
             InstanceState,
             ReadCondition,
@@ -124,7 +116,6 @@ class DdsNode:
         if busy_poll:
             check_busy_poll()
         self.busy_poll = busy_poll
-        self.safe_points = SafePoints() if gc_at_safe_points else None
         self.node: ForceNode | None = None
         self._held: list[tuple[str, object, int]] = []
         self._estimator = self._build_estimator(input_rate_hz)  # refused now, not at a message
@@ -253,8 +244,6 @@ class DdsNode:
                 self._handle(stream, message, taken_ns)
         if self.node is None:
             self._start()
-        if self.safe_points is not None:  # the answers are out: a safe point (Collecting)
-            self.safe_points.collect()
         return len(batch)
 
     def _start(self) -> None:
@@ -274,12 +263,6 @@ class DdsNode:
         """Handle messages until ``duration_s`` has passed, ``stop`` is set, or nothing came
         for ``idle_stop_s`` after the first message; returns :meth:`report`. ``progress_s``:
         print a line every so often (:meth:`progress`)."""
-        if self.safe_points is None or self.safe_points.active:
-            return self._spin(duration_s, stop, idle_stop_s, progress_s)
-        with self.safe_points:
-            return self._spin(duration_s, stop, idle_stop_s, progress_s)
-
-    def _spin(self, duration_s, stop, idle_stop_s, progress_s) -> dict:
         end = None if duration_s is None else time.monotonic() + duration_s
         last = None
         watched = shown = started = time.monotonic()
@@ -342,10 +325,7 @@ class DdsNode:
                "answers_published": self.published, "warnings": list(self.warnings),
                "input_topics": self.input_topics, "output_topics": self.output_topics,
                "flag_counts": self.flag_counts(), "residence_ms": self.residence_ms(),
-               "residence_writes_ms": self.residence_ms("writes"),
-               "gc": ("automatic" if self.safe_points is None else
-                      {"safe_points": dict(zip(("young", "middle", "old"),
-                                               self.safe_points.collections))})}
+               "residence_writes_ms": self.residence_ms("writes")}
         if node is not None:
             est = node.estimator
             out.update(input_rate_hz=est.input_rate_hz, model_rate_hz=est.rate_hz,

@@ -515,8 +515,6 @@ def test_a_10x_burst_loses_nothing(tmp_path):
     writes = result["residence_writes_ms"]  # a share of the same answers' residences
     assert writes["n"] == n and 0 < writes["median_ms"] <= own["median_ms"], (writes, own)
     assert writes["max_ms"] <= own["max_ms"], (writes, own)
-    # the garbage of 15,000 messages collected at the node's safe points (serve, Collecting)
-    assert result["gc"]["safe_points"]["young"] > 0, result["gc"]
 
 
 @pytest.mark.slow
