@@ -632,10 +632,11 @@ def busy_poll_ab(result: dict) -> str:
               "round (below 1: shorter with polling); the median over the rounds, each round's "
               "in brackets:", "", "| ratio | residence p50 | residence p99 | node-added p50 | "
               "node-added p99 |", "|---|---|---|---|---|"]
+    def ratio(x):   # a round whose other figure was 0 has none (busy_poll_ab.ratios)
+        return "n/a" if x is None else f"{x:.2f}"
+
     for name, by in result["ratios"].items():
         other = WAITING.get(name.split(" / ")[1], name)
-        def ratio(x):
-            return "n/a" if x is None else f"{x:.2f}"
         cells = [f"{ratio(r['median'])} [" + ", ".join(map(ratio, r["per_round"])) + "]"
                  for r in (by[f"{f} {s}"] for f in ("node_residence", "node_added_latency")
                            for s in ("median_ms", "p99_ms"))]
